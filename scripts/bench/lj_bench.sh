@@ -1,0 +1,89 @@
+#!/usr/bin/env bash
+# LJ benchmark: LAMMPS (scripts/bench/in.lj_bench) vs Terrace (input/lj_bench.nml),
+# 32,000 atoms, fcc rho*=0.8442, T*=1.44, lj/cut 2.5, skin 0.3, NVE dt 0.005.
+#
+# Usage: scripts/bench/lj_bench.sh [NSTEPS [TERRACE_BINARY]]
+#        defaults: NSTEPS=1000, TERRACE_BINARY=build/terrace (relative to repo root)
+#
+# Both codes run on 1 rank, 1 thread. Timing: LAMMPS's own "Loop time of X"
+# line; Terrace's own "Loop time: X" line if it prints one, otherwise the wall
+# time of the whole Terrace process (includes setup; reported as such).
+# Prints atom-steps/s for each and the ratio Terrace/LAMMPS (>1: Terrace faster).
+#
+# Environment (optional): LMP (default lmp), TERRACE_LAUNCHER (e.g. "mpirun -np 1"),
+# KEEP=1 to keep the work directory.
+set -euo pipefail
+
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+repo="$(cd "$here/../.." && pwd)"
+
+nsteps="${1:-1000}"
+terrace="${2:-$repo/build/terrace}"
+LMP="${LMP:-lmp}"
+natoms=32000
+
+if ! [[ "$nsteps" =~ ^[0-9]+$ ]] || [[ "$nsteps" -eq 0 ]]; then
+    echo "usage: $0 [NSTEPS [TERRACE_BINARY]]  (NSTEPS a positive integer)" >&2
+    exit 2
+fi
+
+work="$(mktemp -d "${TMPDIR:-/tmp}/lj_bench.XXXXXX")"
+if [[ "${KEEP:-0}" != 1 ]]; then
+    trap 'rm -rf "$work"' EXIT
+fi
+ncores="$(nproc 2>/dev/null || echo '?')"
+export OMP_NUM_THREADS=1
+
+model="$(lscpu 2>/dev/null | sed -n 's/^Model name:[[:space:]]*//p' | head -n 1)"
+commit="$(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
+echo "LJ benchmark: $natoms atoms, $nsteps steps, 1 rank"
+echo "machine : ${model:-unknown} (${ncores} cores visible)"
+echo "date    : $(date -u '+%Y-%m-%d %H:%M:%S UTC')"
+echo "commit  : $commit"
+echo
+
+# rate = natoms * nsteps / seconds
+rate() { awk -v n="$natoms" -v s="$nsteps" -v t="$1" 'BEGIN { printf "%.4e", n * s / t }'; }
+
+# ---- LAMMPS ------------------------------------------------------------------
+lmp_rate=""
+if command -v "$LMP" >/dev/null 2>&1; then
+    (cd "$work" && "$LMP" -screen none -log lammps.log -var nsteps "$nsteps" \
+        -in "$here/in.lj_bench") || { echo "LAMMPS run failed:" >&2; tail -n 20 "$work/lammps.log" >&2; exit 1; }
+    lmp_t="$(sed -n 's/^Loop time of \([0-9.eE+-]*\) on .* for '"$nsteps"' steps.*/\1/p' "$work/lammps.log" | tail -n 1)"
+    if [[ -z "$lmp_t" ]]; then
+        echo "could not find LAMMPS 'Loop time' line in $work/lammps.log" >&2
+        exit 1
+    fi
+    lmp_rate="$(rate "$lmp_t")"
+    printf 'LAMMPS  : loop time %10.4f s   %s atom-steps/s\n' "$lmp_t" "$lmp_rate"
+else
+    echo "LAMMPS  : '$LMP' not found (Debian package 'lammps'); skipped"
+fi
+
+# ---- Terrace -----------------------------------------------------------------
+ter_rate=""
+if [[ -x "$terrace" ]]; then
+    terrace="$(cd "$(dirname "$terrace")" && pwd)/$(basename "$terrace")"
+    sed -E "s/n_steps=[0-9]+/n_steps=$nsteps/" "$repo/input/lj_bench.nml" > "$work/lj_bench.nml"
+    t0="$(date +%s.%N)"
+    # shellcheck disable=SC2086  # TERRACE_LAUNCHER is deliberately word-split
+    (cd "$work" && ${TERRACE_LAUNCHER:-} "$terrace" lj_bench.nml > terrace.log 2>&1) \
+        || { echo "Terrace run failed:" >&2; tail -n 20 "$work/terrace.log" >&2; exit 1; }
+    t1="$(date +%s.%N)"
+    ter_t="$(sed -n 's/.*Loop time:[[:space:]]*\([0-9.eEdD+-]*\).*/\1/p' "$work/terrace.log" | tail -n 1 | tr dD eE)"
+    how="loop time"
+    if [[ -z "$ter_t" ]]; then
+        ter_t="$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.6f", b - a }')"
+        how="wall time"
+    fi
+    ter_rate="$(rate "$ter_t")"
+    printf 'Terrace : %-9s %10.4f s   %s atom-steps/s\n' "$how" "$ter_t" "$ter_rate"
+else
+    echo "Terrace : binary '$terrace' not found; skipped"
+fi
+
+if [[ -n "$lmp_rate" && -n "$ter_rate" ]]; then
+    awk -v a="$ter_rate" -v b="$lmp_rate" 'BEGIN { printf "ratio   : Terrace/LAMMPS = %.3f (atom-steps/s; >1 means Terrace is faster)\n", a / b }'
+fi
+if [[ "${KEEP:-0}" == 1 ]]; then echo "work dir: $work"; fi

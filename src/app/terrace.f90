@@ -1,0 +1,109 @@
+!> terrace: the molecular-dynamics engine.
+!>   terrace RUN.nml            run the namelist input
+!>   terrace --check RUN.nml    read, validate and print the scene plan; run nothing, write nothing
+!>   terrace --version | --help
+program terrace
+    use terrace_kinds, only: dp, i8
+    use terrace_mpi_env, only: world, start_mpi, end_mpi
+    use terrace_config, only: config_t, read_config
+    use terrace_engine, only: engine_t
+    use terrace_thermo, only: thermo_writer_t
+    use terrace_velocity_verlet, only: run_velocity_verlet
+    use terrace_forces_file, only: write_forces_file
+    use terrace_run_log, only: print_run_log
+    use terrace_timers, only: timers_t
+    use terrace_errors, only: stop_all, check_all
+    use terrace_version, only: terrace_version_string
+    use mpi_f08, only: MPI_Wtime, MPI_Barrier
+    use, intrinsic :: iso_fortran_env, only: output_unit
+    implicit none
+
+    type(config_t) :: cfg
+    type(engine_t) :: eng
+    type(thermo_writer_t) :: thermo
+    character(len=:), allocatable :: path
+    character(len=4096) :: arg
+    logical :: check_only, ok
+    integer :: k
+    integer(i8) :: n_steps, thermo_every
+    real(dp) :: t0, t1
+    character(len=512) :: msg
+
+    call start_mpi()
+    check_only = .false.
+    path = ''
+    do k = 1, command_argument_count()
+        call get_command_argument(k, arg)
+        select case (trim(arg))
+        case ('--help', '-h')
+            if (world%rank == 0) call print_help()
+            call end_mpi(); stop
+        case ('--version', '-V')
+            if (world%rank == 0) write (output_unit, '(a)') 'terrace '//terrace_version_string
+            call end_mpi(); stop
+        case ('--check')
+            check_only = .true.
+        case default
+            if (arg(1:1) == '-') call stop_all("unknown option '"//trim(arg)//"' (see terrace --help)", 2)
+            if (len(path) > 0) call stop_all('give one input file (see terrace --help)', 2)
+            path = trim(arg)
+        end select
+    end do
+    if (len(path) == 0) call stop_all('no input file (usage: terrace [--check] RUN.nml; see terrace --help)', 2)
+
+    call read_config(path, cfg)
+    call eng%setup(cfg)
+    if (world%rank == 0) call eng%plan%print(output_unit)
+
+    n_steps = cfg%n_steps
+    if (n_steps < 0) n_steps = max(1_i8, nint(cfg%run_time/cfg%dt, i8))
+    if (cfg%thermo_every > 0) then
+        thermo_every = cfg%thermo_every
+    else if (cfg%thermo_interval > 0) then
+        thermo_every = max(1_i8, nint(cfg%thermo_interval/cfg%dt, i8))
+    else
+        thermo_every = max(1_i8, n_steps/10)
+    end if
+    if (check_only) then
+        if (world%rank == 0) write (output_unit, '(a,i0,a,i0,a)') '  run        : ', n_steps, &
+            ' steps, thermo every ', thermo_every, ' steps'
+        if (world%rank == 0) write (output_unit, '(a)') 'check: OK ('//path//')'
+        call end_mpi()
+        stop
+    end if
+
+    call thermo%open(trim(cfg%thermo_file), n_steps*cfg%dt, trim(cfg%units%time), '', ok, msg)
+    call check_all(ok, trim(cfg%thermo_file)//': cannot write the thermo file (&output thermo_file): '//trim(msg))
+    if (len_trim(cfg%forces_file) > 0) then
+        call write_forces_file(trim(cfg%forces_file), eng%atoms, 0_i8, ok, msg)
+        call check_all(ok, trim(cfg%forces_file)//': cannot write the forces file (&output forces_file): '//trim(msg))
+    end if
+
+    call MPI_Barrier(world%comm)
+    eng%timers = timers_t()
+    t0 = MPI_Wtime()
+    call run_velocity_verlet(eng, thermo, n_steps, thermo_every)
+    call MPI_Barrier(world%comm)
+    t1 = MPI_Wtime()
+    call thermo%close()
+    call print_run_log(eng%timers, t1 - t0, eng%natoms, n_steps, eng%list%builds, 'steps')
+    call end_mpi()
+
+contains
+
+    subroutine print_help()
+        write (output_unit, '(a)') 'terrace '//terrace_version_string//': molecular dynamics with energy stepping', &
+            '', &
+            'usage: [mpirun -np N] terrace [--check] RUN.nml', &
+            '       terrace --version | --help', &
+            '', &
+            '  RUN.nml    Fortran namelist input: groups &run, &system, &potential, &integrator,', &
+            '             &neighbor, &output (keys, units and defaults: doc/input.md)', &
+            '  --check    read and validate the input, build the system, print the scene plan', &
+            '             (what will be computed and what is skipped), run nothing, write nothing', &
+            '  --version  print the version', &
+            '', &
+            'Exit status: 0 success, 1 error in the input or the run, 2 bad command line.'
+    end subroutine print_help
+
+end program terrace

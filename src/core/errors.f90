@@ -1,0 +1,80 @@
+!> The one error path of Terrace.
+!>
+!> Every error ends the run on every rank with a non-zero exit and a single line on stderr:
+!>   terrace: error: <file>: &<group>: <key>: <what is wrong> (allowed: ...)
+!> `stop_all` is collective (every rank reaches it with the same message: input checks that
+!> every rank performs on the same data). `check_all` is collective too but only some ranks may
+!> have failed: the message of the lowest failing rank is printed. `abort_all` is for a failure
+!> that only one rank sees in a place where the others cannot be reached: it calls MPI_Abort.
+module terrace_errors
+    use, intrinsic :: iso_fortran_env, only: error_unit
+    use mpi_f08, only: MPI_Comm_rank, MPI_COMM_WORLD, MPI_Finalize, MPI_Abort, MPI_Allreduce, &
+                       MPI_Bcast, MPI_INTEGER, MPI_CHARACTER, MPI_MIN, MPI_Initialized, MPI_Finalized
+    implicit none
+    private
+
+    integer, parameter, public :: exit_error = 1
+    public :: stop_all, check_all, abort_all, warn
+
+contains
+
+    integer function my_rank()
+        logical :: up, down
+        call MPI_Initialized(up)
+        call MPI_Finalized(down)
+        my_rank = 0
+        if (up .and. .not. down) call MPI_Comm_rank(MPI_COMM_WORLD, my_rank)
+    end function my_rank
+
+    !> Collective stop: every rank calls it with the same message.
+    subroutine stop_all(msg, code)
+        character(len=*), intent(in) :: msg
+        integer, intent(in), optional :: code
+        integer :: exit_code
+        logical :: up
+        exit_code = exit_error
+        if (present(code)) exit_code = code
+        if (my_rank() == 0) then
+            write (error_unit, '(a)') 'terrace: error: '//trim(msg)
+            flush (error_unit)
+        end if
+        call MPI_Initialized(up)
+        if (up) call MPI_Finalize()
+        stop exit_code, quiet=.true.
+    end subroutine stop_all
+
+    !> Collective check: stops every rank if `ok` is false on any of them.
+    subroutine check_all(ok, msg)
+        logical, intent(in) :: ok
+        character(len=*), intent(in) :: msg
+        integer :: mine, first, ierr
+        character(len=1024) :: text
+        mine = huge(1)
+        if (.not. ok) mine = my_rank()
+        call MPI_Allreduce(mine, first, 1, MPI_INTEGER, MPI_MIN, MPI_COMM_WORLD, ierr)
+        if (first == huge(1)) return
+        text = msg
+        call MPI_Bcast(text, len(text), MPI_CHARACTER, first, MPI_COMM_WORLD, ierr)
+        call stop_all(text)
+    end subroutine check_all
+
+    !> Non-collective stop from one rank: message with the rank, then MPI_Abort.
+    subroutine abort_all(msg)
+        character(len=*), intent(in) :: msg
+        character(len=16) :: r
+        logical :: up
+        write (r, '(i0)') my_rank()
+        write (error_unit, '(a)') 'terrace: error (rank '//trim(r)//'): '//trim(msg)
+        flush (error_unit)
+        call MPI_Initialized(up)
+        if (up) call MPI_Abort(MPI_COMM_WORLD, exit_error)
+        stop exit_error, quiet=.true.
+    end subroutine abort_all
+
+    !> Warning printed by rank 0 (call collectively or from rank 0).
+    subroutine warn(msg)
+        character(len=*), intent(in) :: msg
+        if (my_rank() == 0) write (error_unit, '(a)') 'terrace: warning: '//trim(msg)
+    end subroutine warn
+
+end module terrace_errors

@@ -1,0 +1,83 @@
+!> Reader for small explicit scenes: one atom per line, `type x y z [vx vy vz]`, in the run's
+!> units; '#' starts a comment. Ids are the line order (1, 2, ...). In 2-D, z and vz must be 0.
+module terrace_atoms_file
+    use terrace_kinds, only: dp, i8
+    use terrace_atom_table, only: atom_table_t
+    use terrace_text, only: count_tokens
+    implicit none
+    private
+
+    public :: read_atoms_file
+
+contains
+
+    subroutine read_atoms_file(path, t)
+        character(len=*), intent(in) :: path
+        type(atom_table_t), intent(out) :: t
+        integer :: unit, ios, line, n, nvel, ntok, i, ty
+        character(len=1024) :: buf
+        real(dp) :: vals(6)
+        real(dp), allocatable :: x(:, :), v(:, :)
+        integer, allocatable :: types(:)
+        character(len=16) :: ln
+
+        open (newunit=unit, file=path, status='old', action='read', iostat=ios)
+        if (ios /= 0) then
+            t%ok = .false.
+            t%error = path//': cannot open the atoms file (&system atoms_file)'
+            return
+        end if
+        allocate (x(3, 64), v(3, 64), types(64))
+        n = 0; nvel = 0; line = 0
+        do
+            read (unit, '(a)', iostat=ios) buf
+            if (ios /= 0) exit
+            line = line + 1
+            if (index(buf, '#') > 0) buf(index(buf, '#'):) = ' '
+            if (len_trim(buf) == 0) cycle
+            ntok = count_tokens(buf)
+            vals = 0
+            if (ntok == 4 .or. ntok == 7) read (buf, *, iostat=ios) ty, vals(1:ntok - 1)
+            if ((ntok /= 4 .and. ntok /= 7) .or. ios /= 0 .or. any(vals /= vals) .or. ty < 1) then
+                write (ln, '(i0)') line
+                t%ok = .false.
+                t%error = path//':'//trim(ln)//': bad atom line (expected: type x y z [vx vy vz], type >= 1)'
+                close (unit); return
+            end if
+            if (n == size(types)) call grow(x, v, types)
+            n = n + 1
+            types(n) = ty; x(:, n) = vals(1:3); v(:, n) = vals(4:6)
+            if (ntok == 7) nvel = nvel + 1
+        end do
+        close (unit)
+        t%n = n
+        if (n == 0) then
+            t%ok = .false.
+            t%error = path//': the atoms file has no atoms'
+            return
+        end if
+        t%ntypes = maxval(types(1:n))
+        allocate (t%x(3, n), t%v(3, n), t%type(n), t%image(3, n), t%id(n), t%mass(t%ntypes))
+        t%x = x(:, 1:n); t%v = v(:, 1:n); t%type = types(1:n); t%image = 0
+        t%id = [(int(i, i8), i=1, n)]
+        t%mass = -1
+        t%has_velocities = nvel == n
+        if (nvel /= 0 .and. nvel /= n) then
+            t%ok = .false.
+            t%error = path//': either every atom line gives velocities or none does'
+        end if
+    end subroutine read_atoms_file
+
+    subroutine grow(x, v, types)
+        real(dp), allocatable, intent(inout) :: x(:, :), v(:, :)
+        integer, allocatable, intent(inout) :: types(:)
+        real(dp), allocatable :: r(:, :)
+        integer, allocatable :: k(:)
+        integer :: n
+        n = size(types)
+        allocate (r(3, 2*n)); r(:, 1:n) = x; call move_alloc(r, x)
+        allocate (r(3, 2*n)); r(:, 1:n) = v; call move_alloc(r, v)
+        allocate (k(2*n)); k(1:n) = types; call move_alloc(k, types)
+    end subroutine grow
+
+end module terrace_atoms_file

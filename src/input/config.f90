@@ -1,0 +1,458 @@
+!> The run configuration: every namelist group read, checked and converted once.
+!>
+!> Groups and keys (documented in doc/input.md):
+!>   &run        units, dimension, n_steps, run_time, seed
+!>   &system     read_data | lattice (+ lattice_constant or density, cells) | atoms_file (+ box_lo,
+!>               box_hi), periodic, mass, temperature
+!>   &potential  style, epsilon, sigma, cutoff, pair_cutoff, shift
+!>   &integrator style, dt
+!>   &neighbor   skin, list
+!>   &output     thermo_every, thermo_interval, thermo_file, forces_file
+!> Every key is read on its own, so that an error names file, line, group and key.
+module terrace_config
+    use terrace_kinds, only: dp, i8
+    use terrace_units, only: units_t, make_units, unit_names_allowed
+    use terrace_namelist_text, only: namelist_file_t, parse_namelist_text, lower
+    use terrace_errors, only: stop_all
+    use terrace_mpi_env, only: world, bcast_text
+    implicit none
+    private
+
+    integer, parameter, public :: max_types = 8
+    real(dp), parameter :: unset = -huge(1.0_dp)
+
+    type, public :: config_t
+        character(len=:), allocatable :: path
+        type(namelist_file_t) :: nml
+        ! &run
+        type(units_t) :: units
+        integer :: dimension = 3
+        integer(i8) :: n_steps = -1
+        real(dp) :: run_time = -1.0_dp
+        integer(i8) :: seed = 12345
+        ! &system
+        character(len=512) :: read_data = ''
+        character(len=512) :: atoms_file = ''
+        character(len=8) :: lattice = ''
+        real(dp) :: lattice_constant = -1.0_dp
+        real(dp) :: density = -1.0_dp
+        integer :: cells(3) = 0
+        logical :: periodic(3) = .true.
+        real(dp) :: box_lo(3) = unset, box_hi(3) = unset
+        real(dp) :: mass(max_types) = -1.0_dp
+        real(dp) :: temperature = -1.0_dp
+        ! &potential
+        character(len=24) :: potential = 'lj'
+        real(dp) :: epsilon(max_types, max_types) = unset
+        real(dp) :: sigma(max_types, max_types) = unset
+        real(dp) :: cutoff = -1.0_dp                !< 0: no cutoff (non-periodic scenes only)
+        real(dp) :: pair_cutoff(max_types, max_types) = unset
+        logical :: shift = .false.
+        ! &integrator
+        character(len=24) :: integrator = 'velocity_verlet'
+        real(dp) :: dt = -1.0_dp
+        ! &neighbor
+        real(dp) :: skin = -1.0_dp
+        character(len=16) :: list = 'auto'
+        ! &output
+        integer(i8) :: thermo_every = -1
+        real(dp) :: thermo_interval = -1.0_dp
+        character(len=512) :: thermo_file = ''
+        character(len=512) :: forces_file = ''
+    contains
+        procedure :: where => cfg_where
+    end type config_t
+
+    public :: read_config, is_unset
+
+    character(len=*), parameter :: groups_allowed = 'run, system, potential, integrator, neighbor, output'
+
+contains
+
+    elemental logical function is_unset(x)
+        real(dp), intent(in) :: x
+        is_unset = x == unset
+    end function is_unset
+
+    function cfg_where(self, group, key) result(s)
+        class(config_t), intent(in) :: self
+        character(len=*), intent(in) :: group, key
+        character(len=:), allocatable :: s
+        s = self%nml%where(group, key)
+    end function cfg_where
+
+    !> Read the file on rank 0, broadcast it, parse and validate on every rank (collective).
+    subroutine read_config(path, cfg)
+        character(len=*), intent(in) :: path
+        type(config_t), intent(out) :: cfg
+        character(len=:), allocatable :: text
+        integer :: status, i
+        character(len=:), allocatable :: status_text
+
+        cfg%path = path
+        status_text = 'ok'
+        if (world%rank == 0) then
+            call slurp(path, text, status)
+            if (status /= 0) then
+                status_text = 'missing'
+                text = ''
+            end if
+        end if
+        call bcast_text(status_text)
+        if (status_text /= 'ok') call stop_all(path//': cannot open the input file (does it exist and is it readable?)')
+        call bcast_text(text)
+        if (len_trim(text) == 0) call stop_all(path//': the input file is empty (expected namelist groups &run, &system, ...)')
+
+        call parse_namelist_text(text, path, cfg%nml)
+        if (len(cfg%nml%syntax_error) > 0) call stop_all(cfg%nml%syntax_error)
+        do i = 1, cfg%nml%ngroups
+            select case (cfg%nml%groups(i))
+            case ('run', 'system', 'potential', 'integrator', 'neighbor', 'output')
+                if (count(cfg%nml%groups(1:i - 1) == cfg%nml%groups(i)) > 0) &
+                    call stop_all(line_prefix(cfg, cfg%nml%group_lines(i))//'&'//trim(cfg%nml%groups(i))// &
+                                  ': group given twice (merge its keys into one group)')
+            case default
+                call stop_all(line_prefix(cfg, cfg%nml%group_lines(i))//'&'//trim(cfg%nml%groups(i))// &
+                              ': unknown namelist group (allowed: '//groups_allowed//')')
+            end select
+        end do
+        call read_run(cfg)
+        call read_system(cfg)
+        call read_potential(cfg)
+        call read_integrator(cfg)
+        call read_neighbor(cfg)
+        call read_output(cfg)
+        call validate(cfg)
+    end subroutine read_config
+
+    function line_prefix(cfg, line) result(s)
+        type(config_t), intent(in) :: cfg
+        integer, intent(in) :: line
+        character(len=:), allocatable :: s
+        character(len=16) :: ln
+        write (ln, '(i0)') line
+        s = cfg%path//':'//trim(ln)//': '
+    end function line_prefix
+
+    subroutine slurp(path, text, status)
+        character(len=*), intent(in) :: path
+        character(len=:), allocatable, intent(out) :: text
+        integer, intent(out) :: status
+        integer :: unit, n
+        open (newunit=unit, file=path, access='stream', form='unformatted', status='old', &
+              action='read', iostat=status)
+        if (status /= 0) return
+        inquire (unit=unit, size=n)
+        allocate (character(len=max(n, 0)) :: text)
+        if (n > 0) read (unit, iostat=status) text
+        close (unit)
+    end subroutine slurp
+
+    !> Key k must be one of `allowed` ("name:type" entries); returns the type description.
+    function check_key(cfg, k, allowed) result(kind)
+        type(config_t), intent(in) :: cfg
+        integer, intent(in) :: k
+        character(len=*), intent(in) :: allowed(:)
+        character(len=:), allocatable :: kind, names
+        integer :: i, p
+        do i = 1, size(allowed)
+            p = index(allowed(i), ':')
+            if (allowed(i)(1:p - 1) == cfg%nml%items(k)%key) then
+                kind = trim(allowed(i)(p + 1:))
+                return
+            end if
+        end do
+        names = ''
+        do i = 1, size(allowed)
+            p = index(allowed(i), ':')
+            names = names//allowed(i)(1:p - 1)
+            if (i < size(allowed)) names = names//', '
+        end do
+        call stop_all(line_prefix(cfg, cfg%nml%items(k)%line)//'&'//trim(cfg%nml%items(k)%group)//': '// &
+                      trim(cfg%nml%items(k)%key)//': unknown key (allowed: '//names//')')
+    end function check_key
+
+    subroutine bad_value(cfg, k, kind, msg)
+        type(config_t), intent(in) :: cfg
+        integer, intent(in) :: k
+        character(len=*), intent(in) :: kind, msg
+        call stop_all(line_prefix(cfg, cfg%nml%items(k)%line)//'&'//trim(cfg%nml%items(k)%group)//': '// &
+                      cfg%nml%items(k)%target//' = '//cfg%nml%items(k)%value//': cannot read the value (expected '// &
+                      kind//'; '//trim(msg)//')')
+    end subroutine bad_value
+
+    function item_text(cfg, k, group) result(s)
+        type(config_t), intent(in) :: cfg
+        integer, intent(in) :: k
+        character(len=*), intent(in) :: group
+        character(len=:), allocatable :: s
+        s = '&'//group//' '//cfg%nml%items(k)%target//' = '//cfg%nml%items(k)%value//' /'
+    end function item_text
+
+    subroutine read_run(cfg)
+        type(config_t), intent(inout) :: cfg
+        character(len=16) :: units
+        integer :: dimension
+        integer(i8) :: n_steps, seed
+        real(dp) :: run_time
+        namelist /run/ units, dimension, n_steps, run_time, seed
+        character(len=*), parameter :: keys(5) = [character(len=40) :: 'units:a quoted string', &
+            'dimension:an integer', 'n_steps:an integer', 'run_time:a real number', 'seed:an integer']
+        character(len=:), allocatable :: kind
+        character(len=256) :: msg
+        character(len=:), allocatable :: buf
+        integer :: k, ios
+        logical :: ok
+        units = 'metal'; dimension = 3; n_steps = -1; run_time = -1.0_dp; seed = 12345
+        do k = 1, cfg%nml%count
+            if (cfg%nml%items(k)%group /= 'run') cycle
+            kind = check_key(cfg, k, keys)
+            buf = item_text(cfg, k, 'run')
+            read (buf, nml=run, iostat=ios, iomsg=msg)
+            if (ios /= 0) call bad_value(cfg, k, kind, msg)
+        end do
+        cfg%units = make_units(lower(trim(units)), ok)
+        if (.not. ok) call stop_all(cfg%where('run', 'units')//" = '"//trim(units)//"': unsupported units (allowed: "// &
+                                    unit_names_allowed//')')
+        cfg%dimension = dimension
+        cfg%n_steps = n_steps
+        cfg%run_time = run_time
+        cfg%seed = seed
+    end subroutine read_run
+
+    subroutine read_system(cfg)
+        type(config_t), intent(inout) :: cfg
+        character(len=512) :: read_data, atoms_file
+        character(len=8) :: lattice
+        real(dp) :: lattice_constant, density, box_lo(3), box_hi(3), mass(max_types), temperature
+        integer :: cells(3)
+        logical :: periodic(3)
+        namelist /system/ read_data, atoms_file, lattice, lattice_constant, density, cells, periodic, &
+            box_lo, box_hi, mass, temperature
+        character(len=*), parameter :: keys(11) = [character(len=60) :: 'read_data:a quoted file name', &
+            'atoms_file:a quoted file name', 'lattice:a quoted string', 'lattice_constant:a real number', &
+            'density:a real number', 'cells:three integers', 'periodic:three logicals (.true./.false.)', &
+            'box_lo:three real numbers', 'box_hi:three real numbers', 'mass:real numbers, one per atom type', &
+            'temperature:a real number']
+        character(len=:), allocatable :: kind
+        character(len=256) :: msg
+        character(len=:), allocatable :: buf
+        integer :: k, ios
+        read_data = ''; atoms_file = ''; lattice = ''; lattice_constant = -1; density = -1
+        cells = 0; periodic = .true.; box_lo = unset; box_hi = unset; mass = -1; temperature = -1
+        do k = 1, cfg%nml%count
+            if (cfg%nml%items(k)%group /= 'system') cycle
+            kind = check_key(cfg, k, keys)
+            buf = item_text(cfg, k, 'system')
+            read (buf, nml=system, iostat=ios, iomsg=msg)
+            if (ios /= 0) call bad_value(cfg, k, kind, msg)
+        end do
+        cfg%read_data = read_data; cfg%atoms_file = atoms_file; cfg%lattice = lower(lattice)
+        cfg%lattice_constant = lattice_constant; cfg%density = density; cfg%cells = cells
+        cfg%periodic = periodic; cfg%box_lo = box_lo; cfg%box_hi = box_hi; cfg%mass = mass
+        cfg%temperature = temperature
+    end subroutine read_system
+
+    subroutine read_potential(cfg)
+        type(config_t), intent(inout) :: cfg
+        character(len=24) :: style
+        real(dp) :: epsilon(max_types, max_types), sigma(max_types, max_types), cutoff
+        real(dp) :: pair_cutoff(max_types, max_types)
+        logical :: shift
+        namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift
+        character(len=*), parameter :: keys(6) = [character(len=60) :: 'style:a quoted string', &
+            'epsilon:a real number (or epsilon(i,j) = ...)', 'sigma:a real number (or sigma(i,j) = ...)', &
+            'cutoff:a real number', 'pair_cutoff:pair_cutoff(i,j) = a real number', 'shift:a logical']
+        character(len=:), allocatable :: kind
+        character(len=256) :: msg
+        character(len=:), allocatable :: buf
+        integer :: k, ios
+        style = 'lj'; epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
+        do k = 1, cfg%nml%count
+            if (cfg%nml%items(k)%group /= 'potential') cycle
+            kind = check_key(cfg, k, keys)
+            buf = item_text(cfg, k, 'potential')
+            read (buf, nml=potential, iostat=ios, iomsg=msg)
+            if (ios /= 0) call bad_value(cfg, k, kind, msg)
+        end do
+        cfg%potential = lower(style); cfg%epsilon = epsilon; cfg%sigma = sigma; cfg%cutoff = cutoff
+        cfg%pair_cutoff = pair_cutoff; cfg%shift = shift
+    end subroutine read_potential
+
+    subroutine read_integrator(cfg)
+        type(config_t), intent(inout) :: cfg
+        character(len=24) :: style
+        real(dp) :: dt
+        namelist /integrator/ style, dt
+        character(len=*), parameter :: keys(2) = [character(len=40) :: 'style:a quoted string', 'dt:a real number']
+        character(len=:), allocatable :: kind
+        character(len=256) :: msg
+        character(len=:), allocatable :: buf
+        integer :: k, ios
+        style = 'velocity_verlet'; dt = -1
+        do k = 1, cfg%nml%count
+            if (cfg%nml%items(k)%group /= 'integrator') cycle
+            kind = check_key(cfg, k, keys)
+            buf = item_text(cfg, k, 'integrator')
+            read (buf, nml=integrator, iostat=ios, iomsg=msg)
+            if (ios /= 0) call bad_value(cfg, k, kind, msg)
+        end do
+        cfg%integrator = lower(style); cfg%dt = dt
+    end subroutine read_integrator
+
+    subroutine read_neighbor(cfg)
+        type(config_t), intent(inout) :: cfg
+        real(dp) :: skin
+        character(len=16) :: list
+        namelist /neighbor/ skin, list
+        character(len=*), parameter :: keys(2) = [character(len=40) :: 'skin:a real number', 'list:a quoted string']
+        character(len=:), allocatable :: kind
+        character(len=256) :: msg
+        character(len=:), allocatable :: buf
+        integer :: k, ios
+        skin = -1; list = 'auto'
+        do k = 1, cfg%nml%count
+            if (cfg%nml%items(k)%group /= 'neighbor') cycle
+            kind = check_key(cfg, k, keys)
+            buf = item_text(cfg, k, 'neighbor')
+            read (buf, nml=neighbor, iostat=ios, iomsg=msg)
+            if (ios /= 0) call bad_value(cfg, k, kind, msg)
+        end do
+        cfg%skin = skin; cfg%list = lower(list)
+    end subroutine read_neighbor
+
+    subroutine read_output(cfg)
+        type(config_t), intent(inout) :: cfg
+        integer(i8) :: thermo_every
+        real(dp) :: thermo_interval
+        character(len=512) :: thermo_file, forces_file
+        namelist /output/ thermo_every, thermo_interval, thermo_file, forces_file
+        character(len=*), parameter :: keys(4) = [character(len=40) :: 'thermo_every:an integer', &
+            'thermo_interval:a real number', 'thermo_file:a quoted file name', 'forces_file:a quoted file name']
+        character(len=:), allocatable :: kind
+        character(len=256) :: msg
+        character(len=:), allocatable :: buf
+        integer :: k, ios
+        thermo_every = -1; thermo_interval = -1; thermo_file = ''; forces_file = ''
+        do k = 1, cfg%nml%count
+            if (cfg%nml%items(k)%group /= 'output') cycle
+            kind = check_key(cfg, k, keys)
+            buf = item_text(cfg, k, 'output')
+            read (buf, nml=output, iostat=ios, iomsg=msg)
+            if (ios /= 0) call bad_value(cfg, k, kind, msg)
+        end do
+        cfg%thermo_every = thermo_every; cfg%thermo_interval = thermo_interval
+        cfg%thermo_file = thermo_file; cfg%forces_file = forces_file
+    end subroutine read_output
+
+    !> Checks that need no atoms. Checks that need the atoms (overlaps, atoms outside the box,
+    !> cutoff against the box) are made when the system is built.
+    subroutine validate(cfg)
+        type(config_t), intent(inout) :: cfg
+        integer :: nsrc, i, j
+        character(len=32) :: s
+        if (cfg%dimension /= 2 .and. cfg%dimension /= 3) then
+            write (s, '(i0)') cfg%dimension
+            call stop_all(cfg%where('run', 'dimension')//' = '//trim(s)//': unsupported (allowed: 2, 3)')
+        end if
+        if (cfg%n_steps >= 0 .and. cfg%run_time >= 0) &
+            call stop_all(cfg%where('run', 'run_time')//': give either n_steps or run_time, not both')
+        if (cfg%nml%find('run', 'n_steps') > 0 .and. cfg%n_steps < 0) &
+            call stop_all(cfg%where('run', 'n_steps')//': must be >= 0')
+        if (cfg%nml%find('run', 'run_time') > 0 .and. cfg%run_time <= 0) &
+            call stop_all(cfg%where('run', 'run_time')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
+        if (cfg%n_steps < 0 .and. cfg%run_time < 0) &
+            call stop_all(cfg%path//': &run: n_steps: missing (give n_steps, or run_time in '//trim(cfg%units%time)//')')
+        if (cfg%seed <= 0) call stop_all(cfg%where('run', 'seed')//': must be a positive integer')
+
+        nsrc = count([len_trim(cfg%read_data) > 0, len_trim(cfg%atoms_file) > 0, len_trim(cfg%lattice) > 0])
+        if (nsrc == 0) call stop_all(cfg%path//': &system: read_data: missing (give read_data, lattice or atoms_file)')
+        if (nsrc > 1) call stop_all(cfg%path//': &system: read_data: give only one of read_data, lattice, atoms_file')
+        if (len_trim(cfg%lattice) > 0) then
+            select case (cfg%lattice)
+            case ('fcc', 'bcc', 'sc')
+                if (cfg%dimension /= 3) call stop_all(cfg%where('system', 'lattice')//" = '"//trim(cfg%lattice)// &
+                    "': a 3-D lattice in a 2-D run (allowed in 2-D: 'hex', 'sq')")
+            case ('hex', 'sq')
+                if (cfg%dimension /= 2) call stop_all(cfg%where('system', 'lattice')//" = '"//trim(cfg%lattice)// &
+                    "': a 2-D lattice in a 3-D run (allowed in 3-D: 'fcc', 'bcc', 'sc')")
+            case default
+                call stop_all(cfg%where('system', 'lattice')//" = '"//trim(cfg%lattice)// &
+                              "': unknown lattice (allowed: 'fcc', 'bcc', 'sc', 'hex', 'sq')")
+            end select
+            if ((cfg%lattice_constant > 0) .eqv. (cfg%density > 0)) &
+                call stop_all(cfg%where('system', 'lattice_constant')// &
+                              ': give exactly one of lattice_constant and density, and it must be > 0')
+            if (any(cfg%cells(1:cfg%dimension) <= 0)) call stop_all(cfg%where('system', 'cells')// &
+                ': must be positive integers, one per dimension')
+            if (cfg%mass(1) <= 0) call stop_all(cfg%where('system', 'mass')//': missing or <= 0 (mass of type 1 in '// &
+                trim(cfg%units%mass)//')')
+        end if
+        if (cfg%dimension == 2) cfg%periodic(3) = .true.
+        if (cfg%nml%find('system', 'temperature') > 0 .and. cfg%temperature < 0) &
+            call stop_all(cfg%where('system', 'temperature')//': must be >= 0 (in '//trim(cfg%units%temperature)//')')
+
+        select case (cfg%potential)
+        case ('lj', 'lj/smooth/linear')
+        case default
+            call stop_all(cfg%where('potential', 'style')//" = '"//trim(cfg%potential)// &
+                          "': unknown potential (allowed: 'lj', 'lj/smooth/linear')")
+        end select
+        if (is_unset(cfg%epsilon(1, 1))) call stop_all(cfg%path//': &potential: epsilon: missing (energy in '// &
+                                                       trim(cfg%units%energy)//')')
+        if (is_unset(cfg%sigma(1, 1))) call stop_all(cfg%path//': &potential: sigma: missing (length in '// &
+                                                     trim(cfg%units%length)//')')
+        do j = 1, max_types
+            do i = 1, max_types
+                if (.not. is_unset(cfg%epsilon(i, j)) .and. cfg%epsilon(i, j) < 0) &
+                    call stop_all(cfg%where('potential', 'epsilon')//': must be >= 0')
+                if (.not. is_unset(cfg%sigma(i, j)) .and. cfg%sigma(i, j) <= 0) &
+                    call stop_all(cfg%where('potential', 'sigma')//': must be > 0')
+                if (.not. is_unset(cfg%pair_cutoff(i, j)) .and. cfg%pair_cutoff(i, j) <= 0) &
+                    call stop_all(cfg%where('potential', 'pair_cutoff')//': must be > 0')
+            end do
+        end do
+        if (cfg%nml%find('potential', 'cutoff') == 0) &
+            call stop_all(cfg%path//': &potential: cutoff: missing (a length in '//trim(cfg%units%length)// &
+                          ', or 0 for no cutoff in a non-periodic scene)')
+        if (cfg%cutoff < 0) call stop_all(cfg%where('potential', 'cutoff')//': must be > 0 (or 0 for no cutoff)')
+        if (cfg%cutoff == 0 .and. any(cfg%periodic(1:cfg%dimension))) &
+            call stop_all(cfg%where('potential', 'cutoff')//' = 0 (no cutoff): only for scenes with no periodic '// &
+                          'dimension (set periodic = .false., .false., .false. or give a cutoff)')
+        if (cfg%cutoff == 0 .and. cfg%potential /= 'lj') &
+            call stop_all(cfg%where('potential', 'cutoff')//' = 0 (no cutoff): only with style = ''lj''')
+
+        select case (cfg%integrator)
+        case ('velocity_verlet')
+        case default
+            call stop_all(cfg%where('integrator', 'style')//" = '"//trim(cfg%integrator)// &
+                          "': unknown integrator (allowed: 'velocity_verlet')")
+        end select
+        if (cfg%nml%find('integrator', 'dt') > 0 .and. cfg%dt <= 0) &
+            call stop_all(cfg%where('integrator', 'dt')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
+        if (cfg%dt <= 0) then
+            cfg%dt = merge(0.005_dp, 0.001_dp, cfg%units%name == 'lj')
+        end if
+        if (cfg%nml%find('neighbor', 'skin') > 0 .and. cfg%skin < 0) &
+            call stop_all(cfg%where('neighbor', 'skin')//': must be >= 0 (a length in '//trim(cfg%units%length)//')')
+        if (cfg%skin < 0) cfg%skin = merge(0.3_dp, 2.0_dp, cfg%units%name == 'lj')
+        select case (cfg%list)
+        case ('auto', 'cells', 'all_pairs')
+        case default
+            call stop_all(cfg%where('neighbor', 'list')//" = '"//trim(cfg%list)// &
+                          "': unknown (allowed: 'auto', 'cells', 'all_pairs')")
+        end select
+        if (cfg%list == 'all_pairs' .and. any(cfg%periodic(1:cfg%dimension))) &
+            call stop_all(cfg%where('neighbor', 'list')//" = 'all_pairs': only for scenes with no periodic dimension")
+        if (cfg%cutoff == 0 .and. cfg%list == 'cells') &
+            call stop_all(cfg%where('neighbor', 'list')//" = 'cells': needs a cutoff (&potential cutoff > 0)")
+
+        if (cfg%nml%find('output', 'thermo_every') > 0 .and. cfg%thermo_every <= 0) &
+            call stop_all(cfg%where('output', 'thermo_every')//': must be > 0 (steps)')
+        if (cfg%nml%find('output', 'thermo_interval') > 0 .and. cfg%thermo_interval <= 0) &
+            call stop_all(cfg%where('output', 'thermo_interval')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
+        if (cfg%thermo_every > 0 .and. cfg%thermo_interval > 0) &
+            call stop_all(cfg%where('output', 'thermo_interval')//': give either thermo_every or thermo_interval')
+    end subroutine validate
+
+end module terrace_config

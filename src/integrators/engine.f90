@@ -1,0 +1,399 @@
+!> The engine state shared by every integrator: box, atoms, domain, neighbour list, potential,
+!> scene plan and timers, and the operations the integrators are written in: rebuild (migrate,
+!> sort, halo, list), refresh ghosts, force evaluation (with reverse sums), thermo sample.
+module terrace_engine
+    use terrace_kinds, only: dp, i8
+    use terrace_config, only: config_t, max_types, is_unset
+    use terrace_box, only: box_t
+    use terrace_atoms, only: atoms_t
+    use terrace_atom_table, only: atom_table_t, bcast_atom_table
+    use terrace_lammps_data, only: read_lammps_data
+    use terrace_atoms_file, only: read_atoms_file
+    use terrace_lattice, only: lattice_basis, lattice_cell
+    use terrace_velocities, only: create_velocities, kinetic_energy
+    use terrace_domain, only: domain_t
+    use terrace_replicate, only: replicate_t
+    use terrace_neighbor_list, only: neighbor_list_t
+    use terrace_lj, only: lj_t
+    use terrace_timers, only: timers_t, t_pair, t_neigh, t_comm, t_other
+    use terrace_thermo, only: thermo_sample_t
+    use terrace_scene_plan, only: plan_t, pair_all, pair_cells
+    use terrace_mpi_env, only: world, sum_all, sum_all_i8, min_all
+    use terrace_errors, only: stop_all, check_all
+    implicit none
+    private
+
+    type, public :: engine_t
+        type(config_t) :: cfg
+        type(box_t) :: box
+        type(atoms_t) :: atoms
+        type(domain_t) :: dom
+        type(replicate_t) :: rep
+        type(neighbor_list_t) :: list
+        type(lj_t) :: lj
+        type(plan_t) :: plan
+        type(timers_t) :: timers
+        integer(i8) :: natoms = 0
+        real(dp) :: pe = 0, virial = 0          !< global, from the last energy evaluation
+        integer(i8) :: force_evaluations = 0
+    contains
+        procedure :: setup => engine_setup
+        procedure :: rebuild => engine_rebuild
+        procedure :: refresh_ghosts => engine_refresh_ghosts
+        procedure :: compute_forces => engine_compute_forces
+        procedure :: sample => engine_sample
+        procedure :: dof => engine_dof
+    end type engine_t
+
+contains
+
+    !> Everything from the validated configuration to the first forces. Collective.
+    subroutine engine_setup(self, cfg)
+        class(engine_t), intent(inout) :: self
+        type(config_t), intent(in) :: cfg
+        type(atom_table_t) :: table
+        logical :: from_table
+        real(dp) :: lo(3), hi(3), cell(3), cut(max_types, max_types), eps(max_types, max_types), &
+                    sig(max_types, max_types), cutghost
+        integer :: ntypes, d, t, i
+        character(len=64) :: s1, s2
+
+        self%cfg = cfg
+        call self%timers%start(t_other)
+        from_table = len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0
+        ntypes = 1
+        if (from_table) then
+            if (world%rank == 0) then
+                if (len_trim(cfg%read_data) > 0) then
+                    call read_lammps_data(trim(cfg%read_data), table)
+                else
+                    call read_atoms_file(trim(cfg%atoms_file), table)
+                end if
+            end if
+            call bcast_atom_table(table)
+            if (.not. table%ok) call stop_all(trim(table%error))
+            ntypes = table%ntypes
+            if (ntypes > max_types) then
+                write (s1, '(i0)') max_types
+                call stop_all(trim(cfg%read_data)//': more atom types than Terrace supports ('//trim(s1)//')')
+            end if
+        end if
+
+        ! ---- box
+        if (len_trim(cfg%lattice) > 0) then
+            cell = lattice_cell(cfg%lattice, cfg%lattice_constant, cfg%density, cfg%dimension)
+            lo = 0
+            hi = cell*max(cfg%cells, 1)
+        else if (len_trim(cfg%read_data) > 0) then
+            lo = table%lo; hi = table%hi
+        else
+            do d = 1, cfg%dimension
+                if (.not. is_unset(cfg%box_lo(d)) .and. .not. is_unset(cfg%box_hi(d))) then
+                    lo(d) = cfg%box_lo(d); hi(d) = cfg%box_hi(d)
+                    if (hi(d) <= lo(d)) call stop_all(cfg%where('system', 'box_hi')//': must be > box_lo')
+                else if (cfg%periodic(d)) then
+                    call stop_all(cfg%where('system', 'box_lo')//': a periodic dimension of an atoms_file scene '// &
+                                  'needs box_lo and box_hi')
+                else
+                    lo(d) = minval(table%x(d, :)) - max(cfg%cutoff, 1.0_dp)
+                    hi(d) = maxval(table%x(d, :)) + max(cfg%cutoff, 1.0_dp)
+                end if
+            end do
+        end if
+        call self%box%set(lo, hi, cfg%periodic, cfg%dimension)
+
+        if (from_table) then
+            if (cfg%dimension == 2) then
+                if (any(table%x(3, :) /= 0) .or. any(table%v(3, :) /= 0)) &
+                    call stop_all(trim(source_name(cfg))//': a 2-D run needs z = 0 and vz = 0 for every atom')
+            end if
+            do i = 1, table%n
+                do d = 1, cfg%dimension
+                    if (table%x(d, i) < self%box%lo(d) .or. table%x(d, i) > self%box%hi(d)) then
+                        write (s1, '(i0)') table%id(i)
+                        write (s2, '(es12.5)') table%x(d, i)
+                        call stop_all(trim(source_name(cfg))//': atom '//trim(s1)//' lies outside the box ('// &
+                                      'xyz'(d:d)//' = '//trim(adjustl(s2))//')')
+                    end if
+                end do
+            end do
+        end if
+
+        ! ---- masses
+        allocate (self%atoms%mass(ntypes))
+        self%atoms%ntypes = ntypes
+        self%atoms%mass = -1
+        if (from_table) then
+            if (table%has_masses) self%atoms%mass = table%mass(1:ntypes)
+        end if
+        do t = 1, ntypes
+            if (cfg%mass(t) > 0) self%atoms%mass(t) = cfg%mass(t)
+            if (.not. (self%atoms%mass(t) > 0)) then
+                write (s1, '(i0)') t
+                call stop_all(cfg%path//': &system: mass: type '//trim(s1)//' has no mass (give mass('//trim(s1)// &
+                              ') in '//trim(cfg%units%mass)//', or a Masses section in the data file)')
+            end if
+        end do
+
+        ! ---- potential tables
+        do t = 1, ntypes
+            if (is_unset(cfg%epsilon(t, t)) .or. is_unset(cfg%sigma(t, t))) then
+                write (s1, '(i0)') t
+                call stop_all(cfg%path//': &potential: epsilon: type '//trim(s1)//' needs epsilon('//trim(s1)//','// &
+                              trim(s1)//') and sigma('//trim(s1)//','//trim(s1)//')')
+            end if
+        end do
+        do t = 1, ntypes
+            do i = 1, ntypes
+                eps(i, t) = pick(cfg%epsilon, i, t, sqrt(cfg%epsilon(i, i)*cfg%epsilon(t, t)))
+                sig(i, t) = pick(cfg%sigma, i, t, sqrt(cfg%sigma(i, i)*cfg%sigma(t, t)))
+                cut(i, t) = pick(cfg%pair_cutoff, i, t, cfg%cutoff)
+            end do
+        end do
+        call self%lj%setup(ntypes, eps, sig, cut, cfg%shift, cfg%potential == 'lj/smooth/linear')
+        do d = 1, cfg%dimension
+            if (.not. self%box%periodic(d)) cycle
+            if (self%lj%cutmax > 0.5_dp*self%box%length(d)) then
+                write (s1, '(es12.5)') self%lj%cutmax
+                write (s2, '(es12.5)') 0.5_dp*self%box%length(d)
+                call stop_all(cfg%where('potential', 'cutoff')//' = '//trim(adjustl(s1))//': beyond half the periodic '// &
+                              'box along '//'xyz'(d:d)//' ('//trim(adjustl(s2))//'); use a larger box or a smaller cutoff')
+            end if
+            if (self%lj%cutmax + cfg%skin >= self%box%length(d)) &
+                call stop_all(cfg%where('neighbor', 'skin')//': cutoff + skin must be smaller than the periodic box')
+        end do
+
+        ! ---- distribute atoms
+        cutghost = self%lj%cutmax + cfg%skin
+        call self%dom%setup(self%box, cutghost)
+        if (len_trim(cfg%lattice) > 0) then
+            call create_lattice_atoms(self, cfg, cell)
+        else
+            do i = 1, table%n
+                if (self%dom%owns(table%x(:, i))) &
+                    call self%atoms%append(table%x(:, i), table%v(:, i), table%type(i), table%id(i), table%image(:, i))
+            end do
+        end if
+        self%natoms = self%atoms%nlocal
+        call sum_all_i8(self%natoms)
+        if (self%natoms == 0) call stop_all(trim(source_name(cfg))//': the system is empty (no atoms)')
+
+        if (cfg%temperature >= 0) then
+            call create_velocities(self%atoms, cfg%units, cfg%temperature, cfg%seed, cfg%dimension, &
+                                   .not. any(self%box%periodic(1:cfg%dimension)), self%natoms)
+        end if
+
+        ! ---- plan
+        self%plan%natoms = self%natoms
+        self%plan%nprocs = world%nprocs
+        self%plan%dims = self%dom%dims
+        self%plan%pair_mode = pair_cells
+        if (cfg%list == 'all_pairs' .or. self%lj%no_cutoff) then
+            self%plan%pair_mode = pair_all
+        else if (cfg%list == 'auto' .and. .not. any(self%box%periodic(1:cfg%dimension)) .and. &
+                 self%natoms <= self%plan%all_pairs_max) then
+            self%plan%pair_mode = pair_all
+        end if
+        call self%plan%finish(cfg, self%box, self%lj%cutmax)
+
+        self%list%dimension = cfg%dimension
+        if (self%plan%pair_mode == pair_cells) call self%list%init(self%lj%cutmax, cfg%skin, cfg%dimension)
+        call self%timers%stop(t_other)
+        call self%rebuild()
+        call check_overlaps(self)
+        call self%compute_forces(.true.)
+    end subroutine engine_setup
+
+    pure real(dp) function pick(table, i, j, fallback) result(v)
+        real(dp), intent(in) :: table(:, :), fallback
+        integer, intent(in) :: i, j
+        if (.not. is_unset(table(i, j))) then
+            v = table(i, j)
+        else if (.not. is_unset(table(j, i))) then
+            v = table(j, i)
+        else
+            v = fallback
+        end if
+    end function pick
+
+    function source_name(cfg) result(s)
+        type(config_t), intent(in) :: cfg
+        character(len=:), allocatable :: s
+        if (len_trim(cfg%read_data) > 0) then
+            s = trim(cfg%read_data)
+        else if (len_trim(cfg%atoms_file) > 0) then
+            s = trim(cfg%atoms_file)
+        else
+            s = cfg%path//': &system'
+        end if
+    end function source_name
+
+    subroutine create_lattice_atoms(self, cfg, cell)
+        type(engine_t), intent(inout) :: self
+        type(config_t), intent(in) :: cfg
+        real(dp), intent(in) :: cell(3)
+        real(dp), allocatable :: basis(:, :)
+        integer :: i, j, k, b, nb, nc(3)
+        integer :: lo(3), hi(3), d
+        real(dp) :: x(3)
+        integer(i8) :: id
+        call lattice_basis(cfg%lattice, basis)
+        nb = size(basis, 2)
+        nc = max(cfg%cells, 1)
+        if (cfg%dimension == 2) nc(3) = 1
+        ! only the cells that can hold owned sites
+        do d = 1, 3
+            lo(d) = max(0, int(floor((self%dom%sublo(d) - self%box%lo(d))/cell(d))) - 1)
+            hi(d) = min(nc(d) - 1, int(ceiling((self%dom%subhi(d) - self%box%lo(d))/cell(d))) + 1)
+        end do
+        if (cfg%dimension == 2) then
+            lo(3) = 0; hi(3) = 0
+        end if
+        do k = lo(3), hi(3)
+            do j = lo(2), hi(2)
+                do i = lo(1), hi(1)
+                    do b = 1, nb
+                        x = self%box%lo + ([real(dp) :: i, j, k] + basis(:, b))*cell
+                        if (cfg%dimension == 2) x(3) = 0
+                        if (.not. self%dom%owns(x)) cycle
+                        id = 1 + (b - 1) + int(nb, i8)*(i + int(nc(1), i8)*(j + int(nc(2), i8)*k))
+                        call self%atoms%append(x, [0.0_dp, 0.0_dp, 0.0_dp], 1, id, [0, 0, 0])
+                    end do
+                end do
+            end do
+        end do
+    end subroutine create_lattice_atoms
+
+    !> Degrees of freedom for the temperature, d N - d (as LAMMPS).
+    pure real(dp) function engine_dof(self)
+        class(engine_t), intent(in) :: self
+        engine_dof = real(self%cfg%dimension, dp)*(real(self%natoms, dp) - 1)
+    end function engine_dof
+
+    !> Migrate atoms, sort them spatially, rebuild the halo and the neighbour list.
+    subroutine engine_rebuild(self)
+        class(engine_t), intent(inout) :: self
+        real(dp) :: lo(3), hi(3)
+        integer :: d, n
+        if (self%plan%pair_mode == pair_all) then
+            call self%timers%start(t_comm)
+            if (world%nprocs > 1) call self%rep%setup(self%atoms)
+            call self%timers%stop(t_comm)
+            return
+        end if
+        call self%timers%start(t_comm)
+        call self%dom%migrate(self%atoms)
+        call self%timers%stop(t_comm)
+        call self%timers%start(t_neigh)
+        n = self%atoms%nlocal
+        lo = self%dom%sublo; hi = self%dom%subhi
+        do d = 1, self%box%dimension
+            if (n > 0) then
+                lo(d) = min(lo(d), minval(self%atoms%x(d, 1:n)))
+                hi(d) = max(hi(d), maxval(self%atoms%x(d, 1:n)))
+            end if
+        end do
+        lo = lo - self%dom%cutghost; hi = hi + self%dom%cutghost
+        call self%list%setup_bins(lo, hi, n)
+        call self%list%sort_owned(self%atoms)
+        call self%timers%stop(t_neigh)
+        call self%timers%start(t_comm)
+        call self%dom%borders(self%atoms)
+        call self%timers%stop(t_comm)
+        call self%timers%start(t_neigh)
+        call self%list%build(self%atoms)
+        call self%timers%stop(t_neigh)
+    end subroutine engine_rebuild
+
+    !> Bring ghost positions up to date (no rebuild).
+    subroutine engine_refresh_ghosts(self)
+        class(engine_t), intent(inout) :: self
+        call self%timers%start(t_comm)
+        if (self%plan%pair_mode == pair_all) then
+            if (world%nprocs > 1) call self%rep%gather(self%atoms, self%atoms%x)
+        else
+            call self%dom%forward(self%atoms%x, .true.)
+        end if
+        call self%timers%stop(t_comm)
+    end subroutine engine_refresh_ghosts
+
+    !> Forces on owned atoms (ghost contributions summed back); with want_energy also the global
+    !> potential energy and virial.
+    subroutine engine_compute_forces(self, want_energy)
+        class(engine_t), intent(inout) :: self
+        logical, intent(in) :: want_energy
+        real(dp) :: ew(2)
+        integer :: nall
+        call self%timers%start(t_pair)
+        nall = self%atoms%nall()
+        self%atoms%f(:, 1:nall) = 0
+        if (self%plan%pair_mode == pair_all) then
+            call self%lj%compute_all_pairs(self%atoms, ew(1), ew(2))
+        else
+            call self%lj%compute(self%atoms, self%list, want_energy, ew(1), ew(2))
+        end if
+        call self%timers%stop(t_pair)
+        if (self%plan%pair_mode == pair_cells) then
+            call self%timers%start(t_comm)
+            call self%dom%reverse(self%atoms%f)
+            call self%timers%stop(t_comm)
+        end if
+        if (want_energy) then
+            call self%timers%start(t_comm)
+            call sum_all(ew)
+            call self%timers%stop(t_comm)
+            self%pe = ew(1); self%virial = ew(2)
+        end if
+        self%force_evaluations = self%force_evaluations + 1
+    end subroutine engine_compute_forces
+
+    !> Thermo quantities from the current velocities and the last energy evaluation.
+    function engine_sample(self, step, time) result(s)
+        class(engine_t), intent(inout) :: self
+        integer(i8), intent(in) :: step
+        real(dp), intent(in) :: time
+        type(thermo_sample_t) :: s
+        real(dp) :: dof
+        s%step = step; s%time = time
+        s%ke = kinetic_energy(self%atoms, self%cfg%units)
+        s%pe = self%pe
+        s%etotal = s%ke + s%pe
+        dof = self%dof()
+        s%temp = 0
+        if (dof > 0) s%temp = 2*s%ke/(dof*self%cfg%units%boltz)
+        s%press = (2*s%ke + self%virial)/(self%box%dimension*self%box%volume())*self%cfg%units%nktv2p
+    end function engine_sample
+
+    !> Refuse a start with atoms on top of each other (closer than sigma/4).
+    subroutine check_overlaps(self)
+        type(engine_t), intent(inout) :: self
+        real(dp) :: rmin_ratio, rsq, sig
+        integer :: i, k, j, jend
+        character(len=32) :: s
+        rmin_ratio = huge(1.0_dp)
+        do i = 1, self%atoms%nlocal
+            if (self%plan%pair_mode == pair_cells) then
+                k = self%list%first(i); jend = self%list%first(i + 1) - 1
+            else
+                k = i + 1; jend = self%atoms%nall()
+            end if
+            do while (k <= jend)
+                if (self%plan%pair_mode == pair_cells) then
+                    j = self%list%neigh(k)
+                else
+                    j = k
+                end if
+                rsq = sum((self%atoms%x(:, i) - self%atoms%x(:, j))**2)
+                sig = (self%lj%lj3(self%atoms%type(i), self%atoms%type(j))/ &
+                       max(self%lj%lj4(self%atoms%type(i), self%atoms%type(j)), tiny(1.0_dp)))**(1.0_dp/6)
+                rmin_ratio = min(rmin_ratio, sqrt(rsq)/sig)
+                k = k + 1
+            end do
+        end do
+        call min_all(rmin_ratio)
+        write (s, '(es10.3)') rmin_ratio
+        call check_all(.not. (rmin_ratio < 0.25_dp), trim(source_name(self%cfg))//': overlapping atoms (closest pair '// &
+                       'at '//trim(adjustl(s))//' sigma; at least sigma/4 is required)')
+    end subroutine check_overlaps
+
+end module terrace_engine

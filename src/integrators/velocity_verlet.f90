@@ -1,0 +1,66 @@
+!> Velocity Verlet (NVE), the reference integrator:
+!>   v += dt/2 F/m;  x += dt v;  [rebuild or refresh ghosts];  F = F(x);  v += dt/2 F/m
+!> Energies and the virial are computed only on the steps that are sampled.
+module terrace_velocity_verlet
+    use terrace_kinds, only: dp, i8
+    use terrace_engine, only: engine_t
+    use terrace_thermo, only: thermo_writer_t
+    use terrace_scene_plan, only: pair_cells
+    use terrace_timers, only: t_output, t_other
+    use terrace_errors, only: check_all
+    implicit none
+    private
+
+    public :: run_velocity_verlet
+
+contains
+
+    subroutine run_velocity_verlet(eng, thermo, n_steps, thermo_every)
+        type(engine_t), intent(inout) :: eng
+        type(thermo_writer_t), intent(inout) :: thermo
+        integer(i8), intent(in) :: n_steps, thermo_every
+        integer(i8) :: step
+        integer :: i, t
+        real(dp) :: dt, dtfm(size(eng%atoms%mass))
+        logical :: sample
+        dt = eng%cfg%dt
+        do t = 1, size(dtfm)
+            dtfm(t) = 0.5_dp*dt*eng%cfg%units%ftm2v/eng%atoms%mass(t)
+        end do
+        call eng%timers%start(t_output)
+        call thermo%write(eng%sample(0_i8, 0.0_dp))
+        call eng%timers%stop(t_output)
+        do step = 1, n_steps
+            call eng%timers%start(t_other)
+            do i = 1, eng%atoms%nlocal
+                eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
+                eng%atoms%x(:, i) = eng%atoms%x(:, i) + dt*eng%atoms%v(:, i)
+            end do
+            call eng%timers%stop(t_other)
+            if (eng%plan%pair_mode == pair_cells) then
+                if (eng%list%needs_rebuild(eng%atoms)) then
+                    call eng%rebuild()
+                else
+                    call eng%refresh_ghosts()
+                end if
+            else
+                call eng%refresh_ghosts()
+            end if
+            sample = mod(step, thermo_every) == 0 .or. step == n_steps
+            call eng%compute_forces(sample)
+            call eng%timers%start(t_other)
+            do i = 1, eng%atoms%nlocal
+                eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
+            end do
+            call eng%timers%stop(t_other)
+            if (sample) then
+                call eng%timers%start(t_output)
+                call check_all(eng%pe == eng%pe, 'the potential energy became NaN at this step: the run is unstable '// &
+                               '(time step too large or atoms overlapping)')
+                call thermo%write(eng%sample(step, step*dt))
+                call eng%timers%stop(t_output)
+            end if
+        end do
+    end subroutine run_velocity_verlet
+
+end module terrace_velocity_verlet

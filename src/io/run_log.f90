@@ -1,0 +1,65 @@
+!> End-of-run log: loop time, atom-steps per second, the per-phase timing table (average and
+!> maximum over ranks, share of the loop), neighbour-list builds, and peak memory per atom.
+module terrace_run_log
+    use terrace_kinds, only: dp, i8
+    use terrace_timers, only: timers_t, n_timers, timer_names
+    use terrace_mpi_env, only: world
+    use mpi_f08, only: MPI_Reduce, MPI_DOUBLE_PRECISION, MPI_SUM, MPI_MAX
+    use, intrinsic :: iso_fortran_env, only: output_unit
+    implicit none
+    private
+
+    public :: print_run_log, peak_memory_kib
+
+contains
+
+    !> VmHWM of this process in KiB (0 when /proc is not available).
+    integer(i8) function peak_memory_kib() result(kib)
+        integer :: unit, ios
+        character(len=256) :: line
+        kib = 0
+        open (newunit=unit, file='/proc/self/status', action='read', status='old', iostat=ios)
+        if (ios /= 0) return
+        do
+            read (unit, '(a)', iostat=ios) line
+            if (ios /= 0) exit
+            if (line(1:6) == 'VmHWM:') then
+                read (line(7:), *, iostat=ios) kib
+                exit
+            end if
+        end do
+        close (unit)
+    end function peak_memory_kib
+
+    subroutine print_run_log(timers, loop_time, natoms, steps, builds, label)
+        type(timers_t), intent(in) :: timers
+        real(dp), intent(in) :: loop_time
+        integer(i8), intent(in) :: natoms, steps
+        integer, intent(in) :: builds
+        character(len=*), intent(in) :: label
+        real(dp) :: avg(n_timers), mx(n_timers), mem, memsum, other
+        integer :: k
+        call MPI_Reduce(timers%total, avg, n_timers, MPI_DOUBLE_PRECISION, MPI_SUM, 0, world%comm)
+        call MPI_Reduce(timers%total, mx, n_timers, MPI_DOUBLE_PRECISION, MPI_MAX, 0, world%comm)
+        mem = real(peak_memory_kib(), dp)
+        call MPI_Reduce(mem, memsum, 1, MPI_DOUBLE_PRECISION, MPI_SUM, 0, world%comm)
+        if (world%rank /= 0) return
+        avg = avg/world%nprocs
+        write (output_unit, '(a,f0.4,a,i0,a,i0,a,i0,a)') 'Loop time: ', loop_time, ' s on ', world%nprocs, &
+            ' rank(s) for ', steps, ' '//label//' with ', natoms, ' atoms'
+        if (loop_time > 0) write (output_unit, '(a,es12.5)') 'Performance: atom-steps/s = ', &
+            real(natoms, dp)*real(steps, dp)/loop_time
+        write (output_unit, '(a)') 'Phase      avg time (s)   max time (s)   %loop'
+        ! 'Other' is what the measured phases leave of the loop (integration, bookkeeping)
+        other = loop_time - sum(avg(1:n_timers - 1))
+        avg(n_timers) = other; mx(n_timers) = other
+        do k = 1, n_timers
+            write (output_unit, '(a8,2x,f13.4,2x,f13.4,2x,f6.1)') timer_names(k), avg(k), mx(k), &
+                100*avg(k)/max(loop_time, tiny(1.0_dp))
+        end do
+        write (output_unit, '(a,i0)') 'Neighbour list builds: ', builds
+        write (output_unit, '(a,f0.1,a,f0.1,a)') 'Peak memory: ', memsum/1024, ' MiB in all ranks, ', &
+            1024*memsum/max(real(natoms, dp), 1.0_dp), ' bytes/atom'
+    end subroutine print_run_log
+
+end module terrace_run_log

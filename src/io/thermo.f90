@@ -1,0 +1,93 @@
+!> Thermodynamic output: the CSV file (header `step,time,temp,pe,ke,etotal,press`, extensive totals
+!> in the run's units, full precision) and the same lines on screen with the simulated time reached
+!> and an estimate of the wall time to completion. Rank 0 writes; other ranks do nothing here.
+module terrace_thermo
+    use terrace_kinds, only: dp, i8
+    use terrace_mpi_env, only: world
+    use mpi_f08, only: MPI_Wtime
+    use, intrinsic :: iso_fortran_env, only: output_unit
+    implicit none
+    private
+
+    type, public :: thermo_sample_t
+        integer(i8) :: step = 0
+        real(dp) :: time = 0, temp = 0, pe = 0, ke = 0, etotal = 0, press = 0
+    end type thermo_sample_t
+
+    type, public :: thermo_writer_t
+        integer :: unit = -1
+        logical :: to_file = .false.
+        real(dp) :: wall_start = 0
+        real(dp) :: end_time = 0
+        character(len=:), allocatable :: time_unit
+        character(len=:), allocatable :: extra_header
+    contains
+        procedure :: open => thermo_open
+        procedure :: write => thermo_write
+        procedure :: close => thermo_close
+    end type thermo_writer_t
+
+contains
+
+    !> Open the CSV (when a file name is given) and print the screen header.
+    subroutine thermo_open(self, path, end_time, time_unit, extra_header, ok, msg)
+        class(thermo_writer_t), intent(inout) :: self
+        character(len=*), intent(in) :: path, time_unit, extra_header
+        real(dp), intent(in) :: end_time
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        integer :: ios
+        ok = .true.; msg = ''
+        self%end_time = end_time
+        self%time_unit = time_unit
+        self%extra_header = extra_header
+        self%wall_start = MPI_Wtime()
+        if (world%rank /= 0) return
+        if (len_trim(path) > 0) then
+            open (newunit=self%unit, file=path, status='replace', action='write', iostat=ios, iomsg=msg)
+            if (ios /= 0) then
+                ok = .false.
+                return
+            end if
+            self%to_file = .true.
+            write (self%unit, '(a)') 'step,time,temp,pe,ke,etotal,press'//extra_header
+        end if
+        write (output_unit, '(a10,1x,a12,1x,a12,1x,a16,1x,a16,1x,a16,1x,a13,a)') 'step', 'time', 'temp', 'pe', 'ke', &
+            'etotal', 'press', '  progress'
+    end subroutine thermo_open
+
+    subroutine thermo_write(self, s, extra)
+        class(thermo_writer_t), intent(inout) :: self
+        type(thermo_sample_t), intent(in) :: s
+        real(dp), intent(in), optional :: extra(:)
+        character(len=64) :: eta
+        real(dp) :: elapsed, remaining
+        integer :: k
+        if (world%rank /= 0) return
+        if (self%to_file) then
+            write (self%unit, '(i0,6(",",es24.16e3))', advance='no') s%step, s%time, s%temp, s%pe, s%ke, s%etotal, s%press
+            if (present(extra)) then
+                do k = 1, size(extra)
+                    write (self%unit, '(",",es24.16e3)', advance='no') extra(k)
+                end do
+            end if
+            write (self%unit, '(a)') ''
+        end if
+        elapsed = MPI_Wtime() - self%wall_start
+        eta = ''
+        if (s%time > 0 .and. self%end_time > 0) then
+            remaining = elapsed*(self%end_time - s%time)/s%time
+            write (eta, '(a,f6.1,a,f9.1,a)') '  ', 100*s%time/self%end_time, '%  eta ', remaining, ' s'
+        end if
+        write (output_unit, '(i10,1x,es12.5,1x,es12.5,1x,es16.9,1x,es16.9,1x,es16.9,1x,es13.5,a)') s%step, s%time, &
+            s%temp, s%pe, s%ke, s%etotal, s%press, trim(eta)
+        flush (output_unit)
+    end subroutine thermo_write
+
+    subroutine thermo_close(self)
+        class(thermo_writer_t), intent(inout) :: self
+        if (self%to_file) close (self%unit)
+        self%to_file = .false.
+    end subroutine thermo_close
+
+end module terrace_thermo

@@ -1,0 +1,439 @@
+!> 3-D Cartesian domain decomposition: ownership, migration, halo (ghost) exchange and the
+!> reverse sum of ghost forces.
+!>
+!> The box is cut into dims(1) x dims(2) x dims(3) equal bricks (MPI_Dims_create, MPI_Cart_create);
+!> rank (c1,c2,c3) owns the atoms with floor((x_d - lo_d) P_d / L_d) = c_d (clamped at free edges,
+!> so atoms that leave a free box stay with the outermost rank).
+!>
+!> Halo ("borders"): for d = x, y, z in turn, and for as many hops as the ghost cutoff needs,
+!> atoms within cutghost of the lower face go to the lower neighbour and those within cutghost of
+!> the upper face to the upper one; ghosts received in earlier dimensions travel on, which fills
+!> edges and corners. Crossing a periodic face adds -/+ L_d to the copy. With one rank along a
+!> periodic dimension the "neighbour" is the rank itself and the swap is a plain copy: a one-rank
+!> run makes no MPI call at all. Pairs are counted once (Newton's third law across ghosts):
+!> forces accumulated on ghosts are sent back along the same swaps in reverse order and added.
+module terrace_domain
+    use terrace_kinds, only: dp, i8
+    use terrace_box, only: box_t
+    use terrace_atoms, only: atoms_t
+    use terrace_mpi_env, only: world, any_all
+    use mpi_f08, only: MPI_Comm, MPI_Dims_create, MPI_Cart_create, MPI_Cart_coords, MPI_Cart_shift, &
+                       MPI_Comm_rank, MPI_Sendrecv, MPI_DOUBLE_PRECISION, MPI_INTEGER, MPI_STATUS_IGNORE, &
+                       MPI_PROC_NULL
+    implicit none
+    private
+
+    type :: swap_t
+        integer :: dim = 1
+        integer :: send_to = MPI_PROC_NULL
+        integer :: recv_from = MPI_PROC_NULL
+        logical :: self_copy = .false.
+        real(dp) :: shift(3) = 0
+        integer :: nsend = 0, nrecv = 0, first_recv = 0
+        integer, allocatable :: list(:)
+    end type swap_t
+
+    type, public :: domain_t
+        type(MPI_Comm) :: cart
+        integer :: dims(3) = 1, coords(3) = 0
+        integer :: nbr_lo(3) = -1, nbr_hi(3) = -1
+        real(dp) :: sublo(3) = 0, subhi(3) = 0
+        real(dp) :: cutghost = 0
+        integer :: nswap = 0
+        type(swap_t), allocatable :: swaps(:)
+        real(dp), allocatable :: sendbuf(:), recvbuf(:)
+        type(box_t) :: box
+    contains
+        procedure :: setup => domain_setup
+        procedure :: owner_coord => domain_owner_coord
+        procedure :: owns => domain_owns
+        procedure :: wrap => domain_wrap
+        procedure :: migrate => domain_migrate
+        procedure :: borders => domain_borders
+        procedure :: forward => domain_forward
+        procedure :: reverse => domain_reverse
+    end type domain_t
+
+    integer, parameter :: migrate_width = 11   ! x(3) v(3) type id image(3)
+    integer, parameter :: border_width = 7     ! x(3) v(3) type
+
+contains
+
+    !> Choose the processor grid and this rank's brick. The factors from MPI_Dims_create are
+    !> assigned largest to the longest box edge.
+    subroutine domain_setup(self, box, cutghost)
+        class(domain_t), intent(inout) :: self
+        type(box_t), intent(in) :: box
+        real(dp), intent(in) :: cutghost
+        integer :: dims(3), nd, d, k, order(3), tmp
+        logical :: periods(3)
+        real(dp) :: len_sorted(3)
+        self%box = box
+        self%cutghost = cutghost
+        nd = box%dimension
+        dims = 0
+        if (nd == 2) dims(3) = 1
+        call MPI_Dims_create(world%nprocs, 3, dims)
+        ! sort factors descending, assign to edges by descending length
+        do d = 1, 2
+            do k = d + 1, 3
+                if (dims(k) > dims(d)) then
+                    tmp = dims(d); dims(d) = dims(k); dims(k) = tmp
+                end if
+            end do
+        end do
+        order = [1, 2, 3]
+        len_sorted = box%length
+        if (nd == 2) len_sorted(3) = -1
+        do d = 1, 2
+            do k = d + 1, 3
+                if (len_sorted(order(k)) > len_sorted(order(d))) then
+                    tmp = order(d); order(d) = order(k); order(k) = tmp
+                end if
+            end do
+        end do
+        do d = 1, 3
+            self%dims(order(d)) = dims(d)
+        end do
+        periods = box%periodic
+        call MPI_Cart_create(world%comm, 3, self%dims, periods, .false., self%cart)
+        call MPI_Comm_rank(self%cart, k)
+        call MPI_Cart_coords(self%cart, k, 3, self%coords)
+        do d = 1, 3
+            call MPI_Cart_shift(self%cart, d - 1, 1, self%nbr_lo(d), self%nbr_hi(d))
+            self%sublo(d) = box%lo(d) + self%coords(d)*box%length(d)/self%dims(d)
+            self%subhi(d) = box%lo(d) + (self%coords(d) + 1)*box%length(d)/self%dims(d)
+            if (self%coords(d) == self%dims(d) - 1) self%subhi(d) = box%hi(d)
+        end do
+    end subroutine domain_setup
+
+    pure integer function domain_owner_coord(self, d, xd) result(c)
+        class(domain_t), intent(in) :: self
+        integer, intent(in) :: d
+        real(dp), intent(in) :: xd
+        c = int(floor((xd - self%box%lo(d))*self%dims(d)/self%box%length(d)))
+        c = min(self%dims(d) - 1, max(0, c))
+    end function domain_owner_coord
+
+    pure logical function domain_owns(self, x)
+        class(domain_t), intent(in) :: self
+        real(dp), intent(in) :: x(3)
+        integer :: d
+        domain_owns = .true.
+        do d = 1, self%box%dimension
+            if (self%owner_coord(d, x(d)) /= self%coords(d)) domain_owns = .false.
+        end do
+    end function domain_owns
+
+    !> Wrap owned atoms back into the periodic box, counting the crossings in the image flags.
+    subroutine domain_wrap(self, atoms)
+        class(domain_t), intent(in) :: self
+        type(atoms_t), intent(inout) :: atoms
+        integer :: i, d
+        do d = 1, self%box%dimension
+            if (.not. self%box%periodic(d)) cycle
+            do i = 1, atoms%nlocal
+                if (atoms%x(d, i) < self%box%lo(d)) then
+                    atoms%x(d, i) = atoms%x(d, i) + self%box%length(d)
+                    atoms%image(d, i) = atoms%image(d, i) - 1
+                    if (atoms%x(d, i) >= self%box%hi(d)) atoms%x(d, i) = self%box%lo(d)
+                else if (atoms%x(d, i) >= self%box%hi(d)) then
+                    atoms%x(d, i) = atoms%x(d, i) - self%box%length(d)
+                    atoms%image(d, i) = atoms%image(d, i) + 1
+                    if (atoms%x(d, i) < self%box%lo(d)) atoms%x(d, i) = self%box%lo(d)
+                end if
+            end do
+        end do
+    end subroutine domain_wrap
+
+    !> Send owned atoms that left this brick to the neighbour in that direction, one dimension at
+    !> a time, repeating until no atom anywhere is misplaced along that dimension.
+    subroutine domain_migrate(self, atoms)
+        class(domain_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        integer :: d, i, dir, nsend(2), nrecv(2), delta, p
+        logical :: misplaced
+        atoms%nghost = 0
+        call self%wrap(atoms)
+        if (world%nprocs == 1) return
+        do d = 1, self%box%dimension
+            if (self%dims(d) == 1) cycle
+            do
+                nsend = 0
+                ! pack leavers: first the ones going down, then the ones going up
+                call ensure(self%sendbuf, migrate_width*atoms%nlocal)
+                do dir = 1, 2
+                    i = 1
+                    do while (i <= atoms%nlocal)
+                        delta = step_of(self, d, atoms%x(d, i))
+                        if ((dir == 1 .and. delta < 0) .or. (dir == 2 .and. delta > 0)) then
+                            p = migrate_width*(nsend(1) + nsend(2))
+                            call pack_atom(atoms, i, self%sendbuf(p + 1:p + migrate_width))
+                            nsend(dir) = nsend(dir) + 1
+                            call atoms%copy_owned(atoms%nlocal, i)
+                            atoms%nlocal = atoms%nlocal - 1
+                        else
+                            i = i + 1
+                        end if
+                    end do
+                end do
+                ! down-going to nbr_lo, receive from nbr_hi; then up-going
+                call MPI_Sendrecv(nsend(1), 1, MPI_INTEGER, self%nbr_lo(d), 1, nrecv(1), 1, MPI_INTEGER, &
+                                  self%nbr_hi(d), 1, self%cart, MPI_STATUS_IGNORE)
+                call MPI_Sendrecv(nsend(2), 1, MPI_INTEGER, self%nbr_hi(d), 2, nrecv(2), 1, MPI_INTEGER, &
+                                  self%nbr_lo(d), 2, self%cart, MPI_STATUS_IGNORE)
+                if (self%nbr_hi(d) == MPI_PROC_NULL) nrecv(1) = 0
+                if (self%nbr_lo(d) == MPI_PROC_NULL) nrecv(2) = 0
+                call ensure(self%recvbuf, migrate_width*(nrecv(1) + nrecv(2)))
+                call MPI_Sendrecv(self%sendbuf, migrate_width*nsend(1), MPI_DOUBLE_PRECISION, self%nbr_lo(d), 3, &
+                                  self%recvbuf, migrate_width*nrecv(1), MPI_DOUBLE_PRECISION, self%nbr_hi(d), 3, &
+                                  self%cart, MPI_STATUS_IGNORE)
+                call MPI_Sendrecv(self%sendbuf(migrate_width*nsend(1) + 1:), migrate_width*nsend(2), &
+                                  MPI_DOUBLE_PRECISION, self%nbr_hi(d), 4, &
+                                  self%recvbuf(migrate_width*nrecv(1) + 1:), migrate_width*nrecv(2), &
+                                  MPI_DOUBLE_PRECISION, self%nbr_lo(d), 4, self%cart, MPI_STATUS_IGNORE)
+                call atoms%reserve(atoms%nlocal + nrecv(1) + nrecv(2))
+                do i = 1, nrecv(1) + nrecv(2)
+                    p = migrate_width*(i - 1)
+                    call unpack_atom(atoms, self%recvbuf(p + 1:p + migrate_width))
+                end do
+                misplaced = .false.
+                do i = 1, atoms%nlocal
+                    if (step_of(self, d, atoms%x(d, i)) /= 0) misplaced = .true.
+                end do
+                call any_all(misplaced)
+                if (.not. misplaced) exit
+            end do
+        end do
+    end subroutine domain_migrate
+
+    !> Signed number of bricks from this rank to the owner along d (shortest way round when periodic).
+    pure integer function step_of(self, d, xd) result(delta)
+        type(domain_t), intent(in) :: self
+        integer, intent(in) :: d
+        real(dp), intent(in) :: xd
+        integer :: p
+        p = self%dims(d)
+        delta = self%owner_coord(d, xd) - self%coords(d)
+        if (self%box%periodic(d)) then
+            if (delta > p/2) delta = delta - p
+            if (delta < -(p - 1)/2) delta = delta + p
+        end if
+    end function step_of
+
+    subroutine pack_atom(atoms, i, buf)
+        type(atoms_t), intent(in) :: atoms
+        integer, intent(in) :: i
+        real(dp), intent(out) :: buf(:)
+        buf(1:3) = atoms%x(:, i); buf(4:6) = atoms%v(:, i)
+        buf(7) = real(atoms%type(i), dp)
+        buf(8) = transfer(atoms%id(i), 1.0_dp)
+        buf(9:11) = real(atoms%image(:, i), dp)
+    end subroutine pack_atom
+
+    subroutine unpack_atom(atoms, buf)
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: buf(:)
+        integer :: n
+        n = atoms%nlocal + 1
+        atoms%x(:, n) = buf(1:3); atoms%v(:, n) = buf(4:6); atoms%f(:, n) = 0
+        atoms%type(n) = nint(buf(7))
+        atoms%id(n) = transfer(buf(8), 1_i8)
+        atoms%image(:, n) = nint(buf(9:11))
+        atoms%nlocal = n
+    end subroutine unpack_atom
+
+    subroutine ensure(buf, n)
+        real(dp), allocatable, intent(inout) :: buf(:)
+        integer, intent(in) :: n
+        if (allocated(buf)) then
+            if (size(buf) >= n) return
+            deallocate (buf)
+        end if
+        allocate (buf(max(n, 1024, int(1.5*n))))
+    end subroutine ensure
+
+    !> Build the ghost layer and remember every swap for forward and reverse communication.
+    subroutine domain_borders(self, atoms)
+        class(domain_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        integer :: d, hop, nhop, dir, nfirst, cand_lo, cand_hi, i, j, n, s, p, ns
+        integer :: prev(2)
+        real(dp) :: width, lim
+        type(swap_t), allocatable :: grown(:)
+        atoms%nghost = 0
+        self%nswap = 0
+        if (.not. allocated(self%swaps)) allocate (self%swaps(6))
+        do d = 1, self%box%dimension
+            if (self%dims(d) == 1 .and. .not. self%box%periodic(d)) cycle
+            width = self%box%length(d)/self%dims(d)
+            nhop = max(1, ceiling(self%cutghost/width))
+            if (self%box%periodic(d)) then
+                nhop = min(nhop, self%dims(d))
+            else
+                nhop = min(nhop, self%dims(d) - 1)
+            end if
+            nfirst = atoms%nlocal + atoms%nghost
+            prev = 0
+            do hop = 1, nhop
+                do dir = 1, 2
+                    if (self%nswap == size(self%swaps)) then
+                        allocate (grown(2*self%nswap))
+                        grown(1:self%nswap) = self%swaps
+                        call move_alloc(grown, self%swaps)
+                    end if
+                    self%nswap = self%nswap + 1
+                    s = self%nswap
+                    associate (sw => self%swaps(s))
+                        sw%dim = d
+                        sw%self_copy = self%dims(d) == 1
+                        sw%shift = 0
+                        if (dir == 1) then
+                            sw%send_to = self%nbr_lo(d); sw%recv_from = self%nbr_hi(d)
+                            if (self%box%periodic(d) .and. self%coords(d) == 0) sw%shift(d) = self%box%length(d)
+                        else
+                            sw%send_to = self%nbr_hi(d); sw%recv_from = self%nbr_lo(d)
+                            if (self%box%periodic(d) .and. self%coords(d) == self%dims(d) - 1) &
+                                sw%shift(d) = -self%box%length(d)
+                        end if
+                        if (hop == 1) then
+                            cand_lo = 1; cand_hi = nfirst
+                        else
+                            cand_lo = self%swaps(prev(dir))%first_recv
+                            cand_hi = cand_lo + self%swaps(prev(dir))%nrecv - 1
+                        end if
+                        ! select
+                        if (.not. allocated(sw%list)) allocate (sw%list(max(64, cand_hi - cand_lo + 1)))
+                        if (size(sw%list) < cand_hi - cand_lo + 1) then
+                            deallocate (sw%list); allocate (sw%list(cand_hi - cand_lo + 1))
+                        end if
+                        ns = 0
+                        if (sw%send_to /= MPI_PROC_NULL) then
+                            if (dir == 1) then
+                                lim = self%sublo(d) + self%cutghost
+                                do i = cand_lo, cand_hi
+                                    if (atoms%x(d, i) < lim) then
+                                        ns = ns + 1; sw%list(ns) = i
+                                    end if
+                                end do
+                            else
+                                lim = self%subhi(d) - self%cutghost
+                                do i = cand_lo, cand_hi
+                                    if (atoms%x(d, i) >= lim) then
+                                        ns = ns + 1; sw%list(ns) = i
+                                    end if
+                                end do
+                            end if
+                        end if
+                        sw%nsend = ns
+                        if (sw%self_copy) then
+                            sw%nrecv = ns
+                        else
+                            call MPI_Sendrecv(ns, 1, MPI_INTEGER, sw%send_to, 10, sw%nrecv, 1, MPI_INTEGER, &
+                                              sw%recv_from, 10, self%cart, MPI_STATUS_IGNORE)
+                            if (sw%recv_from == MPI_PROC_NULL) sw%nrecv = 0
+                        end if
+                        sw%first_recv = atoms%nlocal + atoms%nghost + 1
+                        call atoms%reserve(atoms%nlocal + atoms%nghost + sw%nrecv)
+                        if (sw%self_copy) then
+                            do j = 1, ns
+                                i = sw%list(j); n = sw%first_recv + j - 1
+                                atoms%x(:, n) = atoms%x(:, i) + sw%shift
+                                atoms%v(:, n) = atoms%v(:, i)
+                                atoms%type(n) = atoms%type(i)
+                            end do
+                        else
+                            call ensure(self%sendbuf, border_width*ns)
+                            call ensure(self%recvbuf, border_width*sw%nrecv)
+                            do j = 1, ns
+                                i = sw%list(j); p = border_width*(j - 1)
+                                self%sendbuf(p + 1:p + 3) = atoms%x(:, i) + sw%shift
+                                self%sendbuf(p + 4:p + 6) = atoms%v(:, i)
+                                self%sendbuf(p + 7) = real(atoms%type(i), dp)
+                            end do
+                            call MPI_Sendrecv(self%sendbuf, border_width*ns, MPI_DOUBLE_PRECISION, sw%send_to, 11, &
+                                              self%recvbuf, border_width*sw%nrecv, MPI_DOUBLE_PRECISION, &
+                                              sw%recv_from, 11, self%cart, MPI_STATUS_IGNORE)
+                            do j = 1, sw%nrecv
+                                n = sw%first_recv + j - 1; p = border_width*(j - 1)
+                                atoms%x(:, n) = self%recvbuf(p + 1:p + 3)
+                                atoms%v(:, n) = self%recvbuf(p + 4:p + 6)
+                                atoms%type(n) = nint(self%recvbuf(p + 7))
+                            end do
+                        end if
+                        atoms%nghost = atoms%nghost + sw%nrecv
+                    end associate
+                    prev(dir) = s
+                end do
+            end do
+        end do
+    end subroutine domain_borders
+
+    !> Forward communication: copy owner values of a per-atom 3-vector into the ghosts
+    !> (positions with the periodic shift when `shifted`, velocities or forces without).
+    subroutine domain_forward(self, a, shifted)
+        class(domain_t), intent(inout) :: self
+        real(dp), intent(inout) :: a(:, :)
+        logical, intent(in) :: shifted
+        integer :: s, j, i, n, p
+        real(dp) :: sh(3)
+        do s = 1, self%nswap
+            associate (sw => self%swaps(s))
+                sh = 0
+                if (shifted) sh = sw%shift
+                if (sw%self_copy) then
+                    do j = 1, sw%nsend
+                        a(:, sw%first_recv + j - 1) = a(:, sw%list(j)) + sh
+                    end do
+                else
+                    call ensure(self%sendbuf, 3*sw%nsend)
+                    call ensure(self%recvbuf, 3*sw%nrecv)
+                    do j = 1, sw%nsend
+                        i = sw%list(j); p = 3*(j - 1)
+                        self%sendbuf(p + 1:p + 3) = a(:, i) + sh
+                    end do
+                    call MPI_Sendrecv(self%sendbuf, 3*sw%nsend, MPI_DOUBLE_PRECISION, sw%send_to, 12, &
+                                      self%recvbuf, 3*sw%nrecv, MPI_DOUBLE_PRECISION, sw%recv_from, 12, &
+                                      self%cart, MPI_STATUS_IGNORE)
+                    do j = 1, sw%nrecv
+                        n = sw%first_recv + j - 1; p = 3*(j - 1)
+                        a(:, n) = self%recvbuf(p + 1:p + 3)
+                    end do
+                end if
+            end associate
+        end do
+    end subroutine domain_forward
+
+    !> Reverse communication: add ghost values of a per-atom 3-vector (forces) back into their
+    !> owners, swap by swap in reverse order (so ghosts of ghosts pass their share on).
+    subroutine domain_reverse(self, a)
+        class(domain_t), intent(inout) :: self
+        real(dp), intent(inout) :: a(:, :)
+        integer :: s, j, i, n, p
+        do s = self%nswap, 1, -1
+            associate (sw => self%swaps(s))
+                if (sw%self_copy) then
+                    do j = 1, sw%nsend
+                        i = sw%list(j)
+                        a(:, i) = a(:, i) + a(:, sw%first_recv + j - 1)
+                    end do
+                else
+                    call ensure(self%sendbuf, 3*sw%nrecv)
+                    call ensure(self%recvbuf, 3*sw%nsend)
+                    do j = 1, sw%nrecv
+                        n = sw%first_recv + j - 1; p = 3*(j - 1)
+                        self%sendbuf(p + 1:p + 3) = a(:, n)
+                    end do
+                    call MPI_Sendrecv(self%sendbuf, 3*sw%nrecv, MPI_DOUBLE_PRECISION, sw%recv_from, 13, &
+                                      self%recvbuf, 3*sw%nsend, MPI_DOUBLE_PRECISION, sw%send_to, 13, &
+                                      self%cart, MPI_STATUS_IGNORE)
+                    do j = 1, sw%nsend
+                        i = sw%list(j); p = 3*(j - 1)
+                        a(:, i) = a(:, i) + self%recvbuf(p + 1:p + 3)
+                    end do
+                end if
+            end associate
+        end do
+    end subroutine domain_reverse
+
+end module terrace_domain

@@ -1,0 +1,85 @@
+!> The MPI environment: world communicator, rank, size, and reductions that cost nothing on one
+!> rank (a single-rank run makes no MPI call after initialisation).
+module terrace_mpi_env
+    use terrace_kinds, only: dp, i8
+    use mpi_f08, only: MPI_Comm, MPI_COMM_WORLD, MPI_Init, MPI_Comm_rank, MPI_Comm_size, &
+                       MPI_Allreduce, MPI_IN_PLACE, MPI_DOUBLE_PRECISION, MPI_INTEGER8, &
+                       MPI_LOGICAL, MPI_SUM, MPI_MAX, MPI_MIN, MPI_LOR, MPI_Bcast, &
+                       MPI_CHARACTER, MPI_INTEGER, MPI_Finalize
+    implicit none
+    private
+
+    type, public :: mpi_env_t
+        type(MPI_Comm) :: comm
+        integer :: rank = 0
+        integer :: nprocs = 1
+    end type mpi_env_t
+
+    type(mpi_env_t), public, protected :: world
+
+    public :: start_mpi, end_mpi, sum_all, max_all, min_all, any_all, sum_all_i8, bcast_text
+
+    interface sum_all
+        module procedure sum_all_scalar, sum_all_array
+    end interface sum_all
+
+contains
+
+    subroutine start_mpi()
+        call MPI_Init()
+        world%comm = MPI_COMM_WORLD
+        call MPI_Comm_rank(world%comm, world%rank)
+        call MPI_Comm_size(world%comm, world%nprocs)
+    end subroutine start_mpi
+
+    subroutine end_mpi()
+        call MPI_Finalize()
+    end subroutine end_mpi
+
+    subroutine sum_all_scalar(x)
+        real(dp), intent(inout) :: x
+        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, x, 1, MPI_DOUBLE_PRECISION, MPI_SUM, world%comm)
+    end subroutine sum_all_scalar
+
+    subroutine sum_all_array(x)
+        real(dp), intent(inout) :: x(:)
+        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, x, size(x), MPI_DOUBLE_PRECISION, &
+                                                 MPI_SUM, world%comm)
+    end subroutine sum_all_array
+
+    subroutine sum_all_i8(n)
+        integer(i8), intent(inout) :: n
+        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, n, 1, MPI_INTEGER8, MPI_SUM, world%comm)
+    end subroutine sum_all_i8
+
+    subroutine max_all(x)
+        real(dp), intent(inout) :: x
+        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, x, 1, MPI_DOUBLE_PRECISION, MPI_MAX, world%comm)
+    end subroutine max_all
+
+    subroutine min_all(x)
+        real(dp), intent(inout) :: x
+        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, x, 1, MPI_DOUBLE_PRECISION, MPI_MIN, world%comm)
+    end subroutine min_all
+
+    subroutine any_all(flag)
+        logical, intent(inout) :: flag
+        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, flag, 1, MPI_LOGICAL, MPI_LOR, world%comm)
+    end subroutine any_all
+
+    !> Broadcast an allocatable string from rank 0.
+    subroutine bcast_text(text)
+        character(len=:), allocatable, intent(inout) :: text
+        integer :: n
+        if (world%nprocs == 1) return
+        n = 0
+        if (world%rank == 0) n = len(text)
+        call MPI_Bcast(n, 1, MPI_INTEGER, 0, world%comm)
+        if (world%rank /= 0) then
+            if (allocated(text)) deallocate (text)
+            allocate (character(len=n) :: text)
+        end if
+        if (n > 0) call MPI_Bcast(text, n, MPI_CHARACTER, 0, world%comm)
+    end subroutine bcast_text
+
+end module terrace_mpi_env

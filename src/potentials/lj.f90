@@ -1,0 +1,274 @@
+!> Lennard-Jones pair potential, per type pair:
+!>   E(r) = 4 eps [ (sigma/r)^12 - (sigma/r)^6 ]  - offset            (style 'lj', r < rc)
+!>   offset = E_LJ(rc) when shift = .true., else 0 (truncated, unshifted: E jumps at rc)
+!> style 'lj/smooth/linear' (shifted force): E(r) = E_LJ(r) - E_LJ(rc) - (r - rc) E_LJ'(rc),
+!> so that energy and force both vanish at rc.
+!> With lj1 = 48 eps sigma^12, lj2 = 24 eps sigma^6 the pair force on i is
+!>   F_i = fpair (x_i - x_j),  fpair = r^-8 (lj1 r^-6 - lj2)  (no square root).
+!> Kernels walk the half neighbour list (Newton's third law: j gets -F_i, ghosts included) and are
+!> specialised: one type or several, energy+virial wanted or not, plain or smooth.
+module terrace_lj
+    use terrace_kinds, only: dp
+    use terrace_atoms, only: atoms_t
+    use terrace_neighbor_list, only: neighbor_list_t
+    implicit none
+    private
+
+    type, public :: lj_t
+        integer :: ntypes = 1
+        logical :: smooth = .false.
+        logical :: no_cutoff = .false.
+        real(dp), allocatable :: lj1(:, :), lj2(:, :), lj3(:, :), lj4(:, :), cutsq(:, :), offset(:, :)
+        real(dp), allocatable :: fc(:, :)        !< smooth: -E_LJ'(rc) (force magnitude at rc)
+        real(dp), allocatable :: rc(:, :)
+        real(dp) :: cutmax = 0
+    contains
+        procedure :: setup => lj_setup
+        procedure :: compute => lj_compute
+        procedure :: compute_all_pairs => lj_compute_all_pairs
+        procedure :: pair_energy => lj_pair_energy
+    end type lj_t
+
+contains
+
+    !> Tables from per-pair epsilon, sigma, cutoff (full symmetric ntypes x ntypes arrays).
+    !> A cutoff of 0 means no cutoff (all pairs).
+    subroutine lj_setup(self, ntypes, eps, sig, cut, shift, smooth)
+        class(lj_t), intent(inout) :: self
+        integer, intent(in) :: ntypes
+        real(dp), intent(in) :: eps(:, :), sig(:, :), cut(:, :)
+        logical, intent(in) :: shift, smooth
+        integer :: i, j
+        real(dp) :: sr6, rc
+        self%ntypes = ntypes
+        self%smooth = smooth
+        allocate (self%lj1(ntypes, ntypes), self%lj2(ntypes, ntypes), self%lj3(ntypes, ntypes), &
+                  self%lj4(ntypes, ntypes), self%cutsq(ntypes, ntypes), self%offset(ntypes, ntypes), &
+                  self%fc(ntypes, ntypes), self%rc(ntypes, ntypes))
+        self%no_cutoff = all(cut(1:ntypes, 1:ntypes) == 0)
+        do j = 1, ntypes
+            do i = 1, ntypes
+                self%lj1(i, j) = 48*eps(i, j)*sig(i, j)**12
+                self%lj2(i, j) = 24*eps(i, j)*sig(i, j)**6
+                self%lj3(i, j) = 4*eps(i, j)*sig(i, j)**12
+                self%lj4(i, j) = 4*eps(i, j)*sig(i, j)**6
+                rc = cut(i, j)
+                self%rc(i, j) = rc
+                if (rc == 0) then
+                    self%cutsq(i, j) = huge(1.0_dp)
+                    self%offset(i, j) = 0; self%fc(i, j) = 0
+                    cycle
+                end if
+                self%cutsq(i, j) = rc*rc
+                sr6 = (sig(i, j)/rc)**6
+                self%offset(i, j) = 0
+                if (shift .or. smooth) self%offset(i, j) = 4*eps(i, j)*(sr6*sr6 - sr6)
+                self%fc(i, j) = 0
+                if (smooth) self%fc(i, j) = 24*eps(i, j)*(2*sr6*sr6 - sr6)/rc
+            end do
+        end do
+        self%cutmax = maxval(cut(1:ntypes, 1:ntypes))
+    end subroutine lj_setup
+
+    !> Energy of one pair at squared distance rsq (tests and diagnostics; not a hot path).
+    pure real(dp) function lj_pair_energy(self, ti, tj, rsq) result(e)
+        class(lj_t), intent(in) :: self
+        integer, intent(in) :: ti, tj
+        real(dp), intent(in) :: rsq
+        real(dp) :: r6inv, r
+        e = 0
+        if (rsq >= self%cutsq(ti, tj)) return
+        r6inv = 1/rsq**3
+        e = r6inv*(self%lj3(ti, tj)*r6inv - self%lj4(ti, tj)) - self%offset(ti, tj)
+        if (self%smooth) then
+            r = sqrt(rsq)
+            e = e + (r - self%rc(ti, tj))*self%fc(ti, tj)
+        end if
+    end function lj_pair_energy
+
+    !> Forces (added to atoms%f for owned and ghost atoms) from the half list; when want_energy,
+    !> also the energy and the virial W = sum r.F of the pairs this rank holds.
+    subroutine lj_compute(self, atoms, list, want_energy, energy, virial)
+        class(lj_t), intent(in) :: self
+        type(atoms_t), intent(inout) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        logical, intent(in) :: want_energy
+        real(dp), intent(out) :: energy, virial
+        energy = 0; virial = 0
+        if (self%smooth) then
+            call kernel_smooth(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, energy, virial)
+        else if (self%ntypes == 1) then
+            if (want_energy) then
+                call kernel_one_type_energy(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%lj1(1, 1), &
+                                            self%lj2(1, 1), self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), &
+                                            self%offset(1, 1), energy, virial)
+            else
+                call kernel_one_type(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%lj1(1, 1), &
+                                     self%lj2(1, 1), self%cutsq(1, 1))
+            end if
+        else
+            call kernel_types(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, energy, virial)
+        end if
+    end subroutine lj_compute
+
+    subroutine kernel_one_type(nlocal, x, f, first, neigh, lj1, lj2, cutsq)
+        integer, intent(in) :: nlocal, first(:), neigh(:)
+        real(dp), intent(in) :: x(:, :), lj1, lj2, cutsq
+        real(dp), intent(inout) :: f(:, :)
+        integer :: i, k, j
+        real(dp) :: xi, yi, zi, fxi, fyi, fzi, dx, dy, dz, rsq, r2inv, r6inv, fpair
+        do i = 1, nlocal
+            xi = x(1, i); yi = x(2, i); zi = x(3, i)
+            fxi = 0; fyi = 0; fzi = 0
+            do k = first(i), first(i + 1) - 1
+                j = neigh(k)
+                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq < cutsq) then
+                    r2inv = 1/rsq
+                    r6inv = r2inv*r2inv*r2inv
+                    fpair = r6inv*(lj1*r6inv - lj2)*r2inv
+                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
+                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
+                end if
+            end do
+            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
+        end do
+    end subroutine kernel_one_type
+
+    subroutine kernel_one_type_energy(nlocal, x, f, first, neigh, lj1, lj2, lj3, lj4, cutsq, offset, energy, virial)
+        integer, intent(in) :: nlocal, first(:), neigh(:)
+        real(dp), intent(in) :: x(:, :), lj1, lj2, lj3, lj4, cutsq, offset
+        real(dp), intent(inout) :: f(:, :)
+        real(dp), intent(inout) :: energy, virial
+        integer :: i, k, j
+        real(dp) :: xi, yi, zi, fxi, fyi, fzi, dx, dy, dz, rsq, r2inv, r6inv, fpair, e, w
+        e = 0; w = 0
+        do i = 1, nlocal
+            xi = x(1, i); yi = x(2, i); zi = x(3, i)
+            fxi = 0; fyi = 0; fzi = 0
+            do k = first(i), first(i + 1) - 1
+                j = neigh(k)
+                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq < cutsq) then
+                    r2inv = 1/rsq
+                    r6inv = r2inv*r2inv*r2inv
+                    fpair = r6inv*(lj1*r6inv - lj2)*r2inv
+                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
+                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
+                    e = e + r6inv*(lj3*r6inv - lj4) - offset
+                    w = w + rsq*fpair
+                end if
+            end do
+            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
+        end do
+        energy = energy + e; virial = virial + w
+    end subroutine kernel_one_type_energy
+
+    subroutine kernel_types(self, nlocal, x, f, type, first, neigh, energy, virial)
+        type(lj_t), intent(in) :: self
+        integer, intent(in) :: nlocal, type(:), first(:), neigh(:)
+        real(dp), intent(in) :: x(:, :)
+        real(dp), intent(inout) :: f(:, :), energy, virial
+        integer :: i, k, j, ti, tj
+        real(dp) :: xi, yi, zi, fxi, fyi, fzi, dx, dy, dz, rsq, r2inv, r6inv, fpair, e, w
+        e = 0; w = 0
+        do i = 1, nlocal
+            xi = x(1, i); yi = x(2, i); zi = x(3, i); ti = type(i)
+            fxi = 0; fyi = 0; fzi = 0
+            do k = first(i), first(i + 1) - 1
+                j = neigh(k); tj = type(j)
+                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq < self%cutsq(tj, ti)) then
+                    r2inv = 1/rsq
+                    r6inv = r2inv*r2inv*r2inv
+                    fpair = r6inv*(self%lj1(tj, ti)*r6inv - self%lj2(tj, ti))*r2inv
+                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
+                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
+                    e = e + r6inv*(self%lj3(tj, ti)*r6inv - self%lj4(tj, ti)) - self%offset(tj, ti)
+                    w = w + rsq*fpair
+                end if
+            end do
+            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
+        end do
+        energy = energy + e; virial = virial + w
+    end subroutine kernel_types
+
+    subroutine kernel_smooth(self, nlocal, x, f, type, first, neigh, energy, virial)
+        type(lj_t), intent(in) :: self
+        integer, intent(in) :: nlocal, type(:), first(:), neigh(:)
+        real(dp), intent(in) :: x(:, :)
+        real(dp), intent(inout) :: f(:, :), energy, virial
+        integer :: i, k, j, ti, tj
+        real(dp) :: xi, yi, zi, fxi, fyi, fzi, dx, dy, dz, rsq, r2inv, r6inv, fpair, e, w, r, rinv
+        e = 0; w = 0
+        do i = 1, nlocal
+            xi = x(1, i); yi = x(2, i); zi = x(3, i); ti = type(i)
+            fxi = 0; fyi = 0; fzi = 0
+            do k = first(i), first(i + 1) - 1
+                j = neigh(k); tj = type(j)
+                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq < self%cutsq(tj, ti)) then
+                    r2inv = 1/rsq
+                    r6inv = r2inv*r2inv*r2inv
+                    r = sqrt(rsq); rinv = 1/r
+                    fpair = r6inv*(self%lj1(tj, ti)*r6inv - self%lj2(tj, ti))*r2inv - self%fc(tj, ti)*rinv
+                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
+                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
+                    e = e + r6inv*(self%lj3(tj, ti)*r6inv - self%lj4(tj, ti)) - self%offset(tj, ti) + &
+                        (r - self%rc(tj, ti))*self%fc(tj, ti)
+                    w = w + rsq*fpair
+                end if
+            end do
+            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
+        end do
+        energy = energy + e; virial = virial + w
+    end subroutine kernel_smooth
+
+    !> All-pairs path for small scenes (no list). Owned pairs i < j are counted once with both
+    !> forces; pairs of an owned atom with a replicated atom of another rank (ghost) give the force
+    !> on the owned atom only and half the energy and virial (the other rank holds the other half).
+    subroutine lj_compute_all_pairs(self, atoms, energy, virial)
+        class(lj_t), intent(in) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(out) :: energy, virial
+        integer :: i, j, ti, tj, nlocal, nall
+        real(dp) :: dx, dy, dz, rsq, r2inv, r6inv, fpair, e, r, scale
+        nlocal = atoms%nlocal; nall = atoms%nlocal + atoms%nghost
+        energy = 0; virial = 0
+        do i = 1, nlocal
+            ti = atoms%type(i)
+            do j = i + 1, nall
+                tj = atoms%type(j)
+                dx = atoms%x(1, i) - atoms%x(1, j); dy = atoms%x(2, i) - atoms%x(2, j); dz = atoms%x(3, i) - atoms%x(3, j)
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq >= self%cutsq(tj, ti)) cycle
+                r2inv = 1/rsq
+                r6inv = r2inv*r2inv*r2inv
+                fpair = r6inv*(self%lj1(tj, ti)*r6inv - self%lj2(tj, ti))*r2inv
+                e = r6inv*(self%lj3(tj, ti)*r6inv - self%lj4(tj, ti)) - self%offset(tj, ti)
+                if (self%smooth) then
+                    r = sqrt(rsq)
+                    fpair = fpair - self%fc(tj, ti)/r
+                    e = e + (r - self%rc(tj, ti))*self%fc(tj, ti)
+                end if
+                scale = 1
+                if (j > nlocal) scale = 0.5_dp
+                atoms%f(1, i) = atoms%f(1, i) + dx*fpair
+                atoms%f(2, i) = atoms%f(2, i) + dy*fpair
+                atoms%f(3, i) = atoms%f(3, i) + dz*fpair
+                if (j <= nlocal) then
+                    atoms%f(1, j) = atoms%f(1, j) - dx*fpair
+                    atoms%f(2, j) = atoms%f(2, j) - dy*fpair
+                    atoms%f(3, j) = atoms%f(3, j) - dz*fpair
+                end if
+                energy = energy + scale*e
+                virial = virial + scale*rsq*fpair
+            end do
+        end do
+    end subroutine lj_compute_all_pairs
+
+end module terrace_lj

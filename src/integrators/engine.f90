@@ -15,7 +15,7 @@ module terrace_engine
     use terrace_replicate, only: replicate_t
     use terrace_neighbor_list, only: neighbor_list_t
     use terrace_lj, only: lj_t
-    use terrace_timers, only: timers_t, t_pair, t_neigh, t_comm, t_other
+    use terrace_timers, only: timers_t, t_pair, t_neigh, t_comm
     use terrace_thermo, only: thermo_sample_t
     use terrace_scene_plan, only: plan_t, pair_all, pair_cells
     use terrace_mpi_env, only: world, sum_all, sum_all_i8, min_all
@@ -59,7 +59,6 @@ contains
         character(len=64) :: s1, s2
 
         self%cfg = cfg
-        call self%timers%start(t_other)
         from_table = len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0
         ntypes = 1
         if (from_table) then
@@ -198,7 +197,6 @@ contains
 
         self%list%dimension = cfg%dimension
         if (self%plan%pair_mode == pair_cells) call self%list%init(self%lj%cutmax, cfg%skin, cfg%dimension)
-        call self%timers%stop(t_other)
         call self%rebuild()
         call check_overlaps(self)
         call self%compute_forces(.true.)

@@ -6,7 +6,7 @@ module terrace_velocity_verlet
     use terrace_engine, only: engine_t
     use terrace_thermo, only: thermo_writer_t
     use terrace_scene_plan, only: pair_cells
-    use terrace_timers, only: t_output, t_other
+    use terrace_timers, only: t_output
     use terrace_errors, only: check_all
     implicit none
     private
@@ -31,12 +31,10 @@ contains
         call thermo%write(eng%sample(0_i8, 0.0_dp))
         call eng%timers%stop(t_output)
         do step = 1, n_steps
-            call eng%timers%start(t_other)
             do i = 1, eng%atoms%nlocal
                 eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
                 eng%atoms%x(:, i) = eng%atoms%x(:, i) + dt*eng%atoms%v(:, i)
             end do
-            call eng%timers%stop(t_other)
             if (eng%plan%pair_mode == pair_cells) then
                 if (eng%list%needs_rebuild(eng%atoms)) then
                     call eng%rebuild()
@@ -48,11 +46,9 @@ contains
             end if
             sample = mod(step, thermo_every) == 0 .or. step == n_steps
             call eng%compute_forces(sample)
-            call eng%timers%start(t_other)
             do i = 1, eng%atoms%nlocal
                 eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
             end do
-            call eng%timers%stop(t_other)
             if (sample) then
                 call eng%timers%start(t_output)
                 call check_all(eng%pe == eng%pe, 'the potential energy became NaN at this step: the run is unstable '// &

@@ -17,7 +17,7 @@ module terrace_mpi_env
 
     type(mpi_env_t), public, protected :: world
 
-    public :: start_mpi, end_mpi, sum_all, max_all, min_all, any_all, sum_all_i8, bcast_text
+    public :: start_mpi, end_mpi, use_communicator, sum_all, max_all, min_all, any_all, sum_all_i8, bcast_text
 
     interface sum_all
         module procedure sum_all_scalar, sum_all_array
@@ -31,6 +31,14 @@ contains
         call MPI_Comm_rank(world%comm, world%rank)
         call MPI_Comm_size(world%comm, world%nprocs)
     end subroutine start_mpi
+
+    !> Run on an existing communicator (MPI already initialised: unit tests, embedding).
+    subroutine use_communicator(comm)
+        type(MPI_Comm), intent(in) :: comm
+        world%comm = comm
+        call MPI_Comm_rank(comm, world%rank)
+        call MPI_Comm_size(comm, world%nprocs)
+    end subroutine use_communicator
 
     subroutine end_mpi()
         call MPI_Finalize()

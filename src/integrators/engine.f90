@@ -352,8 +352,14 @@ contains
         real(dp), intent(in) :: time
         type(thermo_sample_t) :: s
         real(dp) :: dof
+        integer :: i
         s%step = step; s%time = time
         s%ke = kinetic_energy(self%atoms, self%cfg%units)
+        s%momentum = 0
+        do i = 1, self%atoms%nlocal
+            s%momentum = s%momentum + self%atoms%mass(self%atoms%type(i))*self%atoms%v(:, i)
+        end do
+        call sum_all(s%momentum)
         s%pe = self%pe
         s%etotal = s%ke + s%pe
         dof = self%dof()

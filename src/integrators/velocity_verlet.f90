@@ -4,7 +4,7 @@
 module terrace_velocity_verlet
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
-    use terrace_thermo, only: thermo_writer_t
+    use terrace_thermo, only: thermo_writer_t, thermo_sample_t
     use terrace_scene_plan, only: pair_cells
     use terrace_timers, only: t_output
     use terrace_errors, only: check_all
@@ -23,12 +23,15 @@ contains
         integer :: i, t
         real(dp) :: dt, dtfm(size(eng%atoms%mass))
         logical :: sample
+        type(thermo_sample_t) :: first, last
         dt = eng%cfg%dt
         do t = 1, size(dtfm)
             dtfm(t) = 0.5_dp*dt*eng%cfg%units%ftm2v/eng%atoms%mass(t)
         end do
         call eng%timers%start(t_output)
-        call thermo%write(eng%sample(0_i8, 0.0_dp))
+        first = eng%sample(0_i8, 0.0_dp)
+        call thermo%write(first)
+        last = first
         call eng%timers%stop(t_output)
         do step = 1, n_steps
             do i = 1, eng%atoms%nlocal
@@ -53,10 +56,24 @@ contains
                 call eng%timers%start(t_output)
                 call check_all(eng%pe == eng%pe, 'the potential energy became NaN at this step: the run is unstable '// &
                                '(time step too large or atoms overlapping)')
-                call thermo%write(eng%sample(step, step*dt))
+                last = eng%sample(step, step*dt)
+                call thermo%write(last)
                 call eng%timers%stop(t_output)
             end if
         end do
+        call report_drift(first, last, eng%natoms)
     end subroutine run_velocity_verlet
+
+    !> Energy drift per atom per time unit and the change of total momentum over the run.
+    subroutine report_drift(first, last, natoms)
+        use terrace_mpi_env, only: world
+        use, intrinsic :: iso_fortran_env, only: output_unit
+        type(thermo_sample_t), intent(in) :: first, last
+        integer(i8), intent(in) :: natoms
+        if (world%rank /= 0 .or. last%time <= first%time) return
+        write (output_unit, '(a,es12.4,a,es12.4,a)') 'Energy drift: ', &
+            (last%etotal - first%etotal)/(real(natoms, dp)*(last%time - first%time)), &
+            ' energy/atom/time;  |P_end - P_0| = ', norm2(last%momentum - first%momentum), ' (mass*velocity)'
+    end subroutine report_drift
 
 end module terrace_velocity_verlet

@@ -22,11 +22,15 @@ module terrace_neighbor_list
         integer, allocatable :: atom_bin(:)
         integer, allocatable :: owned_start(:)
         integer, allocatable :: ghost_start(:), ghost_atoms(:)
-        integer, allocatable :: full_stencil(:), upper_stencil(:)
+        integer, allocatable :: row_lo(:), row_hi(:)   !< stencil rows (x-runs of bins): linear offsets
+        integer :: nrows = 0, first_upper_row = 1       !< rows first_upper_row.. are the upper half
+        integer :: center_reach = 0                     !< x-reach of the centre row
+        integer :: stencil_bins = 0
         integer, allocatable :: first(:), neigh(:)
         real(dp), allocatable :: xhold(:, :)
         integer, allocatable :: perm(:), counts(:)
         integer :: builds = 0
+        integer :: max_neighbors = 0                    !< longest row of the list
     contains
         procedure :: init => nl_init
         procedure :: setup_bins => nl_setup_bins
@@ -53,9 +57,8 @@ contains
         class(neighbor_list_t), intent(inout) :: self
         real(dp), intent(in) :: lo(3), hi(3)
         integer, intent(in) :: natoms_hint
-        integer :: d, nb(3), ntot, sx, sy, sz, n, maxbins
+        integer :: d, nb(3), ntot, sx, sy, sz, n, maxbins, pass, sxmax, base
         real(dp) :: ext(3), target, dist2
-        integer, allocatable :: full(:)
         target = 0.5_dp*self%cut
         ext = max(hi - lo, target)
         maxbins = max(8*natoms_hint, 4096)
@@ -80,22 +83,36 @@ contains
             if (size(self%owned_start) < ntot + 1) deallocate (self%owned_start, self%ghost_start)
         end if
         if (.not. allocated(self%owned_start)) allocate (self%owned_start(ntot + 1), self%ghost_start(ntot + 1))
-        allocate (full((2*self%reach(1) + 1)*(2*self%reach(2) + 1)*(2*self%reach(3) + 1)))
+        ! stencil as rows of bins along x: lower rows, then upper rows (centre row kept apart)
+        if (allocated(self%row_lo)) deallocate (self%row_lo, self%row_hi)
+        allocate (self%row_lo((2*self%reach(2) + 1)*(2*self%reach(3) + 1)), &
+                  self%row_hi((2*self%reach(2) + 1)*(2*self%reach(3) + 1)))
         n = 0
-        do sz = -self%reach(3), self%reach(3)
-            do sy = -self%reach(2), self%reach(2)
-                do sx = -self%reach(1), self%reach(1)
-                    dist2 = (max(0, abs(sx) - 1)*self%bin_size(1))**2 + (max(0, abs(sy) - 1)*self%bin_size(2))**2 + &
-                            (max(0, abs(sz) - 1)*self%bin_size(3))**2
-                    if (dist2 < self%cutsq) then
-                        n = n + 1
-                        full(n) = sx + self%nbin(1)*(sy + self%nbin(2)*sz)
-                    end if
+        self%stencil_bins = 0
+        do pass = 1, 2
+            if (pass == 2) self%first_upper_row = n + 1
+            do sz = -self%reach(3), self%reach(3)
+                do sy = -self%reach(2), self%reach(2)
+                    if (sz == 0 .and. sy == 0) cycle
+                    if ((pass == 2) .neqv. (sz > 0 .or. (sz == 0 .and. sy > 0))) cycle
+                    sxmax = -1
+                    do sx = 0, self%reach(1)
+                        dist2 = (max(0, sx - 1)*self%bin_size(1))**2 + (max(0, abs(sy) - 1)*self%bin_size(2))**2 + &
+                                (max(0, abs(sz) - 1)*self%bin_size(3))**2
+                        if (dist2 < self%cutsq) sxmax = sx
+                    end do
+                    if (sxmax < 0) cycle
+                    n = n + 1
+                    base = self%nbin(1)*(sy + self%nbin(2)*sz)
+                    self%row_lo(n) = base - sxmax
+                    self%row_hi(n) = base + sxmax
+                    self%stencil_bins = self%stencil_bins + 2*sxmax + 1
                 end do
             end do
         end do
-        self%full_stencil = full(1:n)
-        self%upper_stencil = pack(full(1:n), full(1:n) > 0)
+        self%nrows = n
+        self%center_reach = self%reach(1)
+        self%stencil_bins = self%stencil_bins + 2*self%reach(1) + 1
     end subroutine nl_setup_bins
 
     pure integer function bin_of(self, x) result(b)
@@ -143,8 +160,8 @@ contains
     subroutine nl_build(self, atoms)
         class(neighbor_list_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
-        integer :: i, j, k, s, b, bb, n, ntot, nall, nlocal, maxbin, bound
-        real(dp) :: xi, yi, zi, dx, dy, dz, rsq, cutsq
+        integer :: i, b, n, ntot, nall, nlocal, maxbin, bound
+        real(dp) :: cutsq
         nlocal = atoms%nlocal
         nall = atoms%nlocal + atoms%nghost
         ntot = product(self%nbin)
@@ -177,52 +194,22 @@ contains
             maxbin = max(maxbin, self%owned_start(b + 1) - self%owned_start(b) + self%ghost_start(b + 1) - &
                          self%ghost_start(b))
         end do
-        bound = maxbin*size(self%full_stencil)
+        bound = maxbin*self%stencil_bins
         call ensure_int(self%first, nlocal + 1)
         call ensure_int(self%neigh, max(nlocal*32, bound, 1024))
         n = 0
         do i = 1, nlocal
-            self%first(i) = n + 1
             if (n + bound > size(self%neigh)) call grow_int(self%neigh, n, n + bound)
-            xi = atoms%x(1, i); yi = atoms%x(2, i); zi = atoms%x(3, i)
-            b = self%atom_bin(i)
-            do j = i + 1, self%owned_start(b + 1) - 1
-                dx = xi - atoms%x(1, j); dy = yi - atoms%x(2, j); dz = zi - atoms%x(3, j)
-                rsq = dx*dx + dy*dy + dz*dz
-                if (rsq < cutsq) then
-                    n = n + 1; self%neigh(n) = j
-                end if
-            end do
-            do s = 1, size(self%upper_stencil)
-                bb = b + self%upper_stencil(s)
-                do j = self%owned_start(bb), self%owned_start(bb + 1) - 1
-                    dx = xi - atoms%x(1, j); dy = yi - atoms%x(2, j); dz = zi - atoms%x(3, j)
-                    rsq = dx*dx + dy*dy + dz*dz
-                    if (rsq < cutsq) then
-                        n = n + 1; self%neigh(n) = j
-                    end if
-                end do
-            end do
-            do s = 1, size(self%full_stencil)
-                bb = b + self%full_stencil(s)
-                do k = self%ghost_start(bb), self%ghost_start(bb + 1) - 1
-                    j = self%ghost_atoms(k)
-                    dz = atoms%x(3, j) - zi
-                    if (dz < 0) cycle
-                    dy = atoms%x(2, j) - yi
-                    dx = atoms%x(1, j) - xi
-                    if (dz == 0) then
-                        if (dy < 0) cycle
-                        if (dy == 0 .and. dx <= 0) cycle
-                    end if
-                    rsq = dx*dx + dy*dy + dz*dz
-                    if (rsq < cutsq) then
-                        n = n + 1; self%neigh(n) = j
-                    end if
-                end do
-            end do
+            call half_list_of_atom(i, atoms%x, self%atom_bin(i), self%owned_start, self%ghost_start, self%ghost_atoms, &
+                                   self%row_lo, self%row_hi, self%first_upper_row, self%nrows, self%center_reach, &
+                                   cutsq, self%neigh, n)
+            self%first(i + 1) = n + 1
         end do
-        self%first(nlocal + 1) = n + 1
+        self%first(1) = 1
+        self%max_neighbors = 0
+        do i = 1, nlocal
+            self%max_neighbors = max(self%max_neighbors, self%first(i + 1) - self%first(i))
+        end do
         if (allocated(self%xhold)) then
             if (size(self%xhold, 2) < nlocal) deallocate (self%xhold)
         end if
@@ -230,6 +217,65 @@ contains
         self%xhold(:, 1:nlocal) = atoms%x(:, 1:nlocal)
         self%builds = self%builds + 1
     end subroutine nl_build
+
+    !> Neighbours of owned atom i appended to neigh(n+1:): owned j > i (same bin after i, the rest
+    !> of the centre row, the upper rows: contiguous index ranges since owned atoms are sorted by
+    !> bin) and ghosts above i in (z, y, x) order from every row. The append is branch-free.
+    subroutine half_list_of_atom(i, x, b, owned_start, ghost_start, ghost_atoms, row_lo, row_hi, first_upper, nrows, &
+                                 center_reach, cutsq, neigh, n)
+        integer, intent(in) :: i, b, first_upper, nrows, center_reach
+        real(dp), intent(in), contiguous :: x(:, :)
+        integer, intent(in), contiguous :: owned_start(:), ghost_start(:), ghost_atoms(:), row_lo(:), row_hi(:)
+        real(dp), intent(in) :: cutsq
+        integer, intent(inout), contiguous :: neigh(:)
+        integer, intent(inout) :: n
+        integer :: j, k, r
+        real(dp) :: xi, yi, zi, dx, dy, dz, rsq
+        xi = x(1, i); yi = x(2, i); zi = x(3, i)
+        do j = i + 1, owned_start(b + center_reach + 1) - 1
+            dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
+            rsq = dx*dx + dy*dy + dz*dz
+            neigh(n + 1) = j
+            if (rsq < cutsq) n = n + 1
+        end do
+        do r = first_upper, nrows
+            do j = owned_start(b + row_lo(r)), owned_start(b + row_hi(r) + 1) - 1
+                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
+                rsq = dx*dx + dy*dy + dz*dz
+                neigh(n + 1) = j
+                if (rsq < cutsq) n = n + 1
+            end do
+        end do
+        do r = 0, nrows
+            if (r == 0) then
+                k = ghost_start(b - center_reach)
+                j = ghost_start(b + center_reach + 1) - 1
+            else
+                k = ghost_start(b + row_lo(r))
+                j = ghost_start(b + row_hi(r) + 1) - 1
+            end if
+            call ghosts_above(k, j)
+        end do
+    contains
+        subroutine ghosts_above(kfirst, klast)
+            integer, intent(in) :: kfirst, klast
+            integer :: kk, jj
+            do kk = kfirst, klast
+                jj = ghost_atoms(kk)
+                dz = x(3, jj) - zi
+                if (dz < 0) cycle
+                dy = x(2, jj) - yi
+                dx = x(1, jj) - xi
+                if (dz == 0) then
+                    if (dy < 0) cycle
+                    if (dy == 0 .and. dx <= 0) cycle
+                end if
+                rsq = dx*dx + dy*dy + dz*dz
+                neigh(n + 1) = jj
+                if (rsq < cutsq) n = n + 1
+            end do
+        end subroutine ghosts_above
+    end subroutine half_list_of_atom
 
     !> True on every rank if any owned atom anywhere moved more than skin/2 since the build.
     logical function nl_needs_rebuild(self, atoms) result(flag)

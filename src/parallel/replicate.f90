@@ -33,8 +33,9 @@ contains
         end do
         if (allocated(self%buf)) deallocate (self%buf)
         allocate (self%buf(3*max(self%total, 1)))
-        atoms%nghost = self%total - atoms%nlocal
+        atoms%nghost = 0
         call atoms%reserve(self%total)
+        atoms%nghost = self%total - atoms%nlocal
         ! types
         call MPI_Allgatherv(real(atoms%type(1:atoms%nlocal), dp), atoms%nlocal, MPI_DOUBLE_PRECISION, self%buf, &
                             self%counts, self%displs, MPI_DOUBLE_PRECISION, world%comm)

@@ -22,6 +22,7 @@ module terrace_lj
         real(dp), allocatable :: fc(:, :)        !< smooth: -E_LJ'(rc) (force magnitude at rc)
         real(dp), allocatable :: rc(:, :)
         real(dp) :: cutmax = 0
+        real(dp), allocatable :: work(:, :)      !< per-atom rows of pair forces (grown at rebuilds)
     contains
         procedure :: setup => lj_setup
         procedure :: compute => lj_compute
@@ -89,12 +90,17 @@ contains
     !> Forces (added to atoms%f for owned and ghost atoms) from the half list; when want_energy,
     !> also the energy and the virial W = sum r.F of the pairs this rank holds.
     subroutine lj_compute(self, atoms, list, want_energy, energy, virial)
-        class(lj_t), intent(in) :: self
+        class(lj_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
         type(neighbor_list_t), intent(in) :: list
         logical, intent(in) :: want_energy
         real(dp), intent(out) :: energy, virial
         energy = 0; virial = 0
+        if (allocated(self%work)) then
+            if (size(self%work, 1) < list%max_neighbors) deallocate (self%work)
+        end if
+        if (.not. allocated(self%work)) allocate (self%work(list%max_neighbors + 16, 3))
+        associate (work => self%work)
         if (self%smooth) then
             call kernel_smooth(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, energy, virial)
         else if (self%ntypes == 1) then
@@ -104,42 +110,54 @@ contains
                                             self%offset(1, 1), energy, virial)
             else
                 call kernel_one_type(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%lj1(1, 1), &
-                                     self%lj2(1, 1), self%cutsq(1, 1))
+                                     self%lj2(1, 1), self%cutsq(1, 1), work(:, 1), work(:, 2), work(:, 3))
             end if
         else
             call kernel_types(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, energy, virial)
         end if
+        end associate
     end subroutine lj_compute
 
-    subroutine kernel_one_type(nlocal, x, f, first, neigh, lj1, lj2, cutsq)
-        integer, intent(in) :: nlocal, first(:), neigh(:)
-        real(dp), intent(in) :: x(:, :), lj1, lj2, cutsq
-        real(dp), intent(inout) :: f(:, :)
-        integer :: i, k, j
+    !> Force-only kernel, one type. Two passes per atom: the pair forces of all its neighbours
+    !> are computed branch-free into a work row (vectorised, gathers only), then scattered.
+    subroutine kernel_one_type(nlocal, x, f, first, neigh, lj1, lj2, cutsq, fx, fy, fz)
+        integer, intent(in) :: nlocal
+        integer, intent(in), contiguous :: first(:), neigh(:)
+        real(dp), intent(in), contiguous :: x(:, :)
+        real(dp), intent(in) :: lj1, lj2, cutsq
+        real(dp), intent(inout), contiguous :: f(:, :)
+        real(dp), intent(inout), contiguous :: fx(:), fy(:), fz(:)
+        integer :: i, k, j, k0, nn
         real(dp) :: xi, yi, zi, fxi, fyi, fzi, dx, dy, dz, rsq, r2inv, r6inv, fpair
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
             fxi = 0; fyi = 0; fzi = 0
-            do k = first(i), first(i + 1) - 1
-                j = neigh(k)
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            do k = 1, nn
+                j = neigh(k0 + k)
                 dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
                 rsq = dx*dx + dy*dy + dz*dz
-                if (rsq < cutsq) then
-                    r2inv = 1/rsq
-                    r6inv = r2inv*r2inv*r2inv
-                    fpair = r6inv*(lj1*r6inv - lj2)*r2inv
-                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
-                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
-                end if
+                r2inv = 1/rsq
+                r6inv = r2inv*r2inv*r2inv
+                fpair = merge(r6inv*(lj1*r6inv - lj2)*r2inv, 0.0_dp, rsq < cutsq)
+                fx(k) = dx*fpair; fy(k) = dy*fpair; fz(k) = dz*fpair
+                fxi = fxi + fx(k); fyi = fyi + fy(k); fzi = fzi + fz(k)
+            end do
+            do k = 1, nn
+                j = neigh(k0 + k)
+                f(1, j) = f(1, j) - fx(k); f(2, j) = f(2, j) - fy(k); f(3, j) = f(3, j) - fz(k)
             end do
             f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
         end do
     end subroutine kernel_one_type
 
     subroutine kernel_one_type_energy(nlocal, x, f, first, neigh, lj1, lj2, lj3, lj4, cutsq, offset, energy, virial)
-        integer, intent(in) :: nlocal, first(:), neigh(:)
-        real(dp), intent(in) :: x(:, :), lj1, lj2, lj3, lj4, cutsq, offset
-        real(dp), intent(inout) :: f(:, :)
+        integer, intent(in) :: nlocal
+        integer, intent(in), contiguous :: first(:), neigh(:)
+        real(dp), intent(in), contiguous :: x(:, :)
+        real(dp), intent(in) :: lj1, lj2, lj3, lj4, cutsq, offset
+        real(dp), intent(inout), contiguous :: f(:, :)
         real(dp), intent(inout) :: energy, virial
         integer :: i, k, j
         real(dp) :: xi, yi, zi, fxi, fyi, fzi, dx, dy, dz, rsq, r2inv, r6inv, fpair, e, w

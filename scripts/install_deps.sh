@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Install what Terrace needs from Debian/Ubuntu packages. As root it installs the missing ones
+# (apt-get); otherwise it prints the exact command and exits 1. pFUnit is not a Debian package:
+# unit tests run when CMake finds it (e.g. -DCMAKE_PREFIX_PATH=/opt/pfunit), and are reported as
+# skipped otherwise.
+set -euo pipefail
+packages=(
+  gfortran cmake make pkg-config            # build
+  libopenmpi-dev openmpi-bin                 # MPI (mpi_f08)
+  libhdf5-openmpi-dev hdf5-tools             # parallel HDF5 (H5MD trajectories)
+  libfftw3-dev                               # FFTW 3 (analysis)
+  python3 python3-numpy python3-h5py python3-matplotlib   # scripts, plots
+  lammps lammps-data                         # reference runs and EAM tables
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [[ ${#missing[@]} -eq 0 ]]; then
+  echo "install_deps: all Debian packages present"
+  exit 0
+fi
+if [[ $(id -u) -eq 0 ]]; then
+  echo "install_deps: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}" > /tmp/terrace-apt.log 2>&1 || {
+    echo "install_deps: apt-get failed, see /tmp/terrace-apt.log" >&2; tail -20 /tmp/terrace-apt.log >&2; exit 1; }
+else
+  echo "install_deps: missing packages; run as root:" >&2
+  echo "  sudo apt-get update && sudo apt-get install -y ${missing[*]}" >&2
+  exit 1
+fi

@@ -6,7 +6,7 @@ set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 deck="$(realpath "${1:-$repo/input/argon_liquid.nml}")"
 bash "$repo/scripts/install_deps.sh"
-bash "$repo/scripts/build.sh"
+BUILD_TARGET=terrace bash "$repo/scripts/build.sh"
 mkdir -p "$repo/out/example"
 cd "$repo/out/example"
 cp "$(dirname "$deck")"/*.atoms . 2>/dev/null || true

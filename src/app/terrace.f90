@@ -76,6 +76,7 @@ program terrace
     call check_all(ok, trim(cfg%thermo_file)//': cannot write the thermo file (&output thermo_file): '//trim(msg))
     if (len_trim(cfg%forces_file) > 0) then
         call write_forces_file(trim(cfg%forces_file), eng%atoms, 0_i8, ok, msg)
+        if (.not. ok) call thermo%discard()
         call check_all(ok, trim(cfg%forces_file)//': cannot write the forces file (&output forces_file): '//trim(msg))
     end if
 

@@ -24,7 +24,7 @@ contains
         open (newunit=unit, file=path, status='old', action='read', iostat=ios)
         if (ios /= 0) then
             t%ok = .false.
-            t%error = path//': cannot open the atoms file (&system atoms_file)'
+            t%error = path//': &system: atoms_file: cannot open the atoms file'
             return
         end if
         allocate (x(3, 64), v(3, 64), types(64))
@@ -41,7 +41,7 @@ contains
             if ((ntok /= 4 .and. ntok /= 7) .or. ios /= 0 .or. any(vals /= vals) .or. ty < 1) then
                 write (ln, '(i0)') line
                 t%ok = .false.
-                t%error = path//':'//trim(ln)//': bad atom line (expected: type x y z [vx vy vz], type >= 1)'
+                t%error = path//':'//trim(ln)//': &system: atoms_file: bad atom line (expected: type x y z [vx vy vz], type >= 1)'
                 close (unit); return
             end if
             if (n == size(types)) call grow(x, v, types)
@@ -53,7 +53,7 @@ contains
         t%n = n
         if (n == 0) then
             t%ok = .false.
-            t%error = path//': the atoms file has no atoms'
+            t%error = path//': &system: atoms_file: the atoms file has no atoms'
             return
         end if
         t%ntypes = maxval(types(1:n))
@@ -64,7 +64,7 @@ contains
         t%has_velocities = nvel == n
         if (nvel /= 0 .and. nvel /= n) then
             t%ok = .false.
-            t%error = path//': either every atom line gives velocities or none does'
+            t%error = path//': &system: atoms_file: either every atom line gives velocities or none does'
         end if
     end subroutine read_atoms_file
 

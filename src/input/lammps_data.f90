@@ -20,7 +20,7 @@ contains
         if (.not. t%ok) return
         t%ok = .false.
         write (ln, '(i0)') line
-        t%error = path//':'//trim(ln)//': '//msg
+        t%error = path//':'//trim(ln)//': &system: read_data: '//msg
     end subroutine fail
 
     !> Read the data file on the calling rank (rank 0); errors are returned in t%ok / t%error.
@@ -40,7 +40,7 @@ contains
         open (newunit=unit, file=path, status='old', action='read', iostat=ios)
         if (ios /= 0) then
             t%ok = .false.
-            t%error = path//': cannot open the data file (&system read_data)'
+            t%error = path//': &system: read_data: cannot open the data file'
             return
         end if
         have = .false.

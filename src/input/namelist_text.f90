@@ -283,6 +283,12 @@ contains
             end do
             call add_item(nf, group, body(key_start(k):eq_pos(k) - 1), body(eq_pos(k) + 1:vend), &
                           body_line(key_start(k)))
+            if (len(stray_word(body(eq_pos(k) + 1:vend))) > 0) then
+                call set_error(nf, body_line(key_start(k)), '&'//group//': '//trim(nf%items(nf%count)%key)// &
+                               ": unexpected word '"//stray_word(body(eq_pos(k) + 1:vend))// &
+                               "' in the value (missing '=' after a key, or quotes around a string?)")
+                return
+            end if
             if (len_trim(body(eq_pos(k) + 1:vend)) == 0) then
                 call set_error(nf, body_line(key_start(k)), '&'//group//': '// &
                                trim(nf%items(nf%count)%key)//': no value after =')
@@ -290,6 +296,55 @@ contains
             end if
         end do
     end subroutine split_body
+
+    !> The first unquoted token of a value that starts with a letter, is not a logical literal
+    !> (t, f, true, false) and has more text after it (as in 'sigma = 1.0 cutoff 2.5'), or ''.
+    function stray_word(value) result(w)
+        character(len=*), intent(in) :: value
+        character(len=:), allocatable :: w
+        integer :: i, j
+        character :: quote
+        w = ''
+        quote = ' '
+        i = 1
+        do while (i <= len(value))
+            if (quote /= ' ') then
+                if (value(i:i) == quote) quote = ' '
+                i = i + 1
+                cycle
+            end if
+            if (value(i:i) == '"' .or. value(i:i) == "'") then
+                quote = value(i:i)
+                i = i + 1
+                cycle
+            end if
+            if (is_name_char(value(i:i)) .and. .not. (value(i:i) >= '0' .and. value(i:i) <= '9')) then
+                if (i > 1) then
+                    if (is_name_char(value(i - 1:i - 1)) .or. value(i - 1:i - 1) == '.' .or. &
+                        value(i - 1:i - 1) == '+' .or. value(i - 1:i - 1) == '-' .or. value(i - 1:i - 1) == '*') then
+                        i = i + 1
+                        cycle
+                    end if
+                end if
+                j = i
+                do while (j <= len(value))
+                    if (.not. is_name_char(value(j:j))) exit
+                    j = j + 1
+                end do
+                select case (lower(value(i:j - 1)))
+                case ('t', 'f', 'true', 'false')
+                case default
+                    ! a word followed by more text reads as a key without '='; a lone trailing word is
+                    ! left to the typed read, which names the expected type
+                    if (len_trim(value(j:)) > 0) w = value(i:j - 1)
+                    return
+                end select
+                i = j
+                cycle
+            end if
+            i = i + 1
+        end do
+    end function stray_word
 
     subroutine add_item(nf, group, target, value, line)
         type(namelist_file_t), intent(inout) :: nf

@@ -74,7 +74,9 @@ contains
             ntypes = table%ntypes
             if (ntypes > max_types) then
                 write (s1, '(i0)') max_types
-                call stop_all(trim(cfg%read_data)//': more atom types than Terrace supports ('//trim(s1)//')')
+                write (s2, '(i0)') ntypes
+                call stop_all(trim(source_name(cfg))//': '//trim(s2)//' atom types: more atom types than Terrace supports (max '// &
+                              trim(s1)//')')
             end if
         end if
 
@@ -218,11 +220,11 @@ contains
         type(config_t), intent(in) :: cfg
         character(len=:), allocatable :: s
         if (len_trim(cfg%read_data) > 0) then
-            s = trim(cfg%read_data)
+            s = trim(cfg%read_data)//': &system: read_data'
         else if (len_trim(cfg%atoms_file) > 0) then
-            s = trim(cfg%atoms_file)
+            s = trim(cfg%atoms_file)//': &system: atoms_file'
         else
-            s = cfg%path//': &system'
+            s = cfg%path//': &system: lattice'
         end if
     end function source_name
 

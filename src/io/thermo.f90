@@ -26,6 +26,7 @@ module terrace_thermo
         procedure :: open => thermo_open
         procedure :: write => thermo_write
         procedure :: close => thermo_close
+        procedure :: discard => thermo_discard
     end type thermo_writer_t
 
 contains
@@ -85,6 +86,13 @@ contains
             s%temp, s%pe, s%ke, s%etotal, s%press, trim(eta)
         flush (output_unit)
     end subroutine thermo_write
+
+    !> Close and delete the CSV (a run that stops before its first step leaves no file).
+    subroutine thermo_discard(self)
+        class(thermo_writer_t), intent(inout) :: self
+        if (self%to_file) close (self%unit, status='delete')
+        self%to_file = .false.
+    end subroutine thermo_discard
 
     subroutine thermo_close(self)
         class(thermo_writer_t), intent(inout) :: self

@@ -32,6 +32,8 @@ module terrace_namelist_text
 
     public :: parse_namelist_text, lower
 
+    character(len=*), parameter :: blanks = ' '//achar(9)//achar(10)//achar(13)
+
 contains
 
     pure function lower(s) result(t)
@@ -267,11 +269,11 @@ contains
             return
         end if
         if (neq == 0) then
-            if (len_trim(body) > 0) call set_error(nf, body_line(1), '&'//group//": expected 'key = value'")
+            if (verify(body, blanks) > 0) call set_error(nf, body_line(verify(body, blanks)), '&'//group//": expected 'key = value'")
             return
         end if
-        if (len_trim(adjustl(body(1:key_start(1) - 1))) > 0) then
-            call set_error(nf, body_line(1), '&'//group//": text before the first 'key = value'")
+        if (verify(body(1:key_start(1) - 1), blanks) > 0) then
+            call set_error(nf, body_line(verify(body, blanks)), '&'//group//": text before the first 'key = value'")
             return
         end if
         key_start(neq + 1) = len(body) + 1
@@ -359,15 +361,28 @@ contains
         end if
         nf%count = nf%count + 1
         nf%items(nf%count)%group = group
-        nf%items(nf%count)%target = lower(trim(adjustl(target)))
+        nf%items(nf%count)%target = lower(strip(target))
         p = index(nf%items(nf%count)%target, '(')
         if (p == 0) then
             nf%items(nf%count)%key = trim(nf%items(nf%count)%target)
         else
             nf%items(nf%count)%key = trim(nf%items(nf%count)%target(1:p - 1))
         end if
-        nf%items(nf%count)%value = trim(adjustl(value))
+        nf%items(nf%count)%value = strip(value)
         nf%items(nf%count)%line = line
     end subroutine add_item
+
+    !> s without leading and trailing blanks, tabs and line ends.
+    pure function strip(s) result(t)
+        character(len=*), intent(in) :: s
+        character(len=:), allocatable :: t
+        integer :: a, b
+        a = verify(s, blanks); b = verify(s, blanks, back=.true.)
+        if (a == 0) then
+            t = ''
+        else
+            t = s(a:b)
+        end if
+    end function strip
 
 end module terrace_namelist_text

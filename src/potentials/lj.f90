@@ -7,6 +7,11 @@
 !>   F_i = fpair (x_i - x_j),  fpair = r^-8 (lj1 r^-6 - lj2)  (no square root).
 !> Kernels walk the half neighbour list (Newton's third law: j gets -F_i, ghosts included) and are
 !> specialised: one type or several, energy+virial wanted or not, plain or smooth.
+!>
+!> Ray pass (energy stepping): along x(s) = x + s v, with d = x_i - x_j, w = v_i - v_j and
+!> rho = |d|^2 (rho' = 2 d.w, rho'' = 2 |w|^2), each pair adds psi(rho), psi' rho' and
+!> psi'' rho'^2 + psi' rho'' to f, f', f'', where psi'(rho) = -fpair/2 and
+!> psi''(rho) = (7 lj1 rho^-8 - 4 lj2 rho^-5)/2 (+ the smooth term (r - rc) fc: fc/(2r), -fc/(4r^3)).
 module terrace_lj
     use terrace_kinds, only: dp
     use terrace_atoms, only: atoms_t
@@ -28,6 +33,8 @@ module terrace_lj
         procedure :: compute => lj_compute
         procedure :: compute_all_pairs => lj_compute_all_pairs
         procedure :: pair_energy => lj_pair_energy
+        procedure :: ray => lj_ray
+        procedure :: ray_all_pairs => lj_ray_all_pairs
     end type lj_t
 
 contains
@@ -43,6 +50,8 @@ contains
         real(dp) :: sr6, rc
         self%ntypes = ntypes
         self%smooth = smooth
+        if (allocated(self%lj1)) deallocate (self%lj1, self%lj2, self%lj3, self%lj4, self%cutsq, self%offset, self%fc, &
+                                             self%rc)
         allocate (self%lj1(ntypes, ntypes), self%lj2(ntypes, ntypes), self%lj3(ntypes, ntypes), &
                   self%lj4(ntypes, ntypes), self%cutsq(ntypes, ntypes), self%offset(ntypes, ntypes), &
                   self%fc(ntypes, ntypes), self%rc(ntypes, ntypes))
@@ -245,6 +254,125 @@ contains
         end do
         energy = energy + e; virial = virial + w
     end subroutine kernel_smooth
+
+    !> Ray pass over the half list: out = (f, f', f'', virial) of the pairs this rank holds, at
+    !> positions x + s v (owned and ghost atoms; nothing is moved and no force is stored).
+    subroutine lj_ray(self, atoms, list, s, out)
+        class(lj_t), intent(in) :: self
+        type(atoms_t), intent(in) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        real(dp), intent(in) :: s
+        real(dp), intent(out) :: out(4)
+        if (self%ntypes == 1 .and. .not. self%smooth) then
+            call ray_one_type(atoms%nlocal, atoms%x, atoms%v, list%first, list%neigh, s, self%lj1(1, 1), self%lj2(1, 1), &
+                              self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1), out)
+        else
+            call ray_general(self, atoms, list%first, list%neigh, s, out)
+        end if
+    end subroutine lj_ray
+
+    subroutine ray_one_type(nlocal, x, v, first, neigh, s, lj1, lj2, lj3, lj4, cutsq, offset, out)
+        integer, intent(in) :: nlocal
+        integer, intent(in), contiguous :: first(:), neigh(:)
+        real(dp), intent(in), contiguous :: x(:, :), v(:, :)
+        real(dp), intent(in) :: s, lj1, lj2, lj3, lj4, cutsq, offset
+        real(dp), intent(out) :: out(4)
+        integer :: i, k, j
+        real(dp) :: xi, yi, zi, vxi, vyi, vzi, dx, dy, dz, wx, wy, wz, rsq, r2inv, r6inv, fpair, dpsi, d2psi, rho1, &
+                    e, e1, e2, vir, inside
+        e = 0; e1 = 0; e2 = 0; vir = 0
+        do i = 1, nlocal
+            vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
+            xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
+            do k = first(i), first(i + 1) - 1
+                j = neigh(k)
+                wx = vxi - v(1, j); wy = vyi - v(2, j); wz = vzi - v(3, j)
+                dx = xi - (x(1, j) + s*v(1, j)); dy = yi - (x(2, j) + s*v(2, j)); dz = zi - (x(3, j) + s*v(3, j))
+                rsq = dx*dx + dy*dy + dz*dz
+                inside = merge(1.0_dp, 0.0_dp, rsq < cutsq)
+                r2inv = 1/rsq
+                r6inv = r2inv*r2inv*r2inv
+                fpair = r6inv*(lj1*r6inv - lj2)*r2inv
+                dpsi = -0.5_dp*fpair
+                d2psi = 0.5_dp*(7*lj1*r6inv - 4*lj2)*r6inv*r2inv*r2inv
+                rho1 = 2*(dx*wx + dy*wy + dz*wz)
+                e = e + inside*(r6inv*(lj3*r6inv - lj4) - offset)
+                e1 = e1 + inside*dpsi*rho1
+                e2 = e2 + inside*(d2psi*rho1*rho1 + dpsi*2*(wx*wx + wy*wy + wz*wz))
+                vir = vir + inside*fpair*rsq
+            end do
+        end do
+        out = [e, e1, e2, vir]
+    end subroutine ray_one_type
+
+    subroutine ray_general(self, atoms, first, neigh, s, out)
+        type(lj_t), intent(in) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer, intent(in), contiguous :: first(:), neigh(:)
+        real(dp), intent(in) :: s
+        real(dp), intent(out) :: out(4)
+        integer :: i, k, j
+        real(dp) :: acc(4)
+        out = 0
+        do i = 1, atoms%nlocal
+            do k = first(i), first(i + 1) - 1
+                j = neigh(k)
+                call ray_pair(self, atoms, i, j, s, acc)
+                out = out + acc
+            end do
+        end do
+    end subroutine ray_general
+
+    !> One pair's contribution to (f, f', f'', virial) along the ray (general path).
+    pure subroutine ray_pair(self, atoms, i, j, s, acc)
+        type(lj_t), intent(in) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer, intent(in) :: i, j
+        real(dp), intent(in) :: s
+        real(dp), intent(out) :: acc(4)
+        integer :: ti, tj
+        real(dp) :: d(3), w(3), rsq, r2inv, r6inv, fpair, dpsi, d2psi, rho1, e, r
+        acc = 0
+        ti = atoms%type(i); tj = atoms%type(j)
+        w = atoms%v(:, i) - atoms%v(:, j)
+        d = (atoms%x(:, i) + s*atoms%v(:, i)) - (atoms%x(:, j) + s*atoms%v(:, j))
+        rsq = sum(d*d)
+        if (rsq >= self%cutsq(tj, ti)) return
+        r2inv = 1/rsq
+        r6inv = r2inv*r2inv*r2inv
+        fpair = r6inv*(self%lj1(tj, ti)*r6inv - self%lj2(tj, ti))*r2inv
+        e = r6inv*(self%lj3(tj, ti)*r6inv - self%lj4(tj, ti)) - self%offset(tj, ti)
+        dpsi = -0.5_dp*fpair
+        d2psi = 0.5_dp*(7*self%lj1(tj, ti)*r6inv - 4*self%lj2(tj, ti))*r6inv*r2inv*r2inv
+        if (self%smooth) then
+            r = sqrt(rsq)
+            e = e + (r - self%rc(tj, ti))*self%fc(tj, ti)
+            dpsi = dpsi + self%fc(tj, ti)/(2*r)
+            d2psi = d2psi - self%fc(tj, ti)/(4*r*rsq)
+            fpair = fpair - self%fc(tj, ti)/r
+        end if
+        rho1 = 2*sum(d*w)
+        acc = [e, dpsi*rho1, d2psi*rho1*rho1 + dpsi*2*sum(w*w), fpair*rsq]
+    end subroutine ray_pair
+
+    !> Ray pass for the all-pairs path (pairs with replicated atoms count one half).
+    subroutine lj_ray_all_pairs(self, atoms, s, out)
+        class(lj_t), intent(in) :: self
+        type(atoms_t), intent(in) :: atoms
+        real(dp), intent(in) :: s
+        real(dp), intent(out) :: out(4)
+        integer :: i, j, nlocal, nall
+        real(dp) :: acc(4)
+        nlocal = atoms%nlocal; nall = atoms%nlocal + atoms%nghost
+        out = 0
+        do i = 1, nlocal
+            do j = i + 1, nall
+                call ray_pair(self, atoms, i, j, s, acc)
+                if (j > nlocal) acc = 0.5_dp*acc
+                out = out + acc
+            end do
+        end do
+    end subroutine lj_ray_all_pairs
 
     !> All-pairs path for small scenes (no list). Owned pairs i < j are counted once with both
     !> forces; pairs of an owned atom with a replicated atom of another rank (ghost) give the force

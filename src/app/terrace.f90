@@ -9,6 +9,9 @@ program terrace
     use terrace_engine, only: engine_t
     use terrace_thermo, only: thermo_writer_t
     use terrace_velocity_verlet, only: run_velocity_verlet
+    use terrace_energy_stepping, only: run_energy_stepping, choose_terrace_height, print_es_estimates, es_stats_t, &
+                                       es_thermo_header
+    use terrace_velocities, only: kinetic_energy
     use terrace_forces_file, only: write_forces_file
     use terrace_run_log, only: print_run_log
     use terrace_timers, only: timers_t
@@ -26,7 +29,8 @@ program terrace
     logical :: check_only, ok
     integer :: k
     integer(i8) :: n_steps, thermo_every
-    real(dp) :: t0, t1
+    real(dp) :: t0, t1, h, t_end, interval
+    type(es_stats_t) :: es
     character(len=512) :: msg
 
     call start_mpi()
@@ -55,42 +59,114 @@ program terrace
     call eng%setup(cfg)
     if (world%rank == 0) call eng%plan%print(output_unit)
 
-    n_steps = cfg%n_steps
-    if (n_steps < 0) n_steps = max(1_i8, nint(cfg%run_time/cfg%dt, i8))
-    if (cfg%thermo_every > 0) then
-        thermo_every = cfg%thermo_every
-    else if (cfg%thermo_interval > 0) then
-        thermo_every = max(1_i8, nint(cfg%thermo_interval/cfg%dt, i8))
+    if (cfg%integrator == 'energy_stepping') then
+        call energy_stepping_run()
     else
-        thermo_every = max(1_i8, n_steps/10)
+        call verlet_run()
     end if
-    if (check_only) then
-        if (world%rank == 0) write (output_unit, '(a,i0,a,i0,a)') '  run        : ', n_steps, &
-            ' steps, thermo every ', thermo_every, ' steps'
-        if (world%rank == 0) write (output_unit, '(a)') 'check: OK ('//path//')'
-        call end_mpi()
-        stop
-    end if
-
-    call thermo%open(trim(cfg%thermo_file), n_steps*cfg%dt, trim(cfg%units%time), '', ok, msg)
-    call check_all(ok, trim(cfg%thermo_file)//': cannot write the thermo file (&output thermo_file): '//trim(msg))
-    if (len_trim(cfg%forces_file) > 0) then
-        call write_forces_file(trim(cfg%forces_file), eng%atoms, 0_i8, ok, msg)
-        if (.not. ok) call thermo%discard()
-        call check_all(ok, trim(cfg%forces_file)//': cannot write the forces file (&output forces_file): '//trim(msg))
-    end if
-
-    call MPI_Barrier(world%comm)
-    eng%timers = timers_t()
-    t0 = MPI_Wtime()
-    call run_velocity_verlet(eng, thermo, n_steps, thermo_every)
-    call MPI_Barrier(world%comm)
-    t1 = MPI_Wtime()
-    call thermo%close()
-    call print_run_log(eng%timers, t1 - t0, eng%natoms, n_steps, eng%list%builds, 'steps')
     call end_mpi()
 
 contains
+
+    subroutine verlet_run()
+        n_steps = cfg%n_steps
+        if (n_steps < 0) n_steps = max(1_i8, nint(cfg%run_time/cfg%dt, i8))
+        if (cfg%thermo_every > 0) then
+            thermo_every = cfg%thermo_every
+        else if (cfg%thermo_interval > 0) then
+            thermo_every = max(1_i8, nint(cfg%thermo_interval/cfg%dt, i8))
+        else
+            thermo_every = max(1_i8, n_steps/10)
+        end if
+        if (check_only) then
+            if (world%rank == 0) write (output_unit, '(a,i0,a,i0,a)') '  run        : ', n_steps, &
+                ' steps, thermo every ', thermo_every, ' steps'
+            call finish_check()
+        end if
+        call open_outputs('', n_steps*cfg%dt)
+        call MPI_Barrier(world%comm)
+        eng%timers = timers_t()
+        t0 = MPI_Wtime()
+        call run_velocity_verlet(eng, thermo, n_steps, thermo_every)
+        call MPI_Barrier(world%comm)
+        t1 = MPI_Wtime()
+        call thermo%close()
+        call print_run_log(eng%timers, t1 - t0, eng%natoms, n_steps, eng%list%builds, 'steps')
+    end subroutine verlet_run
+
+    subroutine energy_stepping_run()
+        real(dp) :: ke
+        character(len=32) :: s1, s2
+        h = choose_terrace_height(eng)
+        ke = kinetic_energy(eng%atoms, cfg%units)
+        if (h > abs(eng%pe) + ke) then
+            write (s1, '(es12.5)') h
+            write (s2, '(es12.5)') abs(eng%pe) + ke
+            call stop_all(cfg%where('integrator', 'terrace_height')//' = '//trim(adjustl(s1))// &
+                          ': larger than the whole energy range of the system (|V| + K = '//trim(adjustl(s2))//')')
+        end if
+        call print_es_estimates(eng, h)
+        t_end = huge(1.0_dp)
+        if (cfg%run_time > 0) t_end = cfg%run_time
+        n_steps = huge(1_i8)
+        if (cfg%n_steps >= 0) n_steps = cfg%n_steps
+        thermo_every = 0
+        interval = 0
+        if (cfg%thermo_every > 0) then
+            thermo_every = cfg%thermo_every
+        else if (cfg%thermo_interval > 0) then
+            interval = cfg%thermo_interval
+        else if (cfg%run_time > 0) then
+            interval = cfg%run_time/10
+        else
+            thermo_every = max(1_i8, n_steps/10)
+        end if
+        if (check_only) then
+            if (world%rank == 0) then
+                if (cfg%run_time > 0) then
+                    write (output_unit, '(a,es12.5,1x,a)') '  run        : until t = ', t_end, trim(cfg%units%time)
+                else
+                    write (output_unit, '(a,i0,a)') '  run        : ', n_steps, ' events'
+                end if
+            end if
+            call finish_check()
+        end if
+        call open_outputs(es_thermo_header, merge(t_end, 0.0_dp, cfg%run_time > 0))
+        call MPI_Barrier(world%comm)
+        eng%timers = timers_t()
+        t0 = MPI_Wtime()
+        call run_energy_stepping(eng, thermo, h, t_end, n_steps, interval, thermo_every, es)
+        call MPI_Barrier(world%comm)
+        t1 = MPI_Wtime()
+        call thermo%close()
+        call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events')
+        if (world%rank == 0) then
+            write (output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'Events: ', es%events, ' (', es%ups, ' up, ', es%downs, &
+                ' down, ', es%reflections, ' reflections)'
+            if (es%events > 0) write (output_unit, '(a,es12.5,a,f0.3,a,f0.3,a,i0)') 'Mean event interval: ', &
+                es%time/es%events, ';  ray evaluations per event: ', real(es%ray_evals, dp)/es%events, &
+                ';  force passes per event: ', real(es%force_passes, dp)/es%events, ';  verification misses: ', &
+                es%verify_misses
+        end if
+    end subroutine energy_stepping_run
+
+    subroutine finish_check()
+        if (world%rank == 0) write (output_unit, '(a)') 'check: OK ('//path//')'
+        call end_mpi()
+        stop
+    end subroutine finish_check
+
+    subroutine open_outputs(extra_header, end_time)
+        character(len=*), intent(in) :: extra_header
+        real(dp), intent(in) :: end_time
+        call thermo%open(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, ok, msg)
+        call check_all(ok, trim(cfg%thermo_file)//': cannot write the thermo file (&output thermo_file): '//trim(msg))
+        if (len_trim(cfg%forces_file) > 0) then
+            call write_forces_file(trim(cfg%forces_file), eng%atoms, 0_i8, ok, msg)
+            if (.not. ok) call thermo%discard()
+            call check_all(ok, trim(cfg%forces_file)//': cannot write the forces file (&output forces_file): '//trim(msg))
+        end if
+    end subroutine open_outputs
 
     subroutine print_help()
         write (output_unit, '(a)') 'terrace '//terrace_version_string//': molecular dynamics with energy stepping', &

@@ -51,6 +51,9 @@ module terrace_config
         ! &integrator
         character(len=24) :: integrator = 'velocity_verlet'
         real(dp) :: dt = -1.0_dp
+        real(dp) :: terrace_height = -1.0_dp        !< energy stepping: h (energy)
+        real(dp) :: target_mean_dt = -1.0_dp        !< energy stepping: pick h for this mean event interval
+        real(dp) :: root_tolerance = 1.0e-9_dp      !< energy stepping: |V - level| <= tol * h at a kick
         ! &neighbor
         real(dp) :: skin = -1.0_dp
         character(len=16) :: list = 'auto'
@@ -282,14 +285,15 @@ contains
     subroutine read_integrator(cfg)
         type(config_t), intent(inout) :: cfg
         character(len=24) :: style
-        real(dp) :: dt
-        namelist /integrator/ style, dt
-        character(len=*), parameter :: keys(2) = [character(len=40) :: 'style:a quoted string', 'dt:a real number']
+        real(dp) :: dt, terrace_height, target_mean_dt, root_tolerance
+        namelist /integrator/ style, dt, terrace_height, target_mean_dt, root_tolerance
+        character(len=*), parameter :: keys(5) = [character(len=40) :: 'style:a quoted string', 'dt:a real number', &
+            'terrace_height:a real number', 'target_mean_dt:a real number', 'root_tolerance:a real number']
         character(len=:), allocatable :: kind
         character(len=256) :: msg
         character(len=:), allocatable :: buf
         integer :: k, ios
-        style = 'velocity_verlet'; dt = -1
+        style = 'velocity_verlet'; dt = -1; terrace_height = -1; target_mean_dt = -1; root_tolerance = 1.0e-9_dp
         do k = 1, cfg%nml%count
             if (cfg%nml%items(k)%group /= 'integrator') cycle
             kind = check_key(cfg, k, keys)
@@ -298,6 +302,7 @@ contains
             if (ios /= 0) call bad_value(cfg, k, kind, msg)
         end do
         cfg%integrator = lower(style); cfg%dt = dt
+        cfg%terrace_height = terrace_height; cfg%target_mean_dt = target_mean_dt; cfg%root_tolerance = root_tolerance
     end subroutine read_integrator
 
     subroutine read_neighbor(cfg)
@@ -424,9 +429,33 @@ contains
 
         select case (cfg%integrator)
         case ('velocity_verlet')
+            if (cfg%nml%find('integrator', 'terrace_height') > 0 .or. cfg%nml%find('integrator', 'target_mean_dt') > 0) &
+                call stop_all(cfg%where('integrator', 'style')//": terrace_height and target_mean_dt are for "// &
+                              "style = 'energy_stepping'")
+        case ('energy_stepping')
+            if (cfg%nml%find('integrator', 'dt') > 0) call stop_all(cfg%where('integrator', 'dt')// &
+                ': energy stepping chooses its own time steps (give terrace_height or target_mean_dt instead)')
+            if (cfg%nml%find('integrator', 'terrace_height') > 0 .and. cfg%nml%find('integrator', 'target_mean_dt') > 0) &
+                call stop_all(cfg%where('integrator', 'target_mean_dt')//': give either terrace_height or target_mean_dt')
+            if (cfg%nml%find('integrator', 'terrace_height') > 0 .and. .not. (cfg%terrace_height > 0)) &
+                call stop_all(cfg%where('integrator', 'terrace_height')//': must be > 0 (an energy in '// &
+                              trim(cfg%units%energy)//')')
+            if (cfg%nml%find('integrator', 'target_mean_dt') > 0 .and. .not. (cfg%target_mean_dt > 0)) &
+                call stop_all(cfg%where('integrator', 'target_mean_dt')//': must be > 0 (a time in '// &
+                              trim(cfg%units%time)//')')
+            if (.not. (cfg%terrace_height > 0) .and. .not. (cfg%target_mean_dt > 0)) &
+                call stop_all(cfg%path//': &integrator: terrace_height: missing (energy stepping needs terrace_height '// &
+                              'in '//trim(cfg%units%energy)//', or target_mean_dt in '//trim(cfg%units%time)//')')
+            if (.not. (cfg%root_tolerance > 0 .and. cfg%root_tolerance <= 1.0e-2_dp)) &
+                call stop_all(cfg%where('integrator', 'root_tolerance')//': must be in (0, 1e-2] (relative to the '// &
+                              'terrace height)')
+            if (cfg%potential == 'lj' .and. .not. cfg%shift .and. cfg%cutoff > 0) &
+                call stop_all(cfg%where('potential', 'shift')//": energy stepping needs a continuous potential: the "// &
+                              "truncated, unshifted 'lj' jumps at the cutoff (set shift = .true., use style = "// &
+                              "'lj/smooth/linear', or cutoff = 0 in a free scene)")
         case default
             call stop_all(cfg%where('integrator', 'style')//" = '"//trim(cfg%integrator)// &
-                          "': unknown integrator (allowed: 'velocity_verlet')")
+                          "': unknown integrator (allowed: 'velocity_verlet', 'energy_stepping')")
         end select
         if (cfg%nml%find('integrator', 'dt') > 0 .and. cfg%dt <= 0) &
             call stop_all(cfg%where('integrator', 'dt')//': must be > 0 (a time in '//trim(cfg%units%time)//')')

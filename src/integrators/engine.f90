@@ -15,7 +15,7 @@ module terrace_engine
     use terrace_replicate, only: replicate_t
     use terrace_neighbor_list, only: neighbor_list_t
     use terrace_lj, only: lj_t
-    use terrace_timers, only: timers_t, t_pair, t_neigh, t_comm
+    use terrace_timers, only: timers_t, t_pair, t_neigh, t_comm, t_search
     use terrace_thermo, only: thermo_sample_t
     use terrace_scene_plan, only: plan_t, pair_all, pair_cells
     use terrace_mpi_env, only: world, sum_all, sum_all_i8, min_all
@@ -43,6 +43,10 @@ module terrace_engine
         procedure :: compute_forces => engine_compute_forces
         procedure :: sample => engine_sample
         procedure :: dof => engine_dof
+        procedure :: ray_pass => engine_ray_pass
+        procedure :: drift => engine_drift
+        procedure :: sync_ghosts => engine_sync_ghosts
+        procedure :: list_expiry => engine_list_expiry
     end type engine_t
 
 contains
@@ -369,6 +373,79 @@ contains
         if (dof > 0) s%temp = 2*s%ke/(dof*self%cfg%units%boltz)
         s%press = (2*s%ke + self%virial)/(self%box%dimension*self%box%volume())*self%cfg%units%nktv2p
     end function engine_sample
+
+    !> Energy, its first two derivatives along the ray x + s v, and the virial, summed over all
+    !> ranks: out = (V, dV/ds, d2V/ds2, W). One pass over the pairs, one global sum.
+    subroutine engine_ray_pass(self, s, out)
+        class(engine_t), intent(inout) :: self
+        real(dp), intent(in) :: s
+        real(dp), intent(out) :: out(4)
+        call self%timers%start(t_search)
+        if (self%plan%pair_mode == pair_all) then
+            call self%lj%ray_all_pairs(self%atoms, s, out)
+        else
+            call self%lj%ray(self%atoms, self%list, s, out)
+        end if
+        call self%timers%stop(t_search)
+        call self%timers%start(t_comm)
+        call sum_all(out)
+        call self%timers%stop(t_comm)
+    end subroutine engine_ray_pass
+
+    !> Straight-line motion of every atom, owned and ghost: x += s v.
+    subroutine engine_drift(self, s)
+        class(engine_t), intent(inout) :: self
+        real(dp), intent(in) :: s
+        integer :: n
+        n = self%atoms%nall()
+        self%atoms%x(:, 1:n) = self%atoms%x(:, 1:n) + s*self%atoms%v(:, 1:n)
+    end subroutine engine_drift
+
+    !> Ghost positions and velocities from their owners (after a velocity jump).
+    subroutine engine_sync_ghosts(self)
+        class(engine_t), intent(inout) :: self
+        call self%timers%start(t_comm)
+        if (self%plan%pair_mode == pair_all) then
+            if (world%nprocs > 1) then
+                call self%rep%gather(self%atoms, self%atoms%x)
+                call self%rep%gather(self%atoms, self%atoms%v)
+            end if
+        else
+            call self%dom%forward(self%atoms%x, .true.)
+            call self%dom%forward(self%atoms%v, .false.)
+        end if
+        call self%timers%stop(t_comm)
+    end subroutine engine_sync_ghosts
+
+    !> Earliest time (from now, this rank's atoms) at which an owned atom's displacement since the
+    !> last list build reaches skin/2, moving in a straight line: the root of
+    !> |d + s v|^2 = (skin/2)^2. Huge when there is no list.
+    real(dp) function engine_list_expiry(self) result(t)
+        class(engine_t), intent(in) :: self
+        integer :: i
+        real(dp) :: r2, a, b, c, d(3), disc
+        t = huge(1.0_dp)
+        if (self%plan%pair_mode == pair_all) return
+        r2 = (0.5_dp*self%list%skin)**2
+        do i = 1, self%atoms%nlocal
+            d = self%atoms%x(:, i) - self%list%xhold(:, i)
+            a = sum(self%atoms%v(:, i)**2)
+            if (a <= 0) cycle
+            b = sum(d*self%atoms%v(:, i))
+            c = sum(d*d) - r2
+            if (c >= 0) then
+                t = 0
+                return
+            end if
+            disc = b*b - a*c
+            ! positive root of a s^2 + 2 b s + c = 0 (c < 0), without cancellation
+            if (b >= 0) then
+                t = min(t, -c/(b + sqrt(disc)))
+            else
+                t = min(t, (-b + sqrt(disc))/a)
+            end if
+        end do
+    end function engine_list_expiry
 
     !> Refuse a start with atoms on top of each other (closer than sigma/4).
     subroutine check_overlaps(self)

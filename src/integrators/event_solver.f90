@@ -127,7 +127,7 @@ contains
         do k = 1, self%samples
             s = s0 + h*k/real(self%samples + 1, dp)
             p = hermite_value(s0, p0(1), p0(2), s1, p1(1), p1(2), s)
-            e = band*(s - s0)**2*(s1 - s)**2 + self%tol
+            e = band*(s - s0)**2*(s1 - s)**2
             viol = max(p + e - upper, lower - (p - e))
             if (viol > worst) then
                 worst = viol; sp = s
@@ -241,7 +241,7 @@ contains
         class(ray_t), intent(inout) :: ray
         real(dp), intent(in) :: sa_in, pa_in(3), sb_in, pb_in(3), lower, upper
         type(crossing_t), intent(out) :: res
-        real(dp) :: sa, pa(3), sb, pb(3), sn, pn(3), lv, third, ua, ub, err, xa(3), xb(3), a2(3), b2(3)
+        real(dp) :: sa, pa(3), sb, pb(3), sn, pn(3), lv, third, ua, ub, err, xa, xb, a2(3), b2(3)
         integer :: it, lvl, status
         sa = sa_in; pa = pa_in; sb = sb_in; pb = pb_in
         do it = 1, self%max_evals

@@ -75,6 +75,7 @@ contains
                 end do
             end if
             write (self%unit, '(a)') ''
+            flush (self%unit)
         end if
         elapsed = MPI_Wtime() - self%wall_start
         eta = ''

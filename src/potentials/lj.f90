@@ -13,11 +13,17 @@
 !> psi'' rho'^2 + psi' rho'' to f, f', f'', where psi'(rho) = -fpair/2 and
 !> psi''(rho) = (7 lj1 rho^-8 - 4 lj2 rho^-5)/2 (+ the smooth term (r - rc) fc: fc/(2r), -fc/(4r^3)).
 module terrace_lj
+    use, intrinsic :: iso_fortran_env, only: int64
     use terrace_kinds, only: dp
     use terrace_atoms, only: atoms_t
     use terrace_neighbor_list, only: neighbor_list_t
     implicit none
     private
+
+    !> +Infinity: 1/inf = 0 masks pairs beyond the cutoff without a branch (GCC if-converts a
+    !> select of two values, not a division that might trap). Read through a volatile so that GCC
+    !> cannot fold 1/inf and turn the select back into a branch around the division.
+    real(dp), volatile, save :: infinity = transfer(9218868437227405312_int64, 1.0_dp)
 
     type, public :: lj_t
         integer :: ntypes = 1
@@ -119,7 +125,7 @@ contains
                                             self%offset(1, 1), energy, virial)
             else
                 call kernel_one_type(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%lj1(1, 1), &
-                                     self%lj2(1, 1), self%cutsq(1, 1), work(:, 1), work(:, 2), work(:, 3))
+                                     self%lj2(1, 1), self%cutsq(1, 1), infinity, work(:, 1), work(:, 2), work(:, 3))
             end if
         else
             call kernel_types(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, energy, virial)
@@ -127,35 +133,40 @@ contains
         end associate
     end subroutine lj_compute
 
-    !> Force-only kernel, one type. Two passes per atom: the pair forces of all its neighbours
-    !> are computed branch-free into a work row (vectorised, gathers only), then scattered.
-    subroutine kernel_one_type(nlocal, x, f, first, neigh, lj1, lj2, cutsq, fx, fy, fz)
+    !> Force-only kernel, one type. Three passes per atom: the separations to all its neighbours
+    !> are gathered into work rows (scalar loads, contiguous stores), the pair forces are computed
+    !> branch-free over the contiguous rows (vectorised: GCC does not emit gathers for this CPU),
+    !> then scattered (Newton's third law) while the force on i is summed in list order.
+    subroutine kernel_one_type(nlocal, x, f, first, neigh, lj1_, lj2_, cutsq_, inf, fx, fy, fz)
         integer, intent(in) :: nlocal
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in), contiguous :: x(:, :)
-        real(dp), intent(in) :: lj1, lj2, cutsq
+        real(dp), intent(in) :: lj1_, lj2_, cutsq_, inf
         real(dp), intent(inout), contiguous :: f(:, :)
         real(dp), intent(inout), contiguous :: fx(:), fy(:), fz(:)
         integer :: i, k, j, k0, nn
-        real(dp) :: xi, yi, zi, fxi, fyi, fzi, dx, dy, dz, rsq, r2inv, r6inv, fpair
+        real(dp) :: xi, yi, zi, fxi, fyi, fzi, rsq, r2inv, r6inv, fpair, lj1, lj2, cutsq, far
+        lj1 = lj1_; lj2 = lj2_; cutsq = cutsq_; far = inf
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
-            fxi = 0; fyi = 0; fzi = 0
             k0 = first(i) - 1
             nn = first(i + 1) - first(i)
             do k = 1, nn
                 j = neigh(k0 + k)
-                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
-                rsq = dx*dx + dy*dy + dz*dz
-                r2inv = 1/rsq
-                r6inv = r2inv*r2inv*r2inv
-                fpair = merge(r6inv*(lj1*r6inv - lj2)*r2inv, 0.0_dp, rsq < cutsq)
-                fx(k) = dx*fpair; fy(k) = dy*fpair; fz(k) = dz*fpair
-                fxi = fxi + fx(k); fyi = fyi + fy(k); fzi = fzi + fz(k)
+                fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)
             end do
+            do k = 1, nn
+                rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
+                r2inv = 1/merge(rsq, far, rsq < cutsq)
+                r6inv = r2inv*r2inv*r2inv
+                fpair = r6inv*(lj1*r6inv - lj2)*r2inv
+                fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+            end do
+            fxi = 0; fyi = 0; fzi = 0
             do k = 1, nn
                 j = neigh(k0 + k)
                 f(1, j) = f(1, j) - fx(k); f(2, j) = f(2, j) - fy(k); f(3, j) = f(3, j) - fz(k)
+                fxi = fxi + fx(k); fyi = fyi + fy(k); fzi = fzi + fz(k)
             end do
             f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
         end do

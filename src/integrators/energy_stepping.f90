@@ -1,0 +1,268 @@
+!> Energy stepping (Gonzalez, Schmidt & Ortiz): the exact solution of the terraced Lagrangian
+!> L_h = K - V_h, V_h = h floor(V/h), V the total potential energy of all atoms on all ranks.
+!>
+!> Between level crossings nothing acts: every atom (owned and ghost) moves in a straight line.
+!> At a crossing of a terrace edge the velocities jump along the gradient g = grad V:
+!>   v_i += lambda g_i / m_i,  a = sum |g_i|^2/m_i,  b = sum g_i . v_i  (times mvv2e),
+!>   climbing (b > 0, b^2 >= 2 a h):  lambda = -2h / (b + sqrt(b^2 - 2 a h)),   k -> k + 1
+!>   too slow to climb:               lambda = -2b / a  (reflection),            k unchanged
+!>   falling (b < 0):                 lambda = -2h / (|b| + sqrt(b^2 + 2 a h)),  k -> k - 1
+!> so that K + k h is conserved to round-off (the nominal rise +-h, never the measured V
+!> difference). After a kick the edge the state sits on is moved to the measured V, so that the
+!> next search cannot find it again at s = 0+.
+!>
+!> The step is the global minimum of the next level crossing, the exact neighbour-list expiry
+!> (straight lines: a quadratic per atom), the next sample time and the end of the run: one
+!> MPI_Allreduce(MIN) per event; the crossing search (event_solver) costs one global sum of
+!> (V, V', V'', W) per ray evaluation; samples are written at exactly the requested times.
+module terrace_energy_stepping
+    use terrace_kinds, only: dp, i8
+    use terrace_engine, only: engine_t
+    use terrace_event_solver, only: ray_t, event_solver_t, crossing_t, level_upper, level_lower
+    use terrace_thermo, only: thermo_writer_t, thermo_sample_t
+    use terrace_timers, only: t_output
+    use terrace_mpi_env, only: world, sum_all, min_all
+    use terrace_errors, only: stop_all, check_all
+    use terrace_jump, only: terrace_jump_lambda, jump_climb, jump_reflect, jump_fall, jump_none
+    use, intrinsic :: iso_fortran_env, only: output_unit
+    implicit none
+    private
+
+    !> The engine seen as a ray for the event solver: s is measured from the search origin,
+    !> where the atoms are.
+    type, extends(ray_t) :: engine_ray_t
+        type(engine_t), pointer :: eng => null()
+        real(dp) :: last_s = -huge(1.0_dp)
+        real(dp) :: last_out(4) = 0
+    contains
+        procedure :: eval_ray => engine_ray_eval
+    end type engine_ray_t
+
+    type, public :: es_stats_t
+        integer(i8) :: events = 0, reflections = 0, ups = 0, downs = 0
+        integer(i8) :: ray_evals = 0, force_passes = 0, verify_misses = 0, rebuilds = 0
+        real(dp) :: time = 0
+    end type es_stats_t
+
+    character(len=*), parameter, public :: es_thermo_header = &
+        ',events,reflections,mean_dt,evals_per_event,terrace_height,e_terraced'
+
+    public :: run_energy_stepping, choose_terrace_height, print_es_estimates
+
+contains
+
+    subroutine engine_ray_eval(self, s, fdc)
+        class(engine_ray_t), intent(inout) :: self
+        real(dp), intent(in) :: s
+        real(dp), intent(out) :: fdc(3)
+        call self%eng%ray_pass(s, self%last_out)
+        self%last_s = s
+        fdc = self%last_out(1:3)
+    end subroutine engine_ray_eval
+
+    !> Global sums over owned atoms: sigma2 = sum |g_i|^2 |v_i|^2 / d (variance of dV/dt for
+    !> isotropic velocities), a = mvv2e sum |g_i|^2/m_i, b = mvv2e sum g_i.v_i (g = -f).
+    subroutine gradient_sums(eng, sigma2, a, b)
+        type(engine_t), intent(inout) :: eng
+        real(dp), intent(out) :: sigma2, a, b
+        real(dp) :: acc(3), g2, m
+        integer :: i
+        acc = 0
+        do i = 1, eng%atoms%nlocal
+            m = eng%atoms%mass(eng%atoms%type(i))
+            g2 = sum(eng%atoms%f(:, i)**2)
+            acc(1) = acc(1) + g2*sum(eng%atoms%v(:, i)**2)
+            acc(2) = acc(2) + g2/m
+            acc(3) = acc(3) - sum(eng%atoms%f(:, i)*eng%atoms%v(:, i))
+        end do
+        call sum_all(acc)
+        sigma2 = acc(1)/eng%box%dimension
+        a = eng%cfg%units%mvv2e*acc(2)
+        b = eng%cfg%units%mvv2e*acc(3)
+    end subroutine gradient_sums
+
+    !> The terrace height: given, or chosen for a target mean event interval from the level-crossing
+    !> rate of the initial state, E|dV/dt| / h with E|dV/dt| = sqrt(2/pi) sigma (Rice).
+    real(dp) function choose_terrace_height(eng) result(h)
+        type(engine_t), intent(inout) :: eng
+        real(dp) :: sigma2, a, b
+        real(dp), parameter :: pi = 4*atan(1.0_dp)
+        if (eng%cfg%terrace_height > 0) then
+            h = eng%cfg%terrace_height
+        else
+            call gradient_sums(eng, sigma2, a, b)
+            h = eng%cfg%target_mean_dt*sqrt(2/pi)*sqrt(sigma2)
+            if (.not. (h > 0)) call stop_all(eng%cfg%where('integrator', 'target_mean_dt')// &
+                ': cannot choose a terrace height: the initial state has no motion or no force')
+        end if
+    end function choose_terrace_height
+
+    !> What to expect, from the initial state: mean event interval h / (sqrt(2/pi) sigma), the
+    !> fraction of climbs that reflect, 1 - exp(-h a / (mvv2e^2 sigma^2)) (flux-weighted normal
+    !> kinetic energy below h), and a stable velocity-Verlet step for the same scene, 0.005 tau with
+    !> tau = sigma_LJ sqrt(m mvv2e / eps).
+    subroutine print_es_estimates(eng, h)
+        type(engine_t), intent(inout) :: eng
+        real(dp), intent(in) :: h
+        real(dp) :: sigma2, a, b, mean_dt, refl, tau, dt_vv, sig, eps, m
+        real(dp), parameter :: pi = 4*atan(1.0_dp)
+        call gradient_sums(eng, sigma2, a, b)
+        if (world%rank /= 0) return
+        mean_dt = huge(1.0_dp)
+        if (sigma2 > 0) mean_dt = h/(sqrt(2/pi)*sqrt(sigma2))
+        refl = 0
+        if (sigma2 > 0) refl = 1 - exp(-h*a/(eng%cfg%units%mvv2e**2*sigma2))
+        eps = eng%lj%lj4(1, 1)**2/(4*eng%lj%lj3(1, 1))
+        sig = (eng%lj%lj3(1, 1)/eng%lj%lj4(1, 1))**(1.0_dp/6)
+        m = eng%atoms%mass(1)
+        tau = sig*sqrt(m*eng%cfg%units%mvv2e/eps)
+        dt_vv = 0.005_dp*tau
+        write (output_unit, '(a,es12.5,1x,a)') '  terrace h  : ', h, trim(eng%cfg%units%energy)
+        write (output_unit, '(a,es12.5,1x,a,a,f0.1,a)') '  expected   : mean event interval ~ ', mean_dt, &
+            trim(eng%cfg%units%time), ', about ', 100*refl/2, ' % of events reflections'
+        write (output_unit, '(a,es12.5,1x,a,a,f0.2,a)') '  vs Verlet  : a stable Verlet step here is ~ ', dt_vv, &
+            trim(eng%cfg%units%time), ' (0.005 tau); ratio ', mean_dt/dt_vv, &
+            ' (an event costs about 2-3 force passes: energy stepping pays off above ~3)'
+    end subroutine print_es_estimates
+
+    !> The event loop. Ends at t_end, or after max_events events.
+    subroutine run_energy_stepping(eng, thermo, h, t_end, max_events, sample_interval, sample_every, stats)
+        type(engine_t), intent(inout), target :: eng
+        type(thermo_writer_t), intent(inout) :: thermo
+        real(dp), intent(in) :: h, t_end, sample_interval
+        integer(i8), intent(in) :: max_events, sample_every
+        type(es_stats_t), intent(out) :: stats
+        type(engine_ray_t) :: ray
+        type(event_solver_t) :: solver
+        type(crossing_t) :: res
+        integer(i8) :: k, n_sample, last_events, last_evals
+        real(dp) :: t, lower, upper, p0(3), t_exp, t_next_sample, window, sigma2, a, b, lam, vstar, trust, &
+                    last_time, mvv2e
+        logical :: have_c, sample_due
+        integer :: i, outcome
+        real(dp) :: minv(size(eng%atoms%mass))
+
+        ray%eng => eng
+        solver%tol = eng%cfg%root_tolerance*h
+        mvv2e = eng%cfg%units%mvv2e
+        do i = 1, size(minv)
+            minv(i) = 1/eng%atoms%mass(i)
+        end do
+        t = 0
+        k = floor(eng%pe/h, i8)
+        lower = k*h
+        upper = (k + 1)*h
+        call gradient_sums(eng, sigma2, a, b)
+        p0 = [eng%pe, b/mvv2e, 0.0_dp]
+        have_c = .false.
+        n_sample = 1
+        t_next_sample = huge(1.0_dp)
+        if (sample_interval > 0) t_next_sample = sample_interval
+        t_exp = eng%list_expiry()
+        call min_all(t_exp)
+        trust = huge(1.0_dp)
+        last_events = 0; last_evals = 0; last_time = 0
+        call write_sample(0.0_dp)
+        do
+            if (t >= t_end .or. stats%events >= max_events) exit
+            window = max(0.0_dp, min(t_exp, t_next_sample, t_end) - t)
+            ray%evals = 0
+            call solver%first_crossing(ray, lower, upper, window, p0, have_c, trust, res)
+            stats%ray_evals = stats%ray_evals + ray%evals
+            if (.not. res%found) then
+                ! ---- window end: sample, list expiry or end of run; no kick
+                call eng%drift(window)
+                t = min(t_exp, t_next_sample, t_end)
+                p0 = res%fdc
+                have_c = .true.
+                if (ray%last_s /= window) call ray%eval(window, p0)
+                eng%pe = ray%last_out(1); eng%virial = ray%last_out(4)
+                if (t >= t_exp) then
+                    call eng%rebuild()
+                    stats%rebuilds = stats%rebuilds + 1
+                    t_exp = eng%list_expiry()
+                    call min_all(t_exp)
+                    t_exp = t + t_exp
+                end if
+                if (t >= t_next_sample) then
+                    call write_sample(t)
+                    n_sample = n_sample + 1
+                    t_next_sample = n_sample*sample_interval
+                else if (t >= t_end) then
+                    call write_sample(t)
+                end if
+                cycle
+            end if
+            ! ---- a level crossing at s = res%s: drift there, one force pass, the jump
+            call eng%drift(res%s)
+            t = t + res%s
+            call eng%compute_forces(.true.)
+            stats%force_passes = stats%force_passes + 1
+            vstar = eng%pe
+            call gradient_sums(eng, sigma2, a, b)
+            call terrace_jump_lambda(a, b, h, res%level == level_upper, lam, outcome)
+            if (outcome == jump_none .or. (res%level == level_upper .and. vstar < upper - solver%tol) .or. &
+                (res%level == level_lower .and. vstar > lower + solver%tol)) then
+                ! the predicted root fell short (or the state is already moving back): search on from here
+                stats%verify_misses = stats%verify_misses + 1
+                p0 = [vstar, b/mvv2e, 0.0_dp]
+                have_c = .false.
+                t_exp = eng%list_expiry(); call min_all(t_exp); t_exp = t + t_exp
+                cycle
+            end if
+            select case (outcome)
+            case (jump_climb)
+                k = k + 1
+                lower = vstar                 ! the state sits exactly on the new terrace's lower edge
+                upper = (k + 1)*h
+                stats%ups = stats%ups + 1
+            case (jump_reflect)
+                upper = vstar
+                stats%reflections = stats%reflections + 1
+            case (jump_fall)
+                k = k - 1
+                upper = vstar
+                lower = k*h
+                stats%downs = stats%downs + 1
+            end select
+            do i = 1, eng%atoms%nlocal
+                eng%atoms%v(:, i) = eng%atoms%v(:, i) - lam*minv(eng%atoms%type(i))*eng%atoms%f(:, i)
+            end do
+            call eng%sync_ghosts()
+            p0 = [vstar, (b + lam*a)/mvv2e, 0.0_dp]
+            have_c = .false.
+            stats%events = stats%events + 1
+            trust = 4*t/stats%events
+            t_exp = eng%list_expiry()
+            call min_all(t_exp)
+            t_exp = t + t_exp
+            sample_due = sample_every > 0
+            if (sample_due) sample_due = mod(stats%events, sample_every) == 0
+            if (sample_due) call write_sample(t)
+        end do
+        stats%time = t
+        if (sample_every > 0 .and. mod(stats%events, max(sample_every, 1_i8)) /= 0) call write_sample(t)
+
+    contains
+
+        subroutine write_sample(time)
+            real(dp), intent(in) :: time
+            type(thermo_sample_t) :: s
+            real(dp) :: extra(6), mean_dt, evals
+            call eng%timers%start(t_output)
+            s = eng%sample(stats%events, time)
+            call check_all(s%pe == s%pe, 'the potential energy became NaN: the run is unstable')
+            mean_dt = 0; evals = 0
+            if (stats%events > last_events) then
+                mean_dt = (time - last_time)/(stats%events - last_events)
+                evals = real(stats%ray_evals - last_evals, dp)/(stats%events - last_events)
+            end if
+            extra = [real(stats%events, dp), real(stats%reflections, dp), mean_dt, evals, h, s%ke + k*h]
+            call thermo%write(s, extra)
+            last_events = stats%events; last_evals = stats%ray_evals; last_time = time
+            call eng%timers%stop(t_output)
+        end subroutine write_sample
+
+    end subroutine run_energy_stepping
+
+end module terrace_energy_stepping

@@ -13,6 +13,7 @@ program terrace
                                        es_thermo_header
     use terrace_velocities, only: kinetic_energy
     use terrace_forces_file, only: write_forces_file
+    use terrace_final_atoms, only: write_final_atoms
     use terrace_run_log, only: print_run_log
     use terrace_timers, only: timers_t
     use terrace_errors, only: stop_all, check_all
@@ -91,6 +92,7 @@ contains
         call MPI_Barrier(world%comm)
         t1 = MPI_Wtime()
         call thermo%close()
+        call write_final(n_steps*cfg%dt)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, n_steps, eng%list%builds, 'steps')
     end subroutine verlet_run
 
@@ -139,6 +141,7 @@ contains
         call MPI_Barrier(world%comm)
         t1 = MPI_Wtime()
         call thermo%close()
+        call write_final(es%time)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events')
         if (world%rank == 0) then
             write (output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'Events: ', es%events, ' (', es%ups, ' up, ', es%downs, &
@@ -149,6 +152,13 @@ contains
                 es%verify_misses
         end if
     end subroutine energy_stepping_run
+
+    subroutine write_final(time)
+        real(dp), intent(in) :: time
+        if (len_trim(cfg%final_atoms_file) == 0) return
+        call write_final_atoms(trim(cfg%final_atoms_file), eng%atoms, eng%box, time, ok, msg)
+        call check_all(ok, trim(cfg%final_atoms_file)//': cannot write (&output final_atoms_file): '//trim(msg))
+    end subroutine write_final
 
     subroutine finish_check()
         if (world%rank == 0) write (output_unit, '(a)') 'check: OK ('//path//')'

@@ -41,6 +41,7 @@ module terrace_config
         real(dp) :: box_lo(3) = unset, box_hi(3) = unset
         real(dp) :: mass(max_types) = -1.0_dp
         real(dp) :: temperature = -1.0_dp
+        logical :: reverse_velocities = .false.
         ! &potential
         character(len=24) :: potential = 'lj'
         real(dp) :: epsilon(max_types, max_types) = unset
@@ -62,6 +63,7 @@ module terrace_config
         real(dp) :: thermo_interval = -1.0_dp
         character(len=512) :: thermo_file = ''
         character(len=512) :: forces_file = ''
+        character(len=512) :: final_atoms_file = ''
     contains
         procedure :: where => cfg_where
     end type config_t
@@ -229,10 +231,11 @@ contains
         character(len=8) :: lattice
         real(dp) :: lattice_constant, density, box_lo(3), box_hi(3), mass(max_types), temperature
         integer :: cells(3)
-        logical :: periodic(3)
+        logical :: periodic(3), reverse_velocities
         namelist /system/ read_data, atoms_file, lattice, lattice_constant, density, cells, periodic, &
-            box_lo, box_hi, mass, temperature
-        character(len=*), parameter :: keys(11) = [character(len=60) :: 'read_data:a quoted file name', &
+            box_lo, box_hi, mass, temperature, reverse_velocities
+        character(len=*), parameter :: keys(12) = [character(len=60) :: 'read_data:a quoted file name', &
+            'reverse_velocities:a logical', &
             'atoms_file:a quoted file name', 'lattice:a quoted string', 'lattice_constant:a real number', &
             'density:a real number', 'cells:three integers', 'periodic:three logicals (.true./.false.)', &
             'box_lo:three real numbers', 'box_hi:three real numbers', 'mass:real numbers, one per atom type', &
@@ -243,6 +246,7 @@ contains
         integer :: k, ios
         read_data = ''; atoms_file = ''; lattice = ''; lattice_constant = -1; density = -1
         cells = 0; periodic = .true.; box_lo = unset; box_hi = unset; mass = -1; temperature = -1
+        reverse_velocities = .false.
         do k = 1, cfg%nml%count
             if (cfg%nml%items(k)%group /= 'system') cycle
             kind = check_key(cfg, k, keys)
@@ -254,6 +258,7 @@ contains
         cfg%lattice_constant = lattice_constant; cfg%density = density; cfg%cells = cells
         cfg%periodic = periodic; cfg%box_lo = box_lo; cfg%box_hi = box_hi; cfg%mass = mass
         cfg%temperature = temperature
+        cfg%reverse_velocities = reverse_velocities
     end subroutine read_system
 
     subroutine read_potential(cfg)
@@ -330,15 +335,16 @@ contains
         type(config_t), intent(inout) :: cfg
         integer(i8) :: thermo_every
         real(dp) :: thermo_interval
-        character(len=512) :: thermo_file, forces_file
-        namelist /output/ thermo_every, thermo_interval, thermo_file, forces_file
-        character(len=*), parameter :: keys(4) = [character(len=40) :: 'thermo_every:an integer', &
-            'thermo_interval:a real number', 'thermo_file:a quoted file name', 'forces_file:a quoted file name']
+        character(len=512) :: thermo_file, forces_file, final_atoms_file
+        namelist /output/ thermo_every, thermo_interval, thermo_file, forces_file, final_atoms_file
+        character(len=*), parameter :: keys(5) = [character(len=40) :: 'thermo_every:an integer', &
+            'thermo_interval:a real number', 'thermo_file:a quoted file name', 'forces_file:a quoted file name', &
+            'final_atoms_file:a quoted file name']
         character(len=:), allocatable :: kind
         character(len=256) :: msg
         character(len=:), allocatable :: buf
         integer :: k, ios
-        thermo_every = -1; thermo_interval = -1; thermo_file = ''; forces_file = ''
+        thermo_every = -1; thermo_interval = -1; thermo_file = ''; forces_file = ''; final_atoms_file = ''
         do k = 1, cfg%nml%count
             if (cfg%nml%items(k)%group /= 'output') cycle
             kind = check_key(cfg, k, keys)
@@ -347,7 +353,7 @@ contains
             if (ios /= 0) call bad_value(cfg, k, kind, msg)
         end do
         cfg%thermo_every = thermo_every; cfg%thermo_interval = thermo_interval
-        cfg%thermo_file = thermo_file; cfg%forces_file = forces_file
+        cfg%thermo_file = thermo_file; cfg%forces_file = forces_file; cfg%final_atoms_file = final_atoms_file
     end subroutine read_output
 
     !> Checks that need no atoms. Checks that need the atoms (overlaps, atoms outside the box,

@@ -176,6 +176,10 @@ contains
                 p0 = res%fdc
                 have_c = .true.
                 if (ray%last_s /= window) call ray%eval(window, p0)
+                ! well inside the nominal terrace again: edges shifted at earlier kicks revert
+                if (p0(1) > k*h + solver%tol .and. p0(1) < (k + 1)*h - solver%tol) then
+                    lower = k*h; upper = (k + 1)*h
+                end if
                 eng%pe = ray%last_out(1); eng%virial = ray%last_out(4)
                 if (t >= t_exp) then
                     call eng%rebuild()

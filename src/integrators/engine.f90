@@ -188,6 +188,8 @@ contains
                                    .not. any(self%box%periodic(1:cfg%dimension)), self%natoms)
         end if
 
+        if (cfg%reverse_velocities) self%atoms%v(:, 1:self%atoms%nlocal) = -self%atoms%v(:, 1:self%atoms%nlocal)
+
         ! ---- plan
         self%plan%natoms = self%natoms
         self%plan%nprocs = world%nprocs
@@ -357,15 +359,21 @@ contains
         integer(i8), intent(in) :: step
         real(dp), intent(in) :: time
         type(thermo_sample_t) :: s
-        real(dp) :: dof
+        real(dp) :: dof, pl(6), m, r(3)
         integer :: i
         s%step = step; s%time = time
         s%ke = kinetic_energy(self%atoms, self%cfg%units)
-        s%momentum = 0
+        pl = 0
         do i = 1, self%atoms%nlocal
-            s%momentum = s%momentum + self%atoms%mass(self%atoms%type(i))*self%atoms%v(:, i)
+            m = self%atoms%mass(self%atoms%type(i))
+            r = self%atoms%x(:, i) + self%atoms%image(:, i)*self%box%length
+            pl(1:3) = pl(1:3) + m*self%atoms%v(:, i)
+            pl(4:6) = pl(4:6) + m*[r(2)*self%atoms%v(3, i) - r(3)*self%atoms%v(2, i), &
+                                   r(3)*self%atoms%v(1, i) - r(1)*self%atoms%v(3, i), &
+                                   r(1)*self%atoms%v(2, i) - r(2)*self%atoms%v(1, i)]
         end do
-        call sum_all(s%momentum)
+        call sum_all(pl)
+        s%momentum = pl(1:3); s%angular = pl(4:6)
         s%pe = self%pe
         s%etotal = s%ke + s%pe
         dof = self%dof()

@@ -124,17 +124,24 @@ contains
         band = self%band_safety*m/(2*h*h)
         worst = 0
         status = 0
+        ! the cubic does not reproduce the measured curvature at the ends (the interval is not
+        ! resolved, e.g. a narrow bump inside) and the band would matter: probe the middle
+        if (m > 0.5_dp*max(abs(p0(3)), abs(p1(3)), abs(c0h), abs(c1h)) .and. band*h**4/16 > self%tol) then
+            status = 2; sp = 0.5_dp*(s0 + s1)
+            if (.not. (p1(1) > upper + self%tol .or. p1(1) < lower - self%tol)) return
+        end if
         do k = 1, self%samples
             s = s0 + h*k/real(self%samples + 1, dp)
             p = hermite_value(s0, p0(1), p0(2), s1, p1(1), p1(2), s)
             e = band*(s - s0)**2*(s1 - s)**2
-            viol = max(p + e - upper, lower - (p - e))
+            ! an excursion by less than the tolerance is within the accuracy contract: not a crossing
+            viol = max(p + e - upper, lower - (p - e)) - self%tol
             if (viol > worst) then
                 worst = viol; sp = s
                 status = 2
             end if
         end do
-        if (p1(1) > upper .or. p1(1) < lower) then
+        if (p1(1) > upper + self%tol .or. p1(1) < lower - self%tol) then
             ! a crossing is certain; unsure only if the other level may be crossed first
             status = 1
             do k = 1, self%samples
@@ -165,13 +172,18 @@ contains
         real(dp), intent(out) :: sa, pa(3), sb, pb(3)
         integer, parameter :: depth = 64
         real(dp) :: st_s(depth), st_p(3, depth), sp, pp(3)
-        integer :: top, cls
+        integer :: top, cls, probes
         sa = s0; pa = p0
         top = 1; st_s(1) = s1; st_p(:, 1) = p1
+        probes = 0
         do while (top > 0)
             call classify(self, sa, pa, st_s(top), st_p(:, top), lower, upper, cls, sp)
-            if (cls == 2 .and. (top == depth .or. st_s(top) - sa <= 1.0e-13_dp*max(abs(sa), abs(st_s(top))))) then
-                cls = merge(1, 0, beyond(st_p(1, top), lower, upper))
+            ! an interval too short for f to move by the tolerance, a full stack or too many probes:
+            ! decide by the end value
+            if (cls == 2 .and. (top == depth .or. probes > self%max_evals .or. &
+                                (st_s(top) - sa)*max(abs(pa(2)), abs(st_p(2, top))) <= self%tol .or. &
+                                st_s(top) - sa <= 1.0e-13_dp*max(abs(sa), abs(st_s(top))))) then
+                cls = merge(1, 0, beyond(st_p(1, top), lower - self%tol, upper + self%tol))
             end if
             select case (cls)
             case (0)
@@ -183,6 +195,7 @@ contains
                 return
             case default
                 call ray%eval(sp, pp)
+                probes = probes + 1
                 top = top + 1
                 st_s(top) = sp; st_p(:, top) = pp
             end select
@@ -200,7 +213,7 @@ contains
         logical, intent(in) :: have_c0
         type(crossing_t), intent(out) :: res
         real(dp) :: s0, p0(3), s1, p1(3), sa, pa(3), sb, pb(3), step, trust
-        integer :: status, guard
+        integer :: status
         s0 = 0
         p0 = p0_in
         if (.not. have_c0) then
@@ -208,7 +221,8 @@ contains
             p0(1:2) = p0_in(1:2)
         end if
         trust = max(trust_in, tiny(1.0_dp))
-        do guard = 1, self%max_evals
+
+        do
             step = min(taylor_step(p0(1), p0(2), p0(3), upper), taylor_step(p0(1), p0(2), p0(3), lower))
             step = min(step, trust, s_max - s0)
             s1 = min(s0 + step, s_max)
@@ -220,14 +234,18 @@ contains
                 return
             end if
             ! clear up to s1: a root within tolerance at s1 itself, moving outwards?
-            if (abs(p1(1) - upper) <= self%tol .and. p1(2) > 0) then
+            ! (it must really go across: beyond by half the tolerance, or the local quadratic gets
+            ! there; a ray that only touches a level, as a chord tangent to a level set does, is not
+            ! a crossing)
+            if (abs(p1(1) - upper) <= self%tol .and. p1(2) > 0 .and. (p1(1) > upper + 0.5_dp*self%tol .or. &
+                taylor_step(p1(1), p1(2), p1(3), upper + 0.5_dp*self%tol) < huge(1.0_dp))) then
                 res = crossing_t(.true., s1, level_upper, .true., p1); return
             end if
-            if (abs(p1(1) - lower) <= self%tol .and. p1(2) < 0) then
+            if (abs(p1(1) - lower) <= self%tol .and. p1(2) < 0 .and. (p1(1) < lower - 0.5_dp*self%tol .or. &
+                taylor_step(p1(1), p1(2), p1(3), lower - 0.5_dp*self%tol) < huge(1.0_dp))) then
                 res = crossing_t(.true., s1, level_lower, .true., p1); return
             end if
-            trust = max(trust, 2*(s1 - s0))
-            s0 = s1; p0 = p1
+            s0 = s1; p0 = p1     ! trust stays a cap on every step
             if (s0 >= s_max) exit
         end do
         res%found = .false.; res%s = s0; res%evaluated = .true.; res%fdc = p0
@@ -241,21 +259,37 @@ contains
         class(ray_t), intent(inout) :: ray
         real(dp), intent(in) :: sa_in, pa_in(3), sb_in, pb_in(3), lower, upper
         type(crossing_t), intent(out) :: res
-        real(dp) :: sa, pa(3), sb, pb(3), sn, pn(3), lv, third, ua, ub, err, xa, xb, a2(3), b2(3)
+        real(dp) :: sa, pa(3), sb, pb(3), sn, pn(3), lv, third, ua, ub, err, xa, xb, a2(3), b2(3), width, margin, &
+                    last_width
         integer :: it, lvl, status
+        logical :: slow
         sa = sa_in; pa = pa_in; sb = sb_in; pb = pb_in
+        last_width = huge(1.0_dp)
+        slow = .false.
         do it = 1, self%max_evals
+            slow = (sb - sa) > 0.7_dp*last_width
+            last_width = sb - sa
             lv = merge(upper, lower, pb(1) > upper)
             lvl = merge(level_upper, level_lower, pb(1) > upper)
             third = abs(pb(3) - pa(3))/(sb - sa)
             ua = taylor_step(pa(1), pa(2), pa(3), lv)              ! forward from sa
             ub = taylor_step(pb(1), -pb(2), pb(3), lv)             ! backward from sb
-            if (ua < ub .and. sa + ua < sb) then
-                sn = sa + ua; err = third*ua**3/6
-            else if (sb - ub > sa) then
-                sn = sb - ub; err = third*ub**3/6
+            width = sb - sa
+            margin = 1.0e-6_dp*width
+            sn = -huge(1.0_dp); err = huge(1.0_dp)
+            if (.not. slow) then
+                if (ua > margin .and. ua < width - margin) then
+                    sn = sa + ua; err = third*ua**3/6
+                end if
+                if (ub > margin .and. ub < width - margin .and. third*ub**3/6 < err) then
+                    sn = sb - ub; err = third*ub**3/6
+                end if
+                if (sn < sa) then
+                    sn = hermite_root(sa, pa, sb, pb, lv)
+                    if (.not. (sn > sa + margin .and. sn < sb - margin)) sn = sa + 0.5_dp*width
+                end if
             else
-                sn = hermite_root(sa, pa, sb, pb, lv); err = huge(1.0_dp)
+                sn = sa + 0.5_dp*width        ! the bracket stopped shrinking: bisect
             end if
             if (err < 0.1_dp*self%tol) then
                 res = crossing_t(.true., sn, lvl, .false., [0.0_dp, 0.0_dp, 0.0_dp]); return

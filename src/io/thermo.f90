@@ -1,4 +1,4 @@
-!> Thermodynamic output: the CSV file (header `step,time,temp,pe,ke,etotal,press,px,py,pz`, extensive totals
+!> Thermodynamic output: the CSV file (header `step,time,temp,pe,ke,etotal,press,px,py,pz,lx,ly,lz`, extensive totals
 !> in the run's units, full precision) and the same lines on screen with the simulated time reached
 !> and an estimate of the wall time to completion. Rank 0 writes; other ranks do nothing here.
 module terrace_thermo
@@ -13,6 +13,7 @@ module terrace_thermo
         integer(i8) :: step = 0
         real(dp) :: time = 0, temp = 0, pe = 0, ke = 0, etotal = 0, press = 0
         real(dp) :: momentum(3) = 0      !< total linear momentum (mass x velocity units)
+        real(dp) :: angular(3) = 0       !< total angular momentum about the origin (unwrapped positions)
     end type thermo_sample_t
 
     type, public :: thermo_writer_t
@@ -52,7 +53,7 @@ contains
                 return
             end if
             self%to_file = .true.
-            write (self%unit, '(a)') 'step,time,temp,pe,ke,etotal,press,px,py,pz'//extra_header
+            write (self%unit, '(a)') 'step,time,temp,pe,ke,etotal,press,px,py,pz,lx,ly,lz'//extra_header
         end if
         write (output_unit, '(a10,1x,a12,1x,a12,1x,a16,1x,a16,1x,a16,1x,a13,a)') 'step', 'time', 'temp', 'pe', 'ke', &
             'etotal', 'press', '  progress'
@@ -67,8 +68,8 @@ contains
         integer :: k
         if (world%rank /= 0) return
         if (self%to_file) then
-            write (self%unit, '(i0,9(",",es24.16e3))', advance='no') s%step, s%time, s%temp, s%pe, s%ke, s%etotal, s%press, &
-                s%momentum
+            write (self%unit, '(i0,12(",",es24.16e3))', advance='no') s%step, s%time, s%temp, s%pe, s%ke, s%etotal, &
+                s%press, s%momentum, s%angular
             if (present(extra)) then
                 do k = 1, size(extra)
                     write (self%unit, '(",",es24.16e3)', advance='no') extra(k)

@@ -23,12 +23,15 @@ module terrace_neighbor_list
         integer, allocatable :: owned_start(:)
         integer, allocatable :: ghost_start(:), ghost_atoms(:)
         integer, allocatable :: row_lo(:), row_hi(:)   !< stencil rows (x-runs of bins): linear offsets
+        integer, allocatable :: row_dz(:)               !< z offset (in bins) of each stencil row
         integer :: nrows = 0, first_upper_row = 1       !< rows first_upper_row.. are the upper half
         integer :: center_reach = 0                     !< x-reach of the centre row
         integer :: stencil_bins = 0
         integer, allocatable :: first(:), neigh(:)
         real(dp), allocatable :: xhold(:, :)
         integer, allocatable :: perm(:), counts(:)
+        real(dp), allocatable :: cx(:), cy(:), cz(:)    !< build scratch: candidates shared by a bin's atoms
+        integer, allocatable :: cj(:), keep(:)
         integer :: builds = 0
         integer :: max_neighbors = 0                    !< longest row of the list
     contains
@@ -84,9 +87,10 @@ contains
         end if
         if (.not. allocated(self%owned_start)) allocate (self%owned_start(ntot + 1), self%ghost_start(ntot + 1))
         ! stencil as rows of bins along x: lower rows, then upper rows (centre row kept apart)
-        if (allocated(self%row_lo)) deallocate (self%row_lo, self%row_hi)
+        if (allocated(self%row_lo)) deallocate (self%row_lo, self%row_hi, self%row_dz)
         allocate (self%row_lo((2*self%reach(2) + 1)*(2*self%reach(3) + 1)), &
-                  self%row_hi((2*self%reach(2) + 1)*(2*self%reach(3) + 1)))
+                  self%row_hi((2*self%reach(2) + 1)*(2*self%reach(3) + 1)), &
+                  self%row_dz((2*self%reach(2) + 1)*(2*self%reach(3) + 1)))
         n = 0
         self%stencil_bins = 0
         do pass = 1, 2
@@ -106,6 +110,7 @@ contains
                     base = self%nbin(1)*(sy + self%nbin(2)*sz)
                     self%row_lo(n) = base - sxmax
                     self%row_hi(n) = base + sxmax
+                    self%row_dz(n) = sz
                     self%stencil_bins = self%stencil_bins + 2*sxmax + 1
                 end do
             end do
@@ -157,23 +162,30 @@ contains
 
     !> Build the half list (owned atoms sorted, ghosts present). Remembers positions for the
     !> skin/2 displacement test.
+    !>
+    !> Bin by bin: the candidates that all atoms of bin b share (owned atoms in the rest of the
+    !> centre row and in the upper rows; ghosts in the rows above in z, which are all above every
+    !> atom of b in (z, y, x) order since bins are monotone in z) are copied once into contiguous
+    !> scratch rows, then each atom of b scans them with a vectorised distance pass and a scalar
+    !> branch-free compaction. Per atom remain the owned atoms after it in its own bin and the ghosts
+    !> of the rows at the same z (the (z, y, x) test); ghost rows below in z hold no neighbour.
+    !> The order of each atom's neighbours is the order of the row-by-row scan.
     subroutine nl_build(self, atoms)
         class(neighbor_list_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
-        integer :: i, b, n, ntot, nall, nlocal, maxbin, bound
+        integer :: i, b, n, ntot, nall, nlocal, nghost, maxbin, bound, r, m1, m2, m3, cr
         real(dp) :: cutsq
         nlocal = atoms%nlocal
-        nall = atoms%nlocal + atoms%nghost
+        nghost = atoms%nghost
+        nall = nlocal + nghost
         ntot = product(self%nbin)
         cutsq = self%cutsq
+        cr = self%center_reach
         ! ghosts by bin
         call ensure_int(self%atom_bin, max(nall, 1))
-        call ensure_int(self%ghost_atoms, max(atoms%nghost, 1))
+        call ensure_int(self%ghost_atoms, max(nghost, 1))
         call ensure_int(self%counts, ntot + 1)
         self%counts(1:ntot + 1) = 0
-        do i = 1, nlocal
-            self%atom_bin(i) = bin_of(self, atoms%x(:, i))
-        end do
         do i = nlocal + 1, nall
             b = bin_of(self, atoms%x(:, i))
             self%atom_bin(i) = b
@@ -194,18 +206,56 @@ contains
             maxbin = max(maxbin, self%owned_start(b + 1) - self%owned_start(b) + self%ghost_start(b + 1) - &
                          self%ghost_start(b))
         end do
-        bound = maxbin*self%stencil_bins
+        bound = max(maxbin*self%stencil_bins, 1)
+        call ensure_real(self%cx, bound)
+        call ensure_real(self%cy, bound)
+        call ensure_real(self%cz, bound)
+        call ensure_int(self%keep, bound)
+        call ensure_int(self%cj, bound)
         call ensure_int(self%first, nlocal + 1)
         call ensure_int(self%neigh, max(nlocal*32, bound, 1024))
         n = 0
-        do i = 1, nlocal
-            if (n + bound > size(self%neigh)) call grow_int(self%neigh, n, n + bound)
-            call half_list_of_atom(i, atoms%x, self%atom_bin(i), self%owned_start, self%ghost_start, self%ghost_atoms, &
-                                   self%row_lo, self%row_hi, self%first_upper_row, self%nrows, self%center_reach, &
-                                   cutsq, self%neigh, n)
-            self%first(i + 1) = n + 1
-        end do
         self%first(1) = 1
+        associate (owned_start => self%owned_start, ghost_start => self%ghost_start, row_lo => self%row_lo, &
+                   row_hi => self%row_hi, row_dz => self%row_dz, x => atoms%x)
+        do b = 1, ntot
+            if (owned_start(b + 1) == owned_start(b)) cycle
+            ! shared candidates: owned atoms of the rest of the centre row and of the upper rows ...
+            m1 = 0
+            call take_owned(owned_start(b + 1), owned_start(b + cr + 1) - 1, x, self%cx, self%cy, self%cz, self%cj, m1)
+            do r = self%first_upper_row, self%nrows
+                call take_owned(owned_start(b + row_lo(r)), owned_start(b + row_hi(r) + 1) - 1, x, self%cx, self%cy, &
+                                self%cz, self%cj, m1)
+            end do
+            ! ... and ghosts: those of the rows at the same z (centre row first), tested per atom in
+            ! (z, y, x) order, then those of the rows above in z, all above
+            m2 = m1
+            call take_ghosts(ghost_start(b - cr), ghost_start(b + cr + 1) - 1, x, self%ghost_atoms, self%cx, self%cy, &
+                             self%cz, self%cj, m2)
+            do r = 1, self%nrows
+                if (row_dz(r) /= 0) cycle
+                call take_ghosts(ghost_start(b + row_lo(r)), ghost_start(b + row_hi(r) + 1) - 1, x, self%ghost_atoms, &
+                                 self%cx, self%cy, self%cz, self%cj, m2)
+            end do
+            m3 = m2
+            do r = self%first_upper_row, self%nrows
+                if (row_dz(r) <= 0) cycle
+                call take_ghosts(ghost_start(b + row_lo(r)), ghost_start(b + row_hi(r) + 1) - 1, x, self%ghost_atoms, &
+                                 self%cx, self%cy, self%cz, self%cj, m3)
+            end do
+            do i = owned_start(b), owned_start(b + 1) - 1
+                if (n + bound > size(self%neigh)) call grow_int(self%neigh, n, n + bound)
+                call owned_after(i, owned_start(b + 1) - 1, x, cutsq, self%neigh, n)
+                call scan(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, 1, m1, cutsq, &
+                          self%neigh, n)
+                if (m2 > m1) call scan_above(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, &
+                                             m1 + 1, m2, cutsq, self%neigh, n)
+                if (m3 > m2) call scan(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, m2 + 1, &
+                                       m3, cutsq, self%neigh, n)
+                self%first(i + 1) = n + 1
+            end do
+        end do
+        end associate
         self%max_neighbors = 0
         do i = 1, nlocal
             self%max_neighbors = max(self%max_neighbors, self%first(i + 1) - self%first(i))
@@ -218,64 +268,98 @@ contains
         self%builds = self%builds + 1
     end subroutine nl_build
 
-    !> Neighbours of owned atom i appended to neigh(n+1:): owned j > i (same bin after i, the rest
-    !> of the centre row, the upper rows: contiguous index ranges since owned atoms are sorted by
-    !> bin) and ghosts above i in (z, y, x) order from every row. The append is branch-free.
-    subroutine half_list_of_atom(i, x, b, owned_start, ghost_start, ghost_atoms, row_lo, row_hi, first_upper, nrows, &
-                                 center_reach, cutsq, neigh, n)
-        integer, intent(in) :: i, b, first_upper, nrows, center_reach
-        real(dp), intent(in), contiguous :: x(:, :)
-        integer, intent(in), contiguous :: owned_start(:), ghost_start(:), ghost_atoms(:), row_lo(:), row_hi(:)
+    !> Owned atoms after i in its own bin (i+1..last), within the cutoff.
+    subroutine owned_after(i, last, x, cutsq, neigh, n)
+        integer, intent(in) :: i, last
+        real(dp), intent(in) :: x(3, *)
         real(dp), intent(in) :: cutsq
         integer, intent(inout), contiguous :: neigh(:)
         integer, intent(inout) :: n
-        integer :: j, k, r
-        real(dp) :: xi, yi, zi, dx, dy, dz, rsq
-        xi = x(1, i); yi = x(2, i); zi = x(3, i)
-        do j = i + 1, owned_start(b + center_reach + 1) - 1
-            dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
+        integer :: j
+        real(dp) :: dx, dy, dz, rsq
+        do j = i + 1, last
+            dx = x(1, i) - x(1, j); dy = x(2, i) - x(2, j); dz = x(3, i) - x(3, j)
             rsq = dx*dx + dy*dy + dz*dz
             neigh(n + 1) = j
             if (rsq < cutsq) n = n + 1
         end do
-        do r = first_upper, nrows
-            do j = owned_start(b + row_lo(r)), owned_start(b + row_hi(r) + 1) - 1
-                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
-                rsq = dx*dx + dy*dy + dz*dz
-                neigh(n + 1) = j
-                if (rsq < cutsq) n = n + 1
-            end do
+    end subroutine owned_after
+
+    !> Candidates k1..k2 of the shared rows within the cutoff of (xi, yi, zi): 0/1 flags in one
+    !> vectorised pass, then a branch-free compaction.
+    subroutine scan(xi, yi, zi, cx, cy, cz, cj, keep, k1, k2, cutsq, neigh, n)
+        real(dp), intent(in) :: xi, yi, zi, cutsq
+        real(dp), intent(in), contiguous :: cx(:), cy(:), cz(:)
+        integer, intent(inout), contiguous :: keep(:)
+        integer, intent(in), contiguous :: cj(:)
+        integer, intent(in) :: k1, k2
+        integer, intent(inout), contiguous :: neigh(:)
+        integer, intent(inout) :: n
+        integer :: k
+        real(dp) :: dx, dy, dz
+        do k = k1, k2
+            dx = xi - cx(k); dy = yi - cy(k); dz = zi - cz(k)
+            keep(k) = merge(1, 0, dx*dx + dy*dy + dz*dz < cutsq)
         end do
-        do r = 0, nrows
-            if (r == 0) then
-                k = ghost_start(b - center_reach)
-                j = ghost_start(b + center_reach + 1) - 1
-            else
-                k = ghost_start(b + row_lo(r))
-                j = ghost_start(b + row_hi(r) + 1) - 1
-            end if
-            call ghosts_above(k, j)
+        do k = k1, k2
+            neigh(n + 1) = cj(k)
+            n = n + keep(k)
         end do
-    contains
-        subroutine ghosts_above(kfirst, klast)
-            integer, intent(in) :: kfirst, klast
-            integer :: kk, jj
-            do kk = kfirst, klast
-                jj = ghost_atoms(kk)
-                dz = x(3, jj) - zi
-                if (dz < 0) cycle
-                dy = x(2, jj) - yi
-                dx = x(1, jj) - xi
-                if (dz == 0) then
-                    if (dy < 0) cycle
-                    if (dy == 0 .and. dx <= 0) cycle
-                end if
-                rsq = dx*dx + dy*dy + dz*dz
-                neigh(n + 1) = jj
-                if (rsq < cutsq) n = n + 1
-            end do
-        end subroutine ghosts_above
-    end subroutine half_list_of_atom
+    end subroutine scan
+
+    !> As scan, for ghost candidates that must also lie above (xi, yi, zi) in (z, y, x) order.
+    subroutine scan_above(xi, yi, zi, cx, cy, cz, cj, keep, k1, k2, cutsq, neigh, n)
+        real(dp), intent(in) :: xi, yi, zi, cutsq
+        real(dp), intent(in), contiguous :: cx(:), cy(:), cz(:)
+        integer, intent(inout), contiguous :: keep(:)
+        integer, intent(in), contiguous :: cj(:)
+        integer, intent(in) :: k1, k2
+        integer, intent(inout), contiguous :: neigh(:)
+        integer, intent(inout) :: n
+        integer :: k
+        real(dp) :: dx, dy, dz
+        do k = k1, k2
+            dx = cx(k) - xi; dy = cy(k) - yi; dz = cz(k) - zi
+            ! inside * (dz > 0 or (dz = 0 and (dy > 0 or (dy = 0 and dx > 0)))), without branches
+            keep(k) = merge(1, 0, dx*dx + dy*dy + dz*dz < cutsq)* &
+                      (merge(1, 0, dz > 0) + merge(1, 0, dz == 0)*(merge(1, 0, dy > 0) + &
+                                                                   merge(1, 0, dy == 0)*merge(1, 0, dx > 0)))
+        end do
+        do k = k1, k2
+            neigh(n + 1) = cj(k)
+            n = n + keep(k)
+        end do
+    end subroutine scan_above
+
+    !> Append owned atoms first..last to the shared candidate rows.
+    subroutine take_owned(first, last, x, cx, cy, cz, cj, m)
+        integer, intent(in) :: first, last
+        real(dp), intent(in) :: x(3, *)
+        real(dp), intent(inout), contiguous :: cx(:), cy(:), cz(:)
+        integer, intent(inout), contiguous :: cj(:)
+        integer, intent(inout) :: m
+        integer :: k
+        do k = first, last
+            cx(m + 1) = x(1, k); cy(m + 1) = x(2, k); cz(m + 1) = x(3, k); cj(m + 1) = k
+            m = m + 1
+        end do
+    end subroutine take_owned
+
+    !> Append the ghosts of bin slots first..last (atoms ghost_atoms(first:last)).
+    subroutine take_ghosts(first, last, x, ghost_atoms, cx, cy, cz, cj, m)
+        integer, intent(in) :: first, last
+        real(dp), intent(in) :: x(3, *)
+        integer, intent(in), contiguous :: ghost_atoms(:)
+        real(dp), intent(inout), contiguous :: cx(:), cy(:), cz(:)
+        integer, intent(inout), contiguous :: cj(:)
+        integer, intent(inout) :: m
+        integer :: k, j
+        do k = first, last
+            j = ghost_atoms(k)
+            cx(m + 1) = x(1, j); cy(m + 1) = x(2, j); cz(m + 1) = x(3, j); cj(m + 1) = j
+            m = m + 1
+        end do
+    end subroutine take_ghosts
 
     !> True on every rank if any owned atom anywhere moved more than skin/2 since the build.
     logical function nl_needs_rebuild(self, atoms) result(flag)
@@ -306,6 +390,16 @@ contains
         end if
         allocate (a(n + n/4))
     end subroutine ensure_int
+
+    subroutine ensure_real(a, n)
+        real(dp), allocatable, intent(inout) :: a(:)
+        integer, intent(in) :: n
+        if (allocated(a)) then
+            if (size(a) >= n) return
+            deallocate (a)
+        end if
+        allocate (a(n + n/4))
+    end subroutine ensure_real
 
     subroutine grow_int(a, keep, n)
         integer, allocatable, intent(inout) :: a(:)

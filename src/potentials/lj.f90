@@ -151,6 +151,7 @@ contains
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
             k0 = first(i) - 1
             nn = first(i + 1) - first(i)
+            !GCC$ novector
             do k = 1, nn
                 j = neigh(k0 + k)
                 fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)

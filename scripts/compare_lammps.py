@@ -370,7 +370,10 @@ def cmd_lammps(a):
 def cmd_terrace(a):
     cols_a, rows_a = parse_terrace_csv(a.csv_a)
     cols_b, rows_b = parse_terrace_csv(a.csv_b)
-    cols = [c for c in cols_a if c in cols_b and c != "step"]
+    ignored = set(filter(None, (a.ignore or "").split(",")))
+    cols = [c for c in cols_a if c in cols_b and c != "step" and c not in ignored]
+    if ignored:
+        print(f"note: columns not compared: {sorted(ignored)}")
     steps = sorted(set(rows_a) & set(rows_b))
     if not steps:
         raise InputError(f"no common steps between {a.csv_a} and {a.csv_b}")
@@ -457,6 +460,8 @@ def main(argv=None):
     q.add_argument("--atol", type=float, default=None,
                    help="also accept |a-b| <= atol (for columns that are ~0)")
     q.add_argument("--tiny", type=float, default=1e-300)
+    q.add_argument("--ignore", default="",
+                   help="comma-separated columns not to compare (cost statistics such as evals_per_event)")
     q.set_defaults(func=cmd_terrace)
 
     q = sub.add_parser("lammps-to-terrace",

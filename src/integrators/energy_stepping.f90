@@ -58,6 +58,12 @@ contains
         call self%eng%ray_pass(s, self%last_out)
         self%last_s = s
         fdc = self%last_out(1:3)
+        if (self%evals > 100000) then
+            if (self%eng%plan%nprocs >= 1 .and. world%rank == 0) write (output_unit, '(a,4es24.16)') &
+                'DEBUG runaway search at s, f, df, d2f =', s, fdc
+            if (self%evals > 100020) call stop_all('the event search did not converge (more than 1e5 ray '// &
+                                                    'evaluations for one event): please report this input')
+        end if
     end subroutine engine_ray_eval
 
     !> Global sums over owned atoms: sigma2 = sum |g_i|^2 |v_i|^2 / d (variance of dV/dt for
@@ -143,7 +149,10 @@ contains
         real(dp) :: minv(size(eng%atoms%mass))
 
         ray%eng => eng
-        solver%tol = eng%cfg%root_tolerance*h
+        ! the tolerance cannot be finer than the round-off of the total energy
+        solver%tol = max(eng%cfg%root_tolerance*h, 64*epsilon(1.0_dp)*abs(eng%pe))
+        if (world%rank == 0 .and. solver%tol > eng%cfg%root_tolerance*h) write (output_unit, '(a,es10.3,a)') &
+            '  note       : root_tolerance raised to ', solver%tol/h, ' (round-off of the total energy)'
         mvv2e = eng%cfg%units%mvv2e
         do i = 1, size(minv)
             minv(i) = 1/eng%atoms%mass(i)

@@ -267,6 +267,7 @@ contains
         last_width = huge(1.0_dp)
         slow = .false.
         do it = 1, self%max_evals
+            if (sb - sa <= 4*epsilon(1.0_dp)*max(abs(sa), abs(sb))) exit   ! bracket at round-off
             slow = (sb - sa) > 0.7_dp*last_width
             last_width = sb - sa
             lv = merge(upper, lower, pb(1) > upper)

@@ -173,8 +173,9 @@ contains
     subroutine nl_build(self, atoms)
         class(neighbor_list_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
-        integer :: i, b, n, ntot, nall, nlocal, nghost, maxbin, bound, r, m1, m2, m3, cr
-        real(dp) :: cutsq
+        integer :: i, b, n, ntot, nall, nlocal, nghost, maxbin, bound, r, m1, m2, m3, cr, c, need, occupied
+        real(dp) :: cutsq, sphere, expect
+        real(dp), parameter :: pi = 3.14159265358979324_dp
         nlocal = atoms%nlocal
         nghost = atoms%nghost
         nall = nlocal + nghost
@@ -202,18 +203,32 @@ contains
             self%counts(b) = self%counts(b) + 1
         end do
         maxbin = 0
+        occupied = 0
         do b = 1, ntot
-            maxbin = max(maxbin, self%owned_start(b + 1) - self%owned_start(b) + self%ghost_start(b + 1) - &
-                         self%ghost_start(b))
+            c = self%owned_start(b + 1) - self%owned_start(b) + self%ghost_start(b + 1) - self%ghost_start(b)
+            maxbin = max(maxbin, c)
+            occupied = occupied + min(c, 1)
         end do
         bound = max(maxbin*self%stencil_bins, 1)
+        ! expected length: half the atoms within the cutoff sphere at the mean density of the
+        ! occupied bins, with a margin so that the list rarely has to grow (a copy: a memory peak)
+        if (self%dimension == 2) then
+            sphere = pi*cutsq/(self%bin_size(1)*self%bin_size(2))
+        else
+            sphere = 4*pi/3*cutsq*self%cut/product(self%bin_size)
+        end if
+        expect = 0.5_dp*sphere*real(nall, dp)/max(occupied, 1)*nlocal
         call ensure_real(self%cx, bound)
         call ensure_real(self%cy, bound)
         call ensure_real(self%cz, bound)
         call ensure_int(self%keep, bound)
         call ensure_int(self%cj, bound)
         call ensure_int(self%first, nlocal + 1)
-        call ensure_int(self%neigh, max(nlocal*32, bound, 1024))
+        need = int(min(1.15_dp*expect + bound + 1024, real(huge(1), dp)/2))
+        if (allocated(self%neigh)) then
+            if (size(self%neigh) < need) deallocate (self%neigh)
+        end if
+        if (.not. allocated(self%neigh)) allocate (self%neigh(need))
         n = 0
         self%first(1) = 1
         associate (owned_start => self%owned_start, ghost_start => self%ghost_start, row_lo => self%row_lo, &
@@ -230,21 +245,24 @@ contains
             ! ... and ghosts: those of the rows at the same z (centre row first), tested per atom in
             ! (z, y, x) order, then those of the rows above in z, all above
             m2 = m1
-            call take_ghosts(ghost_start(b - cr), ghost_start(b + cr + 1) - 1, x, self%ghost_atoms, self%cx, self%cy, &
-                             self%cz, self%cj, m2)
+            if (ghost_start(b + cr + 1) > ghost_start(b - cr)) &
+                call take_ghosts(ghost_start(b - cr), ghost_start(b + cr + 1) - 1, x, self%ghost_atoms, self%cx, &
+                                 self%cy, self%cz, self%cj, m2)
             do r = 1, self%nrows
-                if (row_dz(r) /= 0) cycle
+                if (row_dz(r) /= 0 .or. ghost_start(b + row_hi(r) + 1) == ghost_start(b + row_lo(r))) cycle
                 call take_ghosts(ghost_start(b + row_lo(r)), ghost_start(b + row_hi(r) + 1) - 1, x, self%ghost_atoms, &
                                  self%cx, self%cy, self%cz, self%cj, m2)
             end do
             m3 = m2
             do r = self%first_upper_row, self%nrows
-                if (row_dz(r) <= 0) cycle
+                if (row_dz(r) <= 0 .or. ghost_start(b + row_hi(r) + 1) == ghost_start(b + row_lo(r))) cycle
                 call take_ghosts(ghost_start(b + row_lo(r)), ghost_start(b + row_hi(r) + 1) - 1, x, self%ghost_atoms, &
                                  self%cx, self%cy, self%cz, self%cj, m3)
             end do
             do i = owned_start(b), owned_start(b + 1) - 1
-                if (n + bound > size(self%neigh)) call grow_int(self%neigh, n, n + bound)
+                if (n + bound > size(self%neigh)) &
+                    call grow_int(self%neigh, n, n + bound + int(min(1.1_dp*n/max(i - 1, 1)*(nlocal - i + 1), &
+                                                                     real(huge(1), dp)/4)))
                 call owned_after(i, owned_start(b + 1) - 1, x, cutsq, self%neigh, n)
                 call scan(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, 1, m1, cutsq, &
                           self%neigh, n)
@@ -354,6 +372,7 @@ contains
         integer, intent(inout), contiguous :: cj(:)
         integer, intent(inout) :: m
         integer :: k, j
+        !GCC$ novector
         do k = first, last
             j = ghost_atoms(k)
             cx(m + 1) = x(1, j); cy(m + 1) = x(2, j); cz(m + 1) = x(3, j); cj(m + 1) = j
@@ -365,21 +384,31 @@ contains
     logical function nl_needs_rebuild(self, atoms) result(flag)
         class(neighbor_list_t), intent(in) :: self
         type(atoms_t), intent(in) :: atoms
-        integer :: i
-        real(dp) :: limit, dx, dy, dz
-        limit = (0.5_dp*self%skin)**2
-        flag = .false.
-        do i = 1, atoms%nlocal
-            dx = atoms%x(1, i) - self%xhold(1, i)
-            dy = atoms%x(2, i) - self%xhold(2, i)
-            dz = atoms%x(3, i) - self%xhold(3, i)
-            if (dx*dx + dy*dy + dz*dz > limit) then
-                flag = .true.
-                exit
-            end if
-        end do
+        flag = moved_too_far(atoms%nlocal, atoms%x, self%xhold, (0.5_dp*self%skin)**2)
         call any_all(flag)
     end function nl_needs_rebuild
+
+    !> Any of the n atoms displaced by more than sqrt(limit) from xhold: counted over all atoms
+    !> in blocks (branch-free, vectorised), stopping after the first block that has one.
+    logical function moved_too_far(n, x, xhold, limit) result(flag)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: x(3, *), xhold(3, *), limit
+        integer, parameter :: block = 512
+        integer :: i, i0, far
+        real(dp) :: dx, dy, dz
+        flag = .false.
+        do i0 = 1, n, block
+            far = 0
+            do i = i0, min(n, i0 + block - 1)
+                dx = x(1, i) - xhold(1, i); dy = x(2, i) - xhold(2, i); dz = x(3, i) - xhold(3, i)
+                far = far + merge(1, 0, dx*dx + dy*dy + dz*dz > limit)
+            end do
+            if (far > 0) then
+                flag = .true.
+                return
+            end if
+        end do
+    end function moved_too_far
 
     subroutine ensure_int(a, n)
         integer, allocatable, intent(inout) :: a(:)
@@ -405,7 +434,7 @@ contains
         integer, allocatable, intent(inout) :: a(:)
         integer, intent(in) :: keep, n
         integer, allocatable :: t(:)
-        allocate (t(max(n, 2*size(a))))
+        allocate (t(max(n, size(a) + size(a)/4)))
         t(1:keep) = a(1:keep)
         call move_alloc(t, a)
     end subroutine grow_int

@@ -24,6 +24,9 @@ module terrace_lj
     !> select of two values, not a division that might trap). Read through a volatile so that GCC
     !> cannot fold 1/inf and turn the select back into a branch around the division.
     real(dp), volatile, save :: infinity = transfer(9218868437227405312_int64, 1.0_dp)
+    !> 1 and 0 read through volatiles for the 0/1 factor "inside the cutoff" (GCC would otherwise
+    !> split x * merge(1, 0, c) into a branch around x * 0, which it may not if-convert either).
+    real(dp), volatile, save :: one = 1, zero = 0
 
     type, public :: lj_t
         integer :: ntypes = 1
@@ -110,25 +113,32 @@ contains
         type(neighbor_list_t), intent(in) :: list
         logical, intent(in) :: want_energy
         real(dp), intent(out) :: energy, virial
+        integer :: nb
         energy = 0; virial = 0
+        ! work rows, one entry per neighbour of the current atom: separations / pair forces (3),
+        ! per-pair coefficients (up to 8), pair energies and virials (2)
+        nb = list%max_neighbors + 16
         if (allocated(self%work)) then
-            if (size(self%work, 1) < list%max_neighbors) deallocate (self%work)
+            if (size(self%work, 1) < nb .or. size(self%work, 2) < 13) deallocate (self%work)
         end if
-        if (.not. allocated(self%work)) allocate (self%work(list%max_neighbors + 16, 3))
+        if (.not. allocated(self%work)) allocate (self%work(nb, 13))
         associate (work => self%work)
         if (self%smooth) then
-            call kernel_smooth(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, energy, virial)
+            call kernel_smooth(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, want_energy, &
+                               infinity, one, zero, work, energy, virial)
         else if (self%ntypes == 1) then
             if (want_energy) then
                 call kernel_one_type_energy(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%lj1(1, 1), &
                                             self%lj2(1, 1), self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), &
-                                            self%offset(1, 1), energy, virial)
+                                            self%offset(1, 1), infinity, one, zero, work(:, 1), work(:, 2), work(:, 3), &
+                                            work(:, 4), work(:, 5), energy, virial)
             else
                 call kernel_one_type(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%lj1(1, 1), &
                                      self%lj2(1, 1), self%cutsq(1, 1), infinity, work(:, 1), work(:, 2), work(:, 3))
             end if
         else
-            call kernel_types(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, energy, virial)
+            call kernel_types(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, want_energy, &
+                              infinity, one, zero, work, energy, virial)
         end if
         end associate
     end subroutine lj_compute
@@ -173,99 +183,248 @@ contains
         end do
     end subroutine kernel_one_type
 
-    subroutine kernel_one_type_energy(nlocal, x, f, first, neigh, lj1, lj2, lj3, lj4, cutsq, offset, energy, virial)
+    !> Kernel_one_type plus the energy and the virial of the pairs (pair values kept in work rows,
+    !> summed in list order during the scatter).
+    subroutine kernel_one_type_energy(nlocal, x, f, first, neigh, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, &
+                                      one_, zero_, fx, fy, fz, ep, wp, energy, virial)
         integer, intent(in) :: nlocal
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in), contiguous :: x(:, :)
-        real(dp), intent(in) :: lj1, lj2, lj3, lj4, cutsq, offset
+        real(dp), intent(in) :: lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_
         real(dp), intent(inout), contiguous :: f(:, :)
+        real(dp), intent(inout), contiguous :: fx(:), fy(:), fz(:), ep(:), wp(:)
         real(dp), intent(inout) :: energy, virial
-        integer :: i, k, j
-        real(dp) :: xi, yi, zi, fxi, fyi, fzi, dx, dy, dz, rsq, r2inv, r6inv, fpair, e, w
+        integer :: i, k, j, k0, nn
+        real(dp) :: xi, yi, zi, fxi, fyi, fzi, rsq, r2inv, r6inv, fpair, e, w, inside, lj1, lj2, lj3, lj4, cutsq, &
+                    offset, far, one, zero
+        lj1 = lj1_; lj2 = lj2_; lj3 = lj3_; lj4 = lj4_; cutsq = cutsq_; offset = offset_; far = inf
+        one = one_; zero = zero_
         e = 0; w = 0
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            !GCC$ novector
+            do k = 1, nn
+                j = neigh(k0 + k)
+                fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)
+            end do
+            do k = 1, nn
+                rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
+                inside = merge(one, zero, rsq < cutsq)
+                r2inv = 1/merge(rsq, far, rsq < cutsq)
+                r6inv = r2inv*r2inv*r2inv
+                fpair = r6inv*(lj1*r6inv - lj2)*r2inv
+                ep(k) = r6inv*(lj3*r6inv - lj4) - offset*inside
+                wp(k) = rsq*fpair
+                fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+            end do
             fxi = 0; fyi = 0; fzi = 0
-            do k = first(i), first(i + 1) - 1
-                j = neigh(k)
-                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
-                rsq = dx*dx + dy*dy + dz*dz
-                if (rsq < cutsq) then
-                    r2inv = 1/rsq
-                    r6inv = r2inv*r2inv*r2inv
-                    fpair = r6inv*(lj1*r6inv - lj2)*r2inv
-                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
-                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
-                    e = e + r6inv*(lj3*r6inv - lj4) - offset
-                    w = w + rsq*fpair
-                end if
+            do k = 1, nn
+                j = neigh(k0 + k)
+                f(1, j) = f(1, j) - fx(k); f(2, j) = f(2, j) - fy(k); f(3, j) = f(3, j) - fz(k)
+                fxi = fxi + fx(k); fyi = fyi + fy(k); fzi = fzi + fz(k)
+                e = e + ep(k); w = w + wp(k)
             end do
             f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
         end do
         energy = energy + e; virial = virial + w
     end subroutine kernel_one_type_energy
 
-    subroutine kernel_types(self, nlocal, x, f, type, first, neigh, energy, virial)
+    !> Several types: as kernel_one_type(_energy), the per-pair coefficients gathered with the
+    !> separations (columns of work: separations 1-3, lj1, lj2, cutsq, lj3, lj4, offset, pair
+    !> energy, pair virial).
+    subroutine kernel_types(self, nlocal, x, f, type, first, neigh, want_energy, inf, one_, zero_, work, energy, virial)
         type(lj_t), intent(in) :: self
-        integer, intent(in) :: nlocal, type(:), first(:), neigh(:)
-        real(dp), intent(in) :: x(:, :)
-        real(dp), intent(inout) :: f(:, :), energy, virial
-        integer :: i, k, j, ti, tj
-        real(dp) :: xi, yi, zi, fxi, fyi, fzi, dx, dy, dz, rsq, r2inv, r6inv, fpair, e, w
+        integer, intent(in) :: nlocal
+        integer, intent(in), contiguous :: type(:), first(:), neigh(:)
+        real(dp), intent(in), contiguous :: x(:, :)
+        real(dp), intent(in) :: inf, one_, zero_
+        real(dp), intent(inout), contiguous :: f(:, :)
+        real(dp), intent(inout) :: energy, virial
+        logical, intent(in) :: want_energy
+        real(dp), intent(inout), contiguous, target :: work(:, :)
+        integer :: i, k, j, k0, nn, ti, tj
+        real(dp) :: xi, yi, zi, e, w, far, one, zero
+        real(dp), pointer, contiguous :: fx(:), fy(:), fz(:), c1(:), c2(:), cs(:), c3(:), c4(:), co(:), ep(:), wp(:)
+        fx => work(:, 1); fy => work(:, 2); fz => work(:, 3); c1 => work(:, 4); c2 => work(:, 5); cs => work(:, 6)
+        c3 => work(:, 7); c4 => work(:, 8); co => work(:, 9); ep => work(:, 10); wp => work(:, 11)
+        far = inf; one = one_; zero = zero_
         e = 0; w = 0
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i); ti = type(i)
-            fxi = 0; fyi = 0; fzi = 0
-            do k = first(i), first(i + 1) - 1
-                j = neigh(k); tj = type(j)
-                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
-                rsq = dx*dx + dy*dy + dz*dz
-                if (rsq < self%cutsq(tj, ti)) then
-                    r2inv = 1/rsq
-                    r6inv = r2inv*r2inv*r2inv
-                    fpair = r6inv*(self%lj1(tj, ti)*r6inv - self%lj2(tj, ti))*r2inv
-                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
-                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
-                    e = e + r6inv*(self%lj3(tj, ti)*r6inv - self%lj4(tj, ti)) - self%offset(tj, ti)
-                    w = w + rsq*fpair
-                end if
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            !GCC$ novector
+            do k = 1, nn
+                j = neigh(k0 + k); tj = type(j)
+                fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)
+                c1(k) = self%lj1(tj, ti); c2(k) = self%lj2(tj, ti); cs(k) = self%cutsq(tj, ti)
             end do
-            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
+            if (want_energy) then
+                !GCC$ novector
+                do k = 1, nn
+                    tj = type(neigh(k0 + k))
+                    c3(k) = self%lj3(tj, ti); c4(k) = self%lj4(tj, ti); co(k) = self%offset(tj, ti)
+                end do
+                call pair_forces_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, far, one, zero, ep, wp)
+            else
+                call pair_forces(nn, fx, fy, fz, c1, c2, cs, far)
+            end if
+            call scatter(i, nn, neigh(k0 + 1:k0 + nn), fx, fy, fz, f)
+            if (want_energy) then
+                do k = 1, nn
+                    e = e + ep(k); w = w + wp(k)
+                end do
+            end if
         end do
         energy = energy + e; virial = virial + w
     end subroutine kernel_types
 
-    subroutine kernel_smooth(self, nlocal, x, f, type, first, neigh, energy, virial)
+    !> Style lj/smooth/linear: as kernel_types, with fpair - fc/r and the energy term (r - rc) fc
+    !> (columns 12, 13 of work: rc and fc).
+    subroutine kernel_smooth(self, nlocal, x, f, type, first, neigh, want_energy, inf, one_, zero_, work, energy, virial)
         type(lj_t), intent(in) :: self
-        integer, intent(in) :: nlocal, type(:), first(:), neigh(:)
-        real(dp), intent(in) :: x(:, :)
-        real(dp), intent(inout) :: f(:, :), energy, virial
-        integer :: i, k, j, ti, tj
-        real(dp) :: xi, yi, zi, fxi, fyi, fzi, dx, dy, dz, rsq, r2inv, r6inv, fpair, e, w, r, rinv
+        integer, intent(in) :: nlocal
+        integer, intent(in), contiguous :: type(:), first(:), neigh(:)
+        real(dp), intent(in), contiguous :: x(:, :)
+        real(dp), intent(in) :: inf, one_, zero_
+        real(dp), intent(inout), contiguous :: f(:, :)
+        real(dp), intent(inout) :: energy, virial
+        logical, intent(in) :: want_energy
+        real(dp), intent(inout), contiguous, target :: work(:, :)
+        integer :: i, k, j, k0, nn, ti, tj
+        real(dp) :: xi, yi, zi, e, w, far, one, zero
+        real(dp), pointer, contiguous :: fx(:), fy(:), fz(:), c1(:), c2(:), cs(:), c3(:), c4(:), co(:), ep(:), wp(:), &
+                                         crc(:), cfc(:)
+        fx => work(:, 1); fy => work(:, 2); fz => work(:, 3); c1 => work(:, 4); c2 => work(:, 5); cs => work(:, 6)
+        c3 => work(:, 7); c4 => work(:, 8); co => work(:, 9); ep => work(:, 10); wp => work(:, 11)
+        crc => work(:, 12); cfc => work(:, 13)
+        far = inf; one = one_; zero = zero_
         e = 0; w = 0
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i); ti = type(i)
-            fxi = 0; fyi = 0; fzi = 0
-            do k = first(i), first(i + 1) - 1
-                j = neigh(k); tj = type(j)
-                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
-                rsq = dx*dx + dy*dy + dz*dz
-                if (rsq < self%cutsq(tj, ti)) then
-                    r2inv = 1/rsq
-                    r6inv = r2inv*r2inv*r2inv
-                    r = sqrt(rsq); rinv = 1/r
-                    fpair = r6inv*(self%lj1(tj, ti)*r6inv - self%lj2(tj, ti))*r2inv - self%fc(tj, ti)*rinv
-                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
-                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
-                    e = e + r6inv*(self%lj3(tj, ti)*r6inv - self%lj4(tj, ti)) - self%offset(tj, ti) + &
-                        (r - self%rc(tj, ti))*self%fc(tj, ti)
-                    w = w + rsq*fpair
-                end if
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            !GCC$ novector
+            do k = 1, nn
+                j = neigh(k0 + k); tj = type(j)
+                fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)
+                c1(k) = self%lj1(tj, ti); c2(k) = self%lj2(tj, ti); cs(k) = self%cutsq(tj, ti)
+                cfc(k) = self%fc(tj, ti)
             end do
-            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
+            if (want_energy) then
+                !GCC$ novector
+                do k = 1, nn
+                    tj = type(neigh(k0 + k))
+                    c3(k) = self%lj3(tj, ti); c4(k) = self%lj4(tj, ti); co(k) = self%offset(tj, ti)
+                    crc(k) = self%rc(tj, ti)
+                end do
+                call pair_forces_smooth_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, crc, cfc, far, one, zero, ep, wp)
+            else
+                call pair_forces_smooth(nn, fx, fy, fz, c1, c2, cs, cfc, far)
+            end if
+            call scatter(i, nn, neigh(k0 + 1:k0 + nn), fx, fy, fz, f)
+            if (want_energy) then
+                do k = 1, nn
+                    e = e + ep(k); w = w + wp(k)
+                end do
+            end if
         end do
         energy = energy + e; virial = virial + w
     end subroutine kernel_smooth
+
+    !> Pair forces fpair*(dx, dy, dz) in place of the separations, per-pair coefficients.
+    pure subroutine pair_forces(nn, fx, fy, fz, c1, c2, cs, far)
+        integer, intent(in) :: nn
+        real(dp), intent(inout) :: fx(nn), fy(nn), fz(nn)
+        real(dp), intent(in) :: c1(nn), c2(nn), cs(nn), far
+        integer :: k
+        real(dp) :: rsq, r2inv, r6inv, fpair
+        do k = 1, nn
+            rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
+            r2inv = 1/merge(rsq, far, rsq < cs(k))
+            r6inv = r2inv*r2inv*r2inv
+            fpair = r6inv*(c1(k)*r6inv - c2(k))*r2inv
+            fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+        end do
+    end subroutine pair_forces
+
+    !> pair_forces plus pair energies ep and virials wp.
+    pure subroutine pair_forces_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, far, one, zero, ep, wp)
+        integer, intent(in) :: nn
+        real(dp), intent(inout) :: fx(nn), fy(nn), fz(nn)
+        real(dp), intent(in) :: c1(nn), c2(nn), cs(nn), c3(nn), c4(nn), co(nn), far, one, zero
+        real(dp), intent(out) :: ep(nn), wp(nn)
+        integer :: k
+        real(dp) :: rsq, r2inv, r6inv, fpair, inside
+        do k = 1, nn
+            rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
+            inside = merge(one, zero, rsq < cs(k))
+            r2inv = 1/merge(rsq, far, rsq < cs(k))
+            r6inv = r2inv*r2inv*r2inv
+            fpair = r6inv*(c1(k)*r6inv - c2(k))*r2inv
+            ep(k) = r6inv*(c3(k)*r6inv - c4(k)) - co(k)*inside
+            wp(k) = rsq*fpair
+            fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+        end do
+    end subroutine pair_forces_energy
+
+    !> lj/smooth/linear pair forces: fpair - fc/r.
+    pure subroutine pair_forces_smooth(nn, fx, fy, fz, c1, c2, cs, cfc, far)
+        integer, intent(in) :: nn
+        real(dp), intent(inout) :: fx(nn), fy(nn), fz(nn)
+        real(dp), intent(in) :: c1(nn), c2(nn), cs(nn), cfc(nn), far
+        integer :: k
+        real(dp) :: rsq, r2inv, r6inv, fpair, r, rinv
+        do k = 1, nn
+            rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
+            r2inv = 1/merge(rsq, far, rsq < cs(k))
+            r6inv = r2inv*r2inv*r2inv
+            r = sqrt(rsq)
+            rinv = r*r2inv                       ! 1/r inside the cutoff, 0 beyond
+            fpair = r6inv*(c1(k)*r6inv - c2(k))*r2inv - cfc(k)*rinv
+            fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+        end do
+    end subroutine pair_forces_smooth
+
+    !> pair_forces_smooth plus pair energies (+ (r - rc) fc) and virials.
+    pure subroutine pair_forces_smooth_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, crc, cfc, far, one, zero, ep, wp)
+        integer, intent(in) :: nn
+        real(dp), intent(inout) :: fx(nn), fy(nn), fz(nn)
+        real(dp), intent(in) :: c1(nn), c2(nn), cs(nn), c3(nn), c4(nn), co(nn), crc(nn), cfc(nn), far, one, zero
+        real(dp), intent(out) :: ep(nn), wp(nn)
+        integer :: k
+        real(dp) :: rsq, r2inv, r6inv, fpair, inside, r, rinv
+        do k = 1, nn
+            rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
+            inside = merge(one, zero, rsq < cs(k))
+            r2inv = 1/merge(rsq, far, rsq < cs(k))
+            r6inv = r2inv*r2inv*r2inv
+            r = sqrt(rsq)
+            rinv = r*r2inv                       ! 1/r inside the cutoff, 0 beyond
+            fpair = r6inv*(c1(k)*r6inv - c2(k))*r2inv - cfc(k)*rinv
+            ep(k) = r6inv*(c3(k)*r6inv - c4(k)) - co(k)*inside + (r - crc(k))*cfc(k)*inside
+            wp(k) = rsq*fpair
+            fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+        end do
+    end subroutine pair_forces_smooth_energy
+
+    !> Newton's third law for the pair forces (fx, fy, fz)(1:nn) on atom i from its neighbours.
+    pure subroutine scatter(i, nn, neigh, fx, fy, fz, f)
+        integer, intent(in) :: i, nn, neigh(:)
+        real(dp), intent(in) :: fx(:), fy(:), fz(:)
+        real(dp), intent(inout) :: f(:, :)
+        integer :: k, j
+        real(dp) :: fxi, fyi, fzi
+        fxi = 0; fyi = 0; fzi = 0
+        do k = 1, nn
+            j = neigh(k)
+            f(1, j) = f(1, j) - fx(k); f(2, j) = f(2, j) - fy(k); f(3, j) = f(3, j) - fz(k)
+            fxi = fxi + fx(k); fyi = fyi + fy(k); fzi = fzi + fz(k)
+        end do
+        f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
+    end subroutine scatter
 
     !> Ray pass over the half list: out = (f, f', f'', virial) of the pairs this rank holds, at
     !> positions x + s v (owned and ghost atoms; nothing is moved and no force is stored).

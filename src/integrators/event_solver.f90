@@ -212,7 +212,7 @@ contains
         real(dp), intent(in) :: lower, upper, s_max, p0_in(3), trust_in
         logical, intent(in) :: have_c0
         type(crossing_t), intent(out) :: res
-        real(dp) :: s0, p0(3), s1, p1(3), sa, pa(3), sb, pb(3), step, trust
+        real(dp) :: s0, p0(3), s1, p1(3), sa, pa(3), sb, pb(3), step, trust, su, sl
         integer :: status
         s0 = 0
         p0 = p0_in
@@ -244,6 +244,22 @@ contains
             if (abs(p1(1) - lower) <= self%tol .and. p1(2) < 0 .and. (p1(1) < lower - 0.5_dp*self%tol .or. &
                 taylor_step(p1(1), p1(2), p1(3), lower - 0.5_dp*self%tol) < huge(1.0_dp))) then
                 res = crossing_t(.true., s1, level_lower, .true., p1); return
+            end if
+            ! the next Taylor root is so close that its predicted error (f''' from the two ends)
+            ! is below the tolerance: return it unevaluated, the force pass at the kick verifies it
+            ! (only a real crossing: the quadratic must also get beyond the level by tol/2)
+            su = huge(1.0_dp); sl = huge(1.0_dp)
+            if (taylor_step(p1(1), p1(2), p1(3), upper + 0.5_dp*self%tol) < huge(1.0_dp)) &
+                su = taylor_step(p1(1), p1(2), p1(3), upper)
+            if (taylor_step(p1(1), p1(2), p1(3), lower - 0.5_dp*self%tol) < huge(1.0_dp)) &
+                sl = taylor_step(p1(1), p1(2), p1(3), lower)
+            step = min(su, sl)
+            if (step < 0.25_dp*(s1 - s0) .and. s1 + step <= s_max) then
+                if (abs(p1(3) - p0(3))/(s1 - s0)*step**3/6 < 0.1_dp*self%tol) then
+                    res = crossing_t(.true., s1 + step, merge(level_upper, level_lower, su <= sl), .false., &
+                                     [0.0_dp, 0.0_dp, 0.0_dp])
+                    return
+                end if
             end if
             s0 = s1; p0 = p1     ! trust stays a cap on every step
             if (s0 >= s_max) exit

@@ -150,6 +150,10 @@ contains
                 es%time/es%events, ';  ray evaluations per event: ', real(es%ray_evals, dp)/es%events, &
                 ';  force passes per event: ', real(es%force_passes, dp)/es%events, ';  verification misses: ', &
                 es%verify_misses
+            if (es%events >= 100 .and. es%reflections > 0.9_dp*es%events) write (output_unit, '(a)') &
+                'terrace: warning: more than 90 % of the events were reflections: the state is trapped below a '// &
+                'terrace edge (its climbs never carry enough kinetic energy across it), so kinetic and potential '// &
+                'energy no longer exchange. Use a smaller terrace_height.'
         end if
     end subroutine energy_stepping_run
 

@@ -7,7 +7,7 @@ repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 prefix_args=()
 pf="${PFUNIT_PREFIX:-/opt/pfunit}"
 [[ -d "$pf" ]] && prefix_args=(-DCMAKE_PREFIX_PATH="$pf")
-cmake -S "$repo" -B "$repo/build" -DCMAKE_BUILD_TYPE=Release "${prefix_args[@]}" "$@" > "$repo/build/../.cmake-configure.log" 2>&1 || {
+cmake -S "$repo" -B "$repo/build" -DCMAKE_BUILD_TYPE=Release "${prefix_args[@]}" "$@" > "$repo/.cmake-configure.log" 2>&1 || {
   cat "$repo/.cmake-configure.log" >&2; exit 1; }
 grep -E "^-- Terrace|Terrace:" "$repo/.cmake-configure.log" || true
 cmake --build "$repo/build" -j "$(nproc)" ${BUILD_TARGET:+--target "$BUILD_TARGET"} > "$repo/.cmake-build.log" 2>&1 || { tail -40 "$repo/.cmake-build.log" >&2; exit 1; }

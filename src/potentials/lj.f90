@@ -429,48 +429,71 @@ contains
     !> Ray pass over the half list: out = (f, f', f'', virial) of the pairs this rank holds, at
     !> positions x + s v (owned and ghost atoms; nothing is moved and no force is stored).
     subroutine lj_ray(self, atoms, list, s, out)
-        class(lj_t), intent(in) :: self
+        class(lj_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
         type(neighbor_list_t), intent(in) :: list
         real(dp), intent(in) :: s
         real(dp), intent(out) :: out(4)
+        integer :: nb
         if (self%ntypes == 1 .and. .not. self%smooth) then
+            nb = list%max_neighbors + 16
+            if (allocated(self%work)) then
+                if (size(self%work, 1) < nb .or. size(self%work, 2) < 13) deallocate (self%work)
+            end if
+            if (.not. allocated(self%work)) allocate (self%work(nb, 13))
             call ray_one_type(atoms%nlocal, atoms%x, atoms%v, list%first, list%neigh, s, self%lj1(1, 1), self%lj2(1, 1), &
-                              self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1), out)
+                              self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1), infinity, one, zero, &
+                              self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
+                              self%work(:, 6), self%work(:, 7), self%work(:, 8), self%work(:, 9), self%work(:, 10), out)
         else
             call ray_general(self, atoms, list%first, list%neigh, s, out)
         end if
     end subroutine lj_ray
 
-    subroutine ray_one_type(nlocal, x, v, first, neigh, s, lj1, lj2, lj3, lj4, cutsq, offset, out)
+    !> Ray pass, one type: per atom a scalar gather of the pair separations d and relative
+    !> velocities w at s, a branch-free vectorised pass for the four per-pair terms (the cutoff is a
+    !> mask: 1/rsq of an "infinite" separation), and a scalar sum.
+    subroutine ray_one_type(nlocal, x, v, first, neigh, s, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_, &
+                            dx, dy, dz, wx, wy, wz, pe, pe1, pe2, pv, out)
         integer, intent(in) :: nlocal
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in), contiguous :: x(:, :), v(:, :)
-        real(dp), intent(in) :: s, lj1, lj2, lj3, lj4, cutsq, offset
+        real(dp), intent(in) :: s, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), wx(:), wy(:), wz(:), pe(:), pe1(:), pe2(:), pv(:)
         real(dp), intent(out) :: out(4)
-        integer :: i, k, j
-        real(dp) :: xi, yi, zi, vxi, vyi, vzi, dx, dy, dz, wx, wy, wz, rsq, r2inv, r6inv, fpair, dpsi, d2psi, rho1, &
-                    e, e1, e2, vir, inside
+        integer :: i, k, j, k0, nn
+        real(dp) :: xi, yi, zi, vxi, vyi, vzi, rsq, r2inv, r6inv, fpair, dpsi, d2psi, rho1, inside, &
+                    e, e1, e2, vir, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero
+        lj1 = lj1_; lj2 = lj2_; lj3 = lj3_; lj4 = lj4_; cutsq = cutsq_; offset = offset_
+        far = inf; one = one_; zero = zero_
         e = 0; e1 = 0; e2 = 0; vir = 0
         do i = 1, nlocal
             vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
             xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
-            do k = first(i), first(i + 1) - 1
-                j = neigh(k)
-                wx = vxi - v(1, j); wy = vyi - v(2, j); wz = vzi - v(3, j)
-                dx = xi - (x(1, j) + s*v(1, j)); dy = yi - (x(2, j) + s*v(2, j)); dz = zi - (x(3, j) + s*v(3, j))
-                rsq = dx*dx + dy*dy + dz*dz
-                inside = merge(1.0_dp, 0.0_dp, rsq < cutsq)
-                r2inv = 1/rsq
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            !GCC$ novector
+            do k = 1, nn
+                j = neigh(k0 + k)
+                wx(k) = vxi - v(1, j); wy(k) = vyi - v(2, j); wz(k) = vzi - v(3, j)
+                dx(k) = xi - (x(1, j) + s*v(1, j)); dy(k) = yi - (x(2, j) + s*v(2, j)); dz(k) = zi - (x(3, j) + s*v(3, j))
+            end do
+            do k = 1, nn
+                rsq = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
+                inside = merge(one, zero, rsq < cutsq)
+                r2inv = 1/merge(rsq, far, rsq < cutsq)
                 r6inv = r2inv*r2inv*r2inv
                 fpair = r6inv*(lj1*r6inv - lj2)*r2inv
                 dpsi = -0.5_dp*fpair
                 d2psi = 0.5_dp*(7*lj1*r6inv - 4*lj2)*r6inv*r2inv*r2inv
-                rho1 = 2*(dx*wx + dy*wy + dz*wz)
-                e = e + inside*(r6inv*(lj3*r6inv - lj4) - offset)
-                e1 = e1 + inside*dpsi*rho1
-                e2 = e2 + inside*(d2psi*rho1*rho1 + dpsi*2*(wx*wx + wy*wy + wz*wz))
-                vir = vir + inside*fpair*rsq
+                rho1 = 2*(dx(k)*wx(k) + dy(k)*wy(k) + dz(k)*wz(k))
+                pe(k) = r6inv*(lj3*r6inv - lj4) - inside*offset
+                pe1(k) = dpsi*rho1
+                pe2(k) = d2psi*rho1*rho1 + dpsi*2*(wx(k)*wx(k) + wy(k)*wy(k) + wz(k)*wz(k))
+                pv(k) = fpair*rsq
+            end do
+            do k = 1, nn
+                e = e + pe(k); e1 = e1 + pe1(k); e2 = e2 + pe2(k); vir = vir + pv(k)
             end do
         end do
         out = [e, e1, e2, vir]

@@ -369,47 +369,51 @@ contains
         end do
     end subroutine domain_borders
 
-    !> Forward communication: copy owner values of a per-atom 3-vector into the ghosts
-    !> (positions with the periodic shift when `shifted`, velocities or forces without).
+    !> Forward communication: copy owner values of a per-atom quantity with nc components
+    !> (a(nc, n): positions with the periodic shift when `shifted`, velocities, F'(rho), ...) into
+    !> the ghosts.
     subroutine domain_forward(self, a, shifted)
         class(domain_t), intent(inout) :: self
         real(dp), intent(inout) :: a(:, :)
         logical, intent(in) :: shifted
-        integer :: s, j, i, n, p
-        real(dp) :: sh(3)
+        integer :: s, j, i, n, p, nc
+        real(dp) :: sh(size(a, 1))
+        nc = size(a, 1)
         do s = 1, self%nswap
             associate (sw => self%swaps(s))
                 sh = 0
-                if (shifted) sh = sw%shift
+                if (shifted) sh = sw%shift(1:nc)
                 if (sw%self_copy) then
                     do j = 1, sw%nsend
                         a(:, sw%first_recv + j - 1) = a(:, sw%list(j)) + sh
                     end do
                 else
-                    call ensure(self%sendbuf, 3*sw%nsend)
-                    call ensure(self%recvbuf, 3*sw%nrecv)
+                    call ensure(self%sendbuf, nc*sw%nsend)
+                    call ensure(self%recvbuf, nc*sw%nrecv)
                     do j = 1, sw%nsend
-                        i = sw%list(j); p = 3*(j - 1)
-                        self%sendbuf(p + 1:p + 3) = a(:, i) + sh
+                        i = sw%list(j); p = nc*(j - 1)
+                        self%sendbuf(p + 1:p + nc) = a(:, i) + sh
                     end do
-                    call MPI_Sendrecv(self%sendbuf, 3*sw%nsend, MPI_DOUBLE_PRECISION, sw%send_to, 12, &
-                                      self%recvbuf, 3*sw%nrecv, MPI_DOUBLE_PRECISION, sw%recv_from, 12, &
+                    call MPI_Sendrecv(self%sendbuf, nc*sw%nsend, MPI_DOUBLE_PRECISION, sw%send_to, 12, &
+                                      self%recvbuf, nc*sw%nrecv, MPI_DOUBLE_PRECISION, sw%recv_from, 12, &
                                       self%cart, MPI_STATUS_IGNORE)
                     do j = 1, sw%nrecv
-                        n = sw%first_recv + j - 1; p = 3*(j - 1)
-                        a(:, n) = self%recvbuf(p + 1:p + 3)
+                        n = sw%first_recv + j - 1; p = nc*(j - 1)
+                        a(:, n) = self%recvbuf(p + 1:p + nc)
                     end do
                 end if
             end associate
         end do
     end subroutine domain_forward
 
-    !> Reverse communication: add ghost values of a per-atom 3-vector (forces) back into their
-    !> owners, swap by swap in reverse order (so ghosts of ghosts pass their share on).
+    !> Reverse communication: add ghost values of a per-atom quantity with nc components (forces,
+    !> densities) back into their owners, swap by swap in reverse order (so ghosts of ghosts pass
+    !> their share on).
     subroutine domain_reverse(self, a)
         class(domain_t), intent(inout) :: self
         real(dp), intent(inout) :: a(:, :)
-        integer :: s, j, i, n, p
+        integer :: s, j, i, n, p, nc
+        nc = size(a, 1)
         do s = self%nswap, 1, -1
             associate (sw => self%swaps(s))
                 if (sw%self_copy) then
@@ -418,18 +422,18 @@ contains
                         a(:, i) = a(:, i) + a(:, sw%first_recv + j - 1)
                     end do
                 else
-                    call ensure(self%sendbuf, 3*sw%nrecv)
-                    call ensure(self%recvbuf, 3*sw%nsend)
+                    call ensure(self%sendbuf, nc*sw%nrecv)
+                    call ensure(self%recvbuf, nc*sw%nsend)
                     do j = 1, sw%nrecv
-                        n = sw%first_recv + j - 1; p = 3*(j - 1)
-                        self%sendbuf(p + 1:p + 3) = a(:, n)
+                        n = sw%first_recv + j - 1; p = nc*(j - 1)
+                        self%sendbuf(p + 1:p + nc) = a(:, n)
                     end do
-                    call MPI_Sendrecv(self%sendbuf, 3*sw%nrecv, MPI_DOUBLE_PRECISION, sw%recv_from, 13, &
-                                      self%recvbuf, 3*sw%nsend, MPI_DOUBLE_PRECISION, sw%send_to, 13, &
+                    call MPI_Sendrecv(self%sendbuf, nc*sw%nrecv, MPI_DOUBLE_PRECISION, sw%recv_from, 13, &
+                                      self%recvbuf, nc*sw%nsend, MPI_DOUBLE_PRECISION, sw%send_to, 13, &
                                       self%cart, MPI_STATUS_IGNORE)
                     do j = 1, sw%nsend
-                        i = sw%list(j); p = 3*(j - 1)
-                        a(:, i) = a(:, i) + self%recvbuf(p + 1:p + 3)
+                        i = sw%list(j); p = nc*(j - 1)
+                        a(:, i) = a(:, i) + self%recvbuf(p + 1:p + nc)
                     end do
                 end if
             end associate

@@ -71,9 +71,11 @@ new_files() {
     comm -13 <(printf '%s\n' "$before") <(printf '%s\n' "$after") | sed 's|^\./||' | paste -s -d ' ' -
 }
 
-# stderr without Open MPI's dash-delimited boxes and without blank lines
+# stderr without Open MPI's dash-delimited boxes, without the libevent warnings mpirun itself
+# sometimes prints while its ranks exit ("[warn] Epoll ... Bad file descriptor"), and without blank
+# lines
 filtered_stderr() {
-    awk '/^--------------------+$/ { inbox = !inbox; next } !inbox && NF > 0' "$1"
+    awk '/^--------------------+$/ { inbox = !inbox; next } /^\[warn\] Epoll / { next } !inbox && NF > 0' "$1"
 }
 
 report() { # status, np, name, note

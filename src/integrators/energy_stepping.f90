@@ -144,7 +144,8 @@ contains
         integer(i8) :: k, n_sample, last_events, last_evals
         real(dp) :: t, lower, upper, p0(3), t_exp, t_next_sample, window, sigma2, a, b, lam, vstar, trust, &
                     last_time, mvv2e
-        logical :: have_c, sample_due
+        logical :: have_c, sample_due, have_guess
+        real(dp) :: c_guess
         integer :: i, outcome
         real(dp) :: minv(size(eng%atoms%mass))
 
@@ -164,6 +165,8 @@ contains
         call gradient_sums(eng, sigma2, a, b)
         p0 = [eng%pe, b/mvv2e, 0.0_dp]
         have_c = .false.
+        have_guess = .false.
+        c_guess = 0
         n_sample = 1
         t_next_sample = huge(1.0_dp)
         if (sample_interval > 0) t_next_sample = sample_interval
@@ -176,7 +179,11 @@ contains
             if (t >= t_end .or. stats%events >= max_events) exit
             window = max(0.0_dp, min(t_exp, t_next_sample, t_end) - t)
             ray%evals = 0
-            call solver%first_crossing(ray, lower, upper, window, p0, have_c, trust, res)
+            if (have_c .or. .not. have_guess) then
+                call solver%first_crossing(ray, lower, upper, window, p0, have_c, trust, res)
+            else
+                call solver%first_crossing(ray, lower, upper, window, p0, have_c, trust, res, c_guess)
+            end if
             stats%ray_evals = stats%ray_evals + ray%evals
             if (.not. res%found) then
                 ! ---- window end: sample, list expiry or end of run; no kick
@@ -207,6 +214,8 @@ contains
                 cycle
             end if
             ! ---- a level crossing at s = res%s: drift there, one force pass, the jump
+            c_guess = res%c_near
+            have_guess = .true.
             call eng%drift(res%s)
             t = t + res%s
             call eng%compute_forces(.true.)

@@ -43,6 +43,7 @@ module terrace_event_solver
         integer :: level = level_none      !< which edge is crossed
         logical :: evaluated = .false.     !< fdc holds f, f', f'' at s
         real(dp) :: fdc(3) = 0
+        real(dp) :: c_near = 0             !< f'' at the evaluated point nearest to s (a guess for later)
     end type crossing_t
 
     type, public :: event_solver_t
@@ -205,20 +206,31 @@ contains
     end subroutine scan_interval
 
     !> First crossing of lower or upper by f(s), 0 < s <= s_max. p0 = (f, f', f'') at s = 0 when
-    !> have_c0, else only (f, f') are known and f'' is evaluated first. trust caps the first step.
-    subroutine solver_first_crossing(self, ray, lower, upper, s_max, p0_in, have_c0, trust_in, res)
+    !> have_c0, else only (f, f') are known: then f'' is evaluated first, unless c0_guess is given
+    !> (the curvature just before a velocity jump): it only aims the first step, and the first
+    !> interval is checked with the curvature of its cubic at s = 0 instead of a measured one.
+    !> trust caps every step.
+    subroutine solver_first_crossing(self, ray, lower, upper, s_max, p0_in, have_c0, trust_in, res, c0_guess)
         class(event_solver_t), intent(in) :: self
         class(ray_t), intent(inout) :: ray
         real(dp), intent(in) :: lower, upper, s_max, p0_in(3), trust_in
         logical, intent(in) :: have_c0
         type(crossing_t), intent(out) :: res
-        real(dp) :: s0, p0(3), s1, p1(3), sa, pa(3), sb, pb(3), step, trust, su, sl
+        real(dp), intent(in), optional :: c0_guess
+        real(dp) :: s0, p0(3), s1, p1(3), sa, pa(3), sb, pb(3), step, trust, su, sl, h
         integer :: status
+        logical :: c0_unknown
         s0 = 0
         p0 = p0_in
+        c0_unknown = .false.
         if (.not. have_c0) then
-            call ray%eval(0.0_dp, p0)
-            p0(1:2) = p0_in(1:2)
+            if (present(c0_guess)) then
+                p0(3) = c0_guess
+                c0_unknown = .true.
+            else
+                call ray%eval(0.0_dp, p0)
+                p0(1:2) = p0_in(1:2)
+            end if
         end if
         trust = max(trust_in, tiny(1.0_dp))
 
@@ -228,6 +240,11 @@ contains
             s1 = min(s0 + step, s_max)
             if (.not. (s1 > s0)) exit
             call ray%eval(s1, p1)
+            if (c0_unknown) then
+                h = s1 - s0
+                p0(3) = (6*(p1(1) - p0(1))/h - 4*p0(2) - 2*p1(2))/h     ! the cubic's curvature at s0
+                c0_unknown = .false.
+            end if
             call scan_interval(self, ray, s0, p0, s1, p1, lower, upper, status, sa, pa, sb, pb)
             if (status == 1) then
                 call refine(self, ray, sa, pa, sb, pb, lower, upper, res)
@@ -239,11 +256,11 @@ contains
             ! a crossing)
             if (abs(p1(1) - upper) <= self%tol .and. p1(2) > 0 .and. (p1(1) > upper + 0.5_dp*self%tol .or. &
                 taylor_step(p1(1), p1(2), p1(3), upper + 0.5_dp*self%tol) < huge(1.0_dp))) then
-                res = crossing_t(.true., s1, level_upper, .true., p1); return
+                res = crossing_t(.true., s1, level_upper, .true., p1, p1(3)); return
             end if
             if (abs(p1(1) - lower) <= self%tol .and. p1(2) < 0 .and. (p1(1) < lower - 0.5_dp*self%tol .or. &
                 taylor_step(p1(1), p1(2), p1(3), lower - 0.5_dp*self%tol) < huge(1.0_dp))) then
-                res = crossing_t(.true., s1, level_lower, .true., p1); return
+                res = crossing_t(.true., s1, level_lower, .true., p1, p1(3)); return
             end if
             ! the next Taylor root is so close that its predicted error (f''' from the two ends)
             ! is below the tolerance: return it unevaluated, the force pass at the kick verifies it
@@ -257,14 +274,14 @@ contains
             if (step < 0.25_dp*(s1 - s0) .and. s1 + step <= s_max) then
                 if (abs(p1(3) - p0(3))/(s1 - s0)*step**3/6 < 0.1_dp*self%tol) then
                     res = crossing_t(.true., s1 + step, merge(level_upper, level_lower, su <= sl), .false., &
-                                     [0.0_dp, 0.0_dp, 0.0_dp])
+                                     [0.0_dp, 0.0_dp, 0.0_dp], p1(3))
                     return
                 end if
             end if
             s0 = s1; p0 = p1     ! trust stays a cap on every step
             if (s0 >= s_max) exit
         end do
-        res%found = .false.; res%s = s0; res%evaluated = .true.; res%fdc = p0
+        res%found = .false.; res%s = s0; res%evaluated = .true.; res%fdc = p0; res%c_near = p0(3)
     end subroutine solver_first_crossing
 
     !> Root of f = level in the bracket [sa, sb] (f(sa) inside, f(sb) beyond): Halley steps from
@@ -309,7 +326,8 @@ contains
                 sn = sa + 0.5_dp*width        ! the bracket stopped shrinking: bisect
             end if
             if (err < 0.1_dp*self%tol) then
-                res = crossing_t(.true., sn, lvl, .false., [0.0_dp, 0.0_dp, 0.0_dp]); return
+                res = crossing_t(.true., sn, lvl, .false., [0.0_dp, 0.0_dp, 0.0_dp], &
+                                 merge(pa(3), pb(3), sn - sa < sb - sn)); return
             end if
             call ray%eval(sn, pn)
             if (abs(pn(1) - lv) <= self%tol .or. beyond(pn(1), lower, upper)) then
@@ -319,7 +337,7 @@ contains
                     cycle
                 end if
                 if (abs(pn(1) - lv) <= self%tol) then
-                    res = crossing_t(.true., sn, lvl, .true., pn); return
+                    res = crossing_t(.true., sn, lvl, .true., pn, pn(3)); return
                 end if
                 sa = xa; pa = a2; sb = sn; pb = pn
             else
@@ -331,7 +349,7 @@ contains
                 end if
             end if
         end do
-        res = crossing_t(.true., sa, merge(level_upper, level_lower, pb(1) > upper), .true., pa)
+        res = crossing_t(.true., sa, merge(level_upper, level_lower, pb(1) > upper), .true., pa, pa(3))
     end subroutine refine
 
     !> Root of the Hermite cubic = lv in (sa, sb) by bisection (sa inside, sb beyond).

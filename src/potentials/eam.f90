@@ -1,0 +1,705 @@
+!> Embedded-atom method (pair_style eam, eam/alloy, eam/fs of LAMMPS), from tabulated files.
+!>
+!>   E = sum_i F_a(rho_i) + 1/2 sum_i sum_{j /= i} phi_ab(r_ij),   rho_i = sum_{j /= i} rho_ba(r_ij)
+!>
+!> with a the element of atom i, b that of j, and rho_ba(r) the density an atom of element b puts at
+!> an atom of element a (eam, eam/alloy: rho_b(r), one function per element; eam/fs: one function
+!> per ordered pair, listed in the file section of b, in the order of a). The force on i from the
+!> pair (i, j), d = x_i - x_j, r = |d|, is
+!>   F_i = -[ F'_a(rho_i) rho_ba'(r) + F'_b(rho_j) rho_ab'(r) + phi_ab'(r) ] d/r = -F_j.
+!> The work is split as the engine needs it in parallel: `density` sums rho over the half list
+!> (ghosts included, the caller reverse-sums ghost rho into the owners), `embed` evaluates F and
+!> fp = F'(rho) of owned atoms (the caller forwards fp to ghosts), `force` adds the pair forces.
+!>
+!> Tables and interpolation as LAMMPS (so that energies and forces agree to round-off):
+!> - Grids: rho_k = (k-1) drho, k = 1..nrho, for F; r_k = (k-1) dr, k = 1..nr, for rho(r) and
+!>   z(r) = r phi(r). setfl/fs files are used on their own grid. funcfl files (which tabulate
+!>   F(rho), the effective charge Z(r) and rho(r)) are resampled onto a common grid:
+!>   dr = max dr_f, drho = max drho_f, nr = int(max_f (nr_f-1) dr_f / dr + 0.5),
+!>   nrho = int(max_f (nrho_f-1) drho_f / drho + 0.5) (for one file this drops its last knot), by
+!>   4-point Lagrange interpolation in the file's knots k-1..k+2 (k clamped to 2..n_f-2, the offset
+!>   to [., 2]), and z_ab(r) = 27.2 * 0.529 Z_a(r) Z_b(r) (Hartree * Bohr in eV Angstrom).
+!>   The embedding extrapolation threshold rhomax is max_f (nrho_f-1) drho_f (funcfl) or
+!>   (nrho-1) drho (setfl/fs); the cutoff is max_f cut_f (funcfl) or the file's cutoff.
+!> - Each table y_1..y_n of spacing h becomes cubic pieces y(p) = ((c3 p + c4) p + c5) p + y_m on
+!>   [x_m, x_m+1], p = (x - x_m)/h, with knot slopes (per knot) c5_1 = y_2 - y_1,
+!>   c5_2 = (y_3 - y_1)/2, c5_m = (y_{m-2} - y_{m+2} + 8 (y_{m+1} - y_{m-1}))/12 (3 <= m <= n-2),
+!>   c5_{n-1} = (y_n - y_{n-2})/2, c5_n = y_n - y_{n-1}, and c4 = 3 dy - 2 c5_m - c5_{m+1},
+!>   c3 = c5_m + c5_{m+1} - 2 dy (dy = y_{m+1} - y_m): C1 Hermite pieces through the knots. The
+!>   derivative is (c0 p + c1) p + c2 with c2 = c5/h, c1 = 2 c4/h, c0 = 3 c3/h. Stored per knot
+!>   as s(1:7, m) = c0, c1, c2, c3, c4, c5, y_m.
+!> - Lookup at x: p = x/h + 1, m = int(p) clamped to [1, n-1], p = min(p - m, 1). Beyond the last
+!>   knot the value is held (r) and the slope is that of the last piece's end; below the first
+!>   knot (rho < 0) the first piece is extrapolated. For rho > rhomax the embedding energy is
+!>   continued linearly, F(rhomax) + F'(rhomax) (rho - rhomax) (the force uses the held slope);
+!>   `rho_outside` records that this happened (see `warning`).
+!> - Pairs count when r^2 < cutmax^2.
+module terrace_eam
+    use terrace_kinds, only: dp
+    use terrace_atoms, only: atoms_t
+    use terrace_neighbor_list, only: neighbor_list_t
+    use terrace_eam_files, only: eam_file_t, read_funcfl_file, read_setfl_file
+    implicit none
+    private
+
+    !> Hartree * Bohr (eV Angstrom) as LAMMPS writes it: phi = 27.2 * 0.529 Z_a Z_b / r for funcfl.
+    real(dp), parameter, public :: funcfl_z2r_factor = 27.2_dp*0.529_dp
+
+    type, public :: eam_t
+        integer :: ntypes = 0
+        real(dp) :: cutmax = 0                      !< largest cutoff (Angstrom)
+        real(dp), allocatable :: mass(:)            !< per atom type, from the file (amu)
+        real(dp), allocatable :: rho(:)             !< per atom (owned + ghost), electron density
+        real(dp), allocatable :: fp(:)              !< per atom (owned + ghost), F'(rho)
+        character(len=16) :: style = ''
+        integer :: nrho = 0, nr = 0                 !< knots of the F tables and of the r tables
+        real(dp) :: drho = 0, dr = 0, rdrho = 0, rdr = 0
+        real(dp) :: rhomax = 0                      !< F is continued linearly above it
+        real(dp) :: rlast = 0                       !< last r knot, (nr - 1) dr
+        real(dp) :: cutsq = 0
+        real(dp), allocatable :: fspl(:, :, :)      !< F tables (7, nrho, table)
+        real(dp), allocatable :: rspl(:, :, :)      !< density tables (7, nr, table)
+        real(dp), allocatable :: zspl(:, :, :)      !< r phi tables (7, nr, table)
+        integer, allocatable :: t2f(:)              !< F table of a type
+        integer, allocatable :: t2rho(:, :)         !< (a, b): density at a type-b atom from a type-a atom
+        integer, allocatable :: t2z(:, :)           !< (a, b): r phi table (symmetric)
+        logical :: rho_outside = .false.            !< sticky: some owned rho was below 0 or above rhomax
+        real(dp) :: rho_low = huge(1.0_dp), rho_high = -huge(1.0_dp)   !< extremes of owned rho seen
+        logical :: r_table_short = .false.          !< the r tables end before the cutoff (value held)
+        logical :: warned_rho = .false., warned_r = .false.
+    contains
+        procedure :: read => eam_read
+        procedure :: read_funcfl => eam_read_funcfl
+        procedure :: density => eam_density
+        procedure :: embed => eam_embed
+        procedure :: force => eam_force
+        procedure :: embedding => eam_embedding
+        procedure :: density_function => eam_density_function
+        procedure :: pair_energy => eam_pair_energy
+        procedure :: warning => eam_warning
+    end type eam_t
+
+contains
+
+    ! ------------------------------------------------------------------------------ set-up
+
+    !> Read a potential file. style 'eam' (funcfl: the one file serves every type), 'eam/alloy'
+    !> (setfl) or 'eam/fs'; elements(t) names the element of atom type t (setfl/fs; ignored for
+    !> funcfl). On failure ok = .false. and msg says what and where ('file:line: ...').
+    subroutine eam_read(self, style, path, elements, ntypes, ok, msg)
+        class(eam_t), intent(inout) :: self
+        character(len=*), intent(in) :: style, path
+        character(len=*), intent(in) :: elements(:)
+        integer, intent(in) :: ntypes
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        type(eam_file_t) :: file
+        character(len=len(path)) :: paths(max(ntypes, 1))
+        integer :: t, e, map(max(ntypes, 1))
+        ok = .false.
+        msg = ''
+        if (ntypes < 1) then
+            msg = path//': no atom types to map'
+            return
+        end if
+        select case (style)
+        case ('eam')
+            paths = path
+            call self%read_funcfl(paths, ntypes, ok, msg)
+            return
+        case ('eam/alloy', 'eam/fs')
+            call read_setfl_file(path, style == 'eam/fs', file, ok, msg)
+            if (.not. ok) return
+        case default
+            msg = path//': unknown EAM style "'//trim(style)//'" (allowed: eam, eam/alloy, eam/fs)'
+            return
+        end select
+        ok = .false.
+        if (size(elements) < ntypes) then
+            write (msg, '(a, i0, a, i0, a)') path//': ', ntypes, ' atom types but ', size(elements), &
+                ' element names given'
+            return
+        end if
+        do t = 1, ntypes
+            map(t) = 0
+            do e = 1, file%nelements
+                if (trim(adjustl(elements(t))) == trim(file%elements(e))) map(t) = e
+            end do
+            if (map(t) == 0) then
+                write (msg, '(a, i0, a)') path//':4: element "'//trim(adjustl(elements(t)))//'" (atom type ', t, &
+                    ') is not in the file (elements: '//joined(file%elements)//')'
+                return
+            end if
+        end do
+        call build_setfl(self, file, map(1:ntypes), ntypes)
+        self%style = style
+        ok = .true.
+    end subroutine eam_read
+
+    !> funcfl files, paths(t) for atom type t (the same path may serve several types; it is read
+    !> once). The files are resampled onto the common grid described at the top.
+    subroutine eam_read_funcfl(self, paths, ntypes, ok, msg)
+        class(eam_t), intent(inout) :: self
+        character(len=*), intent(in) :: paths(:)
+        integer, intent(in) :: ntypes
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        type(eam_file_t), allocatable :: files(:)
+        integer :: t, u, nf, map(max(ntypes, 1))
+        ok = .false.
+        msg = ''
+        if (ntypes < 1 .or. size(paths) < ntypes) then
+            msg = 'eam: one funcfl file per atom type needed'
+            return
+        end if
+        allocate (files(ntypes))
+        nf = 0
+        do t = 1, ntypes
+            map(t) = 0
+            do u = 1, nf
+                if (files(u)%path == trim(paths(t))) map(t) = u
+            end do
+            if (map(t) > 0) cycle
+            nf = nf + 1
+            call read_funcfl_file(trim(paths(t)), files(nf), ok, msg)
+            if (.not. ok) return
+            map(t) = nf
+        end do
+        call build_funcfl(self, files(1:nf), map(1:ntypes), ntypes, ok, msg)
+        if (ok) self%style = 'eam'
+    end subroutine eam_read_funcfl
+
+    function joined(names) result(s)
+        character(len=*), intent(in) :: names(:)
+        character(len=:), allocatable :: s
+        integer :: k
+        s = ''
+        do k = 1, size(names)
+            s = s//trim(names(k))
+            if (k < size(names)) s = s//' '
+        end do
+    end function joined
+
+    !> Common grid, resampled tables and type maps for funcfl files (files(f), type t uses map(t)).
+    subroutine build_funcfl(self, files, map, ntypes, ok, msg)
+        type(eam_t), intent(inout) :: self
+        type(eam_file_t), intent(in) :: files(:)
+        integer, intent(in) :: map(:), ntypes
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        integer :: nf, f, g, m, t, u, npairs
+        real(dp) :: rmax, rhomax, x
+        real(dp), allocatable :: y(:), zf(:, :), pairz(:)
+        integer, allocatable :: pair_of(:, :)
+        nf = size(files)
+        self%dr = 0; self%drho = 0; rmax = 0; rhomax = 0
+        do f = 1, nf
+            self%dr = max(self%dr, files(f)%dr)
+            self%drho = max(self%drho, files(f)%drho)
+            rmax = max(rmax, (files(f)%nr - 1)*files(f)%dr)
+            rhomax = max(rhomax, (files(f)%nrho - 1)*files(f)%drho)
+        end do
+        self%nr = int(rmax/self%dr + 0.5_dp)
+        self%nrho = int(rhomax/self%drho + 0.5_dp)
+        if (self%nr < 5 .or. self%nrho < 5) then
+            ok = .false.
+            write (msg, '(a, i0, a, i0, a)') files(1)%path//': the funcfl files give a common grid of ', self%nrho, &
+                ' rho and ', self%nr, ' r points (at least 5 needed)'
+            return
+        end if
+        call set_grid(self, ntypes)
+        self%rhomax = rhomax
+        self%cutmax = maxval(files(:)%cut)
+        self%cutsq = self%cutmax**2
+        self%r_table_short = self%cutmax > self%rlast
+        ! F and rho tables, one per file
+        allocate (self%fspl(7, self%nrho, nf), self%rspl(7, self%nr, nf), y(max(self%nrho, self%nr)), &
+                  zf(self%nr, nf))
+        do f = 1, nf
+            do m = 1, self%nrho
+                x = (m - 1)*self%drho
+                y(m) = lagrange4(files(f)%frho(:, 1), files(f)%drho, x)
+            end do
+            call build_spline(y(1:self%nrho), self%drho, self%fspl(:, :, f))
+            do m = 1, self%nr
+                x = (m - 1)*self%dr
+                y(m) = lagrange4(files(f)%rhor(:, 1, 1), files(f)%dr, x)
+                zf(m, f) = lagrange4(files(f)%zr, files(f)%dr, x)
+            end do
+            call build_spline(y(1:self%nr), self%dr, self%rspl(:, :, f))
+        end do
+        ! r phi tables, one per unordered pair of files
+        npairs = nf*(nf + 1)/2
+        allocate (self%zspl(7, self%nr, npairs), pair_of(nf, nf), pairz(self%nr))
+        u = 0
+        do f = 1, nf
+            do g = 1, f
+                u = u + 1
+                pair_of(f, g) = u; pair_of(g, f) = u
+                pairz = funcfl_z2r_factor*zf(:, f)*zf(:, g)
+                call build_spline(pairz, self%dr, self%zspl(:, :, u))
+            end do
+        end do
+        do t = 1, ntypes
+            self%t2f(t) = map(t)
+            self%mass(t) = files(map(t))%mass(1)
+            do u = 1, ntypes
+                self%t2rho(t, u) = map(t)
+                self%t2z(t, u) = pair_of(map(t), map(u))
+            end do
+        end do
+        ok = .true.
+        msg = ''
+    end subroutine build_funcfl
+
+    !> Tables and type maps for a setfl/fs file (type t is element map(t)).
+    subroutine build_setfl(self, file, map, ntypes)
+        type(eam_t), intent(inout) :: self
+        type(eam_file_t), intent(in) :: file
+        integer, intent(in) :: map(:), ntypes
+        integer :: n, i, j, k, t, u
+        n = file%nelements
+        self%nr = file%nr; self%nrho = file%nrho
+        self%dr = file%dr; self%drho = file%drho
+        call set_grid(self, ntypes)
+        self%rhomax = (self%nrho - 1)*self%drho
+        self%cutmax = file%cut
+        self%cutsq = self%cutmax**2
+        self%r_table_short = self%cutmax > self%rlast
+        allocate (self%fspl(7, self%nrho, n), self%rspl(7, self%nr, size(file%rhor, 2)*n), &
+                  self%zspl(7, self%nr, n*(n + 1)/2))
+        do i = 1, n
+            call build_spline(file%frho(:, i), self%drho, self%fspl(:, :, i))
+            do k = 1, size(file%rhor, 2)
+                call build_spline(file%rhor(:, k, i), self%dr, self%rspl(:, :, k + (i - 1)*size(file%rhor, 2)))
+            end do
+            do j = 1, i
+                call build_spline(file%z2r(:, i, j), self%dr, self%zspl(:, :, pair_index(i, j)))
+            end do
+        end do
+        do t = 1, ntypes
+            self%t2f(t) = map(t)
+            self%mass(t) = file%mass(map(t))
+            do u = 1, ntypes
+                if (file%fs) then
+                    ! the density a type-t atom puts at a type-u atom: in the section of t's element,
+                    ! the function listed in the place of u's element
+                    self%t2rho(t, u) = map(u) + (map(t) - 1)*n
+                else
+                    self%t2rho(t, u) = map(t)
+                end if
+                self%t2z(t, u) = pair_index(max(map(t), map(u)), min(map(t), map(u)))
+            end do
+        end do
+    contains
+        pure integer function pair_index(a, b)
+            integer, intent(in) :: a, b        ! a >= b
+            pair_index = a*(a - 1)/2 + b
+        end function pair_index
+    end subroutine build_setfl
+
+    subroutine set_grid(self, ntypes)
+        type(eam_t), intent(inout) :: self
+        integer, intent(in) :: ntypes
+        self%ntypes = ntypes
+        self%rdr = 1/self%dr
+        self%rdrho = 1/self%drho
+        self%rlast = (self%nr - 1)*self%dr
+        if (allocated(self%fspl)) deallocate (self%fspl, self%rspl, self%zspl)
+        if (allocated(self%t2f)) deallocate (self%t2f, self%t2rho, self%t2z)
+        if (allocated(self%mass)) deallocate (self%mass)
+        allocate (self%t2f(ntypes), self%t2rho(ntypes, ntypes), self%t2z(ntypes, ntypes), self%mass(ntypes))
+        self%rho_outside = .false.
+        self%rho_low = huge(1.0_dp); self%rho_high = -huge(1.0_dp)
+        self%warned_rho = .false.; self%warned_r = .false.
+        self%r_table_short = .false.
+    end subroutine set_grid
+
+    !> 4-point Lagrange interpolation of the knots y (spacing h, first at 0) at x: through the
+    !> knots k-1..k+2 with k = int(x/h + 1) clamped to 2..n-2, offset p = x/h + 1 - k <= 2.
+    pure real(dp) function lagrange4(y, h, x) result(v)
+        real(dp), intent(in) :: y(:), h, x
+        real(dp) :: p, c1, c2, c3, c4
+        integer :: k, n
+        n = size(y)
+        p = x/h + 1
+        k = int(min(p, real(n, dp)))
+        k = max(2, min(k, n - 2))
+        p = min(p - k, 2.0_dp)
+        c1 = -p*(p - 1)*(p - 2)/6
+        c2 = (p*p - 1)*(p - 2)/2
+        c3 = -p*(p + 1)*(p - 2)/2
+        c4 = p*(p*p - 1)/6
+        v = c1*y(k - 1) + c2*y(k) + c3*y(k + 1) + c4*y(k + 2)
+    end function lagrange4
+
+    !> Cubic pieces through the knots y (spacing h), layout s(1:7, m) as described at the top.
+    pure subroutine build_spline(y, h, s)
+        real(dp), intent(in) :: y(:), h
+        real(dp), intent(out) :: s(:, :)
+        integer :: n, m
+        real(dp) :: dy
+        n = size(y)
+        s(7, 1:n) = y
+        s(6, 1) = y(2) - y(1)
+        s(6, 2) = 0.5_dp*(y(3) - y(1))
+        s(6, n - 1) = 0.5_dp*(y(n) - y(n - 2))
+        s(6, n) = y(n) - y(n - 1)
+        do m = 3, n - 2
+            s(6, m) = ((y(m - 2) - y(m + 2)) + 8*(y(m + 1) - y(m - 1)))/12
+        end do
+        do m = 1, n - 1
+            dy = y(m + 1) - y(m)
+            s(5, m) = 3*dy - 2*s(6, m) - s(6, m + 1)
+            s(4, m) = s(6, m) + s(6, m + 1) - 2*dy
+        end do
+        s(4:5, n) = 0
+        s(3, 1:n) = s(6, 1:n)/h
+        s(2, 1:n) = 2*s(5, 1:n)/h
+        s(1, 1:n) = 3*s(4, 1:n)/h
+    end subroutine build_spline
+
+    ! ------------------------------------------------------------------ single evaluations
+
+    !> F(rho) and F'(rho) of type t (as `embed` computes them, linear continuation included).
+    pure subroutine eam_embedding(self, t, rho, f, df)
+        class(eam_t), intent(in) :: self
+        integer, intent(in) :: t
+        real(dp), intent(in) :: rho
+        real(dp), intent(out) :: f, df
+        real(dp) :: p
+        integer :: m, k
+        k = self%t2f(t)
+        p = rho*self%rdrho + 1
+        m = int(max(1.0_dp, min(p, real(self%nrho - 1, dp))))
+        p = min(p - m, 1.0_dp)
+        df = (self%fspl(1, m, k)*p + self%fspl(2, m, k))*p + self%fspl(3, m, k)
+        f = ((self%fspl(4, m, k)*p + self%fspl(5, m, k))*p + self%fspl(6, m, k))*p + self%fspl(7, m, k)
+        if (rho > self%rhomax) f = f + df*(rho - self%rhomax)
+    end subroutine eam_embedding
+
+    !> Density at a type-b atom due to a type-a atom at distance r (0 at and beyond the cutoff).
+    pure real(dp) function eam_density_function(self, a, b, r) result(v)
+        class(eam_t), intent(in) :: self
+        integer, intent(in) :: a, b
+        real(dp), intent(in) :: r
+        real(dp) :: p
+        integer :: m, k
+        v = 0
+        if (r*r >= self%cutsq) return
+        k = self%t2rho(a, b)
+        p = r*self%rdr + 1
+        m = int(min(p, real(self%nr - 1, dp)))
+        p = min(p - m, 1.0_dp)
+        v = ((self%rspl(4, m, k)*p + self%rspl(5, m, k))*p + self%rspl(6, m, k))*p + self%rspl(7, m, k)
+    end function eam_density_function
+
+    !> Pair energy phi_ab(r) (0 at and beyond the cutoff).
+    pure real(dp) function eam_pair_energy(self, a, b, r) result(v)
+        class(eam_t), intent(in) :: self
+        integer, intent(in) :: a, b
+        real(dp), intent(in) :: r
+        real(dp) :: p
+        integer :: m, k
+        v = 0
+        if (r*r >= self%cutsq) return
+        k = self%t2z(a, b)
+        p = r*self%rdr + 1
+        m = int(min(p, real(self%nr - 1, dp)))
+        p = min(p - m, 1.0_dp)
+        v = (((self%zspl(4, m, k)*p + self%zspl(5, m, k))*p + self%zspl(6, m, k))*p + self%zspl(7, m, k))/r
+    end function eam_pair_energy
+
+    !> A message, once per kind of event, when the tables were left: rho outside [0, rhomax] (F
+    !> continued) or a cutoff beyond the last r knot. Returns .false. when there is nothing new.
+    !> (Per rank: in parallel, reduce rho_outside / rho_low / rho_high first.)
+    logical function eam_warning(self, text) result(have)
+        class(eam_t), intent(inout) :: self
+        character(len=*), intent(out) :: text
+        character(len=24) :: a, b, c
+        have = .false.
+        text = ''
+        if (self%r_table_short .and. .not. self%warned_r) then
+            self%warned_r = .true.
+            write (a, '(es12.5)') self%cutmax
+            write (b, '(es12.5)') self%rlast
+            text = 'eam: the cutoff '//trim(adjustl(a))//' lies beyond the last r knot '//trim(adjustl(b))// &
+                   ' of the tables; values there are held at the last knot (as LAMMPS does)'
+            have = .true.
+            return
+        end if
+        if (self%rho_outside .and. .not. self%warned_rho) then
+            self%warned_rho = .true.
+            write (a, '(es12.5)') self%rho_low
+            write (b, '(es12.5)') self%rho_high
+            write (c, '(es12.5)') self%rhomax
+            text = 'eam: electron densities from '//trim(adjustl(a))//' to '//trim(adjustl(b))// &
+                   ' left the F(rho) table [0, '//trim(adjustl(c))//']; F continued as LAMMPS does (linearly above)'
+            have = .true.
+        end if
+    end function eam_warning
+
+    ! ----------------------------------------------------------------------------- kernels
+
+    !> rho(1:nall) = 0, then over the half list: rho_i += rho_ba(r), rho_j += rho_ab(r) (ghosts
+    !> included; the caller reverse-sums ghost values into their owners).
+    subroutine eam_density(self, atoms, list)
+        class(eam_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        integer :: nall
+        nall = atoms%nlocal + atoms%nghost
+        call reserve(self%rho, nall)
+        call reserve(self%fp, nall)
+        self%rho(1:nall) = 0
+        if (atoms%nlocal == 0) return
+        if (self%ntypes == 1) then
+            call density_one(atoms%nlocal, atoms%x, list%first, list%neigh, self%cutsq, self%rdr, self%nr, &
+                             self%rspl(:, :, self%t2rho(1, 1)), self%rho)
+        else
+            call density_types(self, atoms%nlocal, atoms%x, atoms%type, list%first, list%neigh, self%rho)
+        end if
+    end subroutine eam_density
+
+    !> fp(1:nlocal) = F'(rho); energy = sum of F(rho_i) over owned atoms when want_energy (else 0).
+    subroutine eam_embed(self, atoms, want_energy, energy)
+        class(eam_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        logical, intent(in) :: want_energy
+        real(dp), intent(out) :: energy
+        integer :: n
+        real(dp) :: lo, hi
+        n = atoms%nlocal
+        energy = 0
+        call reserve(self%fp, atoms%nlocal + atoms%nghost)
+        if (n == 0) return
+        call embed_kernel(n, atoms%type, self%t2f, self%fspl, self%rdrho, self%nrho, self%rhomax, self%rho, &
+                          want_energy, self%fp, energy, lo, hi)
+        self%rho_low = min(self%rho_low, lo)
+        self%rho_high = max(self%rho_high, hi)
+        if (lo < 0 .or. hi > self%rhomax) self%rho_outside = .true.
+    end subroutine eam_embed
+
+    !> Pair and embedding forces added to atoms%f (owned and ghost) over the half list, with fp of
+    !> owned and ghost atoms (the caller has forwarded fp to the ghosts). When want_energy: energy =
+    !> sum of phi over the pairs held, virial = sum over them of d.F_i (else both 0).
+    subroutine eam_force(self, atoms, list, want_energy, energy, virial)
+        class(eam_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        logical, intent(in) :: want_energy
+        real(dp), intent(out) :: energy, virial
+        energy = 0; virial = 0
+        if (atoms%nlocal == 0) return
+        if (self%ntypes == 1) then
+            call force_one(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%cutsq, self%rdr, self%nr, &
+                           self%rspl(:, :, self%t2rho(1, 1)), self%zspl(:, :, self%t2z(1, 1)), self%fp, &
+                           want_energy, energy, virial)
+        else
+            call force_types(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, self%fp, &
+                             want_energy, energy, virial)
+        end if
+    end subroutine eam_force
+
+    !> Grow a per-atom array to at least n entries (contents are not kept).
+    subroutine reserve(a, n)
+        real(dp), allocatable, intent(inout) :: a(:)
+        integer, intent(in) :: n
+        if (allocated(a)) then
+            if (size(a) >= n) return
+            deallocate (a)
+        end if
+        allocate (a(max(n + n/4, 64)))
+        a = 0
+    end subroutine reserve
+
+    !> One type: one density table.
+    subroutine density_one(nlocal, x, first, neigh, cutsq, rdr, nr, s, rho)
+        integer, intent(in) :: nlocal, nr
+        real(dp), intent(in), contiguous :: x(:, :), s(:, :)
+        integer, intent(in), contiguous :: first(:), neigh(:)
+        real(dp), intent(in) :: cutsq, rdr
+        real(dp), intent(inout), contiguous :: rho(:)
+        integer :: i, j, k, m
+        real(dp) :: xi, yi, zi, dx, dy, dz, rsq, p, v, acc, top
+        top = nr - 1
+        do i = 1, nlocal
+            xi = x(1, i); yi = x(2, i); zi = x(3, i)
+            acc = 0
+            do k = first(i), first(i + 1) - 1
+                j = neigh(k)
+                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq < cutsq) then
+                    p = sqrt(rsq)*rdr + 1
+                    m = int(min(p, top))
+                    p = min(p - m, 1.0_dp)
+                    v = ((s(4, m)*p + s(5, m))*p + s(6, m))*p + s(7, m)
+                    acc = acc + v
+                    rho(j) = rho(j) + v
+                end if
+            end do
+            rho(i) = rho(i) + acc
+        end do
+    end subroutine density_one
+
+    !> Several types: rho_i from the table of (type j -> type i), rho_j from (type i -> type j).
+    subroutine density_types(self, nlocal, x, type, first, neigh, rho)
+        type(eam_t), intent(in) :: self
+        integer, intent(in) :: nlocal
+        real(dp), intent(in), contiguous :: x(:, :)
+        integer, intent(in), contiguous :: type(:), first(:), neigh(:)
+        real(dp), intent(inout), contiguous :: rho(:)
+        integer :: i, j, k, m, ti, tj, a, b
+        real(dp) :: xi, yi, zi, dx, dy, dz, rsq, p, acc, top, cutsq, rdr
+        top = self%nr - 1; cutsq = self%cutsq; rdr = self%rdr
+        associate (s => self%rspl)
+        do i = 1, nlocal
+            xi = x(1, i); yi = x(2, i); zi = x(3, i); ti = type(i)
+            acc = 0
+            do k = first(i), first(i + 1) - 1
+                j = neigh(k)
+                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq < cutsq) then
+                    tj = type(j)
+                    p = sqrt(rsq)*rdr + 1
+                    m = int(min(p, top))
+                    p = min(p - m, 1.0_dp)
+                    a = self%t2rho(tj, ti); b = self%t2rho(ti, tj)
+                    acc = acc + (((s(4, m, a)*p + s(5, m, a))*p + s(6, m, a))*p + s(7, m, a))
+                    rho(j) = rho(j) + (((s(4, m, b)*p + s(5, m, b))*p + s(6, m, b))*p + s(7, m, b))
+                end if
+            end do
+            rho(i) = rho(i) + acc
+        end do
+        end associate
+    end subroutine density_types
+
+    !> F'(rho) (and F) of owned atoms; lo, hi: extremes of rho.
+    subroutine embed_kernel(n, type, t2f, fspl, rdrho, nrho, rhomax, rho, want_energy, fp, energy, lo, hi)
+        integer, intent(in) :: n, nrho
+        integer, intent(in), contiguous :: type(:), t2f(:)
+        real(dp), intent(in), contiguous :: fspl(:, :, :), rho(:)
+        real(dp), intent(in) :: rdrho, rhomax
+        logical, intent(in) :: want_energy
+        real(dp), intent(inout), contiguous :: fp(:)
+        real(dp), intent(inout) :: energy
+        real(dp), intent(out) :: lo, hi
+        integer :: i, m, k
+        real(dp) :: p, top, r, e, phi
+        top = nrho - 1
+        e = 0
+        lo = huge(1.0_dp); hi = -huge(1.0_dp)
+        do i = 1, n
+            k = t2f(type(i))
+            r = rho(i)
+            p = r*rdrho + 1
+            m = int(max(1.0_dp, min(p, top)))
+            p = min(p - m, 1.0_dp)
+            fp(i) = (fspl(1, m, k)*p + fspl(2, m, k))*p + fspl(3, m, k)
+            if (want_energy) then
+                phi = ((fspl(4, m, k)*p + fspl(5, m, k))*p + fspl(6, m, k))*p + fspl(7, m, k)
+                if (r > rhomax) phi = phi + fp(i)*(r - rhomax)
+                e = e + phi
+            end if
+            lo = min(lo, r); hi = max(hi, r)
+        end do
+        energy = energy + e
+    end subroutine embed_kernel
+
+    !> One type: psi'(r) = (fp_i + fp_j) rho'(r) + phi'(r), phi = z/r, phi' = (z' - phi)/r.
+    subroutine force_one(nlocal, x, f, first, neigh, cutsq, rdr, nr, sr, sz, fp, want_energy, energy, virial)
+        integer, intent(in) :: nlocal, nr
+        real(dp), intent(in), contiguous :: x(:, :), sr(:, :), sz(:, :), fp(:)
+        real(dp), intent(inout), contiguous :: f(:, :)
+        integer, intent(in), contiguous :: first(:), neigh(:)
+        real(dp), intent(in) :: cutsq, rdr
+        logical, intent(in) :: want_energy
+        real(dp), intent(inout) :: energy, virial
+        integer :: i, j, k, m
+        real(dp) :: xi, yi, zi, fpi, dx, dy, dz, rsq, r, p, rp, z, zp, recip, phi, fpair, fxi, fyi, fzi, e, w, top
+        top = nr - 1
+        e = 0; w = 0
+        do i = 1, nlocal
+            xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i)
+            fxi = 0; fyi = 0; fzi = 0
+            do k = first(i), first(i + 1) - 1
+                j = neigh(k)
+                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq < cutsq) then
+                    r = sqrt(rsq)
+                    p = r*rdr + 1
+                    m = int(min(p, top))
+                    p = min(p - m, 1.0_dp)
+                    rp = (sr(1, m)*p + sr(2, m))*p + sr(3, m)
+                    zp = (sz(1, m)*p + sz(2, m))*p + sz(3, m)
+                    z = ((sz(4, m)*p + sz(5, m))*p + sz(6, m))*p + sz(7, m)
+                    recip = 1/r
+                    phi = z*recip
+                    fpair = -((fpi + fp(j))*rp + (zp*recip - phi*recip))*recip
+                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
+                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
+                    if (want_energy) then
+                        e = e + phi
+                        w = w + rsq*fpair
+                    end if
+                end if
+            end do
+            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
+        end do
+        energy = energy + e; virial = virial + w
+    end subroutine force_one
+
+    !> Several types: psi'(r) = fp_i rho_ji'(r) + fp_j rho_ij'(r) + phi_ij'(r).
+    subroutine force_types(self, nlocal, x, f, type, first, neigh, fp, want_energy, energy, virial)
+        type(eam_t), intent(in) :: self
+        integer, intent(in) :: nlocal
+        real(dp), intent(in), contiguous :: x(:, :), fp(:)
+        real(dp), intent(inout), contiguous :: f(:, :)
+        integer, intent(in), contiguous :: type(:), first(:), neigh(:)
+        logical, intent(in) :: want_energy
+        real(dp), intent(inout) :: energy, virial
+        integer :: i, j, k, m, ti, tj, a, b, c
+        real(dp) :: xi, yi, zi, fpi, dx, dy, dz, rsq, r, p, rip, rjp, z, zp, recip, phi, fpair, fxi, fyi, fzi, e, w, &
+                    top, cutsq, rdr
+        top = self%nr - 1; cutsq = self%cutsq; rdr = self%rdr
+        e = 0; w = 0
+        associate (sr => self%rspl, sz => self%zspl)
+        do i = 1, nlocal
+            xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i); ti = type(i)
+            fxi = 0; fyi = 0; fzi = 0
+            do k = first(i), first(i + 1) - 1
+                j = neigh(k)
+                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq < cutsq) then
+                    tj = type(j)
+                    r = sqrt(rsq)
+                    p = r*rdr + 1
+                    m = int(min(p, top))
+                    p = min(p - m, 1.0_dp)
+                    a = self%t2rho(tj, ti); b = self%t2rho(ti, tj); c = self%t2z(ti, tj)
+                    rjp = (sr(1, m, a)*p + sr(2, m, a))*p + sr(3, m, a)     ! density at i from j
+                    rip = (sr(1, m, b)*p + sr(2, m, b))*p + sr(3, m, b)     ! density at j from i
+                    zp = (sz(1, m, c)*p + sz(2, m, c))*p + sz(3, m, c)
+                    z = ((sz(4, m, c)*p + sz(5, m, c))*p + sz(6, m, c))*p + sz(7, m, c)
+                    recip = 1/r
+                    phi = z*recip
+                    fpair = -(fpi*rjp + fp(j)*rip + (zp*recip - phi*recip))*recip
+                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
+                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
+                    if (want_energy) then
+                        e = e + phi
+                        w = w + rsq*fpair
+                    end if
+                end if
+            end do
+            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
+        end do
+        end associate
+        energy = energy + e; virial = virial + w
+    end subroutine force_types
+
+end module terrace_eam

@@ -434,7 +434,8 @@ contains
             write (b, '(es12.5)') self%rho_high
             write (c, '(es12.5)') self%rhomax
             text = 'eam: electron densities from '//trim(adjustl(a))//' to '//trim(adjustl(b))// &
-                   ' left the F(rho) table [0, '//trim(adjustl(c))//']; F continued as LAMMPS does (linearly above)'
+                   ' left the F(rho) table [0, '//trim(adjustl(c))//']; F continued as LAMMPS does (linearly '// &
+                   'above rhomax, the first cubic piece below 0)'
             have = .true.
         end if
     end function eam_warning

@@ -385,6 +385,11 @@ contains
                           itoa(count + 1)//' of '//itoa(n)//' of '//what//')'
                     return
                 end if
+                if (.not. in_range(txt%buf(tlo:thi))) then
+                    msg = where(txt, txt%line)//'"'//txt%buf(tlo:thi)//'" is out of range (value '// &
+                          itoa(count + 1)//' of '//itoa(n)//' of '//what//')'
+                    return
+                end if
                 read (txt%buf(tlo:thi), *, iostat=ios) y(count + 1)
                 if (ios /= 0) then
                     msg = where(txt, txt%line)//'"'//txt%buf(tlo:thi)//'" is not a number (value '// &
@@ -414,6 +419,35 @@ contains
                             'header match the tables?)'
     end subroutine nothing_after
 
+    !> Whether a token of digits, sign, point and exponent is below 1e308 in magnitude (checked on
+    !> the text, so that an overflowing value is an error message, not a floating-point trap).
+    pure logical function in_range(tok) result(ok)
+        character(len=*), intent(in) :: tok
+        integer :: e, p, k, expo, first, nint, ios
+        ok = .true.
+        e = scan(tok, 'eEdD')
+        expo = 0
+        if (e > 0) then
+            k = verify(tok(e + 1:), '+-0')           ! first significant digit of the exponent
+            if (k > 0 .and. len(tok) - e - k + 1 > 5) then
+                ok = tok(e + 1:e + 1) == '-'         ! a huge negative exponent only underflows
+                return
+            end if
+            read (tok(e + 1:), *, iostat=ios) expo
+            if (ios /= 0) return                     ! malformed: the read of the value reports it
+        else
+            e = len(tok) + 1
+        end if
+        p = index(tok(1:e - 1), '.')
+        if (p == 0) p = e
+        ! digits before the point, leading zeros and sign skipped
+        first = verify(tok(1:p - 1), '+-0')
+        nint = 0
+        if (first > 0) nint = p - first
+        k = expo + nint - 1                          ! decimal order of magnitude
+        ok = k < 308
+    end function in_range
+
     subroutine to_int(txt, line, tok, what, v, ok, msg)
         type(text_t), intent(in) :: txt
         integer, intent(in) :: line
@@ -442,6 +476,7 @@ contains
         integer :: ios
         v = 0
         ok = len_trim(tok) > 0 .and. verify(trim(tok), '0123456789+-.eEdD') == 0
+        if (ok) ok = in_range(trim(tok))
         if (ok) then
             read (tok, *, iostat=ios) v
             ok = ios == 0

@@ -1,0 +1,1121 @@
+!> H5MD 1.1 trajectories (https://nongnu.org/h5md/h5md.html), written in parallel through MPI-IO.
+!>
+!> Layout (shapes as C / h5py sees them; N atoms, D = dimension):
+!>
+!>     h5md                     +-- version = [1, 1]
+!>      \-- author              +-- name
+!>      \-- creator             +-- name = 'Terrace', version
+!>      \-- modules/units       +-- version = [1, 0], system = 'SI'     (only when units are given)
+!>     particles/all
+!>      \-- box                 +-- dimension = D, boundary = 'periodic' | 'none' (D entries)
+!>      |    \-- edges: Float[D]                       (fixed box: hi - lo)
+!>      \-- position, velocity, force, image           (each optional)
+!>      |    \-- step: Integer[variable]               (int64; hard links to position/step)
+!>      |    \-- time: Float[variable]                 (float64; hard links to position/time)
+!>      |    \-- value: Float[variable][N][D]          (image: Integer; chunked, extendible)
+!>      \-- id: Integer[N]                             (int64, 1..N)
+!>      \-- species: Integer[N]                        (int32, the atom type)
+!>      \-- mass: Float[N]                             (masses_by_type(type))
+!>     observables/<name>
+!>      \-- step, time, value: [variable]
+!>
+!> Atoms are stored in global id order (row id - 1) on any number of ranks: write_frame sends every
+!> atom to the rank that owns its id in a block distribution of 1..N (one MPI_Alltoallv; nothing is
+!> gathered on one rank), and each rank then writes its block as one hyperslab with a collective
+!> MPI-IO transfer. The file is flushed after every frame, so a killed run leaves a readable file up
+!> to its last complete frame. Unit strings follow the H5MD units module ("SI" system symbols);
+!> metal units are 'Ang', 'ps', 'eV', 'Ang ps-1', 'u'; pass '' everywhere for reduced (lj) units.
+!>
+!> Every procedure is collective over the writer's communicator and returns errors as ok/msg (the
+!> same ok on every rank); HDF5's own error printing is switched off.
+module terrace_h5md
+    use, intrinsic :: iso_c_binding, only: c_ptr, c_loc, c_char, c_null_char
+    use, intrinsic :: iso_fortran_env, only: int32
+    use terrace_kinds, only: dp, i8
+    use mpi_f08, only: MPI_Comm, MPI_Comm_dup, MPI_Comm_free, MPI_Comm_rank, MPI_Comm_size, &
+                       MPI_Allreduce, MPI_Alltoall, MPI_Alltoallv, MPI_Bcast, MPI_IN_PLACE, MPI_LOGICAL, &
+                       MPI_LOR, MPI_MIN, MPI_SUM, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION, &
+                       MPI_CHARACTER, MPI_INFO_NULL
+    use hdf5
+    implicit none
+    private
+
+    public :: h5md_writer_t, h5md_read_frame
+
+    integer, parameter :: nel = 4                       !< time-dependent particle elements
+    integer, parameter :: e_pos = 1, e_vel = 2, e_force = 3, e_image = 4
+    character(len=8), parameter :: el_name(nel) = [character(len=8) :: 'position', 'velocity', 'force', 'image']
+    character(len=*), parameter :: pgroup = '/particles/all'
+    integer(hsize_t), parameter :: chunk_bytes = 1048576   !< target chunk size of the per-atom series
+    integer(hsize_t), parameter :: chunk_scalar = 512      !< chunk of step / time / observables
+
+    !> Error state of a sequence of HDF5 calls: the first failure is kept, later calls still run
+    !> (so that every rank makes the same collective calls) and fail harmlessly.
+    type :: status_t
+        logical :: ok = .true.
+        character(len=256) :: msg = ''
+    contains
+        procedure :: check => status_check
+        procedure :: fail => status_fail
+    end type status_t
+
+    type :: observable_t
+        character(len=:), allocatable :: name
+        integer(hid_t) :: step = -1, time = -1, value = -1
+        integer(hsize_t) :: n = 0
+    end type observable_t
+
+    type, public :: h5md_writer_t
+        private
+        logical :: opened = .false.
+        character(len=:), allocatable :: path
+        type(MPI_Comm) :: comm
+        integer :: rank = 0, nprocs = 1
+        integer(hid_t) :: file = -1, dxpl = -1
+        integer(i8) :: natoms = 0
+        integer :: dimension = 3
+        logical :: want(nel) = .false.
+        integer(hid_t) :: value(nel) = -1
+        integer(hid_t) :: step = -1, time = -1             !< of the first wanted element (linked by the others)
+        integer(hid_t) :: id = -1, species = -1, mass = -1
+        integer(hsize_t) :: nframes = 0
+        integer(i8) :: last_step = 0
+        integer(i8) :: first = 1, nmine = 0               !< this rank's block of ids: first .. first+nmine-1
+        real(dp), allocatable :: masses_by_type(:)
+        character(len=:), allocatable :: unit_time
+        type(observable_t), allocatable :: obs(:)
+        integer :: nobs = 0
+    contains
+        procedure :: create => writer_create
+        procedure :: write_frame => writer_write_frame
+        procedure :: write_observable => writer_write_observable
+        procedure :: flush => writer_flush
+        procedure :: close => writer_close
+        procedure :: is_open => writer_is_open
+        procedure :: frames_written => writer_frames_written
+    end type h5md_writer_t
+
+    logical, save :: library_open = .false.
+
+contains
+
+    ! ============================================================== writer
+
+    !> Create (truncate) `path` and lay out the H5MD structure. masses_by_type(t) is the mass of
+    !> atom type t (types run 1..size(masses_by_type)); species, id and mass are written at the
+    !> first frame. Unit strings may be '' (no unit attribute). `author` defaults to $USER.
+    subroutine writer_create(self, path, comm, natoms, dimension, box_lo, box_hi, periodic, &
+                             want_position, want_velocity, want_force, want_image, masses_by_type, &
+                             unit_length, unit_time, unit_energy, unit_velocity, unit_mass, &
+                             creator_version, ok, msg, author)
+        class(h5md_writer_t), intent(inout) :: self
+        character(len=*), intent(in) :: path
+        type(MPI_Comm), intent(in) :: comm
+        integer(i8), intent(in) :: natoms
+        integer, intent(in) :: dimension
+        real(dp), intent(in) :: box_lo(3), box_hi(3)
+        logical, intent(in) :: periodic(3)
+        logical, intent(in) :: want_position, want_velocity, want_force, want_image
+        real(dp), intent(in) :: masses_by_type(:)
+        character(len=*), intent(in) :: unit_length, unit_time, unit_energy, unit_velocity, unit_mass
+        character(len=*), intent(in) :: creator_version
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        character(len=*), intent(in), optional :: author
+        type(status_t) :: st
+        integer(hid_t) :: fapl, g, gp, gbox, gel, d
+        integer :: err, e, k, D_
+        character(len=256) :: who
+        character(len=8) :: boundary(3)
+        character(len=:), allocatable :: unit_force, first_el
+        real(dp), target :: edges(3)
+        integer(hsize_t) :: nchunk
+        logical :: any_unit
+
+        ok = .true.; msg = ''
+        if (self%opened) then
+            ok = .false.; msg = 'h5md: create: the writer is already open ('//self%path//')'; return
+        end if
+        ! arguments (identical on every rank)
+        if (natoms < 1) call st%fail('h5md: create: natoms must be at least 1')
+        if (dimension < 1 .or. dimension > 3) call st%fail('h5md: create: dimension must be 1, 2 or 3')
+        if (want_image .and. .not. want_position) &
+            call st%fail('h5md: create: image needs position (H5MD links their step and time)')
+        if (size(masses_by_type) < 1) call st%fail('h5md: create: masses_by_type is empty')
+        if (st%ok) then
+            do k = 1, dimension
+                if (periodic(k) .and. .not. box_hi(k) > box_lo(k)) &
+                    call st%fail('h5md: create: a periodic box edge is not positive')
+            end do
+        end if
+        if (.not. st%ok) then
+            ok = .false.; msg = st%msg; return
+        end if
+
+        call open_library(st)
+        if (.not. st%ok) then
+            ok = .false.; msg = st%msg; return
+        end if
+        call MPI_Comm_dup(comm, self%comm)
+        call MPI_Comm_rank(self%comm, self%rank)
+        call MPI_Comm_size(self%comm, self%nprocs)
+        self%path = trim(path)
+        self%natoms = natoms
+        self%dimension = dimension
+        D_ = dimension
+        self%want = [want_position, want_velocity, want_force, want_image]
+        self%masses_by_type = masses_by_type
+        self%unit_time = trim(unit_time)
+        self%nframes = 0; self%last_step = 0
+        self%nobs = 0
+        if (allocated(self%obs)) deallocate (self%obs)
+        allocate (self%obs(4))
+        call block_of(natoms, self%nprocs, self%rank, self%first, self%nmine)
+
+        ! file (collective): MPI-IO driver, HDF5 file format version 2 (1.8 object headers)
+        call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err); call st%check(err, 'H5Pcreate(fapl)')
+        call h5pset_fapl_mpio_f(fapl, self%comm%MPI_VAL, MPI_INFO_NULL%MPI_VAL, err)
+        call st%check(err, 'H5Pset_fapl_mpio')
+        call h5pset_libver_bounds_f(fapl, H5F_LIBVER_V18_F, H5F_LIBVER_V18_F, err)
+        call st%check(err, 'H5Pset_libver_bounds')
+        call h5pset_coll_metadata_write_f(fapl, .true., err); call st%check(err, 'H5Pset_coll_metadata_write')
+        call h5fcreate_f(self%path, H5F_ACC_TRUNC_F, self%file, err, access_prp=fapl)
+        call h5pclose_f(fapl, err)
+        if (self%file < 0 .or. .not. st%ok) then
+            call MPI_Comm_free(self%comm)
+            ok = .false.; msg = 'h5md: cannot create '//self%path
+            if (.not. st%ok) msg = trim(msg)//' ('//trim(st%msg)//')'
+            return
+        end if
+        call h5pcreate_f(H5P_DATASET_XFER_F, self%dxpl, err); call st%check(err, 'H5Pcreate(dxpl)')
+        call h5pset_dxpl_mpio_f(self%dxpl, H5FD_MPIO_COLLECTIVE_F, err); call st%check(err, 'H5Pset_dxpl_mpio')
+
+        ! h5md metadata
+        who = 'unknown'
+        if (present(author)) then
+            if (len_trim(author) > 0) who = author
+        else if (self%rank == 0) then
+            call get_environment_variable('USER', who, status=err)
+            if (err /= 0 .or. len_trim(who) == 0) who = 'unknown'
+        end if
+        call MPI_Bcast(who, len(who), MPI_CHARACTER, 0, self%comm)
+        call h5gcreate_f(self%file, 'h5md', g, err); call st%check(err, 'create h5md')
+        call attr_int(st, g, 'version', [1, 1], scalar=.false.)
+        call h5gcreate_f(g, 'author', gp, err); call st%check(err, 'create h5md/author')
+        call attr_text(st, gp, 'name', trim(who))
+        call h5gclose_f(gp, err)
+        call h5gcreate_f(g, 'creator', gp, err); call st%check(err, 'create h5md/creator')
+        call attr_text(st, gp, 'name', 'Terrace')
+        call attr_text(st, gp, 'version', trim(creator_version))
+        call h5gclose_f(gp, err)
+        any_unit = len_trim(unit_length) + len_trim(unit_time) + len_trim(unit_energy) + &
+                   len_trim(unit_velocity) + len_trim(unit_mass) > 0
+        if (any_unit) then
+            call h5gcreate_f(g, 'modules', gp, err); call st%check(err, 'create h5md/modules')
+            call h5gcreate_f(gp, 'units', gbox, err); call st%check(err, 'create h5md/modules/units')
+            call attr_int(st, gbox, 'version', [1, 0], scalar=.false.)
+            call attr_vltext(st, gbox, 'system', 'SI')
+            call h5gclose_f(gbox, err); call h5gclose_f(gp, err)
+        end if
+        call h5gclose_f(g, err)
+
+        ! particles/all and its box
+        call h5gcreate_f(self%file, 'particles', g, err); call st%check(err, 'create particles')
+        call h5gcreate_f(g, 'all', gp, err); call st%check(err, 'create particles/all')
+        call h5gcreate_f(gp, 'box', gbox, err); call st%check(err, 'create box')
+        call attr_int(st, gbox, 'dimension', [D_], scalar=.true.)
+        do k = 1, D_
+            boundary(k) = merge('periodic', 'none    ', periodic(k))
+        end do
+        call attr_text_list(st, gbox, 'boundary', boundary(1:D_))
+        edges = box_hi - box_lo
+        call make_fixed(st, gbox, 'edges', H5T_IEEE_F64LE, [int(D_, hsize_t)], d)
+        call attr_vltext(st, d, 'unit', unit_length)
+        call write_slab(st, d, H5T_NATIVE_DOUBLE, c_loc(edges), [0_hsize_t], [int(D_, hsize_t)], &
+                        self%rank == 0, self%dxpl)
+        call h5dclose_f(d, err)
+        call h5gclose_f(gbox, err)
+
+        ! time-dependent elements: value [frames][N][D] (Fortran dims (D, N, frames))
+        nchunk = max(1_hsize_t, min(int(natoms, hsize_t), chunk_bytes/(8_hsize_t*D_)))
+        unit_force = ''
+        if (len_trim(unit_energy) > 0 .and. len_trim(unit_length) > 0) &
+            unit_force = trim(unit_energy)//' '//trim(unit_length)//'-1'
+        first_el = ''
+        do e = 1, nel
+            if (.not. self%want(e)) cycle
+            call h5gcreate_f(gp, trim(el_name(e)), gel, err); call st%check(err, 'create '//trim(el_name(e)))
+            if (e == e_image) then
+                call make_series(st, gel, 'value', H5T_STD_I32LE, [int(D_, hsize_t), int(natoms, hsize_t)], &
+                                 [int(D_, hsize_t), nchunk], self%value(e))
+            else
+                call make_series(st, gel, 'value', H5T_IEEE_F64LE, [int(D_, hsize_t), int(natoms, hsize_t)], &
+                                 [int(D_, hsize_t), nchunk], self%value(e))
+            end if
+            select case (e)
+            case (e_pos); call attr_vltext(st, self%value(e), 'unit', unit_length)
+            case (e_vel); call attr_vltext(st, self%value(e), 'unit', unit_velocity)
+            case (e_force); call attr_vltext(st, self%value(e), 'unit', unit_force)
+            end select
+            if (len(first_el) == 0) then
+                first_el = pgroup//'/'//trim(el_name(e))
+                call make_series(st, gel, 'step', H5T_STD_I64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
+                                 self%step)
+                call make_series(st, gel, 'time', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
+                                 self%time)
+                call attr_vltext(st, self%time, 'unit', unit_time)
+            else
+                call h5lcreate_hard_f(self%file, first_el//'/step', gel, 'step', err)
+                call st%check(err, 'link '//trim(el_name(e))//'/step')
+                call h5lcreate_hard_f(self%file, first_el//'/time', gel, 'time', err)
+                call st%check(err, 'link '//trim(el_name(e))//'/time')
+            end if
+            call h5gclose_f(gel, err)
+        end do
+
+        ! time-independent per-atom data (written at the first frame)
+        call make_fixed(st, gp, 'id', H5T_STD_I64LE, [int(natoms, hsize_t)], self%id)
+        call make_fixed(st, gp, 'species', H5T_STD_I32LE, [int(natoms, hsize_t)], self%species)
+        call make_fixed(st, gp, 'mass', H5T_IEEE_F64LE, [int(natoms, hsize_t)], self%mass)
+        call attr_vltext(st, self%mass, 'unit', unit_mass)
+        call h5gclose_f(gp, err)
+        call h5gclose_f(g, err)
+
+        call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        self%opened = .true.
+        call agree(self%comm, st, ok, msg)
+        if (.not. ok) then
+            call release(self)
+            msg = 'h5md: '//trim(self%path)//': '//trim(msg)
+        end if
+    end subroutine writer_create
+
+    !> Append one frame. ids(1:nlocal) are the global ids (1..natoms) of this rank's atoms; over all
+    !> ranks every id must appear exactly once. x, v, f, image are (>= dimension, >= nlocal) and
+    !> needed only when the matching element was requested in create (pass them by keyword
+    !> otherwise). Steps must not decrease.
+    subroutine writer_write_frame(self, step, time, nlocal, ids, types, x, v, f, image, ok, msg)
+        class(h5md_writer_t), intent(inout) :: self
+        integer(i8), intent(in) :: step
+        real(dp), intent(in) :: time
+        integer, intent(in) :: nlocal
+        integer(i8), intent(in) :: ids(:)
+        integer, intent(in) :: types(:)
+        real(dp), intent(in), optional :: x(:, :), v(:, :), f(:, :)
+        integer, intent(in), optional :: image(:, :)
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        type(status_t) :: st
+        integer :: D_, P, i, j, e, r, wr, wi, nrecv, err, roff(nel)
+        integer, allocatable :: scount(:), rcount(:), sdisp(:), rdisp(:), cursor(:)
+        real(dp), allocatable :: sreal(:, :), rreal(:, :)
+        integer(i8), allocatable :: sint(:, :), rint(:, :)
+        integer, allocatable :: row(:)
+        logical, allocatable :: seen(:)
+        real(dp), allocatable, target :: rbuf(:, :), mbuf(:)
+        integer, allocatable, target :: ibuf(:, :), tbuf(:)
+        integer(i8), allocatable, target :: idbuf(:)
+        integer(i8), target :: step_t
+        real(dp), target :: time_t
+        integer(i8) :: total, kk
+        logical :: bad
+        integer(hsize_t) :: Dh
+
+        ok = .true.; msg = ''
+        if (.not. self%opened) then
+            ok = .false.; msg = 'h5md: write_frame: the writer is not open'; return
+        end if
+        D_ = self%dimension; Dh = int(D_, hsize_t); P = self%nprocs
+
+        ! ---- check the arguments on every rank, then agree
+        if (nlocal < 0 .or. size(ids) < nlocal .or. size(types) < nlocal) &
+            call st%fail('h5md: write_frame: nlocal exceeds the size of ids or types')
+        call need_real(self%want(e_pos), x, 'x')
+        call need_real(self%want(e_vel), v, 'v')
+        call need_real(self%want(e_force), f, 'f')
+        if (self%want(e_image)) then
+            if (.not. present(image)) then
+                call st%fail('h5md: write_frame: image is required (want_image)')
+            else if (size(image, 1) < D_ .or. size(image, 2) < nlocal) then
+                call st%fail('h5md: write_frame: image is too small')
+            end if
+        end if
+        if (st%ok) then
+            do i = 1, nlocal
+                if (ids(i) < 1 .or. ids(i) > self%natoms) then
+                    call st%fail('h5md: write_frame: atom id out of range 1..natoms'); exit
+                end if
+                if (types(i) < 1 .or. types(i) > size(self%masses_by_type)) then
+                    call st%fail('h5md: write_frame: atom type outside 1..size(masses_by_type)'); exit
+                end if
+            end do
+        end if
+        if (self%nframes > 0 .and. step < self%last_step) call st%fail('h5md: write_frame: step decreases')
+        total = merge(int(nlocal, i8), 0_i8, st%ok)
+        call MPI_Allreduce(MPI_IN_PLACE, total, 1, MPI_INTEGER8, MPI_SUM, self%comm)
+        call agree(self%comm, st, ok, msg)
+        if (.not. ok) return
+        if (total /= self%natoms) then
+            ok = .false.
+            write (msg, '(a,i0,a,i0)') 'h5md: write_frame: the ranks hold ', total, ' atoms, expected ', self%natoms
+            return
+        end if
+
+        ! ---- send every atom to the rank owning its id (block distribution of 1..natoms)
+        wr = 0; roff = 0
+        do e = e_pos, e_force
+            if (self%want(e)) then
+                roff(e) = wr; wr = wr + D_
+            end if
+        end do
+        wi = 2 + merge(D_, 0, self%want(e_image))
+        allocate (scount(0:P - 1), rcount(0:P - 1), sdisp(0:P - 1), rdisp(0:P - 1), cursor(0:P - 1))
+        scount = 0
+        do i = 1, nlocal
+            r = owner_of(ids(i), self%natoms, P)
+            scount(r) = scount(r) + 1
+        end do
+        sdisp(0) = 0
+        do r = 1, P - 1
+            sdisp(r) = sdisp(r - 1) + scount(r - 1)
+        end do
+        cursor = sdisp
+        allocate (sreal(max(wr, 1), max(nlocal, 1)), sint(wi, max(nlocal, 1)))
+        do i = 1, nlocal
+            r = owner_of(ids(i), self%natoms, P)
+            cursor(r) = cursor(r) + 1; j = cursor(r)
+            sint(1, j) = ids(i); sint(2, j) = types(i)
+            if (self%want(e_image)) sint(3:2 + D_, j) = image(1:D_, i)
+            if (self%want(e_pos)) sreal(roff(e_pos) + 1:roff(e_pos) + D_, j) = x(1:D_, i)
+            if (self%want(e_vel)) sreal(roff(e_vel) + 1:roff(e_vel) + D_, j) = v(1:D_, i)
+            if (self%want(e_force)) sreal(roff(e_force) + 1:roff(e_force) + D_, j) = f(1:D_, i)
+        end do
+        call MPI_Alltoall(scount, 1, MPI_INTEGER, rcount, 1, MPI_INTEGER, self%comm)
+        rdisp(0) = 0
+        do r = 1, P - 1
+            rdisp(r) = rdisp(r - 1) + rcount(r - 1)
+        end do
+        nrecv = sum(rcount)
+        allocate (rreal(max(wr, 1), max(nrecv, 1)), rint(wi, max(nrecv, 1)))
+        call MPI_Alltoallv(sint, wi*scount, wi*sdisp, MPI_INTEGER8, rint, wi*rcount, wi*rdisp, MPI_INTEGER8, &
+                           self%comm)
+        if (wr > 0) call MPI_Alltoallv(sreal, wr*scount, wr*sdisp, MPI_DOUBLE_PRECISION, rreal, wr*rcount, &
+                                       wr*rdisp, MPI_DOUBLE_PRECISION, self%comm)
+        deallocate (sreal, sint)
+
+        ! ---- row of each received atom in this rank's block (id order); every id exactly once
+        allocate (row(max(nrecv, 1)), seen(max(self%nmine, 1_i8)))
+        seen = .false.
+        bad = nrecv /= self%nmine
+        if (.not. bad) then
+            do j = 1, nrecv
+                kk = rint(1, j) - self%first + 1
+                if (kk < 1 .or. kk > self%nmine) then
+                    bad = .true.; exit
+                end if
+                if (seen(kk)) then
+                    bad = .true.; exit
+                end if
+                seen(kk) = .true.; row(j) = int(kk)
+            end do
+        end if
+        call MPI_Allreduce(MPI_IN_PLACE, bad, 1, MPI_LOGICAL, MPI_LOR, self%comm)
+        if (bad) then
+            ok = .false.; msg = 'h5md: write_frame: an atom id appears twice (or is missing) over the ranks'
+            return
+        end if
+        deallocate (seen)
+
+        ! ---- write: extend the series by one frame, each rank writes its block
+        associate (nf => self%nframes, nm => int(self%nmine, hsize_t), f0 => int(self%first - 1, hsize_t))
+            do e = 1, nel
+                if (.not. self%want(e)) cycle
+                call extend(st, self%value(e), [Dh, int(self%natoms, hsize_t), nf + 1])
+                if (e == e_image) then
+                    allocate (ibuf(D_, max(self%nmine, 1_i8)))
+                    do j = 1, nrecv
+                        ibuf(:, row(j)) = int(rint(3:2 + D_, j))
+                    end do
+                    call write_slab(st, self%value(e), H5T_NATIVE_INTEGER, c_loc(ibuf), [0_hsize_t, f0, nf], &
+                                    [Dh, nm, 1_hsize_t], nm > 0, self%dxpl)
+                    deallocate (ibuf)
+                else
+                    if (.not. allocated(rbuf)) allocate (rbuf(D_, max(self%nmine, 1_i8)))
+                    do j = 1, nrecv
+                        rbuf(:, row(j)) = rreal(roff(e) + 1:roff(e) + D_, j)
+                    end do
+                    call write_slab(st, self%value(e), H5T_NATIVE_DOUBLE, c_loc(rbuf), [0_hsize_t, f0, nf], &
+                                    [Dh, nm, 1_hsize_t], nm > 0, self%dxpl)
+                end if
+            end do
+            if (any(self%want)) then
+                step_t = step; time_t = time
+                call extend(st, self%step, [nf + 1])
+                call extend(st, self%time, [nf + 1])
+                call write_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [nf], &
+                                [1_hsize_t], self%rank == 0, self%dxpl)
+                call write_slab(st, self%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [nf], [1_hsize_t], &
+                                self%rank == 0, self%dxpl)
+            end if
+            if (nf == 0) then
+                allocate (idbuf(max(self%nmine, 1_i8)), tbuf(max(self%nmine, 1_i8)), mbuf(max(self%nmine, 1_i8)))
+                do j = 1, nrecv
+                    idbuf(row(j)) = rint(1, j)
+                    tbuf(row(j)) = int(rint(2, j))
+                    mbuf(row(j)) = self%masses_by_type(tbuf(row(j)))
+                end do
+                call write_slab(st, self%id, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(idbuf), [f0], [nm], &
+                                nm > 0, self%dxpl)
+                call write_slab(st, self%species, H5T_NATIVE_INTEGER, c_loc(tbuf), [f0], [nm], nm > 0, self%dxpl)
+                call write_slab(st, self%mass, H5T_NATIVE_DOUBLE, c_loc(mbuf), [f0], [nm], nm > 0, self%dxpl)
+            end if
+        end associate
+        call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        call agree(self%comm, st, ok, msg)
+        if (ok) then
+            self%nframes = self%nframes + 1
+            self%last_step = step
+        else
+            msg = 'h5md: write_frame: '//trim(msg)
+        end if
+
+    contains
+
+        subroutine need_real(wanted, a, what)
+            logical, intent(in) :: wanted
+            real(dp), intent(in), optional :: a(:, :)
+            character(len=*), intent(in) :: what
+            if (.not. wanted) return
+            if (.not. present(a)) then
+                call st%fail('h5md: write_frame: '//what//' is required by the elements requested in create')
+            else if (size(a, 1) < D_ .or. size(a, 2) < nlocal) then
+                call st%fail('h5md: write_frame: '//what//' is too small')
+            end if
+        end subroutine need_real
+
+    end subroutine writer_write_frame
+
+    !> Append (step, time, value) to observables/<name> (created at its first call, with the
+    !> optional unit). Collective; rank 0's values are written. flush (default true) flushes the file.
+    subroutine writer_write_observable(self, name, step, time, value, ok, msg, unit, flush)
+        class(h5md_writer_t), intent(inout) :: self
+        character(len=*), intent(in) :: name
+        integer(i8), intent(in) :: step
+        real(dp), intent(in) :: time, value
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        character(len=*), intent(in), optional :: unit
+        logical, intent(in), optional :: flush
+        type(status_t) :: st
+        type(observable_t), allocatable :: grown(:)
+        integer :: k, i, err
+        integer(hid_t) :: g, go
+        logical :: exists
+        integer(i8), target :: step_t
+        real(dp), target :: time_t, value_t
+
+        ok = .true.; msg = ''
+        if (.not. self%opened) then
+            ok = .false.; msg = 'h5md: write_observable: the writer is not open'; return
+        end if
+        if (len_trim(name) == 0 .or. index(name, '/') > 0 .or. index(name, '.') == 1) then
+            ok = .false.; msg = 'h5md: write_observable: bad observable name "'//trim(name)//'"'; return
+        end if
+        k = 0
+        do i = 1, self%nobs
+            if (self%obs(i)%name == trim(name)) k = i
+        end do
+        if (k == 0) then
+            if (self%nobs == size(self%obs)) then
+                allocate (grown(2*size(self%obs)))
+                grown(1:self%nobs) = self%obs(1:self%nobs)
+                call move_alloc(grown, self%obs)
+            end if
+            self%nobs = self%nobs + 1; k = self%nobs
+            associate (o => self%obs(k))
+                o%name = trim(name); o%n = 0
+                call h5lexists_f(self%file, 'observables', exists, err); call st%check(err, 'H5Lexists')
+                if (exists) then
+                    call h5gopen_f(self%file, 'observables', g, err); call st%check(err, 'open observables')
+                else
+                    call h5gcreate_f(self%file, 'observables', g, err); call st%check(err, 'create observables')
+                end if
+                call h5gcreate_f(g, o%name, go, err); call st%check(err, 'create observables/'//o%name)
+                call make_series(st, go, 'step', H5T_STD_I64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], o%step)
+                call make_series(st, go, 'time', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], o%time)
+                call make_series(st, go, 'value', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
+                                 o%value)
+                call attr_vltext(st, o%time, 'unit', self%unit_time)
+                if (present(unit)) call attr_vltext(st, o%value, 'unit', unit)
+                call h5gclose_f(go, err); call h5gclose_f(g, err)
+            end associate
+        end if
+        associate (o => self%obs(k))
+            step_t = step; time_t = time; value_t = value
+            call extend(st, o%step, [o%n + 1])
+            call extend(st, o%time, [o%n + 1])
+            call extend(st, o%value, [o%n + 1])
+            call write_slab(st, o%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [o%n], [1_hsize_t], &
+                            self%rank == 0, self%dxpl)
+            call write_slab(st, o%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [o%n], [1_hsize_t], self%rank == 0, self%dxpl)
+            call write_slab(st, o%value, H5T_NATIVE_DOUBLE, c_loc(value_t), [o%n], [1_hsize_t], self%rank == 0, &
+                            self%dxpl)
+        end associate
+        if (.not. present(flush)) then
+            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        else if (flush) then
+            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        end if
+        call agree(self%comm, st, ok, msg)
+        if (ok) then
+            self%obs(k)%n = self%obs(k)%n + 1
+        else
+            msg = 'h5md: write_observable '//trim(name)//': '//trim(msg)
+        end if
+    end subroutine writer_write_observable
+
+    !> Flush the file to disk (collective).
+    subroutine writer_flush(self, ok, msg)
+        class(h5md_writer_t), intent(inout) :: self
+        logical, intent(out), optional :: ok
+        character(len=*), intent(out), optional :: msg
+        type(status_t) :: st
+        integer :: err
+        logical :: ok_
+        character(len=256) :: msg_
+        ok_ = .true.; msg_ = ''
+        if (self%opened) then
+            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+            call agree(self%comm, st, ok_, msg_)
+        end if
+        if (present(ok)) ok = ok_
+        if (present(msg)) msg = msg_
+    end subroutine writer_flush
+
+    !> Close the file (collective). Closing a writer that is not open does nothing.
+    subroutine writer_close(self, ok, msg)
+        class(h5md_writer_t), intent(inout) :: self
+        logical, intent(out), optional :: ok
+        character(len=*), intent(out), optional :: msg
+        type(status_t) :: st
+        integer :: err
+        logical :: ok_
+        character(len=256) :: msg_
+        ok_ = .true.; msg_ = ''
+        if (self%opened) then
+            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+            call agree(self%comm, st, ok_, msg_)
+            call release(self)
+        end if
+        if (present(ok)) ok = ok_
+        if (present(msg)) msg = msg_
+    end subroutine writer_close
+
+    logical function writer_is_open(self)
+        class(h5md_writer_t), intent(in) :: self
+        writer_is_open = self%opened
+    end function writer_is_open
+
+    integer(i8) function writer_frames_written(self)
+        class(h5md_writer_t), intent(in) :: self
+        writer_frames_written = int(self%nframes, i8)
+    end function writer_frames_written
+
+    !> Close every HDF5 object of the writer and the file; free the communicator.
+    subroutine release(self)
+        class(h5md_writer_t), intent(inout) :: self
+        integer :: err, e, k
+        do e = 1, nel
+            if (self%value(e) >= 0) call h5dclose_f(self%value(e), err)
+            self%value(e) = -1
+        end do
+        do k = 1, self%nobs
+            call h5dclose_f(self%obs(k)%step, err)
+            call h5dclose_f(self%obs(k)%time, err)
+            call h5dclose_f(self%obs(k)%value, err)
+        end do
+        if (allocated(self%obs)) deallocate (self%obs)
+        self%nobs = 0
+        if (self%step >= 0) call h5dclose_f(self%step, err)
+        if (self%time >= 0) call h5dclose_f(self%time, err)
+        if (self%id >= 0) call h5dclose_f(self%id, err)
+        if (self%species >= 0) call h5dclose_f(self%species, err)
+        if (self%mass >= 0) call h5dclose_f(self%mass, err)
+        self%step = -1; self%time = -1; self%id = -1; self%species = -1; self%mass = -1
+        if (self%dxpl >= 0) call h5pclose_f(self%dxpl, err)
+        self%dxpl = -1
+        if (self%file >= 0) call h5fclose_f(self%file, err)
+        self%file = -1
+        if (self%opened) call MPI_Comm_free(self%comm)
+        self%opened = .false.
+    end subroutine release
+
+    ! ============================================================== reading
+
+    !> Read frame `frame` of an H5MD file (1..nframes; -1 is the last frame, -2 the one before, ...),
+    !> for instance to start a run from it. Collective over comm. Each rank receives a contiguous
+    !> block of ids (a block distribution of 1..natoms over the ranks, in id order); the caller then
+    !> moves the atoms to their domains. x, v, image are (3, nlocal), zero beyond the file's
+    !> dimension; v and image are zero when the file has no velocity or image (has_velocity,
+    !> has_image say). types are 1 when the file has no species; ids are row+1 without an id element.
+    !> edges is the box edge vector (hi - lo) when the file has one.
+    subroutine h5md_read_frame(path, comm, frame, natoms, dimension, ids, types, x, v, image, step, time, &
+                               ok, msg, has_velocity, has_image, edges)
+        character(len=*), intent(in) :: path
+        type(MPI_Comm), intent(in) :: comm
+        integer(i8), intent(in) :: frame
+        integer(i8), intent(out) :: natoms
+        integer, intent(out) :: dimension
+        integer(i8), allocatable, intent(out) :: ids(:)
+        integer, allocatable, intent(out) :: types(:)
+        real(dp), allocatable, intent(out) :: x(:, :), v(:, :)
+        integer, allocatable, intent(out) :: image(:, :)
+        integer(i8), intent(out) :: step
+        real(dp), intent(out) :: time
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        logical, intent(out), optional :: has_velocity, has_image
+        real(dp), intent(out), optional :: edges(3)
+        type(status_t) :: st
+        integer(hid_t) :: fapl, file, dxpl, d
+        integer :: err, rank, nprocs, k, D_
+        integer(hsize_t) :: dims(3), maxdims(3), fr, Dh, nm, f0
+        integer(i8) :: first, nmine
+        logical :: exists, hv, hi
+        real(dp), allocatable, target :: rbuf(:, :)
+        integer, allocatable, target :: ibuf(:, :), tbuf(:)
+        integer(i8), allocatable, target :: idbuf(:)
+        integer(i8), target :: step_t
+        real(dp), target :: time_t, ebuf(3)
+
+        ok = .true.; msg = ''
+        natoms = 0; dimension = 0; step = 0; time = 0
+        allocate (ids(0), types(0), x(3, 0), v(3, 0), image(3, 0))
+        if (present(has_velocity)) has_velocity = .false.
+        if (present(has_image)) has_image = .false.
+        if (present(edges)) edges = 0
+        call open_library(st)
+        if (.not. st%ok) then
+            ok = .false.; msg = st%msg; return
+        end if
+        call MPI_Comm_rank(comm, rank)
+        call MPI_Comm_size(comm, nprocs)
+        call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err); call st%check(err, 'H5Pcreate(fapl)')
+        call h5pset_fapl_mpio_f(fapl, comm%MPI_VAL, MPI_INFO_NULL%MPI_VAL, err); call st%check(err, 'H5Pset_fapl_mpio')
+        call h5fopen_f(trim(path), H5F_ACC_RDONLY_F, file, err, access_prp=fapl)
+        call h5pclose_f(fapl, err)
+        if (err < 0) then
+            ok = .false.; msg = 'h5md: cannot open '//trim(path); return
+        end if
+        call h5pcreate_f(H5P_DATASET_XFER_F, dxpl, err); call st%check(err, 'H5Pcreate(dxpl)')
+        call h5pset_dxpl_mpio_f(dxpl, H5FD_MPIO_COLLECTIVE_F, err); call st%check(err, 'H5Pset_dxpl_mpio')
+
+        call h5lexists_f(file, 'particles', exists, err)
+        if (exists) call h5lexists_f(file, pgroup, exists, err)
+        if (exists) call h5lexists_f(file, pgroup//'/position', exists, err)
+        if (exists) call h5lexists_f(file, pgroup//'/position/value', exists, err)
+        if (.not. exists) then
+            call st%fail('no '//pgroup//'/position/value')
+        else
+            call h5dopen_f(file, pgroup//'/position/value', d, err); call st%check(err, 'open position/value')
+            call dataset_dims(st, d, dims, maxdims)
+            dimension = int(dims(1)); natoms = int(dims(2), i8)
+            if (dims(3) == 0) then
+                call st%fail('the file has no frames')
+            else if (frame == 0 .or. frame > int(dims(3), i8) .or. frame < -int(dims(3), i8)) then
+                call st%fail('frame index out of range')
+            end if
+            if (st%ok) then
+                fr = merge(int(frame - 1, hsize_t), int(int(dims(3), i8) + frame, hsize_t), frame > 0)
+                D_ = dimension; Dh = dims(1)
+                call block_of(natoms, nprocs, rank, first, nmine)
+                nm = int(nmine, hsize_t); f0 = int(first - 1, hsize_t)
+                deallocate (ids, types, x, v, image)
+                allocate (ids(nmine), types(nmine), x(3, nmine), v(3, nmine), image(3, nmine))
+                x = 0; v = 0; image = 0; types = 1
+                allocate (rbuf(D_, max(nmine, 1_i8)), ibuf(D_, max(nmine, 1_i8)), tbuf(max(nmine, 1_i8)), &
+                          idbuf(max(nmine, 1_i8)))
+                call read_slab(st, d, H5T_NATIVE_DOUBLE, c_loc(rbuf), [0_hsize_t, f0, fr], [Dh, nm, 1_hsize_t], &
+                               nm > 0, dxpl)
+                if (nmine > 0) x(1:D_, :) = rbuf(:, 1:nmine)
+                call h5dclose_f(d, err)
+                call read_scalar_at(st, file, pgroup//'/position/step', h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), &
+                                    fr, dxpl)
+                step = step_t
+                call h5lexists_f(file, pgroup//'/position/time', exists, err)
+                if (exists) then
+                    call read_scalar_at(st, file, pgroup//'/position/time', H5T_NATIVE_DOUBLE, c_loc(time_t), fr, dxpl)
+                    time = time_t
+                end if
+                call h5lexists_f(file, pgroup//'/velocity', hv, err)
+                if (hv) call read_series(pgroup//'/velocity/value', H5T_NATIVE_DOUBLE, c_loc(rbuf), hv)
+                if (hv .and. nmine > 0) v(1:D_, :) = rbuf(:, 1:nmine)
+                call h5lexists_f(file, pgroup//'/image', hi, err)
+                if (hi) call read_series(pgroup//'/image/value', H5T_NATIVE_INTEGER, c_loc(ibuf), hi)
+                if (hi .and. nmine > 0) image(1:D_, :) = ibuf(:, 1:nmine)
+                if (present(has_velocity)) has_velocity = hv
+                if (present(has_image)) has_image = hi
+                do k = 1, int(nmine)
+                    ids(k) = first + k - 1
+                end do
+                call h5lexists_f(file, pgroup//'/id', exists, err)
+                if (exists) then
+                    call h5dopen_f(file, pgroup//'/id', d, err); call st%check(err, 'open id')
+                    call read_slab(st, d, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(idbuf), [f0], [nm], nm > 0, dxpl)
+                    call h5dclose_f(d, err)
+                    if (nmine > 0) ids = idbuf(1:nmine)
+                end if
+                call h5lexists_f(file, pgroup//'/species', exists, err)
+                if (exists) then
+                    call h5dopen_f(file, pgroup//'/species', d, err); call st%check(err, 'open species')
+                    call read_slab(st, d, H5T_NATIVE_INTEGER, c_loc(tbuf), [f0], [nm], nm > 0, dxpl)
+                    call h5dclose_f(d, err)
+                    if (nmine > 0) types = tbuf(1:nmine)
+                end if
+                if (present(edges)) then
+                    call h5lexists_f(file, pgroup//'/box/edges', exists, err)
+                    if (exists) then
+                        call h5dopen_f(file, pgroup//'/box/edges', d, err); call st%check(err, 'open box/edges')
+                        ebuf = 0
+                        call read_slab(st, d, H5T_NATIVE_DOUBLE, c_loc(ebuf), [0_hsize_t], [Dh], .true., dxpl)
+                        call h5dclose_f(d, err)
+                        edges = ebuf
+                    end if
+                end if
+            end if
+        end if
+        call h5pclose_f(dxpl, err)
+        call h5fclose_f(file, err); call st%check(err, 'H5Fclose')
+        call agree(comm, st, ok, msg)
+        if (.not. ok) msg = 'h5md: '//trim(path)//': '//trim(msg)
+
+    contains
+
+        !> Read this rank's block of frame fr of a per-atom series of the same shape as position.
+        subroutine read_series(name, memtype, buf, found)
+            character(len=*), intent(in) :: name
+            integer(hid_t), intent(in) :: memtype
+            type(c_ptr), intent(in) :: buf
+            logical, intent(inout) :: found
+            integer(hid_t) :: ds
+            integer(hsize_t) :: dd(3), md(3)
+            call h5lexists_f(file, name, found, err)
+            if (.not. found) return
+            call h5dopen_f(file, name, ds, err); call st%check(err, 'open '//name)
+            call dataset_dims(st, ds, dd, md)
+            if (any(dd /= dims)) then
+                call st%fail(name//' does not have the shape of position/value')
+                found = .false.
+            else
+                call read_slab(st, ds, memtype, buf, [0_hsize_t, f0, fr], [Dh, nm, 1_hsize_t], nm > 0, dxpl)
+            end if
+            call h5dclose_f(ds, err)
+        end subroutine read_series
+
+    end subroutine h5md_read_frame
+
+    ! ============================================================== helpers
+
+    subroutine status_check(self, err, what)
+        class(status_t), intent(inout) :: self
+        integer, intent(in) :: err
+        character(len=*), intent(in) :: what
+        if (err < 0 .and. self%ok) then
+            self%ok = .false.; self%msg = 'HDF5 error in '//what
+        end if
+    end subroutine status_check
+
+    subroutine status_fail(self, what)
+        class(status_t), intent(inout) :: self
+        character(len=*), intent(in) :: what
+        if (self%ok) then
+            self%ok = .false.; self%msg = what
+        end if
+    end subroutine status_fail
+
+    !> The same ok on every rank; msg is that of the lowest failing rank.
+    subroutine agree(comm, st, ok, msg)
+        type(MPI_Comm), intent(in) :: comm
+        type(status_t), intent(in) :: st
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        integer :: rank, nprocs, failing
+        character(len=256) :: m
+        call MPI_Comm_rank(comm, rank)
+        call MPI_Comm_size(comm, nprocs)
+        failing = merge(nprocs, rank, st%ok)
+        call MPI_Allreduce(MPI_IN_PLACE, failing, 1, MPI_INTEGER, MPI_MIN, comm)
+        ok = failing == nprocs
+        msg = ''
+        if (ok) return
+        m = st%msg
+        call MPI_Bcast(m, len(m), MPI_CHARACTER, failing, comm)
+        msg = m
+    end subroutine agree
+
+    subroutine open_library(st)
+        type(status_t), intent(inout) :: st
+        integer :: err
+        if (library_open) return
+        call h5open_f(err); call st%check(err, 'H5open')
+        call h5eset_auto_f(0, err)
+        library_open = st%ok
+    end subroutine open_library
+
+    !> Block distribution of ids 1..n over p ranks: rank r (0-based) holds first .. first+count-1.
+    pure subroutine block_of(n, p, r, first, count)
+        integer(i8), intent(in) :: n
+        integer, intent(in) :: p, r
+        integer(i8), intent(out) :: first, count
+        integer(i8) :: q, rm
+        q = n/p; rm = mod(n, int(p, i8))
+        count = q + merge(1_i8, 0_i8, r < rm)
+        first = r*q + min(int(r, i8), rm) + 1
+    end subroutine block_of
+
+    !> The rank (0-based) whose block holds id.
+    pure integer function owner_of(id, n, p) result(r)
+        integer(i8), intent(in) :: id, n
+        integer, intent(in) :: p
+        integer(i8) :: q, rm, k
+        q = n/p; rm = mod(n, int(p, i8)); k = id - 1
+        if (k < rm*(q + 1)) then
+            r = int(k/(q + 1))
+        else
+            r = int(rm + (k - rm*(q + 1))/q)
+        end if
+    end function owner_of
+
+    !> A dataset of fixed shape dims (Fortran order), contiguous, no fill written.
+    subroutine make_fixed(st, loc, name, ftype, dims, d)
+        type(status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: loc, ftype
+        character(len=*), intent(in) :: name
+        integer(hsize_t), intent(in) :: dims(:)
+        integer(hid_t), intent(out) :: d
+        integer(hid_t) :: sp, dcpl
+        integer :: err
+        call h5screate_simple_f(size(dims), dims, sp, err); call st%check(err, 'H5Screate '//name)
+        call h5pcreate_f(H5P_DATASET_CREATE_F, dcpl, err)
+        call h5pset_fill_time_f(dcpl, H5D_FILL_TIME_NEVER_F, err)
+        call h5dcreate_f(loc, name, ftype, sp, d, err, dcpl_id=dcpl); call st%check(err, 'H5Dcreate '//name)
+        call h5pclose_f(dcpl, err)
+        call h5sclose_f(sp, err)
+    end subroutine make_fixed
+
+    !> An extendible series: Fortran dims (inner..., 0), unlimited last dimension, chunks
+    !> (chunk_inner..., 1), or (chunk_scalar) for a series of scalars.
+    subroutine make_series(st, loc, name, ftype, inner, chunk_inner, d)
+        type(status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: loc, ftype
+        character(len=*), intent(in) :: name
+        integer(hsize_t), intent(in) :: inner(:), chunk_inner(:)
+        integer(hid_t), intent(out) :: d
+        integer(hid_t) :: sp, dcpl
+        integer(hsize_t) :: dims(size(inner) + 1), maxdims(size(inner) + 1), chunk(size(inner) + 1)
+        integer :: err, n
+        n = size(inner) + 1
+        dims(1:n - 1) = inner; dims(n) = 0
+        maxdims(1:n - 1) = inner; maxdims(n) = H5S_UNLIMITED_F
+        chunk(1:n - 1) = chunk_inner; chunk(n) = merge(chunk_scalar, 1_hsize_t, n == 1)
+        call h5screate_simple_f(n, dims, sp, err, maxdims); call st%check(err, 'H5Screate '//name)
+        call h5pcreate_f(H5P_DATASET_CREATE_F, dcpl, err)
+        call h5pset_chunk_f(dcpl, n, chunk, err); call st%check(err, 'H5Pset_chunk '//name)
+        call h5pset_fill_time_f(dcpl, H5D_FILL_TIME_NEVER_F, err)
+        call h5dcreate_f(loc, name, ftype, sp, d, err, dcpl_id=dcpl); call st%check(err, 'H5Dcreate '//name)
+        call h5pclose_f(dcpl, err)
+        call h5sclose_f(sp, err)
+    end subroutine make_series
+
+    subroutine extend(st, d, dims)
+        type(status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: d
+        integer(hsize_t), intent(in) :: dims(:)
+        integer :: err
+        call h5dset_extent_f(d, dims, err); call st%check(err, 'H5Dset_extent')
+    end subroutine extend
+
+    subroutine dataset_dims(st, d, dims, maxdims)
+        type(status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: d
+        integer(hsize_t), intent(out) :: dims(:), maxdims(:)
+        integer(hid_t) :: sp
+        integer :: err, rank
+        dims = 0; maxdims = 0
+        call h5dget_space_f(d, sp, err); call st%check(err, 'H5Dget_space')
+        call h5sget_simple_extent_ndims_f(sp, rank, err)
+        if (rank /= size(dims)) then
+            call st%fail('a dataset has an unexpected rank')
+        else
+            call h5sget_simple_extent_dims_f(sp, dims, maxdims, err); call st%check(err, 'H5Sget_simple_extent_dims')
+        end if
+        call h5sclose_f(sp, err)
+    end subroutine dataset_dims
+
+    !> Collective transfer of the hyperslab start/count (Fortran order, 0-based) between the file
+    !> and the contiguous buffer buf (shape count); ranks with active = .false. take part with an
+    !> empty selection.
+    subroutine transfer_slab(st, d, memtype, buf, start, count, active, dxpl, reading)
+        type(status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: d, memtype, dxpl
+        type(c_ptr), intent(in) :: buf
+        integer(hsize_t), intent(in) :: start(:), count(:)
+        logical, intent(in) :: active, reading
+        integer(hid_t) :: fsp, msp
+        integer(hsize_t) :: mdims(size(count))
+        type(c_ptr) :: bufp
+        integer :: err
+        call h5dget_space_f(d, fsp, err); call st%check(err, 'H5Dget_space')
+        if (active .and. all(count > 0)) then
+            mdims = count
+            call h5screate_simple_f(size(count), mdims, msp, err)
+            call h5sselect_hyperslab_f(fsp, H5S_SELECT_SET_F, start, count, err)
+            call st%check(err, 'H5Sselect_hyperslab')
+        else
+            mdims = 1
+            call h5screate_simple_f(size(count), mdims, msp, err)
+            call h5sselect_none_f(msp, err)
+            call h5sselect_none_f(fsp, err)
+        end if
+        call st%check(err, 'dataspace selection')
+        if (reading) then
+            bufp = buf   ! h5dread_f takes the pointer as intent(inout)
+            call h5dread_f(d, memtype, bufp, err, mem_space_id=msp, file_space_id=fsp, xfer_prp=dxpl)
+            call st%check(err, 'H5Dread')
+        else
+            call h5dwrite_f(d, memtype, buf, err, mem_space_id=msp, file_space_id=fsp, xfer_prp=dxpl)
+            call st%check(err, 'H5Dwrite')
+        end if
+        call h5sclose_f(msp, err)
+        call h5sclose_f(fsp, err)
+    end subroutine transfer_slab
+
+    subroutine write_slab(st, d, memtype, buf, start, count, active, dxpl)
+        type(status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: d, memtype, dxpl
+        type(c_ptr), intent(in) :: buf
+        integer(hsize_t), intent(in) :: start(:), count(:)
+        logical, intent(in) :: active
+        call transfer_slab(st, d, memtype, buf, start, count, active, dxpl, reading=.false.)
+    end subroutine write_slab
+
+    subroutine read_slab(st, d, memtype, buf, start, count, active, dxpl)
+        type(status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: d, memtype, dxpl
+        type(c_ptr), intent(in) :: buf
+        integer(hsize_t), intent(in) :: start(:), count(:)
+        logical, intent(in) :: active
+        call transfer_slab(st, d, memtype, buf, start, count, active, dxpl, reading=.true.)
+    end subroutine read_slab
+
+    !> Element `index` (0-based) of the 1-D dataset `name`, read by every rank.
+    subroutine read_scalar_at(st, file, name, memtype, buf, index, dxpl)
+        type(status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: file, memtype, dxpl
+        character(len=*), intent(in) :: name
+        type(c_ptr), intent(in) :: buf
+        integer(hsize_t), intent(in) :: index
+        integer(hid_t) :: d
+        integer :: err
+        call h5dopen_f(file, name, d, err); call st%check(err, 'open '//name)
+        call read_slab(st, d, memtype, buf, [index], [1_hsize_t], .true., dxpl)
+        call h5dclose_f(d, err)
+    end subroutine read_scalar_at
+
+    !> Integer attribute: a scalar (scalar = .true., one value) or a 1-D array.
+    subroutine attr_int(st, loc, name, vals, scalar)
+        type(status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: loc
+        character(len=*), intent(in) :: name
+        integer, intent(in) :: vals(:)
+        logical, intent(in) :: scalar
+        integer(int32), allocatable, target :: buf(:)
+        integer(hid_t) :: sp, a
+        integer :: err
+        allocate (buf(size(vals)))
+        buf = int(vals, int32)
+        if (scalar) then
+            call h5screate_f(H5S_SCALAR_F, sp, err)
+        else
+            call h5screate_simple_f(1, [int(size(vals), hsize_t)], sp, err)
+        end if
+        call h5acreate_f(loc, name, H5T_STD_I32LE, sp, a, err); call st%check(err, 'H5Acreate '//name)
+        call h5awrite_f(a, h5kind_to_type(int32, H5_INTEGER_KIND), c_loc(buf), err); call st%check(err, 'H5Awrite '//name)
+        call h5aclose_f(a, err)
+        call h5sclose_f(sp, err)
+    end subroutine attr_int
+
+    !> Fixed-length (null-padded) string attribute of scalar dataspace.
+    subroutine attr_text(st, loc, name, s)
+        type(status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: loc
+        character(len=*), intent(in) :: name, s
+        call attr_text_list(st, loc, name, [s], scalar=.true.)
+    end subroutine attr_text
+
+    !> Fixed-length (null-padded) strings, as a 1-D attribute (or scalar for a single string).
+    subroutine attr_text_list(st, loc, name, strs, scalar)
+        type(status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: loc
+        character(len=*), intent(in) :: name, strs(:)
+        logical, intent(in), optional :: scalar
+        character(kind=c_char), allocatable, target :: buf(:)
+        integer(hid_t) :: sp, a, t
+        integer(size_t) :: w
+        integer :: err, i, j, n
+        n = size(strs)
+        w = 1
+        do i = 1, n
+            w = max(w, int(len_trim(strs(i)), size_t))
+        end do
+        allocate (buf(w*n))
+        buf = c_null_char
+        do i = 1, n
+            do j = 1, len_trim(strs(i))
+                buf((i - 1)*w + j) = strs(i)(j:j)
+            end do
+        end do
+        call h5tcopy_f(H5T_C_S1, t, err)
+        call h5tset_size_f(t, w, err)
+        call h5tset_strpad_f(t, H5T_STR_NULLPAD_F, err); call st%check(err, 'string type '//name)
+        if (present(scalar)) then
+            call h5screate_f(H5S_SCALAR_F, sp, err)
+        else
+            call h5screate_simple_f(1, [int(n, hsize_t)], sp, err)
+        end if
+        call h5acreate_f(loc, name, t, sp, a, err); call st%check(err, 'H5Acreate '//name)
+        call h5awrite_f(a, t, c_loc(buf), err); call st%check(err, 'H5Awrite '//name)
+        call h5aclose_f(a, err)
+        call h5sclose_f(sp, err)
+        call h5tclose_f(t, err)
+    end subroutine attr_text_list
+
+    !> Variable-length ASCII string attribute of scalar dataspace (the H5MD units module's `unit`
+    !> and `system`); nothing is written for an empty string.
+    subroutine attr_vltext(st, loc, name, s)
+        type(status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: loc
+        character(len=*), intent(in) :: name, s
+        character(kind=c_char), allocatable, target :: chars(:)
+        type(c_ptr), target :: p(1)
+        integer(hid_t) :: sp, a, t
+        integer :: err, j, n
+        n = len_trim(s)
+        if (n == 0) return
+        allocate (chars(n + 1))
+        do j = 1, n
+            chars(j) = s(j:j)
+        end do
+        chars(n + 1) = c_null_char
+        p(1) = c_loc(chars)
+        call h5tcopy_f(H5T_STRING, t, err)
+        call h5tset_cset_f(t, H5T_CSET_ASCII_F, err); call st%check(err, 'VL string type '//name)
+        call h5screate_f(H5S_SCALAR_F, sp, err)
+        call h5acreate_f(loc, name, t, sp, a, err); call st%check(err, 'H5Acreate '//name)
+        call h5awrite_f(a, t, c_loc(p), err); call st%check(err, 'H5Awrite '//name)
+        call h5aclose_f(a, err)
+        call h5sclose_f(sp, err)
+        call h5tclose_f(t, err)
+    end subroutine attr_vltext
+
+end module terrace_h5md

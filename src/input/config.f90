@@ -44,6 +44,8 @@ module terrace_config
         logical :: reverse_velocities = .false.
         ! &potential
         character(len=24) :: potential = 'lj'
+        character(len=512) :: potential_file = ''   !< EAM: the LAMMPS potential file
+        character(len=8) :: elements(max_types) = ''  !< eam/alloy, eam/fs: element of each atom type
         real(dp) :: epsilon(max_types, max_types) = unset
         real(dp) :: sigma(max_types, max_types) = unset
         real(dp) :: cutoff = -1.0_dp                !< 0: no cutoff (non-periodic scenes only)
@@ -264,18 +266,22 @@ contains
     subroutine read_potential(cfg)
         type(config_t), intent(inout) :: cfg
         character(len=24) :: style
+        character(len=512) :: file
+        character(len=8) :: elements(max_types)
         real(dp) :: epsilon(max_types, max_types), sigma(max_types, max_types), cutoff
         real(dp) :: pair_cutoff(max_types, max_types)
         logical :: shift
-        namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift
-        character(len=*), parameter :: keys(6) = [character(len=60) :: 'style:a quoted string', &
+        namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements
+        character(len=*), parameter :: keys(8) = [character(len=60) :: 'style:a quoted string', &
             'epsilon:a real number (or epsilon(i,j) = ...)', 'sigma:a real number (or sigma(i,j) = ...)', &
-            'cutoff:a real number', 'pair_cutoff:pair_cutoff(i,j) = a real number', 'shift:a logical']
+            'cutoff:a real number', 'pair_cutoff:pair_cutoff(i,j) = a real number', 'shift:a logical', &
+            'file:a quoted file name', 'elements:quoted element names, one per atom type']
         character(len=:), allocatable :: kind
         character(len=256) :: msg
         character(len=:), allocatable :: buf
         integer :: k, ios
         style = 'lj'; epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
+        file = ''; elements = ''
         do k = 1, cfg%nml%count
             if (cfg%nml%items(k)%group /= 'potential') cycle
             kind = check_key(cfg, k, keys)
@@ -285,6 +291,7 @@ contains
         end do
         cfg%potential = lower(style); cfg%epsilon = epsilon; cfg%sigma = sigma; cfg%cutoff = cutoff
         cfg%pair_cutoff = pair_cutoff; cfg%shift = shift
+        cfg%potential_file = file; cfg%elements = elements
     end subroutine read_potential
 
     subroutine read_integrator(cfg)
@@ -360,7 +367,7 @@ contains
     !> cutoff against the box) are made when the system is built.
     subroutine validate(cfg)
         type(config_t), intent(inout) :: cfg
-        integer :: nsrc, i, j
+        integer :: nsrc
         character(len=32) :: s
         if (cfg%dimension /= 2 .and. cfg%dimension /= 3) then
             write (s, '(i0)') cfg%dimension
@@ -405,10 +412,37 @@ contains
 
         select case (cfg%potential)
         case ('lj', 'lj/smooth/linear')
+        case ('eam', 'eam/alloy', 'eam/fs')
+            call validate_eam(cfg)
+            return
         case default
             call stop_all(cfg%where('potential', 'style')//" = '"//trim(cfg%potential)// &
-                          "': unknown potential (allowed: 'lj', 'lj/smooth/linear')")
+                          "': unknown potential (allowed: 'lj', 'lj/smooth/linear', 'eam', 'eam/alloy', 'eam/fs')")
         end select
+        call validate_lj(cfg)
+    end subroutine validate
+
+    !> The rest of the checks for an EAM scene (no LJ keys).
+    subroutine validate_eam(cfg)
+        type(config_t), intent(inout) :: cfg
+        if (len_trim(cfg%potential_file) == 0) call stop_all(cfg%path//': &potential: file: missing (the LAMMPS '// &
+            "potential file, e.g. file = '/usr/share/lammps/potentials/Cu_u3.eam')")
+        if (cfg%potential /= 'eam' .and. len_trim(cfg%elements(1)) == 0) call stop_all(cfg%path// &
+            ": &potential: elements: missing (element names of atom types 1, 2, ..., e.g. elements = 'Cu', 'Ni')")
+        if (cfg%nml%find('potential', 'epsilon') > 0 .or. cfg%nml%find('potential', 'sigma') > 0 .or. &
+            cfg%nml%find('potential', 'cutoff') > 0) call stop_all(cfg%where('potential', 'style')// &
+            ': epsilon, sigma and cutoff are for the LJ styles (an EAM file sets its own cutoff)')
+        call validate_run_settings(cfg)
+        if (cfg%integrator == 'energy_stepping') call stop_all(cfg%where('integrator', 'style')// &
+            ": energy stepping with EAM is not available yet (use style = 'velocity_verlet')")
+        if (cfg%list == 'all_pairs') call stop_all(cfg%where('neighbor', 'list')// &
+            ": 'all_pairs' is not available with EAM (use 'auto' or 'cells')")
+    end subroutine validate_eam
+
+    !> LJ keys, then the settings common to every potential.
+    subroutine validate_lj(cfg)
+        type(config_t), intent(inout) :: cfg
+        integer :: i, j
         if (is_unset(cfg%epsilon(1, 1))) call stop_all(cfg%path//': &potential: epsilon: missing (energy in '// &
                                                        trim(cfg%units%energy)//')')
         if (is_unset(cfg%sigma(1, 1))) call stop_all(cfg%path//': &potential: sigma: missing (length in '// &
@@ -432,6 +466,12 @@ contains
                           'dimension (set periodic = .false., .false., .false. or give a cutoff)')
         if (cfg%cutoff == 0 .and. cfg%potential /= 'lj') &
             call stop_all(cfg%where('potential', 'cutoff')//' = 0 (no cutoff): only with style = ''lj''')
+        call validate_run_settings(cfg)
+    end subroutine validate_lj
+
+    !> Integrator, neighbour and output settings (any potential).
+    subroutine validate_run_settings(cfg)
+        type(config_t), intent(inout) :: cfg
 
         select case (cfg%integrator)
         case ('velocity_verlet')
@@ -488,6 +528,6 @@ contains
             call stop_all(cfg%where('output', 'thermo_interval')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
         if (cfg%thermo_every > 0 .and. cfg%thermo_interval > 0) &
             call stop_all(cfg%where('output', 'thermo_interval')//': give either thermo_every or thermo_interval')
-    end subroutine validate
+    end subroutine validate_run_settings
 
 end module terrace_config

@@ -51,9 +51,14 @@ contains
                 self%halo = '6-way staged halo exchange with reverse force sums (Newton across ghosts)'
             end if
         end if
-        write (s, '(a,a,a,g0.6,a,g0.6)') trim(cfg%potential), merge(' (shifted)', '          ', cfg%shift), &
-            ' epsilon(1,1) = ', cfg%epsilon(1, 1), ', sigma(1,1) = ', cfg%sigma(1, 1)
-        self%potential = trim(s)//'; no density pass (pair potential)'
+        if (cfg%potential(1:3) == 'eam') then
+            self%potential = trim(cfg%potential)//' from '//trim(cfg%potential_file)// &
+                             '; density pass, reverse sum of rho and forward halo of F''(rho)'
+        else
+            write (s, '(a,a,a,g0.6,a,g0.6)') trim(cfg%potential), trim(merge(' (shifted)', '          ', cfg%shift)), &
+                ', epsilon(1,1) = ', cfg%epsilon(1, 1), ', sigma(1,1) = ', cfg%sigma(1, 1)
+            self%potential = trim(s)//'; no density pass (pair potential)'
+        end if
         write (s, '(a,a,g0.6,1x,a)') trim(cfg%integrator), ', dt = ', cfg%dt, trim(cfg%units%time)
         self%integrator = trim(s)
         self%outputs = 'screen'

@@ -15,6 +15,7 @@ module terrace_engine
     use terrace_replicate, only: replicate_t
     use terrace_neighbor_list, only: neighbor_list_t
     use terrace_lj, only: lj_t
+    use terrace_eam, only: eam_t
     use terrace_timers, only: timers_t, t_pair, t_neigh, t_comm, t_search
     use terrace_thermo, only: thermo_sample_t
     use terrace_scene_plan, only: plan_t, pair_all, pair_cells
@@ -31,6 +32,10 @@ module terrace_engine
         type(replicate_t) :: rep
         type(neighbor_list_t) :: list
         type(lj_t) :: lj
+        type(eam_t) :: eam
+        logical :: use_eam = .false.             !< EAM (density pass + halo of F'(rho)) instead of LJ
+        real(dp) :: cutmax = 0                   !< the potential's largest cutoff (0: none)
+        real(dp), allocatable :: halo_buf(:, :)  !< one-component copies of rho / F'(rho) for the halo
         type(plan_t) :: plan
         type(timers_t) :: timers
         integer(i8) :: natoms = 0
@@ -57,8 +62,7 @@ contains
         type(config_t), intent(in) :: cfg
         type(atom_table_t) :: table
         logical :: from_table
-        real(dp) :: lo(3), hi(3), cell(3), cut(max_types, max_types), eps(max_types, max_types), &
-                    sig(max_types, max_types), cutghost
+        real(dp) :: lo(3), hi(3), cell(3), cutghost
         integer :: ntypes, d, t, i
         character(len=64) :: s1, s2
 
@@ -131,6 +135,19 @@ contains
         if (from_table) then
             if (table%has_masses) self%atoms%mass = table%mass(1:ntypes)
         end if
+        self%use_eam = cfg%potential(1:3) == 'eam'
+        if (self%use_eam) then
+            block
+                logical :: ok
+                character(len=1024) :: msg
+                call self%eam%read(trim(cfg%potential), trim(cfg%potential_file), cfg%elements(1:max(ntypes, 1)), ntypes, &
+                                   ok, msg)
+                call check_all(ok, trim(msg)//' (&potential file)')
+            end block
+            do t = 1, ntypes
+                if (.not. (self%atoms%mass(t) > 0)) self%atoms%mass(t) = self%eam%mass(t)
+            end do
+        end if
         do t = 1, ntypes
             if (cfg%mass(t) > 0) self%atoms%mass(t) = cfg%mass(t)
             if (.not. (self%atoms%mass(t) > 0)) then
@@ -141,35 +158,25 @@ contains
         end do
 
         ! ---- potential tables
-        do t = 1, ntypes
-            if (is_unset(cfg%epsilon(t, t)) .or. is_unset(cfg%sigma(t, t))) then
-                write (s1, '(i0)') t
-                call stop_all(cfg%path//': &potential: epsilon: type '//trim(s1)//' needs epsilon('//trim(s1)//','// &
-                              trim(s1)//') and sigma('//trim(s1)//','//trim(s1)//')')
-            end if
-        end do
-        do t = 1, ntypes
-            do i = 1, ntypes
-                eps(i, t) = pick(cfg%epsilon, i, t, sqrt(cfg%epsilon(i, i)*cfg%epsilon(t, t)))
-                sig(i, t) = pick(cfg%sigma, i, t, sqrt(cfg%sigma(i, i)*cfg%sigma(t, t)))
-                cut(i, t) = pick(cfg%pair_cutoff, i, t, cfg%cutoff)
-            end do
-        end do
-        call self%lj%setup(ntypes, eps, sig, cut, cfg%shift, cfg%potential == 'lj/smooth/linear')
+        if (self%use_eam) then
+            self%cutmax = self%eam%cutmax
+        else
+            call setup_lj(self, cfg, ntypes)
+        end if
         do d = 1, cfg%dimension
             if (.not. self%box%periodic(d)) cycle
-            if (self%lj%cutmax > 0.5_dp*self%box%length(d)) then
-                write (s1, '(es12.5)') self%lj%cutmax
+            if (self%cutmax > 0.5_dp*self%box%length(d)) then
+                write (s1, '(es12.5)') self%cutmax
                 write (s2, '(es12.5)') 0.5_dp*self%box%length(d)
                 call stop_all(cfg%where('potential', 'cutoff')//' = '//trim(adjustl(s1))//': beyond half the periodic '// &
                               'box along '//'xyz'(d:d)//' ('//trim(adjustl(s2))//'); use a larger box or a smaller cutoff')
             end if
-            if (self%lj%cutmax + cfg%skin >= self%box%length(d)) &
+            if (self%cutmax + cfg%skin >= self%box%length(d)) &
                 call stop_all(cfg%where('neighbor', 'skin')//': cutoff + skin must be smaller than the periodic box')
         end do
 
         ! ---- distribute atoms
-        cutghost = self%lj%cutmax + cfg%skin
+        cutghost = self%cutmax + cfg%skin
         call self%dom%setup(self%box, cutghost)
         if (len_trim(cfg%lattice) > 0) then
             call create_lattice_atoms(self, cfg, cell)
@@ -187,7 +194,6 @@ contains
             call create_velocities(self%atoms, cfg%units, cfg%temperature, cfg%seed, cfg%dimension, &
                                    .not. any(self%box%periodic(1:cfg%dimension)), self%natoms)
         end if
-
         if (cfg%reverse_velocities) self%atoms%v(:, 1:self%atoms%nlocal) = -self%atoms%v(:, 1:self%atoms%nlocal)
 
         ! ---- plan
@@ -195,20 +201,48 @@ contains
         self%plan%nprocs = world%nprocs
         self%plan%dims = self%dom%dims
         self%plan%pair_mode = pair_cells
-        if (cfg%list == 'all_pairs' .or. self%lj%no_cutoff) then
-            self%plan%pair_mode = pair_all
-        else if (cfg%list == 'auto' .and. .not. any(self%box%periodic(1:cfg%dimension)) .and. &
-                 self%natoms <= self%plan%all_pairs_max) then
-            self%plan%pair_mode = pair_all
+        if (.not. self%use_eam) then
+            if (cfg%list == 'all_pairs' .or. self%lj%no_cutoff) then
+                self%plan%pair_mode = pair_all
+            else if (cfg%list == 'auto' .and. .not. any(self%box%periodic(1:cfg%dimension)) .and. &
+                     self%natoms <= self%plan%all_pairs_max) then
+                self%plan%pair_mode = pair_all
+            end if
         end if
-        call self%plan%finish(cfg, self%box, self%lj%cutmax)
+        call self%plan%finish(cfg, self%box, self%cutmax)
 
         self%list%dimension = cfg%dimension
-        if (self%plan%pair_mode == pair_cells) call self%list%init(self%lj%cutmax, cfg%skin, cfg%dimension)
+        if (self%plan%pair_mode == pair_cells) call self%list%init(self%cutmax, cfg%skin, cfg%dimension)
         call self%rebuild()
         call check_overlaps(self)
         call self%compute_forces(.true.)
     end subroutine engine_setup
+
+    !> LJ tables: per-pair epsilon, sigma (geometric mixing where a pair is not given) and cutoff.
+    subroutine setup_lj(self, cfg, ntypes)
+        type(engine_t), intent(inout) :: self
+        type(config_t), intent(in) :: cfg
+        integer, intent(in) :: ntypes
+        real(dp) :: cut(max_types, max_types), eps(max_types, max_types), sig(max_types, max_types)
+        integer :: t, i
+        character(len=64) :: s1
+        do t = 1, ntypes
+            if (is_unset(cfg%epsilon(t, t)) .or. is_unset(cfg%sigma(t, t))) then
+                write (s1, '(i0)') t
+                call stop_all(cfg%path//': &potential: epsilon: type '//trim(s1)//' needs epsilon('//trim(s1)//','// &
+                              trim(s1)//') and sigma('//trim(s1)//','//trim(s1)//')')
+            end if
+        end do
+        do t = 1, ntypes
+            do i = 1, ntypes
+                eps(i, t) = pick(cfg%epsilon, i, t, sqrt(cfg%epsilon(i, i)*cfg%epsilon(t, t)))
+                sig(i, t) = pick(cfg%sigma, i, t, sqrt(cfg%sigma(i, i)*cfg%sigma(t, t)))
+                cut(i, t) = pick(cfg%pair_cutoff, i, t, cfg%cutoff)
+            end do
+        end do
+        call self%lj%setup(ntypes, eps, sig, cut, cfg%shift, cfg%potential == 'lj/smooth/linear')
+        self%cutmax = self%lj%cutmax
+    end subroutine setup_lj
 
     pure real(dp) function pick(table, i, j, fallback) result(v)
         real(dp), intent(in) :: table(:, :), fallback
@@ -333,7 +367,9 @@ contains
         call self%timers%start(t_pair)
         nall = self%atoms%nall()
         self%atoms%f(:, 1:nall) = 0
-        if (self%plan%pair_mode == pair_all) then
+        if (self%use_eam) then
+            call eam_forces(self, want_energy, ew)
+        else if (self%plan%pair_mode == pair_all) then
             call self%lj%compute_all_pairs(self%atoms, ew(1), ew(2))
         else
             call self%lj%compute(self%atoms, self%list, want_energy, ew(1), ew(2))
@@ -352,6 +388,41 @@ contains
         end if
         self%force_evaluations = self%force_evaluations + 1
     end subroutine engine_compute_forces
+
+    !> EAM: density pass over the half list, reverse sum of the ghost densities into their owners,
+    !> F'(rho) of the owned atoms, forward copy of F'(rho) to the ghosts, force pass. ew = (pair +
+    !> embedding energy, virial) of this rank. The halo calls are timed as communication.
+    subroutine eam_forces(self, want_energy, ew)
+        type(engine_t), intent(inout) :: self
+        logical, intent(in) :: want_energy
+        real(dp), intent(out) :: ew(2)
+        integer :: nall
+        real(dp) :: e_embed, e_pair, w
+        nall = self%atoms%nall()
+        call self%eam%density(self%atoms, self%list)
+        call self%timers%stop(t_pair)
+        call self%timers%start(t_comm)
+        if (allocated(self%halo_buf)) then
+            if (size(self%halo_buf, 2) < nall) deallocate (self%halo_buf)
+        end if
+        if (.not. allocated(self%halo_buf)) allocate (self%halo_buf(1, nall + nall/4 + 16))
+        self%halo_buf(1, 1:nall) = self%eam%rho(1:nall)
+        call self%dom%reverse(self%halo_buf(:, 1:nall))
+        self%eam%rho(1:self%atoms%nlocal) = self%halo_buf(1, 1:self%atoms%nlocal)
+        call self%timers%stop(t_comm)
+        call self%timers%start(t_pair)
+        call self%eam%embed(self%atoms, want_energy, e_embed)
+        call self%timers%stop(t_pair)
+        call self%timers%start(t_comm)
+        self%halo_buf(1, 1:nall) = self%eam%fp(1:nall)
+        call self%dom%forward(self%halo_buf(:, 1:nall), .false.)
+        self%eam%fp(1:nall) = self%halo_buf(1, 1:nall)
+        call self%timers%stop(t_comm)
+        call self%timers%start(t_pair)
+        call self%eam%force(self%atoms, self%list, want_energy, e_pair, w)
+        ew = [0.0_dp, w]
+        if (want_energy) ew(1) = e_embed + e_pair
+    end subroutine eam_forces
 
     !> Thermo quantities from the current velocities and the last energy evaluation.
     function engine_sample(self, step, time) result(s)
@@ -475,8 +546,12 @@ contains
                     j = k
                 end if
                 rsq = sum((self%atoms%x(:, i) - self%atoms%x(:, j))**2)
-                sig = (self%lj%lj3(self%atoms%type(i), self%atoms%type(j))/ &
-                       max(self%lj%lj4(self%atoms%type(i), self%atoms%type(j)), tiny(1.0_dp)))**(1.0_dp/6)
+                if (self%use_eam) then
+                    sig = 0.4_dp*self%cutmax        ! a contact distance for EAM (about the nearest neighbour)
+                else
+                    sig = (self%lj%lj3(self%atoms%type(i), self%atoms%type(j))/ &
+                           max(self%lj%lj4(self%atoms%type(i), self%atoms%type(j)), tiny(1.0_dp)))**(1.0_dp/6)
+                end if
                 rmin_ratio = min(rmin_ratio, sqrt(rsq)/sig)
                 k = k + 1
             end do

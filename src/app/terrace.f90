@@ -14,6 +14,7 @@ program terrace
     use terrace_velocities, only: kinetic_energy
     use terrace_forces_file, only: write_forces_file
     use terrace_final_atoms, only: write_final_atoms
+    use terrace_trajectory, only: trajectory_t
     use terrace_run_log, only: print_run_log
     use terrace_timers, only: timers_t
     use terrace_errors, only: stop_all, check_all
@@ -25,6 +26,8 @@ program terrace
     type(config_t) :: cfg
     type(engine_t) :: eng
     type(thermo_writer_t) :: thermo
+    type(trajectory_t) :: traj
+    integer(i8) :: traj_every
     character(len=:), allocatable :: path
     character(len=4096) :: arg
     logical :: check_only, ok
@@ -88,10 +91,15 @@ contains
         call MPI_Barrier(world%comm)
         eng%timers = timers_t()
         t0 = MPI_Wtime()
-        call run_velocity_verlet(eng, thermo, n_steps, thermo_every)
+        traj_every = 0
+        if (cfg%trajectory_every > 0) traj_every = cfg%trajectory_every
+        if (cfg%trajectory_interval > 0) traj_every = max(1_i8, nint(cfg%trajectory_interval/cfg%dt, i8))
+        if (len_trim(cfg%trajectory_file) == 0) traj_every = 0
+        call run_velocity_verlet(eng, thermo, traj, n_steps, thermo_every, traj_every)
         call MPI_Barrier(world%comm)
         t1 = MPI_Wtime()
         call thermo%close()
+        call traj%close()
         call write_final(n_steps*cfg%dt)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, n_steps, eng%list%builds, 'steps')
     end subroutine verlet_run
@@ -137,10 +145,15 @@ contains
         call MPI_Barrier(world%comm)
         eng%timers = timers_t()
         t0 = MPI_Wtime()
-        call run_energy_stepping(eng, thermo, h, t_end, n_steps, interval, thermo_every, es)
+        traj_every = 0
+        if (len_trim(cfg%trajectory_file) > 0) traj_every = max(0_i8, cfg%trajectory_every)
+        call run_energy_stepping(eng, thermo, traj, h, t_end, n_steps, interval, thermo_every, &
+                                 merge(cfg%trajectory_interval, 0.0_dp, len_trim(cfg%trajectory_file) > 0 .and. &
+                                       cfg%trajectory_interval > 0), traj_every, es)
         call MPI_Barrier(world%comm)
         t1 = MPI_Wtime()
         call thermo%close()
+        call traj%close()
         call write_final(es%time)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events')
         if (world%rank == 0) then
@@ -173,6 +186,10 @@ contains
     subroutine open_outputs(extra_header, end_time)
         character(len=*), intent(in) :: extra_header
         real(dp), intent(in) :: end_time
+        call traj%open(trim(cfg%trajectory_file), trim(cfg%trajectory_fields), world%comm, eng%natoms, eng%box, &
+                       eng%atoms%mass, cfg%units, ok, msg)
+        call check_all(ok, trim(cfg%trajectory_file)//': cannot create the trajectory (&output trajectory_file): '// &
+                       trim(msg))
         call thermo%open(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, ok, msg)
         call check_all(ok, trim(cfg%thermo_file)//': cannot write the thermo file (&output thermo_file): '//trim(msg))
         if (len_trim(cfg%forces_file) > 0) then

@@ -66,6 +66,11 @@ module terrace_config
         character(len=512) :: thermo_file = ''
         character(len=512) :: forces_file = ''
         character(len=512) :: final_atoms_file = ''
+        character(len=512) :: trajectory_file = ''
+        integer(i8) :: trajectory_every = -1
+        real(dp) :: trajectory_interval = -1.0_dp
+        character(len=64) :: trajectory_fields = 'position velocity image'
+        logical :: overwrite = .false.
     contains
         procedure :: where => cfg_where
     end type config_t
@@ -342,16 +347,25 @@ contains
         type(config_t), intent(inout) :: cfg
         integer(i8) :: thermo_every
         real(dp) :: thermo_interval
-        character(len=512) :: thermo_file, forces_file, final_atoms_file
-        namelist /output/ thermo_every, thermo_interval, thermo_file, forces_file, final_atoms_file
-        character(len=*), parameter :: keys(5) = [character(len=40) :: 'thermo_every:an integer', &
+        character(len=512) :: thermo_file, forces_file, final_atoms_file, trajectory_file
+        integer(i8) :: trajectory_every
+        real(dp) :: trajectory_interval
+        character(len=64) :: trajectory_fields
+        logical :: overwrite
+        namelist /output/ thermo_every, thermo_interval, thermo_file, forces_file, final_atoms_file, trajectory_file, &
+            trajectory_every, trajectory_interval, trajectory_fields, overwrite
+        character(len=*), parameter :: keys(10) = [character(len=60) :: 'thermo_every:an integer', &
             'thermo_interval:a real number', 'thermo_file:a quoted file name', 'forces_file:a quoted file name', &
-            'final_atoms_file:a quoted file name']
+            'final_atoms_file:a quoted file name', 'trajectory_file:a quoted file name', &
+            'trajectory_every:an integer', 'trajectory_interval:a real number', &
+            'trajectory_fields:a quoted list of position, velocity, force, image', 'overwrite:a logical']
         character(len=:), allocatable :: kind
         character(len=256) :: msg
         character(len=:), allocatable :: buf
         integer :: k, ios
         thermo_every = -1; thermo_interval = -1; thermo_file = ''; forces_file = ''; final_atoms_file = ''
+        trajectory_file = ''; trajectory_every = -1; trajectory_interval = -1
+        trajectory_fields = 'position velocity image'; overwrite = .false.
         do k = 1, cfg%nml%count
             if (cfg%nml%items(k)%group /= 'output') cycle
             kind = check_key(cfg, k, keys)
@@ -361,6 +375,9 @@ contains
         end do
         cfg%thermo_every = thermo_every; cfg%thermo_interval = thermo_interval
         cfg%thermo_file = thermo_file; cfg%forces_file = forces_file; cfg%final_atoms_file = final_atoms_file
+        cfg%trajectory_file = trajectory_file; cfg%trajectory_every = trajectory_every
+        cfg%trajectory_interval = trajectory_interval; cfg%trajectory_fields = lower(trajectory_fields)
+        cfg%overwrite = overwrite
     end subroutine read_output
 
     !> Checks that need no atoms. Checks that need the atoms (overlaps, atoms outside the box,
@@ -528,6 +545,49 @@ contains
             call stop_all(cfg%where('output', 'thermo_interval')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
         if (cfg%thermo_every > 0 .and. cfg%thermo_interval > 0) &
             call stop_all(cfg%where('output', 'thermo_interval')//': give either thermo_every or thermo_interval')
+        call validate_outputs(cfg)
     end subroutine validate_run_settings
+
+    !> Output files: intervals, fields, and no silent overwrite of an existing file.
+    subroutine validate_outputs(cfg)
+        type(config_t), intent(inout) :: cfg
+        character(len=64) :: word
+        integer :: i, j, ios
+        logical :: there
+        if (cfg%nml%find('output', 'trajectory_every') > 0 .and. cfg%trajectory_every <= 0) &
+            call stop_all(cfg%where('output', 'trajectory_every')//': must be > 0')
+        if (cfg%nml%find('output', 'trajectory_interval') > 0 .and. .not. (cfg%trajectory_interval > 0)) &
+            call stop_all(cfg%where('output', 'trajectory_interval')//': must be > 0 (a time in '// &
+                          trim(cfg%units%time)//')')
+        if (cfg%trajectory_every > 0 .and. cfg%trajectory_interval > 0) &
+            call stop_all(cfg%where('output', 'trajectory_interval')//': give either trajectory_every or '// &
+                          'trajectory_interval')
+        if (len_trim(cfg%trajectory_file) > 0 .and. cfg%trajectory_every <= 0 .and. .not. (cfg%trajectory_interval > 0)) &
+            call stop_all(cfg%where('output', 'trajectory_file')//': needs trajectory_every (steps) or '// &
+                          'trajectory_interval (time)')
+        i = 1
+        do
+            read (cfg%trajectory_fields(i:), *, iostat=ios) word
+            if (ios /= 0 .or. len_trim(word) == 0) exit
+            select case (trim(word))
+            case ('position', 'velocity', 'force', 'image')
+            case default
+                call stop_all(cfg%where('output', 'trajectory_fields')//": unknown field '"//trim(word)// &
+                              "' (allowed: position, velocity, force, image)")
+            end select
+            j = index(cfg%trajectory_fields(i:), trim(word))
+            i = i + j - 1 + len_trim(word)
+            if (i > len_trim(cfg%trajectory_fields)) exit
+        end do
+        if (index(cfg%trajectory_fields, 'image') > 0 .and. index(cfg%trajectory_fields, 'position') == 0) &
+            call stop_all(cfg%where('output', 'trajectory_fields')//": 'image' needs 'position' too")
+        ! a trajectory is expensive to make: an existing one is never replaced silently (the small
+        ! text outputs are, as in other MD codes)
+        if (.not. cfg%overwrite .and. len_trim(cfg%trajectory_file) > 0) then
+            inquire (file=trim(cfg%trajectory_file), exist=there)
+            if (there) call stop_all(cfg%where('output', 'trajectory_file')//" = '"//trim(cfg%trajectory_file)// &
+                "': the file exists (set overwrite = .true. to replace it, or choose another name)")
+        end if
+    end subroutine validate_outputs
 
 end module terrace_config

@@ -20,6 +20,7 @@ module terrace_energy_stepping
     use terrace_engine, only: engine_t
     use terrace_event_solver, only: ray_t, event_solver_t, crossing_t, level_upper, level_lower
     use terrace_thermo, only: thermo_writer_t, thermo_sample_t
+    use terrace_trajectory, only: trajectory_t
     use terrace_timers, only: t_output
     use terrace_mpi_env, only: world, sum_all, min_all
     use terrace_errors, only: stop_all, check_all
@@ -132,17 +133,19 @@ contains
     end subroutine print_es_estimates
 
     !> The event loop. Ends at t_end, or after max_events events.
-    subroutine run_energy_stepping(eng, thermo, h, t_end, max_events, sample_interval, sample_every, stats)
+    subroutine run_energy_stepping(eng, thermo, traj, h, t_end, max_events, sample_interval, sample_every, &
+                                   traj_interval, traj_every, stats)
         type(engine_t), intent(inout), target :: eng
         type(thermo_writer_t), intent(inout) :: thermo
-        real(dp), intent(in) :: h, t_end, sample_interval
-        integer(i8), intent(in) :: max_events, sample_every
+        type(trajectory_t), intent(inout) :: traj
+        real(dp), intent(in) :: h, t_end, sample_interval, traj_interval
+        integer(i8), intent(in) :: max_events, sample_every, traj_every
         type(es_stats_t), intent(out) :: stats
         type(engine_ray_t) :: ray
         type(event_solver_t) :: solver
         type(crossing_t) :: res
-        integer(i8) :: k, n_sample, last_events, last_evals
-        real(dp) :: t, lower, upper, p0(3), t_exp, t_next_sample, window, sigma2, a, b, lam, vstar, trust, &
+        integer(i8) :: k, n_sample, last_events, last_evals, n_frame
+        real(dp) :: t, lower, upper, p0(3), t_exp, t_next_sample, t_next_frame, window, sigma2, a, b, lam, vstar, trust, &
                     last_time, mvv2e
         logical :: have_c, sample_due, have_guess
         real(dp) :: c_guess
@@ -170,14 +173,18 @@ contains
         n_sample = 1
         t_next_sample = huge(1.0_dp)
         if (sample_interval > 0) t_next_sample = sample_interval
+        n_frame = 1
+        t_next_frame = huge(1.0_dp)
+        if (traj_interval > 0) t_next_frame = traj_interval
         t_exp = eng%list_expiry()
         call min_all(t_exp)
         trust = huge(1.0_dp)
         last_events = 0; last_evals = 0; last_time = 0
         call write_sample(0.0_dp)
+        if (traj_interval > 0 .or. traj_every > 0) call write_frame(0.0_dp)
         do
             if (t >= t_end .or. stats%events >= max_events) exit
-            window = max(0.0_dp, min(t_exp, t_next_sample, t_end) - t)
+            window = max(0.0_dp, min(t_exp, t_next_sample, t_next_frame, t_end) - t)
             ray%evals = 0
             if (have_c .or. .not. have_guess) then
                 call solver%first_crossing(ray, lower, upper, window, p0, have_c, trust, res)
@@ -188,7 +195,7 @@ contains
             if (.not. res%found) then
                 ! ---- window end: sample, list expiry or end of run; no kick
                 call eng%drift(window)
-                t = min(t_exp, t_next_sample, t_end)
+                t = min(t_exp, t_next_sample, t_next_frame, t_end)
                 p0 = res%fdc
                 have_c = .true.
                 if (ray%last_s /= window) call ray%eval(window, p0)
@@ -210,6 +217,11 @@ contains
                     t_next_sample = n_sample*sample_interval
                 else if (t >= t_end) then
                     call write_sample(t)
+                end if
+                if (t >= t_next_frame) then
+                    call write_frame(t)
+                    n_frame = n_frame + 1
+                    t_next_frame = n_frame*traj_interval
                 end if
                 cycle
             end if
@@ -261,6 +273,9 @@ contains
             sample_due = sample_every > 0
             if (sample_due) sample_due = mod(stats%events, sample_every) == 0
             if (sample_due) call write_sample(t)
+            if (traj_every > 0) then
+                if (mod(stats%events, traj_every) == 0) call write_frame(t)
+            end if
         end do
         stats%time = t
         if (sample_every > 0 .and. mod(stats%events, max(sample_every, 1_i8)) /= 0) call write_sample(t)
@@ -284,6 +299,21 @@ contains
             last_events = stats%events; last_evals = stats%ray_evals; last_time = time
             call eng%timers%stop(t_output)
         end subroutine write_sample
+
+        subroutine write_frame(time)
+            real(dp), intent(in) :: time
+            type(thermo_sample_t) :: s
+            logical :: ok
+            character(len=512) :: msg
+            character(len=16), parameter :: names(4) = [character(len=16) :: 'events', 'reflections', &
+                                                         'terrace_height', 'e_terraced']
+            call eng%timers%start(t_output)
+            s = eng%sample(stats%events, time)
+            call traj%write(stats%events, time, eng%atoms, s, ok, msg, names, &
+                            [real(stats%events, dp), real(stats%reflections, dp), h, s%ke + k*h])
+            call check_all(ok, 'trajectory: '//trim(msg))
+            call eng%timers%stop(t_output)
+        end subroutine write_frame
 
     end subroutine run_energy_stepping
 

@@ -5,6 +5,7 @@ module terrace_velocity_verlet
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
     use terrace_thermo, only: thermo_writer_t, thermo_sample_t
+    use terrace_trajectory, only: trajectory_t
     use terrace_scene_plan, only: pair_cells
     use terrace_timers, only: t_output
     use terrace_errors, only: check_all
@@ -15,14 +16,15 @@ module terrace_velocity_verlet
 
 contains
 
-    subroutine run_velocity_verlet(eng, thermo, n_steps, thermo_every)
+    subroutine run_velocity_verlet(eng, thermo, traj, n_steps, thermo_every, traj_every)
         type(engine_t), intent(inout) :: eng
         type(thermo_writer_t), intent(inout) :: thermo
-        integer(i8), intent(in) :: n_steps, thermo_every
+        type(trajectory_t), intent(inout) :: traj
+        integer(i8), intent(in) :: n_steps, thermo_every, traj_every
         integer(i8) :: step
         integer :: i, t
         real(dp) :: dt, dtfm(size(eng%atoms%mass))
-        logical :: sample
+        logical :: sample, frame
         type(thermo_sample_t) :: first, last
         dt = eng%cfg%dt
         do t = 1, size(dtfm)
@@ -31,6 +33,7 @@ contains
         call eng%timers%start(t_output)
         first = eng%sample(0_i8, 0.0_dp)
         call thermo%write(first)
+        call write_frame(0_i8, first)
         last = first
         call eng%timers%stop(t_output)
         do step = 1, n_steps
@@ -48,7 +51,9 @@ contains
                 call eng%refresh_ghosts()
             end if
             sample = mod(step, thermo_every) == 0 .or. step == n_steps
-            call eng%compute_forces(sample)
+            frame = .false.
+            if (traj_every > 0) frame = mod(step, traj_every) == 0
+            call eng%compute_forces(sample .or. frame)
             do i = 1, eng%atoms%nlocal
                 eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
             end do
@@ -60,8 +65,25 @@ contains
                 call thermo%write(last)
                 call eng%timers%stop(t_output)
             end if
+            if (frame) call write_frame(step, eng%sample(step, step*dt))
         end do
         call report_drift(first, last, eng%natoms)
+
+    contains
+
+        subroutine write_frame(step, s)
+            integer(i8), intent(in) :: step
+            type(thermo_sample_t), intent(in) :: s
+            logical :: ok
+            character(len=512) :: msg
+            if (traj_every <= 0) return
+            if (mod(step, traj_every) /= 0) return
+            call eng%timers%start(t_output)
+            call traj%write(step, step*dt, eng%atoms, s, ok, msg)
+            call check_all(ok, 'trajectory: '//trim(msg))
+            call eng%timers%stop(t_output)
+        end subroutine write_frame
+
     end subroutine run_velocity_verlet
 
     !> Energy drift per atom per time unit and the change of total momentum over the run.

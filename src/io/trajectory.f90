@@ -1,0 +1,93 @@
+!> The trajectory output: H5MD frames of the fields asked for (&output trajectory_fields) and the
+!> thermo quantities as H5MD observables, written at the sample times the integrator chooses.
+module terrace_trajectory
+    use terrace_kinds, only: dp, i8
+    use terrace_h5md, only: h5md_writer_t
+    use terrace_atoms, only: atoms_t
+    use terrace_box, only: box_t
+    use terrace_units, only: units_t
+    use terrace_thermo, only: thermo_sample_t
+    use terrace_version, only: terrace_version_string
+    use mpi_f08, only: MPI_Comm
+    implicit none
+    private
+
+    type, public :: trajectory_t
+        type(h5md_writer_t) :: h5
+        logical :: active = .false.
+        logical :: want_position = .false., want_velocity = .false., want_force = .false., want_image = .false.
+    contains
+        procedure :: open => trajectory_open
+        procedure :: write => trajectory_write
+        procedure :: close => trajectory_close
+    end type trajectory_t
+
+contains
+
+    subroutine trajectory_open(self, path, fields, comm, natoms, box, masses, units, ok, msg)
+        class(trajectory_t), intent(inout) :: self
+        character(len=*), intent(in) :: path, fields
+        type(MPI_Comm), intent(in) :: comm
+        integer(i8), intent(in) :: natoms
+        type(box_t), intent(in) :: box
+        real(dp), intent(in) :: masses(:)
+        type(units_t), intent(in) :: units
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        character(len=16) :: ul, ut, ue, uv, um
+        ok = .true.; msg = ''
+        if (len_trim(path) == 0) return
+        self%want_position = index(fields, 'position') > 0
+        self%want_velocity = index(fields, 'velocity') > 0
+        self%want_force = index(fields, 'force') > 0
+        self%want_image = index(fields, 'image') > 0
+        if (units%name == 'metal') then
+            ul = 'Ang'; ut = 'ps'; ue = 'eV'; uv = 'Ang ps-1'; um = 'u'
+        else
+            ul = ''; ut = ''; ue = ''; uv = ''; um = ''
+        end if
+        call self%h5%create(path, comm, natoms, box%dimension, box%lo, box%hi, box%periodic, self%want_position, &
+                            self%want_velocity, self%want_force, self%want_image, masses, trim(ul), trim(ut), &
+                            trim(ue), trim(uv), trim(um), terrace_version_string, ok, msg)
+        self%active = ok
+    end subroutine trajectory_open
+
+    !> One frame at (step, time), with the thermo sample s as observables; extra(:) are written as
+    !> further observables named by extra_names (energy stepping: events, e_terraced, ...).
+    subroutine trajectory_write(self, step, time, atoms, s, ok, msg, extra_names, extra)
+        class(trajectory_t), intent(inout) :: self
+        integer(i8), intent(in) :: step
+        real(dp), intent(in) :: time
+        type(atoms_t), intent(in) :: atoms
+        type(thermo_sample_t), intent(in) :: s
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        character(len=*), intent(in), optional :: extra_names(:)
+        real(dp), intent(in), optional :: extra(:)
+        integer :: n, k
+        ok = .true.; msg = ''
+        if (.not. self%active) return
+        n = atoms%nlocal
+        call self%h5%write_frame(step, time, n, atoms%id(1:n), atoms%type(1:n), x=atoms%x(:, 1:n), &
+                                 v=atoms%v(:, 1:n), f=atoms%f(:, 1:n), image=atoms%image(:, 1:n), ok=ok, msg=msg)
+        if (.not. ok) return
+        call self%h5%write_observable('potential_energy', step, time, s%pe, ok, msg, flush=.false.)
+        if (ok) call self%h5%write_observable('kinetic_energy', step, time, s%ke, ok, msg, flush=.false.)
+        if (ok) call self%h5%write_observable('total_energy', step, time, s%etotal, ok, msg, flush=.false.)
+        if (ok) call self%h5%write_observable('temperature', step, time, s%temp, ok, msg, flush=.false.)
+        if (ok) call self%h5%write_observable('pressure', step, time, s%press, ok, msg, flush=.false.)
+        if (present(extra) .and. present(extra_names)) then
+            do k = 1, size(extra)
+                if (ok) call self%h5%write_observable(trim(extra_names(k)), step, time, extra(k), ok, msg, flush=.false.)
+            end do
+        end if
+        if (ok) call self%h5%flush(ok, msg)
+    end subroutine trajectory_write
+
+    subroutine trajectory_close(self)
+        class(trajectory_t), intent(inout) :: self
+        if (self%active) call self%h5%close()
+        self%active = .false.
+    end subroutine trajectory_close
+
+end module terrace_trajectory

@@ -420,8 +420,8 @@ contains
                               ': give exactly one of lattice_constant and density, and it must be > 0')
             if (any(cfg%cells(1:cfg%dimension) <= 0)) call stop_all(cfg%where('system', 'cells')// &
                 ': must be positive integers, one per dimension')
-            if (cfg%mass(1) <= 0) call stop_all(cfg%where('system', 'mass')//': missing or <= 0 (mass of type 1 in '// &
-                trim(cfg%units%mass)//')')
+            if (cfg%mass(1) <= 0 .and. cfg%potential(1:3) /= 'eam') call stop_all(cfg%where('system', 'mass')// &
+                ': missing or <= 0 (mass of type 1 in '//trim(cfg%units%mass)//')')
         end if
         if (cfg%dimension == 2) cfg%periodic(3) = .true.
         if (cfg%nml%find('system', 'temperature') > 0 .and. cfg%temperature < 0) &

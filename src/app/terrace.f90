@@ -102,6 +102,7 @@ contains
         call traj%close()
         call write_final(n_steps*cfg%dt)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, n_steps, eng%list%builds, 'steps')
+        call eng%report_warnings()
     end subroutine verlet_run
 
     subroutine energy_stepping_run()

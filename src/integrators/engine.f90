@@ -19,8 +19,8 @@ module terrace_engine
     use terrace_timers, only: timers_t, t_pair, t_neigh, t_comm, t_search
     use terrace_thermo, only: thermo_sample_t
     use terrace_scene_plan, only: plan_t, pair_all, pair_cells
-    use terrace_mpi_env, only: world, sum_all, sum_all_i8, min_all
-    use terrace_errors, only: stop_all, check_all
+    use terrace_mpi_env, only: world, sum_all, sum_all_i8, min_all, any_all
+    use terrace_errors, only: stop_all, check_all, warn
     implicit none
     private
 
@@ -52,6 +52,7 @@ module terrace_engine
         procedure :: drift => engine_drift
         procedure :: sync_ghosts => engine_sync_ghosts
         procedure :: list_expiry => engine_list_expiry
+        procedure :: report_warnings => engine_report_warnings
     end type engine_t
 
 contains
@@ -525,6 +526,22 @@ contains
             end if
         end do
     end function engine_list_expiry
+
+    !> Warnings gathered during the run, printed once by rank 0 (collective): EAM tables left.
+    subroutine engine_report_warnings(self)
+        class(engine_t), intent(inout) :: self
+        logical :: flags(2)
+        character(len=512) :: text
+        if (.not. self%use_eam) return
+        flags = [self%eam%rho_outside, self%eam%r_table_short]
+        call any_all(flags(1)); call any_all(flags(2))
+        if (self%eam%warning(text)) then
+            if (world%rank == 0) call warn(trim(text))
+        else if (any(flags) .and. world%rank == 0) then
+            call warn('eam: some ranks left the tabulated range of the potential (densities or distances); '// &
+                      'values were continued as LAMMPS does')
+        end if
+    end subroutine engine_report_warnings
 
     !> Refuse a start with atoms on top of each other (closer than sigma/4).
     subroutine check_overlaps(self)

@@ -194,11 +194,13 @@ contains
             stats%ray_evals = stats%ray_evals + ray%evals
             if (.not. res%found) then
                 ! ---- window end: sample, list expiry or end of run; no kick
-                call eng%drift(window)
-                t = min(t_exp, t_next_sample, t_next_frame, t_end)
+                ! (f, f', f'' and the virial at the window end, measured from the search origin: before
+                ! the drift)
                 p0 = res%fdc
                 have_c = .true.
                 if (ray%last_s /= window) call ray%eval(window, p0)
+                call eng%drift(window)
+                t = min(t_exp, t_next_sample, t_next_frame, t_end)
                 ! well inside the nominal terrace again: edges shifted at earlier kicks revert
                 if (p0(1) > k*h + solver%tol .and. p0(1) < (k + 1)*h - solver%tol) then
                     lower = k*h; upper = (k + 1)*h

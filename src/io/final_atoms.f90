@@ -7,7 +7,7 @@ module terrace_final_atoms
     use terrace_atoms, only: atoms_t
     use terrace_box, only: box_t
     use terrace_mpi_env, only: world
-    use mpi_f08, only: MPI_Gather, MPI_Gatherv, MPI_INTEGER, MPI_DOUBLE_PRECISION
+    use terrace_gather_by_id, only: gather_by_id
     implicit none
     private
 
@@ -23,54 +23,30 @@ contains
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
         real(dp), allocatable :: mine(:, :), all(:, :)
-        integer, allocatable :: counts(:), displs(:)
-        integer :: n, total, r, i, j, unit, ios, d
-        integer(i8) :: id
+        integer(i8), allocatable :: ids(:)
+        integer :: n, i, unit, ios, d
         ok = .true.; msg = ''
         n = atoms%nlocal
-        allocate (mine(8, max(n, 1)))
+        allocate (mine(7, n))
         do i = 1, n
-            mine(1, i) = real(atoms%id(i), dp)
-            mine(2, i) = real(atoms%type(i), dp)
-            mine(3:5, i) = atoms%x(:, i)
+            mine(1, i) = real(atoms%type(i), dp)
+            mine(2:4, i) = atoms%x(:, i)
             do d = 1, box%dimension
-                if (box%periodic(d)) mine(2 + d, i) = box%lo(d) + modulo(atoms%x(d, i) - box%lo(d), box%length(d))
+                if (box%periodic(d)) mine(1 + d, i) = box%lo(d) + modulo(atoms%x(d, i) - box%lo(d), box%length(d))
             end do
-            mine(6:8, i) = atoms%v(:, i)
+            mine(5:7, i) = atoms%v(:, i)
         end do
-        allocate (counts(world%nprocs), displs(world%nprocs))
-        call MPI_Gather(8*n, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, 0, world%comm)
-        total = 0
-        if (world%rank == 0) then
-            do r = 1, world%nprocs
-                displs(r) = total; total = total + counts(r)
-            end do
-        end if
-        allocate (all(8, max(total/8, 1)))
-        call MPI_Gatherv(mine, 8*n, MPI_DOUBLE_PRECISION, all, counts, displs, MPI_DOUBLE_PRECISION, 0, world%comm)
+        call gather_by_id(n, atoms%id(1:n), mine, ids, all)
         if (world%rank /= 0) return
-        total = total/8
         open (newunit=unit, file=path, status='replace', action='write', iostat=ios, iomsg=msg)
         if (ios /= 0) then
             ok = .false.; return
         end if
         write (unit, '(a,es24.16e3)') '# terrace final state at time ', time
         write (unit, '(a)') '# type x y z vx vy vz   (one line per atom, in id order)'
-        ! ids are 1..N for atoms files and lattices: place each line by id
-        block
-            integer, allocatable :: where(:)
-            allocate (where(total))
-            where = 0
-            do j = 1, total
-                id = nint(all(1, j), i8)
-                if (id >= 1 .and. id <= total) where(id) = j
-            end do
-            do i = 1, total
-                j = where(i)
-                if (j == 0) cycle
-                write (unit, '(i0,6(1x,es24.16e3))') nint(all(2, j)), all(3:8, j)
-            end do
-        end block
+        do i = 1, size(ids)
+            write (unit, '(i0,6(1x,es24.16e3))') nint(all(1, i)), all(2:7, i)
+        end do
         close (unit)
     end subroutine write_final_atoms
 

@@ -1,0 +1,76 @@
+!> Gather per-atom values of every rank on rank 0, sorted by global atom id: for the small
+!> diagnostic text outputs (forces file, final atoms file). Production output (H5MD) never gathers.
+module terrace_gather_by_id
+    use terrace_kinds, only: dp, i8
+    use terrace_mpi_env, only: world
+    use mpi_f08, only: MPI_Gather, MPI_Gatherv, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION
+    implicit none
+    private
+
+    public :: gather_by_id
+
+contains
+
+    !> values(nc, nlocal) of this rank's atoms ids(nlocal); on rank 0, all_ids(total) ascending and
+    !> all_values(nc, total) in that order (empty on the other ranks). Collective.
+    subroutine gather_by_id(nlocal, ids, values, all_ids, all_values)
+        integer, intent(in) :: nlocal
+        integer(i8), intent(in) :: ids(:)
+        real(dp), intent(in) :: values(:, :)
+        integer(i8), allocatable, intent(out) :: all_ids(:)
+        real(dp), allocatable, intent(out) :: all_values(:, :)
+        integer, allocatable :: counts(:), displs(:), order(:)
+        integer(i8), allocatable :: gids(:)
+        real(dp), allocatable :: gvals(:, :)
+        integer :: nc, total, r, i
+        nc = size(values, 1)
+        allocate (counts(world%nprocs), displs(world%nprocs))
+        call MPI_Gather(nlocal, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, 0, world%comm)
+        total = 0
+        if (world%rank == 0) then
+            do r = 1, world%nprocs
+                displs(r) = total; total = total + counts(r)
+            end do
+        end if
+        allocate (gids(max(total, 1)), gvals(nc, max(total, 1)))
+        call MPI_Gatherv(ids, nlocal, MPI_INTEGER8, gids, counts, displs, MPI_INTEGER8, 0, world%comm)
+        call MPI_Gatherv(values, nc*nlocal, MPI_DOUBLE_PRECISION, gvals, nc*counts, nc*displs, MPI_DOUBLE_PRECISION, &
+                         0, world%comm)
+        allocate (order(total))
+        order = [(i, i=1, total)]
+        call sort_by_id(gids(1:total), order)
+        all_ids = gids(order)
+        all_values = gvals(:, order)
+    end subroutine gather_by_id
+
+    !> Heap sort of an index array by id.
+    subroutine sort_by_id(ids, order)
+        integer(i8), intent(in) :: ids(:)
+        integer, intent(inout) :: order(:)
+        integer :: n, i, tmp
+        n = size(order)
+        do i = n/2, 1, -1
+            call sift(i, n)
+        end do
+        do i = n, 2, -1
+            tmp = order(1); order(1) = order(i); order(i) = tmp
+            call sift(1, i - 1)
+        end do
+    contains
+        subroutine sift(start, last)
+            integer, intent(in) :: start, last
+            integer :: root, child, t
+            root = start
+            do while (2*root <= last)
+                child = 2*root
+                if (child < last) then
+                    if (ids(order(child + 1)) > ids(order(child))) child = child + 1
+                end if
+                if (ids(order(root)) >= ids(order(child))) return
+                t = order(root); order(root) = order(child); order(child) = t
+                root = child
+            end do
+        end subroutine sift
+    end subroutine sort_by_id
+
+end module terrace_gather_by_id

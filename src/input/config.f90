@@ -33,6 +33,8 @@ module terrace_config
         ! &system
         character(len=512) :: read_data = ''
         character(len=512) :: atoms_file = ''
+        character(len=512) :: read_h5md = ''
+        integer(i8) :: h5md_frame = -1              !< frame of read_h5md (1 = first, -1 = last)
         character(len=8) :: lattice = ''
         real(dp) :: lattice_constant = -1.0_dp
         real(dp) :: density = -1.0_dp
@@ -234,14 +236,16 @@ contains
 
     subroutine read_system(cfg)
         type(config_t), intent(inout) :: cfg
-        character(len=512) :: read_data, atoms_file
+        character(len=512) :: read_data, atoms_file, read_h5md
+        integer(i8) :: h5md_frame
         character(len=8) :: lattice
         real(dp) :: lattice_constant, density, box_lo(3), box_hi(3), mass(max_types), temperature
         integer :: cells(3)
         logical :: periodic(3), reverse_velocities
         namelist /system/ read_data, atoms_file, lattice, lattice_constant, density, cells, periodic, &
-            box_lo, box_hi, mass, temperature, reverse_velocities
-        character(len=*), parameter :: keys(12) = [character(len=60) :: 'read_data:a quoted file name', &
+            box_lo, box_hi, mass, temperature, reverse_velocities, read_h5md, h5md_frame
+        character(len=*), parameter :: keys(14) = [character(len=60) :: 'read_data:a quoted file name', &
+            'read_h5md:a quoted file name', 'h5md_frame:an integer (1 = first, -1 = last)', &
             'reverse_velocities:a logical', &
             'atoms_file:a quoted file name', 'lattice:a quoted string', 'lattice_constant:a real number', &
             'density:a real number', 'cells:three integers', 'periodic:three logicals (.true./.false.)', &
@@ -252,6 +256,7 @@ contains
         character(len=:), allocatable :: buf
         integer :: k, ios
         read_data = ''; atoms_file = ''; lattice = ''; lattice_constant = -1; density = -1
+        read_h5md = ''; h5md_frame = -1
         cells = 0; periodic = .true.; box_lo = unset; box_hi = unset; mass = -1; temperature = -1
         reverse_velocities = .false.
         do k = 1, cfg%nml%count
@@ -262,6 +267,7 @@ contains
             if (ios /= 0) call bad_value(cfg, k, kind, msg)
         end do
         cfg%read_data = read_data; cfg%atoms_file = atoms_file; cfg%lattice = lower(lattice)
+        cfg%read_h5md = read_h5md; cfg%h5md_frame = h5md_frame
         cfg%lattice_constant = lattice_constant; cfg%density = density; cfg%cells = cells
         cfg%periodic = periodic; cfg%box_lo = box_lo; cfg%box_hi = box_hi; cfg%mass = mass
         cfg%temperature = temperature
@@ -400,9 +406,13 @@ contains
             call stop_all(cfg%path//': &run: n_steps: missing (give n_steps, or run_time in '//trim(cfg%units%time)//')')
         if (cfg%seed <= 0) call stop_all(cfg%where('run', 'seed')//': must be a positive integer')
 
-        nsrc = count([len_trim(cfg%read_data) > 0, len_trim(cfg%atoms_file) > 0, len_trim(cfg%lattice) > 0])
-        if (nsrc == 0) call stop_all(cfg%path//': &system: read_data: missing (give read_data, lattice or atoms_file)')
-        if (nsrc > 1) call stop_all(cfg%path//': &system: read_data: give only one of read_data, lattice, atoms_file')
+        nsrc = count([len_trim(cfg%read_data) > 0, len_trim(cfg%atoms_file) > 0, len_trim(cfg%lattice) > 0, &
+                      len_trim(cfg%read_h5md) > 0])
+        if (nsrc == 0) call stop_all(cfg%path//': &system: read_data: missing (give read_data, lattice, atoms_file '// &
+                                     'or read_h5md)')
+        if (nsrc > 1) call stop_all(cfg%path//': &system: read_data: give only one of read_data, lattice, '// &
+                                    'atoms_file, read_h5md')
+        if (cfg%h5md_frame == 0) call stop_all(cfg%where('system', 'h5md_frame')//': 1 is the first frame, -1 the last')
         if (len_trim(cfg%lattice) > 0) then
             select case (cfg%lattice)
             case ('fcc', 'bcc', 'sc')

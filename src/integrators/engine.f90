@@ -68,9 +68,12 @@ contains
         character(len=64) :: s1, s2
 
         self%cfg = cfg
-        from_table = len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0
+        from_table = len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0 .or. len_trim(cfg%read_h5md) > 0
         ntypes = 1
-        if (from_table) then
+        if (len_trim(cfg%read_h5md) > 0) then
+            call read_h5md_table(cfg, table)
+            ntypes = table%ntypes
+        else if (from_table) then
             if (world%rank == 0) then
                 if (len_trim(cfg%read_data) > 0) then
                     call read_lammps_data(trim(cfg%read_data), table)
@@ -94,7 +97,7 @@ contains
             cell = lattice_cell(cfg%lattice, cfg%lattice_constant, cfg%density, cfg%dimension)
             lo = 0
             hi = cell*max(cfg%cells, 1)
-        else if (len_trim(cfg%read_data) > 0) then
+        else if (len_trim(cfg%read_data) > 0 .or. len_trim(cfg%read_h5md) > 0) then
             lo = table%lo; hi = table%hi
         else
             do d = 1, cfg%dimension
@@ -245,6 +248,68 @@ contains
         self%cutmax = self%lj%cutmax
     end subroutine setup_lj
 
+    !> A frame of an H5MD file as the starting scene: read in parallel (each rank a block of ids),
+    !> then shared with every rank, which keeps the atoms it owns. The box is box_lo (default 0)
+    !> plus the file's edges.
+    subroutine read_h5md_table(cfg, table)
+        use terrace_h5md, only: h5md_read_frame
+        use mpi_f08, only: MPI_Allgather, MPI_Allgatherv, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION
+        type(config_t), intent(in) :: cfg
+        type(atom_table_t), intent(out) :: table
+        integer(i8), allocatable :: ids(:)
+        integer, allocatable :: types(:), image(:, :), counts(:), displs(:)
+        real(dp), allocatable :: x(:, :), v(:, :), buf(:, :), mine(:, :)
+        integer(i8) :: natoms, step
+        integer :: dimension, n, total, r, i
+        real(dp) :: time, edges(3)
+        logical :: ok, has_v, has_image
+        character(len=1024) :: msg
+        call h5md_read_frame(trim(cfg%read_h5md), world%comm, cfg%h5md_frame, natoms, dimension, ids, types, x, v, image, &
+                             step, time, ok, msg, has_velocity=has_v, has_image=has_image, edges=edges)
+        call check_all(ok, trim(cfg%read_h5md)//': &system: read_h5md: '//trim(msg))
+        n = size(ids)
+        allocate (mine(11, n), counts(world%nprocs), displs(world%nprocs))
+        do i = 1, n
+            mine(1, i) = real(ids(i), dp); mine(2, i) = real(types(i), dp)
+            mine(3:5, i) = x(:, i); mine(6:8, i) = 0; mine(9:11, i) = 0
+            if (has_v) mine(6:8, i) = v(:, i)
+            if (has_image) mine(9:11, i) = real(image(:, i), dp)
+        end do
+        call MPI_Allgather(11*n, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, world%comm)
+        total = 0
+        do r = 1, world%nprocs
+            displs(r) = total; total = total + counts(r)
+        end do
+        allocate (buf(11, total/11))
+        call MPI_Allgatherv(mine, 11*n, MPI_DOUBLE_PRECISION, buf, counts, displs, MPI_DOUBLE_PRECISION, world%comm)
+        table%n = total/11
+        allocate (table%x(3, table%n), table%v(3, table%n), table%type(table%n), table%image(3, table%n), &
+                  table%id(table%n))
+        table%id = nint(buf(1, :), i8); table%type = nint(buf(2, :)); table%x = buf(3:5, :); table%v = buf(6:8, :)
+        table%image = nint(buf(9:11, :))
+        table%ntypes = maxval(table%type)
+        allocate (table%mass(table%ntypes)); table%mass = -1
+        table%has_velocities = has_v
+        table%lo = 0
+        do i = 1, 3
+            if (.not. is_unset(cfg%box_lo(i))) table%lo(i) = cfg%box_lo(i)
+        end do
+        table%hi = table%lo + edges
+        if (dimension == 2) table%x(3, :) = 0
+        ! frames hold positions as the run had them (up to skin/2 outside a periodic box): wrap
+        do i = 1, dimension
+            if (.not. cfg%periodic(i)) cycle
+            where (table%x(i, :) < table%lo(i))
+                table%x(i, :) = table%x(i, :) + edges(i); table%image(i, :) = table%image(i, :) - 1
+            elsewhere (table%x(i, :) >= table%hi(i))
+                table%x(i, :) = table%x(i, :) - edges(i); table%image(i, :) = table%image(i, :) + 1
+            end where
+        end do
+        table%has_box = .true.
+        if (dimension /= cfg%dimension) call stop_all(trim(cfg%read_h5md)//': &system: read_h5md: the file is '// &
+            merge('2-D', '3-D', dimension == 2)//', the run is not (&run dimension)')
+    end subroutine read_h5md_table
+
     pure real(dp) function pick(table, i, j, fallback) result(v)
         real(dp), intent(in) :: table(:, :), fallback
         integer, intent(in) :: i, j
@@ -260,7 +325,9 @@ contains
     function source_name(cfg) result(s)
         type(config_t), intent(in) :: cfg
         character(len=:), allocatable :: s
-        if (len_trim(cfg%read_data) > 0) then
+        if (len_trim(cfg%read_h5md) > 0) then
+            s = trim(cfg%read_h5md)//': &system: read_h5md'
+        else if (len_trim(cfg%read_data) > 0) then
             s = trim(cfg%read_data)//': &system: read_data'
         else if (len_trim(cfg%atoms_file) > 0) then
             s = trim(cfg%atoms_file)//': &system: atoms_file'

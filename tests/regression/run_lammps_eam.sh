@@ -1,21 +1,28 @@
 #!/usr/bin/env bash
-# Terrace vs LAMMPS regression: 4000-atom hot fcc Cu with the EAM potential Cu_u3.eam (funcfl,
-# pair_style eam).
+# Terrace vs LAMMPS regression for the EAM potentials, one of three scenes:
 #
-# Usage: tests/regression/run_lammps_eam.sh TERRACE_BINARY OUTPUT_DIR
+#   cu    4000-atom hot fcc Cu, Foiles' Cu_u3.eam (funcfl, pair_style eam); reference dt 0.005 ps
+#         (lammps/in.eam_cu_make: fcc a = 3.615 A, 10^3 cells, velocities at 1600 K, 300 NVE steps)
+#   cuni  4000-atom random 50/50 Cu-Ni alloy, CuNi.eam.alloy (setfl, pair_style eam/alloy,
+#         elements Cu Ni); reference dt 0.002 ps (lammps/in.eam_cuni_make: fcc a = 3.56 A, 10^3
+#         cells, set type/fraction with a fixed seed, velocities at 2000 K, 300 NVE steps)
+#   fe    4394-atom hot bcc Fe, Fe_mm.eam.fs (Finnis-Sinclair, pair_style eam/fs, element Fe);
+#         reference dt 0.002 ps (lammps/in.eam_fe_make: bcc a = 2.8665 A, 13^3 cells, velocities
+#         at 2000 K, 300 NVE steps)
 #
-#   1. builds the system with LAMMPS (lammps/in.eam_cu_make -> cu.data: fcc a = 3.615 A,
-#      10^3 cells, velocities at 1600 K, 300 NVE steps)
-#   2. runs the LAMMPS reference   (lammps/in.eam_cu_ref -> lammps_ref.log,
-#      lammps_forces0.dump; dt = 0.005 ps, 100 steps)
-#   3. writes terrace_cu_eam.nml and runs Terrace on the same data file
+# Usage: tests/regression/run_lammps_eam.sh TERRACE_BINARY OUTPUT_DIR [cu|cuni|fe]   (default cu)
+#
+#   1. builds the system with LAMMPS (lammps/in.eam_SCENE_make -> SCENE.data)
+#   2. runs the LAMMPS reference   (lammps/in.eam_SCENE_ref -> lammps_ref.log,
+#      lammps_forces0.dump; 100 steps)
+#   3. writes terrace_SCENE_eam.nml and runs Terrace on the same data file
 #      (-> thermo.csv, forces0.txt)
 #   4. compares with scripts/compare_lammps.py (step 0 pe/press/forces to
 #      1e-10, step 100 thermo to 1e-8)
 #
 # Environment (optional):
 #   LMP               LAMMPS executable (default: lmp)
-#   EAM_POTENTIAL     the funcfl file (default: /usr/share/lammps/potentials/Cu_u3.eam,
+#   EAM_POTENTIAL     the potential file (default: the scene's file in /usr/share/lammps/potentials,
 #                     Debian package lammps-data)
 #   PYTHON            Python interpreter (default: /usr/bin/python3 or python3)
 #   TERRACE_LAUNCHER  prefix for the Terrace command, e.g. "mpirun -np 4"
@@ -24,8 +31,8 @@
 # Exit status: 0 pass, 77 skipped (LAMMPS or the potential file unavailable), anything else failure.
 set -euo pipefail
 
-if [[ $# -ne 2 ]]; then
-    echo "usage: $0 TERRACE_BINARY OUTPUT_DIR" >&2
+if [[ $# -lt 2 || $# -gt 3 ]]; then
+    echo "usage: $0 TERRACE_BINARY OUTPUT_DIR [cu|cuni|fe]" >&2
     exit 2
 fi
 
@@ -36,9 +43,21 @@ compare="$repo/scripts/compare_lammps.py"
 
 terrace="$1"
 outdir="$2"
+scene="${3:-cu}"
+
+# scene: default potential file, Terrace style and elements line, time step (ps)
+case "$scene" in
+    cu)   default_potential=Cu_u3.eam;      style=eam;       elements='';                  dt=0.005 ;;
+    cuni) default_potential=CuNi.eam.alloy; style=eam/alloy; elements=", elements='Cu','Ni'"; dt=0.002 ;;
+    fe)   default_potential=Fe_mm.eam.fs;   style=eam/fs;    elements=", elements='Fe'";       dt=0.002 ;;
+    *)    echo "usage: $0 TERRACE_BINARY OUTPUT_DIR [cu|cuni|fe]  (unknown scene '$scene')" >&2
+          exit 2 ;;
+esac
+data="$scene.data"
+nml="terrace_${scene}_eam.nml"
 
 LMP="${LMP:-lmp}"
-EAM_POTENTIAL="${EAM_POTENTIAL:-/usr/share/lammps/potentials/Cu_u3.eam}"
+EAM_POTENTIAL="${EAM_POTENTIAL:-/usr/share/lammps/potentials/$default_potential}"
 if [[ -z "${PYTHON:-}" ]]; then
     if [[ -x /usr/bin/python3 ]]; then PYTHON=/usr/bin/python3; else PYTHON=python3; fi
 fi
@@ -81,40 +100,40 @@ terrace="$(cd "$(dirname "$terrace")" && pwd)/$(basename "$terrace")"
 mkdir -p "$outdir"
 outdir="$(cd "$outdir" && pwd)"
 cd "$outdir"
-rm -f cu.data lammps_make.log lammps_ref.log lammps_forces0.dump \
-      thermo.csv forces0.txt terrace.log terrace_cu_eam.nml
+rm -f "$data" lammps_make.log lammps_ref.log lammps_forces0.dump \
+      thermo.csv forces0.txt terrace.log "$nml"
 
 export OMP_NUM_THREADS=1
 
 # ---- (b) LAMMPS: build the system, then the reference ------------------------
-echo "== LAMMPS: building cu.data ($EAM_POTENTIAL)"
-if ! "$LMP" -screen none -log lammps_make.log -var data cu.data -var potential "$EAM_POTENTIAL" \
-        -in "$lmpdir/in.eam_cu_make"; then
-    echo "FAIL: LAMMPS in.eam_cu_make failed; see $outdir/lammps_make.log" >&2
+echo "== LAMMPS ($scene): building $data ($EAM_POTENTIAL)"
+if ! "$LMP" -screen none -log lammps_make.log -var data "$data" -var potential "$EAM_POTENTIAL" \
+        -in "$lmpdir/in.eam_${scene}_make"; then
+    echo "FAIL: LAMMPS in.eam_${scene}_make failed; see $outdir/lammps_make.log" >&2
     tail -n 20 lammps_make.log >&2 || true
     exit 1
 fi
 echo "== LAMMPS: reference run"
-if ! "$LMP" -screen none -log lammps_ref.log -var data cu.data -var potential "$EAM_POTENTIAL" \
-        -var forces lammps_forces0.dump -var nsteps 100 -in "$lmpdir/in.eam_cu_ref"; then
-    echo "FAIL: LAMMPS in.eam_cu_ref failed; see $outdir/lammps_ref.log" >&2
+if ! "$LMP" -screen none -log lammps_ref.log -var data "$data" -var potential "$EAM_POTENTIAL" \
+        -var forces lammps_forces0.dump -var nsteps 100 -in "$lmpdir/in.eam_${scene}_ref"; then
+    echo "FAIL: LAMMPS in.eam_${scene}_ref failed; see $outdir/lammps_ref.log" >&2
     tail -n 20 lammps_ref.log >&2 || true
     exit 1
 fi
 
 # ---- (c) Terrace on the same scene ------------------------------------------
-cat > terrace_cu_eam.nml <<NML
+cat > "$nml" <<NML
 &run units='metal', dimension=3, n_steps=100, seed=1 /
-&system read_data='cu.data' /
-&potential style='eam', file='$EAM_POTENTIAL' /
-&integrator style='velocity_verlet', dt=0.005 /
+&system read_data='$data' /
+&potential style='$style', file='$EAM_POTENTIAL'$elements /
+&integrator style='velocity_verlet', dt=$dt /
 &neighbor skin=1.0 /
 &output thermo_every=100, thermo_file='thermo.csv', forces_file='forces0.txt' /
 NML
 
-echo "== Terrace: ${TERRACE_LAUNCHER:+$TERRACE_LAUNCHER }$terrace terrace_cu_eam.nml"
+echo "== Terrace: ${TERRACE_LAUNCHER:+$TERRACE_LAUNCHER }$terrace $nml"
 # shellcheck disable=SC2086  # TERRACE_LAUNCHER is deliberately word-split
-if ! ${TERRACE_LAUNCHER:-} "$terrace" terrace_cu_eam.nml > terrace.log 2>&1; then
+if ! ${TERRACE_LAUNCHER:-} "$terrace" "$nml" > terrace.log 2>&1; then
     echo "FAIL: Terrace run failed; last lines of $outdir/terrace.log:" >&2
     tail -n 20 terrace.log >&2 || true
     exit 1

@@ -1,103 +1,243 @@
 #!/usr/bin/env python3
-"""Cost of energy stepping against velocity Verlet on the same scenes (one rank).
+"""Cost of energy stepping against velocity Verlet on the same scene (one rank).
 
-For each scene: run velocity Verlet and energy stepping from the same state, read the run logs,
-and print events/s, mean event interval, ray evaluations per event, force passes per event, the
-wall time of one event divided by the wall time of one Verlet step, and the simulated time per
-wall second of both. Scenes: the seven-atom argon cluster (h = 16 K k_B, Verlet 10 fs), Rahman's
-liquid argon (864 atoms, h = 2e-3 eV, Verlet 10 fs) and 32,000 LJ atoms (lj units, liquid at
-T* ~ 0.75 from the LJ benchmark scene, h = 0.3, Verlet 0.005).
+For each scene, velocity Verlet and energy stepping run from the same state, and the run logs give:
+events/s, mean event interval, reflections, ray evaluations per event (goal <= 2), force passes per
+event, the loop time of one event divided by the loop time of one Verlet step (goal <= 2), the
+Verlet steps/s, and the simulated time per wall second of both. The "Pair", "Search" and "Other"
+rows of the phase table split an event into its force pass(es), its ray evaluations and the rest.
 
-usage: es_cost.py [--terrace build/terrace]
+Scenes:
+  cluster7  the talk's seven-atom 2-D argon cluster (input/argon_frozen_2d*.nml): Verlet 10 fs,
+            energy stepping h = 16 K k_B, 10 ns each;
+  rahman    Rahman's liquid argon, 864 atoms, ~94 K (input/argon_liquid.nml melts the fcc start and
+            writes argon_liquid_eq.atoms after 30 ps); from that state Verlet 10 fs for 10 ps and
+            energy stepping with the same shifted LJ (cutoff 2.5 sigma) at h = 2e-3 eV (~0.25 k_B T,
+            as input/argon_liquid_es.nml) for 2 ps;
+  lj32k     32,000 LJ atoms, lj units, the LAMMPS benchmark scene (fcc 20^3, rho* = 0.8442,
+            T* = 1.44 start) with the energy shifted at rc = 2.5: 500 Verlet steps (dt 0.005) melt the
+            crystal (T* ~ 0.73) and write eq.atoms (a crystal start would keep energy stepping
+            pathologically busy); from it 200 Verlet steps and 600 energy-stepping events at
+            h = 0.3 eps (~0.4 k_B T; n_steps caps the events).
+
+Usage:  python3 scripts/bench/es_cost.py [--terrace PATH] [--scenes cluster7,rahman,lj32k] [--repeat N]
+Run time on a 2-vCPU AMD EPYC: about 40 s (80 s with --repeat 2). The binary is copied first.
+Timings: loop times from the run logs ("Loop time"); with --repeat N each timed run is repeated and
+the fastest loop time kept (the machine may be shared).
 """
 import argparse
+import datetime
 import os
 import platform
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
 
-REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..'))
+KB_METAL = 8.617343e-5
+
+CLUSTER = """\
+&run units='metal', dimension=2, {length}, seed=1 /
+&system atoms_file='argon_frozen_2d.atoms', periodic=.false.,.false., mass=39.951 /
+&potential style='lj', epsilon=0.010323577, sigma=3.41, cutoff=0.0 /
+{integrator}
+&output thermo_file='' /
+"""
+RAHMAN = """\
+&run units='metal', dimension=3, {length}, seed=1964 /
+&system atoms_file='argon_liquid_eq.atoms', box_lo=0.0,0.0,0.0, box_hi=34.6809019,34.6809019,34.6809019,
+        periodic=.true.,.true.,.true., mass=39.948 /
+&potential style='lj', epsilon=0.0103408116, sigma=3.4, cutoff=8.5, shift=.true. /
+&neighbor skin=1.0 /
+{integrator}
+&output thermo_file='' /
+"""
+LJ32K_EQ = """\
+&run units='lj', dimension=3, n_steps=500, seed=87287 /
+&system lattice='fcc', density=0.8442, cells=20,20,20, periodic=.true.,.true.,.true., mass=1.0,
+        temperature=1.44 /
+&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, shift=.true. /
+&integrator style='velocity_verlet', dt=0.005 /
+&neighbor skin=0.3 /
+&output thermo_every=100, thermo_file='', final_atoms_file='eq.atoms' /
+"""
+LJ32K = """\
+&run units='lj', dimension=3, {length}, seed=1 /
+&system atoms_file='eq.atoms', box_lo=0.0,0.0,0.0, box_hi={L!r},{L!r},{L!r},
+        periodic=.true.,.true.,.true., mass=1.0 /
+&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, shift=.true. /
+&neighbor skin=0.3 /
+{integrator}
+&output thermo_file='' /
+"""
+
+# name: description, template, Verlet length, Verlet dt, ES length, ES h, time unit, atoms
+SCENES = {
+    'cluster7': ('7-atom 2-D argon cluster', CLUSTER, 'run_time=10000.0', 0.01, 'run_time=10000.0',
+                 16 * KB_METAL, 'ps', 7),
+    'rahman': ('Rahman liquid argon, 864 atoms', RAHMAN, 'run_time=10.0', 0.01, 'run_time=2.0',
+               2.0e-3, 'ps', 864),
+    'lj32k': ('LJ liquid, 32,000 atoms', LJ32K, 'n_steps=200', 0.005, 'n_steps=600', 0.3, 'tau', 32000),
+}
 
 
-def run(terrace, work, name, text):
-    path = os.path.join(work, name + ".nml")
-    open(path, "w").write(text)
-    p = subprocess.run([terrace, path], cwd=work, capture_output=True, text=True, timeout=1200)
-    if p.returncode != 0:
-        sys.exit(f"terrace failed on {name}:\n{p.stdout[-1500:]}\n{p.stderr[-1500:]}")
-    out = p.stdout
-    g = lambda pat, conv=float: conv(re.search(pat, out, re.M).group(1))
-    loop = g(r"^Loop time: *([0-9.eE+-]+) s")
-    n = g(r"^Loop time: .* for (\d+) ", int)
-    res = {"loop": loop, "n": n}
-    if "Events:" in out:
-        res["evals"] = g(r"ray evaluations per event: *([0-9.]+)")
-        res["passes"] = g(r"force passes per event: *([0-9.]+)")
-        res["mean_dt"] = g(r"^Mean event interval: *([0-9.eE+-]+)")
-        res["refl"] = g(r"^Events: \d+ \(\d+ up, \d+ down, (\d+) reflections\)", int) / max(n, 1)
-    return res
+def sh(cmd):
+    try:
+        return subprocess.run(cmd, capture_output=True, text=True).stdout.strip()
+    except OSError:
+        return ''
+
+
+def parse_log(out):
+    def g(pat, conv=float, default=None):
+        m = re.search(pat, out, re.M)
+        return conv(m.group(1)) if m else default
+    r = {'loop': g(r'^Loop time:\s*([0-9.eE+-]+)\s*s'), 'n': g(r'^Loop time: .* for (\d+) ', int),
+         'pair': g(r'^Pair\s+([0-9.eE+-]+)'), 'search': g(r'^Search\s+([0-9.eE+-]+)'),
+         'neigh': g(r'^Neigh\s+([0-9.eE+-]+)'), 'other': g(r'^Other\s+([0-9.eE+-]+)'),
+         'builds': g(r'^Neighbour list builds:\s*(\d+)', int, 0)}
+    screen = re.findall(r'^\s+\d+\s+([0-9.eE+-]+)\s+([0-9.eE+-]+)\s', out, re.M)   # step time temp ...
+    r['temp_end'] = float(screen[-1][1]) if screen else float('nan')
+    if 'Events:' in out:
+        m = re.search(r'^Events:\s*(\d+)\s*\((\d+) up, (\d+) down, (\d+) reflections\)', out, re.M)
+        r['events'], r['up'], r['down'], r['refl'] = (int(x) for x in m.groups())
+        r['mean_dt'] = g(r'^Mean event interval:\s*([0-9.eE+-]+)')
+        r['evals'] = g(r'ray evaluations per event:\s*([0-9.eE+-]+)')
+        r['passes'] = g(r'force passes per event:\s*([0-9.eE+-]+)')
+        r['misses'] = g(r'verification misses:\s*(\d+)', int, 0)
+    return r
+
+
+def run(terrace, work, name, text, repeat=1):
+    path = os.path.join(work, name + '.nml')
+    with open(path, 'w') as f:
+        f.write(text)
+    best = None
+    for _ in range(max(1, repeat)):
+        p = subprocess.run([terrace, name + '.nml'], cwd=work, capture_output=True, text=True, timeout=1800)
+        with open(os.path.join(work, name + '.log'), 'w') as f:
+            f.write(p.stdout + p.stderr)
+        if p.returncode != 0:
+            sys.exit('terrace failed on %s (exit %d), deck %s:\n%s\n%s'
+                     % (name, p.returncode, path, p.stdout[-2000:], p.stderr[-2000:]))
+        r = parse_log(p.stdout)
+        if r['loop'] is None or r['n'] is None:
+            sys.exit('no "Loop time" line in the log of %s (%s)' % (name, path))
+        if best is None or r['loop'] < best['loop']:
+            best = r
+    return best
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--terrace", default=os.path.join(REPO, "build", "terrace"))
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument('--terrace', default=os.path.join(REPO, 'build', 'terrace'), help='terrace binary')
+    ap.add_argument('--scenes', default='cluster7,rahman,lj32k', help='comma-separated subset of %s'
+                    % ','.join(SCENES))
+    ap.add_argument('--repeat', type=int, default=1, help='repeat each timed run, keep the fastest')
+    ap.add_argument('--keep', action='store_true', help='keep the work dir')
     a = ap.parse_args()
-    terrace = os.path.abspath(a.terrace)
-    work = tempfile.mkdtemp(prefix="es_cost.")
-    cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")), "?")
-    commit = subprocess.run(["git", "-C", REPO, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-    print(f"machine : {cpu} ({os.cpu_count()} cores visible), {platform.platform()}")
-    print(f"commit  : {commit};  binary {terrace};  work dir {work}\n")
-    atoms = os.path.join(REPO, "input", "argon_frozen_2d.atoms")
-    cluster = ("&run units='metal', dimension=2, {len}, seed=1 /\n"
-               f"&system atoms_file='{atoms}', periodic=.false.,.false., mass=39.951 /\n"
-               "&potential style='lj', epsilon=0.010323577, sigma=3.41, cutoff=0.0 /\n{integ}\n")
-    # Rahman: equilibrate with Verlet (writes the start), then both integrators from it
-    eq = open(os.path.join(REPO, "input", "argon_liquid.nml")).read()
-    eq = eq.replace("thermo_file='argon_liquid.csv'", "thermo_file=''")
-    run(terrace, work, "rahman_eq", eq)
-    rahman = ("&run units='metal', dimension=3, {len}, seed=1964 /\n"
-              "&system atoms_file='argon_liquid_eq.atoms', box_lo=0.0,0.0,0.0, box_hi=34.6809019,34.6809019,34.6809019,\n"
-              "        periodic=.true.,.true.,.true., mass=39.948 /\n"
-              "&potential style='lj', epsilon=0.0103408116, sigma=3.4, cutoff=8.5, shift=.true. /\n"
-              "&neighbor skin=1.0 /\n{integ}\n")
-    lj = open(os.path.join(REPO, "input", "lj_bench.nml")).read().replace("n_steps=1000", "n_steps=300")
-    lj = lj.replace("&output thermo_every=100, thermo_file='' /", "&output thermo_every=100, final_atoms_file='lj_eq.atoms' /")
-    lj = lj.replace("cutoff=2.5, shift=.false.", "cutoff=2.5, shift=.true.")
-    run(terrace, work, "lj_eq", lj)
-    big = ("&run units='lj', dimension=3, {len}, seed=1 /\n"
-           "&system atoms_file='lj_eq.atoms', box_lo=0.0,0.0,0.0, box_hi=33.5919238,33.5919238,33.5919238,\n"
-           "        periodic=.true.,.true.,.true., mass=1.0 /\n"
-           "&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, shift=.true. /\n"
-           "&neighbor skin=0.3 /\n{integ}\n")
-    scenes = [
-        ("7-atom cluster", cluster, "run_time=10000.0", "run_time=10000.0",
-         "&integrator style='velocity_verlet', dt=0.01 /", "&integrator style='energy_stepping', terrace_height=1.378775e-3 /"),
-        ("Rahman argon 864", rahman, "run_time=10.0", "run_time=1.0",
-         "&integrator style='velocity_verlet', dt=0.01 /", "&integrator style='energy_stepping', terrace_height=2.0e-3 /"),
-        ("LJ 32,000", big, "n_steps=200", "n_steps=2000",
-         "&integrator style='velocity_verlet', dt=0.005 /", "&integrator style='energy_stepping', terrace_height=0.3 /"),
-    ]
+    scenes = [s.strip() for s in a.scenes.split(',') if s.strip()]
+    for s in scenes:
+        if s not in SCENES:
+            sys.exit('unknown scene %r (have %s)' % (s, ', '.join(SCENES)))
+    src = os.path.abspath(a.terrace)
+    if not os.access(src, os.X_OK):
+        sys.exit('terrace binary not found: %s' % src)
+    work = tempfile.mkdtemp(prefix='es_cost.')
+    terrace = os.path.join(work, 'terrace')      # private copy: a rebuild meanwhile must not mix versions
+    shutil.copy2(src, terrace)
+    built = datetime.datetime.fromtimestamp(os.path.getmtime(src), datetime.timezone.utc)
+
+    model = re.search(r'^Model name:\s*(.+)$', sh(['lscpu']), re.M)
+    dirty = sh(['git', '-C', REPO, 'status', '--porcelain', '--untracked-files=no'])
+    print('Energy stepping vs velocity Verlet: cost on the same scene, 1 rank')
+    print('command : %s' % ' '.join([os.path.relpath(os.path.abspath(sys.argv[0]), REPO)] + sys.argv[1:]))
+    print('machine : %s (%s cores visible), %s' % (model.group(1).strip() if model else '?', os.cpu_count(),
+                                                  platform.platform()))
+    print('date    : %s' % datetime.datetime.now(datetime.timezone.utc).strftime('%Y-%m-%d %H:%M UTC'))
+    print('commit  : %s%s' % (sh(['git', '-C', REPO, 'rev-parse', '--short', 'HEAD']),
+                              ' (+ uncommitted changes)' if dirty else ''))
+    print('binary  : %s (built %s)' % (src, built.strftime('%Y-%m-%d %H:%M UTC')))
+    try:
+        print('load    : %.2f %.2f %.2f (load average at start)' % os.getloadavg())
+    except OSError:
+        pass
+    print('work dir: %s' % work)
+    print()
+    sys.stdout.flush()
+
     rows = []
-    for name, tmpl, vlen, elen, vv, es in scenes:
-        key = name.split()[0].replace("-", "").lower()
-        v = run(terrace, work, key + "_vv", tmpl.format(len=vlen, integ=vv))
-        e = run(terrace, work, key + "_es", tmpl.format(len=elen, integ=es))
-        dt = float(re.search(r"dt=([0-9.]+)", vv).group(1))
-        t_step = v["loop"] / v["n"]
-        t_event = e["loop"] / e["n"]
-        rows.append((name, e["n"] / e["loop"], e["mean_dt"], e["refl"], e["evals"], e["passes"], t_event / t_step,
-                     e["mean_dt"] / e["loop"] * e["n"], dt / t_step))
-    print(f"{'scene':18} {'events/s':>10} {'mean dt':>10} {'refl':>6} {'evals/ev':>9} {'passes/ev':>9} "
-          f"{'event/step':>10} {'ES time/s':>10} {'VV time/s':>10}")
+    for key in scenes:
+        desc, tmpl, vlen, vdt, elen, h, unit, natoms = SCENES[key]
+        fmt = dict()
+        if key == 'cluster7':
+            shutil.copy(os.path.join(REPO, 'input', 'argon_frozen_2d.atoms'), work)
+        elif key == 'rahman':
+            deck = open(os.path.join(REPO, 'input', 'argon_liquid.nml')).read()
+            deck = deck.replace("thermo_file='argon_liquid.csv'", "thermo_file='rahman_eq.csv'")
+            if "final_atoms_file='argon_liquid_eq.atoms'" not in deck:
+                sys.exit('input/argon_liquid.nml no longer writes argon_liquid_eq.atoms')
+            e = run(terrace, work, 'rahman_eq', deck)
+            print('  rahman  : equilibration (input/argon_liquid.nml, Verlet 30 ps from fcc at 184 K): '
+                  'loop %.2f s, T at the end %.1f K' % (e['loop'], e['temp_end']))
+        elif key == 'lj32k':
+            e = run(terrace, work, 'lj32k_eq', LJ32K_EQ)
+            print('  lj32k   : equilibration (500 Verlet steps from fcc, T* = 1.44): loop %.2f s, T* at the end %.3f'
+                  % (e['loop'], e['temp_end']))
+            fmt['L'] = 20 * (4.0 / 0.8442) ** (1.0 / 3.0)
+        vv = run(terrace, work, key + '_vv', tmpl.format(
+            length=vlen, integrator="&integrator style='velocity_verlet', dt=%r /" % vdt, **fmt), a.repeat)
+        es = run(terrace, work, key + '_es', tmpl.format(
+            length=elen, integrator="&integrator style='energy_stepping', terrace_height=%.9e /" % h, **fmt),
+            a.repeat)
+        t_step = vv['loop'] / vv['n']
+        t_event = es['loop'] / es['events']
+        sim = es['mean_dt'] * es['events']
+        rows.append(dict(key=key, desc=desc, unit=unit, natoms=natoms, h=h, vdt=vdt, vv=vv, es=es,
+                         ev_per_s=es['events'] / es['loop'], ratio=t_event / t_step, vv_per_s=vv['n'] / vv['loop'],
+                         es_sim_per_s=sim / es['loop'], vv_sim_per_s=vdt * vv['n'] / vv['loop']))
+        print('  %-8s: Verlet %d steps in %.3f s; energy stepping %d events in %.3f s (%.1f%% reflections, '
+              '%d verification misses, %d list builds)'
+              % (key, vv['n'], vv['loop'], es['events'], es['loop'], 100.0 * es['refl'] / es['events'],
+                 es['misses'], es['builds']))
+        sys.stdout.flush()
+
+    print()
+    print('%-10s %10s %15s %6s %8s %9s %10s %12s %15s %15s' % (
+        'scene', 'events/s', 'mean dt', 'refl', 'evals/ev', 'passes/ev', 'event/step',
+        'VV steps/s', 'ES sim/wall s', 'VV sim/wall s'))
     for r in rows:
-        print(f"{r[0]:18} {r[1]:10.3e} {r[2]:10.3e} {100*r[3]:5.1f}% {r[4]:9.3f} {r[5]:9.3f} {r[6]:10.2f} "
-              f"{r[7]:10.3e} {r[8]:10.3e}")
-    print("\nmean dt in the run's time unit (ps, ps, tau); 'event/step' = wall time of one event / one Verlet step;"
-          "\n'ES time/s', 'VV time/s' = simulated time per wall second of energy stepping and of Verlet.")
+        es = r['es']
+        print('%-10s %10.4g %11.4g %-3s %5.1f%% %8.3f %9.3f %10.2f %12.4g %11.4g %-3s %11.4g %-3s' % (
+            r['key'], r['ev_per_s'], es['mean_dt'], r['unit'], 100.0 * es['refl'] / es['events'], es['evals'],
+            es['passes'], r['ratio'], r['vv_per_s'], r['es_sim_per_s'], r['unit'], r['vv_sim_per_s'], r['unit']))
+    print()
+    for r in rows:
+        es = r['es']
+        hs = ('h = %.3g eV = %.3g K k_B' % (r['h'], r['h'] / KB_METAL)) if r['unit'] == 'ps' else 'h = %.3g eps' % r['h']
+        print('%-10s %s; %s; Verlet dt = %g %s; mean dt / Verlet dt = %.3g; T at the end: ES %.4g, Verlet %.4g '
+              '(temp column, dof = dN - d)' % (r['key'], r['desc'], hs, r['vdt'], r['unit'], es['mean_dt'] / r['vdt'],
+                                               es['temp_end'], r['vv']['temp_end']))
+    print()
+    print('Where an event goes (phase table): Pair = force pass(es), Search = ray evaluations, Other = the rest')
+    print('%-10s %16s %16s %16s %16s %16s %14s' % ('scene', 'ES loop/event', 'VV loop/step', 'ES pair/event',
+                                                   'VV pair/step', 'ES search/event', 'ES other/ev'))
+    for r in rows:
+        es, vv = r['es'], r['vv']
+        ne = es['events']
+        print('%-10s %13.4g us %13.4g us %13.4g us %13.4g us %13.4g us %11.4g us' % (
+            r['key'], 1e6 * es['loop'] / ne, 1e6 * vv['loop'] / vv['n'], 1e6 * es['pair'] / ne,
+            1e6 * vv['pair'] / vv['n'], 1e6 * (es['search'] or 0.0) / ne, 1e6 * (es['other'] or 0.0) / ne))
+    print()
+    print("event/step = loop time per event / loop time per Verlet step (goal <= 2); evals/ev goal <= 2;")
+    print("'sim/wall s' = simulated time per second of loop time. Mean dt in the scene's time unit.")
+    if a.keep:
+        print('work dir kept: %s' % work)
+    else:
+        shutil.rmtree(work, ignore_errors=True)
 
 
-if __name__ == "__main__":
+if __name__ == '__main__':
     main()

@@ -59,7 +59,11 @@ contains
                 ', epsilon(1,1) = ', cfg%epsilon(1, 1), ', sigma(1,1) = ', cfg%sigma(1, 1)
             self%potential = trim(s)//'; no density pass (pair potential)'
         end if
-        write (s, '(a,a,g0.6,1x,a)') trim(cfg%integrator), ', dt = ', cfg%dt, trim(cfg%units%time)
+        if (cfg%integrator == 'energy_stepping') then
+            s = 'energy_stepping (no time step: the next event decides; terrace height below)'
+        else
+            write (s, '(a,a,g0.6,1x,a)') trim(cfg%integrator), ', dt = ', cfg%dt, trim(cfg%units%time)
+        end if
         self%integrator = trim(s)
         self%outputs = 'screen'
         if (len_trim(cfg%thermo_file) > 0) self%outputs = self%outputs//', thermo CSV '//trim(cfg%thermo_file)

@@ -4,7 +4,7 @@
 !>   terrace --version | --help
 program terrace
     use terrace_kinds, only: dp, i8
-    use terrace_mpi_env, only: world, start_mpi, end_mpi
+    use terrace_mpi_env, only: world, start_mpi, end_mpi, any_all
     use terrace_config, only: config_t, read_config
     use terrace_engine, only: engine_t
     use terrace_thermo, only: thermo_writer_t
@@ -191,14 +191,30 @@ contains
                        eng%atoms%mass, cfg%units, ok, msg)
         call check_all(ok, trim(cfg%trajectory_file)//': cannot create the trajectory (&output trajectory_file): '// &
                        trim(msg))
+        ! a failure after the trajectory was created removes what was written: no partial outputs
         call thermo%open(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, ok, msg)
+        call any_failed(ok)
+        if (.not. ok) call traj%discard()
         call check_all(ok, trim(cfg%thermo_file)//': cannot write the thermo file (&output thermo_file): '//trim(msg))
         if (len_trim(cfg%forces_file) > 0) then
             call write_forces_file(trim(cfg%forces_file), eng%atoms, 0_i8, ok, msg)
-            if (.not. ok) call thermo%discard()
+            call any_failed(ok)
+            if (.not. ok) then
+                call thermo%discard()
+                call traj%discard()
+            end if
             call check_all(ok, trim(cfg%forces_file)//': cannot write the forces file (&output forces_file): '//trim(msg))
         end if
     end subroutine open_outputs
+
+    !> ok becomes .false. on every rank when it is .false. on any (outputs are opened by rank 0).
+    subroutine any_failed(ok)
+        logical, intent(inout) :: ok
+        logical :: failed
+        failed = .not. ok
+        call any_all(failed)
+        ok = .not. failed
+    end subroutine any_failed
 
     subroutine print_help()
         write (output_unit, '(a)') 'terrace '//terrace_version_string//': molecular dynamics with energy stepping', &

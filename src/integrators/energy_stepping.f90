@@ -60,8 +60,10 @@ contains
         self%last_s = s
         fdc = self%last_out(1:3)
         if (self%evals > 100000) then
-            if (self%eng%plan%nprocs >= 1 .and. world%rank == 0) write (output_unit, '(a,4es24.16)') &
-                'DEBUG runaway search at s, f, df, d2f =', s, fdc
+            ! a search that does not converge: show where it is, then stop every rank (collective:
+            ! every rank makes the same decisions from the same global sums)
+            if (world%rank == 0) write (output_unit, '(a,4es24.16)') &
+                'terrace: runaway event search at s, f, df, d2f =', s, fdc
             if (self%evals > 100020) call stop_all('the event search did not converge (more than 1e5 ray '// &
                                                     'evaluations for one event): please report this input')
         end if

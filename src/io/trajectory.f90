@@ -15,11 +15,13 @@ module terrace_trajectory
     type, public :: trajectory_t
         type(h5md_writer_t) :: h5
         logical :: active = .false.
+        character(len=:), allocatable :: path
         logical :: want_position = .false., want_velocity = .false., want_force = .false., want_image = .false.
     contains
         procedure :: open => trajectory_open
         procedure :: write => trajectory_write
         procedure :: close => trajectory_close
+        procedure :: discard => trajectory_discard
     end type trajectory_t
 
 contains
@@ -37,6 +39,7 @@ contains
         character(len=16) :: ul, ut, ue, uv, um
         ok = .true.; msg = ''
         if (len_trim(path) == 0) return
+        self%path = path
         self%want_position = index(fields, 'position') > 0
         self%want_velocity = index(fields, 'velocity') > 0
         self%want_force = index(fields, 'force') > 0
@@ -83,6 +86,20 @@ contains
         end if
         if (ok) call self%h5%flush(ok, msg)
     end subroutine trajectory_write
+
+    !> Close and delete the file (a run that stops before its first step leaves no trajectory).
+    !> Collective.
+    subroutine trajectory_discard(self)
+        use terrace_mpi_env, only: world
+        class(trajectory_t), intent(inout) :: self
+        integer :: unit, ios
+        if (.not. self%active) return
+        call self%close()
+        if (world%rank == 0) then
+            open (newunit=unit, file=self%path, status='old', iostat=ios)
+            if (ios == 0) close (unit, status='delete')
+        end if
+    end subroutine trajectory_discard
 
     subroutine trajectory_close(self)
         class(trajectory_t), intent(inout) :: self

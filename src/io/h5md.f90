@@ -8,16 +8,24 @@
 !>      \-- modules/units       +-- version = [1, 0], system = 'SI'     (only when units are given)
 !>     particles/all
 !>      \-- box                 +-- dimension = D, boundary = 'periodic' | 'none' (D entries)
-!>      |    \-- edges: Float[D]                       (fixed box: hi - lo)
+!>      |    \-- edges                                 (time-dependent: hi - lo at every frame)
+!>      |         \-- step: Integer[variable]          (int64; shared by every element below)
+!>      |         \-- time: Float[variable]            (float64; shared likewise)
+!>      |         \-- value: Float[variable][D]
 !>      \-- position, velocity, force, image           (each optional)
-!>      |    \-- step: Integer[variable]               (int64; hard links to position/step)
-!>      |    \-- time: Float[variable]                 (float64; hard links to position/time)
+!>      |    \-- step: Integer[variable]               (hard link to box/edges/step)
+!>      |    \-- time: Float[variable]                 (hard link to box/edges/time)
 !>      |    \-- value: Float[variable][N][D]          (image: Integer; chunked, extendible)
 !>      \-- id: Integer[N]                             (int64, 1..N)
 !>      \-- species: Integer[N]                        (int32, the atom type)
 !>      \-- mass: Float[N]                             (masses_by_type(type))
 !>     observables/<name>
 !>      \-- step, time, value: [variable]
+!>
+!> The box does not change during a run, but edges is written as a time-dependent element (one
+!> row per frame) because readers such as MDAnalysis read box/edges/value[frame] unconditionally;
+!> h5md_read_frame accepts both forms (a fixed edges dataset, as earlier Terrace files have, or
+!> the time-dependent group).
 !>
 !> Atoms are stored in global id order (row id - 1) on any number of ranks: write_frame sends every
 !> atom to the rank that owns its id in a block distribution of 1..N (one MPI_Alltoallv; nothing is
@@ -76,7 +84,9 @@ module terrace_h5md
         integer :: dimension = 3
         logical :: want(nel) = .false.
         integer(hid_t) :: value(nel) = -1
-        integer(hid_t) :: step = -1, time = -1             !< of the first wanted element (linked by the others)
+        integer(hid_t) :: step = -1, time = -1             !< box/edges/step, time (linked by the others)
+        integer(hid_t) :: edges_value = -1                 !< box/edges/value
+        real(dp) :: edges(3) = 0
         integer(hid_t) :: id = -1, species = -1, mass = -1
         integer(hsize_t) :: nframes = 0
         integer(i8) :: last_step = 0
@@ -123,12 +133,12 @@ contains
         character(len=*), intent(out) :: msg
         character(len=*), intent(in), optional :: author
         type(status_t) :: st
-        integer(hid_t) :: fapl, g, gp, gbox, gel, d
+        integer(hid_t) :: fapl, g, gp, gbox, gel
         integer :: err, e, k, D_
         character(len=256) :: who
         character(len=8) :: boundary(3)
-        character(len=:), allocatable :: unit_force, first_el
-        real(dp), target :: edges(3)
+        character(len=:), allocatable :: unit_force
+        character(len=*), parameter :: shared = pgroup//'/box/edges'
         integer(hsize_t) :: nchunk
         logical :: any_unit
 
@@ -228,12 +238,16 @@ contains
             boundary(k) = merge('periodic', 'none    ', periodic(k))
         end do
         call attr_text_list(st, gbox, 'boundary', boundary(1:D_))
-        edges = box_hi - box_lo
-        call make_fixed(st, gbox, 'edges', H5T_IEEE_F64LE, [int(D_, hsize_t)], d)
-        call attr_vltext(st, d, 'unit', unit_length)
-        call write_slab(st, d, H5T_NATIVE_DOUBLE, c_loc(edges), [0_hsize_t], [int(D_, hsize_t)], &
-                        self%rank == 0, self%dxpl)
-        call h5dclose_f(d, err)
+        ! box/edges: a time-dependent element whose step and time every other element shares
+        self%edges = box_hi - box_lo
+        call h5gcreate_f(gbox, 'edges', gel, err); call st%check(err, 'create box/edges')
+        call make_series(st, gel, 'step', H5T_STD_I64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], self%step)
+        call make_series(st, gel, 'time', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], self%time)
+        call attr_vltext(st, self%time, 'unit', unit_time)
+        call make_series(st, gel, 'value', H5T_IEEE_F64LE, [int(D_, hsize_t)], [int(D_, hsize_t)], self%edges_value, &
+                         chunk_frames=chunk_scalar)
+        call attr_vltext(st, self%edges_value, 'unit', unit_length)
+        call h5gclose_f(gel, err)
         call h5gclose_f(gbox, err)
 
         ! time-dependent elements: value [frames][N][D] (Fortran dims (D, N, frames))
@@ -241,7 +255,6 @@ contains
         unit_force = ''
         if (len_trim(unit_energy) > 0 .and. len_trim(unit_length) > 0) &
             unit_force = trim(unit_energy)//' '//trim(unit_length)//'-1'
-        first_el = ''
         do e = 1, nel
             if (.not. self%want(e)) cycle
             call h5gcreate_f(gp, trim(el_name(e)), gel, err); call st%check(err, 'create '//trim(el_name(e)))
@@ -257,19 +270,10 @@ contains
             case (e_vel); call attr_vltext(st, self%value(e), 'unit', unit_velocity)
             case (e_force); call attr_vltext(st, self%value(e), 'unit', unit_force)
             end select
-            if (len(first_el) == 0) then
-                first_el = pgroup//'/'//trim(el_name(e))
-                call make_series(st, gel, 'step', H5T_STD_I64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
-                                 self%step)
-                call make_series(st, gel, 'time', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
-                                 self%time)
-                call attr_vltext(st, self%time, 'unit', unit_time)
-            else
-                call h5lcreate_hard_f(self%file, first_el//'/step', gel, 'step', err)
-                call st%check(err, 'link '//trim(el_name(e))//'/step')
-                call h5lcreate_hard_f(self%file, first_el//'/time', gel, 'time', err)
-                call st%check(err, 'link '//trim(el_name(e))//'/time')
-            end if
+            call h5lcreate_hard_f(self%file, shared//'/step', gel, 'step', err)
+            call st%check(err, 'link '//trim(el_name(e))//'/step')
+            call h5lcreate_hard_f(self%file, shared//'/time', gel, 'time', err)
+            call st%check(err, 'link '//trim(el_name(e))//'/time')
             call h5gclose_f(gel, err)
         end do
 
@@ -316,7 +320,7 @@ contains
         integer, allocatable, target :: ibuf(:, :), tbuf(:)
         integer(i8), allocatable, target :: idbuf(:)
         integer(i8), target :: step_t
-        real(dp), target :: time_t
+        real(dp), target :: time_t, edges_t(3)
         integer(i8) :: total, kk
         logical :: bad
         integer(hsize_t) :: Dh
@@ -448,15 +452,16 @@ contains
                                     [Dh, nm, 1_hsize_t], nm > 0, self%dxpl)
                 end if
             end do
-            if (any(self%want)) then
-                step_t = step; time_t = time
-                call extend(st, self%step, [nf + 1])
-                call extend(st, self%time, [nf + 1])
-                call write_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [nf], &
-                                [1_hsize_t], self%rank == 0, self%dxpl)
-                call write_slab(st, self%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [nf], [1_hsize_t], &
-                                self%rank == 0, self%dxpl)
-            end if
+            step_t = step; time_t = time; edges_t = self%edges
+            call extend(st, self%step, [nf + 1])
+            call extend(st, self%time, [nf + 1])
+            call extend(st, self%edges_value, [Dh, nf + 1])
+            call write_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [nf], &
+                            [1_hsize_t], self%rank == 0, self%dxpl)
+            call write_slab(st, self%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [nf], [1_hsize_t], &
+                            self%rank == 0, self%dxpl)
+            call write_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(edges_t), [0_hsize_t, nf], [Dh, 1_hsize_t], &
+                            self%rank == 0, self%dxpl)
             if (nf == 0) then
                 allocate (idbuf(max(self%nmine, 1_i8)), tbuf(max(self%nmine, 1_i8)), mbuf(max(self%nmine, 1_i8)))
                 do j = 1, nrecv
@@ -641,7 +646,8 @@ contains
         if (self%id >= 0) call h5dclose_f(self%id, err)
         if (self%species >= 0) call h5dclose_f(self%species, err)
         if (self%mass >= 0) call h5dclose_f(self%mass, err)
-        self%step = -1; self%time = -1; self%id = -1; self%species = -1; self%mass = -1
+        if (self%edges_value >= 0) call h5dclose_f(self%edges_value, err)
+        self%step = -1; self%time = -1; self%id = -1; self%species = -1; self%mass = -1; self%edges_value = -1
         if (self%dxpl >= 0) call h5pclose_f(self%dxpl, err)
         self%dxpl = -1
         if (self%file >= 0) call h5fclose_f(self%file, err)
@@ -772,16 +778,7 @@ contains
                     call h5dclose_f(d, err)
                     if (nmine > 0) types = tbuf(1:nmine)
                 end if
-                if (present(edges)) then
-                    call h5lexists_f(file, pgroup//'/box/edges', exists, err)
-                    if (exists) then
-                        call h5dopen_f(file, pgroup//'/box/edges', d, err); call st%check(err, 'open box/edges')
-                        ebuf = 0
-                        call read_slab(st, d, H5T_NATIVE_DOUBLE, c_loc(ebuf), [0_hsize_t], [Dh], .true., dxpl)
-                        call h5dclose_f(d, err)
-                        edges = ebuf
-                    end if
-                end if
+                if (present(edges)) call read_edges(edges)
             end if
         end if
         call h5pclose_f(dxpl, err)
@@ -790,6 +787,52 @@ contains
         if (.not. ok) msg = 'h5md: '//trim(path)//': '//trim(msg)
 
     contains
+
+        !> The box edges at the frame read: box/edges is either a fixed Float[D] dataset or a
+        !> time-dependent element, whose row is the last one with a step not after the frame's step
+        !> (its own step list may differ from position's). Left at zero when the file has none.
+        subroutine read_edges(edges)
+            real(dp), intent(out) :: edges(3)
+            integer(i8), allocatable, target :: esteps(:)
+            integer(hsize_t) :: ed(1), emd(1), row, ed2(2), emd2(2)
+            integer :: j
+            edges = 0
+            ebuf = 0
+            call h5lexists_f(file, pgroup//'/box', exists, err)
+            if (exists) call h5lexists_f(file, pgroup//'/box/edges', exists, err)
+            if (.not. exists) return
+            call h5lexists_f(file, pgroup//'/box/edges/value', exists, err)
+            if (.not. exists) then
+                ! time-independent: Float[D]
+                call h5dopen_f(file, pgroup//'/box/edges', d, err); call st%check(err, 'open box/edges')
+                call dataset_dims(st, d, ed, emd)
+                if (st%ok .and. ed(1) /= Dh) call st%fail('box/edges does not have one entry per dimension')
+                if (st%ok) call read_slab(st, d, H5T_NATIVE_DOUBLE, c_loc(ebuf), [0_hsize_t], [Dh], .true., dxpl)
+                call h5dclose_f(d, err)
+            else
+                ! time-dependent: step[variable], value[variable][D]
+                call h5dopen_f(file, pgroup//'/box/edges/step', d, err); call st%check(err, 'open box/edges/step')
+                call dataset_dims(st, d, ed, emd)
+                allocate (esteps(max(ed(1), 1_hsize_t)))
+                if (st%ok .and. ed(1) == 0) call st%fail('box/edges has no frames')
+                if (st%ok) call read_slab(st, d, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(esteps), [0_hsize_t], &
+                                          ed, .true., dxpl)
+                call h5dclose_f(d, err)
+                if (.not. st%ok) return
+                row = 0
+                do j = 1, int(ed(1))
+                    if (esteps(j) <= step) row = int(j - 1, hsize_t)
+                end do
+                call h5dopen_f(file, pgroup//'/box/edges/value', d, err); call st%check(err, 'open box/edges/value')
+                call dataset_dims(st, d, ed2, emd2)
+                if (st%ok .and. (ed2(1) /= Dh .or. ed2(2) /= ed(1))) &
+                    call st%fail('box/edges/value is not [frames][dimension] (only rectangular boxes are read)')
+                if (st%ok) call read_slab(st, d, H5T_NATIVE_DOUBLE, c_loc(ebuf), [0_hsize_t, row], [Dh, 1_hsize_t], &
+                                         .true., dxpl)
+                call h5dclose_f(d, err)
+            end if
+            if (st%ok) edges = ebuf
+        end subroutine read_edges
 
         !> Read this rank's block of frame fr of a per-atom series of the same shape as position.
         subroutine read_series(name, memtype, buf, found)
@@ -904,13 +947,15 @@ contains
     end subroutine make_fixed
 
     !> An extendible series: Fortran dims (inner..., 0), unlimited last dimension, chunks
-    !> (chunk_inner..., 1), or (chunk_scalar) for a series of scalars.
-    subroutine make_series(st, loc, name, ftype, inner, chunk_inner, d)
+    !> (chunk_inner..., chunk_frames), chunk_frames defaulting to 1, or to chunk_scalar for a series
+    !> of scalars.
+    subroutine make_series(st, loc, name, ftype, inner, chunk_inner, d, chunk_frames)
         type(status_t), intent(inout) :: st
         integer(hid_t), intent(in) :: loc, ftype
         character(len=*), intent(in) :: name
         integer(hsize_t), intent(in) :: inner(:), chunk_inner(:)
         integer(hid_t), intent(out) :: d
+        integer(hsize_t), intent(in), optional :: chunk_frames
         integer(hid_t) :: sp, dcpl
         integer(hsize_t) :: dims(size(inner) + 1), maxdims(size(inner) + 1), chunk(size(inner) + 1)
         integer :: err, n
@@ -918,6 +963,7 @@ contains
         dims(1:n - 1) = inner; dims(n) = 0
         maxdims(1:n - 1) = inner; maxdims(n) = H5S_UNLIMITED_F
         chunk(1:n - 1) = chunk_inner; chunk(n) = merge(chunk_scalar, 1_hsize_t, n == 1)
+        if (present(chunk_frames)) chunk(n) = chunk_frames
         call h5screate_simple_f(n, dims, sp, err, maxdims); call st%check(err, 'H5Screate '//name)
         call h5pcreate_f(H5P_DATASET_CREATE_F, dcpl, err)
         call h5pset_chunk_f(dcpl, n, chunk, err); call st%check(err, 'H5Pset_chunk '//name)

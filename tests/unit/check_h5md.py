@@ -57,8 +57,13 @@ def check_main(path):
         box = p['box']
         check(int(box.attrs['dimension']) == 3 and box.attrs['dimension'].shape == (), f'{path}: box/dimension')
         check(text(box.attrs['boundary']) == ['periodic', 'periodic', 'none'], f'{path}: box/boundary')
-        check(np.array_equal(box['edges'][()], [110.0, 41.0, 7.5]), f'{path}: box/edges')
-        check(text(box['edges'].attrs['unit']) == 'Ang', f'{path}: edges unit')
+        e = box['edges']
+        check(isinstance(e, h5py.Group) and e['value'].shape == (3, 3) and e['value'].maxshape == (None, 3),
+              f'{path}: box/edges is not a time-dependent element of shape (frames, 3)')
+        check(np.array_equal(e['value'][()], [[110.0, 41.0, 7.5]] * 3), f'{path}: box/edges/value')
+        check(e['value'].dtype == np.float64 and text(e['value'].attrs['unit']) == 'Ang', f'{path}: edges unit')
+        check(list(e['step'][()]) == [0, 100, 200] and list(e['time'][()]) == [0.0, 0.5, 1.0]
+              and text(e['time'].attrs['unit']) == 'ps', f'{path}: box/edges/step, time')
         units = {'position': 'Ang', 'velocity': 'Ang ps-1', 'force': 'eV Ang-1', 'image': None}
         for j, name in enumerate(['position', 'velocity', 'force', 'image']):
             g = p[name]
@@ -70,8 +75,8 @@ def check_main(path):
                   f'{path}: {name} unit')
             check(g['step'].dtype == np.int64 and list(g['step'][()]) == [0, 100, 200], f'{path}: {name}/step')
             check(g['time'].dtype == np.float64 and list(g['time'][()]) == [0.0, 0.5, 1.0], f'{path}: {name}/time')
-            check(g['step'] == p['position/step'] and g['time'] == p['position/time'],
-                  f'{path}: {name}/step,time are not hard links to position/')
+            check(g['step'] == p['box/edges/step'] and g['time'] == p['box/edges/time'],
+                  f'{path}: {name}/step,time are not hard links to box/edges/')
             for k in range(3):
                 check(np.array_equal(v[k], expected(k)[j]), f'{path}: {name} frame {k} values')
         check(text(p['position/time'].attrs['unit']) == 'ps', f'{path}: time unit')
@@ -101,6 +106,8 @@ def check_2d(path):
         check(p['position/value'].shape == (2, N, 2) and 'unit' not in p['position/value'].attrs,
               f'{path}: 2-D position')
         check(list(p['velocity/step'][()]) == [7, 8], f'{path}: 2-D step')
+        check(np.array_equal(p['box/edges/value'][()], [[20.0, 30.0], [20.0, 30.0]])
+              and 'unit' not in p['box/edges/value'].attrs, f'{path}: 2-D box/edges/value')
         for k in range(2):
             x, v, _, _ = expected(k, dim=2)
             check(np.array_equal(p['position/value'][k], x) and np.array_equal(p['velocity/value'][k], v),

@@ -33,7 +33,7 @@ program terrace
     logical :: check_only, ok
     integer :: k
     integer(i8) :: n_steps, thermo_every
-    real(dp) :: t0, t1, h, t_end, interval
+    real(dp) :: t0, t1, h, t_end, interval, traj_interval
     type(es_stats_t) :: es
     character(len=512) :: msg
 
@@ -94,6 +94,7 @@ contains
         traj_every = 0
         if (cfg%trajectory_every > 0) traj_every = cfg%trajectory_every
         if (cfg%trajectory_interval > 0) traj_every = max(1_i8, nint(cfg%trajectory_interval/cfg%dt, i8))
+        if (cfg%trajectory_every <= 0 .and. .not. cfg%trajectory_interval > 0) traj_every = thermo_every  ! default
         if (len_trim(cfg%trajectory_file) == 0) traj_every = 0
         call run_velocity_verlet(eng, thermo, traj, n_steps, thermo_every, traj_every)
         call MPI_Barrier(world%comm)
@@ -146,11 +147,18 @@ contains
         call MPI_Barrier(world%comm)
         eng%timers = timers_t()
         t0 = MPI_Wtime()
-        traj_every = 0
-        if (len_trim(cfg%trajectory_file) > 0) traj_every = max(0_i8, cfg%trajectory_every)
-        call run_energy_stepping(eng, thermo, traj, h, t_end, n_steps, interval, thermo_every, &
-                                 merge(cfg%trajectory_interval, 0.0_dp, len_trim(cfg%trajectory_file) > 0 .and. &
-                                       cfg%trajectory_interval > 0), traj_every, es)
+        ! trajectory sampling: trajectory_every events or trajectory_interval time; by default the
+        ! thermo sampling (the same events or times)
+        traj_every = max(0_i8, cfg%trajectory_every)
+        traj_interval = max(0.0_dp, cfg%trajectory_interval)
+        if (traj_every == 0 .and. .not. traj_interval > 0) then
+            traj_every = thermo_every; traj_interval = interval
+        end if
+        if (len_trim(cfg%trajectory_file) == 0) then
+            traj_every = 0; traj_interval = 0
+        end if
+        call run_energy_stepping(eng, thermo, traj, h, t_end, n_steps, interval, thermo_every, traj_interval, &
+                                 traj_every, es)
         call MPI_Barrier(world%comm)
         t1 = MPI_Wtime()
         call thermo%close()

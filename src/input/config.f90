@@ -572,9 +572,7 @@ contains
         if (cfg%trajectory_every > 0 .and. cfg%trajectory_interval > 0) &
             call stop_all(cfg%where('output', 'trajectory_interval')//': give either trajectory_every or '// &
                           'trajectory_interval')
-        if (len_trim(cfg%trajectory_file) > 0 .and. cfg%trajectory_every <= 0 .and. .not. (cfg%trajectory_interval > 0)) &
-            call stop_all(cfg%where('output', 'trajectory_file')//': needs trajectory_every (steps) or '// &
-                          'trajectory_interval (time)')
+        ! neither trajectory_every nor trajectory_interval: frames at the thermo samples (src/app/terrace.f90)
         i = 1
         do
             read (cfg%trajectory_fields(i:), *, iostat=ios) word

@@ -10,6 +10,7 @@ packages=(
   libhdf5-openmpi-dev hdf5-tools             # parallel HDF5 (H5MD trajectories)
   libfftw3-dev                               # FFTW 3 (analysis)
   python3 python3-numpy python3-h5py python3-matplotlib   # scripts, plots
+  python3-venv                               # MDAnalysis test: a venv with PyPI's MDAnalysis
   lammps lammps-data                         # reference runs and EAM tables
 )
 missing=()

@@ -32,7 +32,8 @@
 !> gathered on one rank), and each rank then writes its block as one hyperslab with a collective
 !> MPI-IO transfer. The file is flushed after every frame, so a killed run leaves a readable file up
 !> to its last complete frame. Unit strings follow the H5MD units module ("SI" system symbols);
-!> metal units are 'Ang', 'ps', 'eV', 'Ang ps-1', 'u'; pass '' everywhere for reduced (lj) units.
+!> the engine passes 'Angstrom', 'ps', 'eV', 'Angstrom ps-1', 'u' for metal units (the spelling MDAnalysis
+!> reads) and '' everywhere for reduced (lj) units.
 !>
 !> Every procedure is collective over the writer's communicator and returns errors as ok/msg (the
 !> same ok on every rank); HDF5's own error printing is switched off.

@@ -45,7 +45,7 @@ contains
         self%want_force = index(fields, 'force') > 0
         self%want_image = index(fields, 'image') > 0
         if (units%name == 'metal') then
-            ul = 'Ang'; ut = 'ps'; ue = 'eV'; uv = 'Ang ps-1'; um = 'u'
+            ul = 'Angstrom'; ut = 'ps'; ue = 'eV'; uv = 'Angstrom ps-1'; um = 'u'
         else
             ul = ''; ut = ''; ue = ''; uv = ''; um = ''
         end if

@@ -68,6 +68,18 @@ module terrace_h5md
         procedure :: fail => status_fail
     end type status_t
 
+    !> write_frame's work arrays, kept from frame to frame: for a large system, allocating and
+    !> first-touching them anew at every frame cost about as much as the HDF5 write itself.
+    type :: frame_work_t
+        integer :: send_capacity = -1, recv_capacity = -1
+        integer, allocatable :: dest(:), row(:)           !< rank owning each local atom; row of each received one
+        integer(i8), allocatable :: sint(:, :), rint(:, :) !< id, (type at frame 0), image
+        real(dp), allocatable :: sreal(:, :), rreal(:, :)  !< position, velocity, force
+        logical, allocatable :: seen(:)
+        real(dp), allocatable :: rbuf(:, :)                 !< one element of this rank's block, in id order
+        integer, allocatable :: ibuf(:, :)
+    end type frame_work_t
+
     type :: observable_t
         character(len=:), allocatable :: name
         integer(hid_t) :: step = -1, time = -1, value = -1
@@ -96,6 +108,7 @@ module terrace_h5md
         character(len=:), allocatable :: unit_time
         type(observable_t), allocatable :: obs(:)
         integer :: nobs = 0
+        type(frame_work_t) :: work
     contains
         procedure :: create => writer_create
         procedure :: write_frame => writer_write_frame
@@ -298,9 +311,10 @@ contains
     !> Append one frame. ids(1:nlocal) are the global ids (1..natoms) of this rank's atoms; over all
     !> ranks every id must appear exactly once. x, v, f, image are (>= dimension, >= nlocal) and
     !> needed only when the matching element was requested in create (pass them by keyword
-    !> otherwise). Steps must not decrease.
-    subroutine writer_write_frame(self, step, time, nlocal, ids, types, x, v, f, image, ok, msg)
-        class(h5md_writer_t), intent(inout) :: self
+    !> otherwise). Steps must not decrease. flush (default true) flushes the file after the frame
+    !> (a caller that writes observables of the same sample flushes once after them).
+    subroutine writer_write_frame(self, step, time, nlocal, ids, types, x, v, f, image, ok, msg, flush)
+        class(h5md_writer_t), intent(inout), target :: self
         integer(i8), intent(in) :: step
         real(dp), intent(in) :: time
         integer, intent(in) :: nlocal
@@ -310,15 +324,12 @@ contains
         integer, intent(in), optional :: image(:, :)
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
+        logical, intent(in), optional :: flush
         type(status_t) :: st
-        integer :: D_, P, i, j, e, r, wr, wi, nrecv, err, roff(nel)
+        integer :: D_, P, i, j, e, r, wr, wi, it, im, nrecv, err, roff(nel)
         integer, allocatable :: scount(:), rcount(:), sdisp(:), rdisp(:), cursor(:)
-        real(dp), allocatable :: sreal(:, :), rreal(:, :)
-        integer(i8), allocatable :: sint(:, :), rint(:, :)
-        integer, allocatable :: row(:)
-        logical, allocatable :: seen(:)
-        real(dp), allocatable, target :: rbuf(:, :), mbuf(:)
-        integer, allocatable, target :: ibuf(:, :), tbuf(:)
+        real(dp), allocatable, target :: mbuf(:)
+        integer, allocatable, target :: tbuf(:)
         integer(i8), allocatable, target :: idbuf(:)
         integer(i8), target :: step_t
         real(dp), target :: time_t, edges_t(3)
@@ -366,117 +377,125 @@ contains
             return
         end if
 
-        ! ---- send every atom to the rank owning its id (block distribution of 1..natoms)
+        ! ---- send every atom to the rank owning its id (block distribution of 1..natoms): reals
+        ! (position, velocity, force: D each) and integers (id, the type at the first frame, image)
         wr = 0; roff = 0
         do e = e_pos, e_force
             if (self%want(e)) then
                 roff(e) = wr; wr = wr + D_
             end if
         end do
-        wi = 2 + merge(D_, 0, self%want(e_image))
+        it = merge(2, 0, self%nframes == 0)          ! row of the type in the integers (0: not sent)
+        im = 1 + merge(1, 0, it > 0)                  ! image: rows im+1 .. im+D
+        wi = im + merge(D_, 0, self%want(e_image))
         allocate (scount(0:P - 1), rcount(0:P - 1), sdisp(0:P - 1), rdisp(0:P - 1), cursor(0:P - 1))
-        scount = 0
-        do i = 1, nlocal
-            r = owner_of(ids(i), self%natoms, P)
-            scount(r) = scount(r) + 1
-        end do
-        sdisp(0) = 0
-        do r = 1, P - 1
-            sdisp(r) = sdisp(r - 1) + scount(r - 1)
-        end do
-        cursor = sdisp
-        allocate (sreal(max(wr, 1), max(nlocal, 1)), sint(wi, max(nlocal, 1)))
-        do i = 1, nlocal
-            r = owner_of(ids(i), self%natoms, P)
-            cursor(r) = cursor(r) + 1; j = cursor(r)
-            sint(1, j) = ids(i); sint(2, j) = types(i)
-            if (self%want(e_image)) sint(3:2 + D_, j) = image(1:D_, i)
-            if (self%want(e_pos)) sreal(roff(e_pos) + 1:roff(e_pos) + D_, j) = x(1:D_, i)
-            if (self%want(e_vel)) sreal(roff(e_vel) + 1:roff(e_vel) + D_, j) = v(1:D_, i)
-            if (self%want(e_force)) sreal(roff(e_force) + 1:roff(e_force) + D_, j) = f(1:D_, i)
-        end do
-        call MPI_Alltoall(scount, 1, MPI_INTEGER, rcount, 1, MPI_INTEGER, self%comm)
-        rdisp(0) = 0
-        do r = 1, P - 1
-            rdisp(r) = rdisp(r - 1) + rcount(r - 1)
-        end do
-        nrecv = sum(rcount)
-        allocate (rreal(max(wr, 1), max(nrecv, 1)), rint(wi, max(nrecv, 1)))
-        call MPI_Alltoallv(sint, wi*scount, wi*sdisp, MPI_INTEGER8, rint, wi*rcount, wi*rdisp, MPI_INTEGER8, &
-                           self%comm)
-        if (wr > 0) call MPI_Alltoallv(sreal, wr*scount, wr*sdisp, MPI_DOUBLE_PRECISION, rreal, wr*rcount, &
-                                       wr*rdisp, MPI_DOUBLE_PRECISION, self%comm)
-        deallocate (sreal, sint)
+        associate (w => self%work)
+            call reserve_send(w, max(wr, 1), wi, nlocal)
+            scount = 0
+            do i = 1, nlocal
+                r = owner_of(ids(i), self%natoms, P)
+                w%dest(i) = r
+                scount(r) = scount(r) + 1
+            end do
+            sdisp(0) = 0
+            do r = 1, P - 1
+                sdisp(r) = sdisp(r - 1) + scount(r - 1)
+            end do
+            cursor = sdisp
+            do i = 1, nlocal
+                r = w%dest(i)
+                cursor(r) = cursor(r) + 1; j = cursor(r)
+                w%sint(1, j) = ids(i)
+                if (it > 0) w%sint(it, j) = types(i)
+                if (self%want(e_image)) w%sint(im + 1:im + D_, j) = image(1:D_, i)
+                if (self%want(e_pos)) w%sreal(roff(e_pos) + 1:roff(e_pos) + D_, j) = x(1:D_, i)
+                if (self%want(e_vel)) w%sreal(roff(e_vel) + 1:roff(e_vel) + D_, j) = v(1:D_, i)
+                if (self%want(e_force)) w%sreal(roff(e_force) + 1:roff(e_force) + D_, j) = f(1:D_, i)
+            end do
+            call MPI_Alltoall(scount, 1, MPI_INTEGER, rcount, 1, MPI_INTEGER, self%comm)
+            rdisp(0) = 0
+            do r = 1, P - 1
+                rdisp(r) = rdisp(r - 1) + rcount(r - 1)
+            end do
+            nrecv = sum(rcount)
+            call reserve_recv(w, max(wr, 1), wi, D_, max(nrecv, int(self%nmine)))
+            call MPI_Alltoallv(w%sint, wi*scount, wi*sdisp, MPI_INTEGER8, w%rint, wi*rcount, wi*rdisp, &
+                               MPI_INTEGER8, self%comm)
+            if (wr > 0) call MPI_Alltoallv(w%sreal, wr*scount, wr*sdisp, MPI_DOUBLE_PRECISION, w%rreal, wr*rcount, &
+                                           wr*rdisp, MPI_DOUBLE_PRECISION, self%comm)
+        end associate
 
         ! ---- row of each received atom in this rank's block (id order); every id exactly once
-        allocate (row(max(nrecv, 1)), seen(max(self%nmine, 1_i8)))
-        seen = .false.
-        bad = nrecv /= self%nmine
-        if (.not. bad) then
-            do j = 1, nrecv
-                kk = rint(1, j) - self%first + 1
-                if (kk < 1 .or. kk > self%nmine) then
-                    bad = .true.; exit
-                end if
-                if (seen(kk)) then
-                    bad = .true.; exit
-                end if
-                seen(kk) = .true.; row(j) = int(kk)
-            end do
-        end if
-        call MPI_Allreduce(MPI_IN_PLACE, bad, 1, MPI_LOGICAL, MPI_LOR, self%comm)
-        if (bad) then
-            ok = .false.; msg = 'h5md: write_frame: an atom id appears twice (or is missing) over the ranks'
-            return
-        end if
-        deallocate (seen)
-
-        ! ---- write: extend the series by one frame, each rank writes its block
-        associate (nf => self%nframes, nm => int(self%nmine, hsize_t), f0 => int(self%first - 1, hsize_t))
-            do e = 1, nel
-                if (.not. self%want(e)) cycle
-                call extend(st, self%value(e), [Dh, int(self%natoms, hsize_t), nf + 1])
-                if (e == e_image) then
-                    allocate (ibuf(D_, max(self%nmine, 1_i8)))
-                    do j = 1, nrecv
-                        ibuf(:, row(j)) = int(rint(3:2 + D_, j))
-                    end do
-                    call write_slab(st, self%value(e), H5T_NATIVE_INTEGER, c_loc(ibuf), [0_hsize_t, f0, nf], &
-                                    [Dh, nm, 1_hsize_t], nm > 0, self%dxpl)
-                    deallocate (ibuf)
-                else
-                    if (.not. allocated(rbuf)) allocate (rbuf(D_, max(self%nmine, 1_i8)))
-                    do j = 1, nrecv
-                        rbuf(:, row(j)) = rreal(roff(e) + 1:roff(e) + D_, j)
-                    end do
-                    call write_slab(st, self%value(e), H5T_NATIVE_DOUBLE, c_loc(rbuf), [0_hsize_t, f0, nf], &
-                                    [Dh, nm, 1_hsize_t], nm > 0, self%dxpl)
-                end if
-            end do
-            step_t = step; time_t = time; edges_t = self%edges
-            call extend(st, self%step, [nf + 1])
-            call extend(st, self%time, [nf + 1])
-            call extend(st, self%edges_value, [Dh, nf + 1])
-            call write_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [nf], &
-                            [1_hsize_t], self%rank == 0, self%dxpl)
-            call write_slab(st, self%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [nf], [1_hsize_t], &
-                            self%rank == 0, self%dxpl)
-            call write_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(edges_t), [0_hsize_t, nf], [Dh, 1_hsize_t], &
-                            self%rank == 0, self%dxpl)
-            if (nf == 0) then
-                allocate (idbuf(max(self%nmine, 1_i8)), tbuf(max(self%nmine, 1_i8)), mbuf(max(self%nmine, 1_i8)))
+        associate (row => self%work%row, seen => self%work%seen, rint => self%work%rint, rreal => self%work%rreal, &
+                   rbuf => self%work%rbuf, ibuf => self%work%ibuf)
+            seen = .false.
+            bad = nrecv /= self%nmine
+            if (.not. bad) then
                 do j = 1, nrecv
-                    idbuf(row(j)) = rint(1, j)
-                    tbuf(row(j)) = int(rint(2, j))
-                    mbuf(row(j)) = self%masses_by_type(tbuf(row(j)))
+                    kk = rint(1, j) - self%first + 1
+                    if (kk < 1 .or. kk > self%nmine) then
+                        bad = .true.; exit
+                    end if
+                    if (seen(kk)) then
+                        bad = .true.; exit
+                    end if
+                    seen(kk) = .true.; row(j) = int(kk)
                 end do
-                call write_slab(st, self%id, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(idbuf), [f0], [nm], &
-                                nm > 0, self%dxpl)
-                call write_slab(st, self%species, H5T_NATIVE_INTEGER, c_loc(tbuf), [f0], [nm], nm > 0, self%dxpl)
-                call write_slab(st, self%mass, H5T_NATIVE_DOUBLE, c_loc(mbuf), [f0], [nm], nm > 0, self%dxpl)
             end if
+            call MPI_Allreduce(MPI_IN_PLACE, bad, 1, MPI_LOGICAL, MPI_LOR, self%comm)
+            if (bad) then
+                ok = .false.; msg = 'h5md: write_frame: an atom id appears twice (or is missing) over the ranks'
+                return
+            end if
+
+            ! ---- write: extend the series by one frame, each rank writes its block
+            associate (nf => self%nframes, nm => int(self%nmine, hsize_t), f0 => int(self%first - 1, hsize_t))
+                do e = 1, nel
+                    if (.not. self%want(e)) cycle
+                    call extend(st, self%value(e), [Dh, int(self%natoms, hsize_t), nf + 1])
+                    if (e == e_image) then
+                        do j = 1, nrecv
+                            ibuf(:, row(j)) = int(rint(im + 1:im + D_, j))
+                        end do
+                        call write_slab(st, self%value(e), H5T_NATIVE_INTEGER, c_loc(ibuf), [0_hsize_t, f0, nf], &
+                                        [Dh, nm, 1_hsize_t], nm > 0, self%dxpl)
+                    else
+                        do j = 1, nrecv
+                            rbuf(:, row(j)) = rreal(roff(e) + 1:roff(e) + D_, j)
+                        end do
+                        call write_slab(st, self%value(e), H5T_NATIVE_DOUBLE, c_loc(rbuf), [0_hsize_t, f0, nf], &
+                                        [Dh, nm, 1_hsize_t], nm > 0, self%dxpl)
+                    end if
+                end do
+                step_t = step; time_t = time; edges_t = self%edges
+                call extend(st, self%step, [nf + 1])
+                call extend(st, self%time, [nf + 1])
+                call extend(st, self%edges_value, [Dh, nf + 1])
+                call write_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [nf], &
+                                [1_hsize_t], self%rank == 0, self%dxpl)
+                call write_slab(st, self%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [nf], [1_hsize_t], &
+                                self%rank == 0, self%dxpl)
+                call write_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(edges_t), [0_hsize_t, nf], &
+                                [Dh, 1_hsize_t], self%rank == 0, self%dxpl)
+                if (nf == 0) then
+                    allocate (idbuf(max(self%nmine, 1_i8)), tbuf(max(self%nmine, 1_i8)), mbuf(max(self%nmine, 1_i8)))
+                    do j = 1, nrecv
+                        idbuf(row(j)) = rint(1, j)
+                        tbuf(row(j)) = int(rint(it, j))
+                        mbuf(row(j)) = self%masses_by_type(tbuf(row(j)))
+                    end do
+                    call write_slab(st, self%id, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(idbuf), [f0], [nm], &
+                                    nm > 0, self%dxpl)
+                    call write_slab(st, self%species, H5T_NATIVE_INTEGER, c_loc(tbuf), [f0], [nm], nm > 0, self%dxpl)
+                    call write_slab(st, self%mass, H5T_NATIVE_DOUBLE, c_loc(mbuf), [f0], [nm], nm > 0, self%dxpl)
+                end if
+            end associate
         end associate
-        call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        if (.not. present(flush)) then
+            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        else if (flush) then
+            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        end if
         call agree(self%comm, st, ok, msg)
         if (ok) then
             self%nframes = self%nframes + 1
@@ -500,6 +519,35 @@ contains
         end subroutine need_real
 
     end subroutine writer_write_frame
+
+    !> Send arrays for n atoms (wr reals, wi integers each), grown with 25 % headroom when too small
+    !> (the number of atoms a rank owns drifts a little from frame to frame).
+    subroutine reserve_send(w, wr, wi, n)
+        type(frame_work_t), intent(inout) :: w
+        integer, intent(in) :: wr, wi, n
+        integer :: cap
+        if (allocated(w%sint)) then
+            if (n <= w%send_capacity .and. size(w%sreal, 1) == wr .and. size(w%sint, 1) == wi) return
+            deallocate (w%dest, w%sint, w%sreal)
+        end if
+        cap = max(1, n + n/4)
+        allocate (w%dest(cap), w%sint(wi, cap), w%sreal(wr, cap))
+        w%send_capacity = cap
+    end subroutine reserve_send
+
+    !> Receive arrays and this rank's block buffers for n atoms (n >= the block size).
+    subroutine reserve_recv(w, wr, wi, D, n)
+        type(frame_work_t), intent(inout) :: w
+        integer, intent(in) :: wr, wi, D, n
+        integer :: cap
+        if (allocated(w%rint)) then
+            if (n <= w%recv_capacity .and. size(w%rreal, 1) == wr .and. size(w%rint, 1) == wi) return
+            deallocate (w%row, w%seen, w%rint, w%rreal, w%rbuf, w%ibuf)
+        end if
+        cap = max(1, n)
+        allocate (w%row(cap), w%seen(cap), w%rint(wi, cap), w%rreal(wr, cap), w%rbuf(D, cap), w%ibuf(D, cap))
+        w%recv_capacity = cap
+    end subroutine reserve_recv
 
     !> Append (step, time, value) to observables/<name> (created at its first call, with the
     !> optional unit). Collective; rank 0's values are written. flush (default true) flushes the file.
@@ -642,6 +690,7 @@ contains
         end do
         if (allocated(self%obs)) deallocate (self%obs)
         self%nobs = 0
+        self%work = frame_work_t()
         if (self%step >= 0) call h5dclose_f(self%step, err)
         if (self%time >= 0) call h5dclose_f(self%time, err)
         if (self%id >= 0) call h5dclose_f(self%id, err)

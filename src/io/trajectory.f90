@@ -72,7 +72,8 @@ contains
         if (.not. self%active) return
         n = atoms%nlocal
         call self%h5%write_frame(step, time, n, atoms%id(1:n), atoms%type(1:n), x=atoms%x(:, 1:n), &
-                                 v=atoms%v(:, 1:n), f=atoms%f(:, 1:n), image=atoms%image(:, 1:n), ok=ok, msg=msg)
+                                 v=atoms%v(:, 1:n), f=atoms%f(:, 1:n), image=atoms%image(:, 1:n), ok=ok, msg=msg, &
+                                 flush=.false.)
         if (.not. ok) return
         call self%h5%write_observable('potential_energy', step, time, s%pe, ok, msg, flush=.false.)
         if (ok) call self%h5%write_observable('kinetic_energy', step, time, s%ke, ok, msg, flush=.false.)

@@ -55,7 +55,8 @@ module terrace_h5md
     integer, parameter :: e_pos = 1, e_vel = 2, e_force = 3, e_image = 4
     character(len=8), parameter :: el_name(nel) = [character(len=8) :: 'position', 'velocity', 'force', 'image']
     character(len=*), parameter :: pgroup = '/particles/all'
-    integer(hsize_t), parameter :: chunk_bytes = 1048576   !< target chunk size of the per-atom series
+    integer(hsize_t), parameter :: chunk_bytes = 1048576   !< largest chunk of the per-atom series (one frame)
+    integer(hsize_t), parameter :: small_chunk_bytes = 65536 !< several frames of a small system per chunk
     integer(hsize_t), parameter :: chunk_scalar = 512      !< chunk of step / time / observables
 
     !> Error state of a sequence of HDF5 calls: the first failure is kept, later calls still run
@@ -153,7 +154,7 @@ contains
         character(len=8) :: boundary(3)
         character(len=:), allocatable :: unit_force
         character(len=*), parameter :: shared = pgroup//'/box/edges'
-        integer(hsize_t) :: nchunk
+        integer(hsize_t) :: nchunk, fchunk
         logical :: any_unit
 
         ok = .true.; msg = ''
@@ -264,8 +265,12 @@ contains
         call h5gclose_f(gel, err)
         call h5gclose_f(gbox, err)
 
-        ! time-dependent elements: value [frames][N][D] (Fortran dims (D, N, frames))
+        ! time-dependent elements: value [frames][N][D] (Fortran dims (D, N, frames)); a chunk holds up
+        ! to 1 MiB of one frame, or, when a frame is small, the frames of about 64 KiB (one chunk per
+        ! frame of a seven-atom cluster would cost more in chunk index than in data)
         nchunk = max(1_hsize_t, min(int(natoms, hsize_t), chunk_bytes/(8_hsize_t*D_)))
+        fchunk = 1
+        if (nchunk == int(natoms, hsize_t)) fchunk = max(1_hsize_t, small_chunk_bytes/(8_hsize_t*D_*nchunk))
         unit_force = ''
         if (len_trim(unit_energy) > 0 .and. len_trim(unit_length) > 0) &
             unit_force = trim(unit_energy)//' '//trim(unit_length)//'-1'
@@ -274,10 +279,10 @@ contains
             call h5gcreate_f(gp, trim(el_name(e)), gel, err); call st%check(err, 'create '//trim(el_name(e)))
             if (e == e_image) then
                 call make_series(st, gel, 'value', H5T_STD_I32LE, [int(D_, hsize_t), int(natoms, hsize_t)], &
-                                 [int(D_, hsize_t), nchunk], self%value(e))
+                                 [int(D_, hsize_t), nchunk], self%value(e), chunk_frames=fchunk)
             else
                 call make_series(st, gel, 'value', H5T_IEEE_F64LE, [int(D_, hsize_t), int(natoms, hsize_t)], &
-                                 [int(D_, hsize_t), nchunk], self%value(e))
+                                 [int(D_, hsize_t), nchunk], self%value(e), chunk_frames=fchunk)
             end if
             select case (e)
             case (e_pos); call attr_vltext(st, self%value(e), 'unit', unit_length)

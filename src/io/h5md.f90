@@ -30,10 +30,11 @@
 !> Atoms are stored in global id order (row id - 1) on any number of ranks: write_frame sends every
 !> atom to the rank that owns its id in a block distribution of 1..N (one MPI_Alltoallv; nothing is
 !> gathered on one rank), and each rank then writes its block as one hyperslab with a collective
-!> MPI-IO transfer. The file is flushed after every frame, so a killed run leaves a readable file up
-!> to its last complete frame. Unit strings follow the H5MD units module ("SI" system symbols);
-!> the engine passes 'Angstrom', 'ps', 'eV', 'Angstrom ps-1', 'u' for metal units (the spelling MDAnalysis
-!> reads) and '' everywhere for reduced (lj) units.
+!> MPI-IO transfer. write_frame flushes the file after the frame unless told not to (the trajectory
+!> output flushes after its observables, at most once a second: writer_flush's min_interval), so a
+!> killed run leaves a readable file up to its last flushed frame. Unit strings follow the H5MD
+!> units module; the engine passes 'Angstrom', 'ps', 'eV', 'Angstrom ps-1', 'u' for metal units (the
+!> spelling MDAnalysis reads) and '' everywhere for reduced (lj) units.
 !>
 !> Every procedure is collective over the writer's communicator and returns errors as ok/msg (the
 !> same ok on every rank); HDF5's own error printing is switched off.
@@ -44,7 +45,7 @@ module terrace_h5md
     use mpi_f08, only: MPI_Comm, MPI_Comm_dup, MPI_Comm_free, MPI_Comm_rank, MPI_Comm_size, &
                        MPI_Allreduce, MPI_Alltoall, MPI_Alltoallv, MPI_Bcast, MPI_IN_PLACE, MPI_LOGICAL, &
                        MPI_LOR, MPI_MIN, MPI_SUM, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION, &
-                       MPI_CHARACTER, MPI_INFO_NULL
+                       MPI_CHARACTER, MPI_INFO_NULL, MPI_Wtime
     use hdf5
     implicit none
     private
@@ -85,6 +86,7 @@ module terrace_h5md
         character(len=:), allocatable :: name
         integer(hid_t) :: step = -1, time = -1, value = -1
         integer(hsize_t) :: n = 0
+        logical :: per_frame = .false.                    !< step and time are the frames' (hard links)
     end type observable_t
 
     type, public :: h5md_writer_t
@@ -94,6 +96,7 @@ module terrace_h5md
         type(MPI_Comm) :: comm
         integer :: rank = 0, nprocs = 1
         integer(hid_t) :: file = -1, dxpl = -1
+        integer(hid_t) :: dxpl_rank0 = -1                  !< independent: the small series rank 0 writes alone
         integer(i8) :: natoms = 0
         integer :: dimension = 3
         logical :: want(nel) = .false.
@@ -104,6 +107,7 @@ module terrace_h5md
         integer(hid_t) :: id = -1, species = -1, mass = -1
         integer(hsize_t) :: nframes = 0
         integer(i8) :: last_step = 0
+        real(dp) :: last_flush = 0                          !< rank 0's MPI_Wtime at the last writer_flush
         integer(i8) :: first = 1, nmine = 0               !< this rank's block of ids: first .. first+nmine-1
         real(dp), allocatable :: masses_by_type(:)
         character(len=:), allocatable :: unit_time
@@ -214,6 +218,11 @@ contains
         end if
         call h5pcreate_f(H5P_DATASET_XFER_F, self%dxpl, err); call st%check(err, 'H5Pcreate(dxpl)')
         call h5pset_dxpl_mpio_f(self%dxpl, H5FD_MPIO_COLLECTIVE_F, err); call st%check(err, 'H5Pset_dxpl_mpio')
+        ! step, time, edges and observables (one value per frame, from rank 0): an independent write
+        ! skips the collective machinery that costs more than such a value
+        call h5pcreate_f(H5P_DATASET_XFER_F, self%dxpl_rank0, err); call st%check(err, 'H5Pcreate(dxpl)')
+        call h5pset_dxpl_mpio_f(self%dxpl_rank0, H5FD_MPIO_INDEPENDENT_F, err)
+        call st%check(err, 'H5Pset_dxpl_mpio')
 
         ! h5md metadata
         who = 'unknown'
@@ -305,6 +314,7 @@ contains
         call h5gclose_f(g, err)
 
         call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        self%last_flush = MPI_Wtime()
         self%opened = .true.
         call agree(self%comm, st, ok, msg)
         if (.not. ok) then
@@ -477,11 +487,11 @@ contains
                 call extend(st, self%time, [nf + 1])
                 call extend(st, self%edges_value, [Dh, nf + 1])
                 call write_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [nf], &
-                                [1_hsize_t], self%rank == 0, self%dxpl)
+                                [1_hsize_t], self%rank == 0, self%dxpl_rank0)
                 call write_slab(st, self%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [nf], [1_hsize_t], &
-                                self%rank == 0, self%dxpl)
+                                self%rank == 0, self%dxpl_rank0)
                 call write_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(edges_t), [0_hsize_t, nf], &
-                                [Dh, 1_hsize_t], self%rank == 0, self%dxpl)
+                                [Dh, 1_hsize_t], self%rank == 0, self%dxpl_rank0)
                 if (nf == 0) then
                     allocate (idbuf(max(self%nmine, 1_i8)), tbuf(max(self%nmine, 1_i8)), mbuf(max(self%nmine, 1_i8)))
                     do j = 1, nrecv
@@ -556,7 +566,10 @@ contains
 
     !> Append (step, time, value) to observables/<name> (created at its first call, with the
     !> optional unit). Collective; rank 0's values are written. flush (default true) flushes the file.
-    subroutine writer_write_observable(self, name, step, time, value, ok, msg, unit, flush)
+    !> per_frame (fixed at the first call): the observable is written once with every frame, just
+    !> after it (same step), and its step and time are hard links to the frames' (box/edges/step,
+    !> time), so that only its value grows.
+    subroutine writer_write_observable(self, name, step, time, value, ok, msg, unit, flush, per_frame)
         class(h5md_writer_t), intent(inout) :: self
         character(len=*), intent(in) :: name
         integer(i8), intent(in) :: step
@@ -564,7 +577,7 @@ contains
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
         character(len=*), intent(in), optional :: unit
-        logical, intent(in), optional :: flush
+        logical, intent(in), optional :: flush, per_frame
         type(status_t) :: st
         type(observable_t), allocatable :: grown(:)
         integer :: k, i, err
@@ -593,6 +606,8 @@ contains
             self%nobs = self%nobs + 1; k = self%nobs
             associate (o => self%obs(k))
                 o%name = trim(name); o%n = 0
+                o%per_frame = .false.
+                if (present(per_frame)) o%per_frame = per_frame
                 call h5lexists_f(self%file, 'observables', exists, err); call st%check(err, 'H5Lexists')
                 if (exists) then
                     call h5gopen_f(self%file, 'observables', g, err); call st%check(err, 'open observables')
@@ -600,25 +615,40 @@ contains
                     call h5gcreate_f(self%file, 'observables', g, err); call st%check(err, 'create observables')
                 end if
                 call h5gcreate_f(g, o%name, go, err); call st%check(err, 'create observables/'//o%name)
-                call make_series(st, go, 'step', H5T_STD_I64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], o%step)
-                call make_series(st, go, 'time', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], o%time)
+                if (o%per_frame) then
+                    call h5lcreate_hard_f(self%file, pgroup//'/box/edges/step', go, 'step', err)
+                    call st%check(err, 'link observables/'//o%name//'/step')
+                    call h5lcreate_hard_f(self%file, pgroup//'/box/edges/time', go, 'time', err)
+                    call st%check(err, 'link observables/'//o%name//'/time')
+                else
+                    call make_series(st, go, 'step', H5T_STD_I64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
+                                     o%step)
+                    call make_series(st, go, 'time', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
+                                     o%time)
+                    call attr_vltext(st, o%time, 'unit', self%unit_time)
+                end if
                 call make_series(st, go, 'value', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
                                  o%value)
-                call attr_vltext(st, o%time, 'unit', self%unit_time)
                 if (present(unit)) call attr_vltext(st, o%value, 'unit', unit)
                 call h5gclose_f(go, err); call h5gclose_f(g, err)
             end associate
         end if
         associate (o => self%obs(k))
             step_t = step; time_t = time; value_t = value
-            call extend(st, o%step, [o%n + 1])
-            call extend(st, o%time, [o%n + 1])
+            if (o%per_frame) then
+                if (o%n + 1 /= self%nframes .or. step /= self%last_step) &
+                    call st%fail('a per-frame observable must be written once after each frame, at its step')
+            else
+                call extend(st, o%step, [o%n + 1])
+                call extend(st, o%time, [o%n + 1])
+                call write_slab(st, o%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [o%n], [1_hsize_t], &
+                                self%rank == 0, self%dxpl_rank0)
+                call write_slab(st, o%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [o%n], [1_hsize_t], self%rank == 0, &
+                                self%dxpl_rank0)
+            end if
             call extend(st, o%value, [o%n + 1])
-            call write_slab(st, o%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [o%n], [1_hsize_t], &
-                            self%rank == 0, self%dxpl)
-            call write_slab(st, o%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [o%n], [1_hsize_t], self%rank == 0, self%dxpl)
             call write_slab(st, o%value, H5T_NATIVE_DOUBLE, c_loc(value_t), [o%n], [1_hsize_t], self%rank == 0, &
-                            self%dxpl)
+                            self%dxpl_rank0)
         end associate
         if (.not. present(flush)) then
             call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
@@ -634,18 +664,31 @@ contains
     end subroutine writer_write_observable
 
     !> Flush the file to disk (collective).
-    subroutine writer_flush(self, ok, msg)
+    !> With min_interval (seconds of wall time), only when at least that long has passed since the
+    !> last flush of this writer (rank 0's clock decides for every rank). A flush writes HDF5's
+    !> metadata (every extended dataset's header) and syncs the file: for a small system it costs
+    !> several times a frame's data, so frequent small frames are flushed in batches.
+    subroutine writer_flush(self, ok, msg, min_interval)
         class(h5md_writer_t), intent(inout) :: self
         logical, intent(out), optional :: ok
         character(len=*), intent(out), optional :: msg
+        real(dp), intent(in), optional :: min_interval
         type(status_t) :: st
         integer :: err
-        logical :: ok_
+        logical :: ok_, due
         character(len=256) :: msg_
         ok_ = .true.; msg_ = ''
         if (self%opened) then
-            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
-            call agree(self%comm, st, ok_, msg_)
+            due = .true.
+            if (present(min_interval)) then
+                if (self%rank == 0) due = MPI_Wtime() - self%last_flush >= min_interval
+                call MPI_Bcast(due, 1, MPI_LOGICAL, 0, self%comm)
+            end if
+            if (due) then
+                call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+                call agree(self%comm, st, ok_, msg_)
+                self%last_flush = MPI_Wtime()
+            end if
         end if
         if (present(ok)) ok = ok_
         if (present(msg)) msg = msg_
@@ -689,9 +732,9 @@ contains
             self%value(e) = -1
         end do
         do k = 1, self%nobs
-            call h5dclose_f(self%obs(k)%step, err)
-            call h5dclose_f(self%obs(k)%time, err)
-            call h5dclose_f(self%obs(k)%value, err)
+            if (self%obs(k)%step >= 0) call h5dclose_f(self%obs(k)%step, err)
+            if (self%obs(k)%time >= 0) call h5dclose_f(self%obs(k)%time, err)
+            if (self%obs(k)%value >= 0) call h5dclose_f(self%obs(k)%value, err)
         end do
         if (allocated(self%obs)) deallocate (self%obs)
         self%nobs = 0
@@ -704,7 +747,8 @@ contains
         if (self%edges_value >= 0) call h5dclose_f(self%edges_value, err)
         self%step = -1; self%time = -1; self%id = -1; self%species = -1; self%mass = -1; self%edges_value = -1
         if (self%dxpl >= 0) call h5pclose_f(self%dxpl, err)
-        self%dxpl = -1
+        if (self%dxpl_rank0 >= 0) call h5pclose_f(self%dxpl_rank0, err)
+        self%dxpl = -1; self%dxpl_rank0 = -1
         if (self%file >= 0) call h5fclose_f(self%file, err)
         self%file = -1
         if (self%opened) call MPI_Comm_free(self%comm)

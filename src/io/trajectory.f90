@@ -1,5 +1,7 @@
 !> The trajectory output: H5MD frames of the fields asked for (&output trajectory_fields) and the
-!> thermo quantities as H5MD observables, written at the sample times the integrator chooses.
+!> thermo quantities as H5MD observables, written at the sample times the integrator chooses; the
+!> file is flushed after a frame when a second of wall time has passed since the last flush, and
+!> when it is closed.
 module terrace_trajectory
     use terrace_kinds, only: dp, i8
     use terrace_h5md, only: h5md_writer_t
@@ -11,6 +13,11 @@ module terrace_trajectory
     use mpi_f08, only: MPI_Comm
     implicit none
     private
+
+    !> Wall time (s) between flushes of the file: frames written less than this after the last
+    !> flush are flushed with a later frame or at the end (a flush costs several times the data of a
+    !> small system's frame; a killed run loses at most this much wall time of frames).
+    real(dp), parameter :: flush_interval = 1.0_dp
 
     type, public :: trajectory_t
         type(h5md_writer_t) :: h5
@@ -75,17 +82,27 @@ contains
                                  v=atoms%v(:, 1:n), f=atoms%f(:, 1:n), image=atoms%image(:, 1:n), ok=ok, msg=msg, &
                                  flush=.false.)
         if (.not. ok) return
-        call self%h5%write_observable('potential_energy', step, time, s%pe, ok, msg, flush=.false.)
-        if (ok) call self%h5%write_observable('kinetic_energy', step, time, s%ke, ok, msg, flush=.false.)
-        if (ok) call self%h5%write_observable('total_energy', step, time, s%etotal, ok, msg, flush=.false.)
-        if (ok) call self%h5%write_observable('temperature', step, time, s%temp, ok, msg, flush=.false.)
-        if (ok) call self%h5%write_observable('pressure', step, time, s%press, ok, msg, flush=.false.)
+        ! observables: sampled with the frame (their step and time are the frame's), flushed below
+        call observable('potential_energy', s%pe)
+        call observable('kinetic_energy', s%ke)
+        call observable('total_energy', s%etotal)
+        call observable('temperature', s%temp)
+        call observable('pressure', s%press)
         if (present(extra) .and. present(extra_names)) then
             do k = 1, size(extra)
-                if (ok) call self%h5%write_observable(trim(extra_names(k)), step, time, extra(k), ok, msg, flush=.false.)
+                call observable(trim(extra_names(k)), extra(k))
             end do
         end if
-        if (ok) call self%h5%flush(ok, msg)
+        if (ok) call self%h5%flush(ok, msg, min_interval=flush_interval)
+
+    contains
+
+        subroutine observable(name, value)
+            character(len=*), intent(in) :: name
+            real(dp), intent(in) :: value
+            if (ok) call self%h5%write_observable(name, step, time, value, ok, msg, flush=.false., per_frame=.true.)
+        end subroutine observable
+
     end subroutine trajectory_write
 
     !> Close and delete the file (a run that stops before its first step leaves no trajectory).

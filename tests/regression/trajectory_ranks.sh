@@ -26,6 +26,10 @@ def check(name, cond):
     print(("ok   " if cond else "FAIL ") + name)
     ok = ok and cond
 check("H5MD version 1.1", list(a["h5md"].attrs["version"]) == [1, 1])
+obs = a["observables"]
+check("observables have one value per frame, their step and time are the frames' (hard links)",
+      all(obs[k]["step"] == a["particles/all/box/edges/step"] and obs[k]["time"] == a["particles/all/box/edges/time"]
+          and obs[k]["value"].shape == a["particles/all/box/edges/step"].shape for k in obs))
 for path, np_ in zip(sys.argv[2:], (2, 4)):
     b = h5py.File(path, "r")
     check(f"ids are 1..N in order on 1 and {np_} ranks", (a["particles/all/id"][:] == np.arange(1, n + 1)).all()

@@ -348,6 +348,8 @@ contains
         subroutine checkpoint(scheduled)
             logical, intent(in) :: scheduled
             type(ckpt_values_t) :: val
+            logical :: ok
+            character(len=512) :: msg
             call eng%timers%start(t_output)
             call val%put_r('h', h)
             call val%put_i('es_k', k)
@@ -370,6 +372,9 @@ contains
             call val%put_r('es_ray_last_s', ray%last_s)
             call val%put_r('es_ray_last_v', ray%last_out(1)); call val%put_r('es_ray_last_dv', ray%last_out(2))
             call val%put_r('es_ray_last_d2v', ray%last_out(3)); call val%put_r('es_ray_last_w', ray%last_out(4))
+            ! the trajectory holds every frame the checkpoint counts, even if the run is killed next
+            call traj%flush(ok, msg)
+            call check_all(ok, 'trajectory: '//trim(msg))
             call ctl%write(eng, val, stats%events, t, thermo%lines, traj%frames(), scheduled)
             call eng%timers%stop(t_output)
         end subroutine checkpoint

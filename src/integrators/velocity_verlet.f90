@@ -106,11 +106,16 @@ contains
             integer(i8), intent(in) :: step
             logical, intent(in) :: scheduled
             type(ckpt_values_t) :: values
+            logical :: ok
+            character(len=512) :: msg
             call eng%timers%start(t_output)
             call values%put_r('first_etotal', first%etotal)
             call values%put_r('first_px', first%momentum(1))
             call values%put_r('first_py', first%momentum(2))
             call values%put_r('first_pz', first%momentum(3))
+            ! the trajectory holds every frame the checkpoint counts, even if the run is killed next
+            call traj%flush(ok, msg)
+            call check_all(ok, 'trajectory: '//trim(msg))
             call ctl%write(eng, values, step, step*dt, thermo%lines, traj%frames(), scheduled)
             call eng%timers%stop(t_output)
         end subroutine checkpoint

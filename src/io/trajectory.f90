@@ -24,6 +24,7 @@ module terrace_trajectory
         procedure :: close => trajectory_close
         procedure :: discard => trajectory_discard
         procedure :: frames => trajectory_frames
+        procedure :: flush => trajectory_flush
     end type trajectory_t
 
 contains
@@ -72,6 +73,16 @@ contains
         call self%h5%open_append(path, comm, frames, ok, msg)
         self%active = ok
     end subroutine trajectory_open_append
+
+    !> Flush every frame written so far to disk (before a checkpoint records the frame count).
+    !> Collective.
+    subroutine trajectory_flush(self, ok, msg)
+        class(trajectory_t), intent(inout) :: self
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        ok = .true.; msg = ''
+        if (self%active) call self%h5%flush(ok, msg)
+    end subroutine trajectory_flush
 
     !> Frames written so far (including those kept from before a restart).
     integer(i8) function trajectory_frames(self)

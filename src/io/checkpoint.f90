@@ -440,7 +440,6 @@ contains
         real(dp), target :: rbuf
         character(len=64) :: name, fmt
         integer(size_t) :: nlen
-        integer(hsize_t) :: one(1)
         type(c_ptr) :: pbuf
 
         ok = .true.; msg = ''
@@ -503,7 +502,6 @@ contains
                 call h5aget_name_f(a, nlen, name, err)
                 call h5aget_type_f(a, t, err)
                 call h5tget_class_f(t, cls, err)
-                one = 1
                 if (cls == H5T_INTEGER_F) then
                     pbuf = c_loc(ibuf)
                     call h5aread_f(a, h5kind_to_type(i8, H5_INTEGER_KIND), pbuf, err)

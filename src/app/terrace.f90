@@ -19,6 +19,9 @@ program terrace
     use terrace_timers, only: timers_t
     use terrace_errors, only: stop_all, check_all
     use terrace_version, only: terrace_version_string
+    use terrace_run_control, only: run_control_t
+    use terrace_signals, only: exit_stopped
+    use terrace_checkpoint, only: probe_checkpoint_path
     use mpi_f08, only: MPI_Wtime, MPI_Barrier
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -36,8 +39,11 @@ program terrace
     real(dp) :: t0, t1, h, t_end, interval, traj_interval
     type(es_stats_t) :: es
     character(len=512) :: msg
+    type(run_control_t) :: ctl
+    real(dp) :: wall_start
 
     call start_mpi()
+    wall_start = MPI_Wtime()
     check_only = .false.
     path = ''
     do k = 1, command_argument_count()
@@ -60,6 +66,7 @@ program terrace
     if (len(path) == 0) call stop_all('no input file (usage: terrace [--check] RUN.nml; see terrace --help)', 2)
 
     call read_config(path, cfg)
+    if (.not. check_only) call ctl%init_signals(cfg)
     call eng%setup(cfg)
     if (world%rank == 0) call eng%plan%print(output_unit)
 
@@ -96,11 +103,12 @@ contains
         if (cfg%trajectory_interval > 0) traj_every = max(1_i8, nint(cfg%trajectory_interval/cfg%dt, i8))
         if (cfg%trajectory_every <= 0 .and. .not. cfg%trajectory_interval > 0) traj_every = thermo_every  ! default
         if (len_trim(cfg%trajectory_file) == 0) traj_every = 0
-        call run_velocity_verlet(eng, thermo, traj, n_steps, thermo_every, traj_every)
+        call run_velocity_verlet(eng, thermo, traj, n_steps, thermo_every, traj_every, ctl)
         call MPI_Barrier(world%comm)
         t1 = MPI_Wtime()
         call thermo%close()
         call traj%close()
+        if (ctl%stopped) call stop_early()
         call write_final(n_steps*cfg%dt)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, n_steps, eng%list%builds, 'steps')
         call eng%report_warnings()
@@ -109,9 +117,15 @@ contains
     subroutine energy_stepping_run()
         real(dp) :: ke
         character(len=32) :: s1, s2
-        h = choose_terrace_height(eng)
+        if (eng%restarted) then
+            ok = .true.
+            h = eng%restart_values%get_r('h', ok)
+            call check_all(ok, trim(cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint (no h)')
+        else
+            h = choose_terrace_height(eng)
+        end if
         ke = kinetic_energy(eng%atoms, cfg%units)
-        if (h > abs(eng%pe) + ke) then
+        if (h > abs(eng%pe) + ke .and. .not. eng%restarted) then
             write (s1, '(es12.5)') h
             write (s2, '(es12.5)') abs(eng%pe) + ke
             call stop_all(cfg%where('integrator', 'terrace_height')//' = '//trim(adjustl(s1))// &
@@ -158,11 +172,12 @@ contains
             traj_every = 0; traj_interval = 0
         end if
         call run_energy_stepping(eng, thermo, traj, h, t_end, n_steps, interval, thermo_every, traj_interval, &
-                                 traj_every, es)
+                                 traj_every, es, ctl)
         call MPI_Barrier(world%comm)
         t1 = MPI_Wtime()
         call thermo%close()
         call traj%close()
+        if (ctl%stopped) call stop_early()
         call write_final(es%time)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events')
         if (world%rank == 0) then
@@ -178,6 +193,18 @@ contains
                 'energy no longer exchange. Use a smaller terrace_height.'
         end if
     end subroutine energy_stepping_run
+
+    !> The run stopped early with a checkpoint (walltime_limit or a signal): say so and exit with
+    !> exit_stopped on every rank, so that a batch script can resubmit it with read_checkpoint.
+    subroutine stop_early()
+        if (world%rank == 0) then
+            write (output_unit, '(a)') 'terrace: stopped early ('//ctl%reason//') with a checkpoint in '//ctl%path// &
+                '; continue with &system read_checkpoint = '''//ctl%path//''' (exit status 3)'
+            flush (output_unit)
+        end if
+        call end_mpi()
+        stop exit_stopped, quiet=.true.
+    end subroutine stop_early
 
     subroutine write_final(time)
         real(dp), intent(in) :: time
@@ -195,6 +222,16 @@ contains
     subroutine open_outputs(extra_header, end_time)
         character(len=*), intent(in) :: extra_header
         real(dp), intent(in) :: end_time
+        call ctl%init(eng, wall_start)
+        if (ctl%active) then
+            call probe_checkpoint_path(trim(cfg%checkpoint_file), ok, msg)
+            call check_all(ok, cfg%where('output', 'checkpoint_file')//" = '"//trim(cfg%checkpoint_file)//"': "// &
+                           trim(msg))
+        end if
+        if (eng%restarted) then
+            call open_outputs_append(extra_header, end_time)
+            return
+        end if
         call traj%open(trim(cfg%trajectory_file), trim(cfg%trajectory_fields), world%comm, eng%natoms, eng%box, &
                        eng%atoms%mass, cfg%units, ok, msg)
         call check_all(ok, trim(cfg%trajectory_file)//': cannot create the trajectory (&output trajectory_file): '// &
@@ -214,6 +251,25 @@ contains
             call check_all(ok, trim(cfg%forces_file)//': cannot write the forces file (&output forces_file): '//trim(msg))
         end if
     end subroutine open_outputs
+
+    !> A restart continues the outputs of the interrupted run: the thermo CSV and the trajectory
+    !> keep what was written up to the checkpoint (anything later is dropped) and are appended to.
+    subroutine open_outputs_append(extra_header, end_time)
+        character(len=*), intent(in) :: extra_header
+        real(dp), intent(in) :: end_time
+        integer(i8) :: lines, frames
+        ok = .true.
+        lines = eng%restart_values%get_i('thermo_lines', ok)
+        frames = eng%restart_values%get_i('trajectory_frames', ok)
+        call check_all(ok, trim(cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint (output counters)')
+        call traj%open_append(trim(cfg%trajectory_file), world%comm, frames, ok, msg)
+        call check_all(ok, trim(cfg%trajectory_file)//': cannot continue the trajectory (&output trajectory_file) '// &
+                       'from the checkpoint: '//trim(msg))
+        call thermo%open_append(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, lines, ok, msg)
+        call any_failed(ok)
+        call check_all(ok, trim(cfg%thermo_file)//': cannot continue the thermo file (&output thermo_file) from the '// &
+                       'checkpoint: '//trim(msg))
+    end subroutine open_outputs_append
 
     !> ok becomes .false. on every rank when it is .false. on any (outputs are opened by rank 0).
     subroutine any_failed(ok)
@@ -236,7 +292,9 @@ contains
             '             (what will be computed and what is skipped), run nothing, write nothing', &
             '  --version  print the version', &
             '', &
-            'Exit status: 0 success, 1 error in the input or the run, 2 bad command line.'
+            'Exit status: 0 success, 1 error in the input or the run, 2 bad command line,', &
+            '             3 stopped early with a checkpoint (&run walltime_limit, SIGTERM or SIGUSR1):', &
+            '             resubmit with &system read_checkpoint (doc/checkpoints.md)'
     end subroutine print_help
 
 end program terrace

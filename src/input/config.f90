@@ -30,11 +30,13 @@ module terrace_config
         integer(i8) :: n_steps = -1
         real(dp) :: run_time = -1.0_dp
         integer(i8) :: seed = 12345
+        real(dp) :: walltime_limit = -1.0_dp        !< seconds; stop with a checkpoint before it (<= 0: none)
         ! &system
         character(len=512) :: read_data = ''
         character(len=512) :: atoms_file = ''
         character(len=512) :: read_h5md = ''
         integer(i8) :: h5md_frame = -1              !< frame of read_h5md (1 = first, -1 = last)
+        character(len=512) :: read_checkpoint = ''  !< continue the run from this checkpoint
         character(len=8) :: lattice = ''
         real(dp) :: lattice_constant = -1.0_dp
         real(dp) :: density = -1.0_dp
@@ -73,6 +75,9 @@ module terrace_config
         real(dp) :: trajectory_interval = -1.0_dp
         character(len=64) :: trajectory_fields = 'position velocity image'
         logical :: overwrite = .false.
+        character(len=512) :: checkpoint_file = ''
+        real(dp) :: checkpoint_interval = -1.0_dp   !< time between checkpoints
+        integer(i8) :: checkpoint_every = -1        !< steps between checkpoints (velocity Verlet)
     contains
         procedure :: where => cfg_where
     end type config_t
@@ -208,16 +213,17 @@ contains
         character(len=16) :: units
         integer :: dimension
         integer(i8) :: n_steps, seed
-        real(dp) :: run_time
-        namelist /run/ units, dimension, n_steps, run_time, seed
-        character(len=*), parameter :: keys(5) = [character(len=40) :: 'units:a quoted string', &
-            'dimension:an integer', 'n_steps:an integer', 'run_time:a real number', 'seed:an integer']
+        real(dp) :: run_time, walltime_limit
+        namelist /run/ units, dimension, n_steps, run_time, seed, walltime_limit
+        character(len=*), parameter :: keys(6) = [character(len=40) :: 'units:a quoted string', &
+            'dimension:an integer', 'n_steps:an integer', 'run_time:a real number', 'seed:an integer', &
+            'walltime_limit:a real number (seconds)']
         character(len=:), allocatable :: kind
         character(len=256) :: msg
         character(len=:), allocatable :: buf
         integer :: k, ios
         logical :: ok
-        units = 'metal'; dimension = 3; n_steps = -1; run_time = -1.0_dp; seed = 12345
+        units = 'metal'; dimension = 3; n_steps = -1; run_time = -1.0_dp; seed = 12345; walltime_limit = -1.0_dp
         do k = 1, cfg%nml%count
             if (cfg%nml%items(k)%group /= 'run') cycle
             kind = check_key(cfg, k, keys)
@@ -232,19 +238,21 @@ contains
         cfg%n_steps = n_steps
         cfg%run_time = run_time
         cfg%seed = seed
+        cfg%walltime_limit = walltime_limit
     end subroutine read_run
 
     subroutine read_system(cfg)
         type(config_t), intent(inout) :: cfg
-        character(len=512) :: read_data, atoms_file, read_h5md
+        character(len=512) :: read_data, atoms_file, read_h5md, read_checkpoint
         integer(i8) :: h5md_frame
         character(len=8) :: lattice
         real(dp) :: lattice_constant, density, box_lo(3), box_hi(3), mass(max_types), temperature
         integer :: cells(3)
         logical :: periodic(3), reverse_velocities
         namelist /system/ read_data, atoms_file, lattice, lattice_constant, density, cells, periodic, &
-            box_lo, box_hi, mass, temperature, reverse_velocities, read_h5md, h5md_frame
-        character(len=*), parameter :: keys(14) = [character(len=60) :: 'read_data:a quoted file name', &
+            box_lo, box_hi, mass, temperature, reverse_velocities, read_h5md, h5md_frame, read_checkpoint
+        character(len=*), parameter :: keys(15) = [character(len=60) :: 'read_data:a quoted file name', &
+            'read_checkpoint:a quoted file name', &
             'read_h5md:a quoted file name', 'h5md_frame:an integer (1 = first, -1 = last)', &
             'reverse_velocities:a logical', &
             'atoms_file:a quoted file name', 'lattice:a quoted string', 'lattice_constant:a real number', &
@@ -256,7 +264,7 @@ contains
         character(len=:), allocatable :: buf
         integer :: k, ios
         read_data = ''; atoms_file = ''; lattice = ''; lattice_constant = -1; density = -1
-        read_h5md = ''; h5md_frame = -1
+        read_h5md = ''; h5md_frame = -1; read_checkpoint = ''
         cells = 0; periodic = .true.; box_lo = unset; box_hi = unset; mass = -1; temperature = -1
         reverse_velocities = .false.
         do k = 1, cfg%nml%count
@@ -267,7 +275,7 @@ contains
             if (ios /= 0) call bad_value(cfg, k, kind, msg)
         end do
         cfg%read_data = read_data; cfg%atoms_file = atoms_file; cfg%lattice = lower(lattice)
-        cfg%read_h5md = read_h5md; cfg%h5md_frame = h5md_frame
+        cfg%read_h5md = read_h5md; cfg%h5md_frame = h5md_frame; cfg%read_checkpoint = read_checkpoint
         cfg%lattice_constant = lattice_constant; cfg%density = density; cfg%cells = cells
         cfg%periodic = periodic; cfg%box_lo = box_lo; cfg%box_hi = box_hi; cfg%mass = mass
         cfg%temperature = temperature
@@ -358,9 +366,14 @@ contains
         real(dp) :: trajectory_interval
         character(len=64) :: trajectory_fields
         logical :: overwrite
+        character(len=512) :: checkpoint_file
+        real(dp) :: checkpoint_interval
+        integer(i8) :: checkpoint_every
         namelist /output/ thermo_every, thermo_interval, thermo_file, forces_file, final_atoms_file, trajectory_file, &
-            trajectory_every, trajectory_interval, trajectory_fields, overwrite
-        character(len=*), parameter :: keys(10) = [character(len=60) :: 'thermo_every:an integer', &
+            trajectory_every, trajectory_interval, trajectory_fields, overwrite, checkpoint_file, checkpoint_interval, &
+            checkpoint_every
+        character(len=*), parameter :: keys(13) = [character(len=60) :: 'thermo_every:an integer', &
+            'checkpoint_file:a quoted file name', 'checkpoint_interval:a real number', 'checkpoint_every:an integer', &
             'thermo_interval:a real number', 'thermo_file:a quoted file name', 'forces_file:a quoted file name', &
             'final_atoms_file:a quoted file name', 'trajectory_file:a quoted file name', &
             'trajectory_every:an integer', 'trajectory_interval:a real number', &
@@ -372,6 +385,7 @@ contains
         thermo_every = -1; thermo_interval = -1; thermo_file = ''; forces_file = ''; final_atoms_file = ''
         trajectory_file = ''; trajectory_every = -1; trajectory_interval = -1
         trajectory_fields = 'position velocity image'; overwrite = .false.
+        checkpoint_file = ''; checkpoint_interval = -1; checkpoint_every = -1
         do k = 1, cfg%nml%count
             if (cfg%nml%items(k)%group /= 'output') cycle
             kind = check_key(cfg, k, keys)
@@ -384,6 +398,8 @@ contains
         cfg%trajectory_file = trajectory_file; cfg%trajectory_every = trajectory_every
         cfg%trajectory_interval = trajectory_interval; cfg%trajectory_fields = lower(trajectory_fields)
         cfg%overwrite = overwrite
+        cfg%checkpoint_file = checkpoint_file; cfg%checkpoint_interval = checkpoint_interval
+        cfg%checkpoint_every = checkpoint_every
     end subroutine read_output
 
     !> Checks that need no atoms. Checks that need the atoms (overlaps, atoms outside the box,
@@ -591,11 +607,44 @@ contains
             call stop_all(cfg%where('output', 'trajectory_fields')//": 'image' needs 'position' too")
         ! a trajectory is expensive to make: an existing one is never replaced silently (the small
         ! text outputs are, as in other MD codes)
-        if (.not. cfg%overwrite .and. len_trim(cfg%trajectory_file) > 0) then
+        call validate_checkpoints(cfg)
+        ! (a restart appends to the trajectory of the interrupted run)
+        if (.not. cfg%overwrite .and. len_trim(cfg%trajectory_file) > 0 .and. len_trim(cfg%read_checkpoint) == 0) then
             inquire (file=trim(cfg%trajectory_file), exist=there)
             if (there) call stop_all(cfg%where('output', 'trajectory_file')//" = '"//trim(cfg%trajectory_file)// &
                 "': the file exists (set overwrite = .true. to replace it, or choose another name)")
         end if
     end subroutine validate_outputs
+
+    !> Checkpoint and batch-job keys (doc/checkpoints.md). Checks that need files (a missing or
+    !> foreign checkpoint, an unwritable path) are made when the run starts.
+    subroutine validate_checkpoints(cfg)
+        type(config_t), intent(inout) :: cfg
+        logical :: has_file
+        has_file = len_trim(cfg%checkpoint_file) > 0
+        if (cfg%nml%find('output', 'checkpoint_interval') > 0 .and. .not. (cfg%checkpoint_interval > 0)) &
+            call stop_all(cfg%where('output', 'checkpoint_interval')//': must be > 0 (a time in '// &
+                          trim(cfg%units%time)//')')
+        if (cfg%nml%find('output', 'checkpoint_every') > 0 .and. cfg%checkpoint_every <= 0) &
+            call stop_all(cfg%where('output', 'checkpoint_every')//': must be > 0 (steps)')
+        if (cfg%checkpoint_every > 0 .and. cfg%checkpoint_interval > 0) &
+            call stop_all(cfg%where('output', 'checkpoint_interval')//': give either checkpoint_every or '// &
+                          'checkpoint_interval')
+        if (cfg%checkpoint_every > 0 .and. cfg%integrator == 'energy_stepping') &
+            call stop_all(cfg%where('output', 'checkpoint_every')//': energy stepping has no fixed steps; give '// &
+                          'checkpoint_interval (a time in '//trim(cfg%units%time)//')')
+        if ((cfg%checkpoint_every > 0 .or. cfg%checkpoint_interval > 0) .and. .not. has_file) &
+            call stop_all(cfg%path//': &output: checkpoint_file: missing (checkpoint_interval and checkpoint_every '// &
+                          'need a file name)')
+        if (cfg%nml%find('output', 'checkpoint_file') > 0 .and. .not. has_file) &
+            call stop_all(cfg%where('output', 'checkpoint_file')//': must not be empty')
+        if (cfg%nml%find('run', 'walltime_limit') > 0 .and. .not. (cfg%walltime_limit > 0)) &
+            call stop_all(cfg%where('run', 'walltime_limit')//': must be > 0 (seconds of wall-clock time)')
+        if (cfg%walltime_limit > 0 .and. .not. has_file) &
+            call stop_all(cfg%where('run', 'walltime_limit')//': needs &output checkpoint_file (the run stops '// &
+                          'with a checkpoint)')
+        if (cfg%nml%find('system', 'read_checkpoint') > 0 .and. len_trim(cfg%read_checkpoint) == 0) &
+            call stop_all(cfg%where('system', 'read_checkpoint')//': must not be empty')
+    end subroutine validate_checkpoints
 
 end module terrace_config

@@ -15,6 +15,9 @@
 !> (straight lines: a quadratic per atom), the next sample time and the end of the run: one
 !> MPI_Allreduce(MIN) per event; the crossing search (event_solver) costs one global sum of
 !> (V, V', V'', W) per ray evaluation; samples are written at exactly the requested times.
+!> Checkpoints (&output checkpoint_interval) are window ends too, with a forced neighbour-list build
+!> (cell lists), and hold the whole event-loop state (terrace index, edges, the solver's last
+!> values at the search origin, counters, next sample times), so a restart continues bitwise.
 module terrace_energy_stepping
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
@@ -25,6 +28,9 @@ module terrace_energy_stepping
     use terrace_mpi_env, only: world, sum_all, min_all
     use terrace_errors, only: stop_all, check_all
     use terrace_jump, only: terrace_jump_lambda, jump_climb, jump_reflect, jump_fall, jump_none
+    use terrace_run_control, only: run_control_t
+    use terrace_checkpoint, only: ckpt_values_t
+    use terrace_scene_plan, only: pair_cells
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
     private
@@ -136,57 +142,40 @@ contains
 
     !> The event loop. Ends at t_end, or after max_events events.
     subroutine run_energy_stepping(eng, thermo, traj, h, t_end, max_events, sample_interval, sample_every, &
-                                   traj_interval, traj_every, stats)
+                                   traj_interval, traj_every, stats, ctl)
         type(engine_t), intent(inout), target :: eng
         type(thermo_writer_t), intent(inout) :: thermo
         type(trajectory_t), intent(inout) :: traj
         real(dp), intent(in) :: h, t_end, sample_interval, traj_interval
         integer(i8), intent(in) :: max_events, sample_every, traj_every
         type(es_stats_t), intent(out) :: stats
+        type(run_control_t), intent(inout) :: ctl
         type(engine_ray_t) :: ray
         type(event_solver_t) :: solver
         type(crossing_t) :: res
         integer(i8) :: k, n_sample, last_events, last_evals, n_frame
         real(dp) :: t, lower, upper, p0(3), t_exp, t_next_sample, t_next_frame, window, sigma2, a, b, lam, vstar, trust, &
                     last_time, mvv2e
-        logical :: have_c, sample_due, have_guess
-        real(dp) :: c_guess
+        logical :: have_c, sample_due, have_guess, ckpt_due, rebuilt, stop_now
+        real(dp) :: c_guess, t_next_ckpt
         integer :: i, outcome
         real(dp) :: minv(size(eng%atoms%mass))
 
         ray%eng => eng
-        ! the tolerance cannot be finer than the round-off of the total energy
-        solver%tol = max(eng%cfg%root_tolerance*h, 64*epsilon(1.0_dp)*abs(eng%pe))
-        if (world%rank == 0 .and. solver%tol > eng%cfg%root_tolerance*h) write (output_unit, '(a,es10.3,a)') &
-            '  note       : root_tolerance raised to ', solver%tol/h, ' (round-off of the total energy)'
         mvv2e = eng%cfg%units%mvv2e
         do i = 1, size(minv)
             minv(i) = 1/eng%atoms%mass(i)
         end do
-        t = 0
-        k = floor(eng%pe/h, i8)
-        lower = k*h
-        upper = (k + 1)*h
-        call gradient_sums(eng, sigma2, a, b)
-        p0 = [eng%pe, b/mvv2e, 0.0_dp]
-        have_c = .false.
-        have_guess = .false.
-        c_guess = 0
-        n_sample = 1
-        t_next_sample = huge(1.0_dp)
-        if (sample_interval > 0) t_next_sample = sample_interval
-        n_frame = 1
-        t_next_frame = huge(1.0_dp)
-        if (traj_interval > 0) t_next_frame = traj_interval
-        t_exp = eng%list_expiry()
-        call min_all(t_exp)
-        trust = huge(1.0_dp)
-        last_events = 0; last_evals = 0; last_time = 0
-        call write_sample(0.0_dp)
-        if (traj_interval > 0 .or. traj_every > 0) call write_frame(0.0_dp)
+        t_next_ckpt = huge(1.0_dp)
+        if (ctl%interval > 0) t_next_ckpt = (ctl%written + 1)*ctl%interval
+        if (eng%restarted) then
+            call restore_state()
+        else
+            call start_state()
+        end if
         do
             if (t >= t_end .or. stats%events >= max_events) exit
-            window = max(0.0_dp, min(t_exp, t_next_sample, t_next_frame, t_end) - t)
+            window = max(0.0_dp, min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end) - t)
             ray%evals = 0
             if (have_c .or. .not. have_guess) then
                 call solver%first_crossing(ray, lower, upper, window, p0, have_c, trust, res)
@@ -202,13 +191,15 @@ contains
                 have_c = .true.
                 if (ray%last_s /= window) call ray%eval(window, p0)
                 call eng%drift(window)
-                t = min(t_exp, t_next_sample, t_next_frame, t_end)
+                t = min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end)
+                ckpt_due = t >= t_next_ckpt
                 ! well inside the nominal terrace again: edges shifted at earlier kicks revert
                 if (p0(1) > k*h + solver%tol .and. p0(1) < (k + 1)*h - solver%tol) then
                     lower = k*h; upper = (k + 1)*h
                 end if
                 eng%pe = ray%last_out(1); eng%virial = ray%last_out(4)
-                if (t >= t_exp) then
+                rebuilt = t >= t_exp .or. (ckpt_due .and. eng%plan%pair_mode == pair_cells)
+                if (rebuilt) then
                     call eng%rebuild()
                     stats%rebuilds = stats%rebuilds + 1
                     t_exp = eng%list_expiry()
@@ -226,6 +217,14 @@ contains
                     call write_frame(t)
                     n_frame = n_frame + 1
                     t_next_frame = n_frame*traj_interval
+                end if
+                ! a safe point: after a list build, or anywhere on the all-pairs path (its replicated
+                ! atoms drift bitwise like their owners)
+                if (ctl%active .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode /= pair_cells)) then
+                    stop_now = ctl%stop_requested()
+                    if (ckpt_due .or. stop_now) call checkpoint(ckpt_due)
+                    if (ckpt_due) t_next_ckpt = (ctl%written + 1)*ctl%interval
+                    if (stop_now) exit
                 end if
                 cycle
             end if
@@ -282,9 +281,103 @@ contains
             end if
         end do
         stats%time = t
+        if (ctl%stopped) return
         if (sample_every > 0 .and. mod(stats%events, max(sample_every, 1_i8)) /= 0) call write_sample(t)
 
     contains
+
+        subroutine start_state()
+            ! the tolerance cannot be finer than the round-off of the total energy
+            solver%tol = max(eng%cfg%root_tolerance*h, 64*epsilon(1.0_dp)*abs(eng%pe))
+            if (world%rank == 0 .and. solver%tol > eng%cfg%root_tolerance*h) write (output_unit, '(a,es10.3,a)') &
+                '  note       : root_tolerance raised to ', solver%tol/h, ' (round-off of the total energy)'
+            t = 0
+            k = floor(eng%pe/h, i8)
+            lower = k*h
+            upper = (k + 1)*h
+            call gradient_sums(eng, sigma2, a, b)
+            p0 = [eng%pe, b/mvv2e, 0.0_dp]
+            have_c = .false.
+            have_guess = .false.
+            c_guess = 0
+            n_sample = 1
+            t_next_sample = huge(1.0_dp)
+            if (sample_interval > 0) t_next_sample = sample_interval
+            n_frame = 1
+            t_next_frame = huge(1.0_dp)
+            if (traj_interval > 0) t_next_frame = traj_interval
+            t_exp = eng%list_expiry()
+            call min_all(t_exp)
+            trust = huge(1.0_dp)
+            last_events = 0; last_evals = 0; last_time = 0
+            call write_sample(0.0_dp)
+            if (traj_interval > 0 .or. traj_every > 0) call write_frame(0.0_dp)
+        end subroutine start_state
+
+        !> The event loop's state as the interrupted run had it at its checkpoint.
+        subroutine restore_state()
+            logical :: ok
+            ok = .true.
+            associate (val => eng%restart_values)
+                t = val%get_r('time', ok)
+                k = val%get_i('es_k', ok)
+                lower = val%get_r('es_lower', ok); upper = val%get_r('es_upper', ok)
+                p0(1) = val%get_r('es_p0_f', ok); p0(2) = val%get_r('es_p0_df', ok); p0(3) = val%get_r('es_p0_d2f', ok)
+                have_c = val%get_l('es_have_c', ok); have_guess = val%get_l('es_have_guess', ok)
+                c_guess = val%get_r('es_c_guess', ok)
+                trust = val%get_r('es_trust', ok)
+                t_exp = val%get_r('es_t_exp', ok)
+                n_sample = val%get_i('es_n_sample', ok); t_next_sample = val%get_r('es_t_next_sample', ok)
+                n_frame = val%get_i('es_n_frame', ok); t_next_frame = val%get_r('es_t_next_frame', ok)
+                last_events = val%get_i('es_last_events', ok); last_evals = val%get_i('es_last_evals', ok)
+                last_time = val%get_r('es_last_time', ok)
+                stats%events = val%get_i('es_events', ok); stats%reflections = val%get_i('es_reflections', ok)
+                stats%ups = val%get_i('es_ups', ok); stats%downs = val%get_i('es_downs', ok)
+                stats%ray_evals = val%get_i('es_ray_evals', ok); stats%force_passes = val%get_i('es_force_passes', ok)
+                stats%verify_misses = val%get_i('es_verify_misses', ok); stats%rebuilds = val%get_i('es_rebuilds', ok)
+                solver%tol = val%get_r('es_tol', ok)
+                eng%pe = val%get_r('es_pe', ok); eng%virial = val%get_r('es_virial', ok)
+                ray%last_s = val%get_r('es_ray_last_s', ok)
+                ray%last_out(1) = val%get_r('es_ray_last_v', ok); ray%last_out(2) = val%get_r('es_ray_last_dv', ok)
+                ray%last_out(3) = val%get_r('es_ray_last_d2v', ok); ray%last_out(4) = val%get_r('es_ray_last_w', ok)
+            end associate
+            call check_all(ok, trim(eng%cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint '// &
+                           '(energy-stepping state missing)')
+        end subroutine restore_state
+
+        subroutine checkpoint(scheduled)
+            logical, intent(in) :: scheduled
+            type(ckpt_values_t) :: val
+            logical :: ok
+            character(len=512) :: msg
+            call eng%timers%start(t_output)
+            call val%put_r('h', h)
+            call val%put_i('es_k', k)
+            call val%put_r('es_lower', lower); call val%put_r('es_upper', upper)
+            call val%put_r('es_p0_f', p0(1)); call val%put_r('es_p0_df', p0(2)); call val%put_r('es_p0_d2f', p0(3))
+            call val%put_l('es_have_c', have_c); call val%put_l('es_have_guess', have_guess)
+            call val%put_r('es_c_guess', c_guess)
+            call val%put_r('es_trust', trust)
+            call val%put_r('es_t_exp', t_exp)
+            call val%put_i('es_n_sample', n_sample); call val%put_r('es_t_next_sample', t_next_sample)
+            call val%put_i('es_n_frame', n_frame); call val%put_r('es_t_next_frame', t_next_frame)
+            call val%put_i('es_last_events', last_events); call val%put_i('es_last_evals', last_evals)
+            call val%put_r('es_last_time', last_time)
+            call val%put_i('es_events', stats%events); call val%put_i('es_reflections', stats%reflections)
+            call val%put_i('es_ups', stats%ups); call val%put_i('es_downs', stats%downs)
+            call val%put_i('es_ray_evals', stats%ray_evals); call val%put_i('es_force_passes', stats%force_passes)
+            call val%put_i('es_verify_misses', stats%verify_misses); call val%put_i('es_rebuilds', stats%rebuilds)
+            call val%put_r('es_tol', solver%tol)
+            call val%put_r('es_pe', eng%pe); call val%put_r('es_virial', eng%virial)
+            call val%put_r('es_ray_last_s', ray%last_s)
+            call val%put_r('es_ray_last_v', ray%last_out(1)); call val%put_r('es_ray_last_dv', ray%last_out(2))
+            call val%put_r('es_ray_last_d2v', ray%last_out(3)); call val%put_r('es_ray_last_w', ray%last_out(4))
+            ! the trajectory holds every frame the checkpoint counts, even if the run is killed next
+            call traj%flush(ok, msg)
+            call check_all(ok, 'trajectory: '//trim(msg))
+            call ctl%write(eng, val, stats%events, t, thermo%lines, traj%frames(), scheduled)
+            call eng%timers%stop(t_output)
+        end subroutine checkpoint
 
         subroutine write_sample(time)
             real(dp), intent(in) :: time

@@ -21,6 +21,8 @@ module terrace_engine
     use terrace_scene_plan, only: plan_t, pair_all, pair_cells
     use terrace_mpi_env, only: world, sum_all, sum_all_i8, min_all, any_all
     use terrace_errors, only: stop_all, check_all, warn
+    use terrace_checkpoint, only: ckpt_values_t, ckpt_data_t, read_checkpoint, deck_hash
+    use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
     private
 
@@ -41,6 +43,8 @@ module terrace_engine
         integer(i8) :: natoms = 0
         real(dp) :: pe = 0, virial = 0          !< global, from the last energy evaluation
         integer(i8) :: force_evaluations = 0
+        logical :: restarted = .false.           !< started from &system read_checkpoint
+        type(ckpt_values_t) :: restart_values    !< the checkpoint's named values (integrator state)
     contains
         procedure :: setup => engine_setup
         procedure :: rebuild => engine_rebuild
@@ -62,15 +66,20 @@ contains
         class(engine_t), intent(inout) :: self
         type(config_t), intent(in) :: cfg
         type(atom_table_t) :: table
+        type(ckpt_data_t) :: ckpt
         logical :: from_table
         real(dp) :: lo(3), hi(3), cell(3), cutghost
         integer :: ntypes, d, t, i
         character(len=64) :: s1, s2
 
         self%cfg = cfg
-        from_table = len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0 .or. len_trim(cfg%read_h5md) > 0
+        self%restarted = len_trim(cfg%read_checkpoint) > 0
+        from_table = (len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0 .or. len_trim(cfg%read_h5md) > 0) &
+                     .and. .not. self%restarted
         ntypes = 1
-        if (len_trim(cfg%read_h5md) > 0) then
+        if (self%restarted) then
+            call load_checkpoint(cfg, ckpt, ntypes, lo, hi, table)
+        else if (len_trim(cfg%read_h5md) > 0) then
             call read_h5md_table(cfg, table)
             ntypes = table%ntypes
         else if (from_table) then
@@ -93,7 +102,9 @@ contains
         end if
 
         ! ---- box
-        if (len_trim(cfg%lattice) > 0) then
+        if (self%restarted) then
+            continue                         ! lo, hi: the checkpoint's
+        else if (len_trim(cfg%lattice) > 0) then
             cell = lattice_cell(cfg%lattice, cfg%lattice_constant, cfg%density, cfg%dimension)
             lo = 0
             hi = cell*max(cfg%cells, 1)
@@ -136,7 +147,7 @@ contains
         allocate (self%atoms%mass(ntypes))
         self%atoms%ntypes = ntypes
         self%atoms%mass = -1
-        if (from_table) then
+        if (from_table .or. self%restarted) then
             if (table%has_masses) self%atoms%mass = table%mass(1:ntypes)
         end if
         self%use_eam = cfg%potential(1:3) == 'eam'
@@ -182,7 +193,9 @@ contains
         ! ---- distribute atoms
         cutghost = self%cutmax + cfg%skin
         call self%dom%setup(self%box, cutghost)
-        if (len_trim(cfg%lattice) > 0) then
+        if (self%restarted) then
+            call place_checkpoint_atoms(self, ckpt)
+        else if (len_trim(cfg%lattice) > 0) then
             call create_lattice_atoms(self, cfg, cell)
         else
             do i = 1, table%n
@@ -194,11 +207,11 @@ contains
         call sum_all_i8(self%natoms)
         if (self%natoms == 0) call stop_all(trim(source_name(cfg))//': the system is empty (no atoms)')
 
-        if (cfg%temperature >= 0) then
+        if (cfg%temperature >= 0 .and. .not. self%restarted) then
             call create_velocities(self%atoms, cfg%units, cfg%temperature, cfg%seed, cfg%dimension, &
                                    .not. any(self%box%periodic(1:cfg%dimension)), self%natoms)
         end if
-        if (cfg%reverse_velocities) self%atoms%v(:, 1:self%atoms%nlocal) = -self%atoms%v(:, 1:self%atoms%nlocal)
+        if (cfg%reverse_velocities .and. .not. self%restarted) self%atoms%v(:, 1:self%atoms%nlocal) = -self%atoms%v(:, 1:self%atoms%nlocal)
 
         ! ---- plan
         self%plan%natoms = self%natoms
@@ -220,7 +233,82 @@ contains
         call self%rebuild()
         call check_overlaps(self)
         call self%compute_forces(.true.)
+        if (self%restarted) then
+            ! the forces of the interrupted run (rows of the checkpoint are ids 1..N)
+            do i = 1, self%atoms%nlocal
+                self%atoms%f(:, i) = ckpt%f(:, self%atoms%id(i))
+            end do
+            self%restart_values = ckpt%values
+        end if
     end subroutine engine_setup
+
+    !> Read &system read_checkpoint (every rank), check that it belongs to this deck, and return
+    !> the number of atom types, the box and the masses (in table). Collective.
+    subroutine load_checkpoint(cfg, ckpt, ntypes, lo, hi, table)
+        type(config_t), intent(in) :: cfg
+        type(ckpt_data_t), intent(out) :: ckpt
+        integer, intent(out) :: ntypes
+        real(dp), intent(out) :: lo(3), hi(3)
+        type(atom_table_t), intent(inout) :: table
+        logical :: ok
+        character(len=512) :: msg
+        character(len=16) :: tag
+        integer :: d, t
+        character(len=:), allocatable :: where
+        where = cfg%where('system', 'read_checkpoint')//" = '"//trim(cfg%read_checkpoint)//"'"
+        call read_checkpoint(trim(cfg%read_checkpoint), ckpt, ok, msg)
+        call check_all(ok, where//': '//trim(msg))
+        if (ckpt%deck_hash /= deck_hash(cfg%nml)) call stop_all(where//': the checkpoint was written by a different '// &
+            'deck (only &system read_checkpoint and &run walltime_limit may differ from the deck that wrote it)')
+        ok = .true.
+        do d = 1, 3
+            write (tag, '(i0)') d
+            lo(d) = ckpt%values%get_r('box_lo_'//trim(tag), ok)
+            hi(d) = ckpt%values%get_r('box_hi_'//trim(tag), ok)
+        end do
+        ntypes = int(ckpt%values%get_i('ntypes', ok))
+        if (ok .and. ntypes >= 1 .and. ntypes <= max_types) then
+            allocate (table%mass(ntypes))
+            do t = 1, ntypes
+                write (tag, '(i0)') t
+                table%mass(t) = ckpt%values%get_r('mass_'//trim(tag), ok)
+            end do
+            table%has_masses = .true.
+        else
+            ok = .false.
+        end if
+        if (ok) ok = all(ckpt%id == [(int(d, i8), d=1, size(ckpt%id))])
+        call check_all(ok, where//': damaged checkpoint (box, masses or atom ids missing)')
+    end subroutine load_checkpoint
+
+    !> Every atom back in its slot (rank and place in that rank's arrays) when the rank count is the
+    !> one that wrote the checkpoint; otherwise to the rank that owns its position.
+    subroutine place_checkpoint_atoms(self, ckpt)
+        type(engine_t), intent(inout) :: self
+        type(ckpt_data_t), intent(in) :: ckpt
+        integer, allocatable :: order(:)
+        integer :: n, k, i
+        if (ckpt%nprocs == world%nprocs) then
+            n = count(ckpt%slot(1, :) == world%rank)
+            allocate (order(n))
+            order = 0
+            do k = 1, size(ckpt%id)
+                if (ckpt%slot(1, k) /= world%rank) cycle
+                i = int(ckpt%slot(2, k))
+                if (i >= 1 .and. i <= n) order(i) = k
+            end do
+            call check_all(all(order > 0), trim(self%cfg%read_checkpoint)//': &system: read_checkpoint: damaged '// &
+                           'checkpoint (atom slots)')
+        else
+            if (world%rank == 0) write (output_unit, '(a,i0,a)') '  note       : the checkpoint was written on ', &
+                ckpt%nprocs, ' ranks: the continuation is a valid run but not bitwise the uninterrupted one'
+            order = pack([(k, k=1, size(ckpt%id))], [(self%dom%owns(ckpt%x(:, k)), k=1, size(ckpt%id))])
+        end if
+        do k = 1, size(order)
+            i = order(k)
+            call self%atoms%append(ckpt%x(:, i), ckpt%v(:, i), ckpt%type(i), ckpt%id(i), ckpt%image(:, i))
+        end do
+    end subroutine place_checkpoint_atoms
 
     !> LJ tables: per-pair epsilon, sigma (geometric mixing where a pair is not given) and cutoff.
     subroutine setup_lj(self, cfg, ntypes)

@@ -116,6 +116,7 @@ module terrace_h5md
         type(frame_work_t) :: work
     contains
         procedure :: create => writer_create
+        procedure :: open_append => writer_open_append
         procedure :: write_frame => writer_write_frame
         procedure :: write_observable => writer_write_observable
         procedure :: flush => writer_flush
@@ -322,6 +323,166 @@ contains
             msg = 'h5md: '//trim(self%path)//': '//trim(msg)
         end if
     end subroutine writer_create
+
+    !> Reopen an existing trajectory written by `create`/`write_frame` to append to it (a restart
+    !> from a checkpoint): every time series (the particle elements and every observable) is cut
+    !> back to its first `keep` entries, dropping what a run killed after its checkpoint may have
+    !> written, and later frames are appended after them. Fails (ok = .false. on every rank) when
+    !> the file cannot be opened, is not laid out as `create` lays it out, or holds fewer than
+    !> `keep` frames. Collective.
+    subroutine writer_open_append(self, path, comm, keep, ok, msg)
+        class(h5md_writer_t), intent(inout) :: self
+        character(len=*), intent(in) :: path
+        type(MPI_Comm), intent(in) :: comm
+        integer(i8), intent(in) :: keep
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        type(status_t) :: st
+        integer(hid_t) :: fapl, g
+        integer(hsize_t) :: d3(3), m3(3), d1(1), m1(1), nf
+        integer(i8), target :: step_t
+        real(dp), target :: edges_t(3)
+        integer :: err, e, k, nmembers, otype
+        logical :: exists
+        character(len=256) :: oname
+        character(len=:), allocatable :: first_el
+
+        ok = .true.; msg = ''
+        if (self%opened) then
+            ok = .false.; msg = 'h5md: open_append: the writer is already open ('//self%path//')'; return
+        end if
+        call open_library(st)
+        if (.not. st%ok) then
+            ok = .false.; msg = st%msg; return
+        end if
+        call MPI_Comm_dup(comm, self%comm)
+        call MPI_Comm_rank(self%comm, self%rank)
+        call MPI_Comm_size(self%comm, self%nprocs)
+        self%path = trim(path)
+        call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err); call st%check(err, 'H5Pcreate(fapl)')
+        call h5pset_fapl_mpio_f(fapl, self%comm%MPI_VAL, MPI_INFO_NULL%MPI_VAL, err)
+        call st%check(err, 'H5Pset_fapl_mpio')
+        call h5pset_coll_metadata_write_f(fapl, .true., err); call st%check(err, 'H5Pset_coll_metadata_write')
+        call h5fopen_f(self%path, H5F_ACC_RDWR_F, self%file, err, access_prp=fapl)
+        call h5pclose_f(fapl, err)
+        if (self%file < 0 .or. err < 0) then
+            call MPI_Comm_free(self%comm)
+            ok = .false.; msg = 'h5md: cannot open '//self%path//' to append to it'
+            return
+        end if
+        self%opened = .true.
+        call h5pcreate_f(H5P_DATASET_XFER_F, self%dxpl, err); call st%check(err, 'H5Pcreate(dxpl)')
+        call h5pset_dxpl_mpio_f(self%dxpl, H5FD_MPIO_COLLECTIVE_F, err); call st%check(err, 'H5Pset_dxpl_mpio')
+        call h5pcreate_f(H5P_DATASET_XFER_F, self%dxpl_rank0, err); call st%check(err, 'H5Pcreate(dxpl)')
+        call h5pset_dxpl_mpio_f(self%dxpl_rank0, H5FD_MPIO_INDEPENDENT_F, err)
+        call st%check(err, 'H5Pset_dxpl_mpio(independent)')
+        self%last_flush = MPI_Wtime()
+
+        ! per-atom data and the elements present
+        call h5dopen_f(self%file, pgroup//'/id', self%id, err); call st%check(err, 'open '//pgroup//'/id')
+        call h5dopen_f(self%file, pgroup//'/species', self%species, err); call st%check(err, 'open species')
+        call h5dopen_f(self%file, pgroup//'/mass', self%mass, err); call st%check(err, 'open mass')
+        if (st%ok) then
+            call dataset_dims(st, self%id, d1, m1)
+            self%natoms = int(d1(1), i8)
+        end if
+        first_el = ''
+        nf = 0
+        do e = 1, nel
+            if (.not. st%ok) exit
+            call h5lexists_f(self%file, pgroup//'/'//trim(el_name(e)), exists, err)
+            self%want(e) = exists .and. err >= 0
+            if (.not. self%want(e)) cycle
+            call h5dopen_f(self%file, pgroup//'/'//trim(el_name(e))//'/value', self%value(e), err)
+            call st%check(err, 'open '//trim(el_name(e))//'/value')
+            call dataset_dims(st, self%value(e), d3, m3)
+            if (len(first_el) == 0) then
+                first_el = pgroup//'/'//trim(el_name(e))
+                self%dimension = int(d3(1))
+                nf = d3(3)
+                call h5dopen_f(self%file, first_el//'/step', self%step, err); call st%check(err, 'open step')
+                call h5dopen_f(self%file, first_el//'/time', self%time, err); call st%check(err, 'open time')
+            else if (d3(3) /= nf) then
+                call st%fail('the particle elements hold different numbers of frames')
+            end if
+        end do
+        if (st%ok .and. len(first_el) == 0) call st%fail('no position, velocity, force or image element')
+        if (st%ok .and. int(nf, i8) < keep) then
+            write (oname, '(a,i0,a,i0)') 'the trajectory holds ', nf, ' frames, the checkpoint expects at least ', keep
+            call st%fail(trim(oname))
+        end if
+        self%nframes = int(keep, hsize_t)
+        if (st%ok) then
+            do e = 1, nel
+                if (self%want(e)) call extend(st, self%value(e), [int(self%dimension, hsize_t), &
+                                                                   int(self%natoms, hsize_t), self%nframes])
+            end do
+            call extend(st, self%step, [self%nframes])
+            call extend(st, self%time, [self%nframes])
+            ! box/edges: a time-dependent element (one row per frame) whose step and time the
+            ! elements share; its rows are cut back too and the (fixed) edges read from row 0
+            call h5dopen_f(self%file, pgroup//'/box/edges/value', self%edges_value, err)
+            call st%check(err, 'open box/edges/value (a trajectory written by this version of Terrace)')
+            if (st%ok) call extend(st, self%edges_value, [int(self%dimension, hsize_t), self%nframes])
+            edges_t = 0
+            if (st%ok .and. keep > 0) call read_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(edges_t), &
+                                                     [0_hsize_t, 0_hsize_t], [int(self%dimension, hsize_t), 1_hsize_t], &
+                                                     .true., self%dxpl)
+            self%edges = edges_t
+        end if
+        self%last_step = 0
+        if (st%ok .and. keep > 0) then
+            call read_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [self%nframes - 1], &
+                           [1_hsize_t], .true., self%dxpl)
+            self%last_step = step_t
+        end if
+
+        ! observables: every series cut back to `keep` entries
+        self%nobs = 0
+        if (allocated(self%obs)) deallocate (self%obs)
+        allocate (self%obs(4))
+        call h5lexists_f(self%file, 'observables', exists, err)
+        if (st%ok .and. exists) then
+            call h5gn_members_f(self%file, 'observables', nmembers, err); call st%check(err, 'list observables')
+            call h5gopen_f(self%file, 'observables', g, err); call st%check(err, 'open observables')
+            do k = 0, nmembers - 1
+                if (.not. st%ok) exit
+                call h5gget_obj_info_idx_f(self%file, 'observables', k, oname, otype, err)
+                call st%check(err, 'observable name')
+                if (self%nobs == size(self%obs)) call grow_obs(self)
+                self%nobs = self%nobs + 1
+                associate (o => self%obs(self%nobs))
+                    o%name = trim(oname)
+                    ! the trajectory's observables are written with every frame: their step and time
+                    ! are hard links to box/edges/step and time (cut back above), only value grows
+                    o%per_frame = .true.
+                    call h5dopen_f(g, o%name//'/value', o%value, err); call st%check(err, 'open '//o%name//'/value')
+                    if (st%ok) call dataset_dims(st, o%value, d1, m1)
+                    if (st%ok .and. int(d1(1), i8) < keep) call st%fail('observable '//o%name//' holds too few entries')
+                    o%n = int(keep, hsize_t)
+                    if (st%ok) call extend(st, o%value, [o%n])
+                end associate
+            end do
+            call h5gclose_f(g, err)
+        end if
+        self%unit_time = ''
+        self%masses_by_type = [0.0_dp]   ! only read at the first frame, which is written already
+        call block_of(self%natoms, self%nprocs, self%rank, self%first, self%nmine)
+        call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        call agree(self%comm, st, ok, msg)
+        if (.not. ok) then
+            call release(self)
+            msg = 'h5md: '//trim(self%path)//': '//trim(msg)
+        end if
+    contains
+        subroutine grow_obs(w)
+            type(h5md_writer_t), intent(inout) :: w
+            type(observable_t), allocatable :: grown(:)
+            allocate (grown(2*size(w%obs)))
+            grown(1:w%nobs) = w%obs(1:w%nobs)
+            call move_alloc(grown, w%obs)
+        end subroutine grow_obs
+    end subroutine writer_open_append
 
     !> Append one frame. ids(1:nlocal) are the global ids (1..natoms) of this rank's atoms; over all
     !> ranks every id must appear exactly once. x, v, f, image are (>= dimension, >= nlocal) and

@@ -23,8 +23,10 @@ module terrace_thermo
         real(dp) :: end_time = 0
         character(len=:), allocatable :: time_unit
         character(len=:), allocatable :: extra_header
+        integer(i8) :: lines = 0             !< samples written (CSV data lines, kept ones included)
     contains
         procedure :: open => thermo_open
+        procedure :: open_append => thermo_open_append
         procedure :: write => thermo_write
         procedure :: close => thermo_close
         procedure :: discard => thermo_discard
@@ -59,6 +61,67 @@ contains
             'etotal', 'press', '  progress'
     end subroutine thermo_open
 
+    !> Continue the CSV of an interrupted run (restart from a checkpoint): keep its header and its
+    !> first `keep` data lines, drop any later ones (written after the checkpoint by a run that was
+    !> then killed), and append. Fails when the file is missing or holds fewer lines.
+    subroutine thermo_open_append(self, path, end_time, time_unit, extra_header, keep, ok, msg)
+        class(thermo_writer_t), intent(inout) :: self
+        character(len=*), intent(in) :: path, time_unit, extra_header
+        real(dp), intent(in) :: end_time
+        integer(i8), intent(in) :: keep
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        character(len=:), allocatable :: text
+        integer :: unit, ios, n, pos, nl
+        integer(i8) :: lines
+        ok = .true.; msg = ''
+        self%end_time = end_time
+        self%time_unit = time_unit
+        self%extra_header = extra_header
+        self%wall_start = MPI_Wtime()
+        self%lines = keep
+        if (world%rank /= 0) return
+        if (len_trim(path) > 0) then
+            open (newunit=unit, file=path, access='stream', form='unformatted', status='old', action='read', &
+                  iostat=ios, iomsg=msg)
+            if (ios /= 0) then
+                ok = .false.; return
+            end if
+            inquire (unit=unit, size=n)
+            allocate (character(len=max(n, 0)) :: text)
+            if (n > 0) read (unit, iostat=ios) text
+            close (unit)
+            ! the header line and `keep` data lines
+            pos = 0
+            lines = -1
+            do while (lines < keep)
+                nl = index(text(pos + 1:), new_line('a'))
+                if (nl == 0) exit
+                pos = pos + nl
+                lines = lines + 1
+            end do
+            if (lines < keep) then
+                ok = .false.
+                write (msg, '(a,i0,a)') 'holds fewer than the ', keep, ' data lines the checkpoint recorded'
+                return
+            end if
+            open (newunit=self%unit, file=path, access='stream', form='unformatted', status='replace', &
+                  action='write', iostat=ios, iomsg=msg)
+            if (ios /= 0) then
+                ok = .false.; return
+            end if
+            write (self%unit) text(1:pos)
+            close (self%unit)
+            open (newunit=self%unit, file=path, status='old', position='append', action='write', iostat=ios, iomsg=msg)
+            if (ios /= 0) then
+                ok = .false.; return
+            end if
+            self%to_file = .true.
+        end if
+        write (output_unit, '(a10,1x,a12,1x,a12,1x,a16,1x,a16,1x,a16,1x,a13,a)') 'step', 'time', 'temp', 'pe', 'ke', &
+            'etotal', 'press', '  progress'
+    end subroutine thermo_open_append
+
     subroutine thermo_write(self, s, extra)
         class(thermo_writer_t), intent(inout) :: self
         type(thermo_sample_t), intent(in) :: s
@@ -66,6 +129,7 @@ contains
         character(len=64) :: eta
         real(dp) :: elapsed, remaining
         integer :: k
+        self%lines = self%lines + 1        ! counted on every rank (the checkpoint records it)
         if (world%rank /= 0) return
         if (self%to_file) then
             write (self%unit, '(i0,12(",",es24.16e3))', advance='no') s%step, s%time, s%temp, s%pe, s%ke, s%etotal, &

@@ -26,9 +26,12 @@ module terrace_trajectory
         logical :: want_position = .false., want_velocity = .false., want_force = .false., want_image = .false.
     contains
         procedure :: open => trajectory_open
+        procedure :: open_append => trajectory_open_append
         procedure :: write => trajectory_write
         procedure :: close => trajectory_close
         procedure :: discard => trajectory_discard
+        procedure :: frames => trajectory_frames
+        procedure :: flush => trajectory_flush
     end type trajectory_t
 
 contains
@@ -61,6 +64,39 @@ contains
                             trim(ue), trim(uv), trim(um), terrace_version_string, ok, msg)
         self%active = ok
     end subroutine trajectory_open
+
+    !> Continue an existing trajectory after a restart: the file keeps its first `frames` frames
+    !> (later ones, written by a run killed after its checkpoint, are dropped) and the run appends.
+    subroutine trajectory_open_append(self, path, comm, frames, ok, msg)
+        class(trajectory_t), intent(inout) :: self
+        character(len=*), intent(in) :: path
+        type(MPI_Comm), intent(in) :: comm
+        integer(i8), intent(in) :: frames
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        ok = .true.; msg = ''
+        if (len_trim(path) == 0) return
+        self%path = path
+        call self%h5%open_append(path, comm, frames, ok, msg)
+        self%active = ok
+    end subroutine trajectory_open_append
+
+    !> Flush every frame written so far to disk (before a checkpoint records the frame count).
+    !> Collective.
+    subroutine trajectory_flush(self, ok, msg)
+        class(trajectory_t), intent(inout) :: self
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        ok = .true.; msg = ''
+        if (self%active) call self%h5%flush(ok, msg)
+    end subroutine trajectory_flush
+
+    !> Frames written so far (including those kept from before a restart).
+    integer(i8) function trajectory_frames(self)
+        class(trajectory_t), intent(in) :: self
+        trajectory_frames = 0
+        if (self%active) trajectory_frames = self%h5%frames_written()
+    end function trajectory_frames
 
     !> One frame at (step, time), with the thermo sample s as observables; extra(:) are written as
     !> further observables named by extra_names (energy stepping: events, e_terraced, ...).

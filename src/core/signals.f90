@@ -1,0 +1,57 @@
+!> Stop requests from the batch system: SIGTERM and SIGUSR1 set a flag in a small C handler
+!> (signals.c); the integrators poll it at their safe points through stop_requested, which is
+!> collective (one MPI_Allreduce of a logical), so that every rank stops at the same step, writes
+!> the checkpoint and exits with exit_stopped. The wall-clock limit (&run walltime_limit) is
+!> decided in the same reduction.
+module terrace_signals
+    use, intrinsic :: iso_c_binding, only: c_int
+    implicit none
+    private
+
+    !> Exit status of a run that stopped early with a checkpoint (walltime_limit or a signal):
+    !> resubmit it with &system read_checkpoint.
+    integer, parameter, public :: exit_stopped = 3
+
+    public :: install_stop_handlers, stop_signal_name, local_stop_signal
+
+    interface
+        integer(c_int) function c_install() bind(C, name='terrace_install_stop_handlers')
+            import :: c_int
+        end function c_install
+        integer(c_int) function c_signal() bind(C, name='terrace_stop_signal')
+            import :: c_int
+        end function c_signal
+        integer(c_int) function c_sigterm() bind(C, name='terrace_sigterm_number')
+            import :: c_int
+        end function c_sigterm
+        integer(c_int) function c_sigusr1() bind(C, name='terrace_sigusr1_number')
+            import :: c_int
+        end function c_sigusr1
+    end interface
+
+contains
+
+    !> Catch SIGTERM and SIGUSR1 from now on. ok = .false. if the handler could not be installed.
+    subroutine install_stop_handlers(ok)
+        logical, intent(out) :: ok
+        ok = c_install() == 0
+    end subroutine install_stop_handlers
+
+    !> The stop signal this process received (0: none). Not collective.
+    integer function local_stop_signal()
+        local_stop_signal = int(c_signal())
+    end function local_stop_signal
+
+    function stop_signal_name(sig) result(name)
+        integer, intent(in) :: sig
+        character(len=:), allocatable :: name
+        if (sig == c_sigterm()) then
+            name = 'SIGTERM'
+        else if (sig == c_sigusr1()) then
+            name = 'SIGUSR1'
+        else
+            name = 'a signal'
+        end if
+    end function stop_signal_name
+
+end module terrace_signals

@@ -1,0 +1,621 @@
+!> Checkpoints: everything a run needs to continue bitwise, in one HDF5 file.
+!>
+!> Layout (h5py shapes; N atoms, rows in global id order):
+!>
+!>     /            attrs: format = 'terrace-checkpoint', format_version, terrace_version, deck,
+!>                         deck_hash, integrator, natoms, nprocs, dimension
+!>     /atoms/id          int64[N]      /atoms/type      int32[N]
+!>     /atoms/position    float64[N][3] /atoms/velocity  float64[N][3]   /atoms/force  float64[N][3]
+!>     /atoms/image       int32[N][3]   /atoms/slot      int64[N][2]     (rank, local index)
+!>     /state       attrs: one scalar per quantity (int64 or float64): step, time, box_lo_1..3,
+!>                         box_hi_1..3, mass_1..ntypes, output counters, integrator state
+!>
+!> Written collectively with parallel HDF5: every atom's row goes to the rank whose id block holds
+!> it (terrace_id_blocks), which writes its block as one hyperslab; the scalars are the same on
+!> every rank. The file is written as <path>.tmp and renamed to <path> by rank 0 after the
+!> collective close, so a crash leaves the previous checkpoint intact. `slot` records where each
+!> atom lived (rank and position in that rank's arrays): a restart on the same number of ranks puts
+!> every atom back in its slot, so that sums run in the same order as in the uninterrupted run.
+!> Reading: every rank opens the file read-only and reads it whole (O(N) memory per rank).
+module terrace_checkpoint
+    use, intrinsic :: iso_c_binding, only: c_loc, c_int, c_char, c_null_char, c_ptr
+    use, intrinsic :: iso_fortran_env, only: int32
+    use terrace_kinds, only: dp, i8
+    use terrace_atoms, only: atoms_t
+    use terrace_mpi_env, only: world, any_all
+    use terrace_id_blocks, only: to_id_blocks
+    use terrace_namelist_text, only: namelist_file_t
+    use mpi_f08, only: MPI_INFO_NULL, MPI_Barrier
+    use hdf5
+    implicit none
+    private
+
+    character(len=*), parameter :: format_name = 'terrace-checkpoint'
+    integer, parameter :: format_version = 1
+    integer, parameter :: ncol = 15           !< type, x(3), v(3), f(3), image(3), slot rank, slot index
+
+    !> Named scalars of the run state (integer or real), written as attributes of /state.
+    type, public :: ckpt_values_t
+        character(len=40), allocatable :: names(:)
+        integer(i8), allocatable :: ival(:)
+        real(dp), allocatable :: rval(:)
+        logical, allocatable :: is_int(:)
+        integer :: n = 0
+    contains
+        procedure :: put_i => values_put_i
+        procedure :: put_r => values_put_r
+        procedure :: put_l => values_put_l
+        procedure :: get_i => values_get_i
+        procedure :: get_r => values_get_r
+        procedure :: get_l => values_get_l
+        procedure :: has => values_has
+        procedure, private :: slot => values_slot
+    end type ckpt_values_t
+
+    !> What a checkpoint holds, as read (every rank holds all of it, rows in id order).
+    type, public :: ckpt_data_t
+        integer(i8) :: natoms = 0, deck_hash = 0
+        integer :: nprocs = 0, dimension = 3
+        integer(i8), allocatable :: id(:), slot(:, :)
+        integer, allocatable :: type(:), image(:, :)
+        real(dp), allocatable :: x(:, :), v(:, :), f(:, :)
+        type(ckpt_values_t) :: values
+    end type ckpt_data_t
+
+    interface
+        integer(c_int) function c_rename(old, new) bind(C, name='rename')
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: old(*), new(*)
+        end function c_rename
+    end interface
+
+    public :: write_checkpoint, read_checkpoint, deck_hash, probe_checkpoint_path
+
+contains
+
+    ! ------------------------------------------------------------------ named values
+
+    integer function values_slot(self, name) result(k)
+        class(ckpt_values_t), intent(inout) :: self
+        character(len=*), intent(in) :: name
+        character(len=40), allocatable :: n2(:)
+        integer(i8), allocatable :: i2(:)
+        real(dp), allocatable :: r2(:)
+        logical, allocatable :: b2(:)
+        do k = 1, self%n
+            if (self%names(k) == name) return
+        end do
+        if (.not. allocated(self%names)) then
+            allocate (self%names(32), self%ival(32), self%rval(32), self%is_int(32))
+        else if (self%n == size(self%names)) then
+            allocate (n2(2*self%n), i2(2*self%n), r2(2*self%n), b2(2*self%n))
+            n2(1:self%n) = self%names(1:self%n); i2(1:self%n) = self%ival(1:self%n)
+            r2(1:self%n) = self%rval(1:self%n); b2(1:self%n) = self%is_int(1:self%n)
+            call move_alloc(n2, self%names); call move_alloc(i2, self%ival)
+            call move_alloc(r2, self%rval); call move_alloc(b2, self%is_int)
+        end if
+        self%n = self%n + 1; k = self%n
+        self%names(k) = name; self%ival(k) = 0; self%rval(k) = 0
+    end function values_slot
+
+    subroutine values_put_i(self, name, v)
+        class(ckpt_values_t), intent(inout) :: self
+        character(len=*), intent(in) :: name
+        integer(i8), intent(in) :: v
+        integer :: k
+        k = self%slot(name); self%ival(k) = v; self%is_int(k) = .true.
+    end subroutine values_put_i
+
+    subroutine values_put_r(self, name, v)
+        class(ckpt_values_t), intent(inout) :: self
+        character(len=*), intent(in) :: name
+        real(dp), intent(in) :: v
+        integer :: k
+        k = self%slot(name); self%rval(k) = v; self%is_int(k) = .false.
+    end subroutine values_put_r
+
+    subroutine values_put_l(self, name, v)
+        class(ckpt_values_t), intent(inout) :: self
+        character(len=*), intent(in) :: name
+        logical, intent(in) :: v
+        call self%put_i(name, merge(1_i8, 0_i8, v))
+    end subroutine values_put_l
+
+    logical function values_has(self, name)
+        class(ckpt_values_t), intent(in) :: self
+        character(len=*), intent(in) :: name
+        integer :: k
+        values_has = .false.
+        do k = 1, self%n
+            if (self%names(k) == name) values_has = .true.
+        end do
+    end function values_has
+
+    !> The value called name; ok becomes .false. (and stays so) when it is missing.
+    integer(i8) function values_get_i(self, name, ok) result(v)
+        class(ckpt_values_t), intent(in) :: self
+        character(len=*), intent(in) :: name
+        logical, intent(inout) :: ok
+        integer :: k
+        v = 0
+        do k = 1, self%n
+            if (self%names(k) == name .and. self%is_int(k)) then
+                v = self%ival(k); return
+            end if
+        end do
+        ok = .false.
+    end function values_get_i
+
+    real(dp) function values_get_r(self, name, ok) result(v)
+        class(ckpt_values_t), intent(in) :: self
+        character(len=*), intent(in) :: name
+        logical, intent(inout) :: ok
+        integer :: k
+        v = 0
+        do k = 1, self%n
+            if (self%names(k) == name .and. .not. self%is_int(k)) then
+                v = self%rval(k); return
+            end if
+        end do
+        ok = .false.
+    end function values_get_r
+
+    logical function values_get_l(self, name, ok) result(v)
+        class(ckpt_values_t), intent(in) :: self
+        character(len=*), intent(in) :: name
+        logical, intent(inout) :: ok
+        v = self%get_i(name, ok) /= 0
+    end function values_get_l
+
+    ! ------------------------------------------------------------------ identity
+
+    !> A 62-bit hash of the deck's assignments (group, key as written, value as written, in file
+    !> order), leaving out those a restart may change: &system read_checkpoint and &run
+    !> walltime_limit. Two polynomial hashes modulo primes below 2^31 (no integer overflow).
+    integer(i8) function deck_hash(nml) result(h)
+        type(namelist_file_t), intent(in) :: nml
+        integer(i8), parameter :: p1 = 2147483647_i8, p2 = 2147483629_i8
+        integer(i8) :: h1, h2
+        integer :: k
+        h1 = 7; h2 = 11
+        do k = 1, nml%count
+            associate (it => nml%items(k))
+                if (it%group == 'system' .and. it%key == 'read_checkpoint') cycle
+                if (it%group == 'run' .and. it%key == 'walltime_limit') cycle
+                call mix(trim(it%group)//'&'//trim(it%target)//'='//trim(adjustl(it%value))//';')
+            end associate
+        end do
+        h = h1*2147483648_i8 + h2
+    contains
+        subroutine mix(s)
+            character(len=*), intent(in) :: s
+            integer :: i
+            do i = 1, len(s)
+                h1 = mod(h1*131 + ichar(s(i:i)), p1)
+                h2 = mod(h2*257 + ichar(s(i:i)), p2)
+            end do
+        end subroutine mix
+    end function deck_hash
+
+    !> Can <path>.tmp be created (and <path> later replace it)? Rank 0 tries, the answer is shared.
+    subroutine probe_checkpoint_path(path, ok, msg)
+        character(len=*), intent(in) :: path
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        integer :: unit, ios
+        logical :: failed
+        ok = .true.; msg = ''
+        if (world%rank == 0) then
+            open (newunit=unit, file=path//'.tmp', status='replace', action='write', iostat=ios, iomsg=msg)
+            if (ios == 0) close (unit, status='delete')
+            ok = ios == 0
+        end if
+        failed = .not. ok
+        call any_all(failed)
+        ok = .not. failed
+        if (.not. ok) msg = 'cannot create '//path//'.tmp (is the directory there and writable?)'
+    end subroutine probe_checkpoint_path
+
+    ! ------------------------------------------------------------------ writing
+
+    !> Write the checkpoint of the owned atoms and the named values. Collective; ok is the same on
+    !> every rank. The previous checkpoint at `path` is replaced only once the new one is complete.
+    subroutine write_checkpoint(path, atoms, natoms, dimension, integrator, deck, hash, version, values, ok, msg)
+        character(len=*), intent(in) :: path, integrator, deck, version
+        type(atoms_t), intent(in) :: atoms
+        integer(i8), intent(in) :: natoms, hash
+        integer, intent(in) :: dimension
+        type(ckpt_values_t), intent(in) :: values
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        real(dp), allocatable :: mine(:, :), block(:, :)
+        integer(i8) :: first, count
+        integer(hid_t) :: fapl, dxpl, file, g, gs
+        integer :: err, n, i, k
+        logical :: good, failed
+        character(len=:), allocatable :: tmp
+
+        ok = .true.; msg = ''
+        tmp = path//'.tmp'
+        n = atoms%nlocal
+        allocate (mine(ncol, max(n, 1)))
+        do i = 1, n
+            mine(1, i) = real(atoms%type(i), dp)
+            mine(2:4, i) = atoms%x(:, i)
+            mine(5:7, i) = atoms%v(:, i)
+            mine(8:10, i) = atoms%f(:, i)
+            mine(11:13, i) = real(atoms%image(:, i), dp)
+            mine(14, i) = real(world%rank, dp)
+            mine(15, i) = real(i, dp)
+        end do
+        call to_id_blocks(natoms, n, atoms%id(1:n), mine(:, 1:n), first, count, block, good)
+        if (.not. good) then
+            ok = .false.; msg = 'checkpoint: the atom ids are not 1..N over the ranks'; return
+        end if
+
+        good = .true.
+        call h5open_f(err); call chk(err)
+        call h5eset_auto_f(0, err)
+        call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err); call chk(err)
+        call h5pset_fapl_mpio_f(fapl, world%comm%MPI_VAL, MPI_INFO_NULL%MPI_VAL, err); call chk(err)
+        call h5pset_libver_bounds_f(fapl, H5F_LIBVER_V18_F, H5F_LIBVER_V18_F, err)
+        call h5fcreate_f(tmp, H5F_ACC_TRUNC_F, file, err, access_prp=fapl); call chk(err)
+        call h5pclose_f(fapl, err)
+        failed = .not. good
+        call any_all(failed)
+        if (failed) then
+            ok = .false.; msg = 'checkpoint: cannot create '//tmp; return
+        end if
+        call h5pcreate_f(H5P_DATASET_XFER_F, dxpl, err); call chk(err)
+        call h5pset_dxpl_mpio_f(dxpl, H5FD_MPIO_COLLECTIVE_F, err); call chk(err)
+
+        call put_text(file, 'format', format_name)
+        call put_int(file, 'format_version', int(format_version, i8))
+        call put_text(file, 'terrace_version', version)
+        call put_text(file, 'deck', deck)
+        call put_int(file, 'deck_hash', hash)
+        call put_text(file, 'integrator', integrator)
+        call put_int(file, 'natoms', natoms)
+        call put_int(file, 'nprocs', int(world%nprocs, i8))
+        call put_int(file, 'dimension', int(dimension, i8))
+
+        call h5gcreate_f(file, 'atoms', g, err); call chk(err)
+        block
+            integer(i8), allocatable, target :: ids(:), slots(:, :)
+            integer(int32), allocatable, target :: types(:), images(:, :)
+            real(dp), allocatable, target :: r3(:, :)
+            integer(hsize_t) :: c, f0
+            c = int(count, hsize_t); f0 = int(first - 1, hsize_t)
+            allocate (ids(max(count, 1_i8)), slots(2, max(count, 1_i8)), types(max(count, 1_i8)), &
+                      images(3, max(count, 1_i8)), r3(3, max(count, 1_i8)))
+            do k = 1, int(count)
+                ids(k) = first + k - 1
+                types(k) = int(nint(block(1, k)), int32)
+                images(:, k) = int(nint(block(11:13, k)), int32)
+                slots(:, k) = nint(block(14:15, k), i8)
+            end do
+            call put_rows(g, 'id', H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), 0, c_loc(ids))
+            call put_rows(g, 'type', H5T_STD_I32LE, h5kind_to_type(int32, H5_INTEGER_KIND), 0, c_loc(types))
+            call put_rows(g, 'image', H5T_STD_I32LE, h5kind_to_type(int32, H5_INTEGER_KIND), 3, c_loc(images))
+            call put_rows(g, 'slot', H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), 2, c_loc(slots))
+            r3 = block(2:4, 1:max(count, 1_i8))
+            call put_rows(g, 'position', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, c_loc(r3))
+            r3 = block(5:7, 1:max(count, 1_i8))
+            call put_rows(g, 'velocity', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, c_loc(r3))
+            r3 = block(8:10, 1:max(count, 1_i8))
+            call put_rows(g, 'force', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, c_loc(r3))
+        end block
+        call h5gclose_f(g, err)
+
+        call h5gcreate_f(file, 'state', gs, err); call chk(err)
+        do k = 1, values%n
+            if (values%is_int(k)) then
+                call put_int(gs, trim(values%names(k)), values%ival(k))
+            else
+                call put_real(gs, trim(values%names(k)), values%rval(k))
+            end if
+        end do
+        call h5gclose_f(gs, err)
+        call h5pclose_f(dxpl, err)
+        call h5fclose_f(file, err); call chk(err)
+
+        failed = .not. good
+        call any_all(failed)
+        if (failed) then
+            ok = .false.; msg = 'checkpoint: HDF5 failed while writing '//tmp; return
+        end if
+        ! the file is complete on disk: replace the previous checkpoint
+        call MPI_Barrier(world%comm)
+        if (world%rank == 0) good = c_rename(tmp//c_null_char, path//c_null_char) == 0
+        failed = .not. good
+        call any_all(failed)
+        if (failed) then
+            ok = .false.; msg = 'checkpoint: cannot rename '//tmp//' to '//path
+        end if
+
+    contains
+
+        subroutine chk(e)
+            integer, intent(in) :: e
+            if (e < 0) good = .false.
+        end subroutine chk
+
+        !> Dataset name of shape [N] (inner = 0) or [N][inner], this rank's block of rows.
+        subroutine put_rows(loc, name, ftype, mtype, inner, buf)
+            integer(hid_t), intent(in) :: loc, ftype, mtype
+            character(len=*), intent(in) :: name
+            integer, intent(in) :: inner
+            type(c_ptr), intent(in) :: buf
+            integer(hid_t) :: d, fsp, msp
+            integer(hsize_t) :: dims(2), start(2), cnt(2)
+            integer :: rank
+            if (inner == 0) then
+                rank = 1; dims(1) = int(natoms, hsize_t)
+                start(1) = int(first - 1, hsize_t); cnt(1) = int(count, hsize_t)
+            else
+                rank = 2; dims = [int(inner, hsize_t), int(natoms, hsize_t)]
+                start = [0_hsize_t, int(first - 1, hsize_t)]; cnt = [int(inner, hsize_t), int(count, hsize_t)]
+            end if
+            call h5screate_simple_f(rank, dims(1:rank), fsp, err); call chk(err)
+            call h5dcreate_f(loc, name, ftype, fsp, d, err); call chk(err)
+            if (count > 0) then
+                call h5screate_simple_f(rank, cnt(1:rank), msp, err)
+                call h5sselect_hyperslab_f(fsp, H5S_SELECT_SET_F, start(1:rank), cnt(1:rank), err); call chk(err)
+            else
+                call h5screate_simple_f(rank, [(1_hsize_t, i=1, rank)], msp, err)
+                call h5sselect_none_f(msp, err)
+                call h5sselect_none_f(fsp, err)
+            end if
+            call h5dwrite_f(d, mtype, buf, err, mem_space_id=msp, file_space_id=fsp, xfer_prp=dxpl); call chk(err)
+            call h5sclose_f(msp, err)
+            call h5sclose_f(fsp, err)
+            call h5dclose_f(d, err)
+        end subroutine put_rows
+
+        subroutine put_int(loc, name, v)
+            integer(hid_t), intent(in) :: loc
+            character(len=*), intent(in) :: name
+            integer(i8), intent(in) :: v
+            integer(i8), target :: buf
+            integer(hid_t) :: sp, a
+            buf = v
+            call h5screate_f(H5S_SCALAR_F, sp, err)
+            call h5acreate_f(loc, name, H5T_STD_I64LE, sp, a, err); call chk(err)
+            call h5awrite_f(a, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(buf), err); call chk(err)
+            call h5aclose_f(a, err)
+            call h5sclose_f(sp, err)
+        end subroutine put_int
+
+        subroutine put_real(loc, name, v)
+            integer(hid_t), intent(in) :: loc
+            character(len=*), intent(in) :: name
+            real(dp), intent(in) :: v
+            real(dp), target :: buf
+            integer(hid_t) :: sp, a
+            buf = v
+            call h5screate_f(H5S_SCALAR_F, sp, err)
+            call h5acreate_f(loc, name, H5T_IEEE_F64LE, sp, a, err); call chk(err)
+            call h5awrite_f(a, H5T_NATIVE_DOUBLE, c_loc(buf), err); call chk(err)
+            call h5aclose_f(a, err)
+            call h5sclose_f(sp, err)
+        end subroutine put_real
+
+        subroutine put_text(loc, name, s)
+            integer(hid_t), intent(in) :: loc
+            character(len=*), intent(in) :: name, s
+            character(kind=c_char), allocatable, target :: buf(:)
+            integer(hid_t) :: sp, a, t
+            integer :: j
+            allocate (buf(max(len(s), 1)))
+            buf = c_null_char
+            do j = 1, len(s)
+                buf(j) = s(j:j)
+            end do
+            call h5tcopy_f(H5T_C_S1, t, err)
+            call h5tset_size_f(t, int(size(buf), size_t), err)
+            call h5tset_strpad_f(t, H5T_STR_NULLPAD_F, err)
+            call h5screate_f(H5S_SCALAR_F, sp, err)
+            call h5acreate_f(loc, name, t, sp, a, err); call chk(err)
+            call h5awrite_f(a, t, c_loc(buf), err); call chk(err)
+            call h5aclose_f(a, err)
+            call h5sclose_f(sp, err)
+            call h5tclose_f(t, err)
+        end subroutine put_text
+
+    end subroutine write_checkpoint
+
+    ! ------------------------------------------------------------------ reading
+
+    !> Read a checkpoint (every rank reads all of it). ok is the same on every rank; msg says what
+    !> is wrong (missing, not a checkpoint, damaged).
+    subroutine read_checkpoint(path, data, ok, msg)
+        character(len=*), intent(in) :: path
+        type(ckpt_data_t), intent(out) :: data
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        integer(hid_t) :: file, g, a, t
+        integer :: err, k, na, cls
+        logical :: exists, good, failed
+        integer(i8), target :: ibuf
+        real(dp), target :: rbuf
+        character(len=64) :: name, fmt
+        integer(size_t) :: nlen
+        type(c_ptr) :: pbuf
+
+        ok = .true.; msg = ''
+        good = .true.
+        inquire (file=path, exist=exists)
+        if (.not. exists) then
+            ok = .false.; msg = 'no such file'
+            call agree_fail(); return
+        end if
+        call h5open_f(err)
+        call h5eset_auto_f(0, err)
+        call h5fopen_f(path, H5F_ACC_RDONLY_F, file, err)
+        if (err < 0) then
+            ok = .false.; msg = 'not an HDF5 file (damaged or not a checkpoint)'
+            call agree_fail(); return
+        end if
+        fmt = ''
+        call get_text(file, 'format', fmt)
+        if (fmt /= format_name) then
+            ok = .false.; msg = 'not a Terrace checkpoint (no format = '''//format_name//''' attribute)'
+            call h5fclose_f(file, err)
+            call agree_fail(); return
+        end if
+        data%natoms = get_int(file, 'natoms')
+        data%nprocs = int(get_int(file, 'nprocs'))
+        data%dimension = int(get_int(file, 'dimension'))
+        data%deck_hash = get_int(file, 'deck_hash')
+        if (good .and. data%natoms > 0) then
+            block
+                integer(i8), allocatable, target :: ids(:), slots(:, :)
+                integer(int32), allocatable, target :: types(:), images(:, :)
+                real(dp), allocatable, target :: r3(:, :)
+                integer(hsize_t) :: nn
+                nn = int(data%natoms, hsize_t)
+                allocate (ids(nn), slots(2, nn), types(nn), images(3, nn), r3(3, nn))
+                call get_rows('atoms/id', h5kind_to_type(i8, H5_INTEGER_KIND), [nn], c_loc(ids))
+                call get_rows('atoms/slot', h5kind_to_type(i8, H5_INTEGER_KIND), [2_hsize_t, nn], c_loc(slots))
+                call get_rows('atoms/type', h5kind_to_type(int32, H5_INTEGER_KIND), [nn], c_loc(types))
+                call get_rows('atoms/image', h5kind_to_type(int32, H5_INTEGER_KIND), [3_hsize_t, nn], c_loc(images))
+                data%id = ids; data%slot = slots; data%type = int(types); data%image = int(images)
+                call get_rows('atoms/position', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], c_loc(r3)); data%x = r3
+                call get_rows('atoms/velocity', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], c_loc(r3)); data%v = r3
+                call get_rows('atoms/force', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], c_loc(r3)); data%f = r3
+            end block
+        else
+            good = .false.
+        end if
+        ! the named values of /state
+        call h5gopen_f(file, 'state', g, err)
+        if (err < 0) good = .false.
+        if (good) then
+            call h5aget_num_attrs_f(g, na, err)
+            do k = 0, na - 1
+                call h5aopen_by_idx_f(g, '.', H5_INDEX_NAME_F, H5_ITER_INC_F, int(k, hsize_t), a, err)
+                if (err < 0) then
+                    good = .false.; exit
+                end if
+                nlen = len(name)
+                name = ''
+                call h5aget_name_f(a, nlen, name, err)
+                call h5aget_type_f(a, t, err)
+                call h5tget_class_f(t, cls, err)
+                if (cls == H5T_INTEGER_F) then
+                    pbuf = c_loc(ibuf)
+                    call h5aread_f(a, h5kind_to_type(i8, H5_INTEGER_KIND), pbuf, err)
+                    call data%values%put_i(trim(name), ibuf)
+                else
+                    pbuf = c_loc(rbuf)
+                    call h5aread_f(a, H5T_NATIVE_DOUBLE, pbuf, err)
+                    call data%values%put_r(trim(name), rbuf)
+                end if
+                if (err < 0) good = .false.
+                call h5tclose_f(t, err)
+                call h5aclose_f(a, err)
+            end do
+            call h5gclose_f(g, err)
+        end if
+        call h5fclose_f(file, err)
+        if (.not. good) then
+            ok = .false.; msg = 'damaged checkpoint (a dataset or attribute is missing or unreadable)'
+        end if
+        call agree_fail()
+
+    contains
+
+        subroutine agree_fail()
+            failed = .not. ok
+            call any_all(failed)
+            if (failed .and. ok) then
+                ok = .false.; msg = 'unreadable on another rank'
+            end if
+        end subroutine agree_fail
+
+        integer(i8) function get_int(loc, aname) result(v)
+            integer(hid_t), intent(in) :: loc
+            character(len=*), intent(in) :: aname
+            integer(hid_t) :: at
+            integer(i8), target :: b
+            integer :: e
+            type(c_ptr) :: pp
+            v = 0
+            call h5aopen_f(loc, aname, at, e)
+            if (e < 0) then
+                good = .false.; return
+            end if
+            pp = c_loc(b)
+            call h5aread_f(at, h5kind_to_type(i8, H5_INTEGER_KIND), pp, e)
+            if (e < 0) good = .false.
+            v = b
+            call h5aclose_f(at, e)
+        end function get_int
+
+        subroutine get_text(loc, aname, s)
+            integer(hid_t), intent(in) :: loc
+            character(len=*), intent(in) :: aname
+            character(len=*), intent(out) :: s
+            integer(hid_t) :: at, tt, mt
+            integer(size_t) :: sz
+            type(c_ptr) :: pp
+            character(kind=c_char), allocatable, target :: b(:)
+            integer :: e, j
+            s = ''
+            call h5aopen_f(loc, aname, at, e)
+            if (e < 0) return
+            call h5aget_type_f(at, tt, e)
+            call h5tget_size_f(tt, sz, e)
+            if (e >= 0 .and. sz > 0 .and. sz < 4096) then
+                allocate (b(sz))
+                call h5tcopy_f(H5T_C_S1, mt, e)
+                call h5tset_size_f(mt, sz, e)
+                call h5tset_strpad_f(mt, H5T_STR_NULLPAD_F, e)
+                pp = c_loc(b)
+                call h5aread_f(at, mt, pp, e)
+                if (e >= 0) then
+                    do j = 1, min(int(sz), len(s))
+                        if (b(j) == c_null_char) exit
+                        s(j:j) = b(j)
+                    end do
+                end if
+                call h5tclose_f(mt, e)
+            end if
+            call h5tclose_f(tt, e)
+            call h5aclose_f(at, e)
+        end subroutine get_text
+
+        subroutine get_rows(dname, mtype, dims, buf)
+            character(len=*), intent(in) :: dname
+            integer(hid_t), intent(in) :: mtype
+            integer(hsize_t), intent(in) :: dims(:)
+            type(c_ptr), intent(in) :: buf
+            integer(hid_t) :: d, sp
+            integer(hsize_t) :: fd(2), fm(2)
+            integer :: e, rk
+            type(c_ptr) :: p
+            if (.not. good) return
+            call h5dopen_f(file, dname, d, e)
+            if (e < 0) then
+                good = .false.; return
+            end if
+            call h5dget_space_f(d, sp, e)
+            call h5sget_simple_extent_ndims_f(sp, rk, e)
+            if (rk /= size(dims)) then
+                good = .false.
+            else
+                call h5sget_simple_extent_dims_f(sp, fd(1:rk), fm(1:rk), e)
+                if (any(fd(1:rk) /= dims)) good = .false.
+            end if
+            call h5sclose_f(sp, e)
+            if (good) then
+                p = buf
+                call h5dread_f(d, mtype, p, e)
+                if (e < 0) good = .false.
+            end if
+            call h5dclose_f(d, e)
+        end subroutine get_rows
+
+    end subroutine read_checkpoint
+
+end module terrace_checkpoint

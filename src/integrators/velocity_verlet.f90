@@ -9,6 +9,7 @@ module terrace_velocity_verlet
     use terrace_scene_plan, only: pair_cells
     use terrace_timers, only: t_output
     use terrace_errors, only: check_all
+    use terrace_run_checks, only: energy_guard_t
     implicit none
     private
 
@@ -26,12 +27,14 @@ contains
         real(dp) :: dt, dtfm(size(eng%atoms%mass))
         logical :: sample, frame
         type(thermo_sample_t) :: first, last
+        type(energy_guard_t) :: guard
         dt = eng%cfg%dt
         do t = 1, size(dtfm)
             dtfm(t) = 0.5_dp*dt*eng%cfg%units%ftm2v/eng%atoms%mass(t)
         end do
         call eng%timers%start(t_output)
         first = eng%sample(0_i8, 0.0_dp)
+        call guard%check(first)
         call thermo%write(first)
         call write_frame(0_i8, first)
         last = first
@@ -59,9 +62,8 @@ contains
             end do
             if (sample) then
                 call eng%timers%start(t_output)
-                call check_all(eng%pe == eng%pe, 'the potential energy became NaN at this step: the run is unstable '// &
-                               '(time step too large or atoms overlapping)')
                 last = eng%sample(step, step*dt)
+                call guard%check(last)
                 call thermo%write(last)
                 call eng%timers%stop(t_output)
             end if

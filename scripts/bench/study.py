@@ -20,8 +20,9 @@ Usage:
   /usr/bin/python3 scripts/bench/study.py --full             # hours: 100 ns cluster, 32,000-atom LJ, ...
   options: --build DIR (default build/), --scenes a,b, --skip-sweep, --skip-stress, --no-lammps,
            --scaling 1,2,4,8 [--scaling-only], --work DIR, --keep, --doc DIR, --no-report
-The timings of one run are its loop time minus its output time (Terrace's and LAMMPS's own timers),
-one run each: on a shared machine they carry the noise of the other jobs.
+Timings: each sweep point is run twice, once with thermo samples and trajectory frames for the error
+measures and observables, and once (or --repeat N times, the fastest kept) with output only at the
+end for its wall time: the loop time minus the output time (Terrace's and LAMMPS's own timers).
 """
 import argparse
 import json
@@ -58,12 +59,15 @@ def main():
     ap.add_argument('--no-report', action='store_true')
     ap.add_argument('--report-only', action='store_true',
                     help='rebuild benchmarks.md and the figures from DOC/bench_data (no runs; the energy-curve figures are kept)')
+    ap.add_argument('--repeat', type=int, default=1,
+                    help='timing runs per sweep point, the fastest kept (default 1; use 3 on a quiet machine)')
     ap.add_argument('--timeout', type=int, default=0, help='per-run limit in s (default 600 quick, 36000 full)')
     a = ap.parse_args()
 
     ctx = Ctx()
     ctx.mode = 'full' if a.full else 'quick'
     ctx.keep = a.keep
+    ctx.repeat = max(1, a.repeat)
     ctx.lammps = not a.no_lammps
     ctx.timeout = a.timeout or (600 if ctx.mode == 'quick' else 36000)
     build = os.path.abspath(a.build)
@@ -83,6 +87,7 @@ def main():
     os.makedirs(ctx.data, exist_ok=True)
     ctx.env = common.environment(build)
     ctx.env['mode'] = ctx.mode
+    ctx.env['repeat'] = ctx.repeat
     ctx.env['command'] = ' '.join(['/usr/bin/python3', os.path.relpath(os.path.abspath(sys.argv[0]), common.REPO)]
                                   + sys.argv[1:])
     ctx.env['analyze'] = ctx.analyzer.exe or 'not in this build (numpy fallback)'

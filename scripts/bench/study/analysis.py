@@ -91,8 +91,8 @@ def rdf(x_frames, box, dim, rmax, nbins=200, max_centres=1000, max_frames=10):
         n = len(x)
         nc = min(n, max_centres)
         h = np.zeros(nbins)
-        for c0 in range(0, nc, 250):
-            c = x[c0:min(nc, c0 + 250)]
+        for c0 in range(0, nc, 100):
+            c = x[c0:min(nc, c0 + 100)]
             d = x[None, :, :] - c[:, None, :]
             d -= L * np.round(d / L)
             rr = np.sqrt(np.sum(d * d, axis=2)).ravel()

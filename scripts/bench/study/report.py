@@ -76,7 +76,7 @@ def fig_workprecision(scene, rows, path):
                 ax.annotate(lab, (e, w), textcoords='offset points', xytext=(4, 3), fontsize=7, color=st['color'])
         ax.set_xlabel(label)
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-        ax.set_ylabel('wall time (loop − output) [s]')
+        ax.set_ylabel('wall time [s] (timing run, no output)')
         ax.grid(True, which='both', alpha=0.3)
     handles, labels = axs[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc='lower center', ncol=5, fontsize=8)
@@ -364,10 +364,11 @@ def write(ctx, results):
     tot = sum(t for _, t in results.get('timing', []))
     w('\nWall time of each part of this run (total %.0f s):\n' % tot)
     w(table(['part', 'wall time (s)'], [(n, '%.1f' % t) for n, t in results.get('timing', [])]))
-    w('\n**Timing caveat.** Each timed run ran once; the wall time of a run is its loop time minus its '
-      'output time (Terrace\'s and LAMMPS\'s own timers), so trajectory and thermo writing are not '
-      'counted. On a shared machine the times carry the noise of the other jobs (±20 % and worse for '
-      'runs under 0.1 s); rerun on a quiet machine before quoting a factor.\n')
+    w('\n**Timing.** The wall time of a sweep point comes from a separate run of the same deck with no '
+      'trajectory and one thermo sample at the end (best of %d): its loop time minus its output time '
+      '(Terrace\'s and LAMMPS\'s own timers); the errors and observables come from the run with output. '
+      'On a shared machine the times carry the noise of the other jobs (±20 %% and worse for runs under '
+      '0.1 s); rerun on a quiet machine (with `--repeat 3`) before quoting a factor.\n' % env.get('repeat', 1))
 
     # conclusions
     w('## Conclusions\n')
@@ -432,7 +433,7 @@ def write(ctx, results):
       'diffusion coefficient (MSD slope over lags T/8..T/2, standard error over 5 groups of atoms), '
       'VDOS peak (maximum of the velocity power spectrum, standard error over 5 groups of atoms); '
       'the reference is the same Terrace Verlet run with dt_ref.')
-    w('- The wall time is the loop time minus the output time of the run (one run each).\n')
+    w('- The wall time is that of the same run without trajectory output (see Timing above).\n')
     rowsS = []
     for key in results['sweeps']:
         sc = S.get(key)
@@ -526,7 +527,8 @@ def write(ctx, results):
     w('- **Energy blow-up** (new, `src/integrators/run_checks.f90`): at every thermo sample, a '
       'non-finite energy, or |E − E0| > |K0| + |V0|, stops every rank with `terrace: error: energy '
       'blow-up: ...` or `... became NaN or infinite ...` (exit 1). Tests `fail_energy_blowup`, '
-      '`fail_energy_blowup_np4`. Before, such a run finished with exit 0 and energies of 1e8–1e42.')
+      '`fail_energy_blowup_np4`. Before this check such a run finished with exit status 0 and garbage '
+      'energies (LAMMPS, which has no such check, still does: "large energy error (run completes)" above).')
     w('- **Atom flung across the periodic box** (new, `domain_migrate` in `src/parallel/domain.f90`): '
       'at every neighbour-list build, a non-finite coordinate or an atom more than one box length '
       'outside a periodic box stops the run naming the atom (before, the wrap silently clamped it '

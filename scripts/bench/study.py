@@ -18,6 +18,8 @@ doc/figures/bench_*.png and the tables behind them (CSV, doc/bench_data/):
 Usage:
   /usr/bin/python3 scripts/bench/study.py --quick            # minutes (about 8 on a 2-vCPU box)
   /usr/bin/python3 scripts/bench/study.py --full             # hours: 100 ns cluster, 32,000-atom LJ, ...
+  /usr/bin/python3 scripts/bench/study.py --quick --scaling 1,2,4,8,16 --scaling-only
+                           # scaling runs only, added to the page made before in the same mode
   options: --build DIR (default build/), --scenes a,b, --skip-sweep, --skip-stress, --no-lammps,
            --scaling 1,2,4,8 [--scaling-only], --work DIR, --keep, --doc DIR, --no-report
 Timings: each sweep point is run twice, once with thermo samples and trajectory frames for the error
@@ -110,6 +112,10 @@ def main():
         return
     sw = common.Stopwatch()
     results = {'env': e, 'sweeps': {}, 'curves': {}, 'stress': None, 'scaling': None}
+    if a.scaling_only:        # keep the page's sweeps and stress tests (read back from DOC/bench_data)
+        kept = report.load(ctx, keys)
+        results.update(sweeps=kept['sweeps'], stress=kept['stress'])
+        e = results['env'] = dict(kept['env'], command=e['command'])
     if not a.skip_sweep and not a.scaling_only:
         for k in keys:
             with sw.part('sweep %s' % k):
@@ -127,7 +133,7 @@ def main():
         ranks = [int(x) for x in a.scaling.split(',') if x.strip()]
         with sw.part('scaling %s' % ranks):
             results['scaling'] = scaling.run(ctx, ranks)
-    results['timing'] = sw.parts
+    results['timing'] = sw.parts if not a.scaling_only else kept.get('timing', []) + sw.parts
     if not a.no_report:
         with sw.part('figures and doc/benchmarks.md'):
             report.write(ctx, results)

@@ -560,14 +560,15 @@ def write(ctx, results):
     else:
         w('**Not measured here.** This page was generated on a machine with %s vCPUs that share about one '
           'physical core, so no meaningful speed-up can be measured on it. The study supports it:\n' % env['nproc'])
-    w('    /usr/bin/python3 scripts/bench/study.py --full --scaling 1,2,4,8,16 --scaling-only   # on a machine with >= 16 free cores\n')
+    w('    /usr/bin/python3 scripts/bench/study.py --quick --scaling 1,2,4,8,16 --scaling-only   # on a machine with >= 16 free cores\n')
     w('runs the LJ benchmark scene (shifted LJ, melted start; 32,000 atoms in full mode, 4,000 in quick '
       'mode) with both integrators on each rank count: **strong** scaling at fixed size and **weak** '
       'scaling with cells = c0·P^(1/3) (atoms per rank fixed). It keeps the phase table of every run '
       '(max over ranks) so that the event search (`Search`: the ray evaluations and the global MIN '
       'that picks the next event) and the halo traffic (`Comm`) show separately from the force pass '
       '(`Pair`), and writes bench_data/scaling_<mode>.csv and figures/bench_scaling.png. Add '
-      '`--scaling ...` to a normal run to get everything in one page.\n')
+      '`--scaling ...` to a normal run to get everything in one page; `--scaling-only` keeps the sweeps and '
+      'stress tests already on the page (made before in the same mode) and adds the scaling section.\n')
 
     # pending / full mode
     w('## Full mode and what is pending\n')

@@ -27,6 +27,7 @@ module terrace_energy_stepping
     use terrace_timers, only: t_output
     use terrace_mpi_env, only: world, sum_all, min_all
     use terrace_errors, only: stop_all, check_all
+    use terrace_run_checks, only: energy_guard_t
     use terrace_jump, only: terrace_jump_lambda, jump_climb, jump_reflect, jump_fall, jump_none
     use terrace_run_control, only: run_control_t
     use terrace_checkpoint, only: ckpt_values_t
@@ -160,6 +161,7 @@ contains
         real(dp) :: c_guess, t_next_ckpt
         integer :: i, outcome
         real(dp) :: minv(size(eng%atoms%mass))
+        type(energy_guard_t) :: guard
 
         ray%eng => eng
         mvv2e = eng%cfg%units%mvv2e
@@ -385,7 +387,7 @@ contains
             real(dp) :: extra(6), mean_dt, evals
             call eng%timers%start(t_output)
             s = eng%sample(stats%events, time)
-            call check_all(s%pe == s%pe, 'the potential energy became NaN: the run is unstable')
+            call guard%check(s)
             mean_dt = 0; evals = 0
             if (stats%events > last_events) then
                 mean_dt = (time - last_time)/(stats%events - last_events)

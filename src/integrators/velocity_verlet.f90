@@ -14,6 +14,7 @@ module terrace_velocity_verlet
     use terrace_errors, only: check_all
     use terrace_run_control, only: run_control_t
     use terrace_checkpoint, only: ckpt_values_t
+    use terrace_run_checks, only: energy_guard_t
     implicit none
     private
 
@@ -33,6 +34,7 @@ contains
         real(dp) :: dt, dtfm(size(eng%atoms%mass))
         logical :: sample, frame, scheduled, safe, ok, stop_now
         type(thermo_sample_t) :: first, last
+        type(energy_guard_t) :: guard
         dt = eng%cfg%dt
         do t = 1, size(dtfm)
             dtfm(t) = 0.5_dp*dt*eng%cfg%units%ftm2v/eng%atoms%mass(t)
@@ -49,9 +51,11 @@ contains
             first%momentum(3) = eng%restart_values%get_r('first_pz', ok)
             call check_all(ok, trim(eng%cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint '// &
                            '(velocity Verlet state missing)')
+            ! (the energy guard takes its reference at the first sample after the restart)
         else
             call eng%timers%start(t_output)
             first = eng%sample(0_i8, 0.0_dp)
+            call guard%check(first)
             call thermo%write(first)
             call write_frame(0_i8, first)
             call eng%timers%stop(t_output)
@@ -85,9 +89,8 @@ contains
             end do
             if (sample) then
                 call eng%timers%start(t_output)
-                call check_all(eng%pe == eng%pe, 'the potential energy became NaN at this step: the run is unstable '// &
-                               '(time step too large or atoms overlapping)')
                 last = eng%sample(step, step*dt)
+                call guard%check(last)
                 call thermo%write(last)
                 call eng%timers%stop(t_output)
             end if

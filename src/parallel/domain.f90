@@ -17,6 +17,7 @@ module terrace_domain
     use terrace_box, only: box_t
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: world, any_all
+    use terrace_errors, only: check_all
     use mpi_f08, only: MPI_Comm, MPI_Dims_create, MPI_Cart_create, MPI_Cart_coords, MPI_Cart_shift, &
                        MPI_Comm_rank, MPI_Sendrecv, MPI_DOUBLE_PRECISION, MPI_INTEGER, MPI_STATUS_IGNORE, &
                        MPI_PROC_NULL
@@ -154,6 +155,7 @@ contains
         integer :: d, i, dir, nsend(2), nrecv(2), delta, p
         logical :: misplaced
         atoms%nghost = 0
+        call check_reach(self, atoms)
         call self%wrap(atoms)
         if (world%nprocs == 1) return
         do d = 1, self%box%dimension
@@ -206,6 +208,40 @@ contains
             end do
         end do
     end subroutine domain_migrate
+
+    !> Failure detection (collective): a non-finite coordinate, or an atom more than one box length
+    !> outside a periodic box (it moved that far since the last build; wrap would then misplace it),
+    !> means the run has blown up. Stops every rank with one line naming the atom.
+    subroutine check_reach(self, atoms)
+        type(domain_t), intent(in) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer :: i, d
+        logical :: ok
+        character(len=320) :: msg
+        character(len=1), parameter :: axis(3) = ['x', 'y', 'z']
+        ok = .true.
+        msg = ''
+        outer: do i = 1, atoms%nlocal
+            do d = 1, self%box%dimension
+                if (.not. (abs(atoms%x(d, i)) <= huge(1.0_dp))) then
+                    write (msg, '(a,i0,a)') 'atom ', atoms%id(i), ' has a non-finite position (NaN or infinity): '// &
+                        'the run is unstable (time step or terrace height too large, or atoms overlapping)'
+                    ok = .false.
+                    exit outer
+                end if
+                if (.not. self%box%periodic(d)) cycle
+                if (atoms%x(d, i) < self%box%lo(d) - self%box%length(d) .or. &
+                    atoms%x(d, i) >= self%box%hi(d) + self%box%length(d)) then
+                    write (msg, '(a,i0,a,a,a,es11.4,a)') 'atom ', atoms%id(i), ' moved more than one box length along ', &
+                        axis(d), ' since the last neighbour-list build (x = ', atoms%x(d, i), &
+                        '): the run is unstable (time step too large, or atoms overlapping)'
+                    ok = .false.
+                    exit outer
+                end if
+            end do
+        end do outer
+        call check_all(ok, trim(msg))
+    end subroutine check_reach
 
     !> Signed number of bricks from this rank to the owner along d (shortest way round when periodic).
     pure integer function step_of(self, d, xd) result(delta)

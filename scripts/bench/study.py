@@ -1,0 +1,151 @@
+#!/usr/bin/env python3
+"""Run time against error: the benchmark and stability study of Terrace (issue #7).
+
+One command runs the whole study from a built tree and writes doc/benchmarks.md, the PNG figures
+doc/figures/bench_*.png and the tables behind them (CSV, doc/bench_data/):
+
+  1. work-precision sweeps on five scenes (seven-atom 2-D argon cluster, 147-atom argon
+     icosahedron, Rahman's liquid argon, the LAMMPS LJ benchmark scene, Cu with EAM): h for energy
+     stepping, dt for velocity Verlet in Terrace and in LAMMPS, against a Terrace Verlet reference
+     with a much finer step: wall time against (a) max energy error per atom, (b) energy drift and
+     momentum change, (c) trajectory error at a short horizon, (d) long-run observables with
+     error bars;
+  2. stability stress tests (dt and h raised until each method fails, a hot collision to 0.8 sigma,
+     more ranks than atoms, an evaporating cluster);
+  3. parallel scaling (strong and weak, both integrators, with the Search and Comm phases), only
+     with --scaling (this 2-vCPU machine cannot measure speed-up).
+
+Usage:
+  /usr/bin/python3 scripts/bench/study.py --quick            # minutes (about 8 on a 2-vCPU box)
+  /usr/bin/python3 scripts/bench/study.py --full             # hours: 100 ns cluster, 32,000-atom LJ, ...
+  /usr/bin/python3 scripts/bench/study.py --quick --scaling 1,2,4,8,16 --scaling-only
+                           # scaling runs only, added to the page made before in the same mode
+  options: --build DIR (default build/), --scenes a,b, --skip-sweep, --skip-stress, --no-lammps,
+           --scaling 1,2,4,8 [--scaling-only], --work DIR, --keep, --doc DIR, --no-report
+Timings: each sweep point is run twice, once with thermo samples and trajectory frames for the error
+measures and observables, and once (or --repeat N times, the fastest kept) with output only at the
+end for its wall time: the loop time minus the output time (Terrace's and LAMMPS's own timers).
+"""
+import argparse
+import json
+import os
+import shutil
+import sys
+import tempfile
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+from study import common, scenes as S, sweep, stress, scaling, report, analysis  # noqa: E402
+
+
+class Ctx:
+    pass
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    g = ap.add_mutually_exclusive_group()
+    g.add_argument('--quick', action='store_true', help='minutes (default)')
+    g.add_argument('--full', action='store_true', help='hours')
+    ap.add_argument('--build', default=os.path.join(common.REPO, 'build'), help='build directory (terrace binary)')
+    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS))
+    ap.add_argument('--skip-sweep', action='store_true')
+    ap.add_argument('--skip-stress', action='store_true')
+    ap.add_argument('--no-lammps', action='store_true')
+    ap.add_argument('--scaling', default='', help='rank counts, e.g. 1,2,4,8 (strong and weak scaling)')
+    ap.add_argument('--scaling-only', action='store_true')
+    ap.add_argument('--work', default='', help='work dir (default: a new temporary dir)')
+    ap.add_argument('--keep', action='store_true', help='keep trajectories and dumps')
+    ap.add_argument('--doc', default=os.path.join(common.REPO, 'doc'), help='where benchmarks.md goes')
+    ap.add_argument('--no-report', action='store_true')
+    ap.add_argument('--report-only', action='store_true',
+                    help='rebuild benchmarks.md and the figures from DOC/bench_data (no runs; the energy-curve figures are kept)')
+    ap.add_argument('--repeat', type=int, default=1,
+                    help='timing runs per sweep point, the fastest kept (default 1; use 3 on a quiet machine)')
+    ap.add_argument('--timeout', type=int, default=0, help='per-run limit in s (default 600 quick, 36000 full)')
+    a = ap.parse_args()
+
+    ctx = Ctx()
+    ctx.mode = 'full' if a.full else 'quick'
+    ctx.keep = a.keep
+    ctx.repeat = max(1, a.repeat)
+    ctx.lammps = not a.no_lammps
+    ctx.timeout = a.timeout or (600 if ctx.mode == 'quick' else 36000)
+    build = os.path.abspath(a.build)
+    src = os.path.join(build, 'terrace')
+    if not os.access(src, os.X_OK):
+        sys.exit('terrace binary not found: %s (build first: bash scripts/build.sh)' % src)
+    ctx.work = os.path.abspath(a.work) if a.work else tempfile.mkdtemp(prefix='terrace_study.')
+    os.makedirs(ctx.work, exist_ok=True)
+    ctx.terrace = os.path.join(ctx.work, 'terrace')      # a private copy: a rebuild meanwhile cannot mix versions
+    shutil.copy2(src, ctx.terrace)
+    ctx.build = build
+    ctx.analyzer = analysis.Analyzer(build)
+    ctx.doc = os.path.abspath(a.doc)
+    ctx.figs = os.path.join(ctx.doc, 'figures')
+    ctx.data = os.path.join(ctx.doc, 'bench_data')
+    os.makedirs(ctx.figs, exist_ok=True)
+    os.makedirs(ctx.data, exist_ok=True)
+    ctx.env = common.environment(build)
+    ctx.env['mode'] = ctx.mode
+    ctx.env['repeat'] = ctx.repeat
+    ctx.env['command'] = ' '.join(['/usr/bin/python3', os.path.relpath(os.path.abspath(sys.argv[0]), common.REPO)]
+                                  + sys.argv[1:])
+    ctx.env['analyze'] = ctx.analyzer.exe or 'not in this build (numpy fallback)'
+    keys = [k.strip() for k in a.scenes.split(',') if k.strip()]
+    for k in keys:
+        if k not in S.SCENE_KEYS:
+            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS)))
+
+    e = ctx.env
+    print('Terrace benchmark study, %s mode' % ctx.mode)
+    print('machine : %s, %s CPUs visible, %s; load %s' % (e['cpu'], e['nproc'], e['os'], e['load']))
+    print('compiler: %s, %s, flags %s' % (e['compiler'], e['build_type'], e['flags_used']))
+    print('LAMMPS  : %s;  MPI: %s' % (e['lammps'], e['mpi']))
+    print('commit  : %s%s;  date %s' % (e['commit'], ' (+ uncommitted changes)' if e['dirty'] else '', e['date']))
+    print('work dir: %s' % ctx.work, flush=True)
+
+    if a.report_only:
+        results = report.load(ctx, keys)
+        report.write(ctx, results)
+        return
+    sw = common.Stopwatch()
+    results = {'env': e, 'sweeps': {}, 'curves': {}, 'stress': None, 'scaling': None}
+    if a.scaling_only:        # keep the page's sweeps and stress tests (read back from DOC/bench_data)
+        kept = report.load(ctx, keys)
+        results.update(sweeps=kept['sweeps'], stress=kept['stress'])
+        e = results['env'] = dict(kept['env'], command=e['command'])
+    if not a.skip_sweep and not a.scaling_only:
+        for k in keys:
+            with sw.part('sweep %s' % k):
+                try:
+                    rows, curves = sweep.run_scene(S.get(k), ctx)
+                except RuntimeError as err:
+                    print('    %s: FAILED: %s' % (k, err), flush=True)
+                    rows, curves = [], {}
+            results['sweeps'][k] = rows
+            results['curves'][k] = curves
+    if not a.skip_stress and not a.scaling_only:
+        with sw.part('stress tests'):
+            results['stress'] = stress.run_all(ctx)
+    if a.scaling:
+        ranks = [int(x) for x in a.scaling.split(',') if x.strip()]
+        with sw.part('scaling %s' % ranks):
+            results['scaling'] = scaling.run(ctx, ranks)
+    results['timing'] = sw.parts if not a.scaling_only else kept.get('timing', []) + sw.parts
+    if not a.no_report:
+        with sw.part('figures and doc/benchmarks.md'):
+            report.write(ctx, results)
+    results['timing'] = sw.parts
+    print()
+    print('Time per part:')
+    for name, dt in sw.parts:
+        print('  %-32s %7.1f s' % (name, dt))
+    print('  %-32s %7.1f s' % ('total', sw.total()))
+    with open(os.path.join(ctx.data, 'timing_%s.json' % ctx.mode), 'w') as f:
+        json.dump({'parts': sw.parts, 'total': sw.total(), 'env': e}, f, indent=1)
+
+
+if __name__ == '__main__':
+    main()

@@ -75,7 +75,7 @@ contains
         character(len=*), intent(in) :: key
         character(len=:), allocatable :: s
         if (self%flag_nml%find('analysis', key) > 0) then
-            s = self%flag_nml%where('analysis', key)
+            s = '(command line): &analysis: '//key
         else if (allocated(self%file_nml%path)) then
             s = self%file_nml%where('analysis', key)
         else
@@ -252,15 +252,21 @@ contains
         type(analysis_config_t), intent(inout) :: cfg
         character(len=32) :: word
         character(len=128) :: list
+        character(len=:), allocatable :: source
         integer :: i
-        if (len_trim(cfg%trajectory_file) == 0) call stop_all(merge(cfg%path//'            ', '(command line)', &
-            len_trim(cfg%path) > 0)//': &analysis: trajectory_file: missing (the H5MD file to analyse)')
+        if (len_trim(cfg%path) > 0) then
+            source = cfg%path
+        else
+            source = '(command line)'
+        end if
+        if (len_trim(cfg%trajectory_file) == 0) call stop_all(source//': &analysis: trajectory_file: missing '// &
+                                                              '(the H5MD file to analyse)')
         list = cfg%compute
         do i = 1, len_trim(list)
             if (list(i:i) == ',') list(i:i) = ' '
         end do
-        if (len_trim(list) == 0) call stop_all(trim(merge(cfg%path//'              ', '(command line)', &
-            len_trim(cfg%path) > 0))//": &analysis: compute: missing (a list of 'vdos', 'rdf', 'msd', 'sq')")
+        if (len_trim(list) == 0) call stop_all(source//": &analysis: compute: missing (a list of 'vdos', 'rdf', "// &
+                                               "'msd', 'sq')")
         do
             list = adjustl(list)
             if (len_trim(list) == 0) exit

@@ -580,7 +580,7 @@ contains
         integer(hid_t) :: a, ftype, mtype, sp
         integer(hssize_t) :: npoints
         integer(size_t) :: width
-        integer :: err, i, j, n, tclass
+        integer :: err, i, j, n, tclass, cset
         logical :: exists, vl
         character(kind=c_char), allocatable, target :: chars(:)
         type(c_ptr), allocatable, target :: ptrs(:)
@@ -604,9 +604,11 @@ contains
         allocate (list(n))
         list = ''
         call h5tis_variable_str_f(ftype, vl, err)
+        call h5tget_cset_f(ftype, cset, err)     ! ASCII (Terrace) or UTF-8 (h5py): convert within the set
         if (vl) then
             allocate (ptrs(n))
             call h5tcopy_f(H5T_STRING, mtype, err)
+            call h5tset_cset_f(mtype, cset, err)
             call aread(a, mtype, c_loc(ptrs), err)
             if (err >= 0) then
                 do i = 1, n
@@ -625,6 +627,7 @@ contains
             chars = c_null_char
             call h5tcopy_f(H5T_C_S1, mtype, err)
             call h5tset_size_f(mtype, width, err)
+            call h5tset_cset_f(mtype, cset, err)
             call aread(a, mtype, c_loc(chars), err)
             if (err >= 0) then
                 do i = 1, n

@@ -200,8 +200,9 @@ contains
         if (plan%periodic_box) then
             call write_csv(trim(cfg%output_prefix)//'_rdf.csv', 'r '//ll//',g (1),n_cumulative (1)', cols)
         else
-            call write_csv(trim(cfg%output_prefix)//'_rdf.csv', 'r '//ll//',pair_density (1/'// &
-                           trim(traj%unit_length)//'),n_cumulative (1)', cols)
+            if (len_trim(traj%unit_length) > 0) ll = '(1/'//trim(traj%unit_length)//')'
+            call write_csv(trim(cfg%output_prefix)//'_rdf.csv', 'r '//unit_label(traj%unit_length)//',pair_density '// &
+                           ll//',n_cumulative (1)', cols)
         end if
         if (world%rank == 0) then
             write (output_unit, '(a)') 'g(r):'

@@ -45,7 +45,7 @@ contains
         type(h5md_trajectory_t), intent(in) :: traj
         type(analysis_config_t), intent(in) :: cfg
         type(vdos_plan_t), intent(out) :: plan
-        character(len=64) :: a
+        character(len=1024) :: a
         call frame_window(cfg, traj%frames(el_velocity), traj%where('velocity/value'), 1_i8, plan%f0, plan%nsel, &
                           plan%stride)
         plan%dt = traj%time_step(el_velocity, plan%f0, plan%nsel, plan%stride, 'the VACF/VDOS')

@@ -66,6 +66,7 @@ module terrace_h5md_frames
     end type h5md_trajectory_t
 
     logical, save :: library_open = .false.
+    integer(i8), parameter :: frames_per_read = 1024
 
     public :: atom_block
 
@@ -101,7 +102,6 @@ contains
         integer :: err, e, k
         logical :: exists, ok
         integer(hsize_t) :: dims(3), ref(3)
-        character(len=1024) :: msg
         character(len=16) :: a, b
 
         self%path = trim(path)
@@ -440,12 +440,20 @@ contains
 
     !> buf(1:D, 1:na, 1:nf) = element e, atoms a0+1..a0+na (a0 0-based), frames f0+1, f0+1+stride, ...
     !> (nf of them; f0 0-based). Independent read (any rank, any pattern).
+    !> Reads go in batches of at most frames_per_read frames: one HDF5 read over very many chunks
+    !> (Terrace writes one chunk per frame) makes HDF5 hold a selection per chunk, about 7 KiB each.
     subroutine traj_read_real(self, e, f0, nf, stride, a0, na, buf)
         class(h5md_trajectory_t), intent(in) :: self
         integer, intent(in) :: e
         integer(i8), intent(in) :: f0, nf, stride, a0, na
         real(dp), intent(inout), target, contiguous :: buf(:, :, :)
-        call read_slab(self, e, f0, nf, stride, a0, na, H5T_NATIVE_DOUBLE, c_loc(buf), size(buf, kind=i8))
+        integer(i8) :: k, nk
+        if (nf <= 0 .or. na <= 0) return
+        do k = 1, nf, frames_per_read
+            nk = min(frames_per_read, nf - k + 1)
+            call read_slab(self, e, f0 + (k - 1)*stride, nk, stride, a0, na, H5T_NATIVE_DOUBLE, c_loc(buf(1, 1, k)), &
+                           size(buf(:, :, k:k + nk - 1), kind=i8))
+        end do
     end subroutine traj_read_real
 
     subroutine traj_read_int(self, e, f0, nf, stride, a0, na, buf)
@@ -453,7 +461,13 @@ contains
         integer, intent(in) :: e
         integer(i8), intent(in) :: f0, nf, stride, a0, na
         integer, intent(inout), target, contiguous :: buf(:, :, :)
-        call read_slab(self, e, f0, nf, stride, a0, na, H5T_NATIVE_INTEGER, c_loc(buf), size(buf, kind=i8))
+        integer(i8) :: k, nk
+        if (nf <= 0 .or. na <= 0) return
+        do k = 1, nf, frames_per_read
+            nk = min(frames_per_read, nf - k + 1)
+            call read_slab(self, e, f0 + (k - 1)*stride, nk, stride, a0, na, H5T_NATIVE_INTEGER, c_loc(buf(1, 1, k)), &
+                           size(buf(:, :, k:k + nk - 1), kind=i8))
+        end do
     end subroutine traj_read_int
 
     subroutine read_slab(self, e, f0, nf, stride, a0, na, memtype, p, capacity)

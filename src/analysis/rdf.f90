@@ -11,13 +11,14 @@
 !>       are counted in the denominator, not in the histogram).
 !>   both: n(r) = 2 <H(r)> / N, the mean number of neighbours within r (H: pairs closer than the
 !>       upper edge of the bin).
-!> Parallel over frames (round robin over the ranks), one reduction of the histograms.
+!> Parallel over frames (a contiguous block of the selected frames per rank, read in batches),
+!> one reduction of the histograms.
 module terrace_rdf
     use terrace_kinds, only: dp, i8
     use terrace_mpi_env, only: world, sum_all
     use terrace_errors, only: check_all
     use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window
-    use terrace_h5md_frames, only: h5md_trajectory_t, el_position
+    use terrace_h5md_frames, only: h5md_trajectory_t, el_position, atom_block
     use terrace_analysis_csv, only: write_csv, unit_label
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -32,6 +33,7 @@ module terrace_rdf
     public :: plan_rdf, run_rdf, pair_histogram
 
     real(dp), parameter :: pi = acos(-1.0_dp)
+    integer(i8), parameter :: batch_values = 4194304      !< positions read at once (32 MiB)
 
 contains
 
@@ -150,18 +152,24 @@ contains
         type(rdf_plan_t), intent(in) :: plan
         real(dp), allocatable :: x(:, :, :), h(:), hv(:), cum(:), cols(:, :)
         real(dp) :: L(3), invL(3), e(3), vol, dr, npairs, r1, r2, shell, g, frames_done(1)
-        integer(i8) :: k, fr
+        integer(i8) :: k, fr, k0, nk, kb, batch, nread
         integer :: b, D, nb
         character(len=:), allocatable :: ll
 
         D = traj%dimension; nb = cfg%rdf_bins
         dr = plan%r_max/nb
-        allocate (x(D, traj%natoms, 1), h(nb), hv(nb), cum(nb))
+        ! this rank's contiguous block of the selected frames, read in batches of up to ~32 MiB
+        call atom_block(plan%nsel, world%nprocs, world%rank, k0, nk)
+        batch = max(1_i8, min(nk, batch_values/(D*traj%natoms)))
+        allocate (x(D, traj%natoms, batch), h(nb), hv(nb), cum(nb))
         hv = 0; cum = 0
         frames_done = 0
-        do k = 1 + world%rank, plan%nsel, world%nprocs
-            fr = plan%f0 + (k - 1)*plan%stride
-            call traj%read_real(el_position, fr, 1_i8, 1_i8, 0_i8, traj%natoms, x)
+        do kb = 1, nk, batch
+            nread = min(batch, nk - kb + 1)
+            call traj%read_real(el_position, plan%f0 + (k0 + kb - 1)*plan%stride, nread, plan%stride, 0_i8, &
+                                traj%natoms, x(:, :, 1:nread))
+          do k = 1, nread
+            fr = plan%f0 + (k0 + kb - 1 + k - 1)*plan%stride
             e = traj%box_edges(fr + 1)
             L = 0; invL = 0
             where (traj%periodic)
@@ -169,10 +177,11 @@ contains
             end where
             vol = product(e(1:D))
             h = 0
-            call pair_histogram(x(:, :, 1), L, invL, plan%r_max, h)
+            call pair_histogram(x(:, :, k), L, invL, plan%r_max, h)
             cum = cum + h
             if (plan%periodic_box) hv = hv + vol*h
             frames_done = frames_done + 1
+          end do
         end do
         call sum_all(cum)
         call sum_all(hv)

@@ -7,13 +7,14 @@
 !> mean |q| of its vectors. The phase factors exp(i 2 pi n x_j / L) are built by repeated
 !> multiplication (no transcendental call per q), and the sum over atoms is the contiguous inner
 !> loop: O(N * number of q vectors) per frame, exact (no gridding). Defaults: q_max = 3 * 2 pi / a,
-!> a = (V/N)^(1/D) the mean spacing. Parallel over frames (round robin), one reduction.
+!> a = (V/N)^(1/D) the mean spacing. Parallel over frames (a contiguous block per rank, read in
+!> batches), one reduction.
 module terrace_structure_factor
     use terrace_kinds, only: dp, i8
     use terrace_mpi_env, only: world, sum_all
     use terrace_errors, only: check_all
     use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window
-    use terrace_h5md_frames, only: h5md_trajectory_t, el_position
+    use terrace_h5md_frames, only: h5md_trajectory_t, el_position, atom_block
     use terrace_analysis_csv, only: write_csv, unit_label
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -29,6 +30,7 @@ module terrace_structure_factor
 
     real(dp), parameter :: pi = acos(-1.0_dp)
     integer, parameter :: max_q_index = 4096
+    integer(i8), parameter :: batch_values = 4194304      !< positions read at once (32 MiB)
 
 contains
 
@@ -63,29 +65,34 @@ contains
         complex(dp) :: rho
         real(dp) :: e(3), dq(3), q2, qmax2, q, frames_done(1)
         integer :: nmax(3), n1, n2, n3, n2lo, n3lo, b, D, k3, nused
-        integer(i8) :: k, fr, natoms, j
+        integer(i8) :: fr, natoms, j, k0, nk, kb, kf, batch, nread
         character(len=:), allocatable :: il
 
         D = traj%dimension; natoms = traj%natoms
-        allocate (x(D, natoms, 1), ssum(plan%nbins), qsum(plan%nbins), cnt(plan%nbins), a1(natoms), a12(natoms))
+        call atom_block(plan%nsel, world%nprocs, world%rank, k0, nk)
+        batch = max(1_i8, min(nk, batch_values/(D*natoms)))
+        allocate (x(D, natoms, batch), ssum(plan%nbins), qsum(plan%nbins), cnt(plan%nbins), a1(natoms), a12(natoms))
         ssum = 0; qsum = 0; cnt = 0; frames_done = 0
         qmax2 = plan%q_max**2
-        do k = 1 + world%rank, plan%nsel, world%nprocs
-            fr = plan%f0 + (k - 1)*plan%stride
-            call traj%read_real(el_position, fr, 1_i8, 1_i8, 0_i8, natoms, x)
+        do kb = 1, nk, batch
+          nread = min(batch, nk - kb + 1)
+          call traj%read_real(el_position, plan%f0 + (k0 + kb - 1)*plan%stride, nread, plan%stride, 0_i8, natoms, &
+                              x(:, :, 1:nread))
+          do kf = 1, nread
+            fr = plan%f0 + (k0 + kb - 1 + kf - 1)*plan%stride
             e = 1
             e(1:D) = traj%box_edges(fr + 1)
             dq = 2*pi/e
             nmax = 0
             nmax(1:D) = int(plan%q_max/dq(1:D))
-            call phases(x(1, :, 1), dq(1), nmax(1), ex)
+            call phases(x(1, :, kf), dq(1), nmax(1), ex)
             if (D >= 2) then
-                call phases(x(2, :, 1), dq(2), nmax(2), ey)
+                call phases(x(2, :, kf), dq(2), nmax(2), ey)
             else
                 call unit_phases(natoms, ey)
             end if
             if (D >= 3) then
-                call phases(x(3, :, 1), dq(3), nmax(3), ez)
+                call phases(x(3, :, kf), dq(3), nmax(3), ez)
             else
                 call unit_phases(natoms, ez)
             end if
@@ -113,6 +120,7 @@ contains
                 end do
             end do
             frames_done = frames_done + 1
+          end do
         end do
         call sum_all(ssum); call sum_all(qsum); call sum_all(cnt); call sum_all(frames_done)
         nused = count(cnt > 0)

@@ -6,6 +6,7 @@
 # cluster and the MSD, on 1 rank and on NP ranks.
 #
 # usage: bash scripts/bench/analysis_100ns.sh [BUILD_DIR] [WORK_DIR] [NP]
+#        REUSE=1 ... : keep WORK_DIR/cluster_100ns.h5 from an earlier run (skip the engine run)
 set -euo pipefail
 here=$(cd "$(dirname "$0")/../.." && pwd)
 build=$(readlink -f "${1:-$here/build}")
@@ -17,7 +18,9 @@ cd "$work"
 cp "$here/input/argon_frozen_2d.atoms" .
 sed -e "s|thermo_file='argon_frozen_2d.csv'|thermo_file='cluster.csv', trajectory_file='cluster_100ns.h5', trajectory_interval=1.0, trajectory_fields='position velocity', overwrite=.true.|" \
     "$here/input/argon_frozen_2d.nml" > cluster_100ns.nml
-/usr/bin/time -v "$build/terrace" cluster_100ns.nml > run.log 2> run.time
+if [ "${REUSE:-0}" != 1 ] || [ ! -f cluster_100ns.h5 ]; then
+    /usr/bin/time -v "$build/terrace" cluster_100ns.nml > run.log 2> run.time
+fi
 echo "run:      $(grep -E 'Elapsed' run.time | sed 's/.*: //') wall, max RSS $(grep 'Maximum resident' run.time | awk '{print $NF}') KiB; $(grep 'Loop time' run.log)"
 ls -l cluster_100ns.h5 | awk '{printf "trajectory: %s bytes\n", $5}'
 for n in 1 "$np"; do

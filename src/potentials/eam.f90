@@ -51,6 +51,7 @@ module terrace_eam
         real(dp), allocatable :: mass(:)            !< per atom type, from the file (amu)
         real(dp), allocatable :: rho(:)             !< per atom (owned + ghost), electron density
         real(dp), allocatable :: fp(:)              !< per atom (owned + ghost), F'(rho)
+        real(dp), allocatable :: ray_acc(:, :)      !< ray pass: (rho, rho', rho'', sum r f') per owned atom
         character(len=16) :: style = ''
         integer :: nrho = 0, nr = 0                 !< knots of the F tables and of the r tables
         real(dp) :: drho = 0, dr = 0, rdrho = 0, rdr = 0
@@ -73,6 +74,7 @@ module terrace_eam
         procedure :: density => eam_density
         procedure :: embed => eam_embed
         procedure :: force => eam_force
+        procedure :: ray => eam_ray
         procedure :: embedding => eam_embedding
         procedure :: density_function => eam_density_function
         procedure :: pair_energy => eam_pair_energy
@@ -501,6 +503,171 @@ contains
                              want_energy, energy, virial)
         end if
     end subroutine eam_force
+
+    !> Energy stepping's ray pass: out = (V, dV/ds, d2V/ds2, W) along x + s v (every atom, ghosts
+    !> included, moves with its own velocity): this rank's share; the caller sums over ranks (the
+    !> only communication). Needs the list built with want_below.
+    !>
+    !> Design (no reverse sum): V = sum_pairs phi + sum_owned F(rho_i). The pair part runs over the
+    !> half list (each pair once across ranks). The embedding part needs rho_i, rho_i', rho_i'' of
+    !> every owned atom complete on this rank. Ghosts exist within cutoff + skin of the subdomain,
+    !> so every owned atom's whole neighbourhood is here: the half list's owned-owned pairs add to
+    !> both atoms, its owned-ghost pairs to the owned atom only, and list%below (the ghosts the half
+    !> list leaves to their owners) completes the neighbourhood of each owned atom. Ghost
+    !> densities are never formed; each pair's density terms are thus evaluated once per owning
+    !> rank of each end (twice for pairs across ranks), the pair energy once. Along the ray, with
+    !> d = x_i - x_j and w = v_i - v_j at s, r' = d.w/r, r'' = (|w|^2 - r'^2)/r:
+    !>   rho_i' = sum_j f'(r) r',   rho_i'' = sum_j f''(r) r'^2 + f'(r) r'',
+    !>   V' += F'(rho_i) rho_i' + phi'(r) r',   V'' += F''(rho_i) rho_i'^2 + F'(rho_i) rho_i'' + phi'' r'^2 + phi' r''.
+    !> The virial -sum_pairs r psi'(r) splits into -sum_pairs r phi'(r) - sum_owned F'(rho_i) sum_j r f_ji'(r),
+    !> the inner sum gathered per owned atom like rho. Derivatives of the interpolants are those of
+    !> the cubic pieces (y'' = (2 c0 p + c1)/h); where F is continued (rho beyond the table) F' is
+    !> the held slope of the force pass and F'' = 0.
+    subroutine eam_ray(self, atoms, list, s, out)
+        class(eam_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        real(dp), intent(in) :: s
+        real(dp), intent(out) :: out(4)
+        integer :: n
+        real(dp) :: lo, hi
+        n = atoms%nlocal
+        out = 0
+        if (n == 0) return
+        if (allocated(self%ray_acc)) then
+            if (size(self%ray_acc, 2) < n) deallocate (self%ray_acc)
+        end if
+        if (.not. allocated(self%ray_acc)) allocate (self%ray_acc(4, n + n/4 + 16))
+        call ray_pairs(self, n, atoms%x, atoms%v, atoms%type, list%first, list%neigh, list%below_first, list%below, s, &
+                       self%ray_acc, out)
+        call ray_embed(n, atoms%type, self%t2f, self%fspl, self%rdrho, self%nrho, self%rhomax, self%ray_acc, out, lo, hi)
+        self%rho_low = min(self%rho_low, lo)
+        self%rho_high = max(self%rho_high, hi)
+        if (lo < 0 .or. hi > self%rhomax) self%rho_outside = .true.
+    end subroutine eam_ray
+
+    !> Pair terms of the ray (half list) and the per-atom density sums acc(1:4, i) = (rho, rho',
+    !> rho'', sum_j r f') of owned atoms (half list + below list).
+    subroutine ray_pairs(self, nlocal, x, v, type, first, neigh, bfirst, below, s, acc, out)
+        type(eam_t), intent(in) :: self
+        integer, intent(in) :: nlocal
+        real(dp), intent(in), contiguous :: x(:, :), v(:, :)
+        integer, intent(in), contiguous :: type(:), first(:), neigh(:), bfirst(:), below(:)
+        real(dp), intent(in) :: s
+        real(dp), intent(inout), contiguous :: acc(:, :)
+        real(dp), intent(inout) :: out(4)
+        integer :: i, j, k, m, ti, tj, a, b, c
+        real(dp) :: xi, yi, zi, vxi, vyi, vzi, dx, dy, dz, wx, wy, wz, rsq, r, recip, rp, rpp, p, top, cutsq, rdr, &
+                    z, zp, zpp, phi, phip, phipp, f0, f1, f2, e, e1, e2, w, a1, a2, a3, a4
+        top = self%nr - 1; cutsq = self%cutsq; rdr = self%rdr
+        e = 0; e1 = 0; e2 = 0; w = 0
+        acc(:, 1:nlocal) = 0
+        associate (sr => self%rspl, sz => self%zspl)
+        do i = 1, nlocal
+            ti = type(i)
+            vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
+            xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
+            a1 = 0; a2 = 0; a3 = 0; a4 = 0
+            do k = first(i), first(i + 1) - 1
+                j = neigh(k)
+                dx = xi - (x(1, j) + s*v(1, j)); dy = yi - (x(2, j) + s*v(2, j)); dz = zi - (x(3, j) + s*v(3, j))
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq >= cutsq) cycle
+                wx = vxi - v(1, j); wy = vyi - v(2, j); wz = vzi - v(3, j)
+                tj = type(j)
+                r = sqrt(rsq); recip = 1/r
+                rp = (dx*wx + dy*wy + dz*wz)*recip
+                rpp = (wx*wx + wy*wy + wz*wz - rp*rp)*recip
+                p = r*rdr + 1
+                m = int(min(p, top))
+                p = min(p - m, 1.0_dp)
+                c = self%t2z(ti, tj)
+                z = ((sz(4, m, c)*p + sz(5, m, c))*p + sz(6, m, c))*p + sz(7, m, c)
+                zp = (sz(1, m, c)*p + sz(2, m, c))*p + sz(3, m, c)
+                zpp = (2*sz(1, m, c)*p + sz(2, m, c))*rdr
+                phi = z*recip
+                phip = (zp - phi)*recip
+                phipp = (zpp - 2*phip)*recip
+                e = e + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rpp; w = w - r*phip
+                a = self%t2rho(tj, ti)      ! density at i from j
+                f0 = ((sr(4, m, a)*p + sr(5, m, a))*p + sr(6, m, a))*p + sr(7, m, a)
+                f1 = (sr(1, m, a)*p + sr(2, m, a))*p + sr(3, m, a)
+                f2 = (2*sr(1, m, a)*p + sr(2, m, a))*rdr
+                a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + f2*rp*rp + f1*rpp; a4 = a4 + r*f1
+                if (j <= nlocal) then
+                    b = self%t2rho(ti, tj)  ! density at j from i
+                    f0 = ((sr(4, m, b)*p + sr(5, m, b))*p + sr(6, m, b))*p + sr(7, m, b)
+                    f1 = (sr(1, m, b)*p + sr(2, m, b))*p + sr(3, m, b)
+                    f2 = (2*sr(1, m, b)*p + sr(2, m, b))*rdr
+                    acc(1, j) = acc(1, j) + f0
+                    acc(2, j) = acc(2, j) + f1*rp
+                    acc(3, j) = acc(3, j) + f2*rp*rp + f1*rpp
+                    acc(4, j) = acc(4, j) + r*f1
+                end if
+            end do
+            do k = bfirst(i), bfirst(i + 1) - 1
+                j = below(k)
+                dx = xi - (x(1, j) + s*v(1, j)); dy = yi - (x(2, j) + s*v(2, j)); dz = zi - (x(3, j) + s*v(3, j))
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq >= cutsq) cycle
+                wx = vxi - v(1, j); wy = vyi - v(2, j); wz = vzi - v(3, j)
+                r = sqrt(rsq); recip = 1/r
+                rp = (dx*wx + dy*wy + dz*wz)*recip
+                rpp = (wx*wx + wy*wy + wz*wz - rp*rp)*recip
+                p = r*rdr + 1
+                m = int(min(p, top))
+                p = min(p - m, 1.0_dp)
+                a = self%t2rho(type(j), ti)
+                f0 = ((sr(4, m, a)*p + sr(5, m, a))*p + sr(6, m, a))*p + sr(7, m, a)
+                f1 = (sr(1, m, a)*p + sr(2, m, a))*p + sr(3, m, a)
+                f2 = (2*sr(1, m, a)*p + sr(2, m, a))*rdr
+                a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + f2*rp*rp + f1*rpp; a4 = a4 + r*f1
+            end do
+            acc(1, i) = acc(1, i) + a1; acc(2, i) = acc(2, i) + a2
+            acc(3, i) = acc(3, i) + a3; acc(4, i) = acc(4, i) + a4
+        end do
+        end associate
+        out = out + [e, e1, e2, w]
+    end subroutine ray_pairs
+
+    !> Embedding terms of the ray from acc(1:4, i) = (rho, rho', rho'', sum_j r f'): F(rho_i),
+    !> F' rho', F'' rho'^2 + F' rho'', and the virial share -F' sum_j r f'; lo, hi: extremes of rho.
+    subroutine ray_embed(n, type, t2f, fspl, rdrho, nrho, rhomax, acc, out, lo, hi)
+        integer, intent(in) :: n, nrho
+        integer, intent(in), contiguous :: type(:), t2f(:)
+        real(dp), intent(in), contiguous :: fspl(:, :, :), acc(:, :)
+        real(dp), intent(in) :: rdrho, rhomax
+        real(dp), intent(inout) :: out(4)
+        real(dp), intent(out) :: lo, hi
+        integer :: i, m, k
+        real(dp) :: p, top, rho, f0, f1, f2, e, e1, e2, w
+        top = nrho - 1
+        e = 0; e1 = 0; e2 = 0; w = 0
+        lo = huge(1.0_dp); hi = -huge(1.0_dp)
+        do i = 1, n
+            k = t2f(type(i))
+            rho = acc(1, i)
+            p = rho*rdrho + 1
+            m = int(max(1.0_dp, min(p, top)))
+            p = p - m
+            if (p > 1) then
+                ! held end of the table (and linear continuation above rhomax): F'' = 0
+                p = 1
+                f2 = 0
+            else
+                f2 = (2*fspl(1, m, k)*p + fspl(2, m, k))*rdrho
+            end if
+            f1 = (fspl(1, m, k)*p + fspl(2, m, k))*p + fspl(3, m, k)
+            f0 = ((fspl(4, m, k)*p + fspl(5, m, k))*p + fspl(6, m, k))*p + fspl(7, m, k)
+            if (rho > rhomax) f0 = f0 + f1*(rho - rhomax)
+            e = e + f0
+            e1 = e1 + f1*acc(2, i)
+            e2 = e2 + f2*acc(2, i)**2 + f1*acc(3, i)
+            w = w - f1*acc(4, i)
+            lo = min(lo, rho); hi = max(hi, rho)
+        end do
+        out = out + [e, e1, e2, w]
+    end subroutine ray_embed
 
     !> Grow a per-atom array to at least n entries (contents are not kept).
     subroutine reserve(a, n)

@@ -52,6 +52,9 @@ module terrace_eam
         real(dp), allocatable :: rho(:)             !< per atom (owned + ghost), electron density
         real(dp), allocatable :: fp(:)              !< per atom (owned + ghost), F'(rho)
         real(dp), allocatable :: ray_acc(:, :)      !< ray pass: (rho, rho', rho'', sum r f') per owned atom
+        real(dp), allocatable :: work(:, :)         !< one-type kernels: per-neighbour rows of the current atom
+        integer, allocatable :: iwork(:, :)         !< one-type kernels: compacted neighbour indices and knots
+        real(dp), allocatable :: ztab(:, :)         !< one type: (rho' c0..c2, z' c0..c2, z c3..c6) per r knot
         character(len=16) :: style = ''
         integer :: nrho = 0, nr = 0                 !< knots of the F tables and of the r tables
         real(dp) :: drho = 0, dr = 0, rdrho = 0, rdr = 0
@@ -457,8 +460,10 @@ contains
         self%rho(1:nall) = 0
         if (atoms%nlocal == 0) return
         if (self%ntypes == 1) then
+            call reserve_work(self, atoms%nlocal, list%first)
             call density_one(atoms%nlocal, atoms%x, list%first, list%neigh, self%cutsq, self%rdr, self%nr, &
-                             self%rspl(:, :, self%t2rho(1, 1)), self%rho)
+                             self%rspl(:, :, self%t2rho(1, 1)), self%rho, self%work(:, 1), self%work(:, 2), &
+                             self%work(:, 3), self%work(:, 4), self%work(:, 5), self%iwork(:, 1), self%iwork(:, 2))
         else
             call density_types(self, atoms%nlocal, atoms%x, atoms%type, list%first, list%neigh, self%rho)
         end if
@@ -495,9 +500,12 @@ contains
         energy = 0; virial = 0
         if (atoms%nlocal == 0) return
         if (self%ntypes == 1) then
+            call reserve_work(self, atoms%nlocal, list%first)
+            if (.not. allocated(self%ztab)) call build_ztab(self)
             call force_one(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%cutsq, self%rdr, self%nr, &
-                           self%rspl(:, :, self%t2rho(1, 1)), self%zspl(:, :, self%t2z(1, 1)), self%fp, &
-                           want_energy, energy, virial)
+                           self%ztab, self%fp, want_energy, energy, virial, self%work(:, 1), self%work(:, 2), &
+                           self%work(:, 3), self%work(:, 4), self%work(:, 5), self%work(:, 6), self%work(:, 7), &
+                           self%work(:, 8), self%iwork(:, 1), self%iwork(:, 2))
         else
             call force_types(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, self%fp, &
                              want_energy, energy, virial)
@@ -681,31 +689,83 @@ contains
         a = 0
     end subroutine reserve
 
-    !> One type: one density table.
-    subroutine density_one(nlocal, x, first, neigh, cutsq, rdr, nr, s, rho)
+    !> Work rows for the one-type kernels: as long as the longest row of the list (counted here from
+    !> first(1:nlocal+1), which every list has, hand-built ones included).
+    subroutine reserve_work(self, nlocal, first)
+        type(eam_t), intent(inout) :: self
+        integer, intent(in) :: nlocal
+        integer, intent(in), contiguous :: first(:)
+        integer :: i, nb
+        nb = 0
+        do i = 1, nlocal
+            nb = max(nb, first(i + 1) - first(i))
+        end do
+        nb = nb + 16
+        if (allocated(self%work)) then
+            if (size(self%work, 1) < nb) deallocate (self%work, self%iwork)
+        end if
+        if (.not. allocated(self%work)) allocate (self%work(nb + nb/4, 8), self%iwork(nb + nb/4, 2))
+    end subroutine reserve_work
+
+    !> One type: the force pass's three lookups (rho', z', z) side by side per knot, so that a pair
+    !> reads one record: t(1:3, m) = rho' coefficients, t(4:6, m) = z' coefficients, t(7:10, m) = z
+    !> coefficients (c3, c4, c5, y), as in rspl / zspl.
+    subroutine build_ztab(self)
+        type(eam_t), intent(inout) :: self
+        integer :: a, c
+        a = self%t2rho(1, 1); c = self%t2z(1, 1)
+        allocate (self%ztab(10, self%nr))
+        self%ztab(1:3, :) = self%rspl(1:3, :, a)
+        self%ztab(4:6, :) = self%zspl(1:3, :, c)
+        self%ztab(7:10, :) = self%zspl(4:7, :, c)
+    end subroutine build_ztab
+
+    !> One type: one density table. Per atom: separations gathered into contiguous rows, squared
+    !> distances in a vectorised pass, the pairs inside the cutoff compacted without branches (the
+    !> list holds the skin shell too: a branch there is mispredicted about half the time), their
+    !> knots and offsets in a vectorised pass, then the table lookups and the scatter to rho(j).
+    subroutine density_one(nlocal, x, first, neigh, cutsq, rdr, nr, s, rho, dx, dy, dz, rr, pp, kk, mm)
         integer, intent(in) :: nlocal, nr
         real(dp), intent(in), contiguous :: x(:, :), s(:, :)
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in) :: cutsq, rdr
         real(dp), intent(inout), contiguous :: rho(:)
-        integer :: i, j, k, m
-        real(dp) :: xi, yi, zi, dx, dy, dz, rsq, p, v, acc, top
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:)
+        integer, intent(inout), contiguous :: kk(:), mm(:)
+        integer :: i, j, k, m, k0, nn, nin
+        real(dp) :: xi, yi, zi, p, v, acc, top
         top = nr - 1
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            !GCC$ novector
+            do k = 1, nn
+                j = neigh(k0 + k)
+                dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
+            end do
+            do k = 1, nn
+                rr(k) = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
+            end do
+            nin = 0
+            do k = 1, nn
+                kk(nin + 1) = k
+                pp(nin + 1) = rr(k)
+                nin = nin + merge(1, 0, rr(k) < cutsq)
+            end do
+            do k = 1, nin
+                p = sqrt(pp(k))*rdr + 1
+                m = int(min(p, top))
+                mm(k) = m
+                pp(k) = min(p - m, 1.0_dp)
+            end do
             acc = 0
-            do k = first(i), first(i + 1) - 1
-                j = neigh(k)
-                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
-                rsq = dx*dx + dy*dy + dz*dz
-                if (rsq < cutsq) then
-                    p = sqrt(rsq)*rdr + 1
-                    m = int(min(p, top))
-                    p = min(p - m, 1.0_dp)
-                    v = ((s(4, m)*p + s(5, m))*p + s(6, m))*p + s(7, m)
-                    acc = acc + v
-                    rho(j) = rho(j) + v
-                end if
+            do k = 1, nin
+                m = mm(k); p = pp(k)
+                v = ((s(4, m)*p + s(5, m))*p + s(6, m))*p + s(7, m)
+                acc = acc + v
+                j = neigh(k0 + kk(k))
+                rho(j) = rho(j) + v
             end do
             rho(i) = rho(i) + acc
         end do
@@ -776,44 +836,89 @@ contains
         energy = energy + e
     end subroutine embed_kernel
 
-    !> One type: psi'(r) = (fp_i + fp_j) rho'(r) + phi'(r), phi = z/r, phi' = (z' - phi)/r.
-    subroutine force_one(nlocal, x, f, first, neigh, cutsq, rdr, nr, sr, sz, fp, want_energy, energy, virial)
+    !> One type: psi'(r) = (fp_i + fp_j) rho'(r) + phi'(r), phi = z/r, phi' = (z' - phi)/r. Staged as
+    !> density_one: gathered separations, vectorised squared distances, branch-free compaction of
+    !> the pairs inside the cutoff (separations and fp(j) packed with them), a vectorised pass for
+    !> r, 1/r, the knot and the offset, the table lookups (one record per pair, t = ztab), then a
+    !> vectorised pass for the pair forces and the scatter (Newton's third law).
+    subroutine force_one(nlocal, x, f, first, neigh, cutsq, rdr, nr, t, fp, want_energy, energy, virial, &
+                         dx, dy, dz, rr, pp, rinv, fj, ph, kk, mm)
         integer, intent(in) :: nlocal, nr
-        real(dp), intent(in), contiguous :: x(:, :), sr(:, :), sz(:, :), fp(:)
+        real(dp), intent(in), contiguous :: x(:, :), t(:, :), fp(:)
         real(dp), intent(inout), contiguous :: f(:, :)
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in) :: cutsq, rdr
         logical, intent(in) :: want_energy
         real(dp), intent(inout) :: energy, virial
-        integer :: i, j, k, m
-        real(dp) :: xi, yi, zi, fpi, dx, dy, dz, rsq, r, p, rp, z, zp, recip, phi, fpair, fxi, fyi, fzi, e, w, top
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:)
+        integer, intent(inout), contiguous :: kk(:), mm(:)
+        integer :: i, j, k, m, k0, nn, nin
+        real(dp) :: xi, yi, zi, fpi, p, r, rp, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top, ddx, ddy, ddz
         top = nr - 1
         e = 0; w = 0
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i)
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            !GCC$ novector
+            do k = 1, nn
+                j = neigh(k0 + k)
+                dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
+            end do
+            do k = 1, nn
+                rr(k) = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
+            end do
+            ! compaction in place (nin <= k): separations, squared distance, list position
+            nin = 0
+            do k = 1, nn
+                ddx = dx(k); ddy = dy(k); ddz = dz(k)
+                dx(nin + 1) = ddx; dy(nin + 1) = ddy; dz(nin + 1) = ddz
+                pp(nin + 1) = rr(k)
+                kk(nin + 1) = k
+                nin = nin + merge(1, 0, rr(k) < cutsq)
+            end do
+            !GCC$ novector
+            do k = 1, nin
+                fj(k) = fp(neigh(k0 + kk(k)))
+            end do
+            do k = 1, nin
+                r = sqrt(pp(k))
+                rinv(k) = 1/r
+                rr(k) = pp(k)
+                p = r*rdr + 1
+                m = int(min(p, top))
+                mm(k) = m
+                pp(k) = min(p - m, 1.0_dp)
+            end do
+            ! lookups: rp -> fj (times fp_i + fp_j), z' -> pp, z -> ph; rr keeps r^2, rinv becomes fpair
+            do k = 1, nin
+                m = mm(k); p = pp(k)
+                rp = (t(1, m)*p + t(2, m))*p + t(3, m)
+                zp = (t(4, m)*p + t(5, m))*p + t(6, m)
+                z = ((t(7, m)*p + t(8, m))*p + t(9, m))*p + t(10, m)
+                fj(k) = (fpi + fj(k))*rp
+                pp(k) = zp
+                ph(k) = z
+            end do
             fxi = 0; fyi = 0; fzi = 0
-            do k = first(i), first(i + 1) - 1
-                j = neigh(k)
-                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
-                rsq = dx*dx + dy*dy + dz*dz
-                if (rsq < cutsq) then
-                    r = sqrt(rsq)
-                    p = r*rdr + 1
-                    m = int(min(p, top))
-                    p = min(p - m, 1.0_dp)
-                    rp = (sr(1, m)*p + sr(2, m))*p + sr(3, m)
-                    zp = (sz(1, m)*p + sz(2, m))*p + sz(3, m)
-                    z = ((sz(4, m)*p + sz(5, m))*p + sz(6, m))*p + sz(7, m)
-                    recip = 1/r
-                    phi = z*recip
-                    fpair = -((fpi + fp(j))*rp + (zp*recip - phi*recip))*recip
-                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
-                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
-                    if (want_energy) then
-                        e = e + phi
-                        w = w + rsq*fpair
-                    end if
-                end if
+            do k = 1, nin
+                phi = ph(k)*rinv(k)
+                ph(k) = phi
+                fpair = -(fj(k) + (pp(k)*rinv(k) - phi*rinv(k)))*rinv(k)
+                rinv(k) = fpair
+                dx(k) = dx(k)*fpair; dy(k) = dy(k)*fpair; dz(k) = dz(k)*fpair
+                fxi = fxi + dx(k); fyi = fyi + dy(k); fzi = fzi + dz(k)
+            end do
+            if (want_energy) then
+                do k = 1, nin
+                    e = e + ph(k)
+                    w = w + rr(k)*rinv(k)
+                end do
+            end if
+            !GCC$ novector
+            do k = 1, nin
+                j = neigh(k0 + kk(k))
+                f(1, j) = f(1, j) - dx(k); f(2, j) = f(2, j) - dy(k); f(3, j) = f(3, j) - dz(k)
             end do
             f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
         end do

@@ -546,8 +546,15 @@ contains
             if (size(self%ray_acc, 2) < n) deallocate (self%ray_acc)
         end if
         if (.not. allocated(self%ray_acc)) allocate (self%ray_acc(4, n + n/4 + 16))
-        call ray_pairs(self, n, atoms%x, atoms%v, atoms%type, list%first, list%neigh, list%below_first, list%below, s, &
-                       self%ray_acc, out)
+        if (self%ntypes == 1) then
+            call reserve_work(self, n, list%first)
+            call reserve_work(self, n, list%below_first)
+            call ray_one(self, n, atoms%x, atoms%v, list%first, list%neigh, list%below_first, list%below, s, &
+                         self%ray_acc, out)
+        else
+            call ray_pairs(self, n, atoms%x, atoms%v, atoms%type, list%first, list%neigh, list%below_first, list%below, &
+                           s, self%ray_acc, out)
+        end if
         call ray_embed(n, atoms%type, self%t2f, self%fspl, self%rdrho, self%nrho, self%rhomax, self%ray_acc, out, lo, hi)
         self%rho_low = min(self%rho_low, lo)
         self%rho_high = max(self%rho_high, hi)
@@ -638,6 +645,116 @@ contains
         out = out + [e, e1, e2, w]
     end subroutine ray_pairs
 
+    !> ray_pairs for one type, staged like force_one: per atom, the separations and relative
+    !> velocities at s gathered into rows, squared distances vectorised, the pairs inside the cutoff
+    !> compacted without branches, r, 1/r, r', r'', knot and offset vectorised, then the lookups.
+    subroutine ray_one(self, nlocal, x, v, first, neigh, bfirst, below, s, acc, out)
+        type(eam_t), intent(inout) :: self
+        integer, intent(in) :: nlocal
+        real(dp), intent(in), contiguous :: x(:, :), v(:, :)
+        integer, intent(in), contiguous :: first(:), neigh(:), bfirst(:), below(:)
+        real(dp), intent(in) :: s
+        real(dp), intent(inout), contiguous :: acc(:, :)
+        real(dp), intent(inout) :: out(4)
+        integer :: i, j, k, m, nin, a, c
+        real(dp) :: xi, yi, zi, vxi, vyi, vzi, p, top, cutsq, rdr, r, rinv, rp, z, zp, zpp, phi, phip, phipp, &
+                    f0, f1, f2, e, e1, e2, w, a1, a2, a3, a4, q1, q2
+        top = self%nr - 1; cutsq = self%cutsq; rdr = self%rdr
+        a = self%t2rho(1, 1); c = self%t2z(1, 1)
+        e = 0; e1 = 0; e2 = 0; w = 0
+        acc(:, 1:nlocal) = 0
+        associate (sr => self%rspl(:, :, a), sz => self%zspl(:, :, c), dx => self%work(:, 1), dy => self%work(:, 2), &
+                   dz => self%work(:, 3), wx => self%work(:, 4), wy => self%work(:, 5), wz => self%work(:, 6), &
+                   rr => self%work(:, 7), pp => self%work(:, 8), rpv => self%work(:, 9), rppv => self%work(:, 10), &
+                   rv => self%work(:, 11), kk => self%iwork(:, 1), mm => self%iwork(:, 2))
+        do i = 1, nlocal
+            vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
+            xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
+            a1 = 0; a2 = 0; a3 = 0; a4 = 0
+            ! the half list (pair terms; densities of i and of owned j), then the complement (density of i)
+            call stage(neigh, first(i) - 1, first(i + 1) - first(i))
+            do k = 1, nin
+                m = mm(k); p = pp(k); r = rv(k); rinv = rr(k); rp = rpv(k)
+                z = ((sz(4, m)*p + sz(5, m))*p + sz(6, m))*p + sz(7, m)
+                zp = (sz(1, m)*p + sz(2, m))*p + sz(3, m)
+                zpp = (2*sz(1, m)*p + sz(2, m))*rdr
+                phi = z*rinv
+                phip = (zp - phi)*rinv
+                phipp = (zpp - 2*phip)*rinv
+                e = e + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rppv(k); w = w - r*phip
+                f0 = ((sr(4, m)*p + sr(5, m))*p + sr(6, m))*p + sr(7, m)
+                f1 = (sr(1, m)*p + sr(2, m))*p + sr(3, m)
+                f2 = (2*sr(1, m)*p + sr(2, m))*rdr
+                q1 = f1*rp
+                q2 = f2*rp*rp + f1*rppv(k)
+                a1 = a1 + f0; a2 = a2 + q1; a3 = a3 + q2; a4 = a4 + r*f1
+                j = neigh(first(i) - 1 + kk(k))
+                if (j <= nlocal) then
+                    acc(1, j) = acc(1, j) + f0; acc(2, j) = acc(2, j) + q1
+                    acc(3, j) = acc(3, j) + q2; acc(4, j) = acc(4, j) + r*f1
+                end if
+            end do
+            call stage(below, bfirst(i) - 1, bfirst(i + 1) - bfirst(i))
+            do k = 1, nin
+                m = mm(k); p = pp(k); r = rv(k); rp = rpv(k)
+                f0 = ((sr(4, m)*p + sr(5, m))*p + sr(6, m))*p + sr(7, m)
+                f1 = (sr(1, m)*p + sr(2, m))*p + sr(3, m)
+                f2 = (2*sr(1, m)*p + sr(2, m))*rdr
+                a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + f2*rp*rp + f1*rppv(k); a4 = a4 + r*f1
+            end do
+            acc(1, i) = acc(1, i) + a1; acc(2, i) = acc(2, i) + a2
+            acc(3, i) = acc(3, i) + a3; acc(4, i) = acc(4, i) + a4
+        end do
+        end associate
+        out = out + [e, e1, e2, w]
+    contains
+        !> Rows for the nn neighbours list(k0+1 : k0+nn) of atom i: the nin inside the cutoff, with
+        !> r (rv), 1/r (rr), r' (rpv), r'' (rppv), knot (mm), offset (pp) and list position (kk).
+        subroutine stage(list, k0_, nn_)
+            integer, intent(in), contiguous :: list(:)
+            integer, intent(in) :: k0_, nn_
+            integer :: q, jj, mq
+            real(dp) :: ddx, ddy, ddz, dwx, dwy, dwz, rq, rinvq, rpq, pq
+            associate (dx => self%work(:, 1), dy => self%work(:, 2), dz => self%work(:, 3), wx => self%work(:, 4), &
+                       wy => self%work(:, 5), wz => self%work(:, 6), rr => self%work(:, 7), pp => self%work(:, 8), &
+                       rpv => self%work(:, 9), rppv => self%work(:, 10), rv => self%work(:, 11), kk => self%iwork(:, 1), &
+                       mm => self%iwork(:, 2))
+            !GCC$ novector
+            do q = 1, nn_
+                jj = list(k0_ + q)
+                wx(q) = vxi - v(1, jj); wy(q) = vyi - v(2, jj); wz(q) = vzi - v(3, jj)
+                dx(q) = xi - (x(1, jj) + s*v(1, jj)); dy(q) = yi - (x(2, jj) + s*v(2, jj))
+                dz(q) = zi - (x(3, jj) + s*v(3, jj))
+            end do
+            do q = 1, nn_
+                rr(q) = dx(q)*dx(q) + dy(q)*dy(q) + dz(q)*dz(q)
+            end do
+            nin = 0
+            do q = 1, nn_
+                ddx = dx(q); ddy = dy(q); ddz = dz(q); dwx = wx(q); dwy = wy(q); dwz = wz(q)
+                dx(nin + 1) = ddx; dy(nin + 1) = ddy; dz(nin + 1) = ddz
+                wx(nin + 1) = dwx; wy(nin + 1) = dwy; wz(nin + 1) = dwz
+                pp(nin + 1) = rr(q)
+                kk(nin + 1) = q
+                nin = nin + merge(1, 0, rr(q) < cutsq)
+            end do
+            do q = 1, nin
+                rq = sqrt(pp(q))
+                rinvq = 1/rq
+                rpq = (dx(q)*wx(q) + dy(q)*wy(q) + dz(q)*wz(q))*rinvq
+                rv(q) = rq
+                rr(q) = rinvq
+                rpv(q) = rpq
+                rppv(q) = (wx(q)*wx(q) + wy(q)*wy(q) + wz(q)*wz(q) - rpq*rpq)*rinvq
+                pq = rq*rdr + 1
+                mq = int(min(pq, top))
+                mm(q) = mq
+                pp(q) = min(pq - mq, 1.0_dp)
+            end do
+            end associate
+        end subroutine stage
+    end subroutine ray_one
+
     !> Embedding terms of the ray from acc(1:4, i) = (rho, rho', rho'', sum_j r f'): F(rho_i),
     !> F' rho', F'' rho'^2 + F' rho'', and the virial share -F' sum_j r f'; lo, hi: extremes of rho.
     subroutine ray_embed(n, type, t2f, fspl, rdrho, nrho, rhomax, acc, out, lo, hi)
@@ -704,7 +821,7 @@ contains
         if (allocated(self%work)) then
             if (size(self%work, 1) < nb) deallocate (self%work, self%iwork)
         end if
-        if (.not. allocated(self%work)) allocate (self%work(nb + nb/4, 8), self%iwork(nb + nb/4, 2))
+        if (.not. allocated(self%work)) allocate (self%work(nb + nb/4, 12), self%iwork(nb + nb/4, 2))
     end subroutine reserve_work
 
     !> One type: the force pass's three lookups (rho', z', z) side by side per knot, so that a pair

@@ -10,6 +10,10 @@
 !> The work is split as the engine needs it in parallel: `density` sums rho over the half list
 !> (ghosts included, the caller reverse-sums ghost rho into the owners), `embed` evaluates F and
 !> fp = F'(rho) of owned atoms (the caller forwards fp to ghosts), `force` adds the pair forces.
+!> For energy stepping, `ray` returns V, V', V'' and the virial along x + s v with no communication
+!> (it needs the neighbour list's complement of ghost partners, list%want_below; see eam_ray).
+!> The one-type (funcfl) kernels are staged for vectorisation (see density_one); the multi-type
+!> kernels are plain loops.
 !>
 !> Tables and interpolation as LAMMPS (so that energies and forces agree to round-off):
 !> - Grids: rho_k = (k-1) drho, k = 1..nrho, for F; r_k = (k-1) dr, k = 1..nr, for rho(r) and

@@ -30,6 +30,10 @@ import subprocess
 import sys
 import tempfile
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import es_cost                      # noqa: E402  (shared log parser and shell helper)
+from es_cost import sh              # noqa: E402
+
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..'))
 POT = '/usr/share/lammps/potentials/Cu_u3.eam'
 A0 = 3.615
@@ -53,26 +57,11 @@ RUN = """\
 """
 
 
-def sh(cmd):
-    try:
-        return subprocess.run(cmd, capture_output=True, text=True).stdout.strip()
-    except OSError:
-        return ''
-
-
 def parse_log(out):
-    def g(pat, conv=float, default=None):
-        m = re.search(pat, out, re.M)
-        return conv(m.group(1)) if m else default
-    r = {'loop': g(r'^Loop time:\s*([0-9.eE+-]+)\s*s'), 'n': g(r'^Loop time: .* for (\d+) ', int),
-         'output': g(r'^Output\s+([0-9.eE+-]+)', float, 0.0), 'pair': g(r'^Pair\s+([0-9.eE+-]+)', float, 0.0),
-         'search': g(r'^Search\s+([0-9.eE+-]+)', float, 0.0)}
-    m = re.search(r'^Events:\s*(\d+)\s*\((\d+) up, (\d+) down, (\d+) reflections\)', out, re.M)
-    if m:
-        r['events'], r['up'], r['down'], r['refl'] = (int(x) for x in m.groups())
-        r['mean_dt'] = g(r'^Mean event interval:\s*([0-9.eE+-]+)')
-        r['evals'] = g(r'ray evaluations per event:\s*([0-9.eE+-]+)')
-        r['passes'] = g(r'force passes per event:\s*([0-9.eE+-]+)')
+    """es_cost.py's parser (loop time, phases, event statistics) plus the Output phase."""
+    r = es_cost.parse_log(out)
+    m = re.search(r'^Output\s+([0-9.eE+-]+)', out, re.M)
+    r['output'] = float(m.group(1)) if m else 0.0
     return r
 
 

@@ -841,6 +841,26 @@ contains
         self%ztab(7:10, :) = self%zspl(4:7, :, c)
     end subroutine build_ztab
 
+    !> Separations (dx, dy, dz)(k) = x_i - x_j and their squares rr(k) for the nn neighbours
+    !> j = neigh(k0 + k) of an atom at (xi, yi, zi): a scalar gather into contiguous rows, then a
+    !> vectorised pass (the first two stages of the one-type kernels).
+    subroutine separations(xi, yi, zi, x, neigh, k0, nn, dx, dy, dz, rr)
+        real(dp), intent(in) :: xi, yi, zi
+        real(dp), intent(in), contiguous :: x(:, :)
+        integer, intent(in), contiguous :: neigh(:)
+        integer, intent(in) :: k0, nn
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:)
+        integer :: k, j
+        !GCC$ novector
+        do k = 1, nn
+            j = neigh(k0 + k)
+            dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
+        end do
+        do k = 1, nn
+            rr(k) = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
+        end do
+    end subroutine separations
+
     !> One type: one density table. Per atom: separations gathered into contiguous rows, squared
     !> distances in a vectorised pass, the pairs inside the cutoff compacted without branches (the
     !> list holds the skin shell too: a branch there is mispredicted about half the time), their
@@ -860,14 +880,7 @@ contains
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
             k0 = first(i) - 1
             nn = first(i + 1) - first(i)
-            !GCC$ novector
-            do k = 1, nn
-                j = neigh(k0 + k)
-                dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
-            end do
-            do k = 1, nn
-                rr(k) = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
-            end do
+            call separations(xi, yi, zi, x, neigh, k0, nn, dx, dy, dz, rr)
             nin = 0
             do k = 1, nn
                 kk(nin + 1) = k
@@ -981,14 +994,7 @@ contains
             xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i)
             k0 = first(i) - 1
             nn = first(i + 1) - first(i)
-            !GCC$ novector
-            do k = 1, nn
-                j = neigh(k0 + k)
-                dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
-            end do
-            do k = 1, nn
-                rr(k) = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
-            end do
+            call separations(xi, yi, zi, x, neigh, k0, nn, dx, dy, dz, rr)
             ! compaction in place (nin <= k): separations, squared distance, list position
             nin = 0
             do k = 1, nn

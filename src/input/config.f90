@@ -476,8 +476,6 @@ contains
             cfg%nml%find('potential', 'cutoff') > 0) call stop_all(cfg%where('potential', 'style')// &
             ': epsilon, sigma and cutoff are for the LJ styles (an EAM file sets its own cutoff)')
         call validate_run_settings(cfg)
-        if (cfg%integrator == 'energy_stepping') call stop_all(cfg%where('integrator', 'style')// &
-            ": energy stepping with EAM is not available yet (use style = 'velocity_verlet')")
         if (cfg%list == 'all_pairs') call stop_all(cfg%where('neighbor', 'list')// &
             ": 'all_pairs' is not available with EAM (use 'auto' or 'cells')")
     end subroutine validate_eam

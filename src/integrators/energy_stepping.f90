@@ -28,6 +28,7 @@ module terrace_energy_stepping
     use terrace_mpi_env, only: world, sum_all, min_all
     use terrace_errors, only: stop_all, check_all
     use terrace_run_checks, only: energy_guard_t
+    use terrace_velocities, only: kinetic_energy
     use terrace_jump, only: terrace_jump_lambda, jump_climb, jump_reflect, jump_fall, jump_none
     use terrace_run_control, only: run_control_t
     use terrace_checkpoint, only: ckpt_values_t
@@ -97,16 +98,32 @@ contains
         b = eng%cfg%units%mvv2e*acc(3)
     end subroutine gradient_sums
 
+    !> The variance of dV/dt used to predict the level-crossing rate: that of the initial state,
+    !> sum |g_i|^2 |v_i|^2 / d, or, when larger, the equilibrium estimate k_B T v.H.v / 4 from the
+    !> curvature along the velocities (one ray pass). Equipartition gives <(g_i.v_i)^2> =
+    !> k_B T tr(H_ii) k_B T / m_i = k_B T <v.H.v> per atom at temperature T; a crystal started on its
+    !> lattice (g = 0) settles at about half its initial temperature, hence the 1/4. In an equilibrated
+    !> state the first estimate is the larger one.
+    real(dp) function crossing_sigma2(eng) result(sigma2)
+        type(engine_t), intent(inout) :: eng
+        real(dp) :: a, b, ray(4), kt
+        call gradient_sums(eng, sigma2, a, b)
+        call eng%ray_pass(0.0_dp, ray)
+        kt = 0
+        if (eng%dof() > 0) kt = 2*kinetic_energy(eng%atoms, eng%cfg%units)/eng%dof()
+        sigma2 = max(sigma2, 0.25_dp*kt*ray(3))
+    end function crossing_sigma2
+
     !> The terrace height: given, or chosen for a target mean event interval from the level-crossing
-    !> rate of the initial state, E|dV/dt| / h with E|dV/dt| = sqrt(2/pi) sigma (Rice).
+    !> rate, E|dV/dt| / h with E|dV/dt| = sqrt(2/pi) sigma (Rice), sigma^2 from crossing_sigma2.
     real(dp) function choose_terrace_height(eng) result(h)
         type(engine_t), intent(inout) :: eng
-        real(dp) :: sigma2, a, b
+        real(dp) :: sigma2
         real(dp), parameter :: pi = 4*atan(1.0_dp)
         if (eng%cfg%terrace_height > 0) then
             h = eng%cfg%terrace_height
         else
-            call gradient_sums(eng, sigma2, a, b)
+            sigma2 = crossing_sigma2(eng)
             h = eng%cfg%target_mean_dt*sqrt(2/pi)*sqrt(sigma2)
             if (.not. (h > 0)) call stop_all(eng%cfg%where('integrator', 'target_mean_dt')// &
                 ': cannot choose a terrace height: the initial state has no motion or no force')
@@ -120,24 +137,39 @@ contains
     subroutine print_es_estimates(eng, h)
         type(engine_t), intent(inout) :: eng
         real(dp), intent(in) :: h
-        real(dp) :: sigma2, a, b, mean_dt, refl, tau, dt_vv, sig, eps, m
+        real(dp) :: sigma2, a, b, mean_dt, refl, tau, dt_vv, sig, eps, m, ray(4), omega2
         real(dp), parameter :: pi = 4*atan(1.0_dp)
+        character(len=:), allocatable :: how
         call gradient_sums(eng, sigma2, a, b)
+        sigma2 = crossing_sigma2(eng)
+        if (eng%use_eam) then
+            ! no LJ time unit: 1/50 of the mean vibration period 2 pi / omega, omega^2 = v.H.v / v.M.v
+            ! (a Rayleigh quotient over the thermal velocities; LJ's 0.005 tau is about the same fraction)
+            call eng%ray_pass(0.0_dp, ray)
+            omega2 = ray(3)/max(2*kinetic_energy(eng%atoms, eng%cfg%units), tiny(1.0_dp))
+        end if
         if (world%rank /= 0) return
         mean_dt = huge(1.0_dp)
         if (sigma2 > 0) mean_dt = h/(sqrt(2/pi)*sqrt(sigma2))
         refl = 0
         if (sigma2 > 0) refl = 1 - exp(-h*a/(eng%cfg%units%mvv2e**2*sigma2))
-        eps = eng%lj%lj4(1, 1)**2/(4*eng%lj%lj3(1, 1))
-        sig = (eng%lj%lj3(1, 1)/eng%lj%lj4(1, 1))**(1.0_dp/6)
-        m = eng%atoms%mass(1)
-        tau = sig*sqrt(m*eng%cfg%units%mvv2e/eps)
-        dt_vv = 0.005_dp*tau
+        if (eng%use_eam) then
+            dt_vv = huge(1.0_dp)
+            if (omega2 > 0) dt_vv = 2*pi/sqrt(omega2)/50
+            how = ' (period/50)'
+        else
+            eps = eng%lj%lj4(1, 1)**2/(4*eng%lj%lj3(1, 1))
+            sig = (eng%lj%lj3(1, 1)/eng%lj%lj4(1, 1))**(1.0_dp/6)
+            m = eng%atoms%mass(1)
+            tau = sig*sqrt(m*eng%cfg%units%mvv2e/eps)
+            dt_vv = 0.005_dp*tau
+            how = ' (0.005 tau)'
+        end if
         write (output_unit, '(a,es12.5,1x,a)') '  terrace h  : ', h, trim(eng%cfg%units%energy)
         write (output_unit, '(a,es12.5,1x,a,a,f0.1,a)') '  expected   : mean event interval ~ ', mean_dt, &
             trim(eng%cfg%units%time), ', about ', 100*refl/2, ' % of events reflections'
         write (output_unit, '(a,es12.5,1x,a,a,f0.2,a)') '  vs Verlet  : a stable Verlet step here is ~ ', dt_vv, &
-            trim(eng%cfg%units%time), ' (0.005 tau); ratio ', mean_dt/dt_vv, &
+            trim(eng%cfg%units%time), how//'; ratio ', mean_dt/dt_vv, &
             ' (an event costs about 2-3 force passes: energy stepping pays off above ~3)'
     end subroutine print_es_estimates
 

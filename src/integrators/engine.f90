@@ -230,6 +230,8 @@ contains
 
         self%list%dimension = cfg%dimension
         if (self%plan%pair_mode == pair_cells) call self%list%init(self%cutmax, cfg%skin, cfg%dimension)
+        ! EAM ray passes need each owned atom's whole neighbourhood (see terrace_eam's eam_ray)
+        self%list%want_below = self%use_eam .and. cfg%integrator == 'energy_stepping'
         call self%rebuild()
         call check_overlaps(self)
         call self%compute_forces(.true.)
@@ -616,7 +618,9 @@ contains
         real(dp), intent(in) :: s
         real(dp), intent(out) :: out(4)
         call self%timers%start(t_search)
-        if (self%plan%pair_mode == pair_all) then
+        if (self%use_eam) then
+            call self%eam%ray(self%atoms, self%list, s, out)
+        else if (self%plan%pair_mode == pair_all) then
             call self%lj%ray_all_pairs(self%atoms, s, out)
         else
             call self%lj%ray(self%atoms, self%list, s, out)

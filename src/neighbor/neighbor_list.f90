@@ -34,6 +34,13 @@ module terrace_neighbor_list
         integer, allocatable :: cj(:), keep(:)
         integer :: builds = 0
         integer :: max_neighbors = 0                    !< longest row of the list
+        !> Optional complement (want_below): for each owned atom i, the ghosts within the list
+        !> cutoff that the half list leaves to their owners (those "below" i in (z, y, x) order);
+        !> with the half list, each owned atom's full neighbourhood (EAM densities without a
+        !> reverse sum). below(below_first(i) : below_first(i+1)-1).
+        logical :: want_below = .false.
+        integer, allocatable :: below_first(:), below(:)
+        integer :: max_below = 0
     contains
         procedure :: init => nl_init
         procedure :: setup_bins => nl_setup_bins
@@ -283,8 +290,67 @@ contains
         end if
         if (.not. allocated(self%xhold)) allocate (self%xhold(3, max(nlocal, 1) + nlocal/4))
         self%xhold(:, 1:nlocal) = atoms%x(:, 1:nlocal)
+        if (self%want_below) call build_below(self, atoms)
         self%builds = self%builds + 1
     end subroutine nl_build
+
+    !> The complement of the half list's ghost pairs: for each owned atom, the ghosts of the
+    !> stencil rows below in z (all of them) and of the rows at the same z and the centre row
+    !> (those not above it in (z, y, x) order, the half list's rule negated), within the cutoff.
+    !> Every ghost of the full stencil is thus either in the half list or here, never both.
+    !> Built at every rebuild when want_below (scalar: rebuild cost only).
+    subroutine build_below(self, atoms)
+        type(neighbor_list_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer :: i, b, r, n, nlocal, ntot, cr, need
+        nlocal = atoms%nlocal
+        ntot = product(self%nbin)
+        cr = self%center_reach
+        call ensure_int(self%below_first, nlocal + 1)
+        need = max(self%first(nlocal + 1), 1024)
+        if (allocated(self%below)) then
+            if (size(self%below) < need) deallocate (self%below)
+        end if
+        if (.not. allocated(self%below)) allocate (self%below(need))
+        n = 0
+        self%below_first(1) = 1
+        associate (owned_start => self%owned_start, ghost_start => self%ghost_start, row_lo => self%row_lo, &
+                   row_hi => self%row_hi, row_dz => self%row_dz)
+        do b = 1, ntot
+            do i = owned_start(b), owned_start(b + 1) - 1
+                call take(ghost_start(b - cr), ghost_start(b + cr + 1) - 1, .true.)
+                do r = 1, self%nrows
+                    if (row_dz(r) > 0) cycle
+                    call take(ghost_start(b + row_lo(r)), ghost_start(b + row_hi(r) + 1) - 1, row_dz(r) == 0)
+                end do
+                self%below_first(i + 1) = n + 1
+            end do
+        end do
+        end associate
+        self%max_below = 0
+        do i = 1, nlocal
+            self%max_below = max(self%max_below, self%below_first(i + 1) - self%below_first(i))
+        end do
+    contains
+        subroutine take(k1, k2, test_order)
+            integer, intent(in) :: k1, k2
+            logical, intent(in) :: test_order
+            integer :: k, j
+            real(dp) :: dx, dy, dz
+            do k = k1, k2
+                j = self%ghost_atoms(k)
+                dx = atoms%x(1, j) - atoms%x(1, i); dy = atoms%x(2, j) - atoms%x(2, i)
+                dz = atoms%x(3, j) - atoms%x(3, i)
+                if (dx*dx + dy*dy + dz*dz >= self%cutsq) cycle
+                if (test_order) then
+                    if (dz > 0 .or. (dz == 0 .and. (dy > 0 .or. (dy == 0 .and. dx > 0)))) cycle
+                end if
+                if (n + 1 > size(self%below)) call grow_int(self%below, n, 2*size(self%below))
+                n = n + 1
+                self%below(n) = j
+            end do
+        end subroutine take
+    end subroutine build_below
 
     !> Owned atoms after i in its own bin (i+1..last), within the cutoff.
     subroutine owned_after(i, last, x, cutsq, neigh, n)

@@ -10,6 +10,10 @@
 !> The work is split as the engine needs it in parallel: `density` sums rho over the half list
 !> (ghosts included, the caller reverse-sums ghost rho into the owners), `embed` evaluates F and
 !> fp = F'(rho) of owned atoms (the caller forwards fp to ghosts), `force` adds the pair forces.
+!> For energy stepping, `ray` returns V, V', V'' and the virial along x + s v with no communication
+!> (it needs the neighbour list's complement of ghost partners, list%want_below; see eam_ray).
+!> The one-type (funcfl) kernels are staged for vectorisation (see density_one); the multi-type
+!> kernels are plain loops.
 !>
 !> Tables and interpolation as LAMMPS (so that energies and forces agree to round-off):
 !> - Grids: rho_k = (k-1) drho, k = 1..nrho, for F; r_k = (k-1) dr, k = 1..nr, for rho(r) and
@@ -51,6 +55,10 @@ module terrace_eam
         real(dp), allocatable :: mass(:)            !< per atom type, from the file (amu)
         real(dp), allocatable :: rho(:)             !< per atom (owned + ghost), electron density
         real(dp), allocatable :: fp(:)              !< per atom (owned + ghost), F'(rho)
+        real(dp), allocatable :: ray_acc(:, :)      !< ray pass: (rho, rho', rho'', sum r f') per owned atom
+        real(dp), allocatable :: work(:, :)         !< one-type kernels: per-neighbour rows of the current atom
+        integer, allocatable :: iwork(:, :)         !< one-type kernels: compacted neighbour indices and knots
+        real(dp), allocatable :: ztab(:, :)         !< one type: (rho' c0..c2, z' c0..c2, z c3..c6) per r knot
         character(len=16) :: style = ''
         integer :: nrho = 0, nr = 0                 !< knots of the F tables and of the r tables
         real(dp) :: drho = 0, dr = 0, rdrho = 0, rdr = 0
@@ -73,6 +81,7 @@ module terrace_eam
         procedure :: density => eam_density
         procedure :: embed => eam_embed
         procedure :: force => eam_force
+        procedure :: ray => eam_ray
         procedure :: embedding => eam_embedding
         procedure :: density_function => eam_density_function
         procedure :: pair_energy => eam_pair_energy
@@ -455,8 +464,10 @@ contains
         self%rho(1:nall) = 0
         if (atoms%nlocal == 0) return
         if (self%ntypes == 1) then
+            call reserve_work(self, atoms%nlocal, list%first)
             call density_one(atoms%nlocal, atoms%x, list%first, list%neigh, self%cutsq, self%rdr, self%nr, &
-                             self%rspl(:, :, self%t2rho(1, 1)), self%rho)
+                             self%rspl(:, :, self%t2rho(1, 1)), self%rho, self%work(:, 1), self%work(:, 2), &
+                             self%work(:, 3), self%work(:, 4), self%work(:, 5), self%iwork(:, 1), self%iwork(:, 2))
         else
             call density_types(self, atoms%nlocal, atoms%x, atoms%type, list%first, list%neigh, self%rho)
         end if
@@ -493,14 +504,299 @@ contains
         energy = 0; virial = 0
         if (atoms%nlocal == 0) return
         if (self%ntypes == 1) then
+            call reserve_work(self, atoms%nlocal, list%first)
+            if (.not. allocated(self%ztab)) call build_ztab(self)
             call force_one(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%cutsq, self%rdr, self%nr, &
-                           self%rspl(:, :, self%t2rho(1, 1)), self%zspl(:, :, self%t2z(1, 1)), self%fp, &
-                           want_energy, energy, virial)
+                           self%ztab, self%fp, want_energy, energy, virial, self%work(:, 1), self%work(:, 2), &
+                           self%work(:, 3), self%work(:, 4), self%work(:, 5), self%work(:, 6), self%work(:, 7), &
+                           self%work(:, 8), self%iwork(:, 1), self%iwork(:, 2))
         else
             call force_types(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, self%fp, &
                              want_energy, energy, virial)
         end if
     end subroutine eam_force
+
+    !> Energy stepping's ray pass: out = (V, dV/ds, d2V/ds2, W) along x + s v (every atom, ghosts
+    !> included, moves with its own velocity): this rank's share; the caller sums over ranks (the
+    !> only communication). Needs the list built with want_below.
+    !>
+    !> Design (no reverse sum): V = sum_pairs phi + sum_owned F(rho_i). The pair part runs over the
+    !> half list (each pair once across ranks). The embedding part needs rho_i, rho_i', rho_i'' of
+    !> every owned atom complete on this rank. Ghosts exist within cutoff + skin of the subdomain,
+    !> so every owned atom's whole neighbourhood is here: the half list's owned-owned pairs add to
+    !> both atoms, its owned-ghost pairs to the owned atom only, and list%below (the ghosts the half
+    !> list leaves to their owners) completes the neighbourhood of each owned atom. Ghost
+    !> densities are never formed; each pair's density terms are thus evaluated once per owning
+    !> rank of each end (twice for pairs across ranks), the pair energy once. Along the ray, with
+    !> d = x_i - x_j and w = v_i - v_j at s, r' = d.w/r, r'' = (|w|^2 - r'^2)/r:
+    !>   rho_i' = sum_j f'(r) r',   rho_i'' = sum_j f''(r) r'^2 + f'(r) r'',
+    !>   V' += F'(rho_i) rho_i' + phi'(r) r',   V'' += F''(rho_i) rho_i'^2 + F'(rho_i) rho_i'' + phi'' r'^2 + phi' r''.
+    !> The virial -sum_pairs r psi'(r) splits into -sum_pairs r phi'(r) - sum_owned F'(rho_i) sum_j r f_ji'(r),
+    !> the inner sum gathered per owned atom like rho. Derivatives of the interpolants are those of
+    !> the cubic pieces (y'' = (2 c0 p + c1)/h); where F is continued (rho beyond the table) F' is
+    !> the held slope of the force pass and F'' = 0.
+    subroutine eam_ray(self, atoms, list, s, out)
+        class(eam_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        real(dp), intent(in) :: s
+        real(dp), intent(out) :: out(4)
+        integer :: n
+        real(dp) :: lo, hi
+        n = atoms%nlocal
+        out = 0
+        if (n == 0) return
+        if (allocated(self%ray_acc)) then
+            if (size(self%ray_acc, 2) < n) deallocate (self%ray_acc)
+        end if
+        if (.not. allocated(self%ray_acc)) allocate (self%ray_acc(4, n + n/4 + 16))
+        if (self%ntypes == 1) then
+            call reserve_work(self, n, list%first)
+            call reserve_work(self, n, list%below_first)
+            call ray_one(self, n, atoms%x, atoms%v, list%first, list%neigh, list%below_first, list%below, s, &
+                         self%ray_acc, out)
+        else
+            call ray_pairs(self, n, atoms%x, atoms%v, atoms%type, list%first, list%neigh, list%below_first, list%below, &
+                           s, self%ray_acc, out)
+        end if
+        call ray_embed(n, atoms%type, self%t2f, self%fspl, self%rdrho, self%nrho, self%rhomax, self%ray_acc, out, lo, hi)
+        self%rho_low = min(self%rho_low, lo)
+        self%rho_high = max(self%rho_high, hi)
+        if (lo < 0 .or. hi > self%rhomax) self%rho_outside = .true.
+    end subroutine eam_ray
+
+    !> Pair terms of the ray (half list) and the per-atom density sums acc(1:4, i) = (rho, rho',
+    !> rho'', sum_j r f') of owned atoms (half list + below list).
+    subroutine ray_pairs(self, nlocal, x, v, type, first, neigh, bfirst, below, s, acc, out)
+        type(eam_t), intent(in) :: self
+        integer, intent(in) :: nlocal
+        real(dp), intent(in), contiguous :: x(:, :), v(:, :)
+        integer, intent(in), contiguous :: type(:), first(:), neigh(:), bfirst(:), below(:)
+        real(dp), intent(in) :: s
+        real(dp), intent(inout), contiguous :: acc(:, :)
+        real(dp), intent(inout) :: out(4)
+        integer :: i, j, k, m, ti, tj, a, b, c
+        real(dp) :: xi, yi, zi, vxi, vyi, vzi, dx, dy, dz, wx, wy, wz, rsq, r, recip, rp, rpp, p, top, cutsq, rdr, &
+                    z, zp, zpp, phi, phip, phipp, f0, f1, f2, e, e1, e2, w, a1, a2, a3, a4
+        top = self%nr - 1; cutsq = self%cutsq; rdr = self%rdr
+        e = 0; e1 = 0; e2 = 0; w = 0
+        acc(:, 1:nlocal) = 0
+        associate (sr => self%rspl, sz => self%zspl)
+        do i = 1, nlocal
+            ti = type(i)
+            vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
+            xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
+            a1 = 0; a2 = 0; a3 = 0; a4 = 0
+            do k = first(i), first(i + 1) - 1
+                j = neigh(k)
+                dx = xi - (x(1, j) + s*v(1, j)); dy = yi - (x(2, j) + s*v(2, j)); dz = zi - (x(3, j) + s*v(3, j))
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq >= cutsq) cycle
+                wx = vxi - v(1, j); wy = vyi - v(2, j); wz = vzi - v(3, j)
+                tj = type(j)
+                r = sqrt(rsq); recip = 1/r
+                rp = (dx*wx + dy*wy + dz*wz)*recip
+                rpp = (wx*wx + wy*wy + wz*wz - rp*rp)*recip
+                p = r*rdr + 1
+                m = int(min(p, top))
+                p = min(p - m, 1.0_dp)
+                c = self%t2z(ti, tj)
+                z = ((sz(4, m, c)*p + sz(5, m, c))*p + sz(6, m, c))*p + sz(7, m, c)
+                zp = (sz(1, m, c)*p + sz(2, m, c))*p + sz(3, m, c)
+                zpp = (2*sz(1, m, c)*p + sz(2, m, c))*rdr
+                phi = z*recip
+                phip = (zp - phi)*recip
+                phipp = (zpp - 2*phip)*recip
+                e = e + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rpp; w = w - r*phip
+                a = self%t2rho(tj, ti)      ! density at i from j
+                f0 = ((sr(4, m, a)*p + sr(5, m, a))*p + sr(6, m, a))*p + sr(7, m, a)
+                f1 = (sr(1, m, a)*p + sr(2, m, a))*p + sr(3, m, a)
+                f2 = (2*sr(1, m, a)*p + sr(2, m, a))*rdr
+                a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + f2*rp*rp + f1*rpp; a4 = a4 + r*f1
+                if (j <= nlocal) then
+                    b = self%t2rho(ti, tj)  ! density at j from i
+                    f0 = ((sr(4, m, b)*p + sr(5, m, b))*p + sr(6, m, b))*p + sr(7, m, b)
+                    f1 = (sr(1, m, b)*p + sr(2, m, b))*p + sr(3, m, b)
+                    f2 = (2*sr(1, m, b)*p + sr(2, m, b))*rdr
+                    acc(1, j) = acc(1, j) + f0
+                    acc(2, j) = acc(2, j) + f1*rp
+                    acc(3, j) = acc(3, j) + f2*rp*rp + f1*rpp
+                    acc(4, j) = acc(4, j) + r*f1
+                end if
+            end do
+            do k = bfirst(i), bfirst(i + 1) - 1
+                j = below(k)
+                dx = xi - (x(1, j) + s*v(1, j)); dy = yi - (x(2, j) + s*v(2, j)); dz = zi - (x(3, j) + s*v(3, j))
+                rsq = dx*dx + dy*dy + dz*dz
+                if (rsq >= cutsq) cycle
+                wx = vxi - v(1, j); wy = vyi - v(2, j); wz = vzi - v(3, j)
+                r = sqrt(rsq); recip = 1/r
+                rp = (dx*wx + dy*wy + dz*wz)*recip
+                rpp = (wx*wx + wy*wy + wz*wz - rp*rp)*recip
+                p = r*rdr + 1
+                m = int(min(p, top))
+                p = min(p - m, 1.0_dp)
+                a = self%t2rho(type(j), ti)
+                f0 = ((sr(4, m, a)*p + sr(5, m, a))*p + sr(6, m, a))*p + sr(7, m, a)
+                f1 = (sr(1, m, a)*p + sr(2, m, a))*p + sr(3, m, a)
+                f2 = (2*sr(1, m, a)*p + sr(2, m, a))*rdr
+                a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + f2*rp*rp + f1*rpp; a4 = a4 + r*f1
+            end do
+            acc(1, i) = acc(1, i) + a1; acc(2, i) = acc(2, i) + a2
+            acc(3, i) = acc(3, i) + a3; acc(4, i) = acc(4, i) + a4
+        end do
+        end associate
+        out = out + [e, e1, e2, w]
+    end subroutine ray_pairs
+
+    !> ray_pairs for one type, staged like force_one: per atom, the separations and relative
+    !> velocities at s gathered into rows, squared distances vectorised, the pairs inside the cutoff
+    !> compacted without branches, r, 1/r, r', r'', knot and offset vectorised, then the lookups.
+    subroutine ray_one(self, nlocal, x, v, first, neigh, bfirst, below, s, acc, out)
+        type(eam_t), intent(inout) :: self
+        integer, intent(in) :: nlocal
+        real(dp), intent(in), contiguous :: x(:, :), v(:, :)
+        integer, intent(in), contiguous :: first(:), neigh(:), bfirst(:), below(:)
+        real(dp), intent(in) :: s
+        real(dp), intent(inout), contiguous :: acc(:, :)
+        real(dp), intent(inout) :: out(4)
+        integer :: i, j, k, m, nin, a, c
+        real(dp) :: xi, yi, zi, vxi, vyi, vzi, p, top, cutsq, rdr, r, rinv, rp, z, zp, zpp, phi, phip, phipp, &
+                    f0, f1, f2, e, e1, e2, w, a1, a2, a3, a4, q1, q2
+        top = self%nr - 1; cutsq = self%cutsq; rdr = self%rdr
+        a = self%t2rho(1, 1); c = self%t2z(1, 1)
+        e = 0; e1 = 0; e2 = 0; w = 0
+        acc(:, 1:nlocal) = 0
+        associate (sr => self%rspl(:, :, a), sz => self%zspl(:, :, c), dx => self%work(:, 1), dy => self%work(:, 2), &
+                   dz => self%work(:, 3), wx => self%work(:, 4), wy => self%work(:, 5), wz => self%work(:, 6), &
+                   rr => self%work(:, 7), pp => self%work(:, 8), rpv => self%work(:, 9), rppv => self%work(:, 10), &
+                   rv => self%work(:, 11), kk => self%iwork(:, 1), mm => self%iwork(:, 2))
+        do i = 1, nlocal
+            vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
+            xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
+            a1 = 0; a2 = 0; a3 = 0; a4 = 0
+            ! the half list (pair terms; densities of i and of owned j), then the complement (density of i)
+            call stage(neigh, first(i) - 1, first(i + 1) - first(i))
+            do k = 1, nin
+                m = mm(k); p = pp(k); r = rv(k); rinv = rr(k); rp = rpv(k)
+                z = ((sz(4, m)*p + sz(5, m))*p + sz(6, m))*p + sz(7, m)
+                zp = (sz(1, m)*p + sz(2, m))*p + sz(3, m)
+                zpp = (2*sz(1, m)*p + sz(2, m))*rdr
+                phi = z*rinv
+                phip = (zp - phi)*rinv
+                phipp = (zpp - 2*phip)*rinv
+                e = e + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rppv(k); w = w - r*phip
+                f0 = ((sr(4, m)*p + sr(5, m))*p + sr(6, m))*p + sr(7, m)
+                f1 = (sr(1, m)*p + sr(2, m))*p + sr(3, m)
+                f2 = (2*sr(1, m)*p + sr(2, m))*rdr
+                q1 = f1*rp
+                q2 = f2*rp*rp + f1*rppv(k)
+                a1 = a1 + f0; a2 = a2 + q1; a3 = a3 + q2; a4 = a4 + r*f1
+                j = neigh(first(i) - 1 + kk(k))
+                if (j <= nlocal) then
+                    acc(1, j) = acc(1, j) + f0; acc(2, j) = acc(2, j) + q1
+                    acc(3, j) = acc(3, j) + q2; acc(4, j) = acc(4, j) + r*f1
+                end if
+            end do
+            call stage(below, bfirst(i) - 1, bfirst(i + 1) - bfirst(i))
+            do k = 1, nin
+                m = mm(k); p = pp(k); r = rv(k); rp = rpv(k)
+                f0 = ((sr(4, m)*p + sr(5, m))*p + sr(6, m))*p + sr(7, m)
+                f1 = (sr(1, m)*p + sr(2, m))*p + sr(3, m)
+                f2 = (2*sr(1, m)*p + sr(2, m))*rdr
+                a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + f2*rp*rp + f1*rppv(k); a4 = a4 + r*f1
+            end do
+            acc(1, i) = acc(1, i) + a1; acc(2, i) = acc(2, i) + a2
+            acc(3, i) = acc(3, i) + a3; acc(4, i) = acc(4, i) + a4
+        end do
+        end associate
+        out = out + [e, e1, e2, w]
+    contains
+        !> Rows for the nn neighbours list(k0+1 : k0+nn) of atom i: the nin inside the cutoff, with
+        !> r (rv), 1/r (rr), r' (rpv), r'' (rppv), knot (mm), offset (pp) and list position (kk).
+        subroutine stage(list, k0_, nn_)
+            integer, intent(in), contiguous :: list(:)
+            integer, intent(in) :: k0_, nn_
+            integer :: q, jj, mq
+            real(dp) :: ddx, ddy, ddz, dwx, dwy, dwz, rq, rinvq, rpq, pq
+            associate (dx => self%work(:, 1), dy => self%work(:, 2), dz => self%work(:, 3), wx => self%work(:, 4), &
+                       wy => self%work(:, 5), wz => self%work(:, 6), rr => self%work(:, 7), pp => self%work(:, 8), &
+                       rpv => self%work(:, 9), rppv => self%work(:, 10), rv => self%work(:, 11), kk => self%iwork(:, 1), &
+                       mm => self%iwork(:, 2))
+            !GCC$ novector
+            do q = 1, nn_
+                jj = list(k0_ + q)
+                wx(q) = vxi - v(1, jj); wy(q) = vyi - v(2, jj); wz(q) = vzi - v(3, jj)
+                dx(q) = xi - (x(1, jj) + s*v(1, jj)); dy(q) = yi - (x(2, jj) + s*v(2, jj))
+                dz(q) = zi - (x(3, jj) + s*v(3, jj))
+            end do
+            do q = 1, nn_
+                rr(q) = dx(q)*dx(q) + dy(q)*dy(q) + dz(q)*dz(q)
+            end do
+            nin = 0
+            do q = 1, nn_
+                ddx = dx(q); ddy = dy(q); ddz = dz(q); dwx = wx(q); dwy = wy(q); dwz = wz(q)
+                dx(nin + 1) = ddx; dy(nin + 1) = ddy; dz(nin + 1) = ddz
+                wx(nin + 1) = dwx; wy(nin + 1) = dwy; wz(nin + 1) = dwz
+                pp(nin + 1) = rr(q)
+                kk(nin + 1) = q
+                nin = nin + merge(1, 0, rr(q) < cutsq)
+            end do
+            do q = 1, nin
+                rq = sqrt(pp(q))
+                rinvq = 1/rq
+                rpq = (dx(q)*wx(q) + dy(q)*wy(q) + dz(q)*wz(q))*rinvq
+                rv(q) = rq
+                rr(q) = rinvq
+                rpv(q) = rpq
+                rppv(q) = (wx(q)*wx(q) + wy(q)*wy(q) + wz(q)*wz(q) - rpq*rpq)*rinvq
+                pq = rq*rdr + 1
+                mq = int(min(pq, top))
+                mm(q) = mq
+                pp(q) = min(pq - mq, 1.0_dp)
+            end do
+            end associate
+        end subroutine stage
+    end subroutine ray_one
+
+    !> Embedding terms of the ray from acc(1:4, i) = (rho, rho', rho'', sum_j r f'): F(rho_i),
+    !> F' rho', F'' rho'^2 + F' rho'', and the virial share -F' sum_j r f'; lo, hi: extremes of rho.
+    subroutine ray_embed(n, type, t2f, fspl, rdrho, nrho, rhomax, acc, out, lo, hi)
+        integer, intent(in) :: n, nrho
+        integer, intent(in), contiguous :: type(:), t2f(:)
+        real(dp), intent(in), contiguous :: fspl(:, :, :), acc(:, :)
+        real(dp), intent(in) :: rdrho, rhomax
+        real(dp), intent(inout) :: out(4)
+        real(dp), intent(out) :: lo, hi
+        integer :: i, m, k
+        real(dp) :: p, top, rho, f0, f1, f2, e, e1, e2, w
+        top = nrho - 1
+        e = 0; e1 = 0; e2 = 0; w = 0
+        lo = huge(1.0_dp); hi = -huge(1.0_dp)
+        do i = 1, n
+            k = t2f(type(i))
+            rho = acc(1, i)
+            p = rho*rdrho + 1
+            m = int(max(1.0_dp, min(p, top)))
+            p = p - m
+            if (p > 1) then
+                ! held end of the table (and linear continuation above rhomax): F'' = 0
+                p = 1
+                f2 = 0
+            else
+                f2 = (2*fspl(1, m, k)*p + fspl(2, m, k))*rdrho
+            end if
+            f1 = (fspl(1, m, k)*p + fspl(2, m, k))*p + fspl(3, m, k)
+            f0 = ((fspl(4, m, k)*p + fspl(5, m, k))*p + fspl(6, m, k))*p + fspl(7, m, k)
+            if (rho > rhomax) f0 = f0 + f1*(rho - rhomax)
+            e = e + f0
+            e1 = e1 + f1*acc(2, i)
+            e2 = e2 + f2*acc(2, i)**2 + f1*acc(3, i)
+            w = w - f1*acc(4, i)
+            lo = min(lo, rho); hi = max(hi, rho)
+        end do
+        out = out + [e, e1, e2, w]
+    end subroutine ray_embed
 
     !> Grow a per-atom array to at least n entries (contents are not kept).
     subroutine reserve(a, n)
@@ -514,31 +810,96 @@ contains
         a = 0
     end subroutine reserve
 
-    !> One type: one density table.
-    subroutine density_one(nlocal, x, first, neigh, cutsq, rdr, nr, s, rho)
+    !> Work rows for the one-type kernels: as long as the longest row of the list (counted here from
+    !> first(1:nlocal+1), which every list has, hand-built ones included).
+    subroutine reserve_work(self, nlocal, first)
+        type(eam_t), intent(inout) :: self
+        integer, intent(in) :: nlocal
+        integer, intent(in), contiguous :: first(:)
+        integer :: i, nb
+        nb = 0
+        do i = 1, nlocal
+            nb = max(nb, first(i + 1) - first(i))
+        end do
+        nb = nb + 16
+        if (allocated(self%work)) then
+            if (size(self%work, 1) < nb) deallocate (self%work, self%iwork)
+        end if
+        if (.not. allocated(self%work)) allocate (self%work(nb + nb/4, 12), self%iwork(nb + nb/4, 2))
+    end subroutine reserve_work
+
+    !> One type: the force pass's three lookups (rho', z', z) side by side per knot, so that a pair
+    !> reads one record: t(1:3, m) = rho' coefficients, t(4:6, m) = z' coefficients, t(7:10, m) = z
+    !> coefficients (c3, c4, c5, y), as in rspl / zspl.
+    subroutine build_ztab(self)
+        type(eam_t), intent(inout) :: self
+        integer :: a, c
+        a = self%t2rho(1, 1); c = self%t2z(1, 1)
+        allocate (self%ztab(10, self%nr))
+        self%ztab(1:3, :) = self%rspl(1:3, :, a)
+        self%ztab(4:6, :) = self%zspl(1:3, :, c)
+        self%ztab(7:10, :) = self%zspl(4:7, :, c)
+    end subroutine build_ztab
+
+    !> Separations (dx, dy, dz)(k) = x_i - x_j and their squares rr(k) for the nn neighbours
+    !> j = neigh(k0 + k) of an atom at (xi, yi, zi): a scalar gather into contiguous rows, then a
+    !> vectorised pass (the first two stages of the one-type kernels).
+    subroutine separations(xi, yi, zi, x, neigh, k0, nn, dx, dy, dz, rr)
+        real(dp), intent(in) :: xi, yi, zi
+        real(dp), intent(in), contiguous :: x(:, :)
+        integer, intent(in), contiguous :: neigh(:)
+        integer, intent(in) :: k0, nn
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:)
+        integer :: k, j
+        !GCC$ novector
+        do k = 1, nn
+            j = neigh(k0 + k)
+            dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
+        end do
+        do k = 1, nn
+            rr(k) = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
+        end do
+    end subroutine separations
+
+    !> One type: one density table. Per atom: separations gathered into contiguous rows, squared
+    !> distances in a vectorised pass, the pairs inside the cutoff compacted without branches (the
+    !> list holds the skin shell too: a branch there is mispredicted about half the time), their
+    !> knots and offsets in a vectorised pass, then the table lookups and the scatter to rho(j).
+    subroutine density_one(nlocal, x, first, neigh, cutsq, rdr, nr, s, rho, dx, dy, dz, rr, pp, kk, mm)
         integer, intent(in) :: nlocal, nr
         real(dp), intent(in), contiguous :: x(:, :), s(:, :)
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in) :: cutsq, rdr
         real(dp), intent(inout), contiguous :: rho(:)
-        integer :: i, j, k, m
-        real(dp) :: xi, yi, zi, dx, dy, dz, rsq, p, v, acc, top
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:)
+        integer, intent(inout), contiguous :: kk(:), mm(:)
+        integer :: i, j, k, m, k0, nn, nin
+        real(dp) :: xi, yi, zi, p, v, acc, top
         top = nr - 1
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            call separations(xi, yi, zi, x, neigh, k0, nn, dx, dy, dz, rr)
+            nin = 0
+            do k = 1, nn
+                kk(nin + 1) = k
+                pp(nin + 1) = rr(k)
+                nin = nin + merge(1, 0, rr(k) < cutsq)
+            end do
+            do k = 1, nin
+                p = sqrt(pp(k))*rdr + 1
+                m = int(min(p, top))
+                mm(k) = m
+                pp(k) = min(p - m, 1.0_dp)
+            end do
             acc = 0
-            do k = first(i), first(i + 1) - 1
-                j = neigh(k)
-                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
-                rsq = dx*dx + dy*dy + dz*dz
-                if (rsq < cutsq) then
-                    p = sqrt(rsq)*rdr + 1
-                    m = int(min(p, top))
-                    p = min(p - m, 1.0_dp)
-                    v = ((s(4, m)*p + s(5, m))*p + s(6, m))*p + s(7, m)
-                    acc = acc + v
-                    rho(j) = rho(j) + v
-                end if
+            do k = 1, nin
+                m = mm(k); p = pp(k)
+                v = ((s(4, m)*p + s(5, m))*p + s(6, m))*p + s(7, m)
+                acc = acc + v
+                j = neigh(k0 + kk(k))
+                rho(j) = rho(j) + v
             end do
             rho(i) = rho(i) + acc
         end do
@@ -609,44 +970,82 @@ contains
         energy = energy + e
     end subroutine embed_kernel
 
-    !> One type: psi'(r) = (fp_i + fp_j) rho'(r) + phi'(r), phi = z/r, phi' = (z' - phi)/r.
-    subroutine force_one(nlocal, x, f, first, neigh, cutsq, rdr, nr, sr, sz, fp, want_energy, energy, virial)
+    !> One type: psi'(r) = (fp_i + fp_j) rho'(r) + phi'(r), phi = z/r, phi' = (z' - phi)/r. Staged as
+    !> density_one: gathered separations, vectorised squared distances, branch-free compaction of
+    !> the pairs inside the cutoff (separations and fp(j) packed with them), a vectorised pass for
+    !> r, 1/r, the knot and the offset, the table lookups (one record per pair, t = ztab), then a
+    !> vectorised pass for the pair forces and the scatter (Newton's third law).
+    subroutine force_one(nlocal, x, f, first, neigh, cutsq, rdr, nr, t, fp, want_energy, energy, virial, &
+                         dx, dy, dz, rr, pp, rinv, fj, ph, kk, mm)
         integer, intent(in) :: nlocal, nr
-        real(dp), intent(in), contiguous :: x(:, :), sr(:, :), sz(:, :), fp(:)
+        real(dp), intent(in), contiguous :: x(:, :), t(:, :), fp(:)
         real(dp), intent(inout), contiguous :: f(:, :)
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in) :: cutsq, rdr
         logical, intent(in) :: want_energy
         real(dp), intent(inout) :: energy, virial
-        integer :: i, j, k, m
-        real(dp) :: xi, yi, zi, fpi, dx, dy, dz, rsq, r, p, rp, z, zp, recip, phi, fpair, fxi, fyi, fzi, e, w, top
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:)
+        integer, intent(inout), contiguous :: kk(:), mm(:)
+        integer :: i, j, k, m, k0, nn, nin
+        real(dp) :: xi, yi, zi, fpi, p, r, rp, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top, ddx, ddy, ddz
         top = nr - 1
         e = 0; w = 0
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i)
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            call separations(xi, yi, zi, x, neigh, k0, nn, dx, dy, dz, rr)
+            ! compaction in place (nin <= k): separations, squared distance, list position
+            nin = 0
+            do k = 1, nn
+                ddx = dx(k); ddy = dy(k); ddz = dz(k)
+                dx(nin + 1) = ddx; dy(nin + 1) = ddy; dz(nin + 1) = ddz
+                pp(nin + 1) = rr(k)
+                kk(nin + 1) = k
+                nin = nin + merge(1, 0, rr(k) < cutsq)
+            end do
+            !GCC$ novector
+            do k = 1, nin
+                fj(k) = fp(neigh(k0 + kk(k)))
+            end do
+            do k = 1, nin
+                r = sqrt(pp(k))
+                rinv(k) = 1/r
+                rr(k) = pp(k)
+                p = r*rdr + 1
+                m = int(min(p, top))
+                mm(k) = m
+                pp(k) = min(p - m, 1.0_dp)
+            end do
+            ! lookups: rp -> fj (times fp_i + fp_j), z' -> pp, z -> ph; rr keeps r^2, rinv becomes fpair
+            do k = 1, nin
+                m = mm(k); p = pp(k)
+                rp = (t(1, m)*p + t(2, m))*p + t(3, m)
+                zp = (t(4, m)*p + t(5, m))*p + t(6, m)
+                z = ((t(7, m)*p + t(8, m))*p + t(9, m))*p + t(10, m)
+                fj(k) = (fpi + fj(k))*rp
+                pp(k) = zp
+                ph(k) = z
+            end do
             fxi = 0; fyi = 0; fzi = 0
-            do k = first(i), first(i + 1) - 1
-                j = neigh(k)
-                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
-                rsq = dx*dx + dy*dy + dz*dz
-                if (rsq < cutsq) then
-                    r = sqrt(rsq)
-                    p = r*rdr + 1
-                    m = int(min(p, top))
-                    p = min(p - m, 1.0_dp)
-                    rp = (sr(1, m)*p + sr(2, m))*p + sr(3, m)
-                    zp = (sz(1, m)*p + sz(2, m))*p + sz(3, m)
-                    z = ((sz(4, m)*p + sz(5, m))*p + sz(6, m))*p + sz(7, m)
-                    recip = 1/r
-                    phi = z*recip
-                    fpair = -((fpi + fp(j))*rp + (zp*recip - phi*recip))*recip
-                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
-                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
-                    if (want_energy) then
-                        e = e + phi
-                        w = w + rsq*fpair
-                    end if
-                end if
+            do k = 1, nin
+                phi = ph(k)*rinv(k)
+                ph(k) = phi
+                fpair = -(fj(k) + (pp(k)*rinv(k) - phi*rinv(k)))*rinv(k)
+                rinv(k) = fpair
+                dx(k) = dx(k)*fpair; dy(k) = dy(k)*fpair; dz(k) = dz(k)*fpair
+                fxi = fxi + dx(k); fyi = fyi + dy(k); fzi = fzi + dz(k)
+            end do
+            if (want_energy) then
+                do k = 1, nin
+                    e = e + ph(k)
+                    w = w + rr(k)*rinv(k)
+                end do
+            end if
+            !GCC$ novector
+            do k = 1, nin
+                j = neigh(k0 + kk(k))
+                f(1, j) = f(1, j) - dx(k); f(2, j) = f(2, j) - dy(k); f(3, j) = f(3, j) - dz(k)
             end do
             f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
         end do

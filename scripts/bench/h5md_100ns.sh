@@ -11,7 +11,7 @@
 # share, frames in the trajectory (checked to be at the requested times), file size, bytes per frame.
 # For the 1 ns energy-stepping runs the line "100 ns estimate" scales the loop time by 100.
 #
-# Usage: scripts/bench/h5md_100ns.sh [RUN...] (default: all five, about 15 min on the 2-vCPU dev box)
+# Usage: scripts/bench/h5md_100ns.sh [RUN...] (default: all five, about 10 min on the 2-vCPU dev box)
 # Environment: TERRACE (binary, default build/terrace), WORK (directory kept; default a temporary one).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"

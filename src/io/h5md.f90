@@ -20,7 +20,8 @@
 !>      \-- species: Integer[N]                        (int32, the atom type)
 !>      \-- mass: Float[N]                             (masses_by_type(type))
 !>     observables/<name>
-!>      \-- step, time, value: [variable]
+!>      \-- step, time, value: [variable]                (step, time: hard links to box/edges/ when
+!>                                                       the observable is written with every frame)
 !>
 !> The box does not change during a run, but edges is written as a time-dependent element (one
 !> row per frame) because readers such as MDAnalysis read box/edges/value[frame] unconditionally;

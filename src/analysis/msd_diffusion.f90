@@ -169,7 +169,14 @@ contains
                        'msd_block_stderr ('//ll//'^2)', cols)
         deallocate (cols)
         to_cm2s = 0
-        if (ll == 'Ang' .and. tl == 'ps') to_cm2s = 1.0e-4_dp   ! 1 A^2/ps = 1e-16 cm^2 / 1e-12 s
+        if (tl == 'ps') then
+            select case (ll)
+            case ('Angstrom', 'angstrom', 'Ang', 'A')       ! Terrace writes 'Angstrom' (H5MD/UDUNITS; older files 'Ang')
+                to_cm2s = 1.0e-4_dp                           ! 1 A^2/ps = 1e-16 cm^2 / 1e-12 s
+            case ('nm')
+                to_cm2s = 1.0e-2_dp                           ! 1 nm^2/ps = 1e-14 cm^2 / 1e-12 s
+            end select
+        end if
         allocate (cols(1, 8))
         cols(1, :) = [d_full, d_err, d_mean, plan%fit_lo*plan%dt, plan%fit_hi*plan%dt, real(B_, dp), &
                       d_full*to_cm2s, d_err*to_cm2s]

@@ -216,7 +216,7 @@ contains
         type(domain_t), intent(in) :: self
         type(atoms_t), intent(in) :: atoms
         integer :: i, d
-        logical :: ok
+        logical :: ok, bad
         character(len=320) :: msg
         character(len=1), parameter :: axis(3) = ['x', 'y', 'z']
         ok = .true.
@@ -240,7 +240,11 @@ contains
                 end if
             end do
         end do outer
-        call check_all(ok, trim(msg))
+        ! agree over the domain's communicator first (world: a test may run on a sub-communicator);
+        ! only a failure goes through the error path's collective stop
+        bad = .not. ok
+        call any_all(bad)
+        if (bad) call check_all(ok, trim(msg))
     end subroutine check_reach
 
     !> Signed number of bricks from this rank to the owner along d (shortest way round when periodic).

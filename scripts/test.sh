@@ -10,4 +10,4 @@ if ! grep -q "unit tests enabled" "$repo/.cmake-configure.log"; then
 fi
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 cd "$repo/build"
-ctest --output-on-failure "$@"
+ctest --output-on-failure -j "$(nproc)" "$@"

@@ -43,6 +43,7 @@ module terrace_h5md
     use, intrinsic :: iso_c_binding, only: c_ptr, c_loc, c_char, c_null_char
     use, intrinsic :: iso_fortran_env, only: int32
     use terrace_kinds, only: dp, i8
+    use terrace_id_blocks, only: id_block, id_block_owner
     use mpi_f08, only: MPI_Comm, MPI_Comm_dup, MPI_Comm_free, MPI_Comm_rank, MPI_Comm_size, &
                        MPI_Allreduce, MPI_Alltoall, MPI_Alltoallv, MPI_Bcast, MPI_IN_PLACE, MPI_LOGICAL, &
                        MPI_LOR, MPI_MIN, MPI_SUM, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION, &
@@ -201,7 +202,7 @@ contains
         self%nobs = 0
         if (allocated(self%obs)) deallocate (self%obs)
         allocate (self%obs(4))
-        call block_of(natoms, self%nprocs, self%rank, self%first, self%nmine)
+        call id_block(natoms, self%nprocs, self%rank, self%first, self%nmine)
 
         ! file (collective): MPI-IO driver, HDF5 file format version 2 (1.8 object headers)
         call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err); call st%check(err, 'H5Pcreate(fapl)')
@@ -468,7 +469,7 @@ contains
         end if
         self%unit_time = ''
         self%masses_by_type = [0.0_dp]   ! only read at the first frame, which is written already
-        call block_of(self%natoms, self%nprocs, self%rank, self%first, self%nmine)
+        call id_block(self%natoms, self%nprocs, self%rank, self%first, self%nmine)
         call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
         call agree(self%comm, st, ok, msg)
         if (.not. ok) then
@@ -570,7 +571,7 @@ contains
             call reserve_send(w, max(wr, 1), wi, nlocal)
             scount = 0
             do i = 1, nlocal
-                r = owner_of(ids(i), self%natoms, P)
+                r = id_block_owner(ids(i), self%natoms, P)
                 w%dest(i) = r
                 scount(r) = scount(r) + 1
             end do
@@ -995,7 +996,7 @@ contains
             if (st%ok) then
                 fr = merge(int(frame - 1, hsize_t), int(int(dims(3), i8) + frame, hsize_t), frame > 0)
                 D_ = dimension; Dh = dims(1)
-                call block_of(natoms, nprocs, rank, first, nmine)
+                call id_block(natoms, nprocs, rank, first, nmine)
                 nm = int(nmine, hsize_t); f0 = int(first - 1, hsize_t)
                 deallocate (ids, types, x, v, image)
                 allocate (ids(nmine), types(nmine), x(3, nmine), v(3, nmine), image(3, nmine))
@@ -1165,30 +1166,6 @@ contains
         call h5eset_auto_f(0, err)
         library_open = st%ok
     end subroutine open_library
-
-    !> Block distribution of ids 1..n over p ranks: rank r (0-based) holds first .. first+count-1.
-    pure subroutine block_of(n, p, r, first, count)
-        integer(i8), intent(in) :: n
-        integer, intent(in) :: p, r
-        integer(i8), intent(out) :: first, count
-        integer(i8) :: q, rm
-        q = n/p; rm = mod(n, int(p, i8))
-        count = q + merge(1_i8, 0_i8, r < rm)
-        first = r*q + min(int(r, i8), rm) + 1
-    end subroutine block_of
-
-    !> The rank (0-based) whose block holds id.
-    pure integer function owner_of(id, n, p) result(r)
-        integer(i8), intent(in) :: id, n
-        integer, intent(in) :: p
-        integer(i8) :: q, rm, k
-        q = n/p; rm = mod(n, int(p, i8)); k = id - 1
-        if (k < rm*(q + 1)) then
-            r = int(k/(q + 1))
-        else
-            r = int(rm + (k - rm*(q + 1))/q)
-        end if
-    end function owner_of
 
     !> A dataset of fixed shape dims (Fortran order), contiguous, no fill written.
     subroutine make_fixed(st, loc, name, ftype, dims, d)

@@ -1,7 +1,7 @@
 !> Atoms in global id order without gathering them: ids 1..N are split into contiguous blocks, one
 !> per rank (rank r holds ids first .. first+count-1), and every atom's values are sent to the rank
 !> whose block holds its id with one MPI_Alltoallv; each rank then has its block in id order, ready
-!> to be written as one hyperslab. The same scheme as the H5MD trajectory writer (src/io/h5md.f90).
+!> to be written as one hyperslab. The H5MD trajectory writer (src/io/h5md.f90) uses the same blocks.
 module terrace_id_blocks
     use terrace_kinds, only: dp, i8
     use terrace_mpi_env, only: world, any_all

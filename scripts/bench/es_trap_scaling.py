@@ -22,7 +22,7 @@ sizes; printed: reflection fraction, how many runs trapped (>90 % reflections), 
 scaled by h / (k_B T sqrt(N)) (constant if the rate grows like sqrt(N)/h).
 
 Usage: /usr/bin/python3 scripts/bench/es_trap_scaling.py [--build build] [--work DIR]
-       [--sizes 3,6,10] [--es-sizes 3,4,6,10] [--t 0.1]   (about 5 min on the 2-vCPU dev box)
+       [--sizes 3,6,10] [--es-sizes 3,4,6,10] [--t 0.1]   (2 min 7 s on the 2-vCPU dev box)
 """
 import argparse
 import os

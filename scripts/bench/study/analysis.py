@@ -199,9 +199,9 @@ class Analyzer:
     - g(r) first peak: `--compute=rdf` on NB contiguous blocks of frames (`--first_frame`,
       `--last_frame`); the peak height is the block mean at the maximum of the mean curve, its error
       the standard error over the blocks;
-    - D: `--compute=msd` with `--msd_blocks=NB` (D over the whole run, error = the tool's block
-      standard error); longest lag half a block, fitted over its second half (`--msd_max_time`,
-      `--msd_fit_start`, `--msd_fit_end`);
+    - D: `--compute=msd` with `--msd_blocks=NB` (fewer when a block would hold under 7 frames; D
+      over the whole run, error = the tool's block standard error); longest lag half a block, fitted
+      over its second half, at least 3 lags (`--msd_max_time`, `--msd_fit_start`, `--msd_fit_end`);
     - VDOS peak: `--compute=vdos` over the whole run (default correlation time, half the span, Hann
       window): the frequency of the maximum above zero; no error bar (one spectrum; its resolution
       1/(M dt) is recorded in vdos_res).
@@ -238,12 +238,13 @@ class Analyzer:
         return rp, pk, se, (c['r'], gs.mean(0))
 
     def _msd(self, traj, F, dt, pre):
-        nb = self.NB
+        nb = max(2, min(self.NB, F // 7))          # fewer blocks for short runs: the fit needs >= 3 lags
         m = (F // nb - 1) // 2                     # longest lag (frames): a block holds >= 2 m + 1 frames
-        if m < 2:
+        if m < 3:
             return float('nan'), float('nan')
+        start = min(0.5 * m, m - 2)                # the second half of the lags, at least 3 of them
         self._run(traj, pre, compute='msd', msd_blocks=nb, msd_max_time='%.10g' % (m * dt),
-                  msd_fit_start='%.10g' % (0.5 * m * dt), msd_fit_end='%.10g' % (m * dt))
+                  msd_fit_start='%.10g' % (start * dt), msd_fit_end='%.10g' % (m * dt))
         d = _csv(pre + '_diffusion.csv')
         return float(d['D'][0]), float(d['D_stderr_blocks'][0])
 

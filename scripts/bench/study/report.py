@@ -440,8 +440,8 @@ def write(ctx, results):
       '10 blocks, ± 2 standard errors). From `terrace-analyze` ([analysis.md](analysis.md)), on the '
       'run\'s H5MD file (LAMMPS dumps are first written to H5MD): g(r) first-peak height (`--compute=rdf` '
       'on 4 contiguous blocks of frames; mean and standard error over the blocks); diffusion coefficient '
-      '(`--compute=msd --msd_blocks=4`: MSD over all time origins, longest lag half a block, linear fit '
-      'over its second half; the tool\'s block standard error); VDOS peak (`--compute=vdos`, Hann window, '
+      '(`--compute=msd --msd_blocks=4`, 3 for runs under 28 frames: MSD over all time origins, longest lag '
+      'half a block, linear fit over its second half and at least 3 lags; the tool\'s block standard error); VDOS peak (`--compute=vdos`, Hann window, '
       'correlation time half the run: frequency of the maximum above zero; no error bar, so it is not '
       'part of the 2-SE check). The reference is the same Terrace Verlet run with dt_ref.')
     w('- The wall time is that of the same run without trajectory output (see Timing above).\n')

@@ -420,7 +420,10 @@ def write(ctx, results):
       'on the seven-atom cluster at h = 14 K k_B (1.5–2× faster at h = 22–37 K), with an energy error 80–200 '
       'times larger than Verlet\'s. The comparison above is made at *equal* error instead. The event '
       'interval shrinks like 1/√N at fixed h, so the larger the system, the further energy stepping falls '
-      'behind. The equal-error tables per scene below give the numbers behind each line. Runs under '
+      'behind; and h cannot be raised to compensate: the LJ scene (4,000 atoms) and Rahman argon trapped '
+      'at h of about 0.4 k_B T and above (the trapped rows above; why N does not help: '
+      '[energy_stepping.md](energy_stepping.md#transversality-when-to-worry)). The equal-error tables per '
+      'scene below give the numbers behind each line. Runs under '
       '~0.1 s (the coarsest dt) are dominated by timing noise, and so are the LAMMPS/Terrace ratios there.\n')
 
     # method
@@ -589,8 +592,12 @@ def write(ctx, results):
       'on one core.')
     w('- **Cu EAM with energy stepping** runs on 108 atoms in quick mode (3 x 3 x 3 cells): its cost '
       'per simulated ps grows like N^1.5 (events ~ √N, work per event ~ N), so 500 atoms would not fit '
-      'the quick budget. h is kept at or below 6e-3 eV (about k_B T / 4 at 300 K); larger h traps '
-      '(see the escalate-h rows and [energy_stepping.md](energy_stepping.md#transversality-when-to-worry)).')
+      'the quick budget. The sweep keeps h at or below 6e-3 eV (about k_B T / 4 at 300 K), where the EAM '
+      'measurements of [energy_stepping.md](energy_stepping.md#eam-metals) found no trap. Larger h is '
+      'not safe in general: 0.012 eV trapped from another equilibrated 108-atom state (same page), '
+      'although from this run\'s start state the 0.2 ps escalate-h runs up to 0.024 eV did not trap '
+      '(stress table); trapping depends on h / k_B T and on the state, and a large N does not protect against it '
+      '([energy_stepping.md](energy_stepping.md#transversality-when-to-worry), "Why N does not help").')
     w('- **g(r), D and the VDOS peak** come from `terrace-analyze` (%s; the adapter is `Analyzer` in '
       'scripts/bench/study/analysis.py; the numpy code there is used only when the build has no '
       'terrace-analyze; the method of each row is in the `gr_method` column of the CSVs).'

@@ -169,7 +169,7 @@ contains
                        'msd_block_stderr ('//ll//'^2)', cols)
         deallocate (cols)
         to_cm2s = 0
-        if (ll == 'Ang' .and. tl == 'ps') to_cm2s = 1.0e-4_dp   ! 1 A^2/ps = 1e-16 cm^2 / 1e-12 s
+        if ((ll == 'Ang' .or. ll == 'Angstrom') .and. tl == 'ps') to_cm2s = 1.0e-4_dp   ! 1 A^2/ps = 1e-16 cm^2 / 1e-12 s
         allocate (cols(1, 8))
         cols(1, :) = [d_full, d_err, d_mean, plan%fit_lo*plan%dt, plan%fit_hi*plan%dt, real(B_, dp), &
                       d_full*to_cm2s, d_err*to_cm2s]

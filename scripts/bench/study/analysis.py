@@ -8,8 +8,8 @@
     the thermo samples, 10 blocks), first-peak height of g(r) (blocks of frames), diffusion
     coefficient from the MSD slope and the VDOS peak frequency (error bars from 5 groups of atoms).
 
-g(r), MSD and VDOS come from terrace-analyze when the build has it (see ANALYZE below) and from
-the numpy code here otherwise; each row records which one was used.
+g(r), MSD and VDOS come from terrace-analyze (see Analyzer below); the numpy code here is the
+fallback when the build has no terrace-analyze. Each row records which one was used (gr_method).
 """
 import os
 import subprocess
@@ -158,59 +158,150 @@ def vdos_peak(times, v, dim, groups=N_GROUPS):
 
 
 # ------------------------------------------------------------------------------ terrace-analyze
+def write_h5md(path, times, x, v, edges, periodic):
+    """A minimal H5MD file (the layout terrace-analyze reads, doc/analysis.md "What is read") from
+    frames held in memory: used for the LAMMPS dumps and by the self-test."""
+    import h5py
+    F, N, D = x.shape
+    with h5py.File(path, 'w') as f:
+        p = f.create_group('particles/all')
+        b = p.create_group('box')
+        b.attrs['dimension'] = D
+        b.attrs['boundary'] = np.array(['periodic' if periodic else 'none'] * D, dtype='S8')
+        b.create_dataset('edges', data=np.asarray(edges[:D], float))
+        for name, a in (('position', x), ('velocity', v)):
+            if a is None:
+                continue
+            g = p.create_group(name)
+            g.create_dataset('value', data=np.asarray(a[:, :, :D], float))
+            g.create_dataset('step', data=np.arange(F, dtype=np.int64))
+            g.create_dataset('time', data=np.asarray(times, float))
+
+
+def _csv(path):
+    """A terrace-analyze CSV: one header line of column names, then numbers."""
+    with open(path) as f:
+        names = [c.strip().split(' ')[0] for c in f.readline().split(',')]
+    a = np.loadtxt(path, delimiter=',', skiprows=1, ndmin=2)
+    out = {}
+    for i, n in enumerate(names):       # the first column of a name: D (file units) before D (cm^2/s)
+        out.setdefault(n, a[:, i])
+    return out
+
+
 class Analyzer:
     """Structural and dynamical observables of one trajectory.
 
-    terrace-analyze (the analysis program, branch feat-analyze) is used when the build directory
-    has it: ANALYZE maps each observable to the command line tried; its output is read as a
-    two-column table (x, y). If the program is absent, or a call fails, the numpy code above is
-    used and the row says so ('numpy'). Adjust ANALYZE here once the program's interface is final.
+    With BUILD/terrace-analyze (doc/analysis.md) the observables come from it; the numpy code
+    above is the fallback only when the executable is missing (a failing call is an error: the row
+    records it instead of silently switching method). Method and error bars:
+
+    - g(r) first peak: `--compute=rdf` on NB contiguous blocks of frames (`--first_frame`,
+      `--last_frame`); the peak height is the block mean at the maximum of the mean curve, its error
+      the standard error over the blocks;
+    - D: `--compute=msd` with `--msd_blocks=NB` (fewer when a block would hold under 7 frames; D
+      over the whole run, error = the tool's block standard error); longest lag half a block, fitted
+      over its second half, at least 3 lags (`--msd_max_time`, `--msd_fit_start`, `--msd_fit_end`);
+    - VDOS peak: `--compute=vdos` over the whole run (default correlation time, half the span, Hann
+      window): the frequency of the maximum above zero; no error bar (one spectrum; its resolution
+      1/(M dt) is recorded in vdos_res).
+
+    Terrace rows pass their own H5MD file; LAMMPS rows (dumps) are written to a temporary H5MD file
+    first, so that every method goes through the same code.
     """
-    ANALYZE = {
-        'gr': ['rdf', '{traj}', '--output', '{out}'],
-        'msd': ['msd', '{traj}', '--output', '{out}'],
-        'vdos': ['vdos', '{traj}', '--output', '{out}'],
-    }
+    NB = 4
 
     def __init__(self, build):
         exe = os.path.join(build, 'terrace-analyze')
         self.exe = exe if os.access(exe, os.X_OK) else None
+        self.method = 'terrace-analyze' if self.exe else 'numpy'
 
-    def _tool(self, what, traj):
-        if not self.exe or not traj or not traj.endswith('.h5'):
-            return None
-        out = traj + '.' + what + '.txt'
-        cmd = [self.exe] + [a.format(traj=traj, out=out) for a in self.ANALYZE[what]]
-        try:
-            p = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
-            if p.returncode != 0 or not os.path.exists(out):
-                return None
-            a = np.loadtxt(out, comments='#', ndmin=2)
-            return a[:, 0], a[:, 1]
-        except (OSError, ValueError, subprocess.TimeoutExpired):
-            return None
+    def _run(self, traj, prefix, **keys):
+        cmd = [self.exe, '--trajectory_file=%s' % traj, '--output_prefix=%s' % prefix]
+        cmd += ['--%s=%s' % (k, v) for k, v in keys.items()]
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+        if p.returncode != 0:
+            raise RuntimeError('terrace-analyze failed (%s): %s' % (' '.join(cmd), (p.stdout + p.stderr).strip()[-400:]))
+        return p.stdout
+
+    def _gr(self, traj, F, rmax, pre):
+        nb = min(self.NB, F)
+        bounds = np.linspace(0, F, nb + 1).round().astype(int)
+        curves = []
+        for b in range(nb):
+            self._run(traj, pre, compute='rdf', rdf_r_max='%.10g' % rmax, rdf_bins=200,
+                      first_frame=bounds[b] + 1, last_frame=bounds[b + 1])
+            c = _csv(pre + '_rdf.csv')
+            curves.append(c['g'])
+        gs = np.array(curves)
+        rp, pk, se = first_peak(c['r'], gs)
+        return rp, pk, se, (c['r'], gs.mean(0))
+
+    def _msd(self, traj, F, dt, pre):
+        nb = max(2, min(self.NB, F // 7))          # fewer blocks for short runs: the fit needs >= 3 lags
+        m = (F // nb - 1) // 2                     # longest lag (frames): a block holds >= 2 m + 1 frames
+        if m < 3:
+            return float('nan'), float('nan')
+        start = min(0.5 * m, m - 2)                # the second half of the lags, at least 3 of them
+        self._run(traj, pre, compute='msd', msd_blocks=nb, msd_max_time='%.10g' % (m * dt),
+                  msd_fit_start='%.10g' % (start * dt), msd_fit_end='%.10g' % (m * dt))
+        d = _csv(pre + '_diffusion.csv')
+        return float(d['D'][0]), float(d['D_stderr_blocks'][0])
+
+    def _vdos(self, traj, dt, pre):
+        out = self._run(traj, pre, compute='vdos')
+        c = _csv(pre + '_vdos.csv')
+        f, g = c['frequency'], c['vdos']
+        sel = f > 0
+        i = int(np.argmax(np.where(sel, g, -np.inf)))
+        return float(f[i]), (f, g / max(g.max(), 1e-300)), out
 
     def observables(self, scene, times, x, v, box, traj_path=None):
         """Returns a dict with gr_r, gr_peak(_se), D(_se), vdos(_se) and the method used."""
         out = {}
         dim = scene.dim
-        if 'gr' in scene.observables and x is not None:
-            rmax = min(0.5 * float(np.min(box[:dim])), 3.0 * (scene.pot.get('sigma', 2.55)))
-            tool = self._tool('gr', traj_path)
-            if tool is not None:
-                r, g = tool
-                i = int(np.argmax(g))
-                out.update(gr_r=float(r[i]), gr_peak=float(g[i]), gr_peak_se=float('nan'), gr_method='terrace-analyze')
-            else:
-                r, gs = rdf(x, box, dim, rmax)
-                rp, pk, se = first_peak(r, gs)
-                out.update(gr_r=rp, gr_peak=pk, gr_peak_se=se, gr_method='numpy', gr_curve=(r, gs.mean(0)))
-        if 'msd' in scene.observables and x is not None:
+        want = [k for k in ('gr', 'msd', 'vdos') if k in scene.observables]
+        if not want or x is None:
+            return out
+        rmax = min(0.5 * float(np.min(box[:dim])), 3.0 * (scene.pot.get('sigma', 2.55)))
+        if self.exe is None:
+            return self._numpy(scene, times, x, v, box, rmax, want)
+        import tempfile
+        tmp = tempfile.mkdtemp(prefix='study_analyze.')
+        try:
+            traj = traj_path
+            if not traj or not os.path.exists(traj):
+                traj = os.path.join(tmp, 'frames.h5')
+                write_h5md(traj, times, x, v, box, scene.periodic)
+            pre = os.path.join(tmp, 'a')
+            F, dt = len(times), float(times[1] - times[0])
+            if 'gr' in want:
+                rp, pk, se, curve = self._gr(traj, F, rmax, pre)
+                out.update(gr_r=rp, gr_peak=pk, gr_peak_se=se, gr_curve=curve)
+            if 'msd' in want:
+                out['D'], out['D_se'] = self._msd(traj, F, dt, pre)
+            if 'vdos' in want and v is not None:
+                pk, curve, _ = self._vdos(traj, dt, pre)
+                out.update(vdos=pk, vdos_se=float('nan'), vdos_curve=curve)
+            out['gr_method'] = 'terrace-analyze'
+        finally:
+            import shutil
+            shutil.rmtree(tmp, ignore_errors=True)
+        return out
+
+    @staticmethod
+    def _numpy(scene, times, x, v, box, rmax, want):
+        out = {'gr_method': 'numpy'}
+        dim = scene.dim
+        if 'gr' in want:
+            r, gs = rdf(x, box, dim, rmax)
+            rp, pk, se = first_peak(r, gs)
+            out.update(gr_r=rp, gr_peak=pk, gr_peak_se=se, gr_curve=(r, gs.mean(0)))
+        if 'msd' in want:
             out['D'], out['D_se'] = diffusion(times, x, dim)
-            out['msd_method'] = 'numpy'
-        if 'vdos' in scene.observables and v is not None:
+        if 'vdos' in want and v is not None:
             pk, se, f, s = vdos_peak(times, v, dim)
-            out.update(vdos=pk, vdos_se=se, vdos_method='numpy')
+            out.update(vdos=pk, vdos_se=se)
             if f is not None:
                 out['vdos_curve'] = (f, s / max(s.max(), 1e-300))
         return out

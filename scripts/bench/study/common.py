@@ -192,7 +192,12 @@ def read_h5md(path):
         p = f['particles/all']
         t = p['position/time'][:]
         x = p['position/value'][:]
-        edges = np.array(p['box/edges'][()], dtype=float).reshape(-1)
+        e = p['box/edges']
+        if isinstance(e, h5py.Group):       # time-dependent box (value[frames][D]): the first frame's
+            e = e['value'][0]               # (Terrace's NVE runs keep the box fixed)
+        else:
+            e = e[()]
+        edges = np.array(e, dtype=float).reshape(-1)
         bnd = [b.decode() if isinstance(b, bytes) else str(b) for b in p['box'].attrs.get('boundary', [])]
         if 'image' in p:
             img = p['image/value'][:]

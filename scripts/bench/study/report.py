@@ -5,6 +5,8 @@ log-log interpolation of the Verlet curve), not written by hand."""
 import math
 import os
 
+nan = float('nan')
+
 import numpy as np
 
 import matplotlib
@@ -105,6 +107,12 @@ def obs_label(scene, key, text):
     return text
 
 
+def _se(r, kse):
+    """A row's standard error, 0 where it has none (NaN: the VDOS peak from terrace-analyze)."""
+    v = r.get(kse)
+    return v if v is not None and math.isfinite(v) else 0.0
+
+
 def fig_observables(scene, rows, path):
     keys = [o for o in OBS if any(r.get(o[0]) is not None and ok(r) for r in rows)]
     if not keys:
@@ -113,7 +121,7 @@ def fig_observables(scene, rows, path):
     ref = [r for r in rows if r['method'] == 'reference' and ok(r)]
     for ax, (k, kse, text, _) in zip(axs[0], keys):
         if ref and ref[0].get(k) is not None:
-            m0, s0 = ref[0][k], ref[0].get(kse) or 0.0
+            m0, s0 = ref[0][k], _se(ref[0], kse)
             ax.axhspan(m0 - 2 * s0, m0 + 2 * s0, color='0.85', label='reference ± 2 SE')
             ax.axhline(m0, color='0.4', lw=1)
         for m in METHODS:
@@ -125,7 +133,7 @@ def fig_observables(scene, rows, path):
                                   ([r for r in pts if trapped(r)], 'white', 'energy stepping, trapped')):
                 if sel:
                     ax.errorbar([r['wall'] for r in sel], [r[k] for r in sel],
-                                yerr=[2 * (r.get(kse) or 0.0) for r in sel], fmt=st['marker'], color=st['color'],
+                                yerr=[2 * _se(r, kse) for r in sel], fmt=st['marker'], color=st['color'],
                                 mfc=mfc, label=lab, capsize=3)
         ax.set_xscale('log')
         ax.set_xlabel('wall time [s]')
@@ -273,7 +281,7 @@ def observables_verdict(rows):
         for k, lab in names.items():
             if r.get(k) is None or ref.get(k) is None:
                 continue
-            se = math.hypot(r.get(k + '_se') or 0.0, ref.get(k + '_se') or 0.0)
+            se = math.hypot(*[nan if x is None else x for x in (r.get(k + '_se'), ref.get(k + '_se'))])
             if not math.isfinite(se):
                 continue
             checked.add(lab)
@@ -412,7 +420,10 @@ def write(ctx, results):
       'on the seven-atom cluster at h = 14 K k_B (1.5–2× faster at h = 22–37 K), with an energy error 80–200 '
       'times larger than Verlet\'s. The comparison above is made at *equal* error instead. The event '
       'interval shrinks like 1/√N at fixed h, so the larger the system, the further energy stepping falls '
-      'behind. The equal-error tables per scene below give the numbers behind each line. Runs under '
+      'behind; and h cannot be raised to compensate: the LJ scene (4,000 atoms) and Rahman argon trapped '
+      'at h of about 0.4 k_B T and above (the trapped rows above; why N does not help: '
+      '[energy_stepping.md](energy_stepping.md#transversality-when-to-worry)). The equal-error tables per '
+      'scene below give the numbers behind each line. Runs under '
       '~0.1 s (the coarsest dt) are dominated by timing noise, and so are the LAMMPS/Terrace ratios there.\n')
 
     # method
@@ -429,10 +440,13 @@ def write(ctx, results):
       'against the reference: Terrace Verlet with dt_ref (4 to 8 times finer than the finest swept dt, '
       'so 16 to 64 times more accurate).')
     w('- **(d)** long-run observables: temperature and pressure (block averages of the thermo samples, '
-      '10 blocks, ± 2 standard errors), g(r) first-peak height (standard error over frames), '
-      'diffusion coefficient (MSD slope over lags T/8..T/2, standard error over 5 groups of atoms), '
-      'VDOS peak (maximum of the velocity power spectrum, standard error over 5 groups of atoms); '
-      'the reference is the same Terrace Verlet run with dt_ref.')
+      '10 blocks, ± 2 standard errors). From `terrace-analyze` ([analysis.md](analysis.md)), on the '
+      'run\'s H5MD file (LAMMPS dumps are first written to H5MD): g(r) first-peak height (`--compute=rdf` '
+      'on 4 contiguous blocks of frames; mean and standard error over the blocks); diffusion coefficient '
+      '(`--compute=msd --msd_blocks=4`, 3 for runs under 28 frames: MSD over all time origins, longest lag '
+      'half a block, linear fit over its second half and at least 3 lags; the tool\'s block standard error); VDOS peak (`--compute=vdos`, Hann window, '
+      'correlation time half the run: frequency of the maximum above zero; no error bar, so it is not '
+      'part of the 2-SE check). The reference is the same Terrace Verlet run with dt_ref.')
     w('- The wall time is that of the same run without trajectory output (see Timing above).\n')
     rowsS = []
     for key in results['sweeps']:
@@ -573,16 +587,25 @@ def write(ctx, results):
     # pending / full mode
     w('## Full mode and what is pending\n')
     w('- `--full` runs the cluster for 100 ns (h from 1 to 64 K k_B), the icosahedron for 1 ns, '
-      'Rahman argon for 100 ps, the 32,000-atom LJ scene for 2 tau and Cu (4,000 atoms) for 20 ps, '
-      'with longer stress runs: several hours on one core.')
-    w('- **Cu EAM with energy stepping** is attempted in every run; while the engine refuses the '
-      'combination the scene reports "not available in this build" with the engine\'s message and '
-      'shows Verlet only. It is plotted automatically once the engine accepts it.')
-    w('- **g(r), MSD and VDOS** use terrace-analyze when `BUILD/terrace-analyze` exists (the adapter is '
-      '`Analyzer` in scripts/bench/study/analysis.py, with a numpy fallback); the method used is recorded '
-      'per row (`gr_method`).')
+      'Rahman argon for 100 ps, the 32,000-atom LJ scene for 2 tau and Cu (500 atoms, Verlet and '
+      'energy stepping at h = 1.5e-3, 3e-3, 6e-3 eV) for 20 ps, with longer stress runs: several hours '
+      'on one core.')
+    w('- **Cu EAM with energy stepping** runs on 108 atoms in quick mode (3 x 3 x 3 cells): its cost '
+      'per simulated ps grows like N^1.5 (events ~ √N, work per event ~ N), so 500 atoms would not fit '
+      'the quick budget. The sweep keeps h at or below 6e-3 eV (about k_B T / 4 at 300 K), where the EAM '
+      'measurements of [energy_stepping.md](energy_stepping.md#eam-metals) found no trap. Larger h is '
+      'not safe in general: 0.012 eV trapped from another equilibrated 108-atom state (same page), '
+      'although from this run\'s start state the 0.2 ps escalate-h runs up to 0.024 eV did not trap '
+      '(stress table); trapping depends on h / k_B T and on the state, and a large N does not protect against it '
+      '([energy_stepping.md](energy_stepping.md#transversality-when-to-worry), "Why N does not help").')
+    w('- **g(r), D and the VDOS peak** come from `terrace-analyze` (%s; the adapter is `Analyzer` in '
+      'scripts/bench/study/analysis.py; the numpy code there is used only when the build has no '
+      'terrace-analyze; the method of each row is in the `gr_method` column of the CSVs).'
+      % ('used in this run' if any(r.get('gr_method') == 'terrace-analyze'
+                                   for rows in results['sweeps'].values() for r in rows)
+         else 'NOT used in this run: numpy fallback'))
     w('- In quick mode the long runs are short (2 ps of liquid, 0.25 tau of LJ): D and the VDOS peak '
-      'carry large error bars and the VDOS resolution is 1/t_long.\n')
+      'carry large error bars and the VDOS resolution is about 2/t_long (correlation time t_long/2).\n')
     with open(os.path.join(ctx.doc, 'benchmarks.md'), 'w') as fh:
         fh.write('\n'.join(L) + '\n')
     print('    wrote %s and %d figures' % (os.path.join(ctx.doc, 'benchmarks.md'),

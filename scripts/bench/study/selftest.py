@@ -7,8 +7,13 @@
   - diffusion: Brownian paths with step variance 2 D dt per dimension give D back (within 10 %);
   - vdos_peak: velocities cos(2 pi f t + phase) give the peak at f (within one frequency bin);
   - traj_error: a rigid shift of every atom by (0.3, 0.4, 0) gives 0.5;
-  - energy_metrics: a linear energy ramp gives its slope as the drift.
-Exit status 0 when all pass."""
+  - energy_metrics: a linear energy ramp gives its slope as the drift;
+  - with a build directory as argument that holds terrace-analyze: the study's adapter (Analyzer,
+    which runs terrace-analyze on H5MD files written by write_h5md) on the same fcc lattice, Brownian
+    paths and harmonic velocities: same first-peak position and height, D within 10 % and within
+    3 of its block standard errors, VDOS peak within one resolution 1/(M dt).
+Exit status 0 when all pass.
+Usage: selftest.py [BUILD_DIR]"""
 import os
 import sys
 
@@ -67,6 +72,39 @@ def main():
     em = A.energy_metrics(th, 4)
     good &= check('energy', abs(em['drift'] - 0.005) < 1e-12 and abs(em['max_de'] - 0.05) < 1e-12,
                   'drift %.6g (expect 0.005), max %.6g (expect 0.05)' % (em['drift'], em['max_de']))
+
+    build = sys.argv[1] if len(sys.argv) > 1 else ''
+    an = A.Analyzer(build) if build else None
+    if an is None or an.exe is None:
+        print('terrace-analyze: not checked (no BUILD_DIR/terrace-analyze)')
+        return 0 if good else 1
+
+    class Scene:
+        dim, periodic, pot = 3, True, {'sigma': 1.0}
+
+    sc = Scene()
+    sc.observables = ['gr']
+    frames = np.repeat(x[None], 4, axis=0)
+    o = an.observables(sc, np.arange(4) * 0.1, frames, None, box)
+    r_t = A.rdf(x[None], box, 3, rmax=min(0.5 * n * a, 3.0), nbins=200)[0]
+    dr_t = r_t[1] - r_t[0]
+    want_t = 12 / (4 * np.pi * r_nn ** 2 * dr_t * rho)
+    good &= check('tool rdf', o['gr_method'] == 'terrace-analyze' and abs(o['gr_r'] - r_nn) <= dr_t
+                  and abs(o['gr_peak'] / want_t - 1) < 0.05,
+                  'peak at %.4f (expect %.4f), height %.1f (expect %.1f)' % (o['gr_r'], r_nn, o['gr_peak'], want_t))
+
+    sc.observables = ['msd']
+    D, dt = 0.7, 0.01
+    o = an.observables(sc, np.arange(xs.shape[0]) * dt, xs, None, np.full(3, 1000.0))
+    good &= check('tool D', abs(o['D'] / D - 1) < 0.1 and abs(o['D'] - D) < 3 * o['D_se'],
+                  'D = %.3f +- %.3f (expect %.3f)' % (o['D'], o['D_se'], D))
+
+    sc.observables = ['vdos']
+    f0, dt = 2.5, 0.02
+    o = an.observables(sc, t, np.zeros_like(v), v, np.full(3, 100.0))
+    res = 1.0 / (0.5 * (len(t) - 1) * dt)
+    good &= check('tool vdos', abs(o['vdos'] - f0) <= res, 'peak %.3f (expect %.3f, resolution %.3f)'
+                  % (o['vdos'], f0, res))
     return 0 if good else 1
 
 

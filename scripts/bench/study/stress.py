@@ -272,7 +272,7 @@ def run_all(ctx):
     escalate_h(ctx, rows, 'cluster7', [x * KB_METAL for x in (16, 64, 256, 1024, 4096)],
                200.0 if quick else 10000.0, 2.0)
     escalate_h(ctx, rows, 'rahman', [2e-3, 8e-3, 0.032, 0.128, 0.512, 2.048, 64.0], 0.5 if quick else 10.0, 0.02)
-    escalate_h(ctx, rows, 'cu_eam', [2e-3], 0.2, 0.01)
+    escalate_h(ctx, rows, 'cu_eam', [3e-3, 6e-3, 0.012, 0.024], 0.2, 0.01)
     collision(ctx, rows)
     ranks(ctx, rows)
     evaporation(ctx, rows, 20.0 if quick else 500.0)

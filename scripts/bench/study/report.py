@@ -368,7 +368,11 @@ def write(ctx, results):
     w('| MPI | %s |' % env['mpi'])
     w('| date | %s |' % env['date'])
     w('| commit | %s%s |' % (env['commit'], ' (+ uncommitted changes)' if env['dirty'] else ''))
-    w('| g(r), MSD, VDOS | %s |' % env['analyze'])
+    analyze = str(env['analyze'])
+    repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+    if os.path.isabs(analyze) and analyze.startswith(repo + os.sep):
+        analyze = os.path.relpath(analyze, repo)  # the page names the program, not this checkout's path
+    w('| g(r), MSD, VDOS | %s |' % analyze)
     tot = sum(t for _, t in results.get('timing', []))
     w('\nWall time of each part of this run (total %.0f s):\n' % tot)
     w(table(['part', 'wall time (s)'], [(n, '%.1f' % t) for n, t in results.get('timing', [])]))

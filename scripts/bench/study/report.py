@@ -571,10 +571,15 @@ def write(ctx, results):
                   '%.3f' % r['pair_max'], '%.3f' % r['neigh_max'], '%.3f' % r['comm_max'], '%.3f' % r['search_max'],
                   '%.3f' % r['other_max']) for r in sc_rows]))
         w('')
-        if int(env['nproc'] or 1) < max(r['ranks'] for r in sc_rows) or int(env['nproc'] or 1) <= 2:
+        nproc = int(env['nproc'] or 1)
+        if nproc < max(r['ranks'] for r in sc_rows):
             w('**These scaling numbers were taken on a machine with only %s CPUs visible, fewer than the '
               'largest rank count (ranks were oversubscribed): they show the machinery, not a speed-up.**\n'
               % env['nproc'])
+        elif nproc <= 2:
+            w('**These scaling numbers were taken on a machine with %s vCPUs that share about one physical '
+              'core: they cover 1 to %s ranks only and say little about scaling on a cluster node.**\n'
+              % (env['nproc'], env['nproc']))
     else:
         w('**Not measured here.** This page was generated on a machine with %s vCPUs that share about one '
           'physical core, so no meaningful speed-up can be measured on it. The study supports it:\n' % env['nproc'])

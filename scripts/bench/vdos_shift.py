@@ -50,6 +50,16 @@ def set_run_time(text, run_time):
     return text.replace(grp, grp2)
 
 
+def set_seed(text, seed):
+    m = re.search(r"&run\b[^/]*/", text, re.IGNORECASE | re.DOTALL)
+    grp = m.group(0)
+    if re.search(r"\bseed\s*=", grp, re.IGNORECASE):
+        grp2 = re.sub(r"\bseed\s*=\s*[^,/\s]+", f"seed={seed}", grp, flags=re.IGNORECASE)
+    else:
+        grp2 = grp[:-1].rstrip() + f", seed={seed} /"
+    return text.replace(grp, grp2)
+
+
 def vdos_metrics(path, band):
     data = np.loadtxt(path, delimiter=",", skiprows=1)
     nu, g = data[:, 0], data[:, 1]
@@ -71,6 +81,8 @@ def cmd_run(a):
     os.makedirs(a.out, exist_ok=True)
     text = "".join(ln for ln in open(a.deck) if not ln.lstrip().startswith("!"))   # comments may hold '&'
     text = set_run_time(text, a.run_time)
+    if a.seed is not None:
+        text = set_seed(text, a.seed)
     key = a.key or ("dt" if a.style == "velocity_verlet" else "terrace_height")
     band = [float(v) for v in a.band.split(",")]
     rows = []
@@ -78,7 +90,7 @@ def cmd_run(a):
         tag = f"{a.label}_{key}_{value}"
         traj = os.path.join(os.path.abspath(a.out), tag + ".h5")
         deck = replace_group(text, "integrator", f"&integrator style='{a.style}', {key}={value} /")
-        deck = replace_group(deck, "output", f"&output thermo_interval={a.interval * 50}, "
+        deck = replace_group(deck, "output", f"&output thermo_interval={a.thermo_interval or a.interval * 50}, "
                              f"thermo_file='{tag}.csv', trajectory_file='{traj}', "
                              f"trajectory_interval={a.interval}, trajectory_fields='velocity', overwrite=.true. /")
         nml = os.path.join(deck_dir, f".vdos_shift_{tag}.nml")   # atoms files are relative to the deck
@@ -111,13 +123,23 @@ def cmd_run(a):
         if not a.keep:
             os.remove(traj)
         peak, centroid, nu_rms = vdos_metrics(prefix + "_vdos.csv", band)
-        thermo = np.loadtxt(os.path.join(a.out, tag + ".csv"), delimiter=",", skiprows=1, usecols=(1, 2), ndmin=2)
-        temp = thermo[thermo[:, 0] >= a.skip, 1].mean()          # over the analysed part
+        thermo_path = os.path.join(a.out, tag + ".csv")
+        header = open(thermo_path).readline().strip().split(",")
+        thermo = np.loadtxt(thermo_path, delimiter=",", skiprows=1, ndmin=2)
+        col = {name: k for k, name in enumerate(header)}
+        kept = thermo[thermo[:, col["time"]] >= a.skip]            # the analysed part
+        temp = kept[:, col["temp"]].mean()
+        etot = kept[:, col["etotal"]]                              # K + V with the untruncated V
+        de_rms = etot.std()
+        de_max = np.abs(etot - etot[0]).max()
+        refl = (thermo[-1, col["reflections"]] / max(thermo[-1, col["events"]], 1)
+                if "reflections" in col else 0.0)
         rows.append(dict(style=a.style, key=key, value=float(value), mean_step=mean_step, peak=peak,
-                         centroid=centroid, nu_rms=nu_rms, temperature=temp,
-                         loop_time=float(loop.group(1)) if loop else wall))
+                         centroid=centroid, nu_rms=nu_rms, temperature=temp, de_rms=de_rms, de_max=de_max,
+                         reflections=refl, loop_time=float(loop.group(1)) if loop else wall))
         print(f"{a.style:16s} {key}={value:10s} mean step {mean_step:.5g}  T {temp:7.2f}  peak {peak:.4f}  "
-              f"centroid {centroid:.4f}  nu_rms {nu_rms:.4f}  loop {rows[-1]['loop_time']:.1f} s", flush=True)
+              f"centroid {centroid:.4f}  nu_rms {nu_rms:.4f}  dE rms {de_rms:.3g} max {de_max:.3g}  "
+              f"refl {100 * refl:.1f} %  loop {rows[-1]['loop_time']:.1f} s", flush=True)
     table = os.path.join(a.out, f"vdos_shift_{a.label}.csv")
     with open(table, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
@@ -126,35 +148,135 @@ def cmd_run(a):
     print(f"wrote {table}")
 
 
+def load_tables(paths, average_seeds):
+    """Read the sweep tables (rows sorted by mean step). With average_seeds, tables whose labels
+    differ only by a '_seed<N>' suffix are runs of the same sweep from other initial velocities:
+    they are replaced by their mean, with the standard error of the mean in <key>_err."""
+    tables = []
+    for path in paths:
+        rows = list(csv.DictReader(open(path)))
+        col = lambda k: np.array([float(r[k]) for r in rows])
+        order = np.argsort(col("mean_step"))
+        t = {k: col(k)[order] for k in rows[0] if k not in ("style", "key")}
+        t["label"] = os.path.basename(path).replace("vdos_shift_", "").replace(".csv", "")
+        t["style"] = rows[0]["style"]
+        t["key"] = rows[0]["key"]
+        tables.append(t)
+    if not average_seeds:
+        return tables
+    groups = {}
+    for t in tables:
+        groups.setdefault(re.sub(r"_seed\d+$", "", t["label"]), []).append(t)
+    out = []
+    for label, ts in groups.items():
+        n = min(len(t["mean_step"]) for t in ts)
+        m = {k: np.mean([t[k][:n] for t in ts], axis=0) for k in ts[0] if k not in ("label", "style", "key")}
+        for k in ("centroid", "peak"):
+            m[k + "_err"] = (np.std([t[k][:n] for t in ts], axis=0, ddof=1) / np.sqrt(len(ts))
+                             if len(ts) > 1 else np.zeros(n))
+        m.update(label=f"{label} (mean of {len(ts)})", style=ts[0]["style"], key=ts[0]["key"], runs=len(ts))
+        out.append(m)
+    return out
+
+
+def harmonic_shift(dt_ps, freq_thz):
+    """Relative frequency error of Verlet for a harmonic mode: (2/dt) asin(w dt/2) / w - 1."""
+    w = 2 * np.pi * freq_thz
+    with np.errstate(invalid="ignore"):
+        return (2 / dt_ps) * np.arcsin(w * dt_ps / 2) / w - 1
+
+
+def cmd_summary(a):
+    """Markdown table of the (seed-averaged) sweeps, shifts against the first table's smallest step."""
+    tables = load_tables(a.tables, a.average_seeds)
+    ref_c, ref_p = tables[0]["centroid"][0], tables[0]["peak"][0]
+    pm = lambda v, e: f"{v:.4f} ± {e:.4f}" if e > 0 else f"{v:.4f}"
+    print("| integrator | parameter | runs | mean step (fs) | T (K) | rms dE (eV) | reflections | peak (THz) | "
+          "peak shift | band centroid (THz) | centroid shift | harmonic Verlet shift at the mean step |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for t in tables:
+        for k in range(len(t["mean_step"])):
+            ep = t.get("peak_err", np.zeros(99))[k]
+            ec = t.get("centroid_err", np.zeros(99))[k]
+            par = (f"dt = {1000 * t['value'][k]:g} fs" if t["style"] == "velocity_verlet"
+                   else f"{t['key']} = {t['value'][k]:g}")
+            hs = harmonic_shift(t["mean_step"][k], a.reference_frequency) if a.reference_frequency else np.nan
+            print(f"| {t['style'].replace('_', ' ')} | {par} | {t.get('runs', 1)} | {1000 * t['mean_step'][k]:.3g} | "
+                  f"{t['temperature'][k]:.1f} | {t['de_rms'][k]:.2g} | {100 * t['reflections'][k]:.1f} % | "
+                  f"{pm(t['peak'][k], ep)} | {100 * (t['peak'][k] / ref_p - 1):+.2f} ± {100 * ep / ref_p:.2f} % | "
+                  f"{pm(t['centroid'][k], ec)} | {100 * (t['centroid'][k] / ref_c - 1):+.2f} ± {100 * ec / ref_c:.2f} % | "
+                  f"{100 * hs:+.3f} % |")
+
+
+def cmd_thermo(a):
+    """Per run (thermo CSVs written by 'run'): the extremes of the temperature averaged over blocks of
+    --block time after --skip and, for energy stepping, the largest fraction of reflections among the
+    events of one block (1.00: the state was trapped in reflections for that block)."""
+    print("| run | T block min (K) | T block max (K) | largest reflection fraction in a block | at (time) |")
+    print("|---|---|---|---|---|")
+    for path in a.thermo:
+        d = np.genfromtxt(path, delimiter=",", names=True)
+        starts = np.arange(a.skip, d["time"][-1] - 1e-9, a.block)
+        temps = [d["temp"][(d["time"] >= t0) & (d["time"] < t0 + a.block)].mean() for t0 in starts]
+        line = f"| {os.path.basename(path)} | {min(temps):.1f} | {max(temps):.1f} |"
+        if "reflections" in d.dtype.names:
+            t1, r, e = d["time"][1:], np.diff(d["reflections"]), np.diff(d["events"])
+            frac = [r[(t1 > t0) & (t1 <= t0 + a.block)].sum() / max(e[(t1 > t0) & (t1 <= t0 + a.block)].sum(), 1)
+                    for t0 in starts]
+            k = int(np.argmax(frac))
+            line += f" {frac[k]:.2f} | {starts[k]:g}-{starts[k] + a.block:g} |"
+        else:
+            line += " – | – |"
+        print(line)
+
+
 def cmd_plot(a):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for path in a.tables:
-        rows = list(csv.DictReader(open(path)))
-        step = np.array([float(r["mean_step"]) for r in rows]) * 1000    # fs
-        cen = np.array([float(r["centroid"]) for r in rows])
-        pk = np.array([float(r["peak"]) for r in rows])
-        label = os.path.basename(path).replace("vdos_shift_", "").replace(".csv", "")
-        order = np.argsort(step)
-        ref = cen[order][0]
-        axes[0].plot(step[order], 100 * (cen[order] / ref - 1), "o-", label=label + " (band centroid)")
-        axes[0].plot(step[order], 100 * (pk[order] / pk[order][0] - 1), "x:", label=label + " (peak)")
-        axes[1].plot(step[order], cen[order], "o-", label=label)
+    tables = load_tables(a.tables, a.average_seeds)
+    with_energy = all("de_rms" in t for t in tables)
+    fig, axes = plt.subplots(1, 3 if with_energy else 2, figsize=(15 if with_energy else 10, 4.2))
+    # reference: each table's smallest step, or (--common-reference) the first table's smallest step
+    ref_cen = tables[0]["centroid"][0]
+    ref_pk = tables[0]["peak"][0]
+    for t in tables:
+        step = t["mean_step"] * 1000                                  # fs
+        rc, rp = (ref_cen, ref_pk) if a.common_reference else (t["centroid"][0], t["peak"][0])
+        ec = t.get("centroid_err", np.zeros_like(step))
+        ep = t.get("peak_err", np.zeros_like(step))
+        line = axes[0].errorbar(step, 100 * (t["centroid"] / rc - 1), yerr=100 * ec / rc, fmt="o-", capsize=2,
+                                label=t["label"] + " (band centroid)")[0]
+        c = line.get_color()
+        axes[0].errorbar(step, 100 * (t["peak"] / rp - 1), yerr=100 * ep / rp, fmt="x:", color=c, capsize=2,
+                         label=t["label"] + " (peak)")
+        axes[1].errorbar(step, t["centroid"], yerr=ec, fmt="o-", color=c, capsize=2, label=t["label"])
+        if with_energy:
+            axes[2].errorbar(t["de_rms"], 100 * (t["centroid"] / rc - 1), yerr=100 * ec / rc, fmt="o-", color=c,
+                             capsize=2, label=t["label"] + " (band centroid)")
+            axes[2].errorbar(t["de_rms"], 100 * (t["peak"] / rp - 1), yerr=100 * ep / rp, fmt="x:", color=c,
+                             capsize=2, label=t["label"] + " (peak)")
     if a.reference_frequency:
-        dt = np.linspace(1e-3, axes[0].get_xlim()[1], 200)
-        w = 2 * np.pi * a.reference_frequency
-        with np.errstate(invalid="ignore"):
-            shift = (2 / (dt * 1e-3)) * np.arcsin(w * dt * 1e-3 / 2) / w - 1
+        lo = min(t["mean_step"].min() for t in tables) * 1000
+        hi = max(t["mean_step"].max() for t in tables) * 1000
+        dt = np.geomspace(lo, hi, 200) if a.logx else np.linspace(1e-3, hi, 200)
+        shift = harmonic_shift(dt * 1e-3, a.reference_frequency)
         axes[0].plot(dt, 100 * shift, "k--", lw=0.8,
                      label=f"Verlet, harmonic {a.reference_frequency} THz: (2/dt) asin(w dt/2)")
-    axes[0].set_xlabel("time step / mean event interval (fs)")
-    axes[0].set_ylabel("frequency shift against the smallest step (%)")
+    for ax in axes[:2]:
+        ax.set_xlabel("time step / mean event interval (fs)")
+        if a.logx:
+            ax.set_xscale("log")
+    ref_text = "the first table's smallest step" if a.common_reference else "the smallest step"
+    axes[0].set_ylabel(f"frequency shift against {ref_text} (%)")
     axes[0].legend(fontsize=7)
-    axes[1].set_xlabel("time step / mean event interval (fs)")
     axes[1].set_ylabel("band centroid (THz)")
     axes[1].legend(fontsize=7)
+    if with_energy:
+        axes[2].set_xscale("log")
+        axes[2].set_xlabel("rms fluctuation of K + V over the analysed part (eV)")
+        axes[2].set_ylabel(f"frequency shift against {ref_text} (%)")
+        axes[2].legend(fontsize=7)
     if a.title:
         fig.suptitle(a.title)
     fig.tight_layout()
@@ -178,6 +300,9 @@ def main():
     r.add_argument("--out", required=True)
     r.add_argument("--label", required=True)
     r.add_argument("--np", type=int, default=1)
+    r.add_argument("--seed", type=int, help="replaces the deck's &run seed (initial velocities)")
+    r.add_argument("--thermo-interval", type=float,
+                   help="thermo sampling (default 50 x --interval); the energy error columns use it")
     r.add_argument("--keep", action="store_true", help="keep the trajectories")
     r.add_argument("--terrace", default=os.path.join(ROOT, "build", "terrace"))
     r.add_argument("--analyze", default=os.path.join(ROOT, "build", "terrace-analyze"))
@@ -186,8 +311,21 @@ def main():
     p.add_argument("--out", required=True)
     p.add_argument("--reference-frequency", type=float)
     p.add_argument("--title")
+    p.add_argument("--common-reference", action="store_true",
+                   help="shifts against the first table's smallest step (default: each table's own)")
+    p.add_argument("--logx", action="store_true", help="logarithmic step axis")
+    p.add_argument("--average-seeds", action="store_true",
+                   help="average tables whose labels differ only by a _seed<N> suffix (error bars: standard error)")
+    q = sub.add_parser("summary")
+    q.add_argument("--tables", nargs="+", required=True)
+    q.add_argument("--reference-frequency", type=float)
+    q.add_argument("--average-seeds", action="store_true")
+    th = sub.add_parser("thermo")
+    th.add_argument("thermo", nargs="+", help="thermo CSVs of the runs")
+    th.add_argument("--skip", type=float, default=0.0)
+    th.add_argument("--block", type=float, default=1.0)
     a = ap.parse_args()
-    cmd_run(a) if a.cmd == "run" else cmd_plot(a)
+    {"run": cmd_run, "plot": cmd_plot, "summary": cmd_summary, "thermo": cmd_thermo}[a.cmd](a)
 
 
 if __name__ == "__main__":

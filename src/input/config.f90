@@ -15,6 +15,7 @@ module terrace_config
     use terrace_namelist_text, only: namelist_file_t, parse_namelist_text, lower
     use terrace_errors, only: stop_all
     use terrace_mpi_env, only: world, bcast_text
+    use terrace_files, only: slurp
     implicit none
     private
 
@@ -152,20 +153,6 @@ contains
         write (ln, '(i0)') line
         s = cfg%path//':'//trim(ln)//': '
     end function line_prefix
-
-    subroutine slurp(path, text, status)
-        character(len=*), intent(in) :: path
-        character(len=:), allocatable, intent(out) :: text
-        integer, intent(out) :: status
-        integer :: unit, n
-        open (newunit=unit, file=path, access='stream', form='unformatted', status='old', &
-              action='read', iostat=status)
-        if (status /= 0) return
-        inquire (unit=unit, size=n)
-        allocate (character(len=max(n, 0)) :: text)
-        if (n > 0) read (unit, iostat=status) text
-        close (unit)
-    end subroutine slurp
 
     !> Key k must be one of `allowed` ("name:type" entries); returns the type description.
     function check_key(cfg, k, allowed) result(kind)

@@ -1,14 +1,16 @@
-!> What the operating system gives the program: the whole contents of a text file, and this
-!> process's peak resident memory.
+!> What the operating system gives the program: the whole contents of a text file (read_input_text:
+!> read by rank 0 and broadcast, for the input decks), and this process's peak resident memory.
 !>
 !> peak_memory_kib reads VmHWM ("high water mark" of the resident set, in KiB) from
 !> /proc/self/status; it is 0 where /proc is not available.
 module terrace_files
     use terrace_kinds, only: i8
+    use terrace_mpi_env, only: world, bcast_text
+    use terrace_errors, only: stop_all
     implicit none
     private
 
-    public :: slurp, peak_memory_kib
+    public :: slurp, read_input_text, peak_memory_kib
 
 contains
 
@@ -26,6 +28,25 @@ contains
         if (n > 0) read (unit, iostat=status) text
         close (unit)
     end subroutine slurp
+
+    !> The input file `path` on every rank: read by rank 0, broadcast (collective). Stops every rank
+    !> when it cannot be read.
+    subroutine read_input_text(path, text)
+        character(len=*), intent(in) :: path
+        character(len=:), allocatable, intent(out) :: text
+        character(len=:), allocatable :: status_text
+        integer :: status
+        status_text = 'ok'
+        if (world%rank == 0) then
+            call slurp(path, text, status)
+            if (status /= 0) then
+                status_text = 'missing'; text = ''
+            end if
+        end if
+        call bcast_text(status_text)
+        if (status_text /= 'ok') call stop_all(path//': cannot open the input file (does it exist and is it readable?)')
+        call bcast_text(text)
+    end subroutine read_input_text
 
     !> VmHWM of this process in KiB (0 when /proc is not available).
     integer(i8) function peak_memory_kib() result(kib)

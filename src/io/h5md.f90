@@ -42,14 +42,14 @@
 module terrace_h5md
     use, intrinsic :: iso_c_binding, only: c_loc
     use terrace_kinds, only: dp, i8
-    use terrace_id_blocks, only: id_block, id_block_owner
+    use terrace_id_blocks, only: id_block, exchange_plan
     use terrace_hdf5_io, only: h5_status_t, h5_library, h5_agree, h5_open_file, h5_create, h5_append, &
                                h5_transfer_list, h5_make_fixed, h5_make_series, h5_extend, h5_dataset_dims, &
                                h5_write_slab, h5_read_slab, h5_attr_int, h5_attr_text, h5_attr_text_list, &
                                h5_attr_vltext
     use terrace_h5md_reader, only: h5md_read_frame
     use mpi_f08, only: MPI_Comm, MPI_Comm_dup, MPI_Comm_free, MPI_Comm_rank, MPI_Comm_size, &
-                       MPI_Allreduce, MPI_Alltoall, MPI_Alltoallv, MPI_Bcast, MPI_IN_PLACE, MPI_LOGICAL, &
+                       MPI_Allreduce, MPI_Alltoallv, MPI_Bcast, MPI_IN_PLACE, MPI_LOGICAL, &
                        MPI_LOR, MPI_SUM, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION, &
                        MPI_CHARACTER, MPI_Wtime
     use hdf5, only: hid_t, hsize_t, h5gcreate_f, h5gclose_f, h5gopen_f, h5dopen_f, h5dclose_f, h5fclose_f, &
@@ -182,14 +182,10 @@ contains
             ok = .false.; msg = st%msg; return
         end if
 
-        call h5_library(st)
+        call begin_open(self, path, comm, st)
         if (.not. st%ok) then
             ok = .false.; msg = st%msg; return
         end if
-        call MPI_Comm_dup(comm, self%comm)
-        call MPI_Comm_rank(self%comm, self%rank)
-        call MPI_Comm_size(self%comm, self%nprocs)
-        self%path = trim(path)
         self%natoms = natoms
         self%dimension = dimension
         D_ = dimension
@@ -314,6 +310,21 @@ contains
         end if
     end subroutine writer_create
 
+    !> What create and open_append do before the file: the HDF5 library, the writer's own
+    !> communicator (a duplicate of comm), its rank and size, the path.
+    subroutine begin_open(self, path, comm, st)
+        class(h5md_writer_t), intent(inout) :: self
+        character(len=*), intent(in) :: path
+        type(MPI_Comm), intent(in) :: comm
+        type(h5_status_t), intent(inout) :: st
+        call h5_library(st)
+        if (.not. st%ok) return
+        call MPI_Comm_dup(comm, self%comm)
+        call MPI_Comm_rank(self%comm, self%rank)
+        call MPI_Comm_size(self%comm, self%nprocs)
+        self%path = trim(path)
+    end subroutine begin_open
+
     !> Reopen an existing trajectory written by `create`/`write_frame` to append to it (a restart
     !> from a checkpoint): every time series (the particle elements and every observable) is cut
     !> back to its first `keep` entries, dropping what a run killed after its checkpoint may have
@@ -341,14 +352,10 @@ contains
         if (self%opened) then
             ok = .false.; msg = 'h5md: open_append: the writer is already open ('//self%path//')'; return
         end if
-        call h5_library(st)
+        call begin_open(self, path, comm, st)
         if (.not. st%ok) then
             ok = .false.; msg = st%msg; return
         end if
-        call MPI_Comm_dup(comm, self%comm)
-        call MPI_Comm_rank(self%comm, self%rank)
-        call MPI_Comm_size(self%comm, self%nprocs)
-        self%path = trim(path)
         call h5_open_file(st, self%path, h5_append, self%file, self%comm, collective_metadata=.true.)
         if (self%file < 0) then
             call MPI_Comm_free(self%comm)
@@ -549,16 +556,7 @@ contains
         allocate (scount(0:P - 1), rcount(0:P - 1), sdisp(0:P - 1), rdisp(0:P - 1), cursor(0:P - 1))
         associate (w => self%work)
             call reserve_send(w, max(wr, 1), wi, nlocal)
-            scount = 0
-            do i = 1, nlocal
-                r = id_block_owner(ids(i), self%natoms, P)
-                w%dest(i) = r
-                scount(r) = scount(r) + 1
-            end do
-            sdisp(0) = 0
-            do r = 1, P - 1
-                sdisp(r) = sdisp(r - 1) + scount(r - 1)
-            end do
+            call exchange_plan(ids(1:nlocal), self%natoms, self%comm, w%dest(1:nlocal), scount, sdisp, rcount, rdisp)
             cursor = sdisp
             do i = 1, nlocal
                 r = w%dest(i)
@@ -569,11 +567,6 @@ contains
                 if (self%want(e_pos)) w%sreal(roff(e_pos) + 1:roff(e_pos) + D_, j) = x(1:D_, i)
                 if (self%want(e_vel)) w%sreal(roff(e_vel) + 1:roff(e_vel) + D_, j) = v(1:D_, i)
                 if (self%want(e_force)) w%sreal(roff(e_force) + 1:roff(e_force) + D_, j) = f(1:D_, i)
-            end do
-            call MPI_Alltoall(scount, 1, MPI_INTEGER, rcount, 1, MPI_INTEGER, self%comm)
-            rdisp(0) = 0
-            do r = 1, P - 1
-                rdisp(r) = rdisp(r - 1) + rcount(r - 1)
             end do
             nrecv = sum(rcount)
             call reserve_recv(w, max(wr, 1), wi, D_, max(nrecv, int(self%nmine)))

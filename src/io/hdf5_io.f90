@@ -357,6 +357,27 @@ contains
 
     ! ============================================================== attributes: writing
 
+    !> Attribute `name` of file type ftype from buf (memory type memtype): a scalar (n = 0) or n
+    !> values in a 1-D dataspace.
+    subroutine write_attr(st, loc, name, ftype, memtype, buf, n)
+        type(h5_status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: loc, ftype, memtype
+        character(len=*), intent(in) :: name
+        type(c_ptr), intent(in) :: buf
+        integer, intent(in) :: n
+        integer(hid_t) :: sp, a
+        integer :: err
+        if (n == 0) then
+            call h5screate_f(H5S_SCALAR_F, sp, err)
+        else
+            call h5screate_simple_f(1, [int(n, hsize_t)], sp, err)
+        end if
+        call h5acreate_f(loc, name, ftype, sp, a, err); call st%check(err, 'H5Acreate '//name)
+        call h5awrite_f(a, memtype, buf, err); call st%check(err, 'H5Awrite '//name)
+        call h5aclose_f(a, err)
+        call h5sclose_f(sp, err)
+    end subroutine write_attr
+
     !> Integer attribute (int32): a scalar (scalar = .true., one value) or a 1-D array.
     subroutine h5_attr_int(st, loc, name, vals, scalar)
         type(h5_status_t), intent(inout) :: st
@@ -365,19 +386,10 @@ contains
         integer, intent(in) :: vals(:)
         logical, intent(in) :: scalar
         integer(int32), allocatable, target :: buf(:)
-        integer(hid_t) :: sp, a
-        integer :: err
         allocate (buf(size(vals)))
         buf = int(vals, int32)
-        if (scalar) then
-            call h5screate_f(H5S_SCALAR_F, sp, err)
-        else
-            call h5screate_simple_f(1, [int(size(vals), hsize_t)], sp, err)
-        end if
-        call h5acreate_f(loc, name, H5T_STD_I32LE, sp, a, err); call st%check(err, 'H5Acreate '//name)
-        call h5awrite_f(a, h5kind_to_type(int32, H5_INTEGER_KIND), c_loc(buf), err); call st%check(err, 'H5Awrite '//name)
-        call h5aclose_f(a, err)
-        call h5sclose_f(sp, err)
+        call write_attr(st, loc, name, H5T_STD_I32LE, h5kind_to_type(int32, H5_INTEGER_KIND), c_loc(buf), &
+                        merge(0, size(vals), scalar))
     end subroutine h5_attr_int
 
     !> Scalar int64 attribute.
@@ -387,14 +399,8 @@ contains
         character(len=*), intent(in) :: name
         integer(i8), intent(in) :: v
         integer(i8), target :: buf
-        integer(hid_t) :: sp, a
-        integer :: err
         buf = v
-        call h5screate_f(H5S_SCALAR_F, sp, err)
-        call h5acreate_f(loc, name, H5T_STD_I64LE, sp, a, err); call st%check(err, 'H5Acreate '//name)
-        call h5awrite_f(a, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(buf), err); call st%check(err, 'H5Awrite '//name)
-        call h5aclose_f(a, err)
-        call h5sclose_f(sp, err)
+        call write_attr(st, loc, name, H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(buf), 0)
     end subroutine h5_attr_i8
 
     !> Scalar float64 attribute.
@@ -404,14 +410,8 @@ contains
         character(len=*), intent(in) :: name
         real(dp), intent(in) :: v
         real(dp), target :: buf
-        integer(hid_t) :: sp, a
-        integer :: err
         buf = v
-        call h5screate_f(H5S_SCALAR_F, sp, err)
-        call h5acreate_f(loc, name, H5T_IEEE_F64LE, sp, a, err); call st%check(err, 'H5Acreate '//name)
-        call h5awrite_f(a, H5T_NATIVE_DOUBLE, c_loc(buf), err); call st%check(err, 'H5Awrite '//name)
-        call h5aclose_f(a, err)
-        call h5sclose_f(sp, err)
+        call write_attr(st, loc, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, c_loc(buf), 0)
     end subroutine h5_attr_real
 
     !> Fixed-length (null-padded) string attribute of scalar dataspace (trailing blanks dropped).
@@ -429,7 +429,7 @@ contains
         character(len=*), intent(in) :: name, strs(:)
         logical, intent(in), optional :: scalar
         character(kind=c_char), allocatable, target :: buf(:)
-        integer(hid_t) :: sp, a, t
+        integer(hid_t) :: t
         integer(size_t) :: w
         integer :: err, i, j, n
         n = size(strs)
@@ -447,15 +447,7 @@ contains
         call h5tcopy_f(H5T_C_S1, t, err)
         call h5tset_size_f(t, w, err)
         call h5tset_strpad_f(t, H5T_STR_NULLPAD_F, err); call st%check(err, 'string type '//name)
-        if (present(scalar)) then
-            call h5screate_f(H5S_SCALAR_F, sp, err)
-        else
-            call h5screate_simple_f(1, [int(n, hsize_t)], sp, err)
-        end if
-        call h5acreate_f(loc, name, t, sp, a, err); call st%check(err, 'H5Acreate '//name)
-        call h5awrite_f(a, t, c_loc(buf), err); call st%check(err, 'H5Awrite '//name)
-        call h5aclose_f(a, err)
-        call h5sclose_f(sp, err)
+        call write_attr(st, loc, name, t, t, c_loc(buf), merge(0, n, present(scalar)))
         call h5tclose_f(t, err)
     end subroutine h5_attr_text_list
 
@@ -467,7 +459,7 @@ contains
         character(len=*), intent(in) :: name, s
         character(kind=c_char), allocatable, target :: chars(:)
         type(c_ptr), target :: p(1)
-        integer(hid_t) :: sp, a, t
+        integer(hid_t) :: t
         integer :: err, j, n
         n = len_trim(s)
         if (n == 0) return
@@ -479,11 +471,7 @@ contains
         p(1) = c_loc(chars)
         call h5tcopy_f(H5T_STRING, t, err)
         call h5tset_cset_f(t, H5T_CSET_ASCII_F, err); call st%check(err, 'VL string type '//name)
-        call h5screate_f(H5S_SCALAR_F, sp, err)
-        call h5acreate_f(loc, name, t, sp, a, err); call st%check(err, 'H5Acreate '//name)
-        call h5awrite_f(a, t, c_loc(p), err); call st%check(err, 'H5Awrite '//name)
-        call h5aclose_f(a, err)
-        call h5sclose_f(sp, err)
+        call write_attr(st, loc, name, t, t, c_loc(p), 0)
         call h5tclose_f(t, err)
     end subroutine h5_attr_vltext
 

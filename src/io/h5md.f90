@@ -491,7 +491,7 @@ contains
         character(len=*), intent(out) :: msg
         logical, intent(in), optional :: flush
         type(h5_status_t) :: st
-        integer :: D_, P, i, j, e, r, wr, wi, it, im, nrecv, err, roff(nel)
+        integer :: D_, P, i, j, e, r, wr, wi, it, im, nrecv, roff(nel)
         integer, allocatable :: scount(:), rcount(:), sdisp(:), rdisp(:), cursor(:)
         real(dp), allocatable, target :: mbuf(:)
         integer, allocatable, target :: tbuf(:)
@@ -642,11 +642,7 @@ contains
                 end if
             end associate
         end associate
-        if (.not. present(flush)) then
-            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
-        else if (flush) then
-            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
-        end if
+        call flush_unless_told(self, st, flush)
         call h5_agree(self%comm, st, ok, msg)
         if (ok) then
             self%nframes = self%nframes + 1
@@ -786,11 +782,7 @@ contains
             call h5_write_slab(st, o%value, H5T_NATIVE_DOUBLE, c_loc(value_t), [o%n], [1_hsize_t], self%rank == 0, &
                             self%dxpl_rank0)
         end associate
-        if (.not. present(flush)) then
-            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
-        else if (flush) then
-            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
-        end if
+        call flush_unless_told(self, st, flush)
         call h5_agree(self%comm, st, ok, msg)
         if (ok) then
             self%obs(k)%n = self%obs(k)%n + 1
@@ -798,6 +790,18 @@ contains
             msg = 'h5md: write_observable '//trim(name)//': '//trim(msg)
         end if
     end subroutine writer_write_observable
+
+    !> Flush the file after a frame or an observable unless the caller said flush = .false.
+    subroutine flush_unless_told(self, st, flush)
+        class(h5md_writer_t), intent(inout) :: self
+        type(h5_status_t), intent(inout) :: st
+        logical, intent(in), optional :: flush
+        integer :: err
+        if (present(flush)) then
+            if (.not. flush) return
+        end if
+        call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+    end subroutine flush_unless_told
 
     !> Flush the file to disk (collective).
     !> With min_interval (seconds of wall time), only when at least that long has passed since the

@@ -27,7 +27,7 @@ module terrace_checkpoint
     use terrace_namelist_text, only: namelist_file_t
     use terrace_hdf5_io, only: h5_status_t, h5_open_file, h5_create, h5_read, h5_transfer_list, h5_make_fixed, &
                                h5_write_slab, h5_dataset_rank, h5_dataset_dims, h5_read_whole, h5_attr_text, &
-                               h5_attr_i8, h5_attr_real, h5_read_attr_i8, h5_read_attr_string
+                               h5_attr_scalar, h5_read_attr_scalar, h5_read_attr_string
     use mpi_f08, only: MPI_Barrier
     use hdf5, only: hid_t, hsize_t, size_t, h5gcreate_f, h5gclose_f, h5gopen_f, h5dopen_f, h5dclose_f, h5fclose_f, &
                     h5pclose_f, h5aget_num_attrs_f, h5aopen_by_idx_f, h5aget_name_f, h5aget_type_f, h5tget_class_f, &
@@ -269,14 +269,14 @@ contains
         call h5_transfer_list(st, .true., dxpl)
 
         call h5_attr_text(st, file, 'format', format_name)
-        call h5_attr_i8(st, file, 'format_version', int(format_version, i8))
+        call h5_attr_scalar(st, file, 'format_version', int(format_version, i8))
         call h5_attr_text(st, file, 'terrace_version', version)
         call h5_attr_text(st, file, 'deck', deck)
-        call h5_attr_i8(st, file, 'deck_hash', hash)
+        call h5_attr_scalar(st, file, 'deck_hash', hash)
         call h5_attr_text(st, file, 'integrator', integrator)
-        call h5_attr_i8(st, file, 'natoms', natoms)
-        call h5_attr_i8(st, file, 'nprocs', int(world%nprocs, i8))
-        call h5_attr_i8(st, file, 'dimension', int(dimension, i8))
+        call h5_attr_scalar(st, file, 'natoms', natoms)
+        call h5_attr_scalar(st, file, 'nprocs', int(world%nprocs, i8))
+        call h5_attr_scalar(st, file, 'dimension', int(dimension, i8))
 
         call h5gcreate_f(file, 'atoms', g, err); call st%check(err, 'create atoms')
         block
@@ -307,9 +307,9 @@ contains
         call h5gcreate_f(file, 'state', gs, err); call st%check(err, 'create state')
         do k = 1, values%n
             if (values%is_int(k)) then
-                call h5_attr_i8(st, gs, trim(values%names(k)), values%ival(k))
+                call h5_attr_scalar(st, gs, trim(values%names(k)), values%ival(k))
             else
-                call h5_attr_real(st, gs, trim(values%names(k)), values%rval(k))
+                call h5_attr_scalar(st, gs, trim(values%names(k)), values%rval(k))
             end if
         end do
         call h5gclose_f(gs, err)
@@ -374,6 +374,7 @@ contains
         integer(i8) :: v
 
         ok = .true.; msg = ''
+        v = 0
         inquire (file=path, exist=exists)
         if (.not. exists) then
             ok = .false.; msg = 'no such file'
@@ -390,10 +391,10 @@ contains
             call h5fclose_f(file, err)
             call agree_fail(); return
         end if
-        call h5_read_attr_i8(st, file, 'natoms', data%natoms)
-        call h5_read_attr_i8(st, file, 'nprocs', v); data%nprocs = int(v)
-        call h5_read_attr_i8(st, file, 'dimension', v); data%dimension = int(v)
-        call h5_read_attr_i8(st, file, 'deck_hash', data%deck_hash)
+        call h5_read_attr_scalar(st, file, 'natoms', data%natoms)
+        call h5_read_attr_scalar(st, file, 'nprocs', v); data%nprocs = int(v)
+        call h5_read_attr_scalar(st, file, 'dimension', v); data%dimension = int(v)
+        call h5_read_attr_scalar(st, file, 'deck_hash', data%deck_hash)
         if (st%ok .and. data%natoms > 0) then
             block
                 integer(i8), allocatable, target :: ids(:), slots(:, :)

@@ -27,8 +27,8 @@ module terrace_h5md_reader
     use terrace_errors, only: check_all
     use terrace_id_blocks, only: id_block
     use terrace_hdf5_io, only: h5_status_t, h5_library, h5_agree, h5_open_file, h5_read, h5_link_exists, &
-                               h5_dataset_rank, h5_dataset_dims, h5_read_whole, h5_read_slab, h5_read_attr_real, &
-                               h5_read_attr_i8, h5_read_attr_strings, h5_read_attr_string
+                               h5_dataset_rank, h5_dataset_dims, h5_read_whole, h5_read_slab, &
+                               h5_read_attr_scalar, h5_read_attr_strings, h5_read_attr_string
     use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Comm_size
     use hdf5, only: hid_t, hsize_t, h5dopen_f, h5dclose_f, h5gopen_f, h5gclose_f, h5fclose_f, h5aexists_f, &
                     h5kind_to_type, H5_INTEGER_KIND, H5T_NATIVE_DOUBLE, H5T_NATIVE_INTEGER
@@ -73,8 +73,8 @@ module terrace_h5md_reader
         procedure :: frames => traj_frames
         procedure :: time_of => traj_time_of
         procedure :: box_edges => traj_box_edges
-        procedure :: read_real => traj_read_real
-        procedure :: read_int => traj_read_int
+        procedure :: read_real => traj_read
+        procedure :: read_int => traj_read
         procedure :: where => traj_where
         procedure :: time_step => traj_time_step
     end type h5md_trajectory_t
@@ -277,7 +277,7 @@ contains
                     call h5_read_whole(lenient, d, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(iscal), tag)
                     ioffset = 0
                     call h5aexists_f(d, 'offset', has_offset, err)
-                    if (has_offset) call h5_read_attr_i8(lenient, d, 'offset', ioffset)
+                    if (has_offset) call h5_read_attr_scalar(lenient, d, 'offset', ioffset)
                     deallocate (el%step)
                     allocate (el%step(el%nframes))
                     do k = 1, el%nframes
@@ -307,7 +307,7 @@ contains
                 if (failed(st, st%ok, self%where(tag)//': cannot read')) return
                 offset = 0
                 call h5aexists_f(d, 'offset', has_offset, err)
-                if (has_offset) call h5_read_attr_real(st, d, 'offset', offset)
+                if (has_offset) call h5_read_attr_scalar(st, d, 'offset', offset)
                 deallocate (el%time)
                 allocate (el%time(el%nframes))
                 do k = 1, el%nframes
@@ -574,36 +574,33 @@ contains
     end function traj_box_edges
 
     !> buf(1:D, 1:na, 1:nf) = element e, atoms a0+1..a0+na (a0 0-based), frames f0+1, f0+1+stride, ...
-    !> (nf of them; f0 0-based). Independent read (any rank, any pattern).
+    !> (nf of them; f0 0-based); buf is real(dp) (read_real) or integer (read_int). Independent
+    !> read (any rank, any pattern).
     !> Reads go in batches of at most frames_per_read frames: one HDF5 read over very many chunks
     !> (Terrace writes one chunk per frame) makes HDF5 hold a selection per chunk, about 7 KiB each.
-    subroutine traj_read_real(self, e, f0, nf, stride, a0, na, buf)
+    subroutine traj_read(self, e, f0, nf, stride, a0, na, buf)
         class(h5md_trajectory_t), intent(in) :: self
         integer, intent(in) :: e
         integer(i8), intent(in) :: f0, nf, stride, a0, na
-        real(dp), intent(inout), target, contiguous :: buf(:, :, :)
+        class(*), intent(inout), target, contiguous :: buf(:, :, :)
         integer(i8) :: k, nk
+        integer(hid_t) :: memtype
+        type(c_ptr) :: p
         if (nf <= 0 .or. na <= 0) return
         do k = 1, nf, frames_per_read
             nk = min(frames_per_read, nf - k + 1)
-            call read_block(self, e, f0 + (k - 1)*stride, nk, stride, a0, na, H5T_NATIVE_DOUBLE, c_loc(buf(1, 1, k)), &
+            select type (buf)
+            type is (real(dp))
+                memtype = H5T_NATIVE_DOUBLE; p = c_loc(buf(1, 1, k))
+            type is (integer)
+                memtype = H5T_NATIVE_INTEGER; p = c_loc(buf(1, 1, k))
+            class default
+                error stop 'terrace_h5md_reader: read: the buffer is neither real(dp) nor integer'
+            end select
+            call read_block(self, e, f0 + (k - 1)*stride, nk, stride, a0, na, memtype, p, &
                             size(buf(:, :, k:k + nk - 1), kind=i8))
         end do
-    end subroutine traj_read_real
-
-    subroutine traj_read_int(self, e, f0, nf, stride, a0, na, buf)
-        class(h5md_trajectory_t), intent(in) :: self
-        integer, intent(in) :: e
-        integer(i8), intent(in) :: f0, nf, stride, a0, na
-        integer, intent(inout), target, contiguous :: buf(:, :, :)
-        integer(i8) :: k, nk
-        if (nf <= 0 .or. na <= 0) return
-        do k = 1, nf, frames_per_read
-            nk = min(frames_per_read, nf - k + 1)
-            call read_block(self, e, f0 + (k - 1)*stride, nk, stride, a0, na, H5T_NATIVE_INTEGER, c_loc(buf(1, 1, k)), &
-                            size(buf(:, :, k:k + nk - 1), kind=i8))
-        end do
-    end subroutine traj_read_int
+    end subroutine traj_read
 
     subroutine read_block(self, e, f0, nf, stride, a0, na, memtype, p, capacity, status)
         class(h5md_trajectory_t), intent(in) :: self

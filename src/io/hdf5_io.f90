@@ -35,8 +35,8 @@ module terrace_hdf5_io
     public :: h5_library, h5_agree, h5_open_file, h5_transfer_list
     public :: h5_make_fixed, h5_make_series, h5_extend, h5_dataset_rank, h5_dataset_dims
     public :: h5_write_slab, h5_read_slab, h5_read_whole, h5_read_at
-    public :: h5_attr_int, h5_attr_text, h5_attr_text_list, h5_attr_vltext, h5_attr_i8, h5_attr_real
-    public :: h5_read_attr_i8, h5_read_attr_real, h5_read_attr_strings, h5_read_attr_string
+    public :: h5_attr_int, h5_attr_scalar, h5_attr_text, h5_attr_text_list, h5_attr_vltext
+    public :: h5_read_attr_scalar, h5_read_attr_strings, h5_read_attr_string
     public :: h5_link_exists
 
     integer(hsize_t), parameter :: chunk_scalar = 512      !< default chunk of a series of scalars
@@ -392,27 +392,21 @@ contains
                         merge(0, size(vals), scalar))
     end subroutine h5_attr_int
 
-    !> Scalar int64 attribute.
-    subroutine h5_attr_i8(st, loc, name, v)
+    !> Scalar attribute: an int64 (integer(i8)) or a float64 (real(dp)) v.
+    subroutine h5_attr_scalar(st, loc, name, v)
         type(h5_status_t), intent(inout) :: st
         integer(hid_t), intent(in) :: loc
         character(len=*), intent(in) :: name
-        integer(i8), intent(in) :: v
-        integer(i8), target :: buf
-        buf = v
-        call write_attr(st, loc, name, H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(buf), 0)
-    end subroutine h5_attr_i8
-
-    !> Scalar float64 attribute.
-    subroutine h5_attr_real(st, loc, name, v)
-        type(h5_status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: loc
-        character(len=*), intent(in) :: name
-        real(dp), intent(in) :: v
-        real(dp), target :: buf
-        buf = v
-        call write_attr(st, loc, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, c_loc(buf), 0)
-    end subroutine h5_attr_real
+        class(*), intent(in), target :: v
+        select type (v)
+        type is (integer(i8))
+            call write_attr(st, loc, name, H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(v), 0)
+        type is (real(dp))
+            call write_attr(st, loc, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, c_loc(v), 0)
+        class default
+            call st%fail('attribute '//name//': only integer(i8) and real(dp) scalars are written')
+        end select
+    end subroutine h5_attr_scalar
 
     !> Fixed-length (null-padded) string attribute of scalar dataspace (trailing blanks dropped).
     subroutine h5_attr_text(st, loc, name, s)
@@ -477,29 +471,22 @@ contains
 
     ! ============================================================== attributes: reading
 
-    !> A scalar integer attribute as int64; st fails when it is missing or unreadable.
-    subroutine h5_read_attr_i8(st, loc, name, v)
+    !> A scalar attribute read as v's type (integer(i8) or real(dp), converted by HDF5 from the
+    !> file's); st fails when it is missing or unreadable (v is then left unchanged).
+    subroutine h5_read_attr_scalar(st, loc, name, v)
         type(h5_status_t), intent(inout) :: st
         integer(hid_t), intent(in) :: loc
         character(len=*), intent(in) :: name
-        integer(i8), intent(out) :: v
-        integer(i8), target :: b
-        b = 0
-        call read_attr(st, loc, name, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(b))
-        v = b
-    end subroutine h5_read_attr_i8
-
-    !> A scalar real attribute as float64; st fails when it is missing or unreadable.
-    subroutine h5_read_attr_real(st, loc, name, v)
-        type(h5_status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: loc
-        character(len=*), intent(in) :: name
-        real(dp), intent(out) :: v
-        real(dp), target :: b
-        b = 0
-        call read_attr(st, loc, name, H5T_NATIVE_DOUBLE, c_loc(b))
-        v = b
-    end subroutine h5_read_attr_real
+        class(*), intent(inout), target :: v
+        select type (v)
+        type is (integer(i8))
+            call read_attr(st, loc, name, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(v))
+        type is (real(dp))
+            call read_attr(st, loc, name, H5T_NATIVE_DOUBLE, c_loc(v))
+        class default
+            call st%fail('attribute '//name//': only integer(i8) and real(dp) scalars are read')
+        end select
+    end subroutine h5_read_attr_scalar
 
     subroutine read_attr(st, loc, name, memtype, buf)
         type(h5_status_t), intent(inout) :: st

@@ -22,7 +22,8 @@ module terrace_energy_stepping
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
     use terrace_event_solver, only: ray_t, event_solver_t, crossing_t, level_upper, level_lower
-    use terrace_thermo, only: thermo_writer_t, thermo_sample_t
+    use terrace_thermo, only: thermo_writer_t
+    use terrace_observables, only: thermo_sample_t
     use terrace_trajectory, only: trajectory_t
     use terrace_timers, only: t_output
     use terrace_mpi_env, only: world, sum_all, min_all

@@ -17,7 +17,7 @@ module terrace_engine
     use terrace_lj, only: lj_t
     use terrace_eam, only: eam_t
     use terrace_timers, only: timers_t, t_pair, t_neigh, t_comm, t_search
-    use terrace_thermo, only: thermo_sample_t
+    use terrace_observables, only: thermo_sample_t
     use terrace_scene_plan, only: plan_t, pair_all, pair_cells
     use terrace_mpi_env, only: world, sum_all, sum_all_i8, min_all, any_all
     use terrace_errors, only: stop_all, check_all, warn

@@ -41,6 +41,7 @@
 module terrace_eam
     use terrace_kinds, only: dp
     use terrace_atoms, only: atoms_t
+    use terrace_grow, only: reserve
     use terrace_neighbor_list, only: neighbor_list_t
     use terrace_eam_files, only: eam_file_t, read_funcfl_file, read_setfl_file
     implicit none
@@ -459,8 +460,8 @@ contains
         type(neighbor_list_t), intent(in) :: list
         integer :: nall
         nall = atoms%nlocal + atoms%nghost
-        call reserve(self%rho, nall)
-        call reserve(self%fp, nall)
+        call reserve(self%rho, nall, minimum=64, zero=.true.)
+        call reserve(self%fp, nall, minimum=64, zero=.true.)
         self%rho(1:nall) = 0
         if (atoms%nlocal == 0) return
         if (self%ntypes == 1) then
@@ -483,7 +484,7 @@ contains
         real(dp) :: lo, hi
         n = atoms%nlocal
         energy = 0
-        call reserve(self%fp, atoms%nlocal + atoms%nghost)
+        call reserve(self%fp, atoms%nlocal + atoms%nghost, minimum=64, zero=.true.)
         if (n == 0) return
         call embed_kernel(n, atoms%type, self%t2f, self%fspl, self%rdrho, self%nrho, self%rhomax, self%rho, &
                           want_energy, self%fp, energy, lo, hi)
@@ -797,18 +798,6 @@ contains
         end do
         out = out + [e, e1, e2, w]
     end subroutine ray_embed
-
-    !> Grow a per-atom array to at least n entries (contents are not kept).
-    subroutine reserve(a, n)
-        real(dp), allocatable, intent(inout) :: a(:)
-        integer, intent(in) :: n
-        if (allocated(a)) then
-            if (size(a) >= n) return
-            deallocate (a)
-        end if
-        allocate (a(max(n + n/4, 64)))
-        a = 0
-    end subroutine reserve
 
     !> Work rows for the one-type kernels: as long as the longest row of the list (counted here from
     !> first(1:nlocal+1), which every list has, hand-built ones included).

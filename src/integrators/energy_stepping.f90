@@ -138,13 +138,14 @@ contains
     subroutine print_es_estimates(eng, h)
         type(engine_t), intent(inout) :: eng
         real(dp), intent(in) :: h
-        real(dp) :: sigma2, a, b, mean_dt, refl, tau, dt_vv, sig, eps, m, ray(4), omega2
+        real(dp) :: sigma2, a, b, mean_dt, refl, tau, dt_vv, ray(4), omega2
         real(dp), parameter :: pi = 4*atan(1.0_dp)
         character(len=:), allocatable :: how
         call gradient_sums(eng, sigma2, a, b)
         sigma2 = crossing_sigma2(eng)
-        if (eng%use_eam) then
-            ! no LJ time unit: 1/50 of the mean vibration period 2 pi / omega, omega^2 = v.H.v / v.M.v
+        tau = eng%pot%time_scale(eng%atoms%mass(1), eng%cfg%units%mvv2e)
+        if (.not. (tau > 0)) then
+            ! no natural time unit: 1/50 of the mean vibration period 2 pi / omega, omega^2 = v.H.v / v.M.v
             ! (a Rayleigh quotient over the thermal velocities; LJ's 0.005 tau is about the same fraction)
             call eng%ray_pass(0.0_dp, ray)
             omega2 = ray(3)/max(2*kinetic_energy(eng%atoms, eng%cfg%units), tiny(1.0_dp))
@@ -154,15 +155,11 @@ contains
         if (sigma2 > 0) mean_dt = h/(sqrt(2/pi)*sqrt(sigma2))
         refl = 0
         if (sigma2 > 0) refl = 1 - exp(-h*a/(eng%cfg%units%mvv2e**2*sigma2))
-        if (eng%use_eam) then
+        if (.not. (tau > 0)) then
             dt_vv = huge(1.0_dp)
             if (omega2 > 0) dt_vv = 2*pi/sqrt(omega2)/50
             how = ' (period/50)'
         else
-            eps = eng%lj%lj4(1, 1)**2/(4*eng%lj%lj3(1, 1))
-            sig = (eng%lj%lj3(1, 1)/eng%lj%lj4(1, 1))**(1.0_dp/6)
-            m = eng%atoms%mass(1)
-            tau = sig*sqrt(m*eng%cfg%units%mvv2e/eps)
             dt_vv = 0.005_dp*tau
             how = ' (0.005 tau)'
         end if

@@ -17,6 +17,9 @@ module terrace_neighbor_list
 
     type, public :: neighbor_list_t
         real(dp) :: cut = 0, cutsq = 0, skin = 0
+        !> No list: every owned atom meets every atom this rank holds (small free scenes; the
+        !> scene plan decides). Potentials that support it branch on this once per pass.
+        logical :: all_pairs = .false.
         integer :: dimension = 3
         integer :: nbin(3) = 1, reach(3) = 0
         real(dp) :: bin_lo(3) = 0, bin_inv(3) = 1, bin_size(3) = 1

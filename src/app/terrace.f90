@@ -94,7 +94,7 @@ contains
                 ' steps, thermo every ', thermo_every, ' steps'
             call finish_check()
         end if
-        call open_outputs('', n_steps*cfg%dt)
+        call open_outputs(trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), n_steps*cfg%dt)
         call MPI_Barrier(world%comm)
         eng%timers = timers_t()
         t0 = MPI_Wtime()

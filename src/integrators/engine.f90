@@ -11,6 +11,7 @@ module terrace_engine
     use terrace_atoms_file, only: read_atoms_file
     use terrace_lattice, only: lattice_basis, lattice_cell
     use terrace_velocities, only: create_velocities, kinetic_energy
+    use terrace_thermostat, only: thermostat_dof, thermostat_style
     use terrace_domain, only: domain_t
     use terrace_replicate, only: replicate_t
     use terrace_neighbor_list, only: neighbor_list_t
@@ -462,10 +463,12 @@ contains
         end do
     end subroutine create_lattice_atoms
 
-    !> Degrees of freedom for the temperature, d N - d (as LAMMPS).
+    !> Degrees of freedom for the temperature: d N - d (as LAMMPS), or d N under a thermostat that
+    !> also drives the total momentum (Langevin, Andersen without zero_momentum; terrace_thermostat).
     pure real(dp) function engine_dof(self)
         class(engine_t), intent(in) :: self
-        engine_dof = real(self%cfg%dimension, dp)*(real(self%natoms, dp) - 1)
+        engine_dof = thermostat_dof(max(0, thermostat_style(self%cfg%thermostat)), self%cfg%zero_momentum, &
+                                    self%cfg%dimension, self%natoms)
     end function engine_dof
 
     !> Migrate atoms, sort them spatially, rebuild the halo and the neighbour list.

@@ -32,6 +32,8 @@ module terrace_thermostat
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: sum_all
     use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, normals4, unit_from_word, box_muller
+    use terrace_config, only: config_t
+    use terrace_checkpoint, only: ckpt_values_t
     implicit none
     private
 
@@ -64,9 +66,12 @@ module terrace_thermostat
         integer, allocatable :: collision_index(:)
     contains
         procedure :: init => ts_init
+        procedure :: configure => ts_configure
+        procedure :: save => ts_save
+        procedure :: restore => ts_restore
         procedure :: target => ts_target
         procedure :: active => ts_active
-        procedure :: langevin_drift => ts_langevin_drift
+        procedure :: langevin_kick_drift => ts_langevin_kick_drift
         procedure :: csvr => ts_csvr
         procedure :: nose_hoover => ts_nose_hoover
         procedure :: andersen_step => ts_andersen_step
@@ -125,6 +130,48 @@ contains
         self%eta = 0; self%v_eta = 0
     end subroutine ts_init
 
+    !> From the validated &thermostat group; run_time is the length of the temperature ramp.
+    subroutine ts_configure(self, cfg, natoms, run_time)
+        class(thermostat_t), intent(inout) :: self
+        type(config_t), intent(in) :: cfg
+        integer(i8), intent(in) :: natoms
+        real(dp), intent(in) :: run_time
+        call self%init(max(0, thermostat_style(cfg%thermostat)), cfg%thermostat_temperature, &
+                       cfg%thermostat_temperature_end, run_time, cfg%thermostat_damping, cfg%chain_length, &
+                       cfg%thermostat_seed, cfg%zero_momentum, cfg%dimension, natoms, cfg%units%boltz, cfg%units%mvv2e)
+    end subroutine ts_configure
+
+    !> The thermostat's state for a checkpoint: ecouple (folded: collective) and the chain.
+    subroutine ts_save(self, values)
+        class(thermostat_t), intent(inout) :: self
+        type(ckpt_values_t), intent(inout) :: values
+        character(len=16) :: tag
+        integer :: j
+        real(dp) :: e
+        e = self%ecouple()
+        call values%put_r('ts_ecouple', e)
+        do j = 1, self%chain_length
+            write (tag, '(i0)') j
+            call values%put_r('ts_eta_'//trim(tag), self%eta(j))
+            call values%put_r('ts_v_eta_'//trim(tag), self%v_eta(j))
+        end do
+    end subroutine ts_save
+
+    subroutine ts_restore(self, values, ok)
+        class(thermostat_t), intent(inout) :: self
+        type(ckpt_values_t), intent(in) :: values
+        logical, intent(inout) :: ok
+        character(len=16) :: tag
+        integer :: j
+        self%ecouple_global = values%get_r('ts_ecouple', ok)
+        self%ecouple_local = 0
+        do j = 1, self%chain_length
+            write (tag, '(i0)') j
+            self%eta(j) = values%get_r('ts_eta_'//trim(tag), ok)
+            self%v_eta(j) = values%get_r('ts_v_eta_'//trim(tag), ok)
+        end do
+    end subroutine ts_restore
+
     pure logical function ts_active(self)
         class(thermostat_t), intent(in) :: self
         ts_active = self%style /= thermostat_none
@@ -140,12 +187,13 @@ contains
         temp = self%t_start + (self%t_end - self%t_start)*f
     end function ts_target
 
-    !> BAOAB's A O A: x += dt/2 v, v <- c1 v + c2 sqrt(kT/m) z, x += dt/2 v for every owned atom,
-    !> z from (seed, id, step). `time` is the middle of the step (for the target temperature).
-    subroutine ts_langevin_drift(self, atoms, dt, step, time)
+    !> BAOAB's B A O A for every owned atom: v += dtfm f, x += dt/2 v, v <- c1 v + c2 sqrt(kT/m) z,
+    !> x += dt/2 v, z from (seed, id, step); dtfm(type) = dt/2 ftm2v/m. `time` is the middle of the
+    !> step (for the target temperature).
+    subroutine ts_langevin_kick_drift(self, atoms, dtfm, dt, step, time)
         class(thermostat_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
-        real(dp), intent(in) :: dt, time
+        real(dp), intent(in) :: dtfm(:), dt, time
         integer(i8), intent(in) :: step
         real(dp) :: c1, c2, kt, half, sig(atoms%ntypes), z(4), vold(3), de, m2(atoms%ntypes)
         integer :: i, t
@@ -162,14 +210,14 @@ contains
             call normals4(self%seed, stream_langevin, atoms%id(i), step, z)
             if (self%dimension == 2) z(3) = 0
             t = atoms%type(i)
-            vold = atoms%v(:, i)
+            vold = atoms%v(:, i) + dtfm(t)*atoms%f(:, i)
             atoms%x(:, i) = atoms%x(:, i) + half*vold
             atoms%v(:, i) = c1*vold + sig(t)*z(1:3)
             atoms%x(:, i) = atoms%x(:, i) + half*atoms%v(:, i)
             de = de + m2(t)*(sum(atoms%v(:, i)**2) - sum(vold**2))
         end do
         self%ecouple_local = self%ecouple_local + de
-    end subroutine ts_langevin_drift
+    end subroutine ts_langevin_kick_drift
 
     !> Global kinetic energy (collective).
     real(dp) function total_ke(self, atoms) result(ke)

@@ -129,6 +129,9 @@ contains
                 call eng%timers%stop(t_output)
             end if
             if (frame) call write_frame(step, eng%sample(step, step*dt))
+            ! ecouple's per-rank parts are folded at every safe point, so that a run continued from a
+            ! checkpoint (always taken at one) sums them exactly as the uninterrupted run does
+            if (safe .and. ts%active()) call ts%fold()
             if (safe .and. ctl%active) then
                 stop_now = ctl%stop_requested()
                 if (stop_now .or. scheduled) call checkpoint(step, scheduled)

@@ -77,6 +77,7 @@ module terrace_thermostat
         procedure :: andersen_step => ts_andersen_step
         procedure :: remove_momentum => ts_remove_momentum
         procedure :: ecouple => ts_ecouple
+        procedure :: fold => ts_fold
         procedure :: chain_energy => ts_chain_energy
         procedure :: andersen_schedule => ts_andersen_schedule
         procedure :: andersen_first => ts_andersen_first
@@ -411,13 +412,19 @@ contains
     !> The energy put in so far (collective: folds every rank's partial sum into the global value).
     real(dp) function ts_ecouple(self) result(e)
         class(thermostat_t), intent(inout) :: self
+        call self%fold()
+        e = self%ecouple_global
+    end function ts_ecouple
+
+    !> Fold every rank's partial sum of ecouple into the global value (collective).
+    subroutine ts_fold(self)
+        class(thermostat_t), intent(inout) :: self
         real(dp) :: part
         part = self%ecouple_local
         call sum_all(part)
         self%ecouple_global = self%ecouple_global + part
         self%ecouple_local = 0
-        e = self%ecouple_global
-    end function ts_ecouple
+    end subroutine ts_fold
 
     ! ------------------------------------------------------------------ Andersen, energy stepping
 

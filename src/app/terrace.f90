@@ -157,7 +157,8 @@ contains
             end if
             call finish_check()
         end if
-        call open_outputs(es_thermo_header, merge(t_end, 0.0_dp, cfg%run_time > 0))
+        call open_outputs(es_thermo_header//trim(merge(',ecouple,econserve', '                  ', &
+                                                        cfg%thermostat /= 'none')), merge(t_end, 0.0_dp, cfg%run_time > 0))
         call MPI_Barrier(world%comm)
         eng%timers = timers_t()
         t0 = MPI_Wtime()

@@ -472,6 +472,9 @@ contains
                           trim(cfg%units%temperature)//')')
         if (.not. (cfg%thermostat_temperature > 0)) &
             call stop_all(cfg%where('thermostat', 'temperature')//': must be > 0 (in '//trim(cfg%units%temperature)//')')
+        if (cfg%nml%find('thermostat', 'temperature_end') > 0 .and. cfg%integrator == 'energy_stepping' .and. &
+            .not. (cfg%run_time > 0)) call stop_all(cfg%where('thermostat', 'temperature_end')// &
+            ': a temperature ramp with energy stepping needs &run run_time (the ramp runs over that time)')
         if (cfg%nml%find('thermostat', 'temperature_end') > 0) then
             if (.not. (cfg%thermostat_temperature_end > 0)) call stop_all(cfg%where('thermostat', 'temperature_end')// &
                 ': must be > 0 (the target at the end of the run, in '//trim(cfg%units%temperature)//')')

@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Cost of the thermostats on the LJ benchmark scene (input/lj_bench.nml: 32,000 atoms, fcc
+# rho* = 0.8442 melting from T* = 1.44, lj/cut 2.5, skin 0.3, velocity Verlet dt 0.005).
+#
+# Usage: scripts/bench/thermostat_cost.sh [NSTEPS [TERRACE_BINARY]]   (defaults 1000, build/terrace)
+#        REPEAT=N (default 3): every style is run N times, interleaved, and its best loop time kept.
+#
+# Each style runs the same deck with &thermostat style=..., temperature=0.7 (about where the NVE
+# run settles, so that the neighbour-list rebuild counts stay comparable), damping=0.5. Reported:
+# the loop time and its overhead over style 'none', the neighbour-list builds, and the direct cost
+# of the thermostat operators: the growth of the 'Other' phase (integration, where the thermostat
+# kernels run) as a fraction of the NVE loop time. One rank, one thread. Timings on a shared
+# machine are noisy: repeat.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+repo="$(cd "$here/../.." && pwd)"
+nsteps="${1:-1000}"
+terrace="$(realpath "${2:-$repo/build/terrace}")"
+repeat="${REPEAT:-3}"
+work="$(mktemp -d "${TMPDIR:-/tmp}/terrace_thermostat_cost.XXXXXX")"
+trap 'rm -rf "$work"' EXIT
+styles=(none langevin csvr nose_hoover andersen)
+for s in "${styles[@]}"; do
+    sed "s/n_steps=1000/n_steps=$nsteps/" "$repo/input/lj_bench.nml" > "$work/$s.nml"
+    if [ "$s" != none ]; then
+        echo "&thermostat style='$s', temperature=0.7, damping=0.5 /" >> "$work/$s.nml"
+    fi
+done
+declare -A best other builds
+for r in $(seq 1 "$repeat"); do
+    for s in "${styles[@]}"; do
+        (cd "$work" && "$terrace" "$s.nml" > "$s.log" 2>&1) || { echo "FAIL: $s"; tail -3 "$work/$s.log"; exit 1; }
+        loop=$(awk '/^Loop time:/ {print $3}' "$work/$s.log")
+        oth=$(awk '$1 == "Other" {print $2}' "$work/$s.log")
+        nb=$(awk '/^Neighbour list builds:/ {print $4}' "$work/$s.log")
+        if [ -z "${best[$s]:-}" ] || awk -v a="$loop" -v b="${best[$s]}" 'BEGIN {exit !(a < b)}'; then
+            best[$s]=$loop; other[$s]=$oth; builds[$s]=$nb
+        fi
+    done
+done
+printf '%-12s %12s %10s %8s %18s\n' style 'loop (s)' overhead builds 'thermostat cost'
+for s in "${styles[@]}"; do
+    awk -v s="$s" -v l="${best[$s]}" -v l0="${best[none]}" -v o="${other[$s]}" -v o0="${other[none]}" -v nb="${builds[$s]}" \
+        'BEGIN { printf "%-12s %12.3f %9.1f%% %8d %17.1f%%\n", s, l, 100*(l/l0 - 1), nb, 100*(o - o0)/l0 }'
+done
+echo "($nsteps steps, 32,000 atoms, best of $repeat; 'thermostat cost' = growth of the Other phase / NVE loop time)"

@@ -9,7 +9,7 @@ Runs the deck (unless --csv names its thermo file), then reports
     tau behind a target rising at rate r is about r tau) and the standard deviation, against the
     canonical fluctuation of the instantaneous temperature, T_target sqrt(2 / Nf);
   - the melting point: the window of the steepest rise of the potential energy;
-and draws T and T_target against time, and V against T_target (doc/thermostat_ramp.png).
+and draws T and T_target against time, and V against T_target (doc/figures/thermostat_ramp.png).
 """
 import argparse
 import math
@@ -29,7 +29,7 @@ def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--terrace", default=os.path.join(repo, "build", "terrace"))
     p.add_argument("--out", default="thermostat_ramp")
-    p.add_argument("--png", default=os.path.join(repo, "doc", "thermostat_ramp.png"))
+    p.add_argument("--png", default=os.path.join(repo, "doc", "figures", "thermostat_ramp.png"))
     p.add_argument("--csv", default=None)
     args = p.parse_args()
     deck = os.path.join(repo, "input", "argon_ramp.nml")

@@ -288,7 +288,7 @@ contains
             '       terrace --version | --help', &
             '', &
             '  RUN.nml    Fortran namelist input: groups &run, &system, &potential, &integrator,', &
-            '             &neighbor, &output (keys, units and defaults: doc/input.md)', &
+            '             &thermostat, &neighbor, &output (keys, units and defaults: doc/input.md)', &
             '  --check    read and validate the input, build the system, print the scene plan', &
             '             (what will be computed and what is skipped), run nothing, write nothing', &
             '  --version  print the version', &

@@ -30,6 +30,8 @@ module terrace_counter_rng
     integer(i8), parameter :: philox_w0 = 2654435769_i8    ! 0x9E3779B9
     integer(i8), parameter :: philox_w1 = 3144134277_i8    ! 0xBB67AE85
     integer(i8), parameter :: stream_mix = 2654435761_i8   ! 0x9E3779B1
+    integer(i8), parameter :: m0_lo = iand(philox_m0, mask16), m0_hi = ishft(philox_m0, -16)  ! 16-bit halves
+    integer(i8), parameter :: m1_lo = iand(philox_m1, mask16), m1_hi = ishft(philox_m1, -16)
     real(dp), parameter :: two_pi = 8*atan(1.0_dp)
     real(dp), parameter :: inv_2_32 = 1.0_dp/4294967296.0_dp, inv_2_53 = 1.0_dp/9007199254740992.0_dp
 
@@ -50,7 +52,9 @@ module terrace_counter_rng
     end type rng_stream_t
 
     public :: philox4x32_10, rng_key, rng_counter, rng_block, rng_stream, unit_from_word, unit_from_words
-    public :: normals4, box_muller
+    public :: normals4, box_muller, rng_blocks, normals4_many
+
+    integer, parameter, public :: rng_batch = 64   !< atoms per batch of the vectorised kernels
 
 contains
 
@@ -85,6 +89,60 @@ contains
             c = [ieor(ieor(hi1, c(2)), k0), lo1, ieor(ieor(hi0, c(4)), k1), lo0]
         end do
     end function philox4x32_10
+
+    !> Philox4x32-10 on n counters at once (c(:, 1..4) in place; the same key), written as loops
+    !> over the n counters so that the compiler vectorises the rounds: the same words as
+    !> philox4x32_10 counter by counter.
+    pure subroutine rng_blocks(n, c, key)
+        integer, intent(in) :: n
+        integer(i8), intent(inout) :: c(n, 4)
+        integer(i8), intent(in) :: key(2)
+        integer(i8) :: k0, k1, p0, p1, t, hi0, lo0, hi1, lo1, x1, x3
+        integer :: r, i
+        k0 = key(1); k1 = key(2)
+        do r = 1, 10
+            do i = 1, n
+                p0 = c(i, 1)*m0_lo; p1 = c(i, 1)*m0_hi
+                t = p0 + ishft(iand(p1, mask16), 16)
+                lo0 = iand(t, mask32); hi0 = ishft(p1, -16) + ishft(t, -32)
+                p0 = c(i, 3)*m1_lo; p1 = c(i, 3)*m1_hi
+                t = p0 + ishft(iand(p1, mask16), 16)
+                lo1 = iand(t, mask32); hi1 = ishft(p1, -16) + ishft(t, -32)
+                x1 = ieor(ieor(hi1, c(i, 2)), k0)
+                x3 = ieor(ieor(hi0, c(i, 4)), k1)
+                c(i, 1) = x1; c(i, 2) = lo1; c(i, 3) = x3; c(i, 4) = lo0
+            end do
+            k0 = iand(k0 + philox_w0, mask32)
+            k1 = iand(k1 + philox_w1, mask32)
+        end do
+    end subroutine rng_blocks
+
+    !> normals4 for n ids at once (the same numbers as normals4 id by id): z(i, 1..4).
+    pure subroutine normals4_many(n, seed, stream, ids, event, z)
+        integer, intent(in) :: n, stream
+        integer(i8), intent(in) :: seed, ids(n), event
+        real(dp), intent(out) :: z(n, 4)
+        integer(i8) :: c(n, 4), ev_lo, ev_hi
+        real(dp) :: r1, r2, a1, a2
+        integer :: i
+        ev_lo = ishft(iand(event, mask16), 16)
+        ev_hi = iand(ishft(event, -16), mask32)
+        do i = 1, n
+            c(i, 1) = 0
+            c(i, 2) = iand(ids(i), mask32)
+            c(i, 3) = ior(iand(ishft(ids(i), -32), mask16), ev_lo)
+            c(i, 4) = ev_hi
+        end do
+        call rng_blocks(n, c, rng_key(seed, stream))
+        do i = 1, n
+            r1 = sqrt(-2*log((real(c(i, 1), dp) + 0.5_dp)*inv_2_32))
+            a1 = two_pi*((real(c(i, 2), dp) + 0.5_dp)*inv_2_32)
+            r2 = sqrt(-2*log((real(c(i, 3), dp) + 0.5_dp)*inv_2_32))
+            a2 = two_pi*((real(c(i, 4), dp) + 0.5_dp)*inv_2_32)
+            z(i, 1) = r1*cos(a1); z(i, 2) = r1*sin(a1)
+            z(i, 3) = r2*cos(a2); z(i, 4) = r2*sin(a2)
+        end do
+    end subroutine normals4_many
 
     !> The key of (seed, stream).
     pure function rng_key(seed, stream) result(key)

@@ -31,7 +31,8 @@ module terrace_thermostat
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: sum_all
-    use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, normals4, unit_from_word, box_muller
+    use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, unit_from_word, box_muller, rng_blocks, &
+                                   normals4_many, rng_batch, rng_key, rng_counter
     use terrace_config, only: config_t
     use terrace_checkpoint, only: ckpt_values_t
     implicit none
@@ -196,8 +197,8 @@ contains
         type(atoms_t), intent(inout) :: atoms
         real(dp), intent(in) :: dtfm(:), dt, time
         integer(i8), intent(in) :: step
-        real(dp) :: c1, c2, kt, half, sig(atoms%ntypes), z(4), vold(3), de, m2(atoms%ntypes)
-        integer :: i, t
+        real(dp) :: c1, c2, kt, half, sig(atoms%ntypes), z(rng_batch, 4), vold(3), de, m2(atoms%ntypes)
+        integer :: i, t, i0, nb, j
         c1 = exp(-dt/self%damping)
         c2 = sqrt(max(0.0_dp, 1 - c1*c1))
         kt = self%boltz*self%target(time)
@@ -207,15 +208,20 @@ contains
         end do
         half = 0.5_dp*dt
         de = 0
-        do i = 1, atoms%nlocal
-            call normals4(self%seed, stream_langevin, atoms%id(i), step, z)
-            if (self%dimension == 2) z(3) = 0
-            t = atoms%type(i)
-            vold = atoms%v(:, i) + dtfm(t)*atoms%f(:, i)
-            atoms%x(:, i) = atoms%x(:, i) + half*vold
-            atoms%v(:, i) = c1*vold + sig(t)*z(1:3)
-            atoms%x(:, i) = atoms%x(:, i) + half*atoms%v(:, i)
-            de = de + m2(t)*(sum(atoms%v(:, i)**2) - sum(vold**2))
+        ! batches of atoms: the counter-based draws vectorise across atoms (normals4_many)
+        do i0 = 1, atoms%nlocal, rng_batch
+            nb = min(rng_batch, atoms%nlocal - i0 + 1)
+            call normals4_many(nb, self%seed, stream_langevin, atoms%id(i0:i0 + nb - 1), step, z(1:nb, :))
+            if (self%dimension == 2) z(1:nb, 3) = 0
+            do j = 1, nb
+                i = i0 + j - 1
+                t = atoms%type(i)
+                vold = atoms%v(:, i) + dtfm(t)*atoms%f(:, i)
+                atoms%x(:, i) = atoms%x(:, i) + half*vold
+                atoms%v(:, i) = c1*vold + sig(t)*z(j, 1:3)
+                atoms%x(:, i) = atoms%x(:, i) + half*atoms%v(:, i)
+                de = de + m2(t)*(sum(atoms%v(:, i)**2) - sum(vold**2))
+            end do
         end do
         self%ecouple_local = self%ecouple_local + de
     end subroutine ts_langevin_kick_drift
@@ -373,18 +379,28 @@ contains
         real(dp), intent(in) :: dt, time
         integer(i8), intent(in) :: step
         real(dp) :: p, temp, vnew(3), de, m
-        integer(i8) :: w(4)
-        integer :: i
+        integer(i8) :: key(2), c(rng_batch, 4)
+        integer :: i, i0, nb, j
         p = 1 - exp(-dt/self%damping)
         temp = self%target(time)
         de = 0
-        do i = 1, atoms%nlocal
-            w = rng_block(self%seed, stream_andersen_pick, atoms%id(i), step, 0)
-            if (unit_from_word(w(1)) >= p) cycle
-            m = atoms%mass(atoms%type(i))
-            vnew = maxwell_velocity(self, atoms%id(i), step, 0, temp, m)
-            de = de + 0.5_dp*self%mvv2e*m*(sum(vnew**2) - sum(atoms%v(:, i)**2))
-            atoms%v(:, i) = vnew
+        key = rng_key(self%seed, stream_andersen_pick)
+        ! batches of atoms: one vectorised Philox block per atom decides (word 1 < p), as rng_block
+        ! (seed, pick stream, id, step, 0) would
+        do i0 = 1, atoms%nlocal, rng_batch
+            nb = min(rng_batch, atoms%nlocal - i0 + 1)
+            do j = 1, nb
+                c(j, :) = rng_counter(atoms%id(i0 + j - 1), step, 0)
+            end do
+            call rng_blocks(nb, c(1:nb, :), key)
+            do j = 1, nb
+                if (unit_from_word(c(j, 1)) >= p) cycle
+                i = i0 + j - 1
+                m = atoms%mass(atoms%type(i))
+                vnew = maxwell_velocity(self, atoms%id(i), step, 0, temp, m)
+                de = de + 0.5_dp*self%mvv2e*m*(sum(vnew**2) - sum(atoms%v(:, i)**2))
+                atoms%v(:, i) = vnew
+            end do
         end do
         self%ecouple_local = self%ecouple_local + de
     end subroutine ts_andersen_step

@@ -464,6 +464,7 @@ contains
             real(dp) :: extra(8), mean_dt, evals
             call eng%timers%start(t_output)
             s = eng%sample(stats%events, time)
+            if (ts%active()) s%ecouple = ts%ecouple()
             call guard%check(s)
             mean_dt = 0; evals = 0
             if (stats%events > last_events) then
@@ -472,7 +473,7 @@ contains
             end if
             extra(1:6) = [real(stats%events, dp), real(stats%reflections, dp), mean_dt, evals, h, s%ke + k*h]
             if (ts%active()) then
-                extra(7) = ts%ecouple()
+                extra(7) = s%ecouple
                 extra(8) = s%ke + k*h - extra(7)
                 call thermo%write(s, extra)
             else

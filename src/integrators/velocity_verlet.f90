@@ -69,6 +69,7 @@ contains
         else
             call eng%timers%start(t_output)
             first = eng%sample(0_i8, 0.0_dp)
+            if (ts%active()) first%ecouple = ts%ecouple()
             call guard%check(first)
             call write_thermo(first)
             call write_frame(0_i8, first)
@@ -124,6 +125,7 @@ contains
             if (sample) then
                 call eng%timers%start(t_output)
                 last = eng%sample(step, step*dt)
+                if (ts%active()) last%ecouple = ts%ecouple()
                 call guard%check(last)
                 call write_thermo(last)
                 call eng%timers%stop(t_output)
@@ -142,11 +144,10 @@ contains
 
     contains
 
-        !> A thermo line; with a thermostat ecouple and econserve too (collective).
+        !> A thermo line; with a thermostat ecouple (set by the caller) and econserve too.
         subroutine write_thermo(s)
             type(thermo_sample_t), intent(inout) :: s
             if (ts%active()) then
-                s%ecouple = ts%ecouple()
                 call thermo%write(s, [s%ecouple, s%etotal - s%ecouple])
             else
                 call thermo%write(s)

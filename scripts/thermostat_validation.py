@@ -16,7 +16,7 @@ and the script reports, after dropping the first 20 ps:
      positive sequence), and T from the mean (2<K>/(Nf k_B)) and from the width (sqrt(2 var K /
      Nf)/k_B), each with a 20-block standard error, against the target;
   2. configurational agreement: <V>, <P> and the first peak of g(r) (position and height, by
-     terrace-analyze over four blocks of frames) with block standard errors, and their largest
+     terrace-analyze over ten blocks of frames) with block standard errors, and their largest
      difference between cases in combined standard errors;
   3. the drift of econserve (etotal - ecouple; e_terraced - ecouple for energy stepping) per atom
      per ns, a least-squares slope.
@@ -129,7 +129,7 @@ def block_stat(x, fn, nb=20):
     return fn(x), v.std(ddof=1) / math.sqrt(nb)
 
 
-def rdf_peak(args, d, nframes, nblocks=4):
+def rdf_peak(args, d, nframes, nblocks=10):
     """First peak of g(r) (position, height) over blocks of frames: mean and standard error."""
     per = nframes // nblocks
     pos, hei = [], []
@@ -154,7 +154,7 @@ def analyse(args, name, d):
     keep = th["time"] >= 20.0
     t = th["time"][keep]; ke = th["ke"][keep]; pe = th["pe"][keep]; press = th["press"][keep]
     nf = float(np.median(2 * th["ke"][1:] / (KB * th["temp"][1:])))
-    res = {"name": name, "samples": len(ke), "nf": nf}
+    res = {"name": name, "samples": len(ke), "nf": nf, "length": th["time"][-1]}
     tau = tau_int(ke)
     stride = max(1, int(math.ceil(2 * tau)))
     sub = ke[::stride]
@@ -180,14 +180,14 @@ def analyse(args, name, d):
 
 def markdown(results):
     out = []
-    out.append("| case | samples (KS) | tau_K (ps) | KS D | KS p | T from <K> (K) | T from width of K (K) | "
-               "econserve drift (eV/atom/ns) |")
-    out.append("|---|---|---|---|---|---|---|---|")
+    out.append("| case | run (ps) | N_f | samples (KS) | tau_K (ps) | KS D | KS p | T from <K> (K) | "
+               "T from width of K (K) | econserve drift (eV/atom/ns) |")
+    out.append("|---|---|---|---|---|---|---|---|---|---|")
     for r in results:
         z1 = (r["t_mean"][0] - T_TARGET) / r["t_mean"][1]
         z2 = (r["t_width"][0] - T_TARGET) / r["t_width"][1]
         ks = f"{r['ks_d']:.4f} | {r['ks_p']:.3f}" if r["name"] != "vv_nve" else "- | -"
-        out.append(f"| {r['name']} | {r['n_ks']} | {r['tau_ps']:.3f} | {ks} | "
+        out.append(f"| {r['name']} | {r['length']:.0f} | {r['nf']:.0f} | {r['n_ks']} | {r['tau_ps']:.3f} | {ks} | "
                    f"{r['t_mean'][0]:.3f} ± {r['t_mean'][1]:.3f} ({z1:+.1f} SE) | "
                    f"{r['t_width'][0]:.2f} ± {r['t_width'][1]:.2f} ({z2:+.1f} SE) | {r['drift']:.3e} |")
     out.append("")
@@ -234,9 +234,8 @@ def main():
         d = production(args, name, eq)
         results.append(analyse(args, name, d))
         print(f"{name}: done", flush=True)
-    text = (f"Rahman argon, 864 atoms, target {T_TARGET} K, {args.length:g} ps per case "
-            f"(first 20 ps dropped), `scripts/thermostat_validation.py"
-            f"{' --quick' if args.quick else ''}`\n\n" + markdown(results))
+    text = (f"Rahman argon, 864 atoms, target {T_TARGET} K, first 20 ps of each case dropped, "
+            f"`scripts/thermostat_validation.py{' --quick' if args.quick else ''}`\n\n" + markdown(results))
     print(text)
     if args.markdown:
         open(args.markdown, "w").write(text + "\n")

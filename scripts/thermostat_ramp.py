@@ -53,7 +53,7 @@ def main():
     print(f"ramp {t0:g} -> {t1:g} K over {run_time:g} ps (rate {rate:.3f} K/ps), damping {tau:g} ps, Nf = {nf:.0f}")
     print(f"expected lag ~ rate x damping = {rate * tau:.3f} K; canonical sd of T = T sqrt(2/Nf) "
           f"= {math.sqrt(2 / nf):.4f} T")
-    print("| window (ps) | T_target (K) | mean T - T_target (K) | sd of T (K) | canonical sd (K) | <V> (eV) |")
+    print("| window (ps) | T_target (K) | mean T - T_target (K) | sd of T (K) | canonical sd (K) | ⟨V⟩ (eV) |")
     print("|---|---|---|---|---|---|")
     nw = 10
     edges = np.linspace(0, run_time, nw + 1)

@@ -180,7 +180,7 @@ def analyse(args, name, d):
 
 def markdown(results):
     out = []
-    out.append("| case | run (ps) | N_f | samples (KS) | tau_K (ps) | KS D | KS p | T from <K> (K) | "
+    out.append("| case | run (ps) | N_f | samples (KS) | tau_K (ps) | KS D | KS p | T from ⟨K⟩ (K) | "
                "T from width of K (K) | econserve drift (eV/atom/ns) |")
     out.append("|---|---|---|---|---|---|---|---|---|---|")
     for r in results:
@@ -191,14 +191,14 @@ def markdown(results):
                    f"{r['t_mean'][0]:.3f} ± {r['t_mean'][1]:.3f} ({z1:+.1f} SE) | "
                    f"{r['t_width'][0]:.2f} ± {r['t_width'][1]:.2f} ({z2:+.1f} SE) | {r['drift']:.3e} |")
     out.append("")
-    out.append("| case | <V> (eV) | <P> (bar) | g(r) peak r (A) | g(r) peak height |")
+    out.append("| case | ⟨V⟩ (eV) | ⟨P⟩ (bar) | g(r) peak r (A) | g(r) peak height |")
     out.append("|---|---|---|---|---|")
     for r in results:
         out.append(f"| {r['name']} | {r['pe'][0]:.4f} ± {r['pe'][1]:.4f} | {r['press'][0]:.1f} ± {r['press'][1]:.1f} | "
                    f"{r['rdf_pos'][0]:.4f} ± {r['rdf_pos'][1]:.4f} | {r['rdf_height'][0]:.4f} ± {r['rdf_height'][1]:.4f} |")
     out.append("")
     thermo = [r for r in results if r["name"] != "vv_nve"]
-    for key, label in (("pe", "<V>"), ("press", "<P>"), ("rdf_pos", "g(r) peak position"),
+    for key, label in (("pe", "⟨V⟩"), ("press", "⟨P⟩"), ("rdf_pos", "g(r) peak position"),
                        ("rdf_height", "g(r) peak height")):
         worst = (0.0, "", "")
         for i, a in enumerate(thermo):

@@ -24,7 +24,8 @@
 !> the window minimum: at the earliest one the colliding atom gets a fresh Maxwell-Boltzmann
 !> velocity, the terrace index and edges stay as they are (V is continuous), the ghosts' velocities
 !> are re-synchronised and the search restarts from a ray pass at the collision point (V' and V''
-!> along the new velocities). Thermo gains ecouple and econserve = K + k h - ecouple.
+!> along the new velocities); with zero_momentum the total momentum is removed after each collision.
+!> Thermo gains ecouple and econserve = K + k h - ecouple.
 module terrace_energy_stepping
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
@@ -244,7 +245,10 @@ contains
                 ckpt_due = t >= t_next_ckpt
                 ! Andersen collisions due now (before a list build reorders the atoms)
                 collide = t >= t_coll
-                if (collide) changed = ts%andersen_collide(eng%atoms, t)
+                if (collide) then
+                    changed = ts%andersen_collide(eng%atoms, t)
+                    if (ts%zero_momentum) call ts%remove_momentum(eng%atoms)
+                end if
                 ! well inside the nominal terrace again: edges shifted at earlier kicks revert
                 if (p0(1) > k*h + solver%tol .and. p0(1) < (k + 1)*h - solver%tol) then
                     lower = k*h; upper = (k + 1)*h

@@ -97,7 +97,7 @@ contains
                 ' steps, thermo every ', thermo_every, ' steps'
             call finish_check()
         end if
-        call open_outputs('', n_steps*cfg%dt)
+        call open_outputs(trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), n_steps*cfg%dt)
         call MPI_Barrier(world%comm)
         eng%timers = timers_t()
         t0 = MPI_Wtime()
@@ -160,7 +160,8 @@ contains
             end if
             call finish_check()
         end if
-        call open_outputs(es_thermo_header, merge(t_end, 0.0_dp, cfg%run_time > 0))
+        call open_outputs(es_thermo_header//trim(merge(',ecouple,econserve', '                  ', &
+                                                        cfg%thermostat /= 'none')), merge(t_end, 0.0_dp, cfg%run_time > 0))
         call MPI_Barrier(world%comm)
         eng%timers = timers_t()
         t0 = MPI_Wtime()
@@ -290,7 +291,7 @@ contains
             '       terrace --version | --help', &
             '', &
             '  RUN.nml    Fortran namelist input: groups &run, &system, &potential, &integrator,', &
-            '             &neighbor, &output (keys, units and defaults: doc/input.md)', &
+            '             &thermostat, &neighbor, &output (keys, units and defaults: doc/input.md)', &
             '  --check    read and validate the input, build the system, print the scene plan', &
             '             (what will be computed and what is skipped), run nothing, write nothing', &
             '  --version  print the version', &

@@ -8,6 +8,7 @@
 !>   &integrator style, dt
 !>   &neighbor   skin, list
 !>   &output     thermo_every, thermo_interval, thermo_file, forces_file
+!>   &thermostat style, temperature, temperature_end, damping, chain_length, seed, zero_momentum
 !> Every key is read on its own, so that an error names file, line, group and key.
 module terrace_config
     use terrace_kinds, only: dp, i8
@@ -78,13 +79,21 @@ module terrace_config
         character(len=512) :: checkpoint_file = ''
         real(dp) :: checkpoint_interval = -1.0_dp   !< time between checkpoints
         integer(i8) :: checkpoint_every = -1        !< steps between checkpoints (velocity Verlet)
+        ! &thermostat
+        character(len=16) :: thermostat = 'none'    !< none, langevin, csvr, nose_hoover, andersen
+        real(dp) :: thermostat_temperature = -1.0_dp      !< target at time 0
+        real(dp) :: thermostat_temperature_end = -1.0_dp  !< target at the end (linear ramp); < 0: no ramp
+        real(dp) :: thermostat_damping = -1.0_dp          !< relaxation time
+        integer :: chain_length = 3                       !< Nose-Hoover chain length
+        integer(i8) :: thermostat_seed = -1               !< < 0: &run seed
+        logical :: zero_momentum = .false.
     contains
         procedure :: where => cfg_where
     end type config_t
 
     public :: read_config, is_unset
 
-    character(len=*), parameter :: groups_allowed = 'run, system, potential, integrator, neighbor, output'
+    character(len=*), parameter :: groups_allowed = 'run, system, potential, integrator, neighbor, output, thermostat'
 
 contains
 
@@ -115,7 +124,7 @@ contains
         if (len(cfg%nml%syntax_error) > 0) call stop_all(cfg%nml%syntax_error)
         do i = 1, cfg%nml%ngroups
             select case (cfg%nml%groups(i))
-            case ('run', 'system', 'potential', 'integrator', 'neighbor', 'output')
+            case ('run', 'system', 'potential', 'integrator', 'neighbor', 'output', 'thermostat')
                 if (count(cfg%nml%groups(1:i - 1) == cfg%nml%groups(i)) > 0) &
                     call stop_all(line_prefix(cfg, cfg%nml%group_lines(i))//'&'//trim(cfg%nml%groups(i))// &
                                   ': group given twice (merge its keys into one group)')
@@ -130,6 +139,7 @@ contains
         call read_integrator(cfg)
         call read_neighbor(cfg)
         call read_output(cfg)
+        call read_thermostat(cfg)
         call validate(cfg)
     end subroutine read_config
 
@@ -377,6 +387,92 @@ contains
         cfg%checkpoint_every = checkpoint_every
     end subroutine read_output
 
+    subroutine read_thermostat(cfg)
+        type(config_t), intent(inout) :: cfg
+        character(len=16) :: style
+        real(dp) :: temperature, temperature_end, damping
+        integer :: chain_length
+        integer(i8) :: seed
+        logical :: zero_momentum
+        namelist /thermostat/ style, temperature, temperature_end, damping, chain_length, seed, zero_momentum
+        character(len=*), parameter :: keys(7) = [character(len=40) :: 'style:a quoted string', &
+            'temperature:a real number', 'temperature_end:a real number', 'damping:a real number', &
+            'chain_length:an integer', 'seed:an integer', 'zero_momentum:a logical']
+        character(len=:), allocatable :: kind
+        character(len=256) :: msg
+        character(len=:), allocatable :: buf
+        integer :: k, ios
+        style = 'none'; temperature = -1; temperature_end = -1; damping = -1; chain_length = 3; seed = -1
+        zero_momentum = .false.
+        do k = 1, cfg%nml%count
+            if (cfg%nml%items(k)%group /= 'thermostat') cycle
+            kind = check_key(cfg, k, keys)
+            buf = item_text(cfg, k, 'thermostat')
+            read (buf, nml=thermostat, iostat=ios, iomsg=msg)
+            if (ios /= 0) call bad_value(cfg, k, kind, msg)
+        end do
+        cfg%thermostat = lower(style)
+        cfg%thermostat_temperature = temperature; cfg%thermostat_temperature_end = temperature_end
+        cfg%thermostat_damping = damping; cfg%chain_length = chain_length; cfg%thermostat_seed = seed
+        cfg%zero_momentum = zero_momentum
+    end subroutine read_thermostat
+
+    !> &thermostat: the style, its keys, and whether it fits the integrator.
+    subroutine validate_thermostat(cfg)
+        type(config_t), intent(inout) :: cfg
+        character(len=*), parameter :: styles = "'none', 'langevin', 'csvr', 'nose_hoover', 'andersen'"
+        character(len=:), allocatable :: style_is
+        logical :: given
+        given = cfg%nml%find('thermostat', 'style') > 0
+        if (.not. given) then
+            if (cfg%nml%find('thermostat', 'temperature') > 0 .or. cfg%nml%find('thermostat', 'damping') > 0 .or. &
+                cfg%nml%find('thermostat', 'temperature_end') > 0 .or. cfg%nml%find('thermostat', 'chain_length') > 0 &
+                .or. cfg%nml%find('thermostat', 'seed') > 0 .or. cfg%nml%find('thermostat', 'zero_momentum') > 0) &
+                call stop_all(cfg%path//': &thermostat: style: missing (allowed: '//styles//')')
+            return
+        end if
+        style_is = cfg%where('thermostat', 'style')//" = '"//trim(cfg%thermostat)//"'"
+        select case (cfg%thermostat)
+        case ('none')
+            return
+        case ('langevin', 'csvr', 'nose_hoover', 'andersen')
+        case default
+            call stop_all(style_is//': unknown thermostat (allowed: '//styles//')')
+        end select
+        if (cfg%integrator == 'energy_stepping' .and. cfg%thermostat /= 'andersen') &
+            call stop_all(style_is//': not available with energy stepping, whose trajectory is straight lines and '// &
+                          "jumps between events (allowed there: 'andersen', collisions at exact times; or 'none')")
+        if (cfg%nml%find('thermostat', 'temperature') == 0) &
+            call stop_all(cfg%path//': &thermostat: temperature: missing (the target temperature in '// &
+                          trim(cfg%units%temperature)//')')
+        if (.not. (cfg%thermostat_temperature > 0)) &
+            call stop_all(cfg%where('thermostat', 'temperature')//': must be > 0 (in '//trim(cfg%units%temperature)//')')
+        if (cfg%nml%find('thermostat', 'temperature_end') > 0 .and. cfg%integrator == 'energy_stepping' .and. &
+            .not. (cfg%run_time > 0)) call stop_all(cfg%where('thermostat', 'temperature_end')// &
+            ': a temperature ramp with energy stepping needs &run run_time (the ramp runs over that time)')
+        if (cfg%nml%find('thermostat', 'temperature_end') > 0) then
+            if (.not. (cfg%thermostat_temperature_end > 0)) call stop_all(cfg%where('thermostat', 'temperature_end')// &
+                ': must be > 0 (the target at the end of the run, in '//trim(cfg%units%temperature)//')')
+        else
+            cfg%thermostat_temperature_end = cfg%thermostat_temperature
+        end if
+        if (cfg%nml%find('thermostat', 'damping') == 0) &
+            call stop_all(cfg%path//': &thermostat: damping: missing (the relaxation time, a time in '// &
+                          trim(cfg%units%time)//'; about 100 time steps is usual)')
+        if (.not. (cfg%thermostat_damping > 0)) &
+            call stop_all(cfg%where('thermostat', 'damping')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
+        if (cfg%nml%find('thermostat', 'chain_length') > 0) then
+            if (cfg%thermostat /= 'nose_hoover') call stop_all(cfg%where('thermostat', 'chain_length')// &
+                ": only for style = 'nose_hoover'")
+            if (cfg%chain_length < 1) call stop_all(cfg%where('thermostat', 'chain_length')//': must be >= 1')
+        end if
+        if (cfg%nml%find('thermostat', 'seed') > 0) then
+            if (cfg%thermostat_seed <= 0) call stop_all(cfg%where('thermostat', 'seed')//': must be a positive integer')
+        else
+            cfg%thermostat_seed = cfg%seed
+        end if
+    end subroutine validate_thermostat
+
     !> Checks that need no atoms. Checks that need the atoms (overlaps, atoms outside the box,
     !> cutoff against the box) are made when the system is built.
     subroutine validate(cfg)
@@ -544,6 +640,7 @@ contains
             call stop_all(cfg%where('output', 'thermo_interval')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
         if (cfg%thermo_every > 0 .and. cfg%thermo_interval > 0) &
             call stop_all(cfg%where('output', 'thermo_interval')//': give either thermo_every or thermo_interval')
+        call validate_thermostat(cfg)
         call validate_outputs(cfg)
     end subroutine validate_run_settings
 

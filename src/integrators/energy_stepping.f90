@@ -18,6 +18,14 @@
 !> Checkpoints (&output checkpoint_interval) are window ends too, with a forced neighbour-list build
 !> (cell lists), and hold the whole event-loop state (terrace index, edges, the solver's last
 !> values at the search origin, counters, next sample times), so a restart continues bitwise.
+!>
+!> With an Andersen thermostat (terrace_thermostat) each atom's next collision time (a Poisson
+!> process of rate 1/damping, a function of seed, atom id and time only) is one more candidate of
+!> the window minimum: at the earliest one the colliding atom gets a fresh Maxwell-Boltzmann
+!> velocity, the terrace index and edges stay as they are (V is continuous), the ghosts' velocities
+!> are re-synchronised and the search restarts from a ray pass at the collision point (V' and V''
+!> along the new velocities); with zero_momentum the total momentum is removed after each collision.
+!> Thermo gains ecouple and econserve = K + k h - ecouple.
 module terrace_energy_stepping
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
@@ -34,6 +42,7 @@ module terrace_energy_stepping
     use terrace_run_control, only: run_control_t
     use terrace_checkpoint, only: ckpt_values_t
     use terrace_scene_plan, only: pair_cells
+    use terrace_thermostat, only: thermostat_t, thermostat_andersen
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
     private
@@ -192,6 +201,10 @@ contains
         integer :: i, outcome
         real(dp) :: minv(size(eng%atoms%mass))
         type(energy_guard_t) :: guard
+        type(thermostat_t) :: ts
+        real(dp) :: t_coll
+        logical :: collide
+        integer :: changed
 
         ray%eng => eng
         mvv2e = eng%cfg%units%mvv2e
@@ -200,14 +213,17 @@ contains
         end do
         t_next_ckpt = huge(1.0_dp)
         if (ctl%interval > 0) t_next_ckpt = (ctl%written + 1)*ctl%interval
+        call ts%configure(eng%cfg, eng%natoms, merge(t_end, 0.0_dp, t_end < huge(1.0_dp)))
+        t_coll = huge(1.0_dp)
         if (eng%restarted) then
             call restore_state()
         else
             call start_state()
         end if
+        call schedule_collisions()
         do
             if (t >= t_end .or. stats%events >= max_events) exit
-            window = max(0.0_dp, min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end) - t)
+            window = max(0.0_dp, min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end, t_coll) - t)
             ray%evals = 0
             if (have_c .or. .not. have_guess) then
                 call solver%first_crossing(ray, lower, upper, window, p0, have_c, trust, res)
@@ -223,8 +239,14 @@ contains
                 have_c = .true.
                 if (ray%last_s /= window) call ray%eval(window, p0)
                 call eng%drift(window)
-                t = min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end)
+                t = min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end, t_coll)
                 ckpt_due = t >= t_next_ckpt
+                ! Andersen collisions due now (before a list build reorders the atoms)
+                collide = t >= t_coll
+                if (collide) then
+                    changed = ts%andersen_collide(eng%atoms, t)
+                    if (ts%zero_momentum) call ts%remove_momentum(eng%atoms)
+                end if
                 ! well inside the nominal terrace again: edges shifted at earlier kicks revert
                 if (p0(1) > k*h + solver%tol .and. p0(1) < (k + 1)*h - solver%tol) then
                     lower = k*h; upper = (k + 1)*h
@@ -237,6 +259,21 @@ contains
                     t_exp = eng%list_expiry()
                     call min_all(t_exp)
                     t_exp = t + t_exp
+                    if (ts%style == thermostat_andersen) call schedule_collisions()
+                end if
+                if (collide) then
+                    ! new velocities: ghosts, list expiry, and V' and V'' at the search origin along them
+                    if (.not. rebuilt) then
+                        call eng%sync_ghosts()
+                        t_exp = eng%list_expiry()
+                        call min_all(t_exp)
+                        t_exp = t + t_exp
+                    end if
+                    call ray%eval(0.0_dp, p0)
+                    stats%ray_evals = stats%ray_evals + 1
+                    have_c = .true.
+                    t_coll = ts%andersen_first(eng%atoms)
+                    call min_all(t_coll)
                 end if
                 if (t >= t_next_sample) then
                     call write_sample(t)
@@ -252,6 +289,8 @@ contains
                 end if
                 ! a safe point: after a list build, or anywhere on the all-pairs path (its replicated
                 ! atoms drift bitwise like their owners)
+                ! (ecouple's per-rank parts are folded at every safe point: a restart sums them alike)
+                if (ts%active() .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode /= pair_cells)) call ts%fold()
                 if (ctl%active .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode /= pair_cells)) then
                     stop_now = ctl%stop_requested()
                     if (ckpt_due .or. stop_now) call checkpoint(ckpt_due)
@@ -318,6 +357,14 @@ contains
 
     contains
 
+        !> Next Andersen collision of every owned atom after t, and the global first one.
+        subroutine schedule_collisions()
+            if (ts%style /= thermostat_andersen) return
+            call ts%andersen_schedule(eng%atoms, t)
+            t_coll = ts%andersen_first(eng%atoms)
+            call min_all(t_coll)
+        end subroutine schedule_collisions
+
         subroutine start_state()
             ! the tolerance cannot be finer than the round-off of the total energy
             solver%tol = max(eng%cfg%root_tolerance*h, 64*epsilon(1.0_dp)*abs(eng%pe))
@@ -373,6 +420,7 @@ contains
                 ray%last_out(1) = val%get_r('es_ray_last_v', ok); ray%last_out(2) = val%get_r('es_ray_last_dv', ok)
                 ray%last_out(3) = val%get_r('es_ray_last_d2v', ok); ray%last_out(4) = val%get_r('es_ray_last_w', ok)
             end associate
+            if (ts%active()) call ts%restore(eng%restart_values, ok)
             call check_all(ok, trim(eng%cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint '// &
                            '(energy-stepping state missing)')
         end subroutine restore_state
@@ -384,6 +432,7 @@ contains
             character(len=512) :: msg
             call eng%timers%start(t_output)
             call val%put_r('h', h)
+            if (ts%active()) call ts%save(val)
             call val%put_i('es_k', k)
             call val%put_r('es_lower', lower); call val%put_r('es_upper', upper)
             call val%put_r('es_p0_f', p0(1)); call val%put_r('es_p0_df', p0(2)); call val%put_r('es_p0_d2f', p0(3))
@@ -414,17 +463,24 @@ contains
         subroutine write_sample(time)
             real(dp), intent(in) :: time
             type(thermo_sample_t) :: s
-            real(dp) :: extra(6), mean_dt, evals
+            real(dp) :: extra(8), mean_dt, evals
             call eng%timers%start(t_output)
             s = eng%sample(stats%events, time)
+            if (ts%active()) s%ecouple = ts%ecouple()
             call guard%check(s)
             mean_dt = 0; evals = 0
             if (stats%events > last_events) then
                 mean_dt = (time - last_time)/(stats%events - last_events)
                 evals = real(stats%ray_evals - last_evals, dp)/(stats%events - last_events)
             end if
-            extra = [real(stats%events, dp), real(stats%reflections, dp), mean_dt, evals, h, s%ke + k*h]
-            call thermo%write(s, extra)
+            extra(1:6) = [real(stats%events, dp), real(stats%reflections, dp), mean_dt, evals, h, s%ke + k*h]
+            if (ts%active()) then
+                extra(7) = s%ecouple
+                extra(8) = s%ke + k*h - extra(7)
+                call thermo%write(s, extra)
+            else
+                call thermo%write(s, extra(1:6))
+            end if
             last_events = stats%events; last_evals = stats%ray_evals; last_time = time
             call eng%timers%stop(t_output)
         end subroutine write_sample

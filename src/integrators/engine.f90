@@ -10,6 +10,7 @@ module terrace_engine
     use terrace_box, only: box_t
     use terrace_atoms, only: atoms_t
     use terrace_velocities, only: kinetic_energy
+    use terrace_thermostat, only: thermostat_dof, thermostat_style
     use terrace_domain, only: domain_t
     use terrace_replicate, only: replicate_t
     use terrace_neighbor_list, only: neighbor_list_t
@@ -98,10 +99,12 @@ contains
         end if
     end subroutine engine_setup
 
-    !> Degrees of freedom for the temperature, d N - d (as LAMMPS).
+    !> Degrees of freedom for the temperature: d N - d (as LAMMPS), or d N under a thermostat that
+    !> also drives the total momentum (Langevin, Andersen without zero_momentum; terrace_thermostat).
     pure real(dp) function engine_dof(self)
         class(engine_t), intent(in) :: self
-        engine_dof = real(self%cfg%dimension, dp)*(real(self%natoms, dp) - 1)
+        engine_dof = thermostat_dof(max(0, thermostat_style(self%cfg%thermostat)), self%cfg%zero_momentum, &
+                                    self%cfg%dimension, self%natoms)
     end function engine_dof
 
     !> Migrate atoms, sort them spatially, rebuild the halo and the neighbour list.

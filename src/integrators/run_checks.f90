@@ -4,6 +4,7 @@
 !>  - an energy blow-up: |E - E0| larger than |K0| + |V0| of the first sample. An NVE run never
 !>    legitimately changes its total energy by that much (energy stepping keeps |E - E0| <= h, and
 !>    h <= |V0| + K0 is enforced), while an unstable time step overshoots it by orders of magnitude.
+!>    With a thermostat E is econserve = E - ecouple (the energy the thermostat put in is no failure).
 !> The sample values are global sums (the same on every rank); the checks are still collective.
 module terrace_run_checks
     use terrace_kinds, only: dp
@@ -33,15 +34,15 @@ contains
         call check_all(finite, trim(msg))
         if (.not. self%started) then
             self%started = .true.
-            self%e0 = s%etotal
+            self%e0 = s%etotal - s%ecouple
             self%scale = abs(s%ke) + abs(s%pe)
             return
         end if
         if (self%scale <= 0) return
         write (msg, '(a,es12.5,a,es12.5,a,es12.5,a,i0,a)') 'energy blow-up: the total energy changed by ', &
-            s%etotal - self%e0, ' since the start, more than |K0| + |V0| = ', self%scale, ', at time ', s%time, &
+            s%etotal - s%ecouple - self%e0, ' since the start, more than |K0| + |V0| = ', self%scale, ', at time ', s%time, &
             ' (step ', s%step, '): the run is unstable (time step too large)'
-        call check_all(abs(s%etotal - self%e0) <= self%scale, trim(msg))
+        call check_all(abs(s%etotal - s%ecouple - self%e0) <= self%scale, trim(msg))
     end subroutine guard_check
 
 end module terrace_run_checks

@@ -1,6 +1,11 @@
-!> Velocity Verlet (NVE), the reference integrator:
+!> Velocity Verlet, the reference integrator:
 !>   v += dt/2 F/m;  x += dt v;  [rebuild or refresh ghosts];  F = F(x);  v += dt/2 F/m
 !> Energies and the virial are computed only on the steps that are sampled.
+!> With a thermostat (terrace_thermostat): Langevin replaces the drift by BAOAB's A O A (the
+!> exact Ornstein-Uhlenbeck step between two half drifts); CSVR and Nose-Hoover chains act for
+!> dt/2 before the first and after the second half kick; Andersen collisions follow the step;
+!> zero_momentum then removes the total momentum. Thermo gains ecouple and econserve = etotal -
+!> ecouple, and the drift report is that of econserve.
 !> Checkpoints are taken at the end of a step whose positions were just used for a neighbour-list
 !> build (forced at checkpoint_every steps), so that a restart rebuilds the same list
 !> (terrace_run_control); a restart continues with the step after the checkpoint's.
@@ -16,6 +21,8 @@ module terrace_velocity_verlet
     use terrace_run_control, only: run_control_t
     use terrace_checkpoint, only: ckpt_values_t
     use terrace_run_checks, only: energy_guard_t
+    use terrace_thermostat, only: thermostat_t, thermostat_langevin, thermostat_csvr, thermostat_nose_hoover, &
+                                  thermostat_andersen
     implicit none
     private
 
@@ -36,7 +43,10 @@ contains
         logical :: sample, frame, scheduled, safe, ok, stop_now
         type(thermo_sample_t) :: first, last
         type(energy_guard_t) :: guard
+        type(thermostat_t) :: ts
+        real(dp) :: t_mid
         dt = eng%cfg%dt
+        call ts%configure(eng%cfg, eng%natoms, n_steps*dt)
         do t = 1, size(dtfm)
             dtfm(t) = 0.5_dp*dt*eng%cfg%units%ftm2v/eng%atoms%mass(t)
         end do
@@ -50,23 +60,39 @@ contains
             first%momentum(1) = eng%restart_values%get_r('first_px', ok)
             first%momentum(2) = eng%restart_values%get_r('first_py', ok)
             first%momentum(3) = eng%restart_values%get_r('first_pz', ok)
+            if (ts%active()) then
+                first%ecouple = eng%restart_values%get_r('first_ecouple', ok)
+                call ts%restore(eng%restart_values, ok)
+            end if
             call check_all(ok, trim(eng%cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint '// &
                            '(velocity Verlet state missing)')
             ! (the energy guard takes its reference at the first sample after the restart)
         else
             call eng%timers%start(t_output)
             first = eng%sample(0_i8, 0.0_dp)
+            if (ts%active()) first%ecouple = ts%ecouple()
             call guard%check(first)
-            call thermo%write(first)
+            call write_thermo(first)
             call write_frame(0_i8, first)
             call eng%timers%stop(t_output)
         end if
         last = first
         do step = step0 + 1, n_steps
-            do i = 1, eng%atoms%nlocal
-                eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
-                eng%atoms%x(:, i) = eng%atoms%x(:, i) + dt*eng%atoms%v(:, i)
-            end do
+            t_mid = (step - 0.5_dp)*dt
+            select case (ts%style)
+            case (thermostat_csvr)
+                call ts%csvr(eng%atoms, 0.5_dp*dt, 2*step, t_mid)
+            case (thermostat_nose_hoover)
+                call ts%nose_hoover(eng%atoms, 0.5_dp*dt, t_mid)
+            end select
+            if (ts%style == thermostat_langevin) then
+                call ts%langevin_kick_drift(eng%atoms, dtfm, dt, step, t_mid)
+            else
+                do i = 1, eng%atoms%nlocal
+                    eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
+                    eng%atoms%x(:, i) = eng%atoms%x(:, i) + dt*eng%atoms%v(:, i)
+                end do
+            end if
             scheduled = .false.
             if (ctl%every > 0) scheduled = mod(step, ctl%every) == 0
             if (eng%plan%pair_mode == pair_cells) then
@@ -88,23 +114,46 @@ contains
             do i = 1, eng%atoms%nlocal
                 eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
             end do
+            select case (ts%style)
+            case (thermostat_csvr)
+                call ts%csvr(eng%atoms, 0.5_dp*dt, 2*step + 1, t_mid)
+            case (thermostat_nose_hoover)
+                call ts%nose_hoover(eng%atoms, 0.5_dp*dt, t_mid)
+            case (thermostat_andersen)
+                call ts%andersen_step(eng%atoms, dt, step, step*dt)
+            end select
+            if (ts%zero_momentum) call ts%remove_momentum(eng%atoms)
             if (sample) then
                 call eng%timers%start(t_output)
                 last = eng%sample(step, step*dt)
+                if (ts%active()) last%ecouple = ts%ecouple()
                 call guard%check(last)
-                call thermo%write(last)
+                call write_thermo(last)
                 call eng%timers%stop(t_output)
             end if
             if (frame) call write_frame(step, eng%sample(step, step*dt))
+            ! ecouple's per-rank parts are folded at every safe point, so that a run continued from a
+            ! checkpoint (always taken at one) sums them exactly as the uninterrupted run does
+            if (safe .and. ts%active()) call ts%fold()
             if (safe .and. ctl%active) then
                 stop_now = ctl%stop_requested()
                 if (stop_now .or. scheduled) call checkpoint(step, scheduled)
                 if (ctl%stopped) exit
             end if
         end do
-        if (.not. ctl%stopped) call report_drift(first, last, eng%natoms)
+        if (.not. ctl%stopped) call report_drift(first, last, eng%natoms, ts%active())
 
     contains
+
+        !> A thermo line; with a thermostat ecouple (set by the caller) and econserve too.
+        subroutine write_thermo(s)
+            type(thermo_sample_t), intent(inout) :: s
+            if (ts%active()) then
+                call thermo%write(s, [s%ecouple, s%etotal - s%ecouple])
+            else
+                call thermo%write(s)
+            end if
+        end subroutine write_thermo
 
         subroutine checkpoint(step, scheduled)
             integer(i8), intent(in) :: step
@@ -117,6 +166,10 @@ contains
             call values%put_r('first_px', first%momentum(1))
             call values%put_r('first_py', first%momentum(2))
             call values%put_r('first_pz', first%momentum(3))
+            if (ts%active()) then
+                call values%put_r('first_ecouple', first%ecouple)
+                call ts%save(values)
+            end if
             ! the trajectory holds every frame the checkpoint counts, even if the run is killed next
             call traj%flush(ok, msg)
             call check_all(ok, 'trajectory: '//trim(msg))
@@ -139,13 +192,21 @@ contains
 
     end subroutine run_velocity_verlet
 
-    !> Energy drift per atom per time unit and the change of total momentum over the run.
-    subroutine report_drift(first, last, natoms)
+    !> Energy drift per atom per time unit (of econserve = etotal - ecouple with a thermostat) and
+    !> the change of total momentum over the run.
+    subroutine report_drift(first, last, natoms, thermostat)
         use terrace_mpi_env, only: world
         use, intrinsic :: iso_fortran_env, only: output_unit
         type(thermo_sample_t), intent(in) :: first, last
         integer(i8), intent(in) :: natoms
+        logical, intent(in) :: thermostat
         if (world%rank /= 0 .or. last%time <= first%time) return
+        if (thermostat) then
+            write (output_unit, '(a,es12.4,a,es12.4,a)') 'Energy drift (econserve): ', &
+                ((last%etotal - last%ecouple) - (first%etotal - first%ecouple))/(real(natoms, dp)*(last%time - first%time)), &
+                ' energy/atom/time;  energy put in by the thermostat: ', last%ecouple - first%ecouple, ' energy'
+            return
+        end if
         write (output_unit, '(a,es12.4,a,es12.4,a)') 'Energy drift: ', &
             (last%etotal - first%etotal)/(real(natoms, dp)*(last%time - first%time)), &
             ' energy/atom/time;  |P_end - P_0| = ', norm2(last%momentum - first%momentum), ' (mass*velocity)'

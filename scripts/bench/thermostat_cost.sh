@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Cost of the thermostats on the LJ benchmark scene (input/lj_bench.nml: 32,000 atoms, fcc
+# rho* = 0.8442 melting from T* = 1.44, lj/cut 2.5, skin 0.3, velocity Verlet dt 0.005).
+#
+# Usage: scripts/bench/thermostat_cost.sh [NSTEPS [TERRACE_BINARY]]   (defaults 1000, build/terrace)
+#        REPEAT=N (default 3): every style is run N times, interleaved, and its best loop time kept.
+#
+# Each style runs the same deck with &thermostat style=..., temperature=0.7 (about where the NVE
+# run settles, so that the neighbour-list rebuild counts stay comparable), damping=0.5. Reported:
+# the loop time and its overhead over style 'none', the user CPU time of the process (less
+# sensitive than wall time to other jobs on a shared machine; GNU /usr/bin/time) and its overhead,
+# the neighbour-list builds, and the direct cost of the thermostat operators: the growth of the
+# 'Other' phase (integration, where the thermostat kernels run) as a fraction of the NVE loop time.
+# One rank, one thread. Timings on a shared machine are noisy: repeat, and compare the CPU column.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+repo="$(cd "$here/../.." && pwd)"
+nsteps="${1:-1000}"
+terrace="$(realpath "${2:-$repo/build/terrace}")"
+repeat="${REPEAT:-3}"
+work="$(mktemp -d "${TMPDIR:-/tmp}/terrace_thermostat_cost.XXXXXX")"
+trap 'rm -rf "$work"' EXIT
+styles=(none langevin csvr nose_hoover andersen)
+for s in "${styles[@]}"; do
+    sed "s/n_steps=1000/n_steps=$nsteps/" "$repo/input/lj_bench.nml" > "$work/$s.nml"
+    if [ "$s" != none ]; then
+        echo "&thermostat style='$s', temperature=0.7, damping=0.5 /" >> "$work/$s.nml"
+    fi
+done
+declare -A best other builds cpu
+timer=()
+[ -x /usr/bin/time ] && timer=(/usr/bin/time -f 'CPU %U' -o cpu.txt)
+for r in $(seq 1 "$repeat"); do
+    for s in "${styles[@]}"; do
+        (cd "$work" && "${timer[@]}" "$terrace" "$s.nml" > "$s.log" 2>&1) || { echo "FAIL: $s"; tail -3 "$work/$s.log"; exit 1; }
+        u=$(awk '/^CPU/ {print $2}' "$work/cpu.txt" 2>/dev/null || true); u=${u:-0}
+        if [ -z "${cpu[$s]:-}" ] || awk -v a="$u" -v b="${cpu[$s]}" 'BEGIN {exit !(a < b)}'; then cpu[$s]=$u; fi
+        loop=$(awk '/^Loop time:/ {print $3}' "$work/$s.log")
+        oth=$(awk '$1 == "Other" {print $2}' "$work/$s.log")
+        nb=$(awk '/^Neighbour list builds:/ {print $4}' "$work/$s.log")
+        if [ -z "${best[$s]:-}" ] || awk -v a="$loop" -v b="${best[$s]}" 'BEGIN {exit !(a < b)}'; then
+            best[$s]=$loop; other[$s]=$oth; builds[$s]=$nb
+        fi
+    done
+done
+printf '%-12s %10s %9s %10s %9s %7s %16s\n' style 'loop (s)' overhead 'CPU (s)' overhead builds 'thermostat cost'
+for s in "${styles[@]}"; do
+    awk -v s="$s" -v l="${best[$s]}" -v l0="${best[none]}" -v o="${other[$s]}" -v o0="${other[none]}" -v nb="${builds[$s]}" \
+        -v c="${cpu[$s]}" -v c0="${cpu[none]}" \
+        'BEGIN { printf "%-12s %10.3f %8.1f%% %10.2f %8.1f%% %7d %15.1f%%\n", s, l, 100*(l/l0 - 1), c, (c0 > 0 ? 100*(c/c0 - 1) : 0), nb, 100*(o - o0)/l0 }'
+done
+echo "($nsteps steps, 32,000 atoms, best of $repeat; 'thermostat cost' = growth of the Other phase / NVE loop time)"

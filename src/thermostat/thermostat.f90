@@ -1,0 +1,530 @@
+!> Temperature control: the velocity operators that velocity Verlet and energy stepping call to
+!> sample the canonical ensemble at the target temperature T(t) = T0 + (T1 - T0) t / t_run.
+!>
+!>   Langevin (BAOAB, Leimkuhler & Matthews): the O step is the exact Ornstein-Uhlenbeck update
+!>     v <- c1 v + sqrt(1 - c1^2) sqrt(k_B T / m) z,   c1 = exp(-dt / damping),
+!>     fused with the two half drifts around it (x += dt/2 v; O; x += dt/2 v).
+!>   CSVR (Bussi, Donadio & Parrinello 2007): over a time s the total kinetic energy K becomes
+!>     K' = K + (1 - c)(K_T (R1^2 + S) / Nf - K) + 2 R1 sqrt(c (1 - c) K K_T / Nf),
+!>     c = exp(-s / damping), K_T = Nf k_B T / 2, R1 normal, S chi-square(Nf - 1); v <- v sqrt(K'/K).
+!>   Nose-Hoover chains (Martyna, Klein & Tuckerman 1992; the Trotter half step of Martyna,
+!>     Tuckerman, Tobias & Klein 1996 with third-order Suzuki-Yoshida weights): chain of M
+!>     thermostats, masses Q1 = Nf k_B T damping^2, Qj = k_B T damping^2, forces
+!>     G1 = (2K - Nf k_B T)/Q1, Gj = (Q_{j-1} v_{j-1}^2 - k_B T)/Qj; v <- v exp(-dt v_1 ...).
+!>   Andersen: each atom's velocity is replaced by a Maxwell-Boltzmann one at rate 1/damping;
+!>     with velocity Verlet each step with probability 1 - exp(-dt/damping); with energy stepping
+!>     at exact collision times, a Poisson process per atom (below).
+!>
+!> Every random number is drawn from the counter-based generator keyed by (seed, stream, atom id,
+!> step or event), never by rank or by order of atoms: a run gives the same trajectory on any rank
+!> count and continues bitwise after a restart. Andersen collision times for energy stepping are a
+!> stateless function of (seed, id, time): time is cut into slots of width `damping`; in slot k the
+!> atom's collisions are at k damping + damping (E_1 + ... + E_j) for the partial sums below one,
+!> E_i exponential draws keyed by (id, k). The slots' points together are a Poisson process of rate
+!> 1/damping (independent increments), and the next collision after t is found from (id, t) alone,
+!> so nothing per atom migrates with the atoms or goes into a checkpoint.
+!>
+!> Each operator adds the kinetic energy it changed to ecouple (energy put in by the thermostat),
+!> so that etotal - ecouple (econserve) measures the integrator's own error. Per-atom operators
+!> keep a per-rank partial sum, folded into the global value (one sum) at samples and checkpoints.
+module terrace_thermostat
+    use terrace_kinds, only: dp, i8
+    use terrace_atoms, only: atoms_t
+    use terrace_mpi_env, only: sum_all
+    use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, unit_from_word, box_muller, rng_blocks, &
+                                   normals4_many, rng_batch, rng_key, rng_counter
+    use terrace_config, only: config_t
+    use terrace_checkpoint, only: ckpt_values_t
+    implicit none
+    private
+
+    integer, parameter, public :: thermostat_none = 0, thermostat_langevin = 1, thermostat_csvr = 2, &
+                                  thermostat_nose_hoover = 3, thermostat_andersen = 4
+    character(len=12), parameter, public :: thermostat_names(0:4) = [character(len=12) :: 'none', 'langevin', &
+                                                                     'csvr', 'nose_hoover', 'andersen']
+
+    ! streams of the counter-based generator, one per purpose
+    integer, parameter :: stream_langevin = 101, stream_csvr = 102, stream_andersen_pick = 103, &
+                          stream_andersen_velocity = 104, stream_andersen_time = 105
+
+    type, public :: thermostat_t
+        integer :: style = thermostat_none
+        real(dp) :: t_start = 0, t_end = 0      !< target temperature at time 0 and at run_time
+        real(dp) :: run_time = 0                !< length of the ramp
+        real(dp) :: damping = 1                 !< relaxation time (Langevin 1/gamma, CSVR tau, NHC tau, Andersen 1/rate)
+        integer :: chain_length = 3
+        integer(i8) :: seed = 1
+        logical :: zero_momentum = .false.
+        integer :: dimension = 3
+        real(dp) :: dof = 0                     !< degrees of freedom of the thermostatted kinetic energy
+        real(dp) :: boltz = 1, mvv2e = 1
+        real(dp) :: ecouple_global = 0          !< energy put in, the same on every rank
+        real(dp) :: ecouple_local = 0           !< this rank's part not yet folded into ecouple_global
+        real(dp), allocatable :: eta(:), v_eta(:)   !< Nose-Hoover chain positions and velocities
+        ! Andersen with energy stepping: next collision time of each owned atom (same order as atoms)
+        real(dp), allocatable :: next_collision(:)
+        integer(i8), allocatable :: collision_slot(:)
+        integer, allocatable :: collision_index(:)
+    contains
+        procedure :: init => ts_init
+        procedure :: configure => ts_configure
+        procedure :: save => ts_save
+        procedure :: restore => ts_restore
+        procedure :: target => ts_target
+        procedure :: active => ts_active
+        procedure :: langevin_kick_drift => ts_langevin_kick_drift
+        procedure :: csvr => ts_csvr
+        procedure :: nose_hoover => ts_nose_hoover
+        procedure :: andersen_step => ts_andersen_step
+        procedure :: remove_momentum => ts_remove_momentum
+        procedure :: ecouple => ts_ecouple
+        procedure :: fold => ts_fold
+        procedure :: chain_energy => ts_chain_energy
+        procedure :: andersen_schedule => ts_andersen_schedule
+        procedure :: andersen_first => ts_andersen_first
+        procedure :: andersen_collide => ts_andersen_collide
+    end type thermostat_t
+
+    public :: thermostat_style, thermostat_dof, andersen_next_collision
+
+contains
+
+    !> Style code of a name (-1 when unknown).
+    pure integer function thermostat_style(name) result(style)
+        character(len=*), intent(in) :: name
+        integer :: k
+        style = -1
+        do k = 0, 4
+            if (trim(name) == trim(thermostat_names(k))) style = k
+        end do
+    end function thermostat_style
+
+    !> Degrees of freedom of the thermostatted kinetic energy: d N, less d when the total momentum
+    !> is held (zero_momentum, or the deterministic CSVR and Nose-Hoover, which keep a zero total
+    !> momentum zero), as for the unthermostatted run (no thermostat: d N - d, as LAMMPS).
+    pure real(dp) function thermostat_dof(style, zero_momentum, dimension, natoms) result(dof)
+        integer, intent(in) :: style, dimension
+        logical, intent(in) :: zero_momentum
+        integer(i8), intent(in) :: natoms
+        dof = real(dimension, dp)*real(natoms, dp)
+        if (zero_momentum .or. style == thermostat_none .or. style == thermostat_csvr .or. &
+            style == thermostat_nose_hoover) dof = dof - dimension
+        dof = max(dof, 0.0_dp)
+    end function thermostat_dof
+
+    subroutine ts_init(self, style, t_start, t_end, run_time, damping, chain_length, seed, zero_momentum, &
+                               dimension, natoms, boltz, mvv2e)
+        class(thermostat_t), intent(inout) :: self
+        integer, intent(in) :: style, chain_length, dimension
+        real(dp), intent(in) :: t_start, t_end, run_time, damping, boltz, mvv2e
+        integer(i8), intent(in) :: seed, natoms
+        logical, intent(in) :: zero_momentum
+        self%style = style
+        self%t_start = t_start; self%t_end = t_end; self%run_time = run_time
+        self%damping = damping; self%chain_length = max(chain_length, 1)
+        self%seed = seed; self%zero_momentum = zero_momentum
+        self%dimension = dimension
+        self%boltz = boltz; self%mvv2e = mvv2e
+        self%dof = thermostat_dof(style, zero_momentum, dimension, natoms)
+        self%ecouple_global = 0; self%ecouple_local = 0
+        if (allocated(self%eta)) deallocate (self%eta, self%v_eta)
+        allocate (self%eta(self%chain_length), self%v_eta(self%chain_length))
+        self%eta = 0; self%v_eta = 0
+    end subroutine ts_init
+
+    !> From the validated &thermostat group; run_time is the length of the temperature ramp.
+    subroutine ts_configure(self, cfg, natoms, run_time)
+        class(thermostat_t), intent(inout) :: self
+        type(config_t), intent(in) :: cfg
+        integer(i8), intent(in) :: natoms
+        real(dp), intent(in) :: run_time
+        call self%init(max(0, thermostat_style(cfg%thermostat)), cfg%thermostat_temperature, &
+                       cfg%thermostat_temperature_end, run_time, cfg%thermostat_damping, cfg%chain_length, &
+                       cfg%thermostat_seed, cfg%zero_momentum, cfg%dimension, natoms, cfg%units%boltz, cfg%units%mvv2e)
+    end subroutine ts_configure
+
+    !> The thermostat's state for a checkpoint: ecouple (folded: collective) and the chain.
+    subroutine ts_save(self, values)
+        class(thermostat_t), intent(inout) :: self
+        type(ckpt_values_t), intent(inout) :: values
+        character(len=16) :: tag
+        integer :: j
+        real(dp) :: e
+        e = self%ecouple()
+        call values%put_r('ts_ecouple', e)
+        do j = 1, self%chain_length
+            write (tag, '(i0)') j
+            call values%put_r('ts_eta_'//trim(tag), self%eta(j))
+            call values%put_r('ts_v_eta_'//trim(tag), self%v_eta(j))
+        end do
+    end subroutine ts_save
+
+    subroutine ts_restore(self, values, ok)
+        class(thermostat_t), intent(inout) :: self
+        type(ckpt_values_t), intent(in) :: values
+        logical, intent(inout) :: ok
+        character(len=16) :: tag
+        integer :: j
+        self%ecouple_global = values%get_r('ts_ecouple', ok)
+        self%ecouple_local = 0
+        do j = 1, self%chain_length
+            write (tag, '(i0)') j
+            self%eta(j) = values%get_r('ts_eta_'//trim(tag), ok)
+            self%v_eta(j) = values%get_r('ts_v_eta_'//trim(tag), ok)
+        end do
+    end subroutine ts_restore
+
+    pure logical function ts_active(self)
+        class(thermostat_t), intent(in) :: self
+        ts_active = self%style /= thermostat_none
+    end function ts_active
+
+    !> Target temperature at time t (linear ramp from t_start at 0 to t_end at run_time).
+    pure real(dp) function ts_target(self, t) result(temp)
+        class(thermostat_t), intent(in) :: self
+        real(dp), intent(in) :: t
+        real(dp) :: f
+        f = 0
+        if (self%run_time > 0) f = min(max(t/self%run_time, 0.0_dp), 1.0_dp)
+        temp = self%t_start + (self%t_end - self%t_start)*f
+    end function ts_target
+
+    !> BAOAB's B A O A for every owned atom: v += dtfm f, x += dt/2 v, v <- c1 v + c2 sqrt(kT/m) z,
+    !> x += dt/2 v, z from (seed, id, step); dtfm(type) = dt/2 ftm2v/m. `time` is the middle of the
+    !> step (for the target temperature).
+    subroutine ts_langevin_kick_drift(self, atoms, dtfm, dt, step, time)
+        class(thermostat_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: dtfm(:), dt, time
+        integer(i8), intent(in) :: step
+        real(dp) :: c1, c2, kt, half, sig(atoms%ntypes), z(rng_batch, 4), vold(3), de, m2(atoms%ntypes)
+        integer :: i, t, i0, nb, j
+        c1 = exp(-dt/self%damping)
+        c2 = sqrt(max(0.0_dp, 1 - c1*c1))
+        kt = self%boltz*self%target(time)
+        do t = 1, atoms%ntypes
+            sig(t) = c2*sqrt(kt/(atoms%mass(t)*self%mvv2e))
+            m2(t) = 0.5_dp*self%mvv2e*atoms%mass(t)
+        end do
+        half = 0.5_dp*dt
+        de = 0
+        ! batches of atoms: the counter-based draws vectorise across atoms (normals4_many)
+        do i0 = 1, atoms%nlocal, rng_batch
+            nb = min(rng_batch, atoms%nlocal - i0 + 1)
+            call normals4_many(nb, self%seed, stream_langevin, atoms%id(i0:i0 + nb - 1), step, z(1:nb, :))
+            if (self%dimension == 2) z(1:nb, 3) = 0
+            do j = 1, nb
+                i = i0 + j - 1
+                t = atoms%type(i)
+                vold = atoms%v(:, i) + dtfm(t)*atoms%f(:, i)
+                atoms%x(:, i) = atoms%x(:, i) + half*vold
+                atoms%v(:, i) = c1*vold + sig(t)*z(j, 1:3)
+                atoms%x(:, i) = atoms%x(:, i) + half*atoms%v(:, i)
+                de = de + m2(t)*(sum(atoms%v(:, i)**2) - sum(vold**2))
+            end do
+        end do
+        self%ecouple_local = self%ecouple_local + de
+    end subroutine ts_langevin_kick_drift
+
+    !> Global kinetic energy (collective).
+    real(dp) function total_ke(self, atoms) result(ke)
+        type(thermostat_t), intent(in) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer :: i
+        ke = 0
+        do i = 1, atoms%nlocal
+            ke = ke + atoms%mass(atoms%type(i))*sum(atoms%v(:, i)**2)
+        end do
+        call sum_all(ke)
+        ke = 0.5_dp*self%mvv2e*ke
+    end function total_ke
+
+    subroutine scale_velocities(atoms, alpha)
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: alpha
+        integer :: n
+        n = atoms%nlocal
+        atoms%v(:, 1:n) = alpha*atoms%v(:, 1:n)
+    end subroutine scale_velocities
+
+    !> CSVR over a time span: one global kinetic-energy draw (every rank draws the same numbers,
+    !> keyed by `event`, e.g. 2 step + half), then a uniform rescale of the owned velocities.
+    !> Collective.
+    subroutine ts_csvr(self, atoms, span, event, time)
+        class(thermostat_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: span, time
+        integer(i8), intent(in) :: event
+        real(dp) :: ke, ke_new
+        ke = total_ke(self, atoms)
+        ke_new = csvr_kinetic_energy(self, ke, span, event, time)
+        if (ke > 0) call scale_velocities(atoms, sqrt(ke_new/ke))
+        self%ecouple_global = self%ecouple_global + (ke_new - ke)
+    end subroutine ts_csvr
+
+    !> Bussi's resampled kinetic energy (see the module header); the exact solution of the
+    !> kinetic-energy SDE over `span`.
+    real(dp) function csvr_kinetic_energy(self, ke, span, event, time) result(ke_new)
+        type(thermostat_t), intent(in) :: self
+        real(dp), intent(in) :: ke, span, time
+        integer(i8), intent(in) :: event
+        type(rng_stream_t) :: s
+        real(dp) :: c, kt_target, r1, sn
+        integer(i8) :: nf
+        nf = nint(self%dof, i8)
+        if (nf < 1 .or. ke <= 0) then
+            ke_new = ke
+            return
+        end if
+        c = exp(-span/self%damping)
+        kt_target = 0.5_dp*nf*self%boltz*self%target(time)
+        s = rng_stream(self%seed, stream_csvr, 0_i8, event)
+        r1 = s%normal()
+        sn = s%chi_square(nf - 1)
+        ke_new = ke + (1 - c)*(kt_target*(r1*r1 + sn)/nf - ke) + 2*r1*sqrt(c*(1 - c)*ke*kt_target/nf)
+        ke_new = max(ke_new, 0.0_dp)
+    end function csvr_kinetic_energy
+
+    !> Nose-Hoover chain over a time span (a half step of the integrator): the Trotter
+    !> factorisation of exp(iL_NHC span), three Suzuki-Yoshida sub-steps. Collective (one sum).
+    subroutine ts_nose_hoover(self, atoms, span, time)
+        class(thermostat_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: span, time
+        real(dp) :: ke, ke0, kt, q(self%chain_length), g(self%chain_length), w(3), d, scale, total_scale, e
+        integer :: m, j, k
+        m = self%chain_length
+        ke = total_ke(self, atoms)
+        ke0 = ke
+        if (self%dof <= 0) return
+        kt = self%boltz*self%target(time)
+        q = kt*self%damping**2
+        q(1) = self%dof*q(1)
+        w(1) = 1/(2 - 2**(1.0_dp/3)); w(3) = w(1); w(2) = 1 - 2*w(1)
+        total_scale = 1
+        do k = 1, 3
+            d = w(k)*span
+            call chain_forces()
+            self%v_eta(m) = self%v_eta(m) + 0.5_dp*d*g(m)
+            do j = m - 1, 1, -1
+                e = exp(-0.25_dp*d*self%v_eta(j + 1))
+                self%v_eta(j) = (self%v_eta(j)*e + 0.5_dp*d*g(j))*e
+            end do
+            scale = exp(-d*self%v_eta(1))
+            total_scale = total_scale*scale
+            ke = ke*scale*scale
+            self%eta = self%eta + d*self%v_eta
+            g(1) = (2*ke - self%dof*kt)/q(1)
+            do j = 1, m - 1
+                e = exp(-0.25_dp*d*self%v_eta(j + 1))
+                self%v_eta(j) = (self%v_eta(j)*e + 0.5_dp*d*g(j))*e
+                g(j + 1) = (q(j)*self%v_eta(j)**2 - kt)/q(j + 1)
+            end do
+            self%v_eta(m) = self%v_eta(m) + 0.5_dp*d*g(m)
+        end do
+        call scale_velocities(atoms, total_scale)
+        self%ecouple_global = self%ecouple_global + (ke - ke0)
+    contains
+        subroutine chain_forces()
+            integer :: jj
+            g(1) = (2*ke - self%dof*kt)/q(1)
+            do jj = 2, m
+                g(jj) = (q(jj - 1)*self%v_eta(jj - 1)**2 - kt)/q(jj)
+            end do
+        end subroutine chain_forces
+    end subroutine ts_nose_hoover
+
+    !> Energy held by the chain, sum Q_j v_j^2/2 + Nf kT eta_1 + kT sum_{j>1} eta_j, at time t (for
+    !> the extended-energy check of a constant-temperature run).
+    pure real(dp) function ts_chain_energy(self, time) result(e)
+        class(thermostat_t), intent(in) :: self
+        real(dp), intent(in) :: time
+        real(dp) :: kt, q
+        integer :: j
+        e = 0
+        if (self%style /= thermostat_nose_hoover) return
+        kt = self%boltz*self%target(time)
+        do j = 1, self%chain_length
+            q = kt*self%damping**2
+            if (j == 1) q = self%dof*q
+            e = e + 0.5_dp*q*self%v_eta(j)**2
+            if (j == 1) then
+                e = e + self%dof*kt*self%eta(j)
+            else
+                e = e + kt*self%eta(j)
+            end if
+        end do
+    end function ts_chain_energy
+
+    !> Maxwell-Boltzmann velocity at temperature temp for mass m (dimension 2: vz = 0), from one
+    !> block keyed by (seed, stream, id, event, sub).
+    function maxwell_velocity(self, id, event, sub, temp, m) result(v)
+        type(thermostat_t), intent(in) :: self
+        integer(i8), intent(in) :: id, event
+        integer, intent(in) :: sub
+        real(dp), intent(in) :: temp, m
+        real(dp) :: v(3), u(4), z(4)
+        u = unit_from_word(rng_block(self%seed, stream_andersen_velocity, id, event, sub))
+        call box_muller(u(1), u(2), z(1), z(2))
+        call box_muller(u(3), u(4), z(3), z(4))
+        v = sqrt(self%boltz*temp/(m*self%mvv2e))*z(1:3)
+        if (self%dimension == 2) v(3) = 0
+    end function maxwell_velocity
+
+    !> Andersen for a fixed step: each owned atom collides with probability 1 - exp(-dt/damping),
+    !> the choice and the new velocity keyed by (seed, id, step).
+    subroutine ts_andersen_step(self, atoms, dt, step, time)
+        class(thermostat_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: dt, time
+        integer(i8), intent(in) :: step
+        real(dp) :: p, temp, vnew(3), de, m
+        integer(i8) :: key(2), c(rng_batch, 4)
+        integer :: i, i0, nb, j
+        p = 1 - exp(-dt/self%damping)
+        temp = self%target(time)
+        de = 0
+        key = rng_key(self%seed, stream_andersen_pick)
+        ! batches of atoms: one vectorised Philox block per atom decides (word 1 < p), as rng_block
+        ! (seed, pick stream, id, step, 0) would
+        do i0 = 1, atoms%nlocal, rng_batch
+            nb = min(rng_batch, atoms%nlocal - i0 + 1)
+            do j = 1, nb
+                c(j, :) = rng_counter(atoms%id(i0 + j - 1), step, 0)
+            end do
+            call rng_blocks(nb, c(1:nb, :), key)
+            do j = 1, nb
+                if (unit_from_word(c(j, 1)) >= p) cycle
+                i = i0 + j - 1
+                m = atoms%mass(atoms%type(i))
+                vnew = maxwell_velocity(self, atoms%id(i), step, 0, temp, m)
+                de = de + 0.5_dp*self%mvv2e*m*(sum(vnew**2) - sum(atoms%v(:, i)**2))
+                atoms%v(:, i) = vnew
+            end do
+        end do
+        self%ecouple_local = self%ecouple_local + de
+    end subroutine ts_andersen_step
+
+    !> Remove the total momentum (collective); its kinetic energy P^2/2M goes to ecouple.
+    subroutine ts_remove_momentum(self, atoms)
+        class(thermostat_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp) :: p(4), vc(3)
+        integer :: i
+        p = 0
+        do i = 1, atoms%nlocal
+            p(1:3) = p(1:3) + atoms%mass(atoms%type(i))*atoms%v(:, i)
+            p(4) = p(4) + atoms%mass(atoms%type(i))
+        end do
+        call sum_all(p)
+        if (p(4) <= 0) return
+        vc = p(1:3)/p(4)
+        do i = 1, atoms%nlocal
+            atoms%v(:, i) = atoms%v(:, i) - vc
+        end do
+        self%ecouple_global = self%ecouple_global - 0.5_dp*self%mvv2e*sum(p(1:3)*vc)
+    end subroutine ts_remove_momentum
+
+    !> The energy put in so far (collective: folds every rank's partial sum into the global value).
+    real(dp) function ts_ecouple(self) result(e)
+        class(thermostat_t), intent(inout) :: self
+        call self%fold()
+        e = self%ecouple_global
+    end function ts_ecouple
+
+    !> Fold every rank's partial sum of ecouple into the global value (collective).
+    subroutine ts_fold(self)
+        class(thermostat_t), intent(inout) :: self
+        real(dp) :: part
+        part = self%ecouple_local
+        call sum_all(part)
+        self%ecouple_global = self%ecouple_global + part
+        self%ecouple_local = 0
+    end subroutine ts_fold
+
+    ! ------------------------------------------------------------------ Andersen, energy stepping
+
+    !> The first collision of atom `id` strictly after time t: its time, slot and index within the
+    !> slot (see the module header): a function of its arguments only, the same on every rank,
+    !> before and after a restart.
+    subroutine andersen_next_collision(seed, damping, id, t, t_next, slot, index)
+        integer(i8), intent(in) :: seed, id
+        real(dp), intent(in) :: damping, t
+        real(dp), intent(out) :: t_next
+        integer(i8), intent(out) :: slot
+        integer, intent(out) :: index
+        type(rng_stream_t) :: s
+        real(dp) :: frac, start
+        integer :: j
+        slot = max(0_i8, int(floor(t/damping), i8))
+        do
+            s = rng_stream(seed, stream_andersen_time, id, slot)
+            start = real(slot, dp)*damping
+            frac = 0
+            j = 0
+            do
+                frac = frac + s%exponential()
+                if (frac >= 1) exit
+                j = j + 1
+                t_next = start + frac*damping
+                if (t_next > t) then
+                    index = j
+                    return
+                end if
+            end do
+            slot = slot + 1
+        end do
+    end subroutine andersen_next_collision
+
+    !> Next collision time of every owned atom after time t (after a list build or a restart: the
+    !> atoms were reordered or moved between ranks).
+    subroutine ts_andersen_schedule(self, atoms, t)
+        class(thermostat_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        real(dp), intent(in) :: t
+        integer :: i, n
+        n = atoms%nlocal
+        if (allocated(self%next_collision)) then
+            if (size(self%next_collision) < n) deallocate (self%next_collision, self%collision_slot, self%collision_index)
+        end if
+        if (.not. allocated(self%next_collision)) &
+            allocate (self%next_collision(max(n, 16) + n/4), self%collision_slot(max(n, 16) + n/4), &
+                      self%collision_index(max(n, 16) + n/4))
+        do i = 1, n
+            call andersen_next_collision(self%seed, self%damping, atoms%id(i), t, self%next_collision(i), &
+                                         self%collision_slot(i), self%collision_index(i))
+        end do
+    end subroutine ts_andersen_schedule
+
+    !> Earliest collision time of this rank's atoms (huge when none).
+    real(dp) function ts_andersen_first(self, atoms) result(t)
+        class(thermostat_t), intent(in) :: self
+        type(atoms_t), intent(in) :: atoms
+        t = huge(1.0_dp)
+        if (atoms%nlocal > 0) t = minval(self%next_collision(1:atoms%nlocal))
+    end function ts_andersen_first
+
+    !> Collisions at time t (the global minimum of the collision times): every owned atom whose
+    !> collision time is t gets a fresh Maxwell-Boltzmann velocity at the target temperature, keyed by
+    !> (id, slot, index), and its next collision time. Returns the number of atoms changed here.
+    integer function ts_andersen_collide(self, atoms, t) result(changed)
+        class(thermostat_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: t
+        real(dp) :: vnew(3), m, temp
+        integer :: i
+        changed = 0
+        temp = self%target(t)
+        do i = 1, atoms%nlocal
+            if (self%next_collision(i) > t) cycle
+            m = atoms%mass(atoms%type(i))
+            vnew = maxwell_velocity(self, atoms%id(i), self%collision_slot(i), self%collision_index(i), temp, m)
+            self%ecouple_local = self%ecouple_local + 0.5_dp*self%mvv2e*m*(sum(vnew**2) - sum(atoms%v(:, i)**2))
+            atoms%v(:, i) = vnew
+            call andersen_next_collision(self%seed, self%damping, atoms%id(i), t, self%next_collision(i), &
+                                         self%collision_slot(i), self%collision_index(i))
+            changed = changed + 1
+        end do
+    end function ts_andersen_collide
+
+end module terrace_thermostat

@@ -9,6 +9,7 @@ program terrace
     use terrace_engine, only: engine_t
     use terrace_scene_builder, only: scene_t, build_scene
     use terrace_thermo, only: thermo_writer_t
+    use terrace_schedule, only: schedule_t, make_schedule
     use terrace_velocity_verlet, only: run_velocity_verlet
     use terrace_energy_stepping, only: run_energy_stepping, choose_terrace_height, print_es_estimates, es_stats_t, &
                                        es_thermo_header
@@ -32,13 +33,12 @@ program terrace
     type(scene_t) :: scene
     type(thermo_writer_t) :: thermo
     type(trajectory_t) :: traj
-    integer(i8) :: traj_every
+    type(schedule_t) :: sched
     character(len=:), allocatable :: path
     character(len=4096) :: arg
     logical :: check_only, ok
     integer :: k
-    integer(i8) :: n_steps, thermo_every
-    real(dp) :: t0, t1, h, t_end, interval, traj_interval
+    real(dp) :: t0, t1, h
     type(es_stats_t) :: es
     character(len=512) :: msg
     type(run_control_t) :: ctl
@@ -83,37 +83,25 @@ program terrace
 contains
 
     subroutine verlet_run()
-        n_steps = cfg%n_steps
-        if (n_steps < 0) n_steps = max(1_i8, nint(cfg%run_time/cfg%dt, i8))
-        if (cfg%thermo_every > 0) then
-            thermo_every = cfg%thermo_every
-        else if (cfg%thermo_interval > 0) then
-            thermo_every = max(1_i8, nint(cfg%thermo_interval/cfg%dt, i8))
-        else
-            thermo_every = max(1_i8, n_steps/10)
-        end if
+        sched = make_schedule(cfg)
         if (check_only) then
-            if (world%rank == 0) write (output_unit, '(a,i0,a,i0,a)') '  run        : ', n_steps, &
-                ' steps, thermo every ', thermo_every, ' steps'
+            if (world%rank == 0) write (output_unit, '(a,i0,a,i0,a)') '  run        : ', sched%n_steps, &
+                ' steps, thermo every ', sched%thermo_every, ' steps'
             call finish_check()
         end if
-        call open_outputs(trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), n_steps*cfg%dt)
+        call open_outputs(trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), &
+                          sched%end_time(cfg))
         call MPI_Barrier(world%comm)
         eng%timers = timers_t()
         t0 = MPI_Wtime()
-        traj_every = 0
-        if (cfg%trajectory_every > 0) traj_every = cfg%trajectory_every
-        if (cfg%trajectory_interval > 0) traj_every = max(1_i8, nint(cfg%trajectory_interval/cfg%dt, i8))
-        if (cfg%trajectory_every <= 0 .and. .not. cfg%trajectory_interval > 0) traj_every = thermo_every  ! default
-        if (len_trim(cfg%trajectory_file) == 0) traj_every = 0
-        call run_velocity_verlet(eng, thermo, traj, n_steps, thermo_every, traj_every, ctl)
+        call run_velocity_verlet(eng, thermo, traj, sched, ctl)
         call MPI_Barrier(world%comm)
         t1 = MPI_Wtime()
         call thermo%close()
         call traj%close()
         if (ctl%stopped) call stop_early()
-        call write_final(n_steps*cfg%dt)
-        call print_run_log(eng%timers, t1 - t0, eng%natoms, n_steps, eng%list%builds, 'steps')
+        call write_final(sched%end_time(cfg))
+        call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps')
         call eng%report_warnings()
     end subroutine verlet_run
 
@@ -135,48 +123,23 @@ contains
                           ': larger than the whole energy range of the system (|V| + K = '//trim(adjustl(s2))//')')
         end if
         call print_es_estimates(eng, h)
-        t_end = huge(1.0_dp)
-        if (cfg%run_time > 0) t_end = cfg%run_time
-        n_steps = huge(1_i8)
-        if (cfg%n_steps >= 0) n_steps = cfg%n_steps
-        thermo_every = 0
-        interval = 0
-        if (cfg%thermo_every > 0) then
-            thermo_every = cfg%thermo_every
-        else if (cfg%thermo_interval > 0) then
-            interval = cfg%thermo_interval
-        else if (cfg%run_time > 0) then
-            interval = cfg%run_time/10
-        else
-            thermo_every = max(1_i8, n_steps/10)
-        end if
+        sched = make_schedule(cfg)
         if (check_only) then
             if (world%rank == 0) then
                 if (cfg%run_time > 0) then
-                    write (output_unit, '(a,es12.5,1x,a)') '  run        : until t = ', t_end, trim(cfg%units%time)
+                    write (output_unit, '(a,es12.5,1x,a)') '  run        : until t = ', sched%t_end, trim(cfg%units%time)
                 else
-                    write (output_unit, '(a,i0,a)') '  run        : ', n_steps, ' events'
+                    write (output_unit, '(a,i0,a)') '  run        : ', sched%n_steps, ' events'
                 end if
             end if
             call finish_check()
         end if
         call open_outputs(es_thermo_header//trim(merge(',ecouple,econserve', '                  ', &
-                                                        cfg%thermostat /= 'none')), merge(t_end, 0.0_dp, cfg%run_time > 0))
+                                                        cfg%thermostat /= 'none')), sched%end_time(cfg))
         call MPI_Barrier(world%comm)
         eng%timers = timers_t()
         t0 = MPI_Wtime()
-        ! trajectory sampling: trajectory_every events or trajectory_interval time; by default the
-        ! thermo sampling (the same events or times)
-        traj_every = max(0_i8, cfg%trajectory_every)
-        traj_interval = max(0.0_dp, cfg%trajectory_interval)
-        if (traj_every == 0 .and. .not. traj_interval > 0) then
-            traj_every = thermo_every; traj_interval = interval
-        end if
-        if (len_trim(cfg%trajectory_file) == 0) then
-            traj_every = 0; traj_interval = 0
-        end if
-        call run_energy_stepping(eng, thermo, traj, h, t_end, n_steps, interval, thermo_every, traj_interval, &
-                                 traj_every, es, ctl)
+        call run_energy_stepping(eng, thermo, traj, h, sched, es, ctl)
         call MPI_Barrier(world%comm)
         t1 = MPI_Wtime()
         call thermo%close()

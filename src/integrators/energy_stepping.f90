@@ -29,6 +29,7 @@
 module terrace_energy_stepping
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
+    use terrace_schedule, only: schedule_t
     use terrace_event_solver, only: ray_t, event_solver_t, crossing_t, level_upper, level_lower
     use terrace_thermo, only: thermo_writer_t
     use terrace_observables, only: thermo_sample_t
@@ -62,6 +63,30 @@ module terrace_energy_stepping
         integer(i8) :: ray_evals = 0, force_passes = 0, verify_misses = 0, rebuilds = 0
         real(dp) :: time = 0
     end type es_stats_t
+
+    !> The event loop's whole state between two events: time, terrace index and edges, the solver's
+    !> values at the search origin and its guesses, the next list expiry, sample and frame times,
+    !> the counters. exchange() is the one place that writes it to a checkpoint and reads it back.
+    type, public :: es_state_t
+        real(dp) :: t = 0                          !< time reached
+        integer(i8) :: k = 0                       !< terrace index: V_h = k h
+        real(dp) :: lower = 0, upper = 0           !< the current terrace's edges (shifted after kicks)
+        real(dp) :: p0(3) = 0                      !< (V, V', V'') at the search origin
+        logical :: have_c = .false.                !< p0(3) is known
+        logical :: have_guess = .false.            !< c_guess holds the last event's curvature
+        real(dp) :: c_guess = 0, trust = huge(1.0_dp)
+        real(dp) :: t_exp = 0                      !< the neighbour list's exact expiry time
+        integer(i8) :: n_sample = 1, n_frame = 1   !< next sample / frame by time: n * interval
+        real(dp) :: t_next_sample = huge(1.0_dp), t_next_frame = huge(1.0_dp)
+        integer(i8) :: last_events = 0, last_evals = 0   !< at the last sample (means per sample)
+        real(dp) :: last_time = 0
+        type(es_stats_t) :: stats
+        real(dp) :: tol = 0                        !< the solver's tolerance on V
+        real(dp) :: pe = 0, virial = 0             !< the engine's V and W at the last evaluation
+        real(dp) :: ray_last_s = -huge(1.0_dp), ray_last_out(4) = 0   !< the ray's memory
+    contains
+        procedure :: exchange => es_state_exchange
+    end type es_state_t
 
     character(len=*), parameter, public :: es_thermo_header = &
         ',events,reflections,mean_dt,evals_per_event,terrace_height,e_terraced'
@@ -181,23 +206,21 @@ contains
     end subroutine print_es_estimates
 
     !> The event loop. Ends at t_end, or after max_events events.
-    subroutine run_energy_stepping(eng, thermo, traj, h, t_end, max_events, sample_interval, sample_every, &
-                                   traj_interval, traj_every, stats, ctl)
+    subroutine run_energy_stepping(eng, thermo, traj, h, sched, stats, ctl)
         type(engine_t), intent(inout), target :: eng
         type(thermo_writer_t), intent(inout) :: thermo
         type(trajectory_t), intent(inout) :: traj
-        real(dp), intent(in) :: h, t_end, sample_interval, traj_interval
-        integer(i8), intent(in) :: max_events, sample_every, traj_every
+        real(dp), intent(in) :: h
+        type(schedule_t), intent(in) :: sched
         type(es_stats_t), intent(out) :: stats
         type(run_control_t), intent(inout) :: ctl
         type(engine_ray_t) :: ray
         type(event_solver_t) :: solver
         type(crossing_t) :: res
-        integer(i8) :: k, n_sample, last_events, last_evals, n_frame
-        real(dp) :: t, lower, upper, p0(3), t_exp, t_next_sample, t_next_frame, window, sigma2, a, b, lam, vstar, trust, &
-                    last_time, mvv2e
-        logical :: have_c, sample_due, have_guess, ckpt_due, rebuilt, stop_now
-        real(dp) :: c_guess, t_next_ckpt
+        type(es_state_t), target :: st
+        real(dp) :: window, sigma2, a, b, lam, vstar, mvv2e
+        logical :: sample_due, ckpt_due, rebuilt, stop_now
+        real(dp) :: t_next_ckpt
         integer :: i, outcome
         real(dp) :: minv(size(eng%atoms%mass))
         type(energy_guard_t) :: guard
@@ -206,6 +229,13 @@ contains
         logical :: collide
         integer :: changed
 
+        associate (t => st%t, k => st%k, lower => st%lower, upper => st%upper, p0 => st%p0, have_c => st%have_c, &
+                   have_guess => st%have_guess, c_guess => st%c_guess, trust => st%trust, t_exp => st%t_exp, &
+                   n_sample => st%n_sample, n_frame => st%n_frame, t_next_sample => st%t_next_sample, &
+                   t_next_frame => st%t_next_frame, last_events => st%last_events, last_evals => st%last_evals, &
+                   last_time => st%last_time, t_end => sched%t_end, max_events => sched%n_steps, &
+                   sample_interval => sched%thermo_interval, sample_every => sched%thermo_every, &
+                   traj_interval => sched%traj_interval, traj_every => sched%traj_every)
         ray%eng => eng
         mvv2e = eng%cfg%units%mvv2e
         do i = 1, size(minv)
@@ -256,18 +286,14 @@ contains
                 if (rebuilt) then
                     call eng%rebuild()
                     stats%rebuilds = stats%rebuilds + 1
-                    t_exp = eng%list_expiry()
-                    call min_all(t_exp)
-                    t_exp = t + t_exp
+                    t_exp = expiry_after(t)
                     if (ts%style == thermostat_andersen) call schedule_collisions()
                 end if
                 if (collide) then
                     ! new velocities: ghosts, list expiry, and V' and V'' at the search origin along them
                     if (.not. rebuilt) then
                         call eng%sync_ghosts()
-                        t_exp = eng%list_expiry()
-                        call min_all(t_exp)
-                        t_exp = t + t_exp
+                        t_exp = expiry_after(t)
                     end if
                     call ray%eval(0.0_dp, p0)
                     stats%ray_evals = stats%ray_evals + 1
@@ -315,7 +341,7 @@ contains
                 stats%verify_misses = stats%verify_misses + 1
                 p0 = [vstar, b/mvv2e, 0.0_dp]
                 have_c = .false.
-                t_exp = eng%list_expiry(); call min_all(t_exp); t_exp = t + t_exp
+                t_exp = expiry_after(t)
                 cycle
             end if
             select case (outcome)
@@ -341,9 +367,7 @@ contains
             have_c = .false.
             stats%events = stats%events + 1
             trust = 4*t/stats%events
-            t_exp = eng%list_expiry()
-            call min_all(t_exp)
-            t_exp = t + t_exp
+            t_exp = expiry_after(t)
             sample_due = sample_every > 0
             if (sample_due) sample_due = mod(stats%events, sample_every) == 0
             if (sample_due) call write_sample(t)
@@ -354,13 +378,22 @@ contains
         stats%time = t
         if (ctl%stopped) return
         if (sample_every > 0 .and. mod(stats%events, max(sample_every, 1_i8)) /= 0) call write_sample(t)
+        end associate
 
     contains
+
+        !> The neighbour list's expiry time after time t0 (global minimum over ranks).
+        real(dp) function expiry_after(t0) result(te)
+            real(dp), intent(in) :: t0
+            te = eng%list_expiry()
+            call min_all(te)
+            te = t0 + te
+        end function expiry_after
 
         !> Next Andersen collision of every owned atom after t, and the global first one.
         subroutine schedule_collisions()
             if (ts%style /= thermostat_andersen) return
-            call ts%andersen_schedule(eng%atoms, t)
+            call ts%andersen_schedule(eng%atoms, st%t)
             t_coll = ts%andersen_first(eng%atoms)
             call min_all(t_coll)
         end subroutine schedule_collisions
@@ -370,56 +403,37 @@ contains
             solver%tol = max(eng%cfg%root_tolerance*h, 64*epsilon(1.0_dp)*abs(eng%pe))
             if (world%rank == 0 .and. solver%tol > eng%cfg%root_tolerance*h) write (output_unit, '(a,es10.3,a)') &
                 '  note       : root_tolerance raised to ', solver%tol/h, ' (round-off of the total energy)'
-            t = 0
-            k = floor(eng%pe/h, i8)
-            lower = k*h
-            upper = (k + 1)*h
+            st%t = 0
+            st%k = floor(eng%pe/h, i8)
+            st%lower = st%k*h
+            st%upper = (st%k + 1)*h
             call gradient_sums(eng, sigma2, a, b)
-            p0 = [eng%pe, b/mvv2e, 0.0_dp]
-            have_c = .false.
-            have_guess = .false.
-            c_guess = 0
-            n_sample = 1
-            t_next_sample = huge(1.0_dp)
-            if (sample_interval > 0) t_next_sample = sample_interval
-            n_frame = 1
-            t_next_frame = huge(1.0_dp)
-            if (traj_interval > 0) t_next_frame = traj_interval
-            t_exp = eng%list_expiry()
-            call min_all(t_exp)
-            trust = huge(1.0_dp)
-            last_events = 0; last_evals = 0; last_time = 0
+            st%p0 = [eng%pe, b/mvv2e, 0.0_dp]
+            st%have_c = .false.
+            st%have_guess = .false.
+            st%c_guess = 0
+            st%n_sample = 1
+            st%t_next_sample = huge(1.0_dp)
+            if (sched%thermo_interval > 0) st%t_next_sample = sched%thermo_interval
+            st%n_frame = 1
+            st%t_next_frame = huge(1.0_dp)
+            if (sched%traj_interval > 0) st%t_next_frame = sched%traj_interval
+            st%t_exp = expiry_after(0.0_dp)
+            st%trust = huge(1.0_dp)
+            st%last_events = 0; st%last_evals = 0; st%last_time = 0
             call write_sample(0.0_dp)
-            if (traj_interval > 0 .or. traj_every > 0) call write_frame(0.0_dp)
+            if (sched%traj_interval > 0 .or. sched%traj_every > 0) call write_frame(0.0_dp)
         end subroutine start_state
 
         !> The event loop's state as the interrupted run had it at its checkpoint.
         subroutine restore_state()
             logical :: ok
             ok = .true.
-            associate (val => eng%restart_values)
-                t = val%get_r('time', ok)
-                k = val%get_i('es_k', ok)
-                lower = val%get_r('es_lower', ok); upper = val%get_r('es_upper', ok)
-                p0(1) = val%get_r('es_p0_f', ok); p0(2) = val%get_r('es_p0_df', ok); p0(3) = val%get_r('es_p0_d2f', ok)
-                have_c = val%get_l('es_have_c', ok); have_guess = val%get_l('es_have_guess', ok)
-                c_guess = val%get_r('es_c_guess', ok)
-                trust = val%get_r('es_trust', ok)
-                t_exp = val%get_r('es_t_exp', ok)
-                n_sample = val%get_i('es_n_sample', ok); t_next_sample = val%get_r('es_t_next_sample', ok)
-                n_frame = val%get_i('es_n_frame', ok); t_next_frame = val%get_r('es_t_next_frame', ok)
-                last_events = val%get_i('es_last_events', ok); last_evals = val%get_i('es_last_evals', ok)
-                last_time = val%get_r('es_last_time', ok)
-                stats%events = val%get_i('es_events', ok); stats%reflections = val%get_i('es_reflections', ok)
-                stats%ups = val%get_i('es_ups', ok); stats%downs = val%get_i('es_downs', ok)
-                stats%ray_evals = val%get_i('es_ray_evals', ok); stats%force_passes = val%get_i('es_force_passes', ok)
-                stats%verify_misses = val%get_i('es_verify_misses', ok); stats%rebuilds = val%get_i('es_rebuilds', ok)
-                solver%tol = val%get_r('es_tol', ok)
-                eng%pe = val%get_r('es_pe', ok); eng%virial = val%get_r('es_virial', ok)
-                ray%last_s = val%get_r('es_ray_last_s', ok)
-                ray%last_out(1) = val%get_r('es_ray_last_v', ok); ray%last_out(2) = val%get_r('es_ray_last_dv', ok)
-                ray%last_out(3) = val%get_r('es_ray_last_d2v', ok); ray%last_out(4) = val%get_r('es_ray_last_w', ok)
-            end associate
+            st%t = eng%restart_values%get_r('time', ok)
+            call st%exchange(eng%restart_values, .false., stats, ok)
+            solver%tol = st%tol
+            eng%pe = st%pe; eng%virial = st%virial
+            ray%last_s = st%ray_last_s; ray%last_out = st%ray_last_out
             if (ts%active()) call ts%restore(eng%restart_values, ok)
             call check_all(ok, trim(eng%cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint '// &
                            '(energy-stepping state missing)')
@@ -433,30 +447,15 @@ contains
             call eng%timers%start(t_output)
             call val%put_r('h', h)
             if (ts%active()) call ts%save(val)
-            call val%put_i('es_k', k)
-            call val%put_r('es_lower', lower); call val%put_r('es_upper', upper)
-            call val%put_r('es_p0_f', p0(1)); call val%put_r('es_p0_df', p0(2)); call val%put_r('es_p0_d2f', p0(3))
-            call val%put_l('es_have_c', have_c); call val%put_l('es_have_guess', have_guess)
-            call val%put_r('es_c_guess', c_guess)
-            call val%put_r('es_trust', trust)
-            call val%put_r('es_t_exp', t_exp)
-            call val%put_i('es_n_sample', n_sample); call val%put_r('es_t_next_sample', t_next_sample)
-            call val%put_i('es_n_frame', n_frame); call val%put_r('es_t_next_frame', t_next_frame)
-            call val%put_i('es_last_events', last_events); call val%put_i('es_last_evals', last_evals)
-            call val%put_r('es_last_time', last_time)
-            call val%put_i('es_events', stats%events); call val%put_i('es_reflections', stats%reflections)
-            call val%put_i('es_ups', stats%ups); call val%put_i('es_downs', stats%downs)
-            call val%put_i('es_ray_evals', stats%ray_evals); call val%put_i('es_force_passes', stats%force_passes)
-            call val%put_i('es_verify_misses', stats%verify_misses); call val%put_i('es_rebuilds', stats%rebuilds)
-            call val%put_r('es_tol', solver%tol)
-            call val%put_r('es_pe', eng%pe); call val%put_r('es_virial', eng%virial)
-            call val%put_r('es_ray_last_s', ray%last_s)
-            call val%put_r('es_ray_last_v', ray%last_out(1)); call val%put_r('es_ray_last_dv', ray%last_out(2))
-            call val%put_r('es_ray_last_d2v', ray%last_out(3)); call val%put_r('es_ray_last_w', ray%last_out(4))
+            st%tol = solver%tol
+            st%pe = eng%pe; st%virial = eng%virial
+            st%ray_last_s = ray%last_s; st%ray_last_out = ray%last_out
+            ok = .true.
+            call st%exchange(val, .true., stats, ok)
             ! the trajectory holds every frame the checkpoint counts, even if the run is killed next
             call traj%flush(ok, msg)
             call check_all(ok, 'trajectory: '//trim(msg))
-            call ctl%write(eng, val, stats%events, t, thermo%lines, traj%frames(), scheduled)
+            call ctl%write(eng, val, stats%events, st%t, thermo%lines, traj%frames(), scheduled)
             call eng%timers%stop(t_output)
         end subroutine checkpoint
 
@@ -469,19 +468,19 @@ contains
             if (ts%active()) s%ecouple = ts%ecouple()
             call guard%check(s)
             mean_dt = 0; evals = 0
-            if (stats%events > last_events) then
-                mean_dt = (time - last_time)/(stats%events - last_events)
-                evals = real(stats%ray_evals - last_evals, dp)/(stats%events - last_events)
+            if (stats%events > st%last_events) then
+                mean_dt = (time - st%last_time)/(stats%events - st%last_events)
+                evals = real(stats%ray_evals - st%last_evals, dp)/(stats%events - st%last_events)
             end if
-            extra(1:6) = [real(stats%events, dp), real(stats%reflections, dp), mean_dt, evals, h, s%ke + k*h]
+            extra(1:6) = [real(stats%events, dp), real(stats%reflections, dp), mean_dt, evals, h, s%ke + st%k*h]
             if (ts%active()) then
                 extra(7) = s%ecouple
-                extra(8) = s%ke + k*h - extra(7)
+                extra(8) = s%ke + st%k*h - extra(7)
                 call thermo%write(s, extra)
             else
                 call thermo%write(s, extra(1:6))
             end if
-            last_events = stats%events; last_evals = stats%ray_evals; last_time = time
+            st%last_events = stats%events; st%last_evals = stats%ray_evals; st%last_time = time
             call eng%timers%stop(t_output)
         end subroutine write_sample
 
@@ -495,11 +494,69 @@ contains
             call eng%timers%start(t_output)
             s = eng%sample(stats%events, time)
             call traj%write(stats%events, time, eng%atoms, s, ok, msg, names, &
-                            [real(stats%events, dp), real(stats%reflections, dp), h, s%ke + k*h])
+                            [real(stats%events, dp), real(stats%reflections, dp), h, s%ke + st%k*h])
             call check_all(ok, 'trajectory: '//trim(msg))
             call eng%timers%stop(t_output)
         end subroutine write_frame
 
     end subroutine run_energy_stepping
+
+    !> Write the state to (saving) or read it from a checkpoint's named values: every key once.
+    !> (The time is the checkpoint's own 'time'; h and the thermostat's state are saved beside it.)
+    subroutine es_state_exchange(self, val, saving, stats, ok)
+        class(es_state_t), intent(inout) :: self
+        type(ckpt_values_t), intent(inout) :: val
+        logical, intent(in) :: saving
+        type(es_stats_t), intent(inout) :: stats
+        logical, intent(inout) :: ok
+        call xi('es_k', self%k)
+        call xr('es_lower', self%lower); call xr('es_upper', self%upper)
+        call xr('es_p0_f', self%p0(1)); call xr('es_p0_df', self%p0(2)); call xr('es_p0_d2f', self%p0(3))
+        call xl('es_have_c', self%have_c); call xl('es_have_guess', self%have_guess)
+        call xr('es_c_guess', self%c_guess)
+        call xr('es_trust', self%trust)
+        call xr('es_t_exp', self%t_exp)
+        call xi('es_n_sample', self%n_sample); call xr('es_t_next_sample', self%t_next_sample)
+        call xi('es_n_frame', self%n_frame); call xr('es_t_next_frame', self%t_next_frame)
+        call xi('es_last_events', self%last_events); call xi('es_last_evals', self%last_evals)
+        call xr('es_last_time', self%last_time)
+        call xi('es_events', stats%events); call xi('es_reflections', stats%reflections)
+        call xi('es_ups', stats%ups); call xi('es_downs', stats%downs)
+        call xi('es_ray_evals', stats%ray_evals); call xi('es_force_passes', stats%force_passes)
+        call xi('es_verify_misses', stats%verify_misses); call xi('es_rebuilds', stats%rebuilds)
+        call xr('es_tol', self%tol)
+        call xr('es_pe', self%pe); call xr('es_virial', self%virial)
+        call xr('es_ray_last_s', self%ray_last_s)
+        call xr('es_ray_last_v', self%ray_last_out(1)); call xr('es_ray_last_dv', self%ray_last_out(2))
+        call xr('es_ray_last_d2v', self%ray_last_out(3)); call xr('es_ray_last_w', self%ray_last_out(4))
+    contains
+        subroutine xr(name, x)
+            character(len=*), intent(in) :: name
+            real(dp), intent(inout) :: x
+            if (saving) then
+                call val%put_r(name, x)
+            else
+                x = val%get_r(name, ok)
+            end if
+        end subroutine xr
+        subroutine xi(name, x)
+            character(len=*), intent(in) :: name
+            integer(i8), intent(inout) :: x
+            if (saving) then
+                call val%put_i(name, x)
+            else
+                x = val%get_i(name, ok)
+            end if
+        end subroutine xi
+        subroutine xl(name, x)
+            character(len=*), intent(in) :: name
+            logical, intent(inout) :: x
+            if (saving) then
+                call val%put_l(name, x)
+            else
+                x = val%get_l(name, ok)
+            end if
+        end subroutine xl
+    end subroutine es_state_exchange
 
 end module terrace_energy_stepping

@@ -12,6 +12,7 @@
 module terrace_velocity_verlet
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
+    use terrace_schedule, only: schedule_t
     use terrace_thermo, only: thermo_writer_t
     use terrace_observables, only: thermo_sample_t
     use terrace_trajectory, only: trajectory_t
@@ -30,11 +31,11 @@ module terrace_velocity_verlet
 
 contains
 
-    subroutine run_velocity_verlet(eng, thermo, traj, n_steps, thermo_every, traj_every, ctl)
+    subroutine run_velocity_verlet(eng, thermo, traj, sched, ctl)
         type(engine_t), intent(inout) :: eng
         type(thermo_writer_t), intent(inout) :: thermo
         type(trajectory_t), intent(inout) :: traj
-        integer(i8), intent(in) :: n_steps, thermo_every, traj_every
+        type(schedule_t), intent(in) :: sched
         type(run_control_t), intent(inout) :: ctl
         integer(i8), parameter :: poll_all_pairs = 10   !< all-pairs path: steps between stop polls
         integer(i8) :: step, step0
@@ -46,7 +47,7 @@ contains
         type(thermostat_t) :: ts
         real(dp) :: t_mid
         dt = eng%cfg%dt
-        call ts%configure(eng%cfg, eng%natoms, n_steps*dt)
+        call ts%configure(eng%cfg, eng%natoms, sched%n_steps*dt)
         do t = 1, size(dtfm)
             dtfm(t) = 0.5_dp*dt*eng%cfg%units%ftm2v/eng%atoms%mass(t)
         end do
@@ -77,7 +78,7 @@ contains
             call eng%timers%stop(t_output)
         end if
         last = first
-        do step = step0 + 1, n_steps
+        do step = step0 + 1, sched%n_steps
             t_mid = (step - 0.5_dp)*dt
             select case (ts%style)
             case (thermostat_csvr)
@@ -107,9 +108,8 @@ contains
                 call eng%refresh_ghosts()
                 safe = scheduled .or. mod(step, poll_all_pairs) == 0
             end if
-            sample = mod(step, thermo_every) == 0 .or. step == n_steps
-            frame = .false.
-            if (traj_every > 0) frame = mod(step, traj_every) == 0
+            sample = sched%sample_due(step) .or. step == sched%n_steps
+            frame = sched%frame_due(step)
             call eng%compute_forces(sample .or. frame)
             do i = 1, eng%atoms%nlocal
                 eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
@@ -182,8 +182,7 @@ contains
             type(thermo_sample_t), intent(in) :: s
             logical :: ok
             character(len=512) :: msg
-            if (traj_every <= 0) return
-            if (mod(step, traj_every) /= 0) return
+            if (.not. sched%frame_due(step)) return
             call eng%timers%start(t_output)
             call traj%write(step, step*dt, eng%atoms, s, ok, msg)
             call check_all(ok, 'trajectory: '//trim(msg))

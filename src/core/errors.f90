@@ -48,7 +48,7 @@ contains
         logical, intent(in) :: ok
         character(len=*), intent(in) :: msg
         integer :: mine, first, ierr
-        character(len=1024) :: text
+        character(len=8192) :: text
         mine = huge(1)
         if (.not. ok) mine = my_rank()
         call MPI_Allreduce(mine, first, 1, MPI_INTEGER, MPI_MIN, MPI_COMM_WORLD, ierr)

@@ -8,6 +8,7 @@ module terrace_final_atoms
     use terrace_box, only: box_t
     use terrace_mpi_env, only: world
     use terrace_gather_by_id, only: gather_by_id
+    use terrace_file_ops, only: temporary_name, remove_at_exit
     implicit none
     private
 
@@ -38,16 +39,26 @@ contains
         end do
         call gather_by_id(n, atoms%id(1:n), mine, ids, all)
         if (world%rank /= 0) return
-        open (newunit=unit, file=path, status='replace', action='write', iostat=ios, iomsg=msg)
+        ! written under a temporary name, renamed over path when the run succeeds
+        ! (terrace_output_files: commit_small_outputs); every write is checked (a full disk)
+        open (newunit=unit, file=temporary_name(path), status='replace', action='write', iostat=ios, iomsg=msg)
         if (ios /= 0) then
             ok = .false.; return
         end if
-        write (unit, '(a,es24.16e3)') '# terrace final state at time ', time
-        write (unit, '(a)') '# type x y z vx vy vz   (one line per atom, in id order)'
+        call remove_at_exit(temporary_name(path))
+        write (unit, '(a,es24.16e3)', iostat=ios, iomsg=msg) '# terrace final state at time ', time
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=msg) '# type x y z vx vy vz   (one line per atom, in id order)'
         do i = 1, size(ids)
-            write (unit, '(i0,6(1x,es24.16e3))') nint(all(1, i)), all(2:7, i)
+            if (ios /= 0) exit
+            write (unit, '(i0,6(1x,es24.16e3))', iostat=ios, iomsg=msg) nint(all(1, i)), all(2:7, i)
         end do
-        close (unit)
+        if (ios == 0) flush (unit, iostat=ios, iomsg=msg)
+        if (ios == 0) then
+            close (unit, iostat=ios, iomsg=msg)
+        else
+            close (unit, status='delete')
+        end if
+        ok = ios == 0
     end subroutine write_final_atoms
 
 end module terrace_final_atoms

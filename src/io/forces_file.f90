@@ -5,6 +5,7 @@ module terrace_forces_file
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: world
     use terrace_gather_by_id, only: gather_by_id
+    use terrace_file_ops, only: temporary_name, remove_at_exit
     implicit none
     private
 
@@ -24,16 +25,26 @@ contains
         ok = .true.; msg = ''
         call gather_by_id(atoms%nlocal, atoms%id(1:atoms%nlocal), atoms%f(:, 1:atoms%nlocal), ids, f)
         if (world%rank /= 0) return
-        open (newunit=unit, file=path, status='replace', action='write', iostat=ios, iomsg=msg)
+        ! written under a temporary name, renamed over path when the run succeeds
+        ! (terrace_output_files: commit_small_outputs); every write is checked (a full disk)
+        open (newunit=unit, file=temporary_name(path), status='replace', action='write', iostat=ios, iomsg=msg)
         if (ios /= 0) then
             ok = .false.; return
         end if
-        write (unit, '(a,i0)') '# terrace per-atom forces at step ', step
-        write (unit, '(a)') '# id fx fy fz'
+        call remove_at_exit(temporary_name(path))
+        write (unit, '(a,i0)', iostat=ios, iomsg=msg) '# terrace per-atom forces at step ', step
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=msg) '# id fx fy fz'
         do i = 1, size(ids)
-            write (unit, '(i0,3(1x,es24.16e3))') ids(i), f(:, i)
+            if (ios /= 0) exit
+            write (unit, '(i0,3(1x,es24.16e3))', iostat=ios, iomsg=msg) ids(i), f(:, i)
         end do
-        close (unit)
+        if (ios == 0) flush (unit, iostat=ios, iomsg=msg)
+        if (ios == 0) then
+            close (unit, iostat=ios, iomsg=msg)
+        else
+            close (unit, status='delete')
+        end if
+        ok = ios == 0
     end subroutine write_forces_file
 
 end module terrace_forces_file

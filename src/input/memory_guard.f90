@@ -11,6 +11,7 @@
 !> /proc/meminfo, or the cgroup limit (memory.max) when that is lower.
 module terrace_memory_guard
     use terrace_kinds, only: dp, i8
+    use terrace_text, only: fixed
     use terrace_config, only: config_t
     use terrace_mpi_env, only: world
     use terrace_errors, only: check_all
@@ -20,8 +21,8 @@ module terrace_memory_guard
 
     public :: check_memory, estimate_scene_bytes, available_memory_bytes
 
-    real(dp), parameter :: process_base = 150.0_dp*2**20   !< libraries, MPI and HDF5 buffers per rank
-    real(dp), parameter :: per_atom = 1200.0_dp            !< per-atom arrays (bytes), ghosts included
+    real(dp), parameter :: process_base = 64.0_dp*2**20    !< libraries, MPI and HDF5 buffers per rank
+    real(dp), parameter :: per_atom = 400.0_dp             !< per-atom arrays (bytes), ghosts included
     real(dp), parameter :: pi = 3.141592653589793_dp
 
 contains
@@ -38,8 +39,8 @@ contains
             have = available_memory_bytes()
             if (need > have .and. have > 0) then
                 write (a, '(es10.3)') natoms
-                write (b, '(f0.1)') need/2.0_dp**30
-                write (c, '(f0.1)') have/2.0_dp**30
+                b = fixed(need/2.0_dp**30, 1)
+                c = fixed(have/2.0_dp**30, 1)
                 msg = source(cfg)//': the scene needs about '//trim(lead0(b))//' GiB ('//trim(adjustl(a))// &
                       ' atoms), more than the '//trim(lead0(c))//' GiB of memory available on this node '// &
                       '(MemAvailable or the cgroup limit); make the scene smaller'

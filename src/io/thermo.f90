@@ -83,10 +83,9 @@ contains
         type(units_t), intent(in), optional :: units
         write (output_unit, '(a10,1x,a12,1x,a12,1x,a16,1x,a16,1x,a16,1x,a13,a)') 'step', 'time', 'temp', 'pe', 'ke', &
             'etotal', 'press', '  progress'
-        if (present(units)) write (output_unit, '(a10,1x,a12,1x,a12,1x,a16,1x,a16,1x,a16,1x,a13,a)') '', &
-            '['//trim(units%time)//']', '['//trim(units%temperature)//']', '['//trim(units%energy)//']', &
-            '['//trim(units%energy)//']', '['//trim(units%energy)//']', '['//trim(units%pressure)//']', &
-            '  [% of run, wall s left]'
+        if (present(units)) write (output_unit, '(a)') '      (units: time '//trim(units%time)//', temp '// &
+            trim(units%temperature)//', pe ke etotal '//trim(units%energy)//', press '//trim(units%pressure)// &
+            '; progress: % of the run and wall seconds left)'
     end subroutine screen_header
 
     !> Continue the CSV of an interrupted run (restart from a checkpoint): keep its header and its

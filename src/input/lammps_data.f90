@@ -69,7 +69,7 @@ contains
             line = line + 1
             s = strip(buf)
             if (len(s) == 0) cycle
-            if (ends_with(s, 'atoms') .and. scan(s(1:1), '0123456789+') > 0) then
+            if (ends_with(s, 'atoms') .and. scan(s(1:1), '0123456789+-') > 0) then
                 read (s, *, iostat=ios) nheader
                 if (ios /= 0 .or. nheader < 0) call fail(t, path, line, 'cannot read the atom count')
                 ! an Atoms line is at least "1 1 0 0 0" and a line end: 10 bytes

@@ -114,6 +114,7 @@ contains
         integer, intent(in) :: dimension
         real(dp), intent(out) :: natoms, rho
         integer :: unit, ios, k, lines
+        integer(i8) :: nbytes
         character(len=256) :: buf
         real(dp) :: lo, hi, len3(3)
         natoms = 0; rho = 0; len3 = 1
@@ -136,6 +137,9 @@ contains
             end if
         end do
         close (unit)
+        ! a count the file cannot hold is the reader's error (it names the file size), not memory's
+        inquire (file=path, size=nbytes)
+        if (natoms > nbytes/10.0_dp) natoms = 0
         if (natoms > 0) rho = natoms/product(len3(1:dimension))
     end subroutine data_header
 

@@ -10,7 +10,7 @@ module terrace_file_ops
 
     public :: resolve_path, path_kind, is_writable, rename_file, remove_file, lock_file, &
               remove_at_exit, keep_at_exit, process_id, directory_of, &
-              temporary_name, commit_output
+              temporary_name, commit_output, check_size
 
     interface
         integer(c_int) function c_resolve(path, out, outlen) bind(C, name='terrace_resolve_path')
@@ -150,6 +150,25 @@ contains
         end if
         call keep_at_exit(temporary_name(path))
     end subroutine commit_output
+
+    !> gfortran reports no error when a formatted write, flush or close hits a full disk (the
+    !> buffered bytes are dropped silently), so a writer counts the bytes it wrote and compares
+    !> them with the size of the closed file: ok = .false. with msg when they differ.
+    subroutine check_size(path, expected, ok, msg)
+        character(len=*), intent(in) :: path
+        integer(kind=8), intent(in) :: expected
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        integer(kind=8) :: n
+        character(len=24) :: a, b
+        inquire (file=path, size=n)
+        ok = n == expected
+        msg = ''
+        if (ok) return
+        write (a, '(i0)') n
+        write (b, '(i0)') expected
+        msg = 'the file system kept '//trim(a)//' of the '//trim(b)//' bytes written (is the disk full?)'
+    end subroutine check_size
 
     integer function process_id()
         process_id = int(c_pid())

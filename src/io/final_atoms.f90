@@ -8,7 +8,7 @@ module terrace_final_atoms
     use terrace_box, only: box_t
     use terrace_mpi_env, only: world
     use terrace_gather_by_id, only: gather_by_id
-    use terrace_file_ops, only: temporary_name, remove_at_exit
+    use terrace_file_ops, only: temporary_name, remove_at_exit, check_size
     implicit none
     private
 
@@ -25,8 +25,11 @@ contains
         character(len=*), intent(out) :: msg
         real(dp), allocatable :: mine(:, :), all(:, :)
         integer(i8), allocatable :: ids(:)
-        integer :: n, i, unit, ios, d
+        integer :: n, i, unit, ios, d, k
+        integer(i8) :: bytes
+        character(len=256) :: line
         ok = .true.; msg = ''
+        bytes = 0; ios = 0
         n = atoms%nlocal
         allocate (mine(7, n))
         do i = 1, n
@@ -46,19 +49,30 @@ contains
             ok = .false.; return
         end if
         call remove_at_exit(temporary_name(path))
-        write (unit, '(a,es24.16e3)', iostat=ios, iomsg=msg) '# terrace final state at time ', time
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=msg) '# type x y z vx vy vz   (one line per atom, in id order)'
+        write (line, '(a,es24.16e3)') '# terrace final state at time ', time
+        call put(line)
+        call put('# type x y z vx vy vz   (one line per atom, in id order)')
         do i = 1, size(ids)
             if (ios /= 0) exit
-            write (unit, '(i0,6(1x,es24.16e3))', iostat=ios, iomsg=msg) nint(all(1, i)), all(2:7, i)
+            write (line, '(i0,6(1x,es24.16e3))') nint(all(1, i)), all(2:7, i)
+            call put(line)
         end do
-        if (ios == 0) flush (unit, iostat=ios, iomsg=msg)
         if (ios == 0) then
+            ! closed in any case; a short file (full disk) is removed at exit
             close (unit, iostat=ios, iomsg=msg)
+            if (ios == 0) call check_size(temporary_name(path), bytes, ok, msg)
+            if (ios == 0 .and. .not. ok) ios = -1
         else
-            close (unit, status='delete')
+            close (unit, status='delete', iostat=k)
         end if
         ok = ios == 0
+    contains
+        subroutine put(text)
+            character(len=*), intent(in) :: text
+            if (ios /= 0) return
+            write (unit, '(a)', iostat=ios, iomsg=msg) trim(text)
+            bytes = bytes + len_trim(text) + 1
+        end subroutine put
     end subroutine write_final_atoms
 
 end module terrace_final_atoms

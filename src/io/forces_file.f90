@@ -5,7 +5,7 @@ module terrace_forces_file
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: world
     use terrace_gather_by_id, only: gather_by_id
-    use terrace_file_ops, only: temporary_name, remove_at_exit
+    use terrace_file_ops, only: temporary_name, remove_at_exit, check_size
     implicit none
     private
 
@@ -21,8 +21,11 @@ contains
         character(len=*), intent(out) :: msg
         integer(i8), allocatable :: ids(:)
         real(dp), allocatable :: f(:, :)
-        integer :: unit, ios, i
+        integer :: unit, ios, i, k
+        integer(i8) :: bytes
+        character(len=128) :: line
         ok = .true.; msg = ''
+        bytes = 0; ios = 0
         call gather_by_id(atoms%nlocal, atoms%id(1:atoms%nlocal), atoms%f(:, 1:atoms%nlocal), ids, f)
         if (world%rank /= 0) return
         ! written under a temporary name, renamed over path when the run succeeds
@@ -32,19 +35,30 @@ contains
             ok = .false.; return
         end if
         call remove_at_exit(temporary_name(path))
-        write (unit, '(a,i0)', iostat=ios, iomsg=msg) '# terrace per-atom forces at step ', step
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=msg) '# id fx fy fz'
+        write (line, '(a,i0)') '# terrace per-atom forces at step ', step
+        call put(line)
+        call put('# id fx fy fz')
         do i = 1, size(ids)
             if (ios /= 0) exit
-            write (unit, '(i0,3(1x,es24.16e3))', iostat=ios, iomsg=msg) ids(i), f(:, i)
+            write (line, '(i0,3(1x,es24.16e3))') ids(i), f(:, i)
+            call put(line)
         end do
-        if (ios == 0) flush (unit, iostat=ios, iomsg=msg)
         if (ios == 0) then
+            ! closed in any case; a short file (full disk) is removed at exit
             close (unit, iostat=ios, iomsg=msg)
+            if (ios == 0) call check_size(temporary_name(path), bytes, ok, msg)
+            if (ios == 0 .and. .not. ok) ios = -1
         else
-            close (unit, status='delete')
+            close (unit, status='delete', iostat=k)
         end if
         ok = ios == 0
+    contains
+        subroutine put(text)
+            character(len=*), intent(in) :: text
+            if (ios /= 0) return
+            write (unit, '(a)', iostat=ios, iomsg=msg) trim(text)
+            bytes = bytes + len_trim(text) + 1
+        end subroutine put
     end subroutine write_forces_file
 
 end module terrace_forces_file

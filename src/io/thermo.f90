@@ -6,7 +6,7 @@ module terrace_thermo
     use terrace_mpi_env, only: world
     use terrace_units, only: units_t
     use terrace_errors, only: check_all
-    use terrace_file_ops, only: temporary_name, remove_at_exit, path_kind, path_regular
+    use terrace_file_ops, only: temporary_name, remove_at_exit, path_kind, path_regular, check_size
     use mpi_f08, only: MPI_Wtime
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -30,6 +30,7 @@ module terrace_thermo
         character(len=:), allocatable :: path  !< the CSV file; written as temporary_name(path) until the
                                                !< run succeeds (terrace_output_files: commit_small_outputs)
         logical :: failed = .false.          !< a write failed (full disk): reported by close, collectively
+        integer(i8) :: bytes = 0             !< bytes written to the file (checked against its size at close)
         character(len=256) :: why = ''
     contains
         procedure :: open => thermo_open
@@ -68,6 +69,7 @@ contains
             self%to_file = .true.
             write (self%unit, '(a)', iostat=ios, iomsg=msg) 'step,time,temp,pe,ke,etotal,press,px,py,pz,lx,ly,lz'// &
                 extra_header
+            self%bytes = len('step,time,temp,pe,ke,etotal,press,px,py,pz,lx,ly,lz'//extra_header) + 1
             if (ios /= 0) then
                 ok = .false.
                 close (self%unit, status='delete')
@@ -144,6 +146,7 @@ contains
                 ok = .false.; return
             end if
             write (self%unit, iostat=ios, iomsg=msg) text(1:pos)
+            self%bytes = pos
             if (ios == 0) close (self%unit, iostat=ios, iomsg=msg)
             if (ios /= 0) then
                 ok = .false.; return
@@ -163,19 +166,23 @@ contains
         type(thermo_sample_t), intent(in) :: s
         real(dp), intent(in), optional :: extra(:)
         character(len=64) :: eta
+        character(len=1024) :: line
         real(dp) :: elapsed, remaining
-        integer :: k, ios
+        integer :: k, ios, n
         self%lines = self%lines + 1        ! counted on every rank (the checkpoint records it)
         if (world%rank /= 0) return
         if (self%to_file .and. .not. self%failed) then
-            write (self%unit, '(i0,12(",",es24.16e3))', advance='no', iostat=ios, iomsg=self%why) s%step, s%time, &
-                s%temp, s%pe, s%ke, s%etotal, s%press, s%momentum, s%angular
+            write (line, '(i0,12(",",es24.16e3))') s%step, s%time, s%temp, s%pe, s%ke, s%etotal, s%press, &
+                s%momentum, s%angular
+            n = len_trim(line)
             if (present(extra)) then
                 do k = 1, size(extra)
-                    if (ios == 0) write (self%unit, '(",",es24.16e3)', advance='no', iostat=ios, iomsg=self%why) extra(k)
+                    write (line(n + 1:), '(",",es24.16e3)') extra(k)
+                    n = len_trim(line)
                 end do
             end if
-            if (ios == 0) write (self%unit, '(a)', iostat=ios, iomsg=self%why) ''
+            write (self%unit, '(a)', iostat=ios, iomsg=self%why) line(1:n)
+            self%bytes = self%bytes + n + 1
             if (ios == 0) flush (self%unit, iostat=ios, iomsg=self%why)
             self%failed = ios /= 0
         end if
@@ -203,12 +210,16 @@ contains
     subroutine thermo_close(self)
         class(thermo_writer_t), intent(inout) :: self
         integer :: ios
+        logical :: ok
         if (self%to_file) then
             if (.not. self%failed) then
                 close (self%unit, iostat=ios, iomsg=self%why)
                 self%failed = ios /= 0
+                if (.not. self%failed) call check_size(temporary_name(self%path), self%bytes, ok, self%why)
+                if (.not. self%failed) self%failed = .not. ok
+            else
+                close (self%unit, iostat=ios)
             end if
-            if (self%failed) close (self%unit, status='delete', iostat=ios)
         end if
         self%to_file = .false.
         if (.not. allocated(self%path)) self%path = ''

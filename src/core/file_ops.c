@@ -32,6 +32,10 @@ static void terrace_cleanup_at_exit(void)
     cleanup_count = 0;
 }
 
+/* Remove the registered files now (the error path calls it before MPI_Finalize / MPI_Abort, so
+ * that no rank's exit can let mpirun kill this one before its files are gone). */
+void terrace_cleanup_now(void) { terrace_cleanup_at_exit(); }
+
 /* Remove `path` when the process exits, unless terrace_cleanup_forget is called first.
  * Returns 0 on success. */
 int terrace_cleanup_register(const char *path)

@@ -10,7 +10,7 @@ module terrace_file_ops
 
     public :: resolve_path, path_kind, is_writable, rename_file, remove_file, lock_file, &
               remove_at_exit, keep_at_exit, process_id, directory_of, &
-              temporary_name, commit_output, check_size
+              temporary_name, commit_output, check_size, cleanup_now
 
     interface
         integer(c_int) function c_resolve(path, out, outlen) bind(C, name='terrace_resolve_path')
@@ -47,6 +47,8 @@ module terrace_file_ops
             import :: c_char
             character(kind=c_char), intent(in) :: path(*)
         end subroutine c_forget
+        subroutine cleanup_now() bind(C, name='terrace_cleanup_now')
+        end subroutine cleanup_now
         integer(c_int) function c_pid() bind(C, name='terrace_pid')
             import :: c_int
         end function c_pid

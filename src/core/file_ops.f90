@@ -10,7 +10,7 @@ module terrace_file_ops
 
     public :: resolve_path, path_kind, is_writable, rename_file, remove_file, lock_file, &
               remove_at_exit, keep_at_exit, process_id, directory_of, &
-              temporary_name, commit_output, check_size, cleanup_now
+              temporary_name, commit_output, check_size, cleanup_now, write_in_place
 
     interface
         integer(c_int) function c_resolve(path, out, outlen) bind(C, name='terrace_resolve_path')
@@ -54,7 +54,16 @@ module terrace_file_ops
         end function c_pid
     end interface
 
+    !> Runs with checkpoints write their small outputs in place (no temporary name): a killed job
+    !> must leave its thermo lines and forces file where the restart continues them.
+    logical :: in_place = .false.
+
 contains
+
+    subroutine write_in_place(on)
+        logical, intent(in) :: on
+        in_place = on
+    end subroutine write_in_place
 
     !> Absolute, symlink-free path (resolved through the directory for a file not yet there).
     !> ok = .false. when the directory does not exist.
@@ -119,6 +128,7 @@ contains
     subroutine remove_at_exit(path)
         character(len=*), intent(in) :: path
         integer :: rc
+        if (in_place) return
         rc = int(c_register(trim(path)//c_null_char))
     end subroutine remove_at_exit
 
@@ -132,6 +142,10 @@ contains
         character(len=*), intent(in) :: path
         character(len=:), allocatable :: tmp
         integer :: p
+        if (in_place) then
+            tmp = trim(path)
+            return
+        end if
         p = index(trim(path), '/', back=.true.)
         tmp = path(1:p)//'.'//trim(path(p + 1:))//'.terrace-partial'
     end function temporary_name
@@ -143,6 +157,8 @@ contains
         character(len=*), intent(out) :: msg
         integer :: rc
         character(len=16) :: s
+        ok = .true.; msg = ''
+        if (in_place) return
         rc = rename_file(temporary_name(path), path)
         ok = rc == 0
         msg = ''

@@ -18,7 +18,7 @@ module terrace_output_files
     use terrace_errors, only: check_all
     use terrace_file_ops, only: resolve_path, path_kind, is_writable, lock_file, remove_at_exit, keep_at_exit, &
                                 process_id, directory_of, path_missing, path_regular, &
-                                temporary_name, commit_output
+                                temporary_name, commit_output, write_in_place
     use mpi_f08, only: MPI_Allreduce, MPI_MAX, MPI_INTEGER8
     implicit none
     private
@@ -78,6 +78,8 @@ contains
         in_path(4)%s = trim(cfg%read_h5md); in_path(5)%s = trim(cfg%potential_file)
         in_path(6)%s = trim(cfg%read_checkpoint)
         msg = ''
+        ! a checkpointed run writes its small outputs in place (a killed job is continued)
+        call write_in_place(len_trim(cfg%checkpoint_file) > 0 .or. len_trim(cfg%read_checkpoint) > 0)
         if (world%rank == 0) then
             do i = 1, nin
                 in_abs(i)%s = ''

@@ -24,6 +24,8 @@ program terrace
     use terrace_run_control, only: run_control_t
     use terrace_signals, only: exit_stopped
     use terrace_checkpoint, only: probe_checkpoint_path
+    use terrace_output_files, only: check_outputs, check_output_ids, commit_small_outputs
+    use terrace_memory_guard, only: check_memory
     use mpi_f08, only: MPI_Wtime, MPI_Barrier
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -68,9 +70,12 @@ program terrace
     if (len(path) == 0) call stop_all('no input file (usage: terrace [--check] RUN.nml; see terrace --help)', 2)
 
     call read_config(path, cfg)
+    call check_memory(cfg)                              ! issue 15: refuse a scene that cannot fit
     if (.not. check_only) call ctl%init_signals(cfg)
     call build_scene(cfg, scene)
     call eng%setup(cfg, scene)
+    call check_outputs(cfg, lock=.not. check_only)      ! outputs checked (and locked) before any is opened
+    call check_output_ids(cfg, eng%atoms%id(1:eng%atoms%nlocal), eng%natoms)
     if (world%rank == 0) call eng%plan%print(output_unit)
 
     if (cfg%integrator == 'energy_stepping') then
@@ -101,6 +106,7 @@ contains
         call traj%close()
         if (ctl%stopped) call stop_early()
         call write_final(sched%end_time(cfg))
+        call commit_small_outputs(cfg)                  ! outputs replaced only on success
         call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps')
         call eng%report_warnings()
     end subroutine verlet_run
@@ -146,6 +152,7 @@ contains
         call traj%close()
         if (ctl%stopped) call stop_early()
         call write_final(es%time)
+        call commit_small_outputs(cfg)                  ! issue 15: outputs replaced only on success
         call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events')
         if (world%rank == 0) then
             write (output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'Events: ', es%events, ' (', es%ups, ' up, ', es%downs, &
@@ -164,6 +171,7 @@ contains
     !> The run stopped early with a checkpoint (walltime_limit or a signal): say so and exit with
     !> exit_stopped on every rank, so that a batch script can resubmit it with read_checkpoint.
     subroutine stop_early()
+        call commit_small_outputs(cfg)                  ! issue 15: what was written so far is kept
         if (world%rank == 0) then
             write (output_unit, '(a)') 'terrace: stopped early ('//ctl%reason//') with a checkpoint in '//ctl%path// &
                 '; continue with &system read_checkpoint = '''//ctl%path//''' (exit status 3)'
@@ -204,7 +212,7 @@ contains
         call check_all(ok, trim(cfg%trajectory_file)//': cannot create the trajectory (&output trajectory_file): '// &
                        trim(msg))
         ! a failure after the trajectory was created removes what was written: no partial outputs
-        call thermo%open(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, ok, msg)
+        call thermo%open(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, ok, msg, units=cfg%units)
         call any_failed(ok)
         if (.not. ok) call traj%discard()
         call check_all(ok, trim(cfg%thermo_file)//': cannot write the thermo file (&output thermo_file): '//trim(msg))
@@ -232,7 +240,8 @@ contains
         call traj%open_append(trim(cfg%trajectory_file), world%comm, frames, ok, msg)
         call check_all(ok, trim(cfg%trajectory_file)//': cannot continue the trajectory (&output trajectory_file) '// &
                        'from the checkpoint: '//trim(msg))
-        call thermo%open_append(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, lines, ok, msg)
+        call thermo%open_append(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, lines, ok, msg, &
+                                 units=cfg%units)
         call any_failed(ok)
         call check_all(ok, trim(cfg%thermo_file)//': cannot continue the thermo file (&output thermo_file) from the '// &
                        'checkpoint: '//trim(msg))

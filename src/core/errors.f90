@@ -10,6 +10,7 @@ module terrace_errors
     use, intrinsic :: iso_fortran_env, only: error_unit
     use mpi_f08, only: MPI_Comm_rank, MPI_COMM_WORLD, MPI_Finalize, MPI_Abort, MPI_Allreduce, &
                        MPI_Bcast, MPI_INTEGER, MPI_CHARACTER, MPI_MIN, MPI_Initialized, MPI_Finalized
+    use terrace_file_ops, only: cleanup_now
     implicit none
     private
 
@@ -38,6 +39,7 @@ contains
             write (error_unit, '(a)') 'terrace: error: '//trim(msg)
             flush (error_unit)
         end if
+        call cleanup_now()        ! uncommitted temporary outputs and lock files (terrace_file_ops)
         call MPI_Initialized(up)
         if (up) call MPI_Finalize()
         stop exit_code, quiet=.true.
@@ -48,7 +50,7 @@ contains
         logical, intent(in) :: ok
         character(len=*), intent(in) :: msg
         integer :: mine, first, ierr
-        character(len=1024) :: text
+        character(len=8192) :: text
         mine = huge(1)
         if (.not. ok) mine = my_rank()
         call MPI_Allreduce(mine, first, 1, MPI_INTEGER, MPI_MIN, MPI_COMM_WORLD, ierr)
@@ -66,6 +68,7 @@ contains
         write (r, '(i0)') my_rank()
         write (error_unit, '(a)') 'terrace: error (rank '//trim(r)//'): '//trim(msg)
         flush (error_unit)
+        call cleanup_now()
         call MPI_Initialized(up)
         if (up) call MPI_Abort(MPI_COMM_WORLD, exit_error)
         stop exit_error, quiet=.true.

@@ -2,7 +2,7 @@
 module terrace_text
     implicit none
     private
-    public :: count_tokens
+    public :: count_tokens, fixed
 
 contains
 
@@ -20,5 +20,22 @@ contains
             end if
         end do
     end function count_tokens
+
+    !> x in fixed notation with d decimals and no padding, with the leading zero that gfortran's
+    !> f0.d leaves out ('0.8269', '-0.5', not '.8269', '-.5').
+    function fixed(x, d) result(s)
+        real(kind(1.0d0)), intent(in) :: x
+        integer, intent(in) :: d
+        character(len=:), allocatable :: s
+        character(len=64) :: b, f
+        write (f, '(a,i0,a)') '(f0.', d, ')'
+        write (b, f) x
+        s = trim(adjustl(b))
+        if (s(1:1) == '.') then
+            s = '0'//s
+        else if (len(s) > 1) then
+            if (s(1:2) == '-.') s = '-0'//s(2:)
+        end if
+    end function fixed
 
 end module terrace_text

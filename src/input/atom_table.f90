@@ -15,8 +15,15 @@ module terrace_atom_table
         real(dp), allocatable :: x(:, :), v(:, :), mass(:)
         integer, allocatable :: type(:), image(:, :)
         integer(i8), allocatable :: id(:)
+        !> LAMMPS data files as write_data makes them: the 'Pair Coeffs' / 'PairIJ Coeffs' sections
+        !> (epsilon, sigma of each pair; coeff_given(i, j) where the file gave it), checked
+        !> against &potential by terrace_data_coeffs; coeff_style is the style named after '#'
+        character(len=32) :: coeff_style = ''
+        real(dp), allocatable :: coeff(:, :, :)       !< (2, i, j): epsilon, sigma
+        logical, allocatable :: coeff_given(:, :)
+        character(len=1024) :: notes = ''              !< sections skipped, for the screen
         logical :: ok = .true.
-        character(len=1024) :: error = ''
+        character(len=8192) :: error = ''
     end type atom_table_t
 
     public :: bcast_atom_table

@@ -5,6 +5,8 @@ module terrace_atoms_file
     use terrace_atom_table, only: atom_table_t
     use terrace_text, only: count_tokens
     use terrace_grow, only: grow_keep
+    use terrace_config, only: max_types
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     implicit none
     private
 
@@ -39,7 +41,21 @@ contains
             ntok = count_tokens(buf)
             vals = 0
             if (ntok == 4 .or. ntok == 7) read (buf, *, iostat=ios) ty, vals(1:ntok - 1)
-            if ((ntok /= 4 .and. ntok /= 7) .or. ios /= 0 .or. any(vals /= vals) .or. ty < 1) then
+            if ((ntok /= 4 .and. ntok /= 7) .or. ios /= 0) ty = 0
+            if (ty >= 1 .and. .not. all(ieee_is_finite(vals))) then
+                write (ln, '(i0)') line
+                t%ok = .false.
+                t%error = path//':'//trim(ln)//': &system: atoms_file: positions and velocities must be finite numbers'
+                close (unit); return
+            end if
+            if (ty > max_types) then
+                write (ln, '(i0)') line
+                t%ok = .false.
+                write (t%error, '(a,i0,a,i0,a)') path//':'//trim(ln)//': &system: atoms_file: type ', ty, &
+                    ': more atom types than Terrace supports (max ', max_types, ')'
+                close (unit); return
+            end if
+            if (ty < 1) then
                 write (ln, '(i0)') line
                 t%ok = .false.
                 t%error = path//':'//trim(ln)//': &system: atoms_file: bad atom line (expected: type x y z [vx vy vz], type >= 1)'

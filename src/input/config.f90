@@ -16,10 +16,14 @@ module terrace_config
     use terrace_namelist_text, only: namelist_file_t, parse_namelist_text, lower
     use terrace_errors, only: stop_all
     use terrace_files, only: read_input_text
+    use terrace_mpi_env, only: world
+    use terrace_file_ops, only: path_kind, resolve_path, directory_of, path_regular, path_directory, path_special
     implicit none
     private
 
     integer, parameter, public :: max_types = 8
+    !> Longest file name a key may hold (Linux PATH_MAX); a longer one is refused, never truncated.
+    integer, parameter, public :: path_max = 4096
     real(dp), parameter :: unset = -huge(1.0_dp)
 
     type, public :: config_t
@@ -33,11 +37,11 @@ module terrace_config
         integer(i8) :: seed = 12345
         real(dp) :: walltime_limit = -1.0_dp        !< seconds; stop with a checkpoint before it (<= 0: none)
         ! &system
-        character(len=512) :: read_data = ''
-        character(len=512) :: atoms_file = ''
-        character(len=512) :: read_h5md = ''
+        character(len=path_max) :: read_data = ''
+        character(len=path_max) :: atoms_file = ''
+        character(len=path_max) :: read_h5md = ''
         integer(i8) :: h5md_frame = -1              !< frame of read_h5md (1 = first, -1 = last)
-        character(len=512) :: read_checkpoint = ''  !< continue the run from this checkpoint
+        character(len=path_max) :: read_checkpoint = ''  !< continue the run from this checkpoint
         character(len=8) :: lattice = ''
         real(dp) :: lattice_constant = -1.0_dp
         real(dp) :: density = -1.0_dp
@@ -49,7 +53,7 @@ module terrace_config
         logical :: reverse_velocities = .false.
         ! &potential
         character(len=24) :: potential = 'lj'
-        character(len=512) :: potential_file = ''   !< EAM: the LAMMPS potential file
+        character(len=path_max) :: potential_file = ''   !< EAM: the LAMMPS potential file
         character(len=8) :: elements(max_types) = ''  !< eam/alloy, eam/fs: element of each atom type
         real(dp) :: epsilon(max_types, max_types) = unset
         real(dp) :: sigma(max_types, max_types) = unset
@@ -68,15 +72,15 @@ module terrace_config
         ! &output
         integer(i8) :: thermo_every = -1
         real(dp) :: thermo_interval = -1.0_dp
-        character(len=512) :: thermo_file = ''
-        character(len=512) :: forces_file = ''
-        character(len=512) :: final_atoms_file = ''
-        character(len=512) :: trajectory_file = ''
+        character(len=path_max) :: thermo_file = ''
+        character(len=path_max) :: forces_file = ''
+        character(len=path_max) :: final_atoms_file = ''
+        character(len=path_max) :: trajectory_file = ''
         integer(i8) :: trajectory_every = -1
         real(dp) :: trajectory_interval = -1.0_dp
         character(len=64) :: trajectory_fields = 'position velocity image'
         logical :: overwrite = .false.
-        character(len=512) :: checkpoint_file = ''
+        character(len=path_max) :: checkpoint_file = ''
         real(dp) :: checkpoint_interval = -1.0_dp   !< time between checkpoints
         integer(i8) :: checkpoint_every = -1        !< steps between checkpoints (velocity Verlet)
         ! &thermostat
@@ -141,7 +145,51 @@ contains
         call read_output(cfg)
         call read_thermostat(cfg)
         call validate(cfg)
+        call check_input_files(cfg)
     end subroutine read_config
+
+    !> Every input file the deck names must exist and be a regular file (checked on rank 0, before
+    !> anything is read). File names are taken from the working directory, as LAMMPS and GROMACS
+    !> do; the error shows the absolute path tried and whether the file is next to the deck.
+    subroutine check_input_files(cfg)
+        use terrace_errors, only: check_all
+        type(config_t), intent(in) :: cfg
+        character(len=:), allocatable :: msg
+        msg = ''
+        if (world%rank == 0) then
+            call one('system', 'read_data', cfg%read_data)
+            call one('system', 'atoms_file', cfg%atoms_file)
+            call one('system', 'read_h5md', cfg%read_h5md)
+            call one('system', 'read_checkpoint', cfg%read_checkpoint)
+            call one('potential', 'file', cfg%potential_file)
+        end if
+        call check_all(len(msg) == 0, msg)
+    contains
+        subroutine one(group, key, path)
+            character(len=*), intent(in) :: group, key, path
+            character(len=:), allocatable :: abs_path, beside
+            logical :: ok
+            if (len(msg) > 0 .or. len_trim(path) == 0) return
+            select case (path_kind(path))
+            case (path_regular)
+                return
+            case (path_directory)
+                msg = cfg%where(group, key)//" = '"//trim(path)//"': cannot open: it is a directory"
+            case (path_special)
+                msg = cfg%where(group, key)//" = '"//trim(path)//"': cannot open: not a regular file "// &
+                      '(a device, pipe or socket)'
+            case default
+                abs_path = resolve_path(path, ok)
+                msg = cfg%where(group, key)//" = '"//trim(path)//"': cannot open: no such file (looked for "// &
+                      abs_path//')'
+                if (path(1:1) /= '/' .and. directory_of(cfg%path) /= '.') then
+                    beside = directory_of(cfg%path)//'/'//trim(path)
+                    if (path_kind(beside) == path_regular) msg = msg//'; a file of that name is next to the deck, '// &
+                        beside//' (file names are relative to the working directory, not to the deck)'
+                end if
+            end select
+        end subroutine one
+    end subroutine check_input_files
 
     function line_prefix(cfg, line) result(s)
         type(config_t), intent(in) :: cfg
@@ -175,6 +223,106 @@ contains
         call stop_all(line_prefix(cfg, cfg%nml%items(k)%line)//'&'//trim(cfg%nml%items(k)%group)//': '// &
                       trim(cfg%nml%items(k)%key)//': unknown key (allowed: '//names//')')
     end function check_key
+
+    !> Checks on the text of one assignment, made where it is read, for every key alike (so that no
+    !> key can slip through a later `x <= 0` test, which NaN passes):
+    !>  - a real-valued key: every number is finite, zero or of magnitude in [1e-30, real_limit(key)];
+    !>  - a file name: at most path_max characters (never truncated);
+    !>  - a one-word string (units, lattice, style, list, elements): one word that fits its variable.
+    subroutine check_value_text(cfg, k, kind)
+        use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+        type(config_t), intent(in) :: cfg
+        integer, intent(in) :: k
+        character(len=*), intent(in) :: kind
+        character(len=:), allocatable :: v, tok, key, head
+        character(len=32) :: lim
+        real(dp) :: x
+        integer :: i, j, ios, star, width
+        key = trim(cfg%nml%items(k)%key)
+        v = cfg%nml%items(k)%value
+        head = line_prefix(cfg, cfg%nml%items(k)%line)//'&'//trim(cfg%nml%items(k)%group)//': '// &
+               cfg%nml%items(k)%target//' = '
+        if (index(kind, 'real') > 0) then
+            write (lim, '(es8.1)') real_limit(key)
+            i = 1
+            do while (i <= len(v))
+                if (index(', '//achar(9)//achar(10)//achar(13), v(i:i)) > 0) then
+                    i = i + 1; cycle
+                end if
+                j = i
+                do while (j <= len(v))
+                    if (index(', '//achar(9)//achar(10)//achar(13), v(j:j)) > 0) exit
+                    j = j + 1
+                end do
+                tok = v(i:j - 1)
+                i = j
+                star = index(tok, '*')          ! r*value: a repeat count
+                if (star > 0) tok = tok(star + 1:)
+                if (len(tok) == 0) cycle
+                read (tok, *, iostat=ios) x
+                if (ios /= 0) cycle
+                if (.not. ieee_is_finite(x)) call stop_all(head//tok//': not a finite number (NaN and '// &
+                    'Infinity are not allowed, and a number beyond 1.8e308 reads as Infinity)')
+                if (abs(x) > real_limit(key)) call stop_all(head//tok//': out of range (allowed: |'//key// &
+                    '| <= '//trim(adjustl(lim))//' in any units)')
+                if (x /= 0 .and. abs(x) < 1.0e-30_dp) call stop_all(head//tok//': out of range (allowed: 0 '// &
+                    'or a magnitude of at least 1e-30)')
+            end do
+        else if (index(kind, 'file name') > 0) then
+            if (len(v) - 2 > path_max) then
+                write (lim, '(i0)') len(v) - 2
+                call stop_all(head//"'"//v(2:min(len(v), 60))//"...': the file name has "//trim(lim)// &
+                              ' characters (the most a path may have is 4096)')
+            end if
+        else
+            width = 0
+            select case (key)
+            case ('units', 'list')
+                width = 16
+            case ('lattice', 'elements')
+                width = 8
+            case ('style')
+                width = 24
+            end select
+            if (width == 0) return
+            ! each quoted word (elements has several)
+            i = 1
+            do while (i <= len(v))
+                if (v(i:i) /= "'" .and. v(i:i) /= '"') then
+                    i = i + 1; cycle
+                end if
+                j = index(v(i + 1:), v(i:i))
+                if (j == 0) return                ! the typed read reports it
+                tok = v(i + 1:i + j - 1)
+                i = i + j + 1
+                if (len_trim(adjustl(tok)) > width .or. index(trim(adjustl(tok)), ' ') > 0) &
+                    call stop_all(head//v//": '"//tok//"' is not one word of at most "// &
+                                  trim(int_text(width))//' characters')
+            end do
+        end if
+    end subroutine check_value_text
+
+    !> Largest magnitude a real key may take, in any units: beyond it no run makes sense and the
+    !> products the engine forms (k_B T / m, box volumes, run_time / dt) would lose meaning.
+    pure real(dp) function real_limit(key)
+        character(len=*), intent(in) :: key
+        select case (key)
+        case ('temperature', 'epsilon', 'mass', 'terrace_height', 'walltime_limit')
+            real_limit = 1.0e9_dp
+        case ('run_time', 'thermo_interval', 'trajectory_interval', 'checkpoint_interval')
+            real_limit = 1.0e12_dp
+        case default            ! lengths, densities, dt, target_mean_dt, root_tolerance
+            real_limit = 1.0e6_dp
+        end select
+    end function real_limit
+
+    pure function int_text(i) result(s)
+        integer, intent(in) :: i
+        character(len=:), allocatable :: s
+        character(len=16) :: b
+        write (b, '(i0)') i
+        s = trim(b)
+    end function int_text
 
     subroutine bad_value(cfg, k, kind, msg)
         type(config_t), intent(in) :: cfg
@@ -215,6 +363,7 @@ contains
             buf = item_text(cfg, k, 'run')
             read (buf, nml=run, iostat=ios, iomsg=msg)
             if (ios /= 0) call bad_value(cfg, k, kind, msg)
+            call check_value_text(cfg, k, kind)
         end do
         cfg%units = make_units(lower(trim(units)), ok)
         if (.not. ok) call stop_all(cfg%where('run', 'units')//" = '"//trim(units)//"': unsupported units (allowed: "// &
@@ -228,7 +377,7 @@ contains
 
     subroutine read_system(cfg)
         type(config_t), intent(inout) :: cfg
-        character(len=512) :: read_data, atoms_file, read_h5md, read_checkpoint
+        character(len=path_max) :: read_data, atoms_file, read_h5md, read_checkpoint
         integer(i8) :: h5md_frame
         character(len=8) :: lattice
         real(dp) :: lattice_constant, density, box_lo(3), box_hi(3), mass(max_types), temperature
@@ -258,6 +407,7 @@ contains
             buf = item_text(cfg, k, 'system')
             read (buf, nml=system, iostat=ios, iomsg=msg)
             if (ios /= 0) call bad_value(cfg, k, kind, msg)
+            call check_value_text(cfg, k, kind)
         end do
         cfg%read_data = read_data; cfg%atoms_file = atoms_file; cfg%lattice = lower(lattice)
         cfg%read_h5md = read_h5md; cfg%h5md_frame = h5md_frame; cfg%read_checkpoint = read_checkpoint
@@ -270,7 +420,7 @@ contains
     subroutine read_potential(cfg)
         type(config_t), intent(inout) :: cfg
         character(len=24) :: style
-        character(len=512) :: file
+        character(len=path_max) :: file
         character(len=8) :: elements(max_types)
         real(dp) :: epsilon(max_types, max_types), sigma(max_types, max_types), cutoff
         real(dp) :: pair_cutoff(max_types, max_types)
@@ -292,6 +442,7 @@ contains
             buf = item_text(cfg, k, 'potential')
             read (buf, nml=potential, iostat=ios, iomsg=msg)
             if (ios /= 0) call bad_value(cfg, k, kind, msg)
+            call check_value_text(cfg, k, kind)
         end do
         cfg%potential = lower(style); cfg%epsilon = epsilon; cfg%sigma = sigma; cfg%cutoff = cutoff
         cfg%pair_cutoff = pair_cutoff; cfg%shift = shift
@@ -316,6 +467,7 @@ contains
             buf = item_text(cfg, k, 'integrator')
             read (buf, nml=integrator, iostat=ios, iomsg=msg)
             if (ios /= 0) call bad_value(cfg, k, kind, msg)
+            call check_value_text(cfg, k, kind)
         end do
         cfg%integrator = lower(style); cfg%dt = dt
         cfg%terrace_height = terrace_height; cfg%target_mean_dt = target_mean_dt; cfg%root_tolerance = root_tolerance
@@ -338,6 +490,7 @@ contains
             buf = item_text(cfg, k, 'neighbor')
             read (buf, nml=neighbor, iostat=ios, iomsg=msg)
             if (ios /= 0) call bad_value(cfg, k, kind, msg)
+            call check_value_text(cfg, k, kind)
         end do
         cfg%skin = skin; cfg%list = lower(list)
     end subroutine read_neighbor
@@ -346,18 +499,18 @@ contains
         type(config_t), intent(inout) :: cfg
         integer(i8) :: thermo_every
         real(dp) :: thermo_interval
-        character(len=512) :: thermo_file, forces_file, final_atoms_file, trajectory_file
+        character(len=path_max) :: thermo_file, forces_file, final_atoms_file, trajectory_file
         integer(i8) :: trajectory_every
         real(dp) :: trajectory_interval
         character(len=64) :: trajectory_fields
         logical :: overwrite
-        character(len=512) :: checkpoint_file
+        character(len=path_max) :: checkpoint_file
         real(dp) :: checkpoint_interval
         integer(i8) :: checkpoint_every
         namelist /output/ thermo_every, thermo_interval, thermo_file, forces_file, final_atoms_file, trajectory_file, &
             trajectory_every, trajectory_interval, trajectory_fields, overwrite, checkpoint_file, checkpoint_interval, &
             checkpoint_every
-        character(len=*), parameter :: keys(13) = [character(len=60) :: 'thermo_every:an integer', &
+        character(len=*), parameter :: keys(13) = [character(len=72) :: 'thermo_every:an integer', &
             'checkpoint_file:a quoted file name', 'checkpoint_interval:a real number', 'checkpoint_every:an integer', &
             'thermo_interval:a real number', 'thermo_file:a quoted file name', 'forces_file:a quoted file name', &
             'final_atoms_file:a quoted file name', 'trajectory_file:a quoted file name', &
@@ -377,6 +530,7 @@ contains
             buf = item_text(cfg, k, 'output')
             read (buf, nml=output, iostat=ios, iomsg=msg)
             if (ios /= 0) call bad_value(cfg, k, kind, msg)
+            call check_value_text(cfg, k, kind)
         end do
         cfg%thermo_every = thermo_every; cfg%thermo_interval = thermo_interval
         cfg%thermo_file = thermo_file; cfg%forces_file = forces_file; cfg%final_atoms_file = final_atoms_file
@@ -546,6 +700,8 @@ contains
         if (cfg%nml%find('potential', 'epsilon') > 0 .or. cfg%nml%find('potential', 'sigma') > 0 .or. &
             cfg%nml%find('potential', 'cutoff') > 0) call stop_all(cfg%where('potential', 'style')// &
             ': epsilon, sigma and cutoff are for the LJ styles (an EAM file sets its own cutoff)')
+        if (cfg%units%name /= 'metal') call stop_all(cfg%where('run', 'units')//" = '"//trim(cfg%units%name)// &
+            "': the EAM styles need units = 'metal' (LAMMPS EAM files are in eV and Angstrom)")
         call validate_run_settings(cfg)
         if (cfg%list == 'all_pairs') call stop_all(cfg%where('neighbor', 'list')// &
             ": 'all_pairs' is not available with EAM (use 'auto' or 'cells')")
@@ -623,6 +779,12 @@ contains
         if (cfg%nml%find('neighbor', 'skin') > 0 .and. cfg%skin < 0) &
             call stop_all(cfg%where('neighbor', 'skin')//': must be >= 0 (a length in '//trim(cfg%units%length)//')')
         if (cfg%skin < 0) cfg%skin = merge(0.3_dp, 2.0_dp, cfg%units%name == 'lj')
+        if (cfg%integrator == 'velocity_verlet') then
+            call check_steps('run', 'run_time', cfg%run_time)
+            call check_steps('output', 'thermo_interval', cfg%thermo_interval)
+            call check_steps('output', 'trajectory_interval', cfg%trajectory_interval)
+            call check_steps('output', 'checkpoint_interval', cfg%checkpoint_interval)
+        end if
         select case (cfg%list)
         case ('auto', 'cells', 'all_pairs')
         case default
@@ -642,6 +804,20 @@ contains
             call stop_all(cfg%where('output', 'thermo_interval')//': give either thermo_every or thermo_interval')
         call validate_thermostat(cfg)
         call validate_outputs(cfg)
+    contains
+
+        !> A time converted into steps must give a step count the run can count (at most 1e15).
+        subroutine check_steps(group, key, time)
+            character(len=*), intent(in) :: group, key
+            real(dp), intent(in) :: time
+            character(len=32) :: s
+            if (.not. (time > 0)) return
+            if (time/cfg%dt <= 1.0e15_dp) return
+            write (s, '(es10.3)') time/cfg%dt
+            call stop_all(cfg%where(group, key)//': '//trim(adjustl(s))//' time steps of dt (the most a run '// &
+                          'may count is 1e15; give a larger dt or a shorter time)')
+        end subroutine check_steps
+
     end subroutine validate_run_settings
 
     !> Output files: intervals, fields, and no silent overwrite of an existing file.

@@ -1,10 +1,14 @@
 !> Reader for LAMMPS data files, atom_style atomic: header counts and box bounds, then the
-!> sections Masses, Atoms (id type x y z [ix iy iz]) and Velocities (id vx vy vz), matched by id.
-!> Any other section, a tilted box, or a malformed line is an error naming the file and line.
+!> sections Masses, Atoms (id type x y z [ix iy iz]) and Velocities (id vx vy vz), matched by id,
+!> and Pair Coeffs / PairIJ Coeffs as write_data writes them (kept for the check against
+!> &potential). Other Coeffs sections are skipped (they do not apply to atomic systems); molecular
+!> topology, a tilted box, or a malformed line is an error naming the file and line.
 module terrace_lammps_data
     use terrace_kinds, only: dp, i8
     use terrace_atom_table, only: atom_table_t
     use terrace_text, only: count_tokens
+    use terrace_config, only: max_types
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     implicit none
     private
 
@@ -24,18 +28,22 @@ contains
     end subroutine fail
 
     !> Read the data file on the calling rank (rank 0); errors are returned in t%ok / t%error.
+    !> Every count in the header is bounded by what the file's size can hold before anything is
+    !> allocated, and every number is finite.
     subroutine read_lammps_data(path, t)
         character(len=*), intent(in) :: path
         type(atom_table_t), intent(out) :: t
-        integer :: unit, ios, line, k, p, natoms_seen, nvel_seen, ntok, i
+        integer :: unit, ios, line, k, p, ntok, i, j, nbonds
+        integer(i8) :: nbytes, nheader
         character(len=1024) :: buf
         character(len=:), allocatable :: s
         real(dp) :: a, b, vals(8)
         integer(i8) :: id
         integer(i8), allocatable :: order(:)
-        logical :: have(3)
+        logical :: have(3), seen_masses, seen_atoms, seen_vel, seen_coeffs
         logical, allocatable :: vel_set(:)
-        character(len=16) :: section
+        character(len=32) :: section
+        character(len=24) :: cnt
 
         open (newunit=unit, file=path, status='old', action='read', iostat=ios)
         if (ios /= 0) then
@@ -43,7 +51,10 @@ contains
             t%error = path//': &system: read_data: cannot open the data file'
             return
         end if
+        inquire (unit=unit, size=nbytes)
         have = .false.
+        nbonds = 0
+        seen_masses = .false.; seen_atoms = .false.; seen_vel = .false.; seen_coeffs = .false.
         line = 1
         read (unit, '(a)', iostat=ios) buf   ! title line
         if (ios /= 0) then
@@ -58,25 +69,51 @@ contains
             line = line + 1
             s = strip(buf)
             if (len(s) == 0) cycle
-            if (index(s, 'atoms') > 0 .and. index(s, 'atom types') == 0 .and. scan(s(1:1), '0123456789') > 0) then
-                read (s, *, iostat=ios) t%n
-                if (ios /= 0 .or. t%n < 0) call fail(t, path, line, 'cannot read the atom count')
-            else if (index(s, 'atom types') > 0) then
-                read (s, *, iostat=ios) t%ntypes
-                if (ios /= 0 .or. t%ntypes < 1) call fail(t, path, line, 'cannot read the number of atom types')
+            if (ends_with(s, 'atoms') .and. scan(s(1:1), '0123456789+-') > 0) then
+                read (s, *, iostat=ios) nheader
+                if (ios /= 0 .or. nheader < 0) call fail(t, path, line, 'cannot read the atom count')
+                ! an Atoms line is at least "1 1 0 0 0" and a line end: 10 bytes
+                if (t%ok .and. nheader > nbytes/10) then
+                    write (cnt, '(i0)') nbytes
+                    call fail(t, path, line, 'the header says '//s//' but the file ('//trim(cnt)// &
+                              ' bytes) can hold at most '//trim(i8_text(nbytes/10))//' Atoms lines')
+                end if
+                if (t%ok) t%n = int(nheader)
+            else if (ends_with(s, 'atom types')) then
+                read (s, *, iostat=ios) nheader
+                if (ios /= 0 .or. nheader < 1) call fail(t, path, line, 'cannot read the number of atom types')
+                if (t%ok .and. nheader > max_types) call fail(t, path, line, trim(s)// &
+                    ': more atom types than Terrace supports (max '//trim(i8_text(int(max_types, i8)))//')')
+                if (t%ok) t%ntypes = int(nheader)
             else if (index(s, 'xlo xhi') > 0 .or. index(s, 'ylo yhi') > 0 .or. index(s, 'zlo zhi') > 0) then
                 read (s, *, iostat=ios) a, b
-                if (ios /= 0 .or. b <= a) call fail(t, path, line, 'cannot read box bounds (need lo < hi)')
+                if (ios == 0) then
+                    if (.not. (ieee_is_finite(a) .and. ieee_is_finite(b))) then
+                        call fail(t, path, line, 'box bounds must be finite numbers (found '//s//')')
+                    else if (.not. (b > a) .or. abs(a) > 1.0e9_dp .or. abs(b) > 1.0e9_dp) then
+                        call fail(t, path, line, 'bad box bounds (need lo < hi, |lo|, |hi| <= 1e9; found '//s//')')
+                    end if
+                else
+                    call fail(t, path, line, 'cannot read box bounds (need lo < hi)')
+                end if
                 k = merge(1, merge(2, 3, index(s, 'ylo') > 0), index(s, 'xlo') > 0)
                 t%lo(k) = a; t%hi(k) = b; have(k) = .true.
             else if (index(s, 'xy xz yz') > 0) then
                 call fail(t, path, line, 'triclinic boxes are not supported (orthorhombic only)')
-            else if (index(s, 'bonds') > 0 .or. index(s, 'angles') > 0 .or. index(s, 'dihedrals') > 0 .or. &
-                     index(s, 'impropers') > 0 .or. index(s, 'types') > 0) then
+            else if (ends_with(s, 'bonds') .or. ends_with(s, 'angles') .or. ends_with(s, 'dihedrals') .or. &
+                     ends_with(s, 'impropers')) then
                 read (s, *, iostat=ios) k
-                if (ios == 0 .and. k > 0) call fail(t, path, line, 'molecular topology is not supported (atom_style atomic)')
+                if (ios /= 0 .or. k /= 0) call fail(t, path, line, "'"//s//"': molecular topology is not "// &
+                                                      'supported (atom_style atomic only)')
+            else if (ends_with(s, 'types') .or. index(s, 'per atom') > 0) then
+                ! bond/angle/... types with no bonds (as write_data writes them): nothing to use
+                read (s, *, iostat=ios) k
+                if (ios /= 0) call fail(t, path, line, "cannot read the header line '"//s//"'")
+            else if (scan(s(1:1), '0123456789+-.') > 0) then
+                call fail(t, path, line, "unknown header line '"//s//"' (allowed: N atoms, N atom types, "// &
+                          'xlo xhi, ylo yhi, zlo zhi)')
             else
-                section = first_word(s)
+                section = section_name(s)
                 exit
             end if
             if (.not. t%ok) exit
@@ -89,26 +126,42 @@ contains
             close (unit); return
         end if
         allocate (t%x(3, t%n), t%v(3, t%n), t%type(t%n), t%image(3, t%n), t%id(t%n), t%mass(t%ntypes))
+        allocate (t%coeff(2, t%ntypes, t%ntypes), t%coeff_given(t%ntypes, t%ntypes))
         allocate (vel_set(t%n))
         t%x = 0; t%v = 0; t%image = 0; t%mass = -1; vel_set = .false.
-        natoms_seen = 0; nvel_seen = 0
+        t%coeff = 0; t%coeff_given = .false.
         ! sections
         do while (len_trim(section) > 0 .and. t%ok)
             select case (trim(section))
             case ('Masses')
+                if (seen_masses) then
+                    call fail(t, path, line, 'a second Masses section'); exit
+                end if
+                seen_masses = .true.
                 do k = 1, t%ntypes
                     call next_data_line(unit, buf, line, ios)
                     if (ios /= 0) then
                         call fail(t, path, line, 'Masses section ends early'); exit
                     end if
                     read (buf, *, iostat=ios) i, a
-                    if (ios /= 0 .or. i < 1 .or. i > t%ntypes .or. .not. (a > 0)) then
-                        call fail(t, path, line, 'bad Masses line (expected: type mass, mass > 0)'); exit
+                    if (ios /= 0) then
+                        call fail(t, path, line, 'bad Masses line (expected: type mass)'); exit
+                    end if
+                    if (i < 1 .or. i > t%ntypes) then
+                        call fail(t, path, line, 'Masses line for type '//trim(i8_text(int(i, i8)))// &
+                                  ', but the header says '//trim(i8_text(int(t%ntypes, i8)))//' atom types'); exit
+                    end if
+                    if (.not. (a > 0 .and. a <= 1.0e9_dp)) then
+                        call fail(t, path, line, 'bad mass (must be a finite number in (0, 1e9]): '//trim(buf)); exit
                     end if
                     t%mass(i) = a
                 end do
                 t%has_masses = all(t%mass > 0)
             case ('Atoms')
+                if (seen_atoms) then
+                    call fail(t, path, line, 'a second Atoms section (a data file has one)'); exit
+                end if
+                seen_atoms = .true.
                 if (index(buf, '#') > 0) then
                     s = strip(buf(index(buf, '#') + 1:))
                     if (s /= 'atomic') call fail(t, path, line, "Atoms section style '"//s// &
@@ -125,18 +178,28 @@ contains
                     end if
                     vals = 0
                     read (buf, *, iostat=ios) id, i, vals(1:ntok - 2)
-                    if (ios /= 0 .or. id < 1 .or. i < 1 .or. i > t%ntypes .or. any(vals /= vals)) then
+                    if (ios /= 0 .or. id < 1 .or. i < 1 .or. i > t%ntypes) then
                         call fail(t, path, line, 'bad Atoms line (expected: id type x y z [ix iy iz], '// &
                                   '1 <= type <= atom types)'); exit
+                    end if
+                    if (.not. all(ieee_is_finite(vals(1:3)))) then
+                        call fail(t, path, line, 'bad Atoms line: the coordinates must be finite numbers'); exit
+                    end if
+                    if (any(abs(vals(4:6)) > 1.0e9_dp) .or. any(vals(4:6) /= aint(vals(4:6)))) then
+                        call fail(t, path, line, 'bad Atoms line: image flags must be integers of magnitude '// &
+                                  'at most 1e9'); exit
                     end if
                     t%id(k) = id; t%type(k) = i; t%x(:, k) = vals(1:3)
                     t%image(:, k) = nint(vals(4:6))
                 end do
-                natoms_seen = t%n
             case ('Velocities')
-                if (natoms_seen == 0) then
+                if (.not. seen_atoms) then
                     call fail(t, path, line, 'Velocities section before the Atoms section'); exit
                 end if
+                if (seen_vel) then
+                    call fail(t, path, line, 'a second Velocities section'); exit
+                end if
+                seen_vel = .true.
                 call sort_index(t%id, order)
                 do k = 1, t%n
                     call next_data_line(unit, buf, line, ios)
@@ -144,8 +207,11 @@ contains
                         call fail(t, path, line, 'Velocities section ends early'); exit
                     end if
                     read (buf, *, iostat=ios) id, vals(1:3)
-                    if (ios /= 0) then
+                    if (ios /= 0 .or. count_tokens(buf) /= 4) then
                         call fail(t, path, line, 'bad Velocities line (expected: id vx vy vz)'); exit
+                    end if
+                    if (.not. all(ieee_is_finite(vals(1:3)))) then
+                        call fail(t, path, line, 'bad Velocities line: the velocities must be finite numbers'); exit
                     end if
                     p = find_id(t%id, order, id)
                     if (p == 0) then
@@ -153,11 +219,47 @@ contains
                     end if
                     t%v(:, p) = vals(1:3); vel_set(p) = .true.
                 end do
-                nvel_seen = t%n
                 t%has_velocities = all(vel_set)
+            case ('Pair Coeffs', 'PairIJ Coeffs')
+                if (seen_coeffs) then
+                    call fail(t, path, line, 'a second pair coefficient section'); exit
+                end if
+                seen_coeffs = .true.
+                if (index(buf, '#') > 0) t%coeff_style = strip(buf(index(buf, '#') + 1:))
+                do k = 1, merge(t%ntypes, t%ntypes*(t%ntypes + 1)/2, trim(section) == 'Pair Coeffs')
+                    call next_data_line(unit, buf, line, ios)
+                    if (ios /= 0) then
+                        call fail(t, path, line, trim(section)//' section ends early'); exit
+                    end if
+                    vals = 0
+                    if (trim(section) == 'Pair Coeffs') then
+                        read (buf, *, iostat=ios) i, vals(1:2)
+                        j = i
+                    else
+                        read (buf, *, iostat=ios) i, j, vals(1:2)
+                    end if
+                    if (ios /= 0 .or. i < 1 .or. i > t%ntypes .or. j < 1 .or. j > t%ntypes .or. &
+                        .not. all(ieee_is_finite(vals(1:2)))) then
+                        call fail(t, path, line, 'bad '//trim(section)//' line (expected: '// &
+                                  trim(merge('type epsilon sigma     ', 'type type epsilon sigma', &
+                                             trim(section) == 'Pair Coeffs'))//', finite numbers)'); exit
+                    end if
+                    t%coeff(:, i, j) = vals(1:2); t%coeff(:, j, i) = vals(1:2)
+                    t%coeff_given(i, j) = .true.; t%coeff_given(j, i) = .true.
+                end do
+            case ('Bonds', 'Angles', 'Dihedrals', 'Impropers')
+                call fail(t, path, line, "section '"//trim(section)//"': molecular topology is not supported "// &
+                          '(atom_style atomic only)'); exit
             case default
+                if (ends_with(trim(section), 'Coeffs')) then
+                    ! Bond Coeffs, Angle Coeffs, ...: nothing to apply in an atomic system
+                    t%notes = trim(t%notes)//" '"//trim(section)//"'"
+                    call skip_section(unit, buf, line)
+                    section = section_name(strip(buf))
+                    cycle
+                end if
                 call fail(t, path, line, "section '"//trim(section)//"' is not supported (allowed: Masses, Atoms, "// &
-                          "Velocities)")
+                          'Velocities, Pair Coeffs, PairIJ Coeffs; other Coeffs sections are skipped)')
             end select
             if (.not. t%ok) exit
             section = ''
@@ -167,13 +269,19 @@ contains
                 line = line + 1
                 s = strip(buf)
                 if (len(s) > 0) then
-                    section = first_word(s)
+                    if (scan(s(1:1), '0123456789+-.') > 0) then
+                        call fail(t, path, line, 'a data line where a section name was expected (more lines '// &
+                                  'than the header counts? the header says '//trim(i8_text(int(t%n, i8)))// &
+                                  ' atoms, '//trim(i8_text(int(t%ntypes, i8)))//' atom types)')
+                        exit
+                    end if
+                    section = section_name(s)
                     exit
                 end if
             end do
         end do
         close (unit)
-        if (t%ok .and. natoms_seen == 0) call fail(t, path, line, 'no Atoms section')
+        if (t%ok .and. .not. seen_atoms) call fail(t, path, line, 'no Atoms section')
         if (t%ok) then
             call sort_index(t%id, order)
             do k = 2, t%n
@@ -183,6 +291,58 @@ contains
             end do
         end if
     end subroutine read_lammps_data
+
+    !> Skip the lines of a section that does not apply; buf holds the next section's header line
+    !> on return (blank at the end of the file).
+    subroutine skip_section(unit, buf, line)
+        integer, intent(in) :: unit
+        character(len=*), intent(inout) :: buf
+        integer, intent(inout) :: line
+        integer :: ios
+        character(len=:), allocatable :: s
+        do
+            read (unit, '(a)', iostat=ios) buf
+            if (ios /= 0) then
+                buf = ''; return
+            end if
+            line = line + 1
+            s = strip(buf)
+            if (len(s) == 0) cycle
+            if (scan(s(1:1), '0123456789+-.') == 0) return
+        end do
+    end subroutine skip_section
+
+    !> The section keyword of a header line: the words before any '#', single-spaced.
+    function section_name(s) result(w)
+        character(len=*), intent(in) :: s
+        character(len=32) :: w
+        character(len=64) :: a, b
+        integer :: ios
+        a = ''; b = ''
+        read (s, *, iostat=ios) a, b
+        if (ios /= 0) b = ''
+        if (trim(b) == 'Coeffs') then
+            w = trim(a)//' Coeffs'
+        else
+            w = trim(a)
+        end if
+    end function section_name
+
+    pure logical function ends_with(s, tail)
+        character(len=*), intent(in) :: s, tail
+        integer :: n
+        n = len_trim(s)
+        ends_with = .false.
+        if (n < len(tail)) return
+        ends_with = s(n - len(tail) + 1:n) == tail
+        if (ends_with .and. n > len(tail)) ends_with = s(n - len(tail):n - len(tail)) == ' '
+    end function ends_with
+
+    pure function i8_text(i) result(s)
+        integer(i8), intent(in) :: i
+        character(len=24) :: s
+        write (s, '(i0)') i
+    end function i8_text
 
     subroutine next_data_line(unit, buf, line, ios)
         integer, intent(in) :: unit
@@ -210,17 +370,6 @@ contains
         end if
     end function strip
 
-    function first_word(s) result(w)
-        character(len=*), intent(in) :: s
-        character(len=16) :: w
-        integer :: p
-        p = index(s, ' ')
-        if (p == 0) then
-            w = s
-        else
-            w = s(1:p - 1)
-        end if
-    end function first_word
 
 
     !> order such that id(order) is ascending (merge sort, stable).

@@ -300,7 +300,8 @@ contains
     end subroutine split_body
 
     !> The first unquoted token of a value that starts with a letter, is not a logical literal
-    !> (t, f, true, false) and has more text after it (as in 'sigma = 1.0 cutoff 2.5'), or ''.
+    !> (t, f, true, false) nor a non-finite real (nan, inf, infinity: the value check names those)
+    !> and has more text after it (as in 'sigma = 1.0 cutoff 2.5'), or ''.
     function stray_word(value) result(w)
         character(len=*), intent(in) :: value
         character(len=:), allocatable :: w
@@ -334,7 +335,7 @@ contains
                     j = j + 1
                 end do
                 select case (lower(value(i:j - 1)))
-                case ('t', 'f', 'true', 'false')
+                case ('t', 'f', 'true', 'false', 'nan', 'inf', 'infinity')
                 case default
                     ! a word followed by more text reads as a key without '='; a lone trailing word is
                     ! left to the typed read, which names the expected type

@@ -2,6 +2,7 @@
 !> maximum over ranks, share of the loop), neighbour-list builds, and peak memory per atom.
 module terrace_run_log
     use terrace_kinds, only: dp, i8
+    use terrace_text, only: fixed
     use terrace_timers, only: timers_t, n_timers, timer_names
     use terrace_mpi_env, only: world
     use terrace_files, only: peak_memory_kib
@@ -28,7 +29,7 @@ contains
         call MPI_Reduce(mem, memsum, 1, MPI_DOUBLE_PRECISION, MPI_SUM, 0, world%comm)
         if (world%rank /= 0) return
         avg = avg/world%nprocs
-        write (output_unit, '(a,f0.4,a,i0,a,i0,a,i0,a)') 'Loop time: ', loop_time, ' s on ', world%nprocs, &
+        write (output_unit, '(a,a,a,i0,a,i0,a,i0,a)') 'Loop time: ', fixed(loop_time, 4), ' s on ', world%nprocs, &
             ' rank(s) for ', steps, ' '//label//' with ', natoms, ' atoms'
         if (loop_time > 0) write (output_unit, '(a,es12.5)') 'Performance: atom-steps/s = ', &
             real(natoms, dp)*real(steps, dp)/loop_time
@@ -41,8 +42,14 @@ contains
                 100*avg(k)/max(loop_time, tiny(1.0_dp))
         end do
         write (output_unit, '(a,i0)') 'Neighbour list builds: ', builds
-        write (output_unit, '(a,f0.1,a,f0.1,a)') 'Peak memory: ', memsum/1024, ' MiB in all ranks, ', &
-            1024*memsum/max(real(natoms, dp), 1.0_dp), ' bytes/atom'
+        ! per atom only where the atoms dominate the memory (a 7-atom cluster measures the libraries)
+        if (natoms >= 10000) then
+            write (output_unit, '(a)') 'Peak memory: '//fixed(memsum/1024, 1)//' MiB in all ranks, '// &
+                fixed(1024*memsum/real(natoms, dp), 1)//' bytes/atom'
+        else
+            write (output_unit, '(a)') 'Peak memory: '//fixed(memsum/1024, 1)//' MiB in all ranks (mostly the '// &
+                'libraries: too few atoms for a per-atom figure)'
+        end if
     end subroutine print_run_log
 
 end module terrace_run_log

@@ -5,6 +5,9 @@ module terrace_thermo
     use terrace_kinds, only: dp, i8
     use terrace_mpi_env, only: world
     use terrace_observables, only: thermo_sample_t
+    use terrace_units, only: units_t
+    use terrace_errors, only: check_all
+    use terrace_file_ops, only: temporary_name, remove_at_exit, path_kind, path_regular, check_size
     use mpi_f08, only: MPI_Wtime
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -21,6 +24,11 @@ module terrace_thermo
         character(len=:), allocatable :: time_unit
         character(len=:), allocatable :: extra_header
         integer(i8) :: lines = 0             !< samples written (CSV data lines, kept ones included)
+        character(len=:), allocatable :: path  !< the CSV file; written as temporary_name(path) until the
+                                               !< run succeeds (terrace_output_files: commit_small_outputs)
+        logical :: failed = .false.          !< a write failed (full disk): reported by close, collectively
+        integer(i8) :: bytes = 0             !< bytes written to the file (checked against its size at close)
+        character(len=256) :: why = ''
     contains
         procedure :: open => thermo_open
         procedure :: open_append => thermo_open_append
@@ -32,12 +40,13 @@ module terrace_thermo
 contains
 
     !> Open the CSV (when a file name is given) and print the screen header.
-    subroutine thermo_open(self, path, end_time, time_unit, extra_header, ok, msg)
+    subroutine thermo_open(self, path, end_time, time_unit, extra_header, ok, msg, units)
         class(thermo_writer_t), intent(inout) :: self
         character(len=*), intent(in) :: path, time_unit, extra_header
         real(dp), intent(in) :: end_time
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
+        type(units_t), intent(in), optional :: units
         integer :: ios
         ok = .true.; msg = ''
         self%end_time = end_time
@@ -46,28 +55,50 @@ contains
         self%wall_start = MPI_Wtime()
         if (world%rank /= 0) return
         if (len_trim(path) > 0) then
-            open (newunit=self%unit, file=path, status='replace', action='write', iostat=ios, iomsg=msg)
+            self%path = path
+            open (newunit=self%unit, file=temporary_name(path), status='replace', action='write', iostat=ios, &
+                  iomsg=msg)
             if (ios /= 0) then
                 ok = .false.
                 return
             end if
+            call remove_at_exit(temporary_name(path))
             self%to_file = .true.
-            write (self%unit, '(a)') 'step,time,temp,pe,ke,etotal,press,px,py,pz,lx,ly,lz'//extra_header
+            write (self%unit, '(a)', iostat=ios, iomsg=msg) 'step,time,temp,pe,ke,etotal,press,px,py,pz,lx,ly,lz'// &
+                extra_header
+            self%bytes = len('step,time,temp,pe,ke,etotal,press,px,py,pz,lx,ly,lz'//extra_header) + 1
+            if (ios /= 0) then
+                ok = .false.
+                close (self%unit, status='delete')
+                self%to_file = .false.
+                return
+            end if
         end if
+        call screen_header(units)
+    end subroutine thermo_open
+
+    !> The screen's column names, with the units on a second line.
+    subroutine screen_header(units)
+        type(units_t), intent(in), optional :: units
         write (output_unit, '(a10,1x,a12,1x,a12,1x,a16,1x,a16,1x,a16,1x,a13,a)') 'step', 'time', 'temp', 'pe', 'ke', &
             'etotal', 'press', '  progress'
-    end subroutine thermo_open
+        if (present(units)) write (output_unit, '(a)') '      (units: time '//trim(units%time)//', temp '// &
+            trim(units%temperature)//', pe ke etotal '//trim(units%energy)//', press '//trim(units%pressure)// &
+            '; progress: % of the run and wall seconds left)'
+    end subroutine screen_header
 
     !> Continue the CSV of an interrupted run (restart from a checkpoint): keep its header and its
     !> first `keep` data lines, drop any later ones (written after the checkpoint by a run that was
     !> then killed), and append. Fails when the file is missing or holds fewer lines.
-    subroutine thermo_open_append(self, path, end_time, time_unit, extra_header, keep, ok, msg)
+    subroutine thermo_open_append(self, path, end_time, time_unit, extra_header, keep, ok, msg, units)
         class(thermo_writer_t), intent(inout) :: self
         character(len=*), intent(in) :: path, time_unit, extra_header
         real(dp), intent(in) :: end_time
         integer(i8), intent(in) :: keep
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
+        type(units_t), intent(in), optional :: units
+        character(len=:), allocatable :: source
         character(len=:), allocatable :: text
         integer :: unit, ios, n, pos, nl
         integer(i8) :: lines
@@ -79,7 +110,11 @@ contains
         self%lines = keep
         if (world%rank /= 0) return
         if (len_trim(path) > 0) then
-            open (newunit=unit, file=path, access='stream', form='unformatted', status='old', action='read', &
+            self%path = path
+            ! a run that was killed left its newest lines under the temporary name
+            source = path
+            if (path_kind(temporary_name(path)) == path_regular) source = temporary_name(path)
+            open (newunit=unit, file=source, access='stream', form='unformatted', status='old', action='read', &
                   iostat=ios, iomsg=msg)
             if (ios /= 0) then
                 ok = .false.; return
@@ -102,21 +137,25 @@ contains
                 write (msg, '(a,i0,a)') 'holds fewer than the ', keep, ' data lines the checkpoint recorded'
                 return
             end if
-            open (newunit=self%unit, file=path, access='stream', form='unformatted', status='replace', &
-                  action='write', iostat=ios, iomsg=msg)
+            open (newunit=self%unit, file=temporary_name(path), access='stream', form='unformatted', &
+                  status='replace', action='write', iostat=ios, iomsg=msg)
             if (ios /= 0) then
                 ok = .false.; return
             end if
-            write (self%unit) text(1:pos)
-            close (self%unit)
-            open (newunit=self%unit, file=path, status='old', position='append', action='write', iostat=ios, iomsg=msg)
+            write (self%unit, iostat=ios, iomsg=msg) text(1:pos)
+            self%bytes = pos
+            if (ios == 0) close (self%unit, iostat=ios, iomsg=msg)
+            if (ios /= 0) then
+                ok = .false.; return
+            end if
+            open (newunit=self%unit, file=temporary_name(path), status='old', position='append', action='write', &
+                  iostat=ios, iomsg=msg)
             if (ios /= 0) then
                 ok = .false.; return
             end if
             self%to_file = .true.
         end if
-        write (output_unit, '(a10,1x,a12,1x,a12,1x,a16,1x,a16,1x,a16,1x,a13,a)') 'step', 'time', 'temp', 'pe', 'ke', &
-            'etotal', 'press', '  progress'
+        call screen_header(units)
     end subroutine thermo_open_append
 
     subroutine thermo_write(self, s, extra)
@@ -124,20 +163,25 @@ contains
         type(thermo_sample_t), intent(in) :: s
         real(dp), intent(in), optional :: extra(:)
         character(len=64) :: eta
+        character(len=1024) :: line
         real(dp) :: elapsed, remaining
-        integer :: k
+        integer :: k, ios, n
         self%lines = self%lines + 1        ! counted on every rank (the checkpoint records it)
         if (world%rank /= 0) return
-        if (self%to_file) then
-            write (self%unit, '(i0,12(",",es24.16e3))', advance='no') s%step, s%time, s%temp, s%pe, s%ke, s%etotal, &
-                s%press, s%momentum, s%angular
+        if (self%to_file .and. .not. self%failed) then
+            write (line, '(i0,12(",",es24.16e3))') s%step, s%time, s%temp, s%pe, s%ke, s%etotal, s%press, &
+                s%momentum, s%angular
+            n = len_trim(line)
             if (present(extra)) then
                 do k = 1, size(extra)
-                    write (self%unit, '(",",es24.16e3)', advance='no') extra(k)
+                    write (line(n + 1:), '(",",es24.16e3)') extra(k)
+                    n = len_trim(line)
                 end do
             end if
-            write (self%unit, '(a)') ''
-            flush (self%unit)
+            write (self%unit, '(a)', iostat=ios, iomsg=self%why) line(1:n)
+            self%bytes = self%bytes + n + 1
+            if (ios == 0) flush (self%unit, iostat=ios, iomsg=self%why)
+            self%failed = ios /= 0
         end if
         elapsed = MPI_Wtime() - self%wall_start
         eta = ''
@@ -157,10 +201,26 @@ contains
         self%to_file = .false.
     end subroutine thermo_discard
 
+    !> Close the file and stop every rank if any write or the close failed (a full disk): the
+    !> previous file at the path is then untouched (the temporary file is removed at exit).
+    !> Collective.
     subroutine thermo_close(self)
         class(thermo_writer_t), intent(inout) :: self
-        if (self%to_file) close (self%unit)
+        integer :: ios
+        logical :: ok
+        if (self%to_file) then
+            if (.not. self%failed) then
+                close (self%unit, iostat=ios, iomsg=self%why)
+                self%failed = ios /= 0
+                if (.not. self%failed) call check_size(temporary_name(self%path), self%bytes, ok, self%why)
+                if (.not. self%failed) self%failed = .not. ok
+            else
+                close (self%unit, iostat=ios)
+            end if
+        end if
         self%to_file = .false.
+        if (.not. allocated(self%path)) self%path = ''
+        call check_all(.not. self%failed, self%path//': &output: thermo_file: cannot write: '//trim(self%why))
     end subroutine thermo_close
 
 end module terrace_thermo

@@ -23,7 +23,7 @@
 !> file and the line: 'Cu_u3.eam:4: expected 500 values of F(rho), found 312'.
 module terrace_eam_files
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-    use terrace_kinds, only: dp
+    use terrace_kinds, only: dp, i8
     implicit none
     private
 
@@ -91,6 +91,7 @@ contains
         if (ok) call positive(txt, ln, file%mass(1), 'the mass', ok, msg)
         if (.not. ok) return
         call grid_line(txt, file, ok, msg)
+        if (ok) call fits_in_file(txt, int(file%nrho, i8) + 2_i8*file%nr, ok, msg)
         if (.not. ok) return
         allocate (file%frho(file%nrho, 1), file%zr(file%nr), file%rhor(file%nr, 1, 1))
         call read_values(txt, 'F(rho)', file%frho(:, 1), ok, msg)
@@ -127,6 +128,8 @@ contains
             ok = .false.; msg = where(txt, ln)//'the number of elements must be at least 1, found '//trim(tok(1))
             return
         end if
+        call fits_in_file(txt, int(n, i8), ok, msg)
+        if (.not. ok) return
         deallocate (tok)
         allocate (tok(n + 2))
         txt%line = ln - 1
@@ -150,6 +153,8 @@ contains
         if (.not. ok) return
         k = 1
         if (fs) k = n
+        call fits_in_file(txt, int(n, i8)*file%nrho + int(n, i8)*k*file%nr + int(n, i8)*(n + 1)/2*file%nr, ok, msg)
+        if (.not. ok) return
         allocate (file%frho(file%nrho, n), file%rhor(file%nr, k, n), file%z2r(file%nr, n, n))
         do i = 1, n
             call header_line(txt, 'the line "atomic-number mass lattice-constant lattice-type" of element '// &
@@ -263,6 +268,25 @@ contains
         ok = .true.
         msg = ''
     end subroutine load_text
+
+    !> Refuse a header whose counts ask for more values than the file can hold (each value takes
+    !> at least two bytes, a digit and a separator), before anything of that size is allocated.
+    subroutine fits_in_file(txt, nvalues, ok, msg)
+        type(text_t), intent(in) :: txt
+        integer(i8), intent(in) :: nvalues
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        character(len=24) :: a, b
+        ! up to a million values (8 MB) are allocated and read, so that a file cut short gets the
+        ! table reader's precise message ('expected 40 values of F(rho), found 10')
+        ok = nvalues <= max(int(len(txt%buf), i8)/2, 1000000_i8)
+        msg = ''
+        if (ok) return
+        write (a, '(i0)') nvalues
+        write (b, '(i0)') len(txt%buf)
+        msg = where(txt, txt%line)//'the header asks for '//trim(a)//' values, more than the file ('//trim(b)// &
+              ' bytes) can hold (are nrho, nr and the number of elements right?)'
+    end subroutine fits_in_file
 
     !> 'path:line: '
     function where(txt, line) result(s)

@@ -10,7 +10,7 @@ module terrace_scene_builder
     use terrace_box, only: box_t
     use terrace_atoms, only: atoms_t
     use terrace_atom_table, only: atom_table_t, bcast_atom_table
-    use terrace_lammps_data, only: read_lammps_data
+    use terrace_data_coeffs, only: read_data_checked   ! data files with Pair Coeffs checked against &potential
     use terrace_atoms_file, only: read_atoms_file
     use terrace_lattice, only: lattice_basis, lattice_cell
     use terrace_velocities, only: create_velocities
@@ -69,7 +69,7 @@ contains
         else if (from_table) then
             if (world%rank == 0) then
                 if (len_trim(cfg%read_data) > 0) then
-                    call read_lammps_data(trim(cfg%read_data), table)
+                    call read_data_checked(cfg, table)
                 else
                     call read_atoms_file(trim(cfg%atoms_file), table)
                 end if

@@ -101,10 +101,11 @@ contains
         self%outputs = 'screen'
         if (len_trim(cfg%thermo_file) > 0) self%outputs = self%outputs//', thermo CSV '//trim(cfg%thermo_file)
         if (len_trim(cfg%forces_file) > 0) self%outputs = self%outputs//', forces at step 0 '//trim(cfg%forces_file)
-        if (len_trim(cfg%trajectory_file) > 0) self%outputs = self%outputs//', H5MD trajectory '//trim(cfg%trajectory_file)
-        if (len_trim(cfg%checkpoint_file) > 0) self%outputs = self%outputs//', checkpoints '//trim(cfg%checkpoint_file)
+        if (len_trim(cfg%trajectory_file) > 0) self%outputs = self%outputs//', H5MD trajectory '// &
+            trim(cfg%trajectory_file)//' ('//trim(cfg%trajectory_fields)//')'
+        if (len_trim(cfg%checkpoint_file) > 0) self%outputs = self%outputs//', checkpoint '//trim(cfg%checkpoint_file)
         if (len_trim(cfg%final_atoms_file) > 0) self%outputs = self%outputs//', final atoms '// &
-                                                               trim(cfg%final_atoms_file)
+            trim(cfg%final_atoms_file)
         self%box = ''
         do d = 1, box%dimension
             write (s, '(a,1x,g0.8,a,g0.8,a)') 'xyz'(d:d)//':', box%lo(d), ' .. ', box%hi(d), &

@@ -3,7 +3,13 @@
 # (the expected one), no hang, exactly one stderr line starting with 'terrace: error' that holds
 # every substring the manifest lists, and no file written into the working directory.
 #
-# usage: check_bad_inputs.sh TERRACE_BIN [NPROCS...]      (default NPROCS: 1 4)
+# usage: check_bad_inputs.sh [--hostile] TERRACE_BIN [NPROCS...]      (default NPROCS: 1 4)
+#   --hostile: run the cases that bad_inputs/generate_hostile.py generates (issue 15: NaN and Inf,
+#   counts beyond the file, scenes beyond memory, long paths, colliding and special outputs, locks,
+#   ...) instead of bad_inputs/cases.txt.
+# Every case also must: print no crash text (Backtrace, SIGSEGV, 'Error allocating', ...) on stdout
+# or stderr, and leave every file that was in its directory beforehand byte-identical.
+# Cases run in parallel (JOBS at a time, default: the number of processors).
 #   NPROCS 1 runs the binary directly (singleton MPI); any other N runs `mpirun -np N`.
 #   Environment: MPIRUN (default mpirun), MPIRUN_FLAGS (default --oversubscribe),
 #   CASE_TIMEOUT (seconds, default 60), ONLY (run only the cases whose name matches this regex).
@@ -16,8 +22,10 @@
 # than the collective stop_all path.
 set -u
 
+hostile=0
+if [ "${1:-}" = --hostile ]; then hostile=1; shift; fi
 if [ $# -lt 1 ]; then
-    echo "usage: $0 TERRACE_BIN [NPROCS...]" >&2
+    echo "usage: $0 [--hostile] TERRACE_BIN [NPROCS...]" >&2
     exit 2
 fi
 bin=$(readlink -f "$1") || { echo "$0: cannot resolve $1" >&2; exit 2; }
@@ -31,6 +39,7 @@ if [ $# -gt 0 ]; then nprocs=("$@"); else nprocs=(1 4); fi
 here=$(cd "$(dirname "$0")" && pwd)
 cases_dir=$here/bad_inputs
 manifest=$cases_dir/cases.txt
+jobs_max=${JOBS:-$(nproc 2> /dev/null || echo 2)}
 mpirun_cmd=${MPIRUN:-mpirun}
 read -r -a mpirun_flags <<< "${MPIRUN_FLAGS:---oversubscribe}"
 limit=${CASE_TIMEOUT:-60}
@@ -40,22 +49,35 @@ if [ "$(id -u)" = 0 ]; then
 fi
 
 scratch=$(mktemp -d "${TMPDIR:-/tmp}/terrace_bad_inputs.XXXXXX")
-trap 'rm -rf "$scratch"' EXIT
+trap 'chmod -R u+rwx "$scratch" 2> /dev/null; rm -rf "$scratch"' EXIT
+if [ "$hostile" = 1 ]; then
+    cases_dir=$scratch/hostile_cases
+    python3 "$here/bad_inputs/generate_hostile.py" "$cases_dir" > /dev/null || { echo "$0: generator failed" >&2; exit 2; }
+    manifest=$cases_dir/cases.txt
+    cp -a "$here/bad_inputs/control_ok" "$cases_dir/"
+fi
 passed=0
 failed=0
 
 trim() { local s=$1; s=${s#"${s%%[![:space:]]*}"}; s=${s%"${s##*[![:space:]]}"}; printf '%s' "$s"; }
 
 # run_case NAME NP ARGS...: run in a fresh directory holding a copy of the case's files;
-# sets rc, work (the directory), err (the stderr file), before (its listing beforehand).
+# sets rc, work (the directory), err (the stderr file), out, before (its listing beforehand) and
+# sums (checksums of the files that were there beforehand). A case directory with '.hold_lock'
+# runs while another process holds an flock on the lock file it names.
 run_case() {
-    local name=$1 np=$2
+    local name=$1 np=$2 holder=''
     shift 2
     work=$(mktemp -d "$scratch/work.XXXXXX")
     err=$scratch/stderr.$name.$np
-    local out=$scratch/stdout.$name.$np
-    if [ -d "$cases_dir/$name" ]; then cp -R "$cases_dir/$name/." "$work/"; fi
+    out=$scratch/stdout.$name.$np
+    if [ -d "$cases_dir/$name" ]; then cp -a "$cases_dir/$name/." "$work/"; fi
+    if [ -f "$work/.hold_lock" ]; then      # another run holding the lock: this shell, until the case ends
+        exec {holder}> "$work/$(cat "$work/.hold_lock")"
+        flock -n "$holder" || echo "check_bad_inputs: could not take the lock of $name" >&2
+    fi
     before=$(cd "$work" && find . -mindepth 1 | LC_ALL=C sort)
+    sums=$(cd "$work" && find . -type f -readable | LC_ALL=C sort | xargs -r md5sum)
     if [ "$np" = 1 ]; then
         (cd "$work" && exec timeout -k 10 "$limit" "$bin" "$@") > "$out" 2> "$err" < /dev/null
     else
@@ -63,6 +85,11 @@ run_case() {
             > "$out" 2> "$err" < /dev/null
     fi
     rc=$?
+    if [ -n "$holder" ]; then exec {holder}>&-; fi
+}
+
+changed_files() {
+    (cd "$work" && printf '%s\n' "$sums" | md5sum --quiet -c 2> /dev/null | sed 's/: .*//' | paste -s -d ' ' -)
 }
 
 new_files() {
@@ -102,7 +129,61 @@ for np in "${nprocs[@]}"; do
     fi
 done
 
-# --- the malformed cases
+# --- the malformed cases: one job per case and rank count, JOBS at a time; each job writes its
+# report line to a file of its own, printed in manifest order at the end
+check_case() { # name np want_rc subs args...
+    local name=$1 np=$2 want_rc=$3 f_subs=$4
+    shift 4
+    run_case "$name" "$np" "$@"
+    left=$(new_files)
+    note=''
+    grep -q 'MPI_ABORT' "$err" && note=' (MPI_Abort)'
+    errors=$(filtered_stderr "$err" | grep -c '^terrace: error')
+    msg=$(filtered_stderr "$err" | grep -m 1 '^terrace: error')
+    extra=$(filtered_stderr "$err" | grep -v -e '^terrace: error' -e '^terrace: warning' | head -n 1)
+    crash=$(cat "$out" "$err" | grep -m 1 -i -E 'backtrace|SIGSEGV|SIGBUS|SIGABRT|Error allocating|Program received signal|Segmentation fault|Killed|core dumped')
+    why=''
+    if [ "$rc" -eq 124 ] || [ "$rc" -eq 137 ]; then
+        why="hang: killed after ${limit} s (exit $rc)"
+    elif [ "$rc" -eq 0 ]; then
+        why='exit status 0 for a malformed input'
+    elif [ -n "$crash" ]; then
+        why="crash text: $crash"
+    elif [ "$rc" -ne "$want_rc" ]; then
+        why="exit status $rc, expected $want_rc"
+    elif [ "$errors" -ne 1 ]; then
+        why="$errors lines start with 'terrace: error' (expected exactly 1)"
+    elif [ -n "$extra" ]; then
+        why="unexpected stderr line: $extra"
+    fi
+    if [ -z "$why" ]; then
+        missing=()
+        IFS=$'\x1f' read -r -a subs <<< "${f_subs// ; /$'\x1f'}"
+        for s in "${subs[@]}"; do
+            s=$(trim "$s")
+            [ -z "$s" ] && continue
+            [[ $msg == *"$s"* ]] || missing+=("[$s]")
+        done
+        [ ${#missing[@]} -gt 0 ] && why="message lacks ${missing[*]}"
+    fi
+    if [ -z "$why" ] && [ -n "$left" ]; then
+        why="files left in the working directory: $left"
+    fi
+    if [ -z "$why" ]; then
+        changed=$(changed_files)
+        [ -n "$changed" ] && why="pre-existing files changed or removed: $changed"
+    fi
+    if [ -z "$why" ]; then
+        printf 'ok    np=%-2s %s%s\n' "$np" "$name" "$note"
+    else
+        [ -n "$msg" ] && why="$why | ${msg:0:400}"
+        printf 'FAIL  np=%-2s %s: %s\n' "$np" "$name" "$why$note"
+    fi
+}
+
+results=$scratch/results
+mkdir -p "$results"
+seq_no=0
 while IFS= read -r raw || [ -n "$raw" ]; do
     line=$(trim "${raw%%#*}")
     [ -z "$line" ] && continue
@@ -112,46 +193,17 @@ while IFS= read -r raw || [ -n "$raw" ]; do
     read -r -a args <<< "$f_args"
     [ -n "$only" ] && ! [[ $name =~ $only ]] && continue
     for np in "${nprocs[@]}"; do
-        run_case "$name" "$np" "${args[@]}"
-        left=$(new_files)
-        note=''
-        grep -q 'MPI_ABORT' "$err" && note=' (MPI_Abort)'
-        errors=$(filtered_stderr "$err" | grep -c '^terrace: error')
-        msg=$(filtered_stderr "$err" | grep -m 1 '^terrace: error')
-        extra=$(filtered_stderr "$err" | grep -v -e '^terrace: error' -e '^terrace: warning' | head -n 1)
-        why=''
-        if [ "$rc" -eq 124 ] || [ "$rc" -eq 137 ]; then
-            why="hang: killed after ${limit} s (exit $rc)"
-        elif [ "$rc" -eq 0 ]; then
-            why='exit status 0 for a malformed input'
-        elif [ "$rc" -ne "$want_rc" ]; then
-            why="exit status $rc, expected $want_rc"
-        elif [ "$errors" -ne 1 ]; then
-            why="$errors lines start with 'terrace: error' (expected exactly 1)"
-        elif [ -n "$extra" ]; then
-            why="unexpected stderr line: $extra"
-        fi
-        if [ -z "$why" ]; then
-            missing=()
-            IFS=$'\x1f' read -r -a subs <<< "${f_subs// ; /$'\x1f'}"
-            for s in "${subs[@]}"; do
-                s=$(trim "$s")
-                [ -z "$s" ] && continue
-                [[ $msg == *"$s"* ]] || missing+=("[$s]")
-            done
-            [ ${#missing[@]} -gt 0 ] && why="message lacks ${missing[*]}"
-        fi
-        if [ -z "$why" ] && [ -n "$left" ]; then
-            why="files left in the working directory: $left"
-        fi
-        if [ -z "$why" ]; then
-            report ok "$np" "$name" "$note"
-        else
-            [ -n "$msg" ] && why="$why | $msg"
-            report FAIL "$np" "$name" "$why$note"
-        fi
+        seq_no=$((seq_no + 1))
+        while [ "$(jobs -rp | wc -l)" -ge "$jobs_max" ]; do wait -n; done
+        check_case "$name" "$np" "$want_rc" "$f_subs" "${args[@]}" > "$results/$(printf '%06d' "$seq_no")" < /dev/null &
     done
 done < "$manifest"
+wait
+for f in "$results"/*; do
+    [ -e "$f" ] || continue
+    cat "$f"
+    if grep -q '^ok' "$f"; then passed=$((passed + 1)); else failed=$((failed + 1)); fi
+done
 
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

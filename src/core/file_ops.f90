@@ -1,0 +1,195 @@
+!> File-system operations through a small C helper (file_ops.c): the absolute form of a path,
+!> the kind of an existing path, atomic rename, advisory locks, and files removed at exit unless
+!> committed. Used for the input and output checks made before a run writes anything.
+module terrace_file_ops
+    use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char
+    implicit none
+    private
+
+    integer, parameter, public :: path_missing = 0, path_regular = 1, path_directory = 2, path_special = 3
+
+    public :: resolve_path, path_kind, is_writable, rename_file, remove_file, lock_file, &
+              remove_at_exit, keep_at_exit, process_id, directory_of, &
+              temporary_name, commit_output, check_size, cleanup_now, write_in_place
+
+    interface
+        integer(c_int) function c_resolve(path, out, outlen) bind(C, name='terrace_resolve_path')
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+            character(kind=c_char), intent(out) :: out(*)
+            integer(c_int), value :: outlen
+        end function c_resolve
+        integer(c_int) function c_kind(path) bind(C, name='terrace_path_kind')
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+        end function c_kind
+        integer(c_int) function c_writable(path) bind(C, name='terrace_writable')
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+        end function c_writable
+        integer(c_int) function c_rename(from, to) bind(C, name='terrace_rename')
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: from(*), to(*)
+        end function c_rename
+        integer(c_int) function c_unlink(path) bind(C, name='terrace_unlink')
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+        end function c_unlink
+        integer(c_int) function c_lock(path) bind(C, name='terrace_lock_file')
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+        end function c_lock
+        integer(c_int) function c_register(path) bind(C, name='terrace_cleanup_register')
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+        end function c_register
+        subroutine c_forget(path) bind(C, name='terrace_cleanup_forget')
+            import :: c_char
+            character(kind=c_char), intent(in) :: path(*)
+        end subroutine c_forget
+        subroutine cleanup_now() bind(C, name='terrace_cleanup_now')
+        end subroutine cleanup_now
+        integer(c_int) function c_pid() bind(C, name='terrace_pid')
+            import :: c_int
+        end function c_pid
+    end interface
+
+    !> Runs with checkpoints write their small outputs in place (no temporary name): a killed job
+    !> must leave its thermo lines and forces file where the restart continues them.
+    logical :: in_place = .false.
+
+contains
+
+    subroutine write_in_place(on)
+        logical, intent(in) :: on
+        in_place = on
+    end subroutine write_in_place
+
+    !> Absolute, symlink-free path (resolved through the directory for a file not yet there).
+    !> ok = .false. when the directory does not exist.
+    function resolve_path(path, ok) result(abs_path)
+        character(len=*), intent(in) :: path
+        logical, intent(out) :: ok
+        character(len=:), allocatable :: abs_path
+        character(kind=c_char, len=8192) :: buf
+        integer :: n
+        buf = ''
+        ok = c_resolve(trim(path)//c_null_char, buf, int(len(buf), c_int)) == 0
+        if (.not. ok) then
+            abs_path = trim(path)
+            return
+        end if
+        n = index(buf, c_null_char) - 1
+        abs_path = buf(1:n)
+    end function resolve_path
+
+    !> The directory part of a path ('.' for a bare name).
+    function directory_of(path) result(dir)
+        character(len=*), intent(in) :: path
+        character(len=:), allocatable :: dir
+        integer :: p
+        p = index(trim(path), '/', back=.true.)
+        if (p == 0) then
+            dir = '.'
+        else if (p == 1) then
+            dir = '/'
+        else
+            dir = path(1:p - 1)
+        end if
+    end function directory_of
+
+    integer function path_kind(path)
+        character(len=*), intent(in) :: path
+        path_kind = int(c_kind(trim(path)//c_null_char))
+    end function path_kind
+
+    logical function is_writable(path)
+        character(len=*), intent(in) :: path
+        is_writable = c_writable(trim(path)//c_null_char) == 1
+    end function is_writable
+
+    !> Atomic rename; returns 0 or the errno.
+    integer function rename_file(from, to)
+        character(len=*), intent(in) :: from, to
+        rename_file = int(c_rename(trim(from)//c_null_char, trim(to)//c_null_char))
+    end function rename_file
+
+    integer function remove_file(path)
+        character(len=*), intent(in) :: path
+        remove_file = int(c_unlink(trim(path)//c_null_char))
+    end function remove_file
+
+    !> 0: locked (the lock file is removed at exit); 1: held by another process; 2: cannot create.
+    integer function lock_file(path)
+        character(len=*), intent(in) :: path
+        lock_file = int(c_lock(trim(path)//c_null_char))
+    end function lock_file
+
+    subroutine remove_at_exit(path)
+        character(len=*), intent(in) :: path
+        integer :: rc
+        if (in_place) return
+        rc = int(c_register(trim(path)//c_null_char))
+    end subroutine remove_at_exit
+
+    subroutine keep_at_exit(path)
+        character(len=*), intent(in) :: path
+        call c_forget(trim(path)//c_null_char)
+    end subroutine keep_at_exit
+
+    !> The temporary name an output is written under: '.NAME.terrace-partial' in its directory.
+    function temporary_name(path) result(tmp)
+        character(len=*), intent(in) :: path
+        character(len=:), allocatable :: tmp
+        integer :: p
+        if (in_place) then
+            tmp = trim(path)
+            return
+        end if
+        p = index(trim(path), '/', back=.true.)
+        tmp = path(1:p)//'.'//trim(path(p + 1:))//'.terrace-partial'
+    end function temporary_name
+
+    !> Rename the complete temporary file over the output. ok = .false. with msg on failure.
+    subroutine commit_output(path, ok, msg)
+        character(len=*), intent(in) :: path
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        integer :: rc
+        character(len=16) :: s
+        ok = .true.; msg = ''
+        if (in_place) return
+        rc = rename_file(temporary_name(path), path)
+        ok = rc == 0
+        msg = ''
+        if (.not. ok) then
+            write (s, '(i0)') rc
+            msg = 'cannot rename '//temporary_name(path)//' to '//trim(path)//' (errno '//trim(s)//')'
+        end if
+        call keep_at_exit(temporary_name(path))
+    end subroutine commit_output
+
+    !> gfortran reports no error when a formatted write, flush or close hits a full disk (the
+    !> buffered bytes are dropped silently), so a writer counts the bytes it wrote and compares
+    !> them with the size of the closed file: ok = .false. with msg when they differ.
+    subroutine check_size(path, expected, ok, msg)
+        character(len=*), intent(in) :: path
+        integer(kind=8), intent(in) :: expected
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        integer(kind=8) :: n
+        character(len=24) :: a, b
+        inquire (file=path, size=n)
+        ok = n == expected
+        msg = ''
+        if (ok) return
+        write (a, '(i0)') n
+        write (b, '(i0)') expected
+        msg = 'the file system kept '//trim(a)//' of the '//trim(b)//' bytes written (is the disk full?)'
+    end subroutine check_size
+
+    integer function process_id()
+        process_id = int(c_pid())
+    end function process_id
+
+end module terrace_file_ops

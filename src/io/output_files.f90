@@ -1,0 +1,217 @@
+!> Checks on the output files, made before the first output is opened (and by --check), and the
+!> temporary-name scheme of the small text outputs.
+!>
+!>  - every output's directory exists and takes a new file; an existing output path is a regular,
+!>    writable file (never a device, FIFO or directory);
+!>  - no two outputs resolve to the same file, and no output is one of the inputs (the deck, the
+!>    data, atoms, H5MD or potential file; a checkpoint may be continued in place);
+!>  - the trajectory and checkpoint writers need atom ids 1..N;
+!>  - a running job holds an advisory lock (flock) on a lock file beside each output, so that a
+!>    second run on the same outputs stops with a clear error instead of clobbering them;
+!>  - thermo, forces and final-atoms files are written under a temporary name beside the target
+!>    (temporary_name) and renamed over it only when complete (commit_output): a run that fails
+!>    leaves the previous file as it was.
+module terrace_output_files
+    use terrace_kinds, only: i8
+    use terrace_config, only: config_t
+    use terrace_mpi_env, only: world
+    use terrace_errors, only: check_all
+    use terrace_file_ops, only: resolve_path, path_kind, is_writable, lock_file, remove_at_exit, keep_at_exit, &
+                                process_id, directory_of, path_missing, path_regular, &
+                                temporary_name, commit_output, write_in_place
+    use mpi_f08, only: MPI_Allreduce, MPI_MAX, MPI_INTEGER8
+    implicit none
+    private
+
+    public :: check_outputs, check_output_ids, commit_small_outputs
+
+    integer, parameter :: nout = 5, nin = 6
+
+contains
+
+    !> Rename the temporary files of the small text outputs (thermo, forces, final atoms) over
+    !> their targets, once the run has succeeded: until then the previous files are untouched.
+    !> Collective (rank 0 renames).
+    subroutine commit_small_outputs(cfg)
+        type(config_t), intent(in) :: cfg
+        character(len=:), allocatable :: msg
+        character(len=512) :: why
+        logical :: ok
+        msg = ''
+        if (world%rank == 0) then
+            call one('thermo_file', cfg%thermo_file)
+            call one('forces_file', cfg%forces_file)
+            call one('final_atoms_file', cfg%final_atoms_file)
+        end if
+        call check_all(len(msg) == 0, msg)
+    contains
+        subroutine one(key, path)
+            character(len=*), intent(in) :: key, path
+            if (len(msg) > 0 .or. len_trim(path) == 0) return
+            if (path_kind(temporary_name(trim(path))) /= path_regular) return
+            call commit_output(trim(path), ok, why)
+            if (.not. ok) msg = trim(path)//': &output: '//key//': cannot write: '//trim(why)
+        end subroutine one
+    end subroutine commit_small_outputs
+
+    !> All the output checks (collective). With lock = .true. the outputs are also locked for the
+    !> rest of the run (not in --check mode, which writes nothing).
+    subroutine check_outputs(cfg, lock)
+        type(config_t), intent(in) :: cfg
+        logical, intent(in) :: lock
+        character(len=16) :: out_keys(nout), in_keys(nin), in_groups(nin)
+        character(len=:), allocatable :: msg
+        type :: name_t
+            character(len=:), allocatable :: s
+        end type name_t
+        type(name_t) :: out_path(nout), out_abs(nout), in_path(nin), in_abs(nin)
+        integer :: i, j
+        logical :: ok
+        out_keys = [character(len=16) :: 'thermo_file', 'forces_file', 'final_atoms_file', 'trajectory_file', &
+                    'checkpoint_file']
+        out_path(1)%s = trim(cfg%thermo_file); out_path(2)%s = trim(cfg%forces_file)
+        out_path(3)%s = trim(cfg%final_atoms_file); out_path(4)%s = trim(cfg%trajectory_file)
+        out_path(5)%s = trim(cfg%checkpoint_file)
+        in_keys = [character(len=16) :: 'input deck', 'read_data', 'atoms_file', 'read_h5md', 'file', 'read_checkpoint']
+        in_groups = [character(len=16) :: '', 'system', 'system', 'system', 'potential', 'system']
+        in_path(1)%s = cfg%path; in_path(2)%s = trim(cfg%read_data); in_path(3)%s = trim(cfg%atoms_file)
+        in_path(4)%s = trim(cfg%read_h5md); in_path(5)%s = trim(cfg%potential_file)
+        in_path(6)%s = trim(cfg%read_checkpoint)
+        msg = ''
+        ! a checkpointed run writes its small outputs in place (a killed job is continued)
+        call write_in_place(len_trim(cfg%checkpoint_file) > 0 .or. len_trim(cfg%read_checkpoint) > 0)
+        if (world%rank == 0) then
+            do i = 1, nin
+                in_abs(i)%s = ''
+                if (len(in_path(i)%s) > 0) in_abs(i)%s = resolve_path(in_path(i)%s, ok)
+            end do
+            do i = 1, nout
+                out_abs(i)%s = ''
+                if (len(out_path(i)%s) == 0) cycle
+                call check_one(i)
+                if (len(msg) > 0) exit
+            end do
+            if (len(msg) == 0 .and. lock) then
+                do i = 1, nout
+                    if (len(out_path(i)%s) == 0) cycle
+                    select case (lock_file(lock_name(out_path(i)%s)))
+                    case (1)
+                        msg = where(i)//": another terrace run is writing this output now (it holds the lock "// &
+                              lock_name(out_path(i)%s)//'); wait for it to end or choose other output names'
+                    case (2)
+                        msg = where(i)//': cannot write: cannot create the lock file '//lock_name(out_path(i)%s)
+                    end select
+                    if (len(msg) > 0) exit
+                end do
+            end if
+        end if
+        call check_all(len(msg) == 0, msg)
+
+    contains
+
+        function where(i) result(s)
+            integer, intent(in) :: i
+            character(len=:), allocatable :: s
+            s = cfg%where('output', trim(out_keys(i)))//" = '"//out_path(i)%s//"'"
+        end function where
+
+        function verb(i) result(s)
+            integer, intent(in) :: i
+            character(len=:), allocatable :: s
+            s = 'cannot write'
+            if (i >= 4) s = 'cannot create'
+        end function verb
+
+        subroutine check_one(i)
+            integer, intent(in) :: i
+            integer :: unit, ios, kind
+            character(len=:), allocatable :: probe, dir
+            character(len=16) :: pid
+            out_abs(i)%s = resolve_path(out_path(i)%s, ok)
+            dir = directory_of(out_path(i)%s)
+            if (.not. ok) then
+                msg = where(i)//': '//verb(i)//": the directory '"//dir//"' does not exist"
+                return
+            end if
+            kind = path_kind(out_path(i)%s)
+            if (kind /= path_missing .and. kind /= path_regular) then
+                msg = where(i)//': '//verb(i)//': the path exists and is not a regular file (a directory, '// &
+                      'device, pipe or socket is never replaced)'
+                return
+            end if
+            if (kind == path_regular .and. .not. is_writable(out_path(i)%s)) then
+                msg = where(i)//': '//verb(i)//': the existing file is read-only'
+                return
+            end if
+            ! the directory must take a new file (the temporary output, the lock file)
+            write (pid, '(i0)') process_id()
+            probe = dir//'/.terrace-probe.'//trim(pid)
+            open (newunit=unit, file=probe, status='replace', action='write', iostat=ios)
+            if (ios /= 0) then
+                msg = where(i)//': '//verb(i)//": cannot create a file in the directory '"//dir//"'"
+                return
+            end if
+            close (unit, status='delete')
+            do j = 1, i - 1
+                if (len(out_abs(j)%s) == 0) cycle
+                if (out_abs(j)%s == out_abs(i)%s) then
+                    msg = where(i)//': the same file as &output '//trim(out_keys(j))//' ('//out_abs(i)%s// &
+                          '); give every output its own name'
+                    return
+                end if
+            end do
+            do j = 1, nin
+                if (len(in_abs(j)%s) == 0) cycle
+                if (i == 5 .and. j == 6) cycle           ! a checkpoint is continued in place
+                if (in_abs(j)%s == out_abs(i)%s) then
+                    if (j == 1) then
+                        msg = where(i)//': the same file as the input deck ('//out_abs(i)%s// &
+                              '); the run would overwrite its own input'
+                    else
+                        msg = where(i)//': the same file as the input &'//trim(in_groups(j))//' '//trim(in_keys(j))// &
+                              ' ('//out_abs(i)%s//'); the run would overwrite its input'
+                    end if
+                    return
+                end if
+            end do
+        end subroutine check_one
+
+    end subroutine check_outputs
+
+    !> The lock file of an output: '.NAME.terrace-lock' in its directory.
+    function lock_name(path) result(s)
+        character(len=*), intent(in) :: path
+        character(len=:), allocatable :: s
+        integer :: p
+        p = index(trim(path), '/', back=.true.)
+        s = path(1:p)//'.'//trim(path(p + 1:))//'.terrace-lock'
+    end function lock_name
+
+    !> The trajectory and checkpoint writers place every atom by its id in 1..N: with either
+    !> output, the ids must be exactly 1..natoms (they are unique already). Collective.
+    subroutine check_output_ids(cfg, ids, natoms)
+        type(config_t), intent(in) :: cfg
+        integer(i8), intent(in) :: ids(:)
+        integer(i8), intent(in) :: natoms
+        character(len=:), allocatable :: source
+        integer(i8) :: mine(2), all(2)
+        character(len=24) :: a, b, c
+        character(len=:), allocatable :: key
+        if (len_trim(cfg%trajectory_file) == 0 .and. len_trim(cfg%checkpoint_file) == 0) return
+        mine = [0_i8, 0_i8]
+        if (size(ids) > 0) mine = [maxval(ids), -minval(ids)]
+        call MPI_Allreduce(mine, all, 2, MPI_INTEGER8, MPI_MAX, world%comm)
+        source = cfg%path//': &system'
+        if (len_trim(cfg%read_data) > 0) source = trim(cfg%read_data)//': &system: read_data'
+        if (len_trim(cfg%atoms_file) > 0) source = trim(cfg%atoms_file)//': &system: atoms_file'
+        if (len_trim(cfg%read_h5md) > 0) source = trim(cfg%read_h5md)//': &system: read_h5md'
+        key = 'trajectory_file'
+        if (len_trim(cfg%trajectory_file) == 0) key = 'checkpoint_file'
+        write (a, '(i0)') -all(2)
+        write (b, '(i0)') all(1)
+        write (c, '(i0)') natoms
+        call check_all(all(1) <= natoms .and. -all(2) >= 1, source//': atom ids run from '//trim(a)//' to '// &
+                       trim(b)//'; &output '//key//' needs ids 1..'//trim(c)//' (renumber the atoms)')
+    end subroutine check_output_ids
+
+end module terrace_output_files

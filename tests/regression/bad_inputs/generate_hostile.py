@@ -1,0 +1,343 @@
+#!/usr/bin/env python3
+"""Hostile-input cases for check_bad_inputs.sh --hostile (issue 15), generated from small valid
+decks and files: NaN, Inf, overflowing and subnormal numbers for every real key and in every file
+format, counts beyond what a file can hold, scenes too large for memory, over-long paths,
+non-finite boxes and coordinates, ids the trajectory cannot take, colliding and special output
+paths, outputs equal to inputs, a locked output, the smaller defects, and the files users have.
+
+usage: generate_hostile.py OUT_DIR
+Writes OUT_DIR/cases.txt (the manifest format of bad_inputs/cases.txt) and one directory per
+case. Every case directory also holds a previous thermo.csv and forces.txt that the harness
+checks are byte-identical afterwards (a failed run must not replace or remove them).
+A case directory may hold '.hold_lock': the name of a lock file the harness holds (flock) while
+the case runs, as a second run on the same outputs would.
+"""
+import os
+import stat
+import sys
+
+OUT = sys.argv[1]
+os.makedirs(OUT, exist_ok=True)
+manifest = []
+
+LJ = {
+    'run': "units='lj', dimension=3, n_steps=10, seed=1",
+    'system': "lattice='fcc', density=0.8442, cells=3,3,3, mass=1.0, temperature=1.0",
+    'potential': "style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5",
+    'integrator': "style='velocity_verlet', dt=0.005",
+    'neighbor': 'skin=0.3',
+    'output': "thermo_every=5, thermo_file='thermo.csv', forces_file='forces.txt'",
+}
+GROUPS = ['run', 'system', 'potential', 'integrator', 'neighbor', 'output']
+LINE = {g: i + 2 for i, g in enumerate(GROUPS)}   # line 1 is a comment
+
+
+def deck_text(name, groups):
+    lines = ['! hostile case: ' + name]
+    for g in GROUPS:
+        if g in groups and groups[g] is not None:
+            lines.append('&%s %s /' % (g, groups[g]))
+    return '\n'.join(lines) + '\n'
+
+
+PREVIOUS_THERMO = 'step,time,temp\n0,0.0,1.0\n'          # what an earlier run left
+PREVIOUS_FORCES = '# an earlier run\n1 0.0 0.0 0.0\n'
+
+
+def case(name, subs, groups=None, files=None, args=None, rc=1, hold_lock=None, deck_name=None,
+         modes=None, links=None, fifos=None):
+    """Add a case: the deck (groups, LJ by default), extra files, the expected substrings."""
+    d = os.path.join(OUT, name)
+    os.makedirs(d, exist_ok=True)
+    deck = deck_name or (name + '.nml')
+    g = dict(LJ)
+    if groups:
+        g.update(groups)
+    os.makedirs(os.path.dirname(os.path.join(d, deck)) or d, exist_ok=True)
+    with open(os.path.join(d, deck), 'w') as f:
+        f.write(deck_text(name, g))
+    with open(os.path.join(d, 'thermo.csv'), 'w') as f:
+        f.write(PREVIOUS_THERMO)
+    with open(os.path.join(d, 'forces.txt'), 'w') as f:
+        f.write(PREVIOUS_FORCES)
+    for fname, text in (files or {}).items():
+        p = os.path.join(d, fname)
+        os.makedirs(os.path.dirname(p), exist_ok=True)
+        with open(p, 'w') as f:
+            f.write(text)
+    for fname, mode in (modes or {}).items():
+        os.chmod(os.path.join(d, fname), mode)
+    for fname, target in (links or {}).items():
+        os.symlink(target, os.path.join(d, fname))
+    for fname in fifos or []:
+        os.mkfifo(os.path.join(d, fname))
+    if hold_lock:
+        with open(os.path.join(d, '.hold_lock'), 'w') as f:
+            f.write(hold_lock + '\n')
+    if args is None:
+        args = deck
+    manifest.append('%s | %d | %s | %s' % (name, rc, args, ' ; '.join(subs)))
+
+
+def with_key(group, assignment, base=None):
+    b = dict(base or LJ)
+    b[group] = b[group] + ', ' + assignment
+    return b
+
+
+# ------------------------------------------------------------------ class 1: reals in the deck
+ES = dict(LJ, integrator="style='energy_stepping', terrace_height=0.05",
+          potential="style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, shift=.true.")
+real_keys = [
+    ('run', 'run_time', None), ('run', 'walltime_limit', None),
+    ('system', 'density', None), ('system', 'lattice_constant', None), ('system', 'temperature', None),
+    ('system', 'mass', None), ('system', 'box_lo', None), ('system', 'box_hi', None),
+    ('potential', 'epsilon', None), ('potential', 'sigma', None), ('potential', 'cutoff', None),
+    ('potential', 'pair_cutoff(1,1)', None),
+    ('integrator', 'dt', None), ('integrator', 'root_tolerance', None),
+    ('neighbor', 'skin', None),
+    ('output', 'thermo_interval', None), ('output', 'trajectory_interval', None),
+    ('output', 'checkpoint_interval', None),
+    ('integrator', 'terrace_height', ES), ('integrator', 'target_mean_dt', ES),
+]
+bad_reals = [('nan', 'NaN', 'not a finite number'), ('inf', 'Inf', 'not a finite number'),
+             ('neginf', '-Infinity', 'not a finite number'), ('overflow', '1e400', 'not a finite number'),
+             ('subnormal', '1e-320', 'out of range'), ('huge', '1e300', 'out of range')]
+for group, key, base in real_keys:
+    base_key = key.split('(')[0]
+    for tag, value, what in bad_reals:
+        name = 'real_%s_%s' % (base_key, tag)
+        case(name, ['%s.nml:%d' % (name, LINE[group]), '&' + group, key, value, what],
+             groups=with_key(group, '%s=%s' % (key, value), base))
+# several values in one key: the bad one is found wherever it is
+case('real_cells_density_list', ['real_cells_density_list.nml:3', '&system', 'box_hi', 'nan', 'not a finite'],
+     groups=with_key('system', 'box_hi=1.0, nan, 3.0'))
+case('real_repeat_inf', ['real_repeat_inf.nml:3', '&system', 'box_lo', 'inf', 'not a finite'],
+     groups=with_key('system', 'box_lo=3*inf'))
+case('real_temperature_1e10', ['real_temperature_1e10.nml:3', '&system', 'temperature', 'out of range'],
+     groups=with_key('system', 'temperature=1e10'))
+case('real_run_time_steps', ['real_run_time_steps.nml', '&run', 'run_time', 'time steps'],
+     groups=dict(LJ, run="units='lj', run_time=1e11, seed=1", integrator="style='velocity_verlet', dt=1e-6"))
+
+# ------------------------------------------------------------------ files: a valid data file
+def data_file(natoms_line='8 atoms', box=('0 4 xlo xhi', '0 4 ylo yhi', '0 4 zlo zhi'), types='1 atom types',
+              masses='1 1.0', atoms=None, velocities=None, extra_header='', extra_sections=''):
+    if atoms is None:
+        atoms = ['%d 1 %g %g %g 0 0 0' % (i + 1, 0.5 + 2 * (i % 2), 0.5 + 2 * ((i // 2) % 2), 0.5 + 2 * (i // 4))
+                 for i in range(8)]
+    t = 'LAMMPS data file (hostile case)\n\n%s\n%s\n%s\n%s\n\n' % (natoms_line, types, extra_header, '\n'.join(box))
+    t += 'Masses\n\n%s\n\n' % masses
+    t += 'Atoms # atomic\n\n' + '\n'.join(atoms) + '\n'
+    if velocities is not None:
+        t += '\nVelocities\n\n' + '\n'.join(velocities) + '\n'
+    t += extra_sections
+    return t
+
+
+DATA = dict(LJ, system="read_data='in.data', temperature=1.0",
+            potential="style='lj', epsilon=1.0, sigma=1.0, cutoff=1.2")
+atoms8 = ['%d 1 %g %g %g 0 0 0' % (i + 1, 0.5 + 2 * (i % 2), 0.5 + 2 * ((i // 2) % 2), 0.5 + 2 * (i // 4))
+          for i in range(8)]
+vel8 = ['%d 0.1 0.0 -0.1' % (i + 1) for i in range(8)]
+
+
+def data_case(name, subs, rc=1, groups=None, **kw):
+    case(name, ['in.data', '&system', 'read_data'] + subs, groups=groups or DATA, files={'in.data': data_file(**kw)},
+         rc=rc)
+
+
+for tag, v in [('nan', 'nan'), ('inf', 'inf'), ('neginf', '-inf'), ('overflow', '1e400')]:
+    data_case('data_xhi_' + tag, ['box bounds'], box=('0 %s xlo xhi' % v, '0 4 ylo yhi', '0 4 zlo zhi'))
+    data_case('data_zlo_' + tag, ['box bounds'], box=('0 4 xlo xhi', '0 4 ylo yhi', '%s 4 zlo zhi' % v))
+    data_case('data_coord_' + tag, ['coordinates must be finite'],
+              atoms=atoms8[:3] + ['4 1 %s 2.5 0.5 0 0 0' % v] + atoms8[4:])
+    data_case('data_vel_' + tag, ['velocities must be finite'], velocities=vel8[:5] + ['6 0.1 %s 0.0' % v] + vel8[6:])
+    data_case('data_mass_' + tag, ['mass'], masses='1 %s' % v)
+data_case('data_box_huge', ['box bounds'], box=('0 1e12 xlo xhi', '0 4 ylo yhi', '0 4 zlo zhi'))
+data_case('data_mass_zero', ['mass'], masses='1 0')
+data_case('data_image_2e10', ['image flags'], atoms=atoms8[:2] + ['3 1 0.5 2.5 0.5 20000000000 0 0'] + atoms8[3:])
+data_case('data_image_frac', ['image flags'], atoms=atoms8[:2] + ['3 1 0.5 2.5 0.5 0.5 0 0'] + atoms8[3:])
+data_case('data_image_nan', ['image flags'], atoms=atoms8[:2] + ['3 1 0.5 2.5 0.5 nan 0 0'] + atoms8[3:])
+# class 3: counts beyond what the file holds
+data_case('data_2e9_atoms', ['2000000000 atoms', 'can hold at most'], natoms_line='2000000000 atoms')
+data_case('data_1e15_atoms', ['can hold at most'], natoms_line='1000000000000000 atoms')
+data_case('data_huge_types', ['atom types', 'max 8'], types='2147483647 atom types')
+data_case('data_9_types', ['atom types', 'max 8'], types='9 atom types')
+data_case('data_negative_atoms', ['atom count'], natoms_line='-5 atoms')
+# class 11: the smaller ones
+data_case('data_second_atoms', ['second Atoms section'],
+          extra_sections='\nAtoms # atomic\n\n' + '\n'.join(atoms8) + '\n')
+data_case('data_more_atoms_lines', ['more lines than the header', '8 atoms'],
+          atoms=atoms8 + ['9 1 3.5 3.5 3.5 0 0 0'])
+data_case('data_masses_type_beyond', ['Masses line for type 2', '1 atom types'], masses='2 1.0')
+data_case('data_triclinic', ['triclinic'], extra_header='0 0 0 xy xz yz')
+data_case('data_bonds', ['molecular topology'], extra_header='4 bonds')
+data_case('data_bonds_section', ['molecular topology'], extra_sections='\nBonds\n\n1 1 1 2\n')
+data_case('data_unknown_section', ["section 'Ellipsoids'"], extra_sections='\nEllipsoids\n\n1 1 1 1\n')
+data_case('data_pair_coeffs_disagree', ['disagree', 'epsilon'], extra_sections='\nPair Coeffs # lj/cut\n\n1 2.0 1.0\n')
+data_case('data_pair_coeffs_style', ['morse'], extra_sections='\nPair Coeffs # morse\n\n1 1.0 1.0\n')
+data_case('data_pairij_nan', ['PairIJ Coeffs'], extra_sections='\nPairIJ Coeffs # lj/cut\n\n1 1 nan 1.0 2.5\n')
+# class 6: ids the trajectory and checkpoint writers cannot take, found before any output
+ids_far = ['%d 1 %g %g %g 0 0 0' % (i, 0.5 + 2 * (k % 2), 0.5 + 2 * ((k // 2) % 2), 0.5 + 2 * (k // 4))
+           for k, i in enumerate([1, 2, 3, 4, 5, 6, 7, 10 ** 12])]
+traj_out = DATA['output'] + ", trajectory_file='traj.h5'"
+data_case('ids_gap_trajectory', ['ids 1..8', 'trajectory_file', '1000000000000'], atoms=ids_far,
+          groups=dict(DATA, output=traj_out))
+data_case('ids_gap_checkpoint', ['ids 1..8', 'checkpoint_file'],
+          atoms=['%d 1 %s' % (i + 2, a.split(' ', 2)[2]) for i, a in enumerate(atoms8)],
+          groups=dict(DATA, output=DATA['output'] + ", checkpoint_file='ck.h5', checkpoint_every=5"))
+
+# ------------------------------------------------------------------ atoms files
+ATOMS = dict(LJ, run="units='lj', dimension=3, n_steps=10, seed=1",
+             system="atoms_file='in.atoms', box_lo=0,0,0, box_hi=4,4,4, mass=1.0",
+             potential="style='lj', epsilon=1.0, sigma=1.0, cutoff=1.2")
+atom_lines = ['1 %g %g %g' % (0.5 + 2 * (k % 2), 0.5 + 2 * ((k // 2) % 2), 0.5 + 2 * (k // 4)) for k in range(8)]
+for tag, line, subs in [('x_nan', '1 nan 0.5 0.5', ['must be finite']), ('x_inf', '1 inf 0.5 0.5', ['must be finite']),
+                        ('v_nan', '1 2.5 2.5 2.5 0 nan 0', ['must be finite']),
+                        ('v_overflow', '1 2.5 2.5 2.5 0 1e999 0', ['must be finite']),
+                        ('type_huge', '2147483647 2.5 2.5 2.5', ['more atom types', 'max 8']),
+                        ('type_9', '9 2.5 2.5 2.5', ['more atom types']),
+                        ('type_zero', '0 2.5 2.5 2.5', ['bad atom line'])]:
+    lines = atom_lines[:3] + [line] + atom_lines[4:] if not tag.startswith('v_') else \
+        [l + ' 0 0 0' for l in atom_lines[:3]] + [line] + [l + ' 0 0 0' for l in atom_lines[4:]]
+    case('atoms_' + tag, ['in.atoms', '&system', 'atoms_file'] + subs, groups=ATOMS,
+         files={'in.atoms': '\n'.join(lines) + '\n'})
+FREE2D = dict(ATOMS, run="units='lj', dimension=2, n_steps=10, seed=1",
+              system="atoms_file='in.atoms', box_lo=0,0,0, box_hi=4,4,1, periodic=.false.,.false., mass=1.0",
+              potential="style='lj', epsilon=1.0, sigma=1.0, cutoff=0")
+case('atoms_free2d_inf', ['in.atoms', '&system', 'atoms_file', 'finite'], groups=FREE2D,
+     files={'in.atoms': '1 0.5 0.5 0\n1 1.5 0.5 0\n1 inf 1.5 0\n'})
+
+# ------------------------------------------------------------------ EAM files
+def setfl(n_el='1 Cu', grid='5 0.1 5 0.5 2.0', elem='29 63.546 3.615 fcc', f=None, rho=None, z2r=None):
+    f = f or ['0 -1 -2 -3 -4']
+    rho = rho or ['1 0.8 0.6 0.4 0.2']
+    z2r = z2r or ['5 3 1 0.5 0']
+    return 'c1\nc2\nc3\n%s\n%s\n%s\n%s\n%s\n%s\n' % (n_el, grid, elem, '\n'.join(f), '\n'.join(rho), '\n'.join(z2r))
+
+
+EAM = dict(LJ, run="units='metal', dimension=3, n_steps=10, seed=1",
+           system="lattice='fcc', lattice_constant=3.615, cells=3,3,3, temperature=300",
+           potential="style='eam/alloy', file='Cu.set', elements='Cu'",
+           integrator="style='velocity_verlet', dt=0.001", neighbor='skin=1.0')
+for tag, kw, subs in [
+        ('nr_2e9', dict(grid='5 0.1 2000000000 0.5 2.0'), ['can hold']),
+        ('nrho_2e9', dict(grid='2000000000 0.1 5 0.5 2.0'), ['can hold']),
+        ('nelem_2e9', dict(n_el='2000000000 Cu'), ['can hold']),
+        ('nelem_max', dict(n_el='2147483647 Cu'), ['can hold']),
+        ('dr_nan', dict(grid='5 0.1 5 nan 2.0'), ['dr']),
+        ('cut_inf', dict(grid='5 0.1 5 0.5 inf'), ['cutoff']),
+        ('mass_nan', dict(elem='29 nan 3.615 fcc'), ['mass']),
+        ('f_nan', dict(f=['0 -1 nan -3 -4']), ['not a number']),
+        ('f_overflow', dict(f=['0 -1 1e999 -3 -4']), ['out of range']),
+        ('rho_inf', dict(rho=['1 0.8 inf 0.4 0.2']), ['not a number']),
+        ('z2r_1e400', dict(z2r=['5 3 1e400 0.5 0']), ['out of range'])]:
+    case('eam_' + tag, ['Cu.set'] + subs, groups=EAM, files={'Cu.set': setfl(**kw)})
+case('eam_units_lj', ['&run', 'units', 'metal'], groups=dict(EAM, run="units='lj', n_steps=10, seed=1",
+     system="lattice='fcc', density=0.8442, cells=3,3,3, temperature=1.0"), files={'Cu.set': setfl()})
+
+# ------------------------------------------------------------------ class 3: scenes beyond memory
+for tag, cells in [('2000cubed', '2000,2000,2000'), ('flat', '100000,100000,10'), ('int_max', '2147483647,2,2'),
+                   ('1e5cubed', '100000,100000,100000')]:
+    case('mem_cells_' + tag, ['mem_cells_%s.nml:3' % tag, '&system', 'cells', 'GiB', 'available'],
+         groups=with_key('system', 'cells=' + cells))
+case('mem_cells_2d', ['mem_cells_2d.nml:3', '&system', 'cells', 'GiB'],
+     groups=dict(LJ, run="units='lj', dimension=2, n_steps=10, seed=1",
+                 system="lattice='hex', density=0.8, cells=1000000,1000000, mass=1.0, temperature=1.0"))
+
+# ------------------------------------------------------------------ class 4: paths beyond the buffer
+long_name = 'x' * 5000
+for key, group in [('thermo_file', 'output'), ('forces_file', 'output'), ('trajectory_file', 'output'),
+                   ('final_atoms_file', 'output'), ('checkpoint_file', 'output'), ('read_data', 'system'),
+                   ('atoms_file', 'system')]:
+    g = dict(LJ)
+    if group == 'system':
+        g['system'] = "%s='%s', mass=1.0" % (key, long_name)
+    else:
+        g = with_key(group, "%s='%s'" % (key, long_name))
+    case('path_long_' + key, ['&' + group, key, '5000 characters', '4096'], groups=g)
+# a path component longer than the file system allows (NAME_MAX 255)
+case('path_component_long', ['&output', 'thermo_file'],
+     groups=dict(LJ, output="thermo_every=5, thermo_file='%s', forces_file='forces.txt'" % ('y' * 300)))
+
+# ------------------------------------------------------------------ class 6, 8, 10: outputs
+def out_case(name, output, subs, **kw):
+    case(name, subs, groups=dict(LJ, output=output), **kw)
+
+
+case('out_thermo_is_data', ['&output', 'thermo_file', 'read_data', 'its input'],
+     groups=dict(DATA, output="thermo_file='in.data', forces_file='forces.txt'"), files={'in.data': data_file()})
+case('out_thermo_is_data_dotslash', ['&output', 'thermo_file', 'read_data', 'its input'],
+     groups=dict(DATA, output="thermo_file='./sub/../in.data'"), files={'in.data': data_file(), 'sub/keep': ''})
+case('out_thermo_symlink_to_data', ['&output', 'thermo_file', 'read_data', 'its input'],
+     groups=dict(DATA, output="thermo_file='link.csv'"), files={'in.data': data_file()}, links={'link.csv': 'in.data'})
+case('out_forces_is_atoms', ['&output', 'forces_file', 'atoms_file', 'its input'],
+     groups=dict(ATOMS, output="forces_file='in.atoms'"), files={'in.atoms': '\n'.join(atom_lines) + '\n'})
+case('out_final_is_atoms', ['&output', 'final_atoms_file', 'atoms_file', 'its input'],
+     groups=dict(ATOMS, output="final_atoms_file='in.atoms'"), files={'in.atoms': '\n'.join(atom_lines) + '\n'})
+case('out_thermo_is_deck', ['&output', 'thermo_file', 'input deck'],
+     groups=dict(LJ, output="thermo_file='out_thermo_is_deck.nml'"))
+case('out_thermo_is_eam', ['&output', 'thermo_file', '&potential file', 'its input'],
+     groups=dict(EAM, output="thermo_file='Cu.set'"), files={'Cu.set': setfl()})
+pairs = [('thermo_file', 'forces_file'), ('thermo_file', 'final_atoms_file'), ('forces_file', 'final_atoms_file'),
+         ('trajectory_file', 'checkpoint_file'), ('thermo_file', 'trajectory_file'),
+         ('forces_file', 'checkpoint_file')]
+for a, b in pairs:
+    extra = ", checkpoint_every=5" if 'checkpoint' in a + b else ''
+    out_case('out_same_%s_%s' % (a.split('_')[0], b.split('_')[0]), "%s='same.out', %s='./same.out'%s" % (a, b, extra),
+             ['&output', b, 'same file as &output ' + a])
+out_case('out_thermo_dev_full', "thermo_file='/dev/full'", ['/dev/full', '&output', 'thermo_file', 'not a regular file'])
+out_case('out_forces_dev_null', "forces_file='/dev/null'", ['/dev/null', '&output', 'forces_file', 'not a regular'])
+out_case('out_final_dev_full', "final_atoms_file='/dev/full'", ['/dev/full', '&output', 'final_atoms_file',
+                                                                 'not a regular'])
+out_case('out_traj_dev_full', "trajectory_file='/dev/full', overwrite=.true.", ['/dev/full', '&output',
+                                                                                 'trajectory_file', 'not a regular'])
+out_case('out_ckpt_dev_full', "checkpoint_file='/dev/full', checkpoint_every=5", ['/dev/full', '&output',
+                                                                                   'checkpoint_file', 'not a regular'])
+out_case('out_thermo_directory', "thermo_file='adir'", ['adir', '&output', 'thermo_file', 'not a regular'],
+         files={'adir/keep': 'x'})
+out_case('out_forces_fifo', "forces_file='pipe'", ['pipe', '&output', 'forces_file', 'not a regular'], fifos=['pipe'])
+out_case('out_final_missing_dir', "final_atoms_file='nodir/final.atoms'",
+         ['nodir/final.atoms', '&output', 'final_atoms_file', 'does not exist'])
+out_case('out_thermo_missing_dir', "thermo_file='nodir/t.csv'", ['nodir/t.csv', '&output', 'thermo_file',
+                                                                  'does not exist'])
+out_case('out_final_in_file', "final_atoms_file='afile/x'", ['afile/x', '&output', 'final_atoms_file'],
+         files={'afile': 'x'})
+out_case('out_thermo_locked', "thermo_every=5, thermo_file='thermo.csv', forces_file='forces.txt'",
+         ['&output', 'thermo_file', 'another terrace run'], hold_lock='.thermo.csv.terrace-lock')
+out_case('out_forces_locked', "thermo_every=5, thermo_file='thermo.csv', forces_file='forces.txt'",
+         ['&output', 'forces_file', 'another terrace run'], hold_lock='.forces.txt.terrace-lock')
+if os.geteuid() != 0:      # root writes read-only files anyway
+    out_case('out_final_readonly', "final_atoms_file='ro.atoms'", ['&output', 'final_atoms_file', 'read-only'],
+             files={'ro.atoms': 'old\n'}, modes={'ro.atoms': stat.S_IRUSR})
+    out_case('out_dir_readonly', "thermo_file='rodir/t.csv'", ['&output', 'thermo_file', 'cannot create a file'],
+             files={'rodir/keep': ''}, modes={'rodir': stat.S_IRUSR | stat.S_IXUSR})
+
+# ------------------------------------------------------------------ class 11: the smaller ones
+case('str_lattice_two_words', ['&system', 'lattice', 'not one word'],
+     groups=dict(LJ, system="lattice='fcc     bogus', density=0.8442, cells=3,3,3, mass=1.0"))
+case('str_units_two_words', ['&run', 'units', 'not one word'], groups=dict(LJ, run="units='lj   furlongs', n_steps=10"))
+case('str_style_two_words', ['&potential', 'style', 'not one word'],
+     groups=dict(LJ, potential="style='lj cut', epsilon=1.0, sigma=1.0, cutoff=2.5"))
+case('str_integrator_too_long', ['&integrator', 'style', 'not one word'],
+     groups=dict(LJ, integrator="style='velocity_verlet_with_a_very_long_name'"))
+case('str_list_two_words', ['&neighbor', 'list', 'not one word'], groups=dict(LJ, neighbor="list='cells auto'"))
+case('str_elements_long', ['&potential', 'elements', 'not one word'],
+     groups=dict(EAM, potential="style='eam/alloy', file='Cu.set', elements='Copper-alloy'"), files={'Cu.set': setfl()})
+
+# ------------------------------------------------------------------ files users have: paths
+case('rel_path_beside_deck', ['in.data', '&system', 'read_data', 'no such file', 'next to the deck'],
+     groups=dict(DATA), deck_name='sub/deck.nml', args='sub/deck.nml', files={'sub/in.data': data_file()})
+case('rel_path_missing', ['nothere.data', '&system', 'read_data', 'no such file', '/nothere.data'],
+     groups=dict(DATA, system="read_data='nothere.data'"))
+case('input_is_directory', ['adir', '&system', 'read_data', 'directory'],
+     groups=dict(DATA, system="read_data='adir'"), files={'adir/keep': ''})
+case('input_is_device', ['/dev/zero', '&system', 'atoms_file', 'not a regular file'],
+     groups=dict(ATOMS, system="atoms_file='/dev/zero', box_lo=0,0,0, box_hi=4,4,4, mass=1.0"))
+case('eam_file_missing_beside', ['Cu.set', '&potential', 'file', 'next to the deck'], groups=EAM,
+     deck_name='sub/deck.nml', args='sub/deck.nml', files={'sub/Cu.set': setfl()})
+
+with open(os.path.join(OUT, 'cases.txt'), 'w') as f:
+    f.write('# generated by generate_hostile.py: name | exit | arguments | substrings\n')
+    f.write('\n'.join(manifest) + '\n')
+print(len(manifest))

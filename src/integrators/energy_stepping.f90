@@ -509,54 +509,43 @@ contains
         logical, intent(in) :: saving
         type(es_stats_t), intent(inout) :: stats
         logical, intent(inout) :: ok
-        call xi('es_k', self%k)
-        call xr('es_lower', self%lower); call xr('es_upper', self%upper)
-        call xr('es_p0_f', self%p0(1)); call xr('es_p0_df', self%p0(2)); call xr('es_p0_d2f', self%p0(3))
-        call xl('es_have_c', self%have_c); call xl('es_have_guess', self%have_guess)
-        call xr('es_c_guess', self%c_guess)
-        call xr('es_trust', self%trust)
-        call xr('es_t_exp', self%t_exp)
-        call xi('es_n_sample', self%n_sample); call xr('es_t_next_sample', self%t_next_sample)
-        call xi('es_n_frame', self%n_frame); call xr('es_t_next_frame', self%t_next_frame)
-        call xi('es_last_events', self%last_events); call xi('es_last_evals', self%last_evals)
-        call xr('es_last_time', self%last_time)
-        call xi('es_events', stats%events); call xi('es_reflections', stats%reflections)
-        call xi('es_ups', stats%ups); call xi('es_downs', stats%downs)
-        call xi('es_ray_evals', stats%ray_evals); call xi('es_force_passes', stats%force_passes)
-        call xi('es_verify_misses', stats%verify_misses); call xi('es_rebuilds', stats%rebuilds)
-        call xr('es_tol', self%tol)
-        call xr('es_pe', self%pe); call xr('es_virial', self%virial)
-        call xr('es_ray_last_s', self%ray_last_s)
-        call xr('es_ray_last_v', self%ray_last_out(1)); call xr('es_ray_last_dv', self%ray_last_out(2))
-        call xr('es_ray_last_d2v', self%ray_last_out(3)); call xr('es_ray_last_w', self%ray_last_out(4))
+        call x1('es_k', self%k)
+        call x1('es_lower', self%lower); call x1('es_upper', self%upper)
+        call x1('es_p0_f', self%p0(1)); call x1('es_p0_df', self%p0(2)); call x1('es_p0_d2f', self%p0(3))
+        call x1('es_have_c', self%have_c); call x1('es_have_guess', self%have_guess)
+        call x1('es_c_guess', self%c_guess)
+        call x1('es_trust', self%trust)
+        call x1('es_t_exp', self%t_exp)
+        call x1('es_n_sample', self%n_sample); call x1('es_t_next_sample', self%t_next_sample)
+        call x1('es_n_frame', self%n_frame); call x1('es_t_next_frame', self%t_next_frame)
+        call x1('es_last_events', self%last_events); call x1('es_last_evals', self%last_evals)
+        call x1('es_last_time', self%last_time)
+        call x1('es_events', stats%events); call x1('es_reflections', stats%reflections)
+        call x1('es_ups', stats%ups); call x1('es_downs', stats%downs)
+        call x1('es_ray_evals', stats%ray_evals); call x1('es_force_passes', stats%force_passes)
+        call x1('es_verify_misses', stats%verify_misses); call x1('es_rebuilds', stats%rebuilds)
+        call x1('es_tol', self%tol)
+        call x1('es_pe', self%pe); call x1('es_virial', self%virial)
+        call x1('es_ray_last_s', self%ray_last_s)
+        call x1('es_ray_last_v', self%ray_last_out(1)); call x1('es_ray_last_dv', self%ray_last_out(2))
+        call x1('es_ray_last_d2v', self%ray_last_out(3)); call x1('es_ray_last_w', self%ray_last_out(4))
     contains
-        subroutine xr(name, x)
+        !> One named value, real, integer(i8) or logical: written when saving, else read.
+        subroutine x1(name, x)
             character(len=*), intent(in) :: name
-            real(dp), intent(inout) :: x
-            if (saving) then
-                call val%put_r(name, x)
-            else
-                x = val%get_r(name, ok)
-            end if
-        end subroutine xr
-        subroutine xi(name, x)
-            character(len=*), intent(in) :: name
-            integer(i8), intent(inout) :: x
-            if (saving) then
-                call val%put_i(name, x)
-            else
-                x = val%get_i(name, ok)
-            end if
-        end subroutine xi
-        subroutine xl(name, x)
-            character(len=*), intent(in) :: name
-            logical, intent(inout) :: x
-            if (saving) then
-                call val%put_l(name, x)
-            else
-                x = val%get_l(name, ok)
-            end if
-        end subroutine xl
+            class(*), intent(inout) :: x
+            select type (x)
+            type is (real(dp))
+                if (saving) call val%put_r(name, x)
+                if (.not. saving) x = val%get_r(name, ok)
+            type is (integer(i8))
+                if (saving) call val%put_i(name, x)
+                if (.not. saving) x = val%get_i(name, ok)
+            type is (logical)
+                if (saving) call val%put_l(name, x)
+                if (.not. saving) x = val%get_l(name, ok)
+            end select
+        end subroutine x1
     end subroutine es_state_exchange
 
 end module terrace_energy_stepping

@@ -8,7 +8,7 @@ module terrace_final_atoms
     use terrace_box, only: box_t
     use terrace_mpi_env, only: world
     use terrace_gather_by_id, only: gather_by_id
-    use terrace_file_ops, only: temporary_name, remove_at_exit, check_size
+    use terrace_checked_text, only: checked_text_t
     implicit none
     private
 
@@ -25,11 +25,10 @@ contains
         character(len=*), intent(out) :: msg
         real(dp), allocatable :: mine(:, :), all(:, :)
         integer(i8), allocatable :: ids(:)
-        integer :: n, i, unit, ios, d, k
-        integer(i8) :: bytes
+        integer :: n, i, d
+        type(checked_text_t) :: out
         character(len=256) :: line
         ok = .true.; msg = ''
-        bytes = 0; ios = 0
         n = atoms%nlocal
         allocate (mine(7, n))
         do i = 1, n
@@ -44,35 +43,17 @@ contains
         if (world%rank /= 0) return
         ! written under a temporary name, renamed over path when the run succeeds
         ! (terrace_output_files: commit_small_outputs); every write is checked (a full disk)
-        open (newunit=unit, file=temporary_name(path), status='replace', action='write', iostat=ios, iomsg=msg)
-        if (ios /= 0) then
-            ok = .false.; return
-        end if
-        call remove_at_exit(temporary_name(path))
+        call out%open(path, ok, msg)
+        if (.not. ok) return
         write (line, '(a,es24.16e3)') '# terrace final state at time ', time
-        call put(line)
-        call put('# type x y z vx vy vz   (one line per atom, in id order)')
+        call out%put(line, msg)
+        call out%put('# type x y z vx vy vz   (one line per atom, in id order)', msg)
         do i = 1, size(ids)
-            if (ios /= 0) exit
+            if (out%ios /= 0) exit
             write (line, '(i0,6(1x,es24.16e3))') nint(all(1, i)), all(2:7, i)
-            call put(line)
+            call out%put(line, msg)
         end do
-        if (ios == 0) then
-            ! closed in any case; a short file (full disk) is removed at exit
-            close (unit, iostat=ios, iomsg=msg)
-            if (ios == 0) call check_size(temporary_name(path), bytes, ok, msg)
-            if (ios == 0 .and. .not. ok) ios = -1
-        else
-            close (unit, status='delete', iostat=k)
-        end if
-        ok = ios == 0
-    contains
-        subroutine put(text)
-            character(len=*), intent(in) :: text
-            if (ios /= 0) return
-            write (unit, '(a)', iostat=ios, iomsg=msg) trim(text)
-            bytes = bytes + len_trim(text) + 1
-        end subroutine put
+        call out%close(ok, msg)
     end subroutine write_final_atoms
 
 end module terrace_final_atoms

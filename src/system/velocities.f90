@@ -11,7 +11,7 @@ module terrace_velocities
     implicit none
     private
 
-    public :: create_velocities, remove_drift, zero_angular_momentum, kinetic_energy, hash_uniform
+    public :: create_velocities, remove_drift, momentum_and_mass, zero_angular_momentum, kinetic_energy, hash_uniform
 
 contains
 
@@ -81,8 +81,9 @@ contains
         ke = 0.5_dp*units%mvv2e*ke
     end function kinetic_energy
 
-    subroutine remove_drift(atoms)
-        type(atoms_t), intent(inout) :: atoms
+    !> (total momentum, total mass) of all atoms on all ranks (collective).
+    function momentum_and_mass(atoms) result(p)
+        type(atoms_t), intent(in) :: atoms
         real(dp) :: p(4)
         integer :: i
         p = 0
@@ -91,6 +92,13 @@ contains
             p(4) = p(4) + atoms%mass(atoms%type(i))
         end do
         call sum_all(p)
+    end function momentum_and_mass
+
+    subroutine remove_drift(atoms)
+        type(atoms_t), intent(inout) :: atoms
+        real(dp) :: p(4)
+        integer :: i
+        p = momentum_and_mass(atoms)
         if (p(4) <= 0) return
         do i = 1, atoms%nlocal
             atoms%v(:, i) = atoms%v(:, i) - p(1:3)/p(4)

@@ -30,6 +30,7 @@
 module terrace_thermostat
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
+    use terrace_velocities, only: momentum_and_mass
     use terrace_mpi_env, only: sum_all
     use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, unit_from_word, box_muller, rng_blocks, &
                                    normals4_many, rng_batch, rng_key, rng_counter
@@ -411,12 +412,7 @@ contains
         type(atoms_t), intent(inout) :: atoms
         real(dp) :: p(4), vc(3)
         integer :: i
-        p = 0
-        do i = 1, atoms%nlocal
-            p(1:3) = p(1:3) + atoms%mass(atoms%type(i))*atoms%v(:, i)
-            p(4) = p(4) + atoms%mass(atoms%type(i))
-        end do
-        call sum_all(p)
+        p = momentum_and_mass(atoms)
         if (p(4) <= 0) return
         vc = p(1:3)/p(4)
         do i = 1, atoms%nlocal

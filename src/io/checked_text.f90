@@ -1,0 +1,61 @@
+!> A small text output written under a temporary name and checked line by line: gfortran does
+!> not report a full disk on write, flush or close, so the bytes written are counted and compared
+!> with the closed file's size. The file is renamed over its real name only when the run succeeds
+!> (terrace_output_files: commit_small_outputs); a failed or short file is removed at exit.
+module terrace_checked_text
+    use terrace_kinds, only: i8
+    use terrace_file_ops, only: temporary_name, remove_at_exit, check_size
+    implicit none
+    private
+
+    type, public :: checked_text_t
+        integer :: unit = -1, ios = 0
+        integer(i8) :: bytes = 0
+        character(len=:), allocatable :: tmp
+    contains
+        procedure :: open => checked_open
+        procedure :: put => checked_put
+        procedure :: close => checked_close
+    end type checked_text_t
+
+contains
+
+    subroutine checked_open(self, path, ok, msg)
+        class(checked_text_t), intent(inout) :: self
+        character(len=*), intent(in) :: path
+        logical, intent(out) :: ok
+        character(len=*), intent(inout) :: msg
+        self%tmp = temporary_name(path)
+        self%bytes = 0
+        open (newunit=self%unit, file=self%tmp, status='replace', action='write', iostat=self%ios, iomsg=msg)
+        ok = self%ios == 0
+        if (ok) call remove_at_exit(self%tmp)
+    end subroutine checked_open
+
+    !> One line (trailing blanks dropped); nothing more after the first failure.
+    subroutine checked_put(self, text, msg)
+        class(checked_text_t), intent(inout) :: self
+        character(len=*), intent(in) :: text
+        character(len=*), intent(inout) :: msg
+        if (self%ios /= 0) return
+        write (self%unit, '(a)', iostat=self%ios, iomsg=msg) trim(text)
+        self%bytes = self%bytes + len_trim(text) + 1
+    end subroutine checked_put
+
+    !> Close; ok when every line was written and the file holds all of them.
+    subroutine checked_close(self, ok, msg)
+        class(checked_text_t), intent(inout) :: self
+        logical, intent(out) :: ok
+        character(len=*), intent(inout) :: msg
+        integer :: k
+        if (self%ios == 0) then
+            close (self%unit, iostat=self%ios, iomsg=msg)
+            if (self%ios == 0) call check_size(self%tmp, self%bytes, ok, msg)
+            if (self%ios == 0 .and. .not. ok) self%ios = -1
+        else
+            close (self%unit, status='delete', iostat=k)
+        end if
+        ok = self%ios == 0
+    end subroutine checked_close
+
+end module terrace_checked_text

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Install what Terrace needs from Debian/Ubuntu packages. As root it installs the missing ones
-# (apt-get); otherwise it prints the exact command and exits 1. pFUnit is not a Debian package:
-# unit tests run when CMake finds it (e.g. -DCMAKE_PREFIX_PATH=/opt/pfunit), and are reported as
-# skipped otherwise.
+# (apt-get); otherwise it prints the exact command and exits 1. pFUnit is in no package registry:
+# CMake finds an installed one or builds it from $TERRACE_PFUNIT_SOURCE (tests/pfunit_from_source.cmake);
+# without either the unit tests are reported as skipped.
 set -euo pipefail
 packages=(
   gfortran cmake make pkg-config            # build

@@ -12,7 +12,7 @@ module terrace_analysis_config
     use terrace_kinds, only: dp, i8
     use terrace_namelist_text, only: namelist_file_t, parse_namelist_text, lower
     use terrace_errors, only: stop_all
-    use terrace_mpi_env, only: world, bcast_text
+    use terrace_files, only: read_input_text
     implicit none
     private
 
@@ -96,22 +96,11 @@ contains
         character(len=*), intent(in) :: path
         character(len=*), intent(in) :: flags(:)
         type(analysis_config_t), intent(out) :: cfg
-        character(len=:), allocatable :: text, status_text, flag_text
-        integer :: status
+        character(len=:), allocatable :: text, flag_text
 
         cfg%path = trim(path)
         if (len_trim(path) > 0) then
-            status_text = 'ok'
-            if (world%rank == 0) then
-                call slurp(trim(path), text, status)
-                if (status /= 0) then
-                    status_text = 'missing'; text = ''
-                end if
-            end if
-            call bcast_text(status_text)
-            if (status_text /= 'ok') call stop_all(trim(path)//': cannot open the input file (does it exist and is '// &
-                                                   'it readable?)')
-            call bcast_text(text)
+            call read_input_text(trim(path), text)
             call parse_namelist_text(text, trim(path), cfg%file_nml)
             if (len(cfg%file_nml%syntax_error) > 0) call stop_all(cfg%file_nml%syntax_error)
             call check_groups(cfg%file_nml)
@@ -352,19 +341,5 @@ contains
         f0 = cfg%first_frame - 1
         nsel = (last - cfg%first_frame)/stride + 1
     end subroutine frame_window
-
-    subroutine slurp(path, text, status)
-        character(len=*), intent(in) :: path
-        character(len=:), allocatable, intent(out) :: text
-        integer, intent(out) :: status
-        integer :: unit, n
-        open (newunit=unit, file=path, access='stream', form='unformatted', status='old', &
-              action='read', iostat=status)
-        if (status /= 0) return
-        inquire (unit=unit, size=n)
-        allocate (character(len=max(n, 0)) :: text)
-        if (n > 0) read (unit, iostat=status) text
-        close (unit)
-    end subroutine slurp
 
 end module terrace_analysis_config

@@ -17,7 +17,8 @@ module terrace_msd_diffusion
     use terrace_mpi_env, only: world, sum_all
     use terrace_errors, only: check_all
     use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window
-    use terrace_h5md_frames, only: h5md_trajectory_t, el_position, el_image, atom_block
+    use terrace_h5md_reader, only: h5md_trajectory_t, el_position, el_image
+    use terrace_id_blocks, only: id_block
     use terrace_fft_correlation, only: autocorrelation_t
     use terrace_analysis_csv, only: write_csv, unit_label
     use, intrinsic :: iso_fortran_env, only: output_unit
@@ -83,7 +84,8 @@ contains
         character(len=:), allocatable :: ll, tl, dl
 
         D = traj%dimension; nlag = plan%maxlag; B_ = plan%nblocks; n = int(plan%nsel); bl = plan%block_len
-        call atom_block(traj%natoms, world%nprocs, world%rank, a0, na)
+        call id_block(traj%natoms, world%nprocs, world%rank, a0, na)
+        a0 = a0 - 1          ! 0-based start of this rank's block
         allocate (x(D, max(na, 1_i8), n), edges(3, n))
         call traj%read_real(el_position, plan%f0, plan%nsel, plan%stride, a0, na, x)
         do t = 1, n

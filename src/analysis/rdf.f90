@@ -18,7 +18,8 @@ module terrace_rdf
     use terrace_mpi_env, only: world, sum_all
     use terrace_errors, only: check_all
     use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window
-    use terrace_h5md_frames, only: h5md_trajectory_t, el_position, atom_block
+    use terrace_h5md_reader, only: h5md_trajectory_t, el_position
+    use terrace_id_blocks, only: id_block
     use terrace_analysis_csv, only: write_csv, unit_label
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -159,7 +160,8 @@ contains
         D = traj%dimension; nb = cfg%rdf_bins
         dr = plan%r_max/nb
         ! this rank's contiguous block of the selected frames, read in batches of up to ~32 MiB
-        call atom_block(plan%nsel, world%nprocs, world%rank, k0, nk)
+        call id_block(plan%nsel, world%nprocs, world%rank, k0, nk)
+        k0 = k0 - 1          ! 0-based start of this rank's block
         batch = max(1_i8, min(nk, batch_values/(D*traj%natoms)))
         allocate (x(D, traj%natoms, batch), h(nb), hv(nb), cum(nb))
         hv = 0; cum = 0

@@ -14,7 +14,8 @@ module terrace_structure_factor
     use terrace_mpi_env, only: world, sum_all
     use terrace_errors, only: check_all
     use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window
-    use terrace_h5md_frames, only: h5md_trajectory_t, el_position, atom_block
+    use terrace_h5md_reader, only: h5md_trajectory_t, el_position
+    use terrace_id_blocks, only: id_block
     use terrace_analysis_csv, only: write_csv, unit_label
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -69,7 +70,8 @@ contains
         character(len=:), allocatable :: il
 
         D = traj%dimension; natoms = traj%natoms
-        call atom_block(plan%nsel, world%nprocs, world%rank, k0, nk)
+        call id_block(plan%nsel, world%nprocs, world%rank, k0, nk)
+        k0 = k0 - 1          ! 0-based start of this rank's block
         batch = max(1_i8, min(nk, batch_values/(D*natoms)))
         allocate (x(D, natoms, batch), ssum(plan%nbins), qsum(plan%nbins), cnt(plan%nbins), a1(natoms), a12(natoms))
         ssum = 0; qsum = 0; cnt = 0; frames_done = 0

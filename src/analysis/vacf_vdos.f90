@@ -20,7 +20,8 @@ module terrace_vacf_vdos
     use terrace_mpi_env, only: world
     use terrace_errors, only: check_all
     use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window
-    use terrace_h5md_frames, only: h5md_trajectory_t, el_velocity, atom_block
+    use terrace_h5md_reader, only: h5md_trajectory_t, el_velocity
+    use terrace_id_blocks, only: id_block
     use terrace_fft_correlation, only: autocorrelation_t, cosine_spectrum, next_power_of_two
     use terrace_analysis_csv, only: write_csv, unit_label
     use, intrinsic :: iso_fortran_env, only: output_unit
@@ -76,7 +77,8 @@ contains
         character(len=:), allocatable :: tl, fl
 
         M = plan%maxlag; D = traj%dimension; L = plan%length
-        call atom_block(traj%natoms, world%nprocs, world%rank, a0, na)
+        call id_block(traj%natoms, world%nprocs, world%rank, a0, na)
+        a0 = a0 - 1          ! 0-based start of this rank's block
         allocate (v(D, max(na, 1_i8), plan%nsel), series(plan%nsel), c(0:M), f(0:M), s(0:L/2))
         call traj%read_real(el_velocity, plan%f0, plan%nsel, plan%stride, a0, na, v)
         call ac%setup(int(plan%nsel))

@@ -7,6 +7,7 @@ program terrace
     use terrace_mpi_env, only: world, start_mpi, end_mpi, any_all
     use terrace_config, only: config_t, read_config
     use terrace_engine, only: engine_t
+    use terrace_scene_builder, only: scene_t, build_scene
     use terrace_thermo, only: thermo_writer_t
     use terrace_velocity_verlet, only: run_velocity_verlet
     use terrace_energy_stepping, only: run_energy_stepping, choose_terrace_height, print_es_estimates, es_stats_t, &
@@ -28,6 +29,7 @@ program terrace
 
     type(config_t) :: cfg
     type(engine_t) :: eng
+    type(scene_t) :: scene
     type(thermo_writer_t) :: thermo
     type(trajectory_t) :: traj
     integer(i8) :: traj_every
@@ -67,7 +69,8 @@ program terrace
 
     call read_config(path, cfg)
     if (.not. check_only) call ctl%init_signals(cfg)
-    call eng%setup(cfg)
+    call build_scene(cfg, scene)
+    call eng%setup(cfg, scene)
     if (world%rank == 0) call eng%plan%print(output_unit)
 
     if (cfg%integrator == 'energy_stepping') then

@@ -8,9 +8,10 @@ program terrace_analyze
     use terrace_kinds, only: dp
     use terrace_mpi_env, only: world, start_mpi, end_mpi
     use terrace_errors, only: stop_all
+    use terrace_files, only: peak_memory_kib
     use terrace_version, only: terrace_version_string
     use terrace_analysis_config, only: analysis_config_t, read_analysis_config
-    use terrace_h5md_frames, only: h5md_trajectory_t
+    use terrace_h5md_reader, only: h5md_trajectory_t
     use terrace_vacf_vdos, only: vdos_plan_t, plan_vdos, run_vdos
     use terrace_rdf, only: rdf_plan_t, plan_rdf, run_rdf
     use terrace_msd_diffusion, only: msd_plan_t, plan_msd, run_msd
@@ -89,28 +90,10 @@ program terrace_analyze
     if (cfg%sq) call run_sq(traj, cfg, sq)
     call traj%close()
     if (world%rank == 0) write (output_unit, '(a,f0.3,a,i0,a)') 'Analysis time: ', MPI_Wtime() - t0, ' s; peak memory ', &
-        peak_rss_kib(), ' KiB (rank 0)'
+        peak_memory_kib(), ' KiB (rank 0)'
     call end_mpi()
 
 contains
-
-    !> VmHWM of this process from /proc/self/status (0 where unavailable).
-    integer function peak_rss_kib() result(kib)
-        integer :: unit, ios
-        character(len=256) :: line
-        kib = 0
-        open (newunit=unit, file='/proc/self/status', action='read', iostat=ios)
-        if (ios /= 0) return
-        do
-            read (unit, '(a)', iostat=ios) line
-            if (ios /= 0) exit
-            if (line(1:6) == 'VmHWM:') then
-                read (line(7:), *, iostat=ios) kib
-                exit
-            end if
-        end do
-        close (unit)
-    end function peak_rss_kib
 
     subroutine print_help()
         write (output_unit, '(a)') 'usage: terrace-analyze ANALYSIS.nml [--KEY=VALUE ...]', &

@@ -4,6 +4,7 @@ module terrace_atoms_file
     use terrace_kinds, only: dp, i8
     use terrace_atom_table, only: atom_table_t
     use terrace_text, only: count_tokens
+    use terrace_grow, only: grow_keep
     implicit none
     private
 
@@ -44,7 +45,9 @@ contains
                 t%error = path//':'//trim(ln)//': &system: atoms_file: bad atom line (expected: type x y z [vx vy vz], type >= 1)'
                 close (unit); return
             end if
-            if (n == size(types)) call grow(x, v, types)
+            if (n == size(types)) then
+                call grow_keep(x, n, 2*n); call grow_keep(v, n, 2*n); call grow_keep(types, n, 2*n)
+            end if
             n = n + 1
             types(n) = ty; x(:, n) = vals(1:3); v(:, n) = vals(4:6)
             if (ntok == 7) nvel = nvel + 1
@@ -67,17 +70,5 @@ contains
             t%error = path//': &system: atoms_file: either every atom line gives velocities or none does'
         end if
     end subroutine read_atoms_file
-
-    subroutine grow(x, v, types)
-        real(dp), allocatable, intent(inout) :: x(:, :), v(:, :)
-        integer, allocatable, intent(inout) :: types(:)
-        real(dp), allocatable :: r(:, :)
-        integer, allocatable :: k(:)
-        integer :: n
-        n = size(types)
-        allocate (r(3, 2*n)); r(:, 1:n) = x; call move_alloc(r, x)
-        allocate (r(3, 2*n)); r(:, 1:n) = v; call move_alloc(r, v)
-        allocate (k(2*n)); k(1:n) = types; call move_alloc(k, types)
-    end subroutine grow
 
 end module terrace_atoms_file

@@ -15,7 +15,7 @@ module terrace_config
     use terrace_units, only: units_t, make_units, unit_names_allowed
     use terrace_namelist_text, only: namelist_file_t, parse_namelist_text, lower
     use terrace_errors, only: stop_all
-    use terrace_mpi_env, only: world, bcast_text
+    use terrace_files, only: read_input_text
     implicit none
     private
 
@@ -114,21 +114,10 @@ contains
         character(len=*), intent(in) :: path
         type(config_t), intent(out) :: cfg
         character(len=:), allocatable :: text
-        integer :: status, i
-        character(len=:), allocatable :: status_text
+        integer :: i
 
         cfg%path = path
-        status_text = 'ok'
-        if (world%rank == 0) then
-            call slurp(path, text, status)
-            if (status /= 0) then
-                status_text = 'missing'
-                text = ''
-            end if
-        end if
-        call bcast_text(status_text)
-        if (status_text /= 'ok') call stop_all(path//': cannot open the input file (does it exist and is it readable?)')
-        call bcast_text(text)
+        call read_input_text(path, text)
         if (len_trim(text) == 0) call stop_all(path//': the input file is empty (expected namelist groups &run, &system, ...)')
 
         call parse_namelist_text(text, path, cfg%nml)
@@ -162,20 +151,6 @@ contains
         write (ln, '(i0)') line
         s = cfg%path//':'//trim(ln)//': '
     end function line_prefix
-
-    subroutine slurp(path, text, status)
-        character(len=*), intent(in) :: path
-        character(len=:), allocatable, intent(out) :: text
-        integer, intent(out) :: status
-        integer :: unit, n
-        open (newunit=unit, file=path, access='stream', form='unformatted', status='old', &
-              action='read', iostat=status)
-        if (status /= 0) return
-        inquire (unit=unit, size=n)
-        allocate (character(len=max(n, 0)) :: text)
-        if (n > 0) read (unit, iostat=status) text
-        close (unit)
-    end subroutine slurp
 
     !> Key k must be one of `allowed` ("name:type" entries); returns the type description.
     function check_key(cfg, k, allowed) result(kind)

@@ -30,7 +30,8 @@ module terrace_energy_stepping
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
     use terrace_event_solver, only: ray_t, event_solver_t, crossing_t, level_upper, level_lower
-    use terrace_thermo, only: thermo_writer_t, thermo_sample_t
+    use terrace_thermo, only: thermo_writer_t
+    use terrace_observables, only: thermo_sample_t
     use terrace_trajectory, only: trajectory_t
     use terrace_timers, only: t_output
     use terrace_mpi_env, only: world, sum_all, min_all
@@ -146,13 +147,14 @@ contains
     subroutine print_es_estimates(eng, h)
         type(engine_t), intent(inout) :: eng
         real(dp), intent(in) :: h
-        real(dp) :: sigma2, a, b, mean_dt, refl, tau, dt_vv, sig, eps, m, ray(4), omega2
+        real(dp) :: sigma2, a, b, mean_dt, refl, tau, dt_vv, ray(4), omega2
         real(dp), parameter :: pi = 4*atan(1.0_dp)
         character(len=:), allocatable :: how
         call gradient_sums(eng, sigma2, a, b)
         sigma2 = crossing_sigma2(eng)
-        if (eng%use_eam) then
-            ! no LJ time unit: 1/50 of the mean vibration period 2 pi / omega, omega^2 = v.H.v / v.M.v
+        tau = eng%pot%time_scale(eng%atoms%mass(1), eng%cfg%units%mvv2e)
+        if (.not. (tau > 0)) then
+            ! no natural time unit: 1/50 of the mean vibration period 2 pi / omega, omega^2 = v.H.v / v.M.v
             ! (a Rayleigh quotient over the thermal velocities; LJ's 0.005 tau is about the same fraction)
             call eng%ray_pass(0.0_dp, ray)
             omega2 = ray(3)/max(2*kinetic_energy(eng%atoms, eng%cfg%units), tiny(1.0_dp))
@@ -162,15 +164,11 @@ contains
         if (sigma2 > 0) mean_dt = h/(sqrt(2/pi)*sqrt(sigma2))
         refl = 0
         if (sigma2 > 0) refl = 1 - exp(-h*a/(eng%cfg%units%mvv2e**2*sigma2))
-        if (eng%use_eam) then
+        if (.not. (tau > 0)) then
             dt_vv = huge(1.0_dp)
             if (omega2 > 0) dt_vv = 2*pi/sqrt(omega2)/50
             how = ' (period/50)'
         else
-            eps = eng%lj%lj4(1, 1)**2/(4*eng%lj%lj3(1, 1))
-            sig = (eng%lj%lj3(1, 1)/eng%lj%lj4(1, 1))**(1.0_dp/6)
-            m = eng%atoms%mass(1)
-            tau = sig*sqrt(m*eng%cfg%units%mvv2e/eps)
             dt_vv = 0.005_dp*tau
             how = ' (0.005 tau)'
         end if

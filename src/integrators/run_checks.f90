@@ -8,7 +8,7 @@
 !> The sample values are global sums (the same on every rank); the checks are still collective.
 module terrace_run_checks
     use terrace_kinds, only: dp
-    use terrace_thermo, only: thermo_sample_t
+    use terrace_observables, only: thermo_sample_t
     use terrace_errors, only: check_all
     implicit none
     private

@@ -12,7 +12,8 @@
 module terrace_velocity_verlet
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
-    use terrace_thermo, only: thermo_writer_t, thermo_sample_t
+    use terrace_thermo, only: thermo_writer_t
+    use terrace_observables, only: thermo_sample_t
     use terrace_trajectory, only: trajectory_t
     use terrace_scene_plan, only: pair_cells
     use terrace_timers, only: t_output

@@ -25,8 +25,14 @@ module terrace_checkpoint
     use terrace_mpi_env, only: world, any_all
     use terrace_id_blocks, only: to_id_blocks
     use terrace_namelist_text, only: namelist_file_t
-    use mpi_f08, only: MPI_INFO_NULL, MPI_Barrier
-    use hdf5
+    use terrace_hdf5_io, only: h5_status_t, h5_open_file, h5_create, h5_read, h5_transfer_list, h5_make_fixed, &
+                               h5_write_slab, h5_dataset_rank, h5_dataset_dims, h5_read_whole, h5_attr_text, &
+                               h5_attr_scalar, h5_read_attr_scalar, h5_read_attr_string
+    use mpi_f08, only: MPI_Barrier
+    use hdf5, only: hid_t, hsize_t, size_t, h5gcreate_f, h5gclose_f, h5gopen_f, h5dopen_f, h5dclose_f, h5fclose_f, &
+                    h5pclose_f, h5aget_num_attrs_f, h5aopen_by_idx_f, h5aget_name_f, h5aget_type_f, h5tget_class_f, &
+                    h5aread_f, h5tclose_f, h5aclose_f, h5kind_to_type, H5_INTEGER_KIND, H5_INDEX_NAME_F, &
+                    H5_ITER_INC_F, H5T_INTEGER_F, H5T_NATIVE_DOUBLE, H5T_STD_I64LE, H5T_STD_I32LE, H5T_IEEE_F64LE
     implicit none
     private
 
@@ -230,10 +236,11 @@ contains
         character(len=*), intent(out) :: msg
         real(dp), allocatable :: mine(:, :), block(:, :)
         integer(i8) :: first, count
-        integer(hid_t) :: fapl, dxpl, file, g, gs
+        integer(hid_t) :: dxpl, file, g, gs
         integer :: err, n, i, k
         logical :: good, failed
         character(len=:), allocatable :: tmp
+        type(h5_status_t) :: st
 
         ok = .true.; msg = ''
         tmp = path//'.tmp'
@@ -253,39 +260,29 @@ contains
             ok = .false.; msg = 'checkpoint: the atom ids are not 1..N over the ranks'; return
         end if
 
-        good = .true.
-        call h5open_f(err); call chk(err)
-        call h5eset_auto_f(0, err)
-        call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err); call chk(err)
-        call h5pset_fapl_mpio_f(fapl, world%comm%MPI_VAL, MPI_INFO_NULL%MPI_VAL, err); call chk(err)
-        call h5pset_libver_bounds_f(fapl, H5F_LIBVER_V18_F, H5F_LIBVER_V18_F, err)
-        call h5fcreate_f(tmp, H5F_ACC_TRUNC_F, file, err, access_prp=fapl); call chk(err)
-        call h5pclose_f(fapl, err)
-        failed = .not. good
+        call h5_open_file(st, tmp, h5_create, file, world%comm)
+        failed = .not. st%ok .or. file < 0
         call any_all(failed)
         if (failed) then
             ok = .false.; msg = 'checkpoint: cannot create '//tmp; return
         end if
-        call h5pcreate_f(H5P_DATASET_XFER_F, dxpl, err); call chk(err)
-        call h5pset_dxpl_mpio_f(dxpl, H5FD_MPIO_COLLECTIVE_F, err); call chk(err)
+        call h5_transfer_list(st, .true., dxpl)
 
-        call put_text(file, 'format', format_name)
-        call put_int(file, 'format_version', int(format_version, i8))
-        call put_text(file, 'terrace_version', version)
-        call put_text(file, 'deck', deck)
-        call put_int(file, 'deck_hash', hash)
-        call put_text(file, 'integrator', integrator)
-        call put_int(file, 'natoms', natoms)
-        call put_int(file, 'nprocs', int(world%nprocs, i8))
-        call put_int(file, 'dimension', int(dimension, i8))
+        call h5_attr_text(st, file, 'format', format_name)
+        call h5_attr_scalar(st, file, 'format_version', int(format_version, i8))
+        call h5_attr_text(st, file, 'terrace_version', version)
+        call h5_attr_text(st, file, 'deck', deck)
+        call h5_attr_scalar(st, file, 'deck_hash', hash)
+        call h5_attr_text(st, file, 'integrator', integrator)
+        call h5_attr_scalar(st, file, 'natoms', natoms)
+        call h5_attr_scalar(st, file, 'nprocs', int(world%nprocs, i8))
+        call h5_attr_scalar(st, file, 'dimension', int(dimension, i8))
 
-        call h5gcreate_f(file, 'atoms', g, err); call chk(err)
+        call h5gcreate_f(file, 'atoms', g, err); call st%check(err, 'create atoms')
         block
             integer(i8), allocatable, target :: ids(:), slots(:, :)
             integer(int32), allocatable, target :: types(:), images(:, :)
             real(dp), allocatable, target :: r3(:, :)
-            integer(hsize_t) :: c, f0
-            c = int(count, hsize_t); f0 = int(first - 1, hsize_t)
             allocate (ids(max(count, 1_i8)), slots(2, max(count, 1_i8)), types(max(count, 1_i8)), &
                       images(3, max(count, 1_i8)), r3(3, max(count, 1_i8)))
             do k = 1, int(count)
@@ -307,19 +304,19 @@ contains
         end block
         call h5gclose_f(g, err)
 
-        call h5gcreate_f(file, 'state', gs, err); call chk(err)
+        call h5gcreate_f(file, 'state', gs, err); call st%check(err, 'create state')
         do k = 1, values%n
             if (values%is_int(k)) then
-                call put_int(gs, trim(values%names(k)), values%ival(k))
+                call h5_attr_scalar(st, gs, trim(values%names(k)), values%ival(k))
             else
-                call put_real(gs, trim(values%names(k)), values%rval(k))
+                call h5_attr_scalar(st, gs, trim(values%names(k)), values%rval(k))
             end if
         end do
         call h5gclose_f(gs, err)
         call h5pclose_f(dxpl, err)
-        call h5fclose_f(file, err); call chk(err)
+        call h5fclose_f(file, err); call st%check(err, 'H5Fclose')
 
-        failed = .not. good
+        failed = .not. st%ok
         call any_all(failed)
         if (failed) then
             ok = .false.; msg = 'checkpoint: HDF5 failed while writing '//tmp; return
@@ -335,92 +332,24 @@ contains
 
     contains
 
-        subroutine chk(e)
-            integer, intent(in) :: e
-            if (e < 0) good = .false.
-        end subroutine chk
-
-        !> Dataset name of shape [N] (inner = 0) or [N][inner], this rank's block of rows.
+        !> Dataset name of shape [N] (inner = 0) or [N][inner]; this rank writes its block of rows.
         subroutine put_rows(loc, name, ftype, mtype, inner, buf)
             integer(hid_t), intent(in) :: loc, ftype, mtype
             character(len=*), intent(in) :: name
             integer, intent(in) :: inner
             type(c_ptr), intent(in) :: buf
-            integer(hid_t) :: d, fsp, msp
-            integer(hsize_t) :: dims(2), start(2), cnt(2)
-            integer :: rank
+            integer(hid_t) :: d
+            integer(hsize_t) :: nn, f0, c
+            nn = int(natoms, hsize_t); f0 = int(first - 1, hsize_t); c = int(count, hsize_t)
             if (inner == 0) then
-                rank = 1; dims(1) = int(natoms, hsize_t)
-                start(1) = int(first - 1, hsize_t); cnt(1) = int(count, hsize_t)
+                call h5_make_fixed(st, loc, name, ftype, [nn], d)
+                call h5_write_slab(st, d, mtype, buf, [f0], [c], count > 0, dxpl)
             else
-                rank = 2; dims = [int(inner, hsize_t), int(natoms, hsize_t)]
-                start = [0_hsize_t, int(first - 1, hsize_t)]; cnt = [int(inner, hsize_t), int(count, hsize_t)]
+                call h5_make_fixed(st, loc, name, ftype, [int(inner, hsize_t), nn], d)
+                call h5_write_slab(st, d, mtype, buf, [0_hsize_t, f0], [int(inner, hsize_t), c], count > 0, dxpl)
             end if
-            call h5screate_simple_f(rank, dims(1:rank), fsp, err); call chk(err)
-            call h5dcreate_f(loc, name, ftype, fsp, d, err); call chk(err)
-            if (count > 0) then
-                call h5screate_simple_f(rank, cnt(1:rank), msp, err)
-                call h5sselect_hyperslab_f(fsp, H5S_SELECT_SET_F, start(1:rank), cnt(1:rank), err); call chk(err)
-            else
-                call h5screate_simple_f(rank, [(1_hsize_t, i=1, rank)], msp, err)
-                call h5sselect_none_f(msp, err)
-                call h5sselect_none_f(fsp, err)
-            end if
-            call h5dwrite_f(d, mtype, buf, err, mem_space_id=msp, file_space_id=fsp, xfer_prp=dxpl); call chk(err)
-            call h5sclose_f(msp, err)
-            call h5sclose_f(fsp, err)
             call h5dclose_f(d, err)
         end subroutine put_rows
-
-        subroutine put_int(loc, name, v)
-            integer(hid_t), intent(in) :: loc
-            character(len=*), intent(in) :: name
-            integer(i8), intent(in) :: v
-            integer(i8), target :: buf
-            integer(hid_t) :: sp, a
-            buf = v
-            call h5screate_f(H5S_SCALAR_F, sp, err)
-            call h5acreate_f(loc, name, H5T_STD_I64LE, sp, a, err); call chk(err)
-            call h5awrite_f(a, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(buf), err); call chk(err)
-            call h5aclose_f(a, err)
-            call h5sclose_f(sp, err)
-        end subroutine put_int
-
-        subroutine put_real(loc, name, v)
-            integer(hid_t), intent(in) :: loc
-            character(len=*), intent(in) :: name
-            real(dp), intent(in) :: v
-            real(dp), target :: buf
-            integer(hid_t) :: sp, a
-            buf = v
-            call h5screate_f(H5S_SCALAR_F, sp, err)
-            call h5acreate_f(loc, name, H5T_IEEE_F64LE, sp, a, err); call chk(err)
-            call h5awrite_f(a, H5T_NATIVE_DOUBLE, c_loc(buf), err); call chk(err)
-            call h5aclose_f(a, err)
-            call h5sclose_f(sp, err)
-        end subroutine put_real
-
-        subroutine put_text(loc, name, s)
-            integer(hid_t), intent(in) :: loc
-            character(len=*), intent(in) :: name, s
-            character(kind=c_char), allocatable, target :: buf(:)
-            integer(hid_t) :: sp, a, t
-            integer :: j
-            allocate (buf(max(len(s), 1)))
-            buf = c_null_char
-            do j = 1, len(s)
-                buf(j) = s(j:j)
-            end do
-            call h5tcopy_f(H5T_C_S1, t, err)
-            call h5tset_size_f(t, int(size(buf), size_t), err)
-            call h5tset_strpad_f(t, H5T_STR_NULLPAD_F, err)
-            call h5screate_f(H5S_SCALAR_F, sp, err)
-            call h5acreate_f(loc, name, t, sp, a, err); call chk(err)
-            call h5awrite_f(a, t, c_loc(buf), err); call chk(err)
-            call h5aclose_f(a, err)
-            call h5sclose_f(sp, err)
-            call h5tclose_f(t, err)
-        end subroutine put_text
 
     end subroutine write_checkpoint
 
@@ -435,39 +364,38 @@ contains
         character(len=*), intent(out) :: msg
         integer(hid_t) :: file, g, a, t
         integer :: err, k, na, cls
-        logical :: exists, good, failed
+        logical :: exists, failed
         integer(i8), target :: ibuf
         real(dp), target :: rbuf
         character(len=64) :: name, fmt
         integer(size_t) :: nlen
         type(c_ptr) :: pbuf
+        type(h5_status_t) :: st
+        integer(i8) :: v
 
         ok = .true.; msg = ''
-        good = .true.
+        v = 0
         inquire (file=path, exist=exists)
         if (.not. exists) then
             ok = .false.; msg = 'no such file'
             call agree_fail(); return
         end if
-        call h5open_f(err)
-        call h5eset_auto_f(0, err)
-        call h5fopen_f(path, H5F_ACC_RDONLY_F, file, err)
-        if (err < 0) then
+        call h5_open_file(st, path, h5_read, file)
+        if (file < 0) then
             ok = .false.; msg = 'not an HDF5 file (damaged or not a checkpoint)'
             call agree_fail(); return
         end if
-        fmt = ''
-        call get_text(file, 'format', fmt)
+        call h5_read_attr_string(file, 'format', fmt)
         if (fmt /= format_name) then
             ok = .false.; msg = 'not a Terrace checkpoint (no format = '''//format_name//''' attribute)'
             call h5fclose_f(file, err)
             call agree_fail(); return
         end if
-        data%natoms = get_int(file, 'natoms')
-        data%nprocs = int(get_int(file, 'nprocs'))
-        data%dimension = int(get_int(file, 'dimension'))
-        data%deck_hash = get_int(file, 'deck_hash')
-        if (good .and. data%natoms > 0) then
+        call h5_read_attr_scalar(st, file, 'natoms', data%natoms)
+        call h5_read_attr_scalar(st, file, 'nprocs', v); data%nprocs = int(v)
+        call h5_read_attr_scalar(st, file, 'dimension', v); data%dimension = int(v)
+        call h5_read_attr_scalar(st, file, 'deck_hash', data%deck_hash)
+        if (st%ok .and. data%natoms > 0) then
             block
                 integer(i8), allocatable, target :: ids(:), slots(:, :)
                 integer(int32), allocatable, target :: types(:), images(:, :)
@@ -485,18 +413,16 @@ contains
                 call get_rows('atoms/force', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], c_loc(r3)); data%f = r3
             end block
         else
-            good = .false.
+            call st%fail('natoms')
         end if
         ! the named values of /state
-        call h5gopen_f(file, 'state', g, err)
-        if (err < 0) good = .false.
-        if (good) then
+        call h5gopen_f(file, 'state', g, err); call st%check(err, 'open state')
+        if (st%ok) then
             call h5aget_num_attrs_f(g, na, err)
             do k = 0, na - 1
                 call h5aopen_by_idx_f(g, '.', H5_INDEX_NAME_F, H5_ITER_INC_F, int(k, hsize_t), a, err)
-                if (err < 0) then
-                    good = .false.; exit
-                end if
+                call st%check(err, 'open a state attribute')
+                if (err < 0) exit
                 nlen = len(name)
                 name = ''
                 call h5aget_name_f(a, nlen, name, err)
@@ -511,14 +437,14 @@ contains
                     call h5aread_f(a, H5T_NATIVE_DOUBLE, pbuf, err)
                     call data%values%put_r(trim(name), rbuf)
                 end if
-                if (err < 0) good = .false.
+                call st%check(err, 'read a state attribute')
                 call h5tclose_f(t, err)
                 call h5aclose_f(a, err)
             end do
             call h5gclose_f(g, err)
         end if
         call h5fclose_f(file, err)
-        if (.not. good) then
+        if (.not. st%ok) then
             ok = .false.; msg = 'damaged checkpoint (a dataset or attribute is missing or unreadable)'
         end if
         call agree_fail()
@@ -533,86 +459,22 @@ contains
             end if
         end subroutine agree_fail
 
-        integer(i8) function get_int(loc, aname) result(v)
-            integer(hid_t), intent(in) :: loc
-            character(len=*), intent(in) :: aname
-            integer(hid_t) :: at
-            integer(i8), target :: b
-            integer :: e
-            type(c_ptr) :: pp
-            v = 0
-            call h5aopen_f(loc, aname, at, e)
-            if (e < 0) then
-                good = .false.; return
-            end if
-            pp = c_loc(b)
-            call h5aread_f(at, h5kind_to_type(i8, H5_INTEGER_KIND), pp, e)
-            if (e < 0) good = .false.
-            v = b
-            call h5aclose_f(at, e)
-        end function get_int
-
-        subroutine get_text(loc, aname, s)
-            integer(hid_t), intent(in) :: loc
-            character(len=*), intent(in) :: aname
-            character(len=*), intent(out) :: s
-            integer(hid_t) :: at, tt, mt
-            integer(size_t) :: sz
-            type(c_ptr) :: pp
-            character(kind=c_char), allocatable, target :: b(:)
-            integer :: e, j
-            s = ''
-            call h5aopen_f(loc, aname, at, e)
-            if (e < 0) return
-            call h5aget_type_f(at, tt, e)
-            call h5tget_size_f(tt, sz, e)
-            if (e >= 0 .and. sz > 0 .and. sz < 4096) then
-                allocate (b(sz))
-                call h5tcopy_f(H5T_C_S1, mt, e)
-                call h5tset_size_f(mt, sz, e)
-                call h5tset_strpad_f(mt, H5T_STR_NULLPAD_F, e)
-                pp = c_loc(b)
-                call h5aread_f(at, mt, pp, e)
-                if (e >= 0) then
-                    do j = 1, min(int(sz), len(s))
-                        if (b(j) == c_null_char) exit
-                        s(j:j) = b(j)
-                    end do
-                end if
-                call h5tclose_f(mt, e)
-            end if
-            call h5tclose_f(tt, e)
-            call h5aclose_f(at, e)
-        end subroutine get_text
-
+        !> The whole dataset dname, which must have the Fortran shape dims.
         subroutine get_rows(dname, mtype, dims, buf)
             character(len=*), intent(in) :: dname
             integer(hid_t), intent(in) :: mtype
             integer(hsize_t), intent(in) :: dims(:)
             type(c_ptr), intent(in) :: buf
-            integer(hid_t) :: d, sp
-            integer(hsize_t) :: fd(2), fm(2)
-            integer :: e, rk
-            type(c_ptr) :: p
-            if (.not. good) return
-            call h5dopen_f(file, dname, d, e)
-            if (e < 0) then
-                good = .false.; return
-            end if
-            call h5dget_space_f(d, sp, e)
-            call h5sget_simple_extent_ndims_f(sp, rk, e)
-            if (rk /= size(dims)) then
-                good = .false.
-            else
-                call h5sget_simple_extent_dims_f(sp, fd(1:rk), fm(1:rk), e)
-                if (any(fd(1:rk) /= dims)) good = .false.
-            end if
-            call h5sclose_f(sp, e)
-            if (good) then
-                p = buf
-                call h5dread_f(d, mtype, p, e)
-                if (e < 0) good = .false.
-            end if
+            integer(hid_t) :: d
+            integer(hsize_t) :: fd(size(dims))
+            integer :: e
+            if (.not. st%ok) return
+            call h5dopen_f(file, dname, d, e); call st%check(e, 'open '//dname)
+            if (e < 0) return
+            if (h5_dataset_rank(d) /= size(dims)) call st%fail(dname//' has the wrong rank')
+            if (st%ok) call h5_dataset_dims(st, d, fd)
+            if (st%ok .and. any(fd /= dims)) call st%fail(dname//' has the wrong shape')
+            if (st%ok) call h5_read_whole(st, d, mtype, buf, dname)
             call h5dclose_f(d, e)
         end subroutine get_rows
 

@@ -25,8 +25,8 @@
 !>
 !> The box does not change during a run, but edges is written as a time-dependent element (one
 !> row per frame) because readers such as MDAnalysis read box/edges/value[frame] unconditionally;
-!> h5md_read_frame accepts both forms (a fixed edges dataset, as earlier Terrace files have, or
-!> the time-dependent group).
+!> the reader (h5md_reader.f90) accepts both forms (a fixed edges dataset, as earlier Terrace
+!> files have, or the time-dependent group).
 !>
 !> Atoms are stored in global id order (row id - 1) on any number of ranks: write_frame sends every
 !> atom to the rank that owns its id in a block distribution of 1..N (one MPI_Alltoallv; nothing is
@@ -38,21 +38,29 @@
 !> spelling MDAnalysis reads) and '' everywhere for reduced (lj) units.
 !>
 !> Every procedure is collective over the writer's communicator and returns errors as ok/msg (the
-!> same ok on every rank); HDF5's own error printing is switched off.
+!> same ok on every rank); the HDF5 calls go through terrace_hdf5_io.
 module terrace_h5md
-    use, intrinsic :: iso_c_binding, only: c_ptr, c_loc, c_char, c_null_char
-    use, intrinsic :: iso_fortran_env, only: int32
+    use, intrinsic :: iso_c_binding, only: c_loc
     use terrace_kinds, only: dp, i8
-    use terrace_id_blocks, only: id_block, id_block_owner
+    use terrace_id_blocks, only: id_block, exchange_plan
+    use terrace_hdf5_io, only: h5_status_t, h5_library, h5_agree, h5_open_file, h5_create, h5_append, &
+                               h5_transfer_list, h5_make_fixed, h5_make_series, h5_extend, h5_dataset_dims, &
+                               h5_write_slab, h5_read_slab, h5_attr_int, h5_attr_text, h5_attr_text_list, &
+                               h5_attr_vltext
+    use terrace_h5md_reader, only: h5md_read_frame
     use mpi_f08, only: MPI_Comm, MPI_Comm_dup, MPI_Comm_free, MPI_Comm_rank, MPI_Comm_size, &
-                       MPI_Allreduce, MPI_Alltoall, MPI_Alltoallv, MPI_Bcast, MPI_IN_PLACE, MPI_LOGICAL, &
-                       MPI_LOR, MPI_MIN, MPI_SUM, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION, &
-                       MPI_CHARACTER, MPI_INFO_NULL, MPI_Wtime
-    use hdf5
+                       MPI_Allreduce, MPI_Alltoallv, MPI_Bcast, MPI_IN_PLACE, MPI_LOGICAL, &
+                       MPI_LOR, MPI_SUM, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION, &
+                       MPI_CHARACTER, MPI_Wtime
+    use hdf5, only: hid_t, hsize_t, h5gcreate_f, h5gclose_f, h5gopen_f, h5dopen_f, h5dclose_f, h5fclose_f, &
+                    h5fflush_f, h5lexists_f, h5lcreate_hard_f, h5gn_members_f, h5gget_obj_info_idx_f, h5pclose_f, &
+                    h5kind_to_type, H5_INTEGER_KIND, H5F_SCOPE_GLOBAL_F, H5T_NATIVE_DOUBLE, H5T_NATIVE_INTEGER, &
+                    H5T_STD_I64LE, H5T_STD_I32LE, H5T_IEEE_F64LE
     implicit none
     private
 
-    public :: h5md_writer_t, h5md_read_frame
+    public :: h5md_writer_t
+    public :: h5md_read_frame   ! the reader's, named here for the callers of the writer's module
 
     integer, parameter :: nel = 4                       !< time-dependent particle elements
     integer, parameter :: e_pos = 1, e_vel = 2, e_force = 3, e_image = 4
@@ -60,17 +68,8 @@ module terrace_h5md
     character(len=*), parameter :: pgroup = '/particles/all'
     integer(hsize_t), parameter :: chunk_bytes = 1048576   !< largest chunk of the per-atom series (one frame)
     integer(hsize_t), parameter :: small_chunk_bytes = 65536 !< several frames of a small system per chunk
-    integer(hsize_t), parameter :: chunk_scalar = 512      !< chunk of step / time / observables
+    integer(hsize_t), parameter :: chunk_scalar = 512      !< chunk of the edges series
 
-    !> Error state of a sequence of HDF5 calls: the first failure is kept, later calls still run
-    !> (so that every rank makes the same collective calls) and fail harmlessly.
-    type :: status_t
-        logical :: ok = .true.
-        character(len=256) :: msg = ''
-    contains
-        procedure :: check => status_check
-        procedure :: fail => status_fail
-    end type status_t
 
     !> write_frame's work arrays, kept from frame to frame: for a large system, allocating and
     !> first-touching them anew at every frame cost about as much as the HDF5 write itself.
@@ -127,7 +126,6 @@ module terrace_h5md
         procedure :: frames_written => writer_frames_written
     end type h5md_writer_t
 
-    logical, save :: library_open = .false.
 
 contains
 
@@ -154,8 +152,8 @@ contains
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
         character(len=*), intent(in), optional :: author
-        type(status_t) :: st
-        integer(hid_t) :: fapl, g, gp, gbox, gel
+        type(h5_status_t) :: st
+        integer(hid_t) :: g, gp, gbox, gel
         integer :: err, e, k, D_
         character(len=256) :: who
         character(len=8) :: boundary(3)
@@ -184,14 +182,10 @@ contains
             ok = .false.; msg = st%msg; return
         end if
 
-        call open_library(st)
+        call begin_open(self, path, comm, st)
         if (.not. st%ok) then
             ok = .false.; msg = st%msg; return
         end if
-        call MPI_Comm_dup(comm, self%comm)
-        call MPI_Comm_rank(self%comm, self%rank)
-        call MPI_Comm_size(self%comm, self%nprocs)
-        self%path = trim(path)
         self%natoms = natoms
         self%dimension = dimension
         D_ = dimension
@@ -205,27 +199,17 @@ contains
         call id_block(natoms, self%nprocs, self%rank, self%first, self%nmine)
 
         ! file (collective): MPI-IO driver, HDF5 file format version 2 (1.8 object headers)
-        call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err); call st%check(err, 'H5Pcreate(fapl)')
-        call h5pset_fapl_mpio_f(fapl, self%comm%MPI_VAL, MPI_INFO_NULL%MPI_VAL, err)
-        call st%check(err, 'H5Pset_fapl_mpio')
-        call h5pset_libver_bounds_f(fapl, H5F_LIBVER_V18_F, H5F_LIBVER_V18_F, err)
-        call st%check(err, 'H5Pset_libver_bounds')
-        call h5pset_coll_metadata_write_f(fapl, .true., err); call st%check(err, 'H5Pset_coll_metadata_write')
-        call h5fcreate_f(self%path, H5F_ACC_TRUNC_F, self%file, err, access_prp=fapl)
-        call h5pclose_f(fapl, err)
+        call h5_open_file(st, self%path, h5_create, self%file, self%comm, collective_metadata=.true.)
         if (self%file < 0 .or. .not. st%ok) then
             call MPI_Comm_free(self%comm)
             ok = .false.; msg = 'h5md: cannot create '//self%path
             if (.not. st%ok) msg = trim(msg)//' ('//trim(st%msg)//')'
             return
         end if
-        call h5pcreate_f(H5P_DATASET_XFER_F, self%dxpl, err); call st%check(err, 'H5Pcreate(dxpl)')
-        call h5pset_dxpl_mpio_f(self%dxpl, H5FD_MPIO_COLLECTIVE_F, err); call st%check(err, 'H5Pset_dxpl_mpio')
+        call h5_transfer_list(st, .true., self%dxpl)
         ! step, time, edges and observables (one value per frame, from rank 0): an independent write
         ! skips the collective machinery that costs more than such a value
-        call h5pcreate_f(H5P_DATASET_XFER_F, self%dxpl_rank0, err); call st%check(err, 'H5Pcreate(dxpl)')
-        call h5pset_dxpl_mpio_f(self%dxpl_rank0, H5FD_MPIO_INDEPENDENT_F, err)
-        call st%check(err, 'H5Pset_dxpl_mpio')
+        call h5_transfer_list(st, .false., self%dxpl_rank0)
 
         ! h5md metadata
         who = 'unknown'
@@ -237,21 +221,21 @@ contains
         end if
         call MPI_Bcast(who, len(who), MPI_CHARACTER, 0, self%comm)
         call h5gcreate_f(self%file, 'h5md', g, err); call st%check(err, 'create h5md')
-        call attr_int(st, g, 'version', [1, 1], scalar=.false.)
+        call h5_attr_int(st, g, 'version', [1, 1], scalar=.false.)
         call h5gcreate_f(g, 'author', gp, err); call st%check(err, 'create h5md/author')
-        call attr_text(st, gp, 'name', trim(who))
+        call h5_attr_text(st, gp, 'name', trim(who))
         call h5gclose_f(gp, err)
         call h5gcreate_f(g, 'creator', gp, err); call st%check(err, 'create h5md/creator')
-        call attr_text(st, gp, 'name', 'Terrace')
-        call attr_text(st, gp, 'version', trim(creator_version))
+        call h5_attr_text(st, gp, 'name', 'Terrace')
+        call h5_attr_text(st, gp, 'version', trim(creator_version))
         call h5gclose_f(gp, err)
         any_unit = len_trim(unit_length) + len_trim(unit_time) + len_trim(unit_energy) + &
                    len_trim(unit_velocity) + len_trim(unit_mass) > 0
         if (any_unit) then
             call h5gcreate_f(g, 'modules', gp, err); call st%check(err, 'create h5md/modules')
             call h5gcreate_f(gp, 'units', gbox, err); call st%check(err, 'create h5md/modules/units')
-            call attr_int(st, gbox, 'version', [1, 0], scalar=.false.)
-            call attr_vltext(st, gbox, 'system', 'SI')
+            call h5_attr_int(st, gbox, 'version', [1, 0], scalar=.false.)
+            call h5_attr_vltext(st, gbox, 'system', 'SI')
             call h5gclose_f(gbox, err); call h5gclose_f(gp, err)
         end if
         call h5gclose_f(g, err)
@@ -260,20 +244,20 @@ contains
         call h5gcreate_f(self%file, 'particles', g, err); call st%check(err, 'create particles')
         call h5gcreate_f(g, 'all', gp, err); call st%check(err, 'create particles/all')
         call h5gcreate_f(gp, 'box', gbox, err); call st%check(err, 'create box')
-        call attr_int(st, gbox, 'dimension', [D_], scalar=.true.)
+        call h5_attr_int(st, gbox, 'dimension', [D_], scalar=.true.)
         do k = 1, D_
             boundary(k) = merge('periodic', 'none    ', periodic(k))
         end do
-        call attr_text_list(st, gbox, 'boundary', boundary(1:D_))
+        call h5_attr_text_list(st, gbox, 'boundary', boundary(1:D_))
         ! box/edges: a time-dependent element whose step and time every other element shares
         self%edges = box_hi - box_lo
         call h5gcreate_f(gbox, 'edges', gel, err); call st%check(err, 'create box/edges')
-        call make_series(st, gel, 'step', H5T_STD_I64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], self%step)
-        call make_series(st, gel, 'time', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], self%time)
-        call attr_vltext(st, self%time, 'unit', unit_time)
-        call make_series(st, gel, 'value', H5T_IEEE_F64LE, [int(D_, hsize_t)], [int(D_, hsize_t)], self%edges_value, &
+        call h5_make_series(st, gel, 'step', H5T_STD_I64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], self%step)
+        call h5_make_series(st, gel, 'time', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], self%time)
+        call h5_attr_vltext(st, self%time, 'unit', unit_time)
+        call h5_make_series(st, gel, 'value', H5T_IEEE_F64LE, [int(D_, hsize_t)], [int(D_, hsize_t)], self%edges_value, &
                          chunk_frames=chunk_scalar)
-        call attr_vltext(st, self%edges_value, 'unit', unit_length)
+        call h5_attr_vltext(st, self%edges_value, 'unit', unit_length)
         call h5gclose_f(gel, err)
         call h5gclose_f(gbox, err)
 
@@ -290,16 +274,16 @@ contains
             if (.not. self%want(e)) cycle
             call h5gcreate_f(gp, trim(el_name(e)), gel, err); call st%check(err, 'create '//trim(el_name(e)))
             if (e == e_image) then
-                call make_series(st, gel, 'value', H5T_STD_I32LE, [int(D_, hsize_t), int(natoms, hsize_t)], &
+                call h5_make_series(st, gel, 'value', H5T_STD_I32LE, [int(D_, hsize_t), int(natoms, hsize_t)], &
                                  [int(D_, hsize_t), nchunk], self%value(e), chunk_frames=fchunk)
             else
-                call make_series(st, gel, 'value', H5T_IEEE_F64LE, [int(D_, hsize_t), int(natoms, hsize_t)], &
+                call h5_make_series(st, gel, 'value', H5T_IEEE_F64LE, [int(D_, hsize_t), int(natoms, hsize_t)], &
                                  [int(D_, hsize_t), nchunk], self%value(e), chunk_frames=fchunk)
             end if
             select case (e)
-            case (e_pos); call attr_vltext(st, self%value(e), 'unit', unit_length)
-            case (e_vel); call attr_vltext(st, self%value(e), 'unit', unit_velocity)
-            case (e_force); call attr_vltext(st, self%value(e), 'unit', unit_force)
+            case (e_pos); call h5_attr_vltext(st, self%value(e), 'unit', unit_length)
+            case (e_vel); call h5_attr_vltext(st, self%value(e), 'unit', unit_velocity)
+            case (e_force); call h5_attr_vltext(st, self%value(e), 'unit', unit_force)
             end select
             call h5lcreate_hard_f(self%file, shared//'/step', gel, 'step', err)
             call st%check(err, 'link '//trim(el_name(e))//'/step')
@@ -309,22 +293,37 @@ contains
         end do
 
         ! time-independent per-atom data (written at the first frame)
-        call make_fixed(st, gp, 'id', H5T_STD_I64LE, [int(natoms, hsize_t)], self%id)
-        call make_fixed(st, gp, 'species', H5T_STD_I32LE, [int(natoms, hsize_t)], self%species)
-        call make_fixed(st, gp, 'mass', H5T_IEEE_F64LE, [int(natoms, hsize_t)], self%mass)
-        call attr_vltext(st, self%mass, 'unit', unit_mass)
+        call h5_make_fixed(st, gp, 'id', H5T_STD_I64LE, [int(natoms, hsize_t)], self%id)
+        call h5_make_fixed(st, gp, 'species', H5T_STD_I32LE, [int(natoms, hsize_t)], self%species)
+        call h5_make_fixed(st, gp, 'mass', H5T_IEEE_F64LE, [int(natoms, hsize_t)], self%mass)
+        call h5_attr_vltext(st, self%mass, 'unit', unit_mass)
         call h5gclose_f(gp, err)
         call h5gclose_f(g, err)
 
         call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
         self%last_flush = MPI_Wtime()
         self%opened = .true.
-        call agree(self%comm, st, ok, msg)
+        call h5_agree(self%comm, st, ok, msg)
         if (.not. ok) then
             call release(self)
             msg = 'h5md: '//trim(self%path)//': '//trim(msg)
         end if
     end subroutine writer_create
+
+    !> What create and open_append do before the file: the HDF5 library, the writer's own
+    !> communicator (a duplicate of comm), its rank and size, the path.
+    subroutine begin_open(self, path, comm, st)
+        class(h5md_writer_t), intent(inout) :: self
+        character(len=*), intent(in) :: path
+        type(MPI_Comm), intent(in) :: comm
+        type(h5_status_t), intent(inout) :: st
+        call h5_library(st)
+        if (.not. st%ok) return
+        call MPI_Comm_dup(comm, self%comm)
+        call MPI_Comm_rank(self%comm, self%rank)
+        call MPI_Comm_size(self%comm, self%nprocs)
+        self%path = trim(path)
+    end subroutine begin_open
 
     !> Reopen an existing trajectory written by `create`/`write_frame` to append to it (a restart
     !> from a checkpoint): every time series (the particle elements and every observable) is cut
@@ -339,8 +338,8 @@ contains
         integer(i8), intent(in) :: keep
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
-        type(status_t) :: st
-        integer(hid_t) :: fapl, g
+        type(h5_status_t) :: st
+        integer(hid_t) :: g
         integer(hsize_t) :: d3(3), m3(3), d1(1), m1(1), nf
         integer(i8), target :: step_t
         real(dp), target :: edges_t(3)
@@ -353,31 +352,19 @@ contains
         if (self%opened) then
             ok = .false.; msg = 'h5md: open_append: the writer is already open ('//self%path//')'; return
         end if
-        call open_library(st)
+        call begin_open(self, path, comm, st)
         if (.not. st%ok) then
             ok = .false.; msg = st%msg; return
         end if
-        call MPI_Comm_dup(comm, self%comm)
-        call MPI_Comm_rank(self%comm, self%rank)
-        call MPI_Comm_size(self%comm, self%nprocs)
-        self%path = trim(path)
-        call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err); call st%check(err, 'H5Pcreate(fapl)')
-        call h5pset_fapl_mpio_f(fapl, self%comm%MPI_VAL, MPI_INFO_NULL%MPI_VAL, err)
-        call st%check(err, 'H5Pset_fapl_mpio')
-        call h5pset_coll_metadata_write_f(fapl, .true., err); call st%check(err, 'H5Pset_coll_metadata_write')
-        call h5fopen_f(self%path, H5F_ACC_RDWR_F, self%file, err, access_prp=fapl)
-        call h5pclose_f(fapl, err)
-        if (self%file < 0 .or. err < 0) then
+        call h5_open_file(st, self%path, h5_append, self%file, self%comm, collective_metadata=.true.)
+        if (self%file < 0) then
             call MPI_Comm_free(self%comm)
             ok = .false.; msg = 'h5md: cannot open '//self%path//' to append to it'
             return
         end if
         self%opened = .true.
-        call h5pcreate_f(H5P_DATASET_XFER_F, self%dxpl, err); call st%check(err, 'H5Pcreate(dxpl)')
-        call h5pset_dxpl_mpio_f(self%dxpl, H5FD_MPIO_COLLECTIVE_F, err); call st%check(err, 'H5Pset_dxpl_mpio')
-        call h5pcreate_f(H5P_DATASET_XFER_F, self%dxpl_rank0, err); call st%check(err, 'H5Pcreate(dxpl)')
-        call h5pset_dxpl_mpio_f(self%dxpl_rank0, H5FD_MPIO_INDEPENDENT_F, err)
-        call st%check(err, 'H5Pset_dxpl_mpio(independent)')
+        call h5_transfer_list(st, .true., self%dxpl)
+        call h5_transfer_list(st, .false., self%dxpl_rank0)
         self%last_flush = MPI_Wtime()
 
         ! per-atom data and the elements present
@@ -385,7 +372,7 @@ contains
         call h5dopen_f(self%file, pgroup//'/species', self%species, err); call st%check(err, 'open species')
         call h5dopen_f(self%file, pgroup//'/mass', self%mass, err); call st%check(err, 'open mass')
         if (st%ok) then
-            call dataset_dims(st, self%id, d1, m1)
+            call h5_dataset_dims(st, self%id, d1, m1)
             self%natoms = int(d1(1), i8)
         end if
         first_el = ''
@@ -397,7 +384,7 @@ contains
             if (.not. self%want(e)) cycle
             call h5dopen_f(self%file, pgroup//'/'//trim(el_name(e))//'/value', self%value(e), err)
             call st%check(err, 'open '//trim(el_name(e))//'/value')
-            call dataset_dims(st, self%value(e), d3, m3)
+            call h5_dataset_dims(st, self%value(e), d3, m3)
             if (len(first_el) == 0) then
                 first_el = pgroup//'/'//trim(el_name(e))
                 self%dimension = int(d3(1))
@@ -416,25 +403,25 @@ contains
         self%nframes = int(keep, hsize_t)
         if (st%ok) then
             do e = 1, nel
-                if (self%want(e)) call extend(st, self%value(e), [int(self%dimension, hsize_t), &
+                if (self%want(e)) call h5_extend(st, self%value(e), [int(self%dimension, hsize_t), &
                                                                    int(self%natoms, hsize_t), self%nframes])
             end do
-            call extend(st, self%step, [self%nframes])
-            call extend(st, self%time, [self%nframes])
+            call h5_extend(st, self%step, [self%nframes])
+            call h5_extend(st, self%time, [self%nframes])
             ! box/edges: a time-dependent element (one row per frame) whose step and time the
             ! elements share; its rows are cut back too and the (fixed) edges read from row 0
             call h5dopen_f(self%file, pgroup//'/box/edges/value', self%edges_value, err)
             call st%check(err, 'open box/edges/value (a trajectory written by this version of Terrace)')
-            if (st%ok) call extend(st, self%edges_value, [int(self%dimension, hsize_t), self%nframes])
+            if (st%ok) call h5_extend(st, self%edges_value, [int(self%dimension, hsize_t), self%nframes])
             edges_t = 0
-            if (st%ok .and. keep > 0) call read_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(edges_t), &
+            if (st%ok .and. keep > 0) call h5_read_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(edges_t), &
                                                      [0_hsize_t, 0_hsize_t], [int(self%dimension, hsize_t), 1_hsize_t], &
                                                      .true., self%dxpl)
             self%edges = edges_t
         end if
         self%last_step = 0
         if (st%ok .and. keep > 0) then
-            call read_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [self%nframes - 1], &
+            call h5_read_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [self%nframes - 1], &
                            [1_hsize_t], .true., self%dxpl)
             self%last_step = step_t
         end if
@@ -459,10 +446,10 @@ contains
                     ! are hard links to box/edges/step and time (cut back above), only value grows
                     o%per_frame = .true.
                     call h5dopen_f(g, o%name//'/value', o%value, err); call st%check(err, 'open '//o%name//'/value')
-                    if (st%ok) call dataset_dims(st, o%value, d1, m1)
+                    if (st%ok) call h5_dataset_dims(st, o%value, d1, m1)
                     if (st%ok .and. int(d1(1), i8) < keep) call st%fail('observable '//o%name//' holds too few entries')
                     o%n = int(keep, hsize_t)
-                    if (st%ok) call extend(st, o%value, [o%n])
+                    if (st%ok) call h5_extend(st, o%value, [o%n])
                 end associate
             end do
             call h5gclose_f(g, err)
@@ -471,7 +458,7 @@ contains
         self%masses_by_type = [0.0_dp]   ! only read at the first frame, which is written already
         call id_block(self%natoms, self%nprocs, self%rank, self%first, self%nmine)
         call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
-        call agree(self%comm, st, ok, msg)
+        call h5_agree(self%comm, st, ok, msg)
         if (.not. ok) then
             call release(self)
             msg = 'h5md: '//trim(self%path)//': '//trim(msg)
@@ -503,8 +490,8 @@ contains
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
         logical, intent(in), optional :: flush
-        type(status_t) :: st
-        integer :: D_, P, i, j, e, r, wr, wi, it, im, nrecv, err, roff(nel)
+        type(h5_status_t) :: st
+        integer :: D_, P, i, j, e, r, wr, wi, it, im, nrecv, roff(nel)
         integer, allocatable :: scount(:), rcount(:), sdisp(:), rdisp(:), cursor(:)
         real(dp), allocatable, target :: mbuf(:)
         integer, allocatable, target :: tbuf(:)
@@ -547,7 +534,7 @@ contains
         if (self%nframes > 0 .and. step < self%last_step) call st%fail('h5md: write_frame: step decreases')
         total = merge(int(nlocal, i8), 0_i8, st%ok)
         call MPI_Allreduce(MPI_IN_PLACE, total, 1, MPI_INTEGER8, MPI_SUM, self%comm)
-        call agree(self%comm, st, ok, msg)
+        call h5_agree(self%comm, st, ok, msg)
         if (.not. ok) return
         if (total /= self%natoms) then
             ok = .false.
@@ -569,16 +556,7 @@ contains
         allocate (scount(0:P - 1), rcount(0:P - 1), sdisp(0:P - 1), rdisp(0:P - 1), cursor(0:P - 1))
         associate (w => self%work)
             call reserve_send(w, max(wr, 1), wi, nlocal)
-            scount = 0
-            do i = 1, nlocal
-                r = id_block_owner(ids(i), self%natoms, P)
-                w%dest(i) = r
-                scount(r) = scount(r) + 1
-            end do
-            sdisp(0) = 0
-            do r = 1, P - 1
-                sdisp(r) = sdisp(r - 1) + scount(r - 1)
-            end do
+            call exchange_plan(ids(1:nlocal), self%natoms, self%comm, w%dest(1:nlocal), scount, sdisp, rcount, rdisp)
             cursor = sdisp
             do i = 1, nlocal
                 r = w%dest(i)
@@ -589,11 +567,6 @@ contains
                 if (self%want(e_pos)) w%sreal(roff(e_pos) + 1:roff(e_pos) + D_, j) = x(1:D_, i)
                 if (self%want(e_vel)) w%sreal(roff(e_vel) + 1:roff(e_vel) + D_, j) = v(1:D_, i)
                 if (self%want(e_force)) w%sreal(roff(e_force) + 1:roff(e_force) + D_, j) = f(1:D_, i)
-            end do
-            call MPI_Alltoall(scount, 1, MPI_INTEGER, rcount, 1, MPI_INTEGER, self%comm)
-            rdisp(0) = 0
-            do r = 1, P - 1
-                rdisp(r) = rdisp(r - 1) + rcount(r - 1)
             end do
             nrecv = sum(rcount)
             call reserve_recv(w, max(wr, 1), wi, D_, max(nrecv, int(self%nmine)))
@@ -630,30 +603,30 @@ contains
             associate (nf => self%nframes, nm => int(self%nmine, hsize_t), f0 => int(self%first - 1, hsize_t))
                 do e = 1, nel
                     if (.not. self%want(e)) cycle
-                    call extend(st, self%value(e), [Dh, int(self%natoms, hsize_t), nf + 1])
+                    call h5_extend(st, self%value(e), [Dh, int(self%natoms, hsize_t), nf + 1])
                     if (e == e_image) then
                         do j = 1, nrecv
                             ibuf(:, row(j)) = int(rint(im + 1:im + D_, j))
                         end do
-                        call write_slab(st, self%value(e), H5T_NATIVE_INTEGER, c_loc(ibuf), [0_hsize_t, f0, nf], &
+                        call h5_write_slab(st, self%value(e), H5T_NATIVE_INTEGER, c_loc(ibuf), [0_hsize_t, f0, nf], &
                                         [Dh, nm, 1_hsize_t], nm > 0, self%dxpl)
                     else
                         do j = 1, nrecv
                             rbuf(:, row(j)) = rreal(roff(e) + 1:roff(e) + D_, j)
                         end do
-                        call write_slab(st, self%value(e), H5T_NATIVE_DOUBLE, c_loc(rbuf), [0_hsize_t, f0, nf], &
+                        call h5_write_slab(st, self%value(e), H5T_NATIVE_DOUBLE, c_loc(rbuf), [0_hsize_t, f0, nf], &
                                         [Dh, nm, 1_hsize_t], nm > 0, self%dxpl)
                     end if
                 end do
                 step_t = step; time_t = time; edges_t = self%edges
-                call extend(st, self%step, [nf + 1])
-                call extend(st, self%time, [nf + 1])
-                call extend(st, self%edges_value, [Dh, nf + 1])
-                call write_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [nf], &
+                call h5_extend(st, self%step, [nf + 1])
+                call h5_extend(st, self%time, [nf + 1])
+                call h5_extend(st, self%edges_value, [Dh, nf + 1])
+                call h5_write_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [nf], &
                                 [1_hsize_t], self%rank == 0, self%dxpl_rank0)
-                call write_slab(st, self%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [nf], [1_hsize_t], &
+                call h5_write_slab(st, self%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [nf], [1_hsize_t], &
                                 self%rank == 0, self%dxpl_rank0)
-                call write_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(edges_t), [0_hsize_t, nf], &
+                call h5_write_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(edges_t), [0_hsize_t, nf], &
                                 [Dh, 1_hsize_t], self%rank == 0, self%dxpl_rank0)
                 if (nf == 0) then
                     allocate (idbuf(max(self%nmine, 1_i8)), tbuf(max(self%nmine, 1_i8)), mbuf(max(self%nmine, 1_i8)))
@@ -662,19 +635,15 @@ contains
                         tbuf(row(j)) = int(rint(it, j))
                         mbuf(row(j)) = self%masses_by_type(tbuf(row(j)))
                     end do
-                    call write_slab(st, self%id, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(idbuf), [f0], [nm], &
+                    call h5_write_slab(st, self%id, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(idbuf), [f0], [nm], &
                                     nm > 0, self%dxpl)
-                    call write_slab(st, self%species, H5T_NATIVE_INTEGER, c_loc(tbuf), [f0], [nm], nm > 0, self%dxpl)
-                    call write_slab(st, self%mass, H5T_NATIVE_DOUBLE, c_loc(mbuf), [f0], [nm], nm > 0, self%dxpl)
+                    call h5_write_slab(st, self%species, H5T_NATIVE_INTEGER, c_loc(tbuf), [f0], [nm], nm > 0, self%dxpl)
+                    call h5_write_slab(st, self%mass, H5T_NATIVE_DOUBLE, c_loc(mbuf), [f0], [nm], nm > 0, self%dxpl)
                 end if
             end associate
         end associate
-        if (.not. present(flush)) then
-            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
-        else if (flush) then
-            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
-        end if
-        call agree(self%comm, st, ok, msg)
+        call flush_unless_told(self, st, flush)
+        call h5_agree(self%comm, st, ok, msg)
         if (ok) then
             self%nframes = self%nframes + 1
             self%last_step = step
@@ -741,7 +710,7 @@ contains
         character(len=*), intent(out) :: msg
         character(len=*), intent(in), optional :: unit
         logical, intent(in), optional :: flush, per_frame
-        type(status_t) :: st
+        type(h5_status_t) :: st
         type(observable_t), allocatable :: grown(:)
         integer :: k, i, err
         integer(hid_t) :: g, go
@@ -784,15 +753,15 @@ contains
                     call h5lcreate_hard_f(self%file, pgroup//'/box/edges/time', go, 'time', err)
                     call st%check(err, 'link observables/'//o%name//'/time')
                 else
-                    call make_series(st, go, 'step', H5T_STD_I64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
+                    call h5_make_series(st, go, 'step', H5T_STD_I64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
                                      o%step)
-                    call make_series(st, go, 'time', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
+                    call h5_make_series(st, go, 'time', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
                                      o%time)
-                    call attr_vltext(st, o%time, 'unit', self%unit_time)
+                    call h5_attr_vltext(st, o%time, 'unit', self%unit_time)
                 end if
-                call make_series(st, go, 'value', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
+                call h5_make_series(st, go, 'value', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], &
                                  o%value)
-                if (present(unit)) call attr_vltext(st, o%value, 'unit', unit)
+                if (present(unit)) call h5_attr_vltext(st, o%value, 'unit', unit)
                 call h5gclose_f(go, err); call h5gclose_f(g, err)
             end associate
         end if
@@ -802,29 +771,37 @@ contains
                 if (o%n + 1 /= self%nframes .or. step /= self%last_step) &
                     call st%fail('a per-frame observable must be written once after each frame, at its step')
             else
-                call extend(st, o%step, [o%n + 1])
-                call extend(st, o%time, [o%n + 1])
-                call write_slab(st, o%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [o%n], [1_hsize_t], &
+                call h5_extend(st, o%step, [o%n + 1])
+                call h5_extend(st, o%time, [o%n + 1])
+                call h5_write_slab(st, o%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [o%n], [1_hsize_t], &
                                 self%rank == 0, self%dxpl_rank0)
-                call write_slab(st, o%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [o%n], [1_hsize_t], self%rank == 0, &
+                call h5_write_slab(st, o%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [o%n], [1_hsize_t], self%rank == 0, &
                                 self%dxpl_rank0)
             end if
-            call extend(st, o%value, [o%n + 1])
-            call write_slab(st, o%value, H5T_NATIVE_DOUBLE, c_loc(value_t), [o%n], [1_hsize_t], self%rank == 0, &
+            call h5_extend(st, o%value, [o%n + 1])
+            call h5_write_slab(st, o%value, H5T_NATIVE_DOUBLE, c_loc(value_t), [o%n], [1_hsize_t], self%rank == 0, &
                             self%dxpl_rank0)
         end associate
-        if (.not. present(flush)) then
-            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
-        else if (flush) then
-            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
-        end if
-        call agree(self%comm, st, ok, msg)
+        call flush_unless_told(self, st, flush)
+        call h5_agree(self%comm, st, ok, msg)
         if (ok) then
             self%obs(k)%n = self%obs(k)%n + 1
         else
             msg = 'h5md: write_observable '//trim(name)//': '//trim(msg)
         end if
     end subroutine writer_write_observable
+
+    !> Flush the file after a frame or an observable unless the caller said flush = .false.
+    subroutine flush_unless_told(self, st, flush)
+        class(h5md_writer_t), intent(inout) :: self
+        type(h5_status_t), intent(inout) :: st
+        logical, intent(in), optional :: flush
+        integer :: err
+        if (present(flush)) then
+            if (.not. flush) return
+        end if
+        call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+    end subroutine flush_unless_told
 
     !> Flush the file to disk (collective).
     !> With min_interval (seconds of wall time), only when at least that long has passed since the
@@ -836,7 +813,7 @@ contains
         logical, intent(out), optional :: ok
         character(len=*), intent(out), optional :: msg
         real(dp), intent(in), optional :: min_interval
-        type(status_t) :: st
+        type(h5_status_t) :: st
         integer :: err
         logical :: ok_, due
         character(len=256) :: msg_
@@ -849,7 +826,7 @@ contains
             end if
             if (due) then
                 call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
-                call agree(self%comm, st, ok_, msg_)
+                call h5_agree(self%comm, st, ok_, msg_)
                 self%last_flush = MPI_Wtime()
             end if
         end if
@@ -862,14 +839,14 @@ contains
         class(h5md_writer_t), intent(inout) :: self
         logical, intent(out), optional :: ok
         character(len=*), intent(out), optional :: msg
-        type(status_t) :: st
+        type(h5_status_t) :: st
         integer :: err
         logical :: ok_
         character(len=256) :: msg_
         ok_ = .true.; msg_ = ''
         if (self%opened) then
             call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
-            call agree(self%comm, st, ok_, msg_)
+            call h5_agree(self%comm, st, ok_, msg_)
             call release(self)
         end if
         if (present(ok)) ok = ok_
@@ -917,489 +894,5 @@ contains
         if (self%opened) call MPI_Comm_free(self%comm)
         self%opened = .false.
     end subroutine release
-
-    ! ============================================================== reading
-
-    !> Read frame `frame` of an H5MD file (1..nframes; -1 is the last frame, -2 the one before, ...),
-    !> for instance to start a run from it. Collective over comm. Each rank receives a contiguous
-    !> block of ids (a block distribution of 1..natoms over the ranks, in id order); the caller then
-    !> moves the atoms to their domains. x, v, image are (3, nlocal), zero beyond the file's
-    !> dimension; v and image are zero when the file has no velocity or image (has_velocity,
-    !> has_image say). types are 1 when the file has no species; ids are row+1 without an id element.
-    !> edges is the box edge vector (hi - lo) when the file has one.
-    subroutine h5md_read_frame(path, comm, frame, natoms, dimension, ids, types, x, v, image, step, time, &
-                               ok, msg, has_velocity, has_image, edges)
-        character(len=*), intent(in) :: path
-        type(MPI_Comm), intent(in) :: comm
-        integer(i8), intent(in) :: frame
-        integer(i8), intent(out) :: natoms
-        integer, intent(out) :: dimension
-        integer(i8), allocatable, intent(out) :: ids(:)
-        integer, allocatable, intent(out) :: types(:)
-        real(dp), allocatable, intent(out) :: x(:, :), v(:, :)
-        integer, allocatable, intent(out) :: image(:, :)
-        integer(i8), intent(out) :: step
-        real(dp), intent(out) :: time
-        logical, intent(out) :: ok
-        character(len=*), intent(out) :: msg
-        logical, intent(out), optional :: has_velocity, has_image
-        real(dp), intent(out), optional :: edges(3)
-        type(status_t) :: st
-        integer(hid_t) :: fapl, file, dxpl, d
-        integer :: err, rank, nprocs, k, D_
-        integer(hsize_t) :: dims(3), maxdims(3), fr, Dh, nm, f0
-        integer(i8) :: first, nmine
-        logical :: exists, hv, hi
-        real(dp), allocatable, target :: rbuf(:, :)
-        integer, allocatable, target :: ibuf(:, :), tbuf(:)
-        integer(i8), allocatable, target :: idbuf(:)
-        integer(i8), target :: step_t
-        real(dp), target :: time_t, ebuf(3)
-
-        ok = .true.; msg = ''
-        natoms = 0; dimension = 0; step = 0; time = 0
-        allocate (ids(0), types(0), x(3, 0), v(3, 0), image(3, 0))
-        if (present(has_velocity)) has_velocity = .false.
-        if (present(has_image)) has_image = .false.
-        if (present(edges)) edges = 0
-        call open_library(st)
-        if (.not. st%ok) then
-            ok = .false.; msg = st%msg; return
-        end if
-        call MPI_Comm_rank(comm, rank)
-        call MPI_Comm_size(comm, nprocs)
-        call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err); call st%check(err, 'H5Pcreate(fapl)')
-        call h5pset_fapl_mpio_f(fapl, comm%MPI_VAL, MPI_INFO_NULL%MPI_VAL, err); call st%check(err, 'H5Pset_fapl_mpio')
-        call h5fopen_f(trim(path), H5F_ACC_RDONLY_F, file, err, access_prp=fapl)
-        call h5pclose_f(fapl, err)
-        if (err < 0) then
-            ok = .false.; msg = 'h5md: cannot open '//trim(path); return
-        end if
-        call h5pcreate_f(H5P_DATASET_XFER_F, dxpl, err); call st%check(err, 'H5Pcreate(dxpl)')
-        call h5pset_dxpl_mpio_f(dxpl, H5FD_MPIO_COLLECTIVE_F, err); call st%check(err, 'H5Pset_dxpl_mpio')
-
-        call h5lexists_f(file, 'particles', exists, err)
-        if (exists) call h5lexists_f(file, pgroup, exists, err)
-        if (exists) call h5lexists_f(file, pgroup//'/position', exists, err)
-        if (exists) call h5lexists_f(file, pgroup//'/position/value', exists, err)
-        if (.not. exists) then
-            call st%fail('no '//pgroup//'/position/value')
-        else
-            call h5dopen_f(file, pgroup//'/position/value', d, err); call st%check(err, 'open position/value')
-            call dataset_dims(st, d, dims, maxdims)
-            dimension = int(dims(1)); natoms = int(dims(2), i8)
-            if (dims(3) == 0) then
-                call st%fail('the file has no frames')
-            else if (frame == 0 .or. frame > int(dims(3), i8) .or. frame < -int(dims(3), i8)) then
-                call st%fail('frame index out of range')
-            end if
-            if (st%ok) then
-                fr = merge(int(frame - 1, hsize_t), int(int(dims(3), i8) + frame, hsize_t), frame > 0)
-                D_ = dimension; Dh = dims(1)
-                call id_block(natoms, nprocs, rank, first, nmine)
-                nm = int(nmine, hsize_t); f0 = int(first - 1, hsize_t)
-                deallocate (ids, types, x, v, image)
-                allocate (ids(nmine), types(nmine), x(3, nmine), v(3, nmine), image(3, nmine))
-                x = 0; v = 0; image = 0; types = 1
-                allocate (rbuf(D_, max(nmine, 1_i8)), ibuf(D_, max(nmine, 1_i8)), tbuf(max(nmine, 1_i8)), &
-                          idbuf(max(nmine, 1_i8)))
-                call read_slab(st, d, H5T_NATIVE_DOUBLE, c_loc(rbuf), [0_hsize_t, f0, fr], [Dh, nm, 1_hsize_t], &
-                               nm > 0, dxpl)
-                if (nmine > 0) x(1:D_, :) = rbuf(:, 1:nmine)
-                call h5dclose_f(d, err)
-                call read_scalar_at(st, file, pgroup//'/position/step', h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), &
-                                    fr, dxpl)
-                step = step_t
-                call h5lexists_f(file, pgroup//'/position/time', exists, err)
-                if (exists) then
-                    call read_scalar_at(st, file, pgroup//'/position/time', H5T_NATIVE_DOUBLE, c_loc(time_t), fr, dxpl)
-                    time = time_t
-                end if
-                call h5lexists_f(file, pgroup//'/velocity', hv, err)
-                if (hv) call read_series(pgroup//'/velocity/value', H5T_NATIVE_DOUBLE, c_loc(rbuf), hv)
-                if (hv .and. nmine > 0) v(1:D_, :) = rbuf(:, 1:nmine)
-                call h5lexists_f(file, pgroup//'/image', hi, err)
-                if (hi) call read_series(pgroup//'/image/value', H5T_NATIVE_INTEGER, c_loc(ibuf), hi)
-                if (hi .and. nmine > 0) image(1:D_, :) = ibuf(:, 1:nmine)
-                if (present(has_velocity)) has_velocity = hv
-                if (present(has_image)) has_image = hi
-                do k = 1, int(nmine)
-                    ids(k) = first + k - 1
-                end do
-                call h5lexists_f(file, pgroup//'/id', exists, err)
-                if (exists) then
-                    call h5dopen_f(file, pgroup//'/id', d, err); call st%check(err, 'open id')
-                    call read_slab(st, d, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(idbuf), [f0], [nm], nm > 0, dxpl)
-                    call h5dclose_f(d, err)
-                    if (nmine > 0) ids = idbuf(1:nmine)
-                end if
-                call h5lexists_f(file, pgroup//'/species', exists, err)
-                if (exists) then
-                    call h5dopen_f(file, pgroup//'/species', d, err); call st%check(err, 'open species')
-                    call read_slab(st, d, H5T_NATIVE_INTEGER, c_loc(tbuf), [f0], [nm], nm > 0, dxpl)
-                    call h5dclose_f(d, err)
-                    if (nmine > 0) types = tbuf(1:nmine)
-                end if
-                if (present(edges)) call read_edges(edges)
-            end if
-        end if
-        call h5pclose_f(dxpl, err)
-        call h5fclose_f(file, err); call st%check(err, 'H5Fclose')
-        call agree(comm, st, ok, msg)
-        if (.not. ok) msg = 'h5md: '//trim(path)//': '//trim(msg)
-
-    contains
-
-        !> The box edges at the frame read: box/edges is either a fixed Float[D] dataset or a
-        !> time-dependent element, whose row is the last one with a step not after the frame's step
-        !> (its own step list may differ from position's). Left at zero when the file has none.
-        subroutine read_edges(edges)
-            real(dp), intent(out) :: edges(3)
-            integer(i8), allocatable, target :: esteps(:)
-            integer(hsize_t) :: ed(1), emd(1), row, ed2(2), emd2(2)
-            integer :: j
-            edges = 0
-            ebuf = 0
-            call h5lexists_f(file, pgroup//'/box', exists, err)
-            if (exists) call h5lexists_f(file, pgroup//'/box/edges', exists, err)
-            if (.not. exists) return
-            call h5lexists_f(file, pgroup//'/box/edges/value', exists, err)
-            if (.not. exists) then
-                ! time-independent: Float[D]
-                call h5dopen_f(file, pgroup//'/box/edges', d, err); call st%check(err, 'open box/edges')
-                call dataset_dims(st, d, ed, emd)
-                if (st%ok .and. ed(1) /= Dh) call st%fail('box/edges does not have one entry per dimension')
-                if (st%ok) call read_slab(st, d, H5T_NATIVE_DOUBLE, c_loc(ebuf), [0_hsize_t], [Dh], .true., dxpl)
-                call h5dclose_f(d, err)
-            else
-                ! time-dependent: step[variable], value[variable][D]
-                call h5dopen_f(file, pgroup//'/box/edges/step', d, err); call st%check(err, 'open box/edges/step')
-                call dataset_dims(st, d, ed, emd)
-                allocate (esteps(max(ed(1), 1_hsize_t)))
-                if (st%ok .and. ed(1) == 0) call st%fail('box/edges has no frames')
-                if (st%ok) call read_slab(st, d, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(esteps), [0_hsize_t], &
-                                          ed, .true., dxpl)
-                call h5dclose_f(d, err)
-                if (.not. st%ok) return
-                row = 0
-                do j = 1, int(ed(1))
-                    if (esteps(j) <= step) row = int(j - 1, hsize_t)
-                end do
-                call h5dopen_f(file, pgroup//'/box/edges/value', d, err); call st%check(err, 'open box/edges/value')
-                call dataset_dims(st, d, ed2, emd2)
-                if (st%ok .and. (ed2(1) /= Dh .or. ed2(2) /= ed(1))) &
-                    call st%fail('box/edges/value is not [frames][dimension] (only rectangular boxes are read)')
-                if (st%ok) call read_slab(st, d, H5T_NATIVE_DOUBLE, c_loc(ebuf), [0_hsize_t, row], [Dh, 1_hsize_t], &
-                                         .true., dxpl)
-                call h5dclose_f(d, err)
-            end if
-            if (st%ok) edges = ebuf
-        end subroutine read_edges
-
-        !> Read this rank's block of frame fr of a per-atom series of the same shape as position.
-        subroutine read_series(name, memtype, buf, found)
-            character(len=*), intent(in) :: name
-            integer(hid_t), intent(in) :: memtype
-            type(c_ptr), intent(in) :: buf
-            logical, intent(inout) :: found
-            integer(hid_t) :: ds
-            integer(hsize_t) :: dd(3), md(3)
-            call h5lexists_f(file, name, found, err)
-            if (.not. found) return
-            call h5dopen_f(file, name, ds, err); call st%check(err, 'open '//name)
-            call dataset_dims(st, ds, dd, md)
-            if (any(dd /= dims)) then
-                call st%fail(name//' does not have the shape of position/value')
-                found = .false.
-            else
-                call read_slab(st, ds, memtype, buf, [0_hsize_t, f0, fr], [Dh, nm, 1_hsize_t], nm > 0, dxpl)
-            end if
-            call h5dclose_f(ds, err)
-        end subroutine read_series
-
-    end subroutine h5md_read_frame
-
-    ! ============================================================== helpers
-
-    subroutine status_check(self, err, what)
-        class(status_t), intent(inout) :: self
-        integer, intent(in) :: err
-        character(len=*), intent(in) :: what
-        if (err < 0 .and. self%ok) then
-            self%ok = .false.; self%msg = 'HDF5 error in '//what
-        end if
-    end subroutine status_check
-
-    subroutine status_fail(self, what)
-        class(status_t), intent(inout) :: self
-        character(len=*), intent(in) :: what
-        if (self%ok) then
-            self%ok = .false.; self%msg = what
-        end if
-    end subroutine status_fail
-
-    !> The same ok on every rank; msg is that of the lowest failing rank.
-    subroutine agree(comm, st, ok, msg)
-        type(MPI_Comm), intent(in) :: comm
-        type(status_t), intent(in) :: st
-        logical, intent(out) :: ok
-        character(len=*), intent(out) :: msg
-        integer :: rank, nprocs, failing
-        character(len=256) :: m
-        call MPI_Comm_rank(comm, rank)
-        call MPI_Comm_size(comm, nprocs)
-        failing = merge(nprocs, rank, st%ok)
-        call MPI_Allreduce(MPI_IN_PLACE, failing, 1, MPI_INTEGER, MPI_MIN, comm)
-        ok = failing == nprocs
-        msg = ''
-        if (ok) return
-        m = st%msg
-        call MPI_Bcast(m, len(m), MPI_CHARACTER, failing, comm)
-        msg = m
-    end subroutine agree
-
-    subroutine open_library(st)
-        type(status_t), intent(inout) :: st
-        integer :: err
-        if (library_open) return
-        call h5open_f(err); call st%check(err, 'H5open')
-        call h5eset_auto_f(0, err)
-        library_open = st%ok
-    end subroutine open_library
-
-    !> A dataset of fixed shape dims (Fortran order), contiguous, no fill written.
-    subroutine make_fixed(st, loc, name, ftype, dims, d)
-        type(status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: loc, ftype
-        character(len=*), intent(in) :: name
-        integer(hsize_t), intent(in) :: dims(:)
-        integer(hid_t), intent(out) :: d
-        integer(hid_t) :: sp, dcpl
-        integer :: err
-        call h5screate_simple_f(size(dims), dims, sp, err); call st%check(err, 'H5Screate '//name)
-        call h5pcreate_f(H5P_DATASET_CREATE_F, dcpl, err)
-        call h5pset_fill_time_f(dcpl, H5D_FILL_TIME_NEVER_F, err)
-        call h5dcreate_f(loc, name, ftype, sp, d, err, dcpl_id=dcpl); call st%check(err, 'H5Dcreate '//name)
-        call h5pclose_f(dcpl, err)
-        call h5sclose_f(sp, err)
-    end subroutine make_fixed
-
-    !> An extendible series: Fortran dims (inner..., 0), unlimited last dimension, chunks
-    !> (chunk_inner..., chunk_frames), chunk_frames defaulting to 1, or to chunk_scalar for a series
-    !> of scalars.
-    subroutine make_series(st, loc, name, ftype, inner, chunk_inner, d, chunk_frames)
-        type(status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: loc, ftype
-        character(len=*), intent(in) :: name
-        integer(hsize_t), intent(in) :: inner(:), chunk_inner(:)
-        integer(hid_t), intent(out) :: d
-        integer(hsize_t), intent(in), optional :: chunk_frames
-        integer(hid_t) :: sp, dcpl
-        integer(hsize_t) :: dims(size(inner) + 1), maxdims(size(inner) + 1), chunk(size(inner) + 1)
-        integer :: err, n
-        n = size(inner) + 1
-        dims(1:n - 1) = inner; dims(n) = 0
-        maxdims(1:n - 1) = inner; maxdims(n) = H5S_UNLIMITED_F
-        chunk(1:n - 1) = chunk_inner; chunk(n) = merge(chunk_scalar, 1_hsize_t, n == 1)
-        if (present(chunk_frames)) chunk(n) = chunk_frames
-        call h5screate_simple_f(n, dims, sp, err, maxdims); call st%check(err, 'H5Screate '//name)
-        call h5pcreate_f(H5P_DATASET_CREATE_F, dcpl, err)
-        call h5pset_chunk_f(dcpl, n, chunk, err); call st%check(err, 'H5Pset_chunk '//name)
-        call h5pset_fill_time_f(dcpl, H5D_FILL_TIME_NEVER_F, err)
-        call h5dcreate_f(loc, name, ftype, sp, d, err, dcpl_id=dcpl); call st%check(err, 'H5Dcreate '//name)
-        call h5pclose_f(dcpl, err)
-        call h5sclose_f(sp, err)
-    end subroutine make_series
-
-    subroutine extend(st, d, dims)
-        type(status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: d
-        integer(hsize_t), intent(in) :: dims(:)
-        integer :: err
-        call h5dset_extent_f(d, dims, err); call st%check(err, 'H5Dset_extent')
-    end subroutine extend
-
-    subroutine dataset_dims(st, d, dims, maxdims)
-        type(status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: d
-        integer(hsize_t), intent(out) :: dims(:), maxdims(:)
-        integer(hid_t) :: sp
-        integer :: err, rank
-        dims = 0; maxdims = 0
-        call h5dget_space_f(d, sp, err); call st%check(err, 'H5Dget_space')
-        call h5sget_simple_extent_ndims_f(sp, rank, err)
-        if (rank /= size(dims)) then
-            call st%fail('a dataset has an unexpected rank')
-        else
-            call h5sget_simple_extent_dims_f(sp, dims, maxdims, err); call st%check(err, 'H5Sget_simple_extent_dims')
-        end if
-        call h5sclose_f(sp, err)
-    end subroutine dataset_dims
-
-    !> Collective transfer of the hyperslab start/count (Fortran order, 0-based) between the file
-    !> and the contiguous buffer buf (shape count); ranks with active = .false. take part with an
-    !> empty selection.
-    subroutine transfer_slab(st, d, memtype, buf, start, count, active, dxpl, reading)
-        type(status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: d, memtype, dxpl
-        type(c_ptr), intent(in) :: buf
-        integer(hsize_t), intent(in) :: start(:), count(:)
-        logical, intent(in) :: active, reading
-        integer(hid_t) :: fsp, msp
-        integer(hsize_t) :: mdims(size(count))
-        type(c_ptr) :: bufp
-        integer :: err
-        call h5dget_space_f(d, fsp, err); call st%check(err, 'H5Dget_space')
-        if (active .and. all(count > 0)) then
-            mdims = count
-            call h5screate_simple_f(size(count), mdims, msp, err)
-            call h5sselect_hyperslab_f(fsp, H5S_SELECT_SET_F, start, count, err)
-            call st%check(err, 'H5Sselect_hyperslab')
-        else
-            mdims = 1
-            call h5screate_simple_f(size(count), mdims, msp, err)
-            call h5sselect_none_f(msp, err)
-            call h5sselect_none_f(fsp, err)
-        end if
-        call st%check(err, 'dataspace selection')
-        if (reading) then
-            bufp = buf   ! h5dread_f takes the pointer as intent(inout)
-            call h5dread_f(d, memtype, bufp, err, mem_space_id=msp, file_space_id=fsp, xfer_prp=dxpl)
-            call st%check(err, 'H5Dread')
-        else
-            call h5dwrite_f(d, memtype, buf, err, mem_space_id=msp, file_space_id=fsp, xfer_prp=dxpl)
-            call st%check(err, 'H5Dwrite')
-        end if
-        call h5sclose_f(msp, err)
-        call h5sclose_f(fsp, err)
-    end subroutine transfer_slab
-
-    subroutine write_slab(st, d, memtype, buf, start, count, active, dxpl)
-        type(status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: d, memtype, dxpl
-        type(c_ptr), intent(in) :: buf
-        integer(hsize_t), intent(in) :: start(:), count(:)
-        logical, intent(in) :: active
-        call transfer_slab(st, d, memtype, buf, start, count, active, dxpl, reading=.false.)
-    end subroutine write_slab
-
-    subroutine read_slab(st, d, memtype, buf, start, count, active, dxpl)
-        type(status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: d, memtype, dxpl
-        type(c_ptr), intent(in) :: buf
-        integer(hsize_t), intent(in) :: start(:), count(:)
-        logical, intent(in) :: active
-        call transfer_slab(st, d, memtype, buf, start, count, active, dxpl, reading=.true.)
-    end subroutine read_slab
-
-    !> Element `index` (0-based) of the 1-D dataset `name`, read by every rank.
-    subroutine read_scalar_at(st, file, name, memtype, buf, index, dxpl)
-        type(status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: file, memtype, dxpl
-        character(len=*), intent(in) :: name
-        type(c_ptr), intent(in) :: buf
-        integer(hsize_t), intent(in) :: index
-        integer(hid_t) :: d
-        integer :: err
-        call h5dopen_f(file, name, d, err); call st%check(err, 'open '//name)
-        call read_slab(st, d, memtype, buf, [index], [1_hsize_t], .true., dxpl)
-        call h5dclose_f(d, err)
-    end subroutine read_scalar_at
-
-    !> Integer attribute: a scalar (scalar = .true., one value) or a 1-D array.
-    subroutine attr_int(st, loc, name, vals, scalar)
-        type(status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: loc
-        character(len=*), intent(in) :: name
-        integer, intent(in) :: vals(:)
-        logical, intent(in) :: scalar
-        integer(int32), allocatable, target :: buf(:)
-        integer(hid_t) :: sp, a
-        integer :: err
-        allocate (buf(size(vals)))
-        buf = int(vals, int32)
-        if (scalar) then
-            call h5screate_f(H5S_SCALAR_F, sp, err)
-        else
-            call h5screate_simple_f(1, [int(size(vals), hsize_t)], sp, err)
-        end if
-        call h5acreate_f(loc, name, H5T_STD_I32LE, sp, a, err); call st%check(err, 'H5Acreate '//name)
-        call h5awrite_f(a, h5kind_to_type(int32, H5_INTEGER_KIND), c_loc(buf), err); call st%check(err, 'H5Awrite '//name)
-        call h5aclose_f(a, err)
-        call h5sclose_f(sp, err)
-    end subroutine attr_int
-
-    !> Fixed-length (null-padded) string attribute of scalar dataspace.
-    subroutine attr_text(st, loc, name, s)
-        type(status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: loc
-        character(len=*), intent(in) :: name, s
-        call attr_text_list(st, loc, name, [s], scalar=.true.)
-    end subroutine attr_text
-
-    !> Fixed-length (null-padded) strings, as a 1-D attribute (or scalar for a single string).
-    subroutine attr_text_list(st, loc, name, strs, scalar)
-        type(status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: loc
-        character(len=*), intent(in) :: name, strs(:)
-        logical, intent(in), optional :: scalar
-        character(kind=c_char), allocatable, target :: buf(:)
-        integer(hid_t) :: sp, a, t
-        integer(size_t) :: w
-        integer :: err, i, j, n
-        n = size(strs)
-        w = 1
-        do i = 1, n
-            w = max(w, int(len_trim(strs(i)), size_t))
-        end do
-        allocate (buf(w*n))
-        buf = c_null_char
-        do i = 1, n
-            do j = 1, len_trim(strs(i))
-                buf((i - 1)*w + j) = strs(i)(j:j)
-            end do
-        end do
-        call h5tcopy_f(H5T_C_S1, t, err)
-        call h5tset_size_f(t, w, err)
-        call h5tset_strpad_f(t, H5T_STR_NULLPAD_F, err); call st%check(err, 'string type '//name)
-        if (present(scalar)) then
-            call h5screate_f(H5S_SCALAR_F, sp, err)
-        else
-            call h5screate_simple_f(1, [int(n, hsize_t)], sp, err)
-        end if
-        call h5acreate_f(loc, name, t, sp, a, err); call st%check(err, 'H5Acreate '//name)
-        call h5awrite_f(a, t, c_loc(buf), err); call st%check(err, 'H5Awrite '//name)
-        call h5aclose_f(a, err)
-        call h5sclose_f(sp, err)
-        call h5tclose_f(t, err)
-    end subroutine attr_text_list
-
-    !> Variable-length ASCII string attribute of scalar dataspace (the H5MD units module's `unit`
-    !> and `system`); nothing is written for an empty string.
-    subroutine attr_vltext(st, loc, name, s)
-        type(status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: loc
-        character(len=*), intent(in) :: name, s
-        character(kind=c_char), allocatable, target :: chars(:)
-        type(c_ptr), target :: p(1)
-        integer(hid_t) :: sp, a, t
-        integer :: err, j, n
-        n = len_trim(s)
-        if (n == 0) return
-        allocate (chars(n + 1))
-        do j = 1, n
-            chars(j) = s(j:j)
-        end do
-        chars(n + 1) = c_null_char
-        p(1) = c_loc(chars)
-        call h5tcopy_f(H5T_STRING, t, err)
-        call h5tset_cset_f(t, H5T_CSET_ASCII_F, err); call st%check(err, 'VL string type '//name)
-        call h5screate_f(H5S_SCALAR_F, sp, err)
-        call h5acreate_f(loc, name, t, sp, a, err); call st%check(err, 'H5Acreate '//name)
-        call h5awrite_f(a, t, c_loc(p), err); call st%check(err, 'H5Awrite '//name)
-        call h5aclose_f(a, err)
-        call h5sclose_f(sp, err)
-        call h5tclose_f(t, err)
-    end subroutine attr_vltext
 
 end module terrace_h5md

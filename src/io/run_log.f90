@@ -4,6 +4,7 @@ module terrace_run_log
     use terrace_kinds, only: dp, i8
     use terrace_timers, only: timers_t, n_timers, timer_names
     use terrace_mpi_env, only: world
+    use terrace_files, only: peak_memory_kib
     use mpi_f08, only: MPI_Reduce, MPI_DOUBLE_PRECISION, MPI_SUM, MPI_MAX
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -12,24 +13,6 @@ module terrace_run_log
     public :: print_run_log, peak_memory_kib
 
 contains
-
-    !> VmHWM of this process in KiB (0 when /proc is not available).
-    integer(i8) function peak_memory_kib() result(kib)
-        integer :: unit, ios
-        character(len=256) :: line
-        kib = 0
-        open (newunit=unit, file='/proc/self/status', action='read', status='old', iostat=ios)
-        if (ios /= 0) return
-        do
-            read (unit, '(a)', iostat=ios) line
-            if (ios /= 0) exit
-            if (line(1:6) == 'VmHWM:') then
-                read (line(7:), *, iostat=ios) kib
-                exit
-            end if
-        end do
-        close (unit)
-    end function peak_memory_kib
 
     subroutine print_run_log(timers, loop_time, natoms, steps, builds, label)
         type(timers_t), intent(in) :: timers

@@ -4,18 +4,14 @@
 module terrace_thermo
     use terrace_kinds, only: dp, i8
     use terrace_mpi_env, only: world
+    use terrace_observables, only: thermo_sample_t
     use mpi_f08, only: MPI_Wtime
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
     private
 
-    type, public :: thermo_sample_t
-        integer(i8) :: step = 0
-        real(dp) :: time = 0, temp = 0, pe = 0, ke = 0, etotal = 0, press = 0
-        real(dp) :: momentum(3) = 0      !< total linear momentum (mass x velocity units)
-        real(dp) :: angular(3) = 0       !< total angular momentum about the origin (unwrapped positions)
-        real(dp) :: ecouple = 0          !< energy put in by the thermostat so far (0 without one)
-    end type thermo_sample_t
+    ! the sample type lives with the observables (below the engine); named here too for old callers
+    public :: thermo_sample_t
 
     type, public :: thermo_writer_t
         integer :: unit = -1

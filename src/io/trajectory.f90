@@ -8,7 +8,7 @@ module terrace_trajectory
     use terrace_atoms, only: atoms_t
     use terrace_box, only: box_t
     use terrace_units, only: units_t
-    use terrace_thermo, only: thermo_sample_t
+    use terrace_observables, only: thermo_sample_t
     use terrace_version, only: terrace_version_string
     use mpi_f08, only: MPI_Comm
     implicit none

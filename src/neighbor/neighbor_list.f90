@@ -11,11 +11,15 @@ module terrace_neighbor_list
     use terrace_kinds, only: dp
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: any_all
+    use terrace_grow, only: reserve, grow_keep
     implicit none
     private
 
     type, public :: neighbor_list_t
         real(dp) :: cut = 0, cutsq = 0, skin = 0
+        !> No list: every owned atom meets every atom this rank holds (small free scenes; the
+        !> scene plan decides). Potentials that support it branch on this once per pass.
+        logical :: all_pairs = .false.
         integer :: dimension = 3
         integer :: nbin(3) = 1, reach(3) = 0
         real(dp) :: bin_lo(3) = 0, bin_inv(3) = 1, bin_size(3) = 1
@@ -145,9 +149,9 @@ contains
         integer :: i, b, ntot, n
         n = atoms%nlocal
         ntot = product(self%nbin)
-        call ensure_int(self%atom_bin, max(n, 1))
-        call ensure_int(self%perm, max(n, 1))
-        call ensure_int(self%counts, ntot + 1)
+        call reserve(self%atom_bin, max(n, 1))
+        call reserve(self%perm, max(n, 1))
+        call reserve(self%counts, ntot + 1)
         self%counts(1:ntot + 1) = 0
         do i = 1, n
             b = bin_of(self, atoms%x(:, i))
@@ -190,9 +194,9 @@ contains
         cutsq = self%cutsq
         cr = self%center_reach
         ! ghosts by bin
-        call ensure_int(self%atom_bin, max(nall, 1))
-        call ensure_int(self%ghost_atoms, max(nghost, 1))
-        call ensure_int(self%counts, ntot + 1)
+        call reserve(self%atom_bin, max(nall, 1))
+        call reserve(self%ghost_atoms, max(nghost, 1))
+        call reserve(self%counts, ntot + 1)
         self%counts(1:ntot + 1) = 0
         do i = nlocal + 1, nall
             b = bin_of(self, atoms%x(:, i))
@@ -225,12 +229,12 @@ contains
             sphere = 4*pi/3*cutsq*self%cut/product(self%bin_size)
         end if
         expect = 0.5_dp*sphere*real(nall, dp)/max(occupied, 1)*nlocal
-        call ensure_real(self%cx, bound)
-        call ensure_real(self%cy, bound)
-        call ensure_real(self%cz, bound)
-        call ensure_int(self%keep, bound)
-        call ensure_int(self%cj, bound)
-        call ensure_int(self%first, nlocal + 1)
+        call reserve(self%cx, bound)
+        call reserve(self%cy, bound)
+        call reserve(self%cz, bound)
+        call reserve(self%keep, bound)
+        call reserve(self%cj, bound)
+        call reserve(self%first, nlocal + 1)
         need = int(min(1.15_dp*expect + bound + 1024, real(huge(1), dp)/2))
         if (allocated(self%neigh)) then
             if (size(self%neigh) < need) deallocate (self%neigh)
@@ -268,7 +272,7 @@ contains
             end do
             do i = owned_start(b), owned_start(b + 1) - 1
                 if (n + bound > size(self%neigh)) &
-                    call grow_int(self%neigh, n, n + bound + int(min(1.1_dp*n/max(i - 1, 1)*(nlocal - i + 1), &
+                    call grow_keep(self%neigh, n, n + bound + int(min(1.1_dp*n/max(i - 1, 1)*(nlocal - i + 1), &
                                                                      real(huge(1), dp)/4)))
                 call owned_after(i, owned_start(b + 1) - 1, x, cutsq, self%neigh, n)
                 call scan(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, 1, m1, cutsq, &
@@ -306,7 +310,7 @@ contains
         nlocal = atoms%nlocal
         ntot = product(self%nbin)
         cr = self%center_reach
-        call ensure_int(self%below_first, nlocal + 1)
+        call reserve(self%below_first, nlocal + 1)
         need = max(self%first(nlocal + 1), 1024)
         if (allocated(self%below)) then
             if (size(self%below) < need) deallocate (self%below)
@@ -345,7 +349,7 @@ contains
                 if (test_order) then
                     if (dz > 0 .or. (dz == 0 .and. (dy > 0 .or. (dy == 0 .and. dx > 0)))) cycle
                 end if
-                if (n + 1 > size(self%below)) call grow_int(self%below, n, 2*size(self%below))
+                if (n + 1 > size(self%below)) call grow_keep(self%below, n, 2*size(self%below))
                 n = n + 1
                 self%below(n) = j
             end do
@@ -475,34 +479,5 @@ contains
             end if
         end do
     end function moved_too_far
-
-    subroutine ensure_int(a, n)
-        integer, allocatable, intent(inout) :: a(:)
-        integer, intent(in) :: n
-        if (allocated(a)) then
-            if (size(a) >= n) return
-            deallocate (a)
-        end if
-        allocate (a(n + n/4))
-    end subroutine ensure_int
-
-    subroutine ensure_real(a, n)
-        real(dp), allocatable, intent(inout) :: a(:)
-        integer, intent(in) :: n
-        if (allocated(a)) then
-            if (size(a) >= n) return
-            deallocate (a)
-        end if
-        allocate (a(n + n/4))
-    end subroutine ensure_real
-
-    subroutine grow_int(a, keep, n)
-        integer, allocatable, intent(inout) :: a(:)
-        integer, intent(in) :: keep, n
-        integer, allocatable :: t(:)
-        allocate (t(max(n, size(a) + size(a)/4)))
-        t(1:keep) = a(1:keep)
-        call move_alloc(t, a)
-    end subroutine grow_int
 
 end module terrace_neighbor_list

@@ -18,6 +18,7 @@ module terrace_domain
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: world, any_all
     use terrace_errors, only: check_all
+    use terrace_grow, only: reserve
     use mpi_f08, only: MPI_Comm, MPI_Dims_create, MPI_Cart_create, MPI_Cart_coords, MPI_Cart_shift, &
                        MPI_Comm_rank, MPI_Sendrecv, MPI_DOUBLE_PRECISION, MPI_INTEGER, MPI_STATUS_IGNORE, &
                        MPI_PROC_NULL
@@ -163,7 +164,7 @@ contains
             do
                 nsend = 0
                 ! pack leavers: first the ones going down, then the ones going up
-                call ensure(self%sendbuf, migrate_width*atoms%nlocal)
+                call reserve(self%sendbuf, migrate_width*atoms%nlocal, minimum=1024)
                 do dir = 1, 2
                     i = 1
                     do while (i <= atoms%nlocal)
@@ -186,7 +187,7 @@ contains
                                   self%nbr_lo(d), 2, self%cart, MPI_STATUS_IGNORE)
                 if (self%nbr_hi(d) == MPI_PROC_NULL) nrecv(1) = 0
                 if (self%nbr_lo(d) == MPI_PROC_NULL) nrecv(2) = 0
-                call ensure(self%recvbuf, migrate_width*(nrecv(1) + nrecv(2)))
+                call reserve(self%recvbuf, migrate_width*(nrecv(1) + nrecv(2)), minimum=1024)
                 call MPI_Sendrecv(self%sendbuf, migrate_width*nsend(1), MPI_DOUBLE_PRECISION, self%nbr_lo(d), 3, &
                                   self%recvbuf, migrate_width*nrecv(1), MPI_DOUBLE_PRECISION, self%nbr_hi(d), 3, &
                                   self%cart, MPI_STATUS_IGNORE)
@@ -283,16 +284,6 @@ contains
         atoms%nlocal = n
     end subroutine unpack_atom
 
-    subroutine ensure(buf, n)
-        real(dp), allocatable, intent(inout) :: buf(:)
-        integer, intent(in) :: n
-        if (allocated(buf)) then
-            if (size(buf) >= n) return
-            deallocate (buf)
-        end if
-        allocate (buf(max(n, 1024, int(1.5*n))))
-    end subroutine ensure
-
     !> Build the ghost layer and remember every swap for forward and reverse communication.
     subroutine domain_borders(self, atoms)
         class(domain_t), intent(inout) :: self
@@ -383,8 +374,8 @@ contains
                                 atoms%type(n) = atoms%type(i)
                             end do
                         else
-                            call ensure(self%sendbuf, border_width*ns)
-                            call ensure(self%recvbuf, border_width*sw%nrecv)
+                            call reserve(self%sendbuf, border_width*ns, minimum=1024)
+                            call reserve(self%recvbuf, border_width*sw%nrecv, minimum=1024)
                             do j = 1, ns
                                 i = sw%list(j); p = border_width*(j - 1)
                                 self%sendbuf(p + 1:p + 3) = atoms%x(:, i) + sw%shift
@@ -428,8 +419,8 @@ contains
                         a(:, sw%first_recv + j - 1) = a(:, sw%list(j)) + sh
                     end do
                 else
-                    call ensure(self%sendbuf, nc*sw%nsend)
-                    call ensure(self%recvbuf, nc*sw%nrecv)
+                    call reserve(self%sendbuf, nc*sw%nsend, minimum=1024)
+                    call reserve(self%recvbuf, nc*sw%nrecv, minimum=1024)
                     do j = 1, sw%nsend
                         i = sw%list(j); p = nc*(j - 1)
                         self%sendbuf(p + 1:p + nc) = a(:, i) + sh
@@ -462,8 +453,8 @@ contains
                         a(:, i) = a(:, i) + a(:, sw%first_recv + j - 1)
                     end do
                 else
-                    call ensure(self%sendbuf, nc*sw%nrecv)
-                    call ensure(self%recvbuf, nc*sw%nsend)
+                    call reserve(self%sendbuf, nc*sw%nrecv, minimum=1024)
+                    call reserve(self%recvbuf, nc*sw%nsend, minimum=1024)
                     do j = 1, sw%nrecv
                         n = sw%first_recv + j - 1; p = nc*(j - 1)
                         self%sendbuf(p + 1:p + nc) = a(:, n)

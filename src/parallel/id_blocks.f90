@@ -5,11 +5,11 @@
 module terrace_id_blocks
     use terrace_kinds, only: dp, i8
     use terrace_mpi_env, only: world, any_all
-    use mpi_f08, only: MPI_Alltoall, MPI_Alltoallv, MPI_INTEGER, MPI_DOUBLE_PRECISION
+    use mpi_f08, only: MPI_Comm, MPI_Alltoall, MPI_Alltoallv, MPI_INTEGER, MPI_DOUBLE_PRECISION
     implicit none
     private
 
-    public :: id_block, id_block_owner, to_id_blocks
+    public :: id_block, id_block_owner, to_id_blocks, exchange_plan
 
 contains
 
@@ -37,6 +37,30 @@ contains
         end if
     end function id_block_owner
 
+    !> The exchange that sends every atom to the rank whose block holds its id (ranks 0..P-1 of
+    !> comm): dest(i) is the rank of ids(i); scount(r) atoms go to rank r, from position sdisp(r)+1
+    !> of a send buffer ordered by rank; rcount(r) come from rank r, to position rdisp(r)+1 of the
+    !> receive buffer (one MPI_Alltoall; collective).
+    subroutine exchange_plan(ids, natoms, comm, dest, scount, sdisp, rcount, rdisp)
+        integer(i8), intent(in) :: ids(:), natoms
+        type(MPI_Comm), intent(in) :: comm
+        integer, intent(out) :: dest(:)
+        integer, intent(out) :: scount(0:), sdisp(0:), rcount(0:), rdisp(0:)
+        integer :: i, r, P
+        P = size(scount)
+        scount = 0
+        do i = 1, size(ids)
+            dest(i) = id_block_owner(ids(i), natoms, P)
+            scount(dest(i)) = scount(dest(i)) + 1
+        end do
+        call MPI_Alltoall(scount, 1, MPI_INTEGER, rcount, 1, MPI_INTEGER, comm)
+        sdisp(0) = 0; rdisp(0) = 0
+        do r = 1, P - 1
+            sdisp(r) = sdisp(r - 1) + scount(r - 1)
+            rdisp(r) = rdisp(r - 1) + rcount(r - 1)
+        end do
+    end subroutine exchange_plan
+
     !> values(:, 1:nlocal) of this rank's atoms ids(1:nlocal) (every id 1..natoms exactly once over
     !> the ranks) -> block(:, 1:count), the values of ids first .. first+count-1 in id order.
     !> ok is .false. on every rank when an id is missing, repeated or out of range. Collective.
@@ -48,7 +72,7 @@ contains
         integer(i8), intent(out) :: first, count
         real(dp), allocatable, intent(out) :: block(:, :)
         logical, intent(out) :: ok
-        integer, allocatable :: scount(:), rcount(:), sdisp(:), rdisp(:), cursor(:)
+        integer, allocatable :: scount(:), rcount(:), sdisp(:), rdisp(:), cursor(:), dest(:)
         real(dp), allocatable :: sbuf(:, :), rbuf(:, :)
         logical, allocatable :: seen(:)
         integer :: nc, P, i, r, j, nrecv
@@ -65,28 +89,15 @@ contains
         if (bad) then
             ok = .false.; allocate (block(nc - 1, 0)); return
         end if
-        allocate (scount(0:P - 1), rcount(0:P - 1), sdisp(0:P - 1), rdisp(0:P - 1), cursor(0:P - 1))
-        scount = 0
-        do i = 1, nlocal
-            r = id_block_owner(ids(i), natoms, P)
-            scount(r) = scount(r) + 1
-        end do
-        sdisp(0) = 0
-        do r = 1, P - 1
-            sdisp(r) = sdisp(r - 1) + scount(r - 1)
-        end do
+        allocate (scount(0:P - 1), rcount(0:P - 1), sdisp(0:P - 1), rdisp(0:P - 1), dest(nlocal))
+        call exchange_plan(ids(1:nlocal), natoms, world%comm, dest, scount, sdisp, rcount, rdisp)
         cursor = sdisp
         allocate (sbuf(nc, max(nlocal, 1)))
         do i = 1, nlocal
-            r = id_block_owner(ids(i), natoms, P)
+            r = dest(i)
             cursor(r) = cursor(r) + 1; j = cursor(r)
             sbuf(1, j) = real(ids(i), dp)
             sbuf(2:nc, j) = values(:, i)
-        end do
-        call MPI_Alltoall(scount, 1, MPI_INTEGER, rcount, 1, MPI_INTEGER, world%comm)
-        rdisp(0) = 0
-        do r = 1, P - 1
-            rdisp(r) = rdisp(r - 1) + rcount(r - 1)
         end do
         nrecv = sum(rcount)
         allocate (rbuf(nc, max(nrecv, 1)))

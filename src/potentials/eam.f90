@@ -41,16 +41,20 @@
 module terrace_eam
     use terrace_kinds, only: dp
     use terrace_atoms, only: atoms_t
+    use terrace_grow, only: reserve
     use terrace_neighbor_list, only: neighbor_list_t
     use terrace_eam_files, only: eam_file_t, read_funcfl_file, read_setfl_file
+    use terrace_potential, only: potential_t, halo_ops_t, max_warning_flags
     implicit none
     private
 
     !> Hartree * Bohr (eV Angstrom) as LAMMPS writes it: phi = 27.2 * 0.529 Z_a Z_b / r for funcfl.
     real(dp), parameter, public :: funcfl_z2r_factor = 27.2_dp*0.529_dp
 
-    type, public :: eam_t
+    type, extends(potential_t), public :: eam_t
         integer :: ntypes = 0
+        character(len=:), allocatable :: file_name  !< for the scene plan
+        real(dp), allocatable :: halo_buf(:, :)     !< one-component copies of rho / F'(rho) for the halo
         real(dp) :: cutmax = 0                      !< largest cutoff (Angstrom)
         real(dp), allocatable :: mass(:)            !< per atom type, from the file (amu)
         real(dp), allocatable :: rho(:)             !< per atom (owned + ghost), electron density
@@ -82,10 +86,17 @@ module terrace_eam
         procedure :: embed => eam_embed
         procedure :: force => eam_force
         procedure :: ray => eam_ray
+        procedure :: forces => eam_forces
+        procedure :: cutoff => eam_cutoff
+        procedure :: describe => eam_describe
+        procedure :: ray_needs_full_neighbourhood => eam_ray_needs_full
+        procedure :: contact_distance => eam_contact_distance
+        procedure :: warning_flags => eam_warning_flags
         procedure :: embedding => eam_embedding
         procedure :: density_function => eam_density_function
         procedure :: pair_energy => eam_pair_energy
-        procedure :: warning => eam_warning
+        procedure :: warning => eam_warning_global
+        procedure :: warning_local => eam_warning
     end type eam_t
 
 contains
@@ -107,6 +118,7 @@ contains
         integer :: t, e, map(max(ntypes, 1))
         ok = .false.
         msg = ''
+        self%file_name = path
         if (ntypes < 1) then
             msg = path//': no atom types to map'
             return
@@ -449,6 +461,83 @@ contains
         end if
     end function eam_warning
 
+    ! ---------------------------------------------------------------- the potential interface
+
+    !> Density pass over the half list, reverse sum of the ghost densities into their owners,
+    !> F'(rho) of the owned atoms, forward copy of F'(rho) to the ghosts, force pass. energy = pair +
+    !> embedding energy of this rank (when want_energy), virial of its pairs.
+    subroutine eam_forces(self, atoms, list, halo, want_energy, energy, virial)
+        class(eam_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        class(halo_ops_t), intent(inout) :: halo
+        logical, intent(in) :: want_energy
+        real(dp), intent(out) :: energy, virial
+        integer :: nall
+        real(dp) :: e_embed, e_pair
+        nall = atoms%nall()
+        call self%density(atoms, list)
+        if (allocated(self%halo_buf)) then
+            if (size(self%halo_buf, 2) < nall) deallocate (self%halo_buf)
+        end if
+        if (.not. allocated(self%halo_buf)) allocate (self%halo_buf(1, nall + nall/4 + 16))
+        self%halo_buf(1, 1:nall) = self%rho(1:nall)
+        call halo%reverse_sum(self%halo_buf(:, 1:nall))
+        self%rho(1:atoms%nlocal) = self%halo_buf(1, 1:atoms%nlocal)
+        call self%embed(atoms, want_energy, e_embed)
+        self%halo_buf(1, 1:nall) = self%fp(1:nall)
+        call halo%forward(self%halo_buf(:, 1:nall))
+        self%fp(1:nall) = self%halo_buf(1, 1:nall)
+        call self%force(atoms, list, want_energy, e_pair, virial)
+        energy = 0
+        if (want_energy) energy = e_embed + e_pair
+    end subroutine eam_forces
+
+    pure real(dp) function eam_cutoff(self)
+        class(eam_t), intent(in) :: self
+        eam_cutoff = self%cutmax
+    end function eam_cutoff
+
+    function eam_describe(self) result(text)
+        class(eam_t), intent(in) :: self
+        character(len=:), allocatable :: text
+        text = trim(self%style)//' from '//self%file_name//'; density pass, reverse sum of rho and forward halo of F''(rho)'
+    end function eam_describe
+
+    !> The ray pass completes every owned atom's density locally (list%below).
+    pure logical function eam_ray_needs_full(self)
+        class(eam_t), intent(in) :: self
+        eam_ray_needs_full = .true.
+    end function eam_ray_needs_full
+
+    !> A contact distance for the overlap check: about the nearest-neighbour distance.
+    pure real(dp) function eam_contact_distance(self, ti, tj)
+        class(eam_t), intent(in) :: self
+        integer, intent(in) :: ti, tj
+        eam_contact_distance = 0.4_dp*self%cutmax
+    end function eam_contact_distance
+
+    pure function eam_warning_flags(self) result(flags)
+        class(eam_t), intent(in) :: self
+        logical :: flags(max_warning_flags)
+        flags = .false.
+        flags(1) = self%rho_outside
+        flags(2) = self%r_table_short
+    end function eam_warning_flags
+
+    !> This rank's own warning if it has one, else a general one when another rank had one.
+    logical function eam_warning_global(self, global_flags, text) result(have)
+        class(eam_t), intent(inout) :: self
+        logical, intent(in) :: global_flags(max_warning_flags)
+        character(len=*), intent(out) :: text
+        have = self%warning_local(text)
+        if (.not. have .and. any(global_flags(1:2))) then
+            text = 'eam: some ranks left the tabulated range of the potential (densities or distances); '// &
+                   'values were continued as LAMMPS does'
+            have = .true.
+        end if
+    end function eam_warning_global
+
     ! ----------------------------------------------------------------------------- kernels
 
     !> rho(1:nall) = 0, then over the half list: rho_i += rho_ba(r), rho_j += rho_ab(r) (ghosts
@@ -459,8 +548,8 @@ contains
         type(neighbor_list_t), intent(in) :: list
         integer :: nall
         nall = atoms%nlocal + atoms%nghost
-        call reserve(self%rho, nall)
-        call reserve(self%fp, nall)
+        call reserve(self%rho, nall, minimum=64, zero=.true.)
+        call reserve(self%fp, nall, minimum=64, zero=.true.)
         self%rho(1:nall) = 0
         if (atoms%nlocal == 0) return
         if (self%ntypes == 1) then
@@ -483,7 +572,7 @@ contains
         real(dp) :: lo, hi
         n = atoms%nlocal
         energy = 0
-        call reserve(self%fp, atoms%nlocal + atoms%nghost)
+        call reserve(self%fp, atoms%nlocal + atoms%nghost, minimum=64, zero=.true.)
         if (n == 0) return
         call embed_kernel(n, atoms%type, self%t2f, self%fspl, self%rdrho, self%nrho, self%rhomax, self%rho, &
                           want_energy, self%fp, energy, lo, hi)
@@ -797,18 +886,6 @@ contains
         end do
         out = out + [e, e1, e2, w]
     end subroutine ray_embed
-
-    !> Grow a per-atom array to at least n entries (contents are not kept).
-    subroutine reserve(a, n)
-        real(dp), allocatable, intent(inout) :: a(:)
-        integer, intent(in) :: n
-        if (allocated(a)) then
-            if (size(a) >= n) return
-            deallocate (a)
-        end if
-        allocate (a(max(n + n/4, 64)))
-        a = 0
-    end subroutine reserve
 
     !> Work rows for the one-type kernels: as long as the longest row of the list (counted here from
     !> first(1:nlocal+1), which every list has, hand-built ones included).

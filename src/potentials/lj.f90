@@ -17,6 +17,7 @@ module terrace_lj
     use terrace_kinds, only: dp
     use terrace_atoms, only: atoms_t
     use terrace_neighbor_list, only: neighbor_list_t
+    use terrace_potential, only: potential_t, halo_ops_t
     implicit none
     private
 
@@ -28,9 +29,11 @@ module terrace_lj
     !> split x * merge(1, 0, c) into a branch around x * 0, which it may not if-convert either).
     real(dp), volatile, save :: one = 1, zero = 0
 
-    type, public :: lj_t
+    type, extends(potential_t), public :: lj_t
         integer :: ntypes = 1
         logical :: smooth = .false.
+        logical :: shift = .false.
+        real(dp) :: eps11 = 0, sig11 = 0         !< type 1's parameters (scene plan)
         logical :: no_cutoff = .false.
         real(dp), allocatable :: lj1(:, :), lj2(:, :), lj3(:, :), lj4(:, :), cutsq(:, :), offset(:, :)
         real(dp), allocatable :: fc(:, :)        !< smooth: -E_LJ'(rc) (force magnitude at rc)
@@ -39,10 +42,17 @@ module terrace_lj
         real(dp), allocatable :: work(:, :)      !< per-atom rows of pair forces (grown at rebuilds)
     contains
         procedure :: setup => lj_setup
+        procedure :: forces => lj_forces
+        procedure :: ray => lj_ray_any
+        procedure :: cutoff => lj_cutoff
+        procedure :: describe => lj_describe
+        procedure :: supports_all_pairs => lj_supports_all_pairs
+        procedure :: contact_distance => lj_contact_distance
+        procedure :: time_scale => lj_time_scale
         procedure :: compute => lj_compute
         procedure :: compute_all_pairs => lj_compute_all_pairs
         procedure :: pair_energy => lj_pair_energy
-        procedure :: ray => lj_ray
+        procedure :: ray_list => lj_ray
         procedure :: ray_all_pairs => lj_ray_all_pairs
     end type lj_t
 
@@ -59,6 +69,8 @@ contains
         real(dp) :: sr6, rc
         self%ntypes = ntypes
         self%smooth = smooth
+        self%shift = shift
+        self%eps11 = eps(1, 1); self%sig11 = sig(1, 1)
         if (allocated(self%lj1)) deallocate (self%lj1, self%lj2, self%lj3, self%lj4, self%cutsq, self%offset, self%fc, &
                                              self%rc)
         allocate (self%lj1(ntypes, ntypes), self%lj2(ntypes, ntypes), self%lj3(ntypes, ntypes), &
@@ -88,6 +100,72 @@ contains
         end do
         self%cutmax = maxval(cut(1:ntypes, 1:ntypes))
     end subroutine lj_setup
+
+    !> The potential interface: the half list, or all pairs when the plan chose no list.
+    subroutine lj_forces(self, atoms, list, halo, want_energy, energy, virial)
+        class(lj_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        class(halo_ops_t), intent(inout) :: halo
+        logical, intent(in) :: want_energy
+        real(dp), intent(out) :: energy, virial
+        if (list%all_pairs) then
+            call self%compute_all_pairs(atoms, energy, virial)
+        else
+            call self%compute(atoms, list, want_energy, energy, virial)
+        end if
+    end subroutine lj_forces
+
+    subroutine lj_ray_any(self, atoms, list, s, out)
+        class(lj_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        real(dp), intent(in) :: s
+        real(dp), intent(out) :: out(4)
+        if (list%all_pairs) then
+            call self%ray_all_pairs(atoms, s, out)
+        else
+            call self%ray_list(atoms, list, s, out)
+        end if
+    end subroutine lj_ray_any
+
+    !> The largest pair cutoff; 0 when no pair has one (all pairs interact).
+    pure real(dp) function lj_cutoff(self)
+        class(lj_t), intent(in) :: self
+        lj_cutoff = self%cutmax
+    end function lj_cutoff
+
+    function lj_describe(self) result(text)
+        class(lj_t), intent(in) :: self
+        character(len=:), allocatable :: text
+        character(len=256) :: s
+        write (s, '(a,a,a,g0.6,a,g0.6)') trim(merge('lj/smooth/linear', 'lj              ', self%smooth)), &
+            trim(merge(' (shifted)', '          ', self%shift .and. .not. self%smooth)), ', epsilon(1,1) = ', self%eps11, &
+            ', sigma(1,1) = ', self%sig11
+        text = trim(s)//'; no density pass (pair potential)'
+    end function lj_describe
+
+    pure logical function lj_supports_all_pairs(self)
+        class(lj_t), intent(in) :: self
+        lj_supports_all_pairs = .true.
+    end function lj_supports_all_pairs
+
+    !> sigma_ij = (lj3/lj4)^(1/6).
+    pure real(dp) function lj_contact_distance(self, ti, tj)
+        class(lj_t), intent(in) :: self
+        integer, intent(in) :: ti, tj
+        lj_contact_distance = (self%lj3(ti, tj)/max(self%lj4(ti, tj), tiny(1.0_dp)))**(1.0_dp/6)
+    end function lj_contact_distance
+
+    !> tau = sigma sqrt(m mvv2e / eps) of type 1.
+    pure real(dp) function lj_time_scale(self, mass, mvv2e)
+        class(lj_t), intent(in) :: self
+        real(dp), intent(in) :: mass, mvv2e
+        real(dp) :: eps, sig
+        eps = self%lj4(1, 1)**2/(4*self%lj3(1, 1))
+        sig = (self%lj3(1, 1)/self%lj4(1, 1))**(1.0_dp/6)
+        lj_time_scale = sig*sqrt(mass*mvv2e/eps)
+    end function lj_time_scale
 
     !> Energy of one pair at squared distance rsq (tests and diagnostics; not a hot path).
     pure real(dp) function lj_pair_energy(self, ti, tj, rsq) result(e)

@@ -4,10 +4,14 @@ module terrace_scene_plan
     use terrace_kinds, only: dp, i8
     use terrace_config, only: config_t
     use terrace_box, only: box_t
+    use terrace_potential, only: potential_t
     implicit none
     private
 
-    integer, parameter, public :: pair_all = 1, pair_cells = 2
+    !> pair_all: no list, every owned atom meets every atom (small free scenes, cutoff-free LJ);
+    !> pair_cells: cell lists + half Verlet list; pair_none: no pair list at all (terms with fixed
+    !> partners, such as the elements of one mesh), only the halo.
+    integer, parameter, public :: pair_all = 1, pair_cells = 2, pair_none = 3
 
     type, public :: plan_t
         integer(i8) :: natoms = 0
@@ -17,17 +21,44 @@ module terrace_scene_plan
         integer(i8) :: all_pairs_max = 64    !< 'auto' picks all pairs up to this many atoms (free scenes)
         character(len=:), allocatable :: halo, pairs, potential, integrator, outputs, box
     contains
+        procedure :: decide => plan_decide
         procedure :: finish => plan_finish
         procedure :: print => plan_print
     end type plan_t
 
 contains
 
-    subroutine plan_finish(self, cfg, box, cutmax)
+    !> The decisions: all pairs, cells + list or no list (from what the potential supports, the
+    !> deck's &neighbor list and the scene's size and boundaries), then the descriptions.
+    subroutine plan_decide(self, cfg, box, natoms, nprocs, dims, pot)
         class(plan_t), intent(inout) :: self
         type(config_t), intent(in) :: cfg
         type(box_t), intent(in) :: box
-        real(dp), intent(in) :: cutmax
+        integer(i8), intent(in) :: natoms
+        integer, intent(in) :: nprocs, dims(3)
+        class(potential_t), intent(in) :: pot
+        self%natoms = natoms
+        self%nprocs = nprocs
+        self%dims = dims
+        self%pair_mode = pair_cells
+        if (pot%supports_all_pairs()) then
+            if (cfg%list == 'all_pairs' .or. pot%cutoff() == 0) then
+                self%pair_mode = pair_all
+            else if (cfg%list == 'auto' .and. .not. any(box%periodic(1:cfg%dimension)) .and. &
+                     natoms <= self%all_pairs_max) then
+                self%pair_mode = pair_all
+            end if
+        else if (.not. pot%needs_pair_list()) then
+            self%pair_mode = pair_none
+        end if
+        call self%finish(cfg, box, pot)
+    end subroutine plan_decide
+
+    subroutine plan_finish(self, cfg, box, pot)
+        class(plan_t), intent(inout) :: self
+        type(config_t), intent(in) :: cfg
+        type(box_t), intent(in) :: box
+        class(potential_t), intent(in) :: pot
         character(len=512) :: s
         integer :: d
         if (self%pair_mode == pair_all) then
@@ -37,8 +68,17 @@ contains
             else
                 self%halo = 'replicated atoms (MPI_Allgatherv of positions every step)'
             end if
+        else if (self%pair_mode == pair_none) then
+            self%pairs = 'no pair list (the potential''s partners are fixed)'
+            if (self%nprocs == 1) then
+                self%halo = 'none (one rank)'
+            else
+                write (s, '(a,g0.6,a)') '6-way staged halo exchange (reach ', pot%halo_reach() + cfg%skin, &
+                    ') with reverse force sums'
+                self%halo = trim(s)
+            end if
         else
-            write (s, '(a,g0.6,a,g0.6,a)') 'cell lists + half Verlet list, cutoff ', cutmax, ' + skin ', cfg%skin, &
+            write (s, '(a,g0.6,a,g0.6,a)') 'cell lists + half Verlet list, cutoff ', pot%cutoff(), ' + skin ', cfg%skin, &
                 ', rebuilt when an atom has moved skin/2, atoms sorted by cell at each rebuild'
             self%pairs = trim(s)
             if (self%nprocs == 1) then
@@ -51,14 +91,7 @@ contains
                 self%halo = '6-way staged halo exchange with reverse force sums (Newton across ghosts)'
             end if
         end if
-        if (cfg%potential(1:3) == 'eam') then
-            self%potential = trim(cfg%potential)//' from '//trim(cfg%potential_file)// &
-                             '; density pass, reverse sum of rho and forward halo of F''(rho)'
-        else
-            write (s, '(a,a,a,g0.6,a,g0.6)') trim(cfg%potential), trim(merge(' (shifted)', '          ', cfg%shift)), &
-                ', epsilon(1,1) = ', cfg%epsilon(1, 1), ', sigma(1,1) = ', cfg%sigma(1, 1)
-            self%potential = trim(s)//'; no density pass (pair potential)'
-        end if
+        self%potential = pot%describe()
         if (cfg%integrator == 'energy_stepping') then
             s = 'energy_stepping (no time step: the next event decides; terrace height below)'
         else
@@ -74,6 +107,10 @@ contains
         self%outputs = 'screen'
         if (len_trim(cfg%thermo_file) > 0) self%outputs = self%outputs//', thermo CSV '//trim(cfg%thermo_file)
         if (len_trim(cfg%forces_file) > 0) self%outputs = self%outputs//', forces at step 0 '//trim(cfg%forces_file)
+        if (len_trim(cfg%trajectory_file) > 0) self%outputs = self%outputs//', H5MD trajectory '//trim(cfg%trajectory_file)
+        if (len_trim(cfg%checkpoint_file) > 0) self%outputs = self%outputs//', checkpoints '//trim(cfg%checkpoint_file)
+        if (len_trim(cfg%final_atoms_file) > 0) self%outputs = self%outputs//', final atoms '// &
+                                                               trim(cfg%final_atoms_file)
         self%box = ''
         do d = 1, box%dimension
             write (s, '(a,1x,g0.8,a,g0.8,a)') 'xyz'(d:d)//':', box%lo(d), ' .. ', box%hi(d), &

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Speed of two builds side by side (issue 11: a refactoring must not slow the engine): the LAMMPS LJ
+# benchmark scene (input/lj_bench.nml, 32,000 atoms) and the LAMMPS EAM scene (Cu_u3, 32,000 atoms,
+# the in.eam set-up of scripts/bench/eam_bench.sh), one rank, OLD and NEW alternating, REPEAT times
+# each; prints each loop time, the best of each build and new/old.
+# Usage: scripts/bench/old_new_speed.sh OLD_TERRACE NEW_TERRACE [NSTEPS_LJ [NSTEPS_EAM [REPEAT]]]
+set -euo pipefail
+old="$(realpath "$1")"; new="$(realpath "$2")"
+nlj="${3:-1000}"; neam="${4:-200}"; repeat="${5:-3}"
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT; cd "$work"
+sed -e "s/n_steps=1000/n_steps=$nlj/" "$repo/input/lj_bench.nml" > lj.nml
+cat > eam.nml <<NML
+&run units='metal', dimension=3, n_steps=$neam, seed=87287 /
+&system lattice='fcc', lattice_constant=3.615, cells=20,20,20, periodic=.true.,.true.,.true., temperature=1600.0 /
+&potential style='eam', file='/usr/share/lammps/potentials/Cu_u3.eam' /
+&integrator style='velocity_verlet', dt=0.005 /
+&neighbor skin=1.0 /
+&output thermo_every=50, thermo_file='' /
+NML
+echo "old: $old"; echo "new: $new"
+echo "machine: $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(nproc) cores visible, load $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "date: $(date -u '+%Y-%m-%d %H:%M UTC')"
+loop() { "$1" "$2" 2>&1 | sed -n 's/^Loop time: *\([0-9.eE+-]*\).*/\1/p' | head -1; }
+for scene in lj eam; do
+  best_old=1e30; best_new=1e30
+  for r in $(seq "$repeat"); do
+    to=$(loop "$old" $scene.nml); tn=$(loop "$new" $scene.nml)
+    echo "  $scene run $r: old $to s, new $tn s"
+    best_old=$(awk -v a="$best_old" -v b="$to" 'BEGIN{print (b<a)?b:a}')
+    best_new=$(awk -v a="$best_new" -v b="$tn" 'BEGIN{print (b<a)?b:a}')
+  done
+  awk -v s=$scene -v o="$best_old" -v n="$best_new" 'BEGIN{printf "%-4s best old %.3f s, best new %.3f s, new/old = %.3f\n", s, o, n, n/o}'
+done

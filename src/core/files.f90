@@ -1,0 +1,69 @@
+!> What the operating system gives the program: the whole contents of a text file (read_input_text:
+!> read by rank 0 and broadcast, for the input decks), and this process's peak resident memory.
+!>
+!> peak_memory_kib reads VmHWM ("high water mark" of the resident set, in KiB) from
+!> /proc/self/status; it is 0 where /proc is not available.
+module terrace_files
+    use terrace_kinds, only: i8
+    use terrace_mpi_env, only: world, bcast_text
+    use terrace_errors, only: stop_all
+    implicit none
+    private
+
+    public :: slurp, read_input_text, peak_memory_kib
+
+contains
+
+    !> The whole file `path` as one string (line ends kept); status /= 0 when it cannot be read.
+    subroutine slurp(path, text, status)
+        character(len=*), intent(in) :: path
+        character(len=:), allocatable, intent(out) :: text
+        integer, intent(out) :: status
+        integer :: unit, n
+        open (newunit=unit, file=path, access='stream', form='unformatted', status='old', &
+              action='read', iostat=status)
+        if (status /= 0) return
+        inquire (unit=unit, size=n)
+        allocate (character(len=max(n, 0)) :: text)
+        if (n > 0) read (unit, iostat=status) text
+        close (unit)
+    end subroutine slurp
+
+    !> The input file `path` on every rank: read by rank 0, broadcast (collective). Stops every rank
+    !> when it cannot be read.
+    subroutine read_input_text(path, text)
+        character(len=*), intent(in) :: path
+        character(len=:), allocatable, intent(out) :: text
+        character(len=:), allocatable :: status_text
+        integer :: status
+        status_text = 'ok'
+        if (world%rank == 0) then
+            call slurp(path, text, status)
+            if (status /= 0) then
+                status_text = 'missing'; text = ''
+            end if
+        end if
+        call bcast_text(status_text)
+        if (status_text /= 'ok') call stop_all(path//': cannot open the input file (does it exist and is it readable?)')
+        call bcast_text(text)
+    end subroutine read_input_text
+
+    !> VmHWM of this process in KiB (0 when /proc is not available).
+    integer(i8) function peak_memory_kib() result(kib)
+        integer :: unit, ios
+        character(len=256) :: line
+        kib = 0
+        open (newunit=unit, file='/proc/self/status', action='read', status='old', iostat=ios)
+        if (ios /= 0) return
+        do
+            read (unit, '(a)', iostat=ios) line
+            if (ios /= 0) exit
+            if (line(1:6) == 'VmHWM:') then
+                read (line(7:), *, iostat=ios) kib
+                exit
+            end if
+        end do
+        close (unit)
+    end function peak_memory_kib
+
+end module terrace_files

@@ -1,0 +1,151 @@
+!> The potential interface. Every interaction term of the engine (pair potentials, EAM, finite
+!> elements, contact) is a potential_t: the engine and both integrators see only this type, so a
+!> new potential needs no change to them (doc/architecture.md, "Adding a potential").
+!>
+!> Two kernels, both over the atoms this rank holds (owned 1..nlocal, ghosts after them):
+!>   forces: F_i = -dV/dx_i added into atoms%f (owned and ghost rows; the engine zeroes f before
+!>           and sums ghost rows into their owners after), and, when asked, this rank's share of
+!>           V and of the virial W = sum_i x_i . F_i.
+!>   ray:    this rank's share of V(x + s v), dV/ds, d2V/ds2 and W along the straight line every
+!>           atom follows between energy-stepping events (ghosts carry velocities, so no message
+!>           is needed; the engine sums the four numbers over ranks).
+!> A many-body term that needs per-atom fields completed across ranks between its passes (EAM:
+!> the densities summed into their owners, F'(rho) copied to the ghosts) asks the halo_ops_t the
+!> engine hands it. Potentials hold no MPI: the engine owns the domain and the communication.
+module terrace_potential
+    use terrace_kinds, only: dp
+    use terrace_atoms, only: atoms_t
+    use terrace_neighbor_list, only: neighbor_list_t
+    implicit none
+    private
+
+    integer, parameter, public :: max_warning_flags = 8
+
+    !> Per-atom field exchange between passes of a many-body potential, implemented by the engine.
+    !> buf(ncomp, nall): reverse_sum adds each ghost row into its owner's row; forward copies each
+    !> owner's row to its ghosts.
+    type, abstract, public :: halo_ops_t
+    contains
+        procedure(halo_op), deferred :: reverse_sum
+        procedure(halo_op), deferred :: forward
+    end type halo_ops_t
+
+    type, abstract, public :: potential_t
+    contains
+        procedure(forces_op), deferred :: forces
+        procedure(ray_op), deferred :: ray
+        procedure(real_query), deferred :: cutoff
+        procedure(text_query), deferred :: describe
+        procedure :: halo_reach => potential_halo_reach
+        procedure :: needs_pair_list => potential_needs_pair_list
+        procedure :: supports_all_pairs => potential_false
+        procedure :: ray_needs_full_neighbourhood => potential_false
+        procedure :: contact_distance => potential_contact_distance
+        procedure :: time_scale => potential_time_scale
+        procedure :: warning_flags => potential_warning_flags
+        procedure :: warning => potential_warning
+        procedure :: on_rebuild => potential_on_rebuild
+    end type potential_t
+
+    abstract interface
+        subroutine halo_op(self, buf)
+            import :: halo_ops_t, dp
+            class(halo_ops_t), intent(inout) :: self
+            real(dp), intent(inout) :: buf(:, :)
+        end subroutine halo_op
+
+        !> Forces added into atoms%f; energy and virial: this rank's shares (0 unless want_energy,
+        !> for potentials whose force-only path skips them).
+        subroutine forces_op(self, atoms, list, halo, want_energy, energy, virial)
+            import :: potential_t, atoms_t, neighbor_list_t, halo_ops_t, dp
+            class(potential_t), intent(inout) :: self
+            type(atoms_t), intent(inout) :: atoms
+            type(neighbor_list_t), intent(in) :: list
+            class(halo_ops_t), intent(inout) :: halo
+            logical, intent(in) :: want_energy
+            real(dp), intent(out) :: energy, virial
+        end subroutine forces_op
+
+        !> out = this rank's (V, dV/ds, d2V/ds2, W) at x + s v.
+        subroutine ray_op(self, atoms, list, s, out)
+            import :: potential_t, atoms_t, neighbor_list_t, dp
+            class(potential_t), intent(inout) :: self
+            type(atoms_t), intent(in) :: atoms
+            type(neighbor_list_t), intent(in) :: list
+            real(dp), intent(in) :: s
+            real(dp), intent(out) :: out(4)
+        end subroutine ray_op
+
+        !> The largest pair distance at which the term acts (0: no cutoff, or no pairs).
+        pure real(dp) function real_query(self)
+            import :: potential_t, dp
+            class(potential_t), intent(in) :: self
+        end function real_query
+
+        !> One line for the scene plan: the style, its parameters, what is computed and skipped.
+        function text_query(self) result(text)
+            import :: potential_t
+            class(potential_t), intent(in) :: self
+            character(len=:), allocatable :: text
+        end function text_query
+    end interface
+
+contains
+
+    !> How far beyond its sub-domain a rank needs ghost atoms (without the neighbour skin): the
+    !> cutoff for pair terms; a mesh returns its largest element extent.
+    pure real(dp) function potential_halo_reach(self)
+        class(potential_t), intent(in) :: self
+        potential_halo_reach = self%cutoff()
+    end function potential_halo_reach
+
+    !> Whether the term walks the half neighbour list (a one-body mesh does not).
+    pure logical function potential_needs_pair_list(self)
+        class(potential_t), intent(in) :: self
+        potential_needs_pair_list = .true.
+    end function potential_needs_pair_list
+
+    pure logical function potential_false(self)
+        class(potential_t), intent(in) :: self
+        potential_false = .false.
+    end function potential_false
+
+    !> Distance below which two atoms of types ti and tj count as overlapping at the start (the
+    !> run is refused below a quarter of it); 0: no overlap check for this pair.
+    pure real(dp) function potential_contact_distance(self, ti, tj)
+        class(potential_t), intent(in) :: self
+        integer, intent(in) :: ti, tj
+        potential_contact_distance = 0
+    end function potential_contact_distance
+
+    !> A natural time unit of the term for atoms of mass m (tau = sigma sqrt(m/eps) for LJ), used
+    !> by the estimates printed before a run; 0: none, the engine uses the curvature instead.
+    pure real(dp) function potential_time_scale(self, mass, mvv2e)
+        class(potential_t), intent(in) :: self
+        real(dp), intent(in) :: mass, mvv2e
+        potential_time_scale = 0
+    end function potential_time_scale
+
+    !> This rank's sticky warning conditions (the engine ORs them over ranks).
+    pure function potential_warning_flags(self) result(flags)
+        class(potential_t), intent(in) :: self
+        logical :: flags(max_warning_flags)
+        flags = .false.
+    end function potential_warning_flags
+
+    !> A warning to print once (by rank 0), given the flags ORed over all ranks; .false.: none.
+    logical function potential_warning(self, global_flags, text) result(have)
+        class(potential_t), intent(inout) :: self
+        logical, intent(in) :: global_flags(max_warning_flags)
+        character(len=*), intent(out) :: text
+        have = .false.
+        text = ''
+    end function potential_warning
+
+    !> Called after every rebuild (migration, halo, list): local indices have changed.
+    subroutine potential_on_rebuild(self, atoms)
+        class(potential_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+    end subroutine potential_on_rebuild
+
+end module terrace_potential

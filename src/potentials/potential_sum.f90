@@ -1,0 +1,170 @@
+!> Several potential terms added into one: V = sum_k V_k, so that forces, energies, virials and
+!> the ray's (V, V', V'', W) are sums over the terms. A scene with one term (LJ, EAM) uses that term
+!> directly; a mesh with contact between its bodies is the sum of the element term and the contact
+!> term, and the engine and the integrators see one potential either way.
+module terrace_potential_sum
+    use terrace_kinds, only: dp
+    use terrace_atoms, only: atoms_t
+    use terrace_neighbor_list, only: neighbor_list_t
+    use terrace_potential, only: potential_t, halo_ops_t, max_warning_flags
+    implicit none
+    private
+
+    type :: term_t
+        class(potential_t), allocatable :: p
+    end type term_t
+
+    type, extends(potential_t), public :: potential_sum_t
+        type(term_t), allocatable :: terms(:)
+    contains
+        procedure :: add => sum_add
+        procedure :: forces => sum_forces
+        procedure :: ray => sum_ray
+        procedure :: cutoff => sum_cutoff
+        procedure :: describe => sum_describe
+        procedure :: halo_reach => sum_halo_reach
+        procedure :: needs_pair_list => sum_needs_pair_list
+        procedure :: supports_all_pairs => sum_supports_all_pairs
+        procedure :: ray_needs_full_neighbourhood => sum_ray_needs_full
+        procedure :: contact_distance => sum_contact_distance
+        procedure :: time_scale => sum_time_scale
+        procedure :: on_rebuild => sum_on_rebuild
+    end type potential_sum_t
+
+contains
+
+    !> Append a term (moved in: term is deallocated on return).
+    subroutine sum_add(self, term)
+        class(potential_sum_t), intent(inout) :: self
+        class(potential_t), allocatable, intent(inout) :: term
+        type(term_t), allocatable :: grown(:)
+        integer :: n, k
+        n = 0
+        if (allocated(self%terms)) n = size(self%terms)
+        allocate (grown(n + 1))
+        do k = 1, n
+            call move_alloc(self%terms(k)%p, grown(k)%p)
+        end do
+        call move_alloc(term, grown(n + 1)%p)
+        call move_alloc(grown, self%terms)
+    end subroutine sum_add
+
+    subroutine sum_forces(self, atoms, list, halo, want_energy, energy, virial)
+        class(potential_sum_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        class(halo_ops_t), intent(inout) :: halo
+        logical, intent(in) :: want_energy
+        real(dp), intent(out) :: energy, virial
+        real(dp) :: e, w
+        integer :: k
+        energy = 0; virial = 0
+        do k = 1, size(self%terms)
+            call self%terms(k)%p%forces(atoms, list, halo, want_energy, e, w)
+            energy = energy + e; virial = virial + w
+        end do
+    end subroutine sum_forces
+
+    subroutine sum_ray(self, atoms, list, s, out)
+        class(potential_sum_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        real(dp), intent(in) :: s
+        real(dp), intent(out) :: out(4)
+        real(dp) :: part(4)
+        integer :: k
+        out = 0
+        do k = 1, size(self%terms)
+            call self%terms(k)%p%ray(atoms, list, s, part)
+            out = out + part
+        end do
+    end subroutine sum_ray
+
+    pure real(dp) function sum_cutoff(self)
+        class(potential_sum_t), intent(in) :: self
+        integer :: k
+        sum_cutoff = 0
+        do k = 1, size(self%terms)
+            sum_cutoff = max(sum_cutoff, self%terms(k)%p%cutoff())
+        end do
+    end function sum_cutoff
+
+    pure real(dp) function sum_halo_reach(self)
+        class(potential_sum_t), intent(in) :: self
+        integer :: k
+        sum_halo_reach = 0
+        do k = 1, size(self%terms)
+            sum_halo_reach = max(sum_halo_reach, self%terms(k)%p%halo_reach())
+        end do
+    end function sum_halo_reach
+
+    function sum_describe(self) result(text)
+        class(potential_sum_t), intent(in) :: self
+        character(len=:), allocatable :: text
+        integer :: k
+        text = 'sum of'
+        do k = 1, size(self%terms)
+            text = text//merge(' ', ';', k == 1)//' ['//self%terms(k)%p%describe()//']'
+        end do
+    end function sum_describe
+
+    pure logical function sum_needs_pair_list(self)
+        class(potential_sum_t), intent(in) :: self
+        integer :: k
+        sum_needs_pair_list = .false.
+        do k = 1, size(self%terms)
+            sum_needs_pair_list = sum_needs_pair_list .or. self%terms(k)%p%needs_pair_list()
+        end do
+    end function sum_needs_pair_list
+
+    pure logical function sum_supports_all_pairs(self)
+        class(potential_sum_t), intent(in) :: self
+        integer :: k
+        sum_supports_all_pairs = .true.
+        do k = 1, size(self%terms)
+            sum_supports_all_pairs = sum_supports_all_pairs .and. self%terms(k)%p%supports_all_pairs()
+        end do
+    end function sum_supports_all_pairs
+
+    pure logical function sum_ray_needs_full(self)
+        class(potential_sum_t), intent(in) :: self
+        integer :: k
+        sum_ray_needs_full = .false.
+        do k = 1, size(self%terms)
+            sum_ray_needs_full = sum_ray_needs_full .or. self%terms(k)%p%ray_needs_full_neighbourhood()
+        end do
+    end function sum_ray_needs_full
+
+    pure real(dp) function sum_contact_distance(self, ti, tj)
+        class(potential_sum_t), intent(in) :: self
+        integer, intent(in) :: ti, tj
+        integer :: k
+        sum_contact_distance = 0
+        do k = 1, size(self%terms)
+            sum_contact_distance = max(sum_contact_distance, self%terms(k)%p%contact_distance(ti, tj))
+        end do
+    end function sum_contact_distance
+
+    !> The shortest positive time scale of the terms (0 if none has one).
+    pure real(dp) function sum_time_scale(self, mass, mvv2e)
+        class(potential_sum_t), intent(in) :: self
+        real(dp), intent(in) :: mass, mvv2e
+        real(dp) :: t
+        integer :: k
+        sum_time_scale = 0
+        do k = 1, size(self%terms)
+            t = self%terms(k)%p%time_scale(mass, mvv2e)
+            if (t > 0 .and. (sum_time_scale == 0 .or. t < sum_time_scale)) sum_time_scale = t
+        end do
+    end function sum_time_scale
+
+    subroutine sum_on_rebuild(self, atoms)
+        class(potential_sum_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer :: k
+        do k = 1, size(self%terms)
+            call self%terms(k)%p%on_rebuild(atoms)
+        end do
+    end subroutine sum_on_rebuild
+
+end module terrace_potential_sum

@@ -1,0 +1,87 @@
+!> The potential of a scene, from &potential: the one place that maps a style name to a type.
+!> LJ: per-pair epsilon and sigma, geometric mixing (Lorentz-Berthelot's sqrt(eps_i eps_j) and
+!> sqrt(sigma_i sigma_j)) where a pair is not given, per-pair cutoffs. EAM: the tables of a funcfl,
+!> setfl or Finnis-Sinclair file; types without a mass take the file's.
+module terrace_potential_factory
+    use terrace_kinds, only: dp
+    use terrace_config, only: config_t, max_types, is_unset
+    use terrace_potential, only: potential_t
+    use terrace_lj, only: lj_t
+    use terrace_eam, only: eam_t
+    use terrace_errors, only: stop_all, check_all
+    implicit none
+    private
+
+    public :: make_potential
+
+contains
+
+    !> pot for the deck's &potential with ntypes atom types; mass(t) <= 0 is filled from the
+    !> potential file where it has masses (EAM). Collective (errors stop every rank).
+    subroutine make_potential(cfg, ntypes, mass, pot)
+        type(config_t), intent(in) :: cfg
+        integer, intent(in) :: ntypes
+        real(dp), intent(inout) :: mass(:)
+        class(potential_t), allocatable, intent(out) :: pot
+        integer :: t
+        if (cfg%potential(1:3) == 'eam') then
+            block
+                type(eam_t), allocatable :: eam
+                logical :: ok
+                character(len=1024) :: msg
+                allocate (eam)
+                call eam%read(trim(cfg%potential), trim(cfg%potential_file), cfg%elements(1:max(ntypes, 1)), ntypes, ok, msg)
+                call check_all(ok, trim(msg)//' (&potential file)')
+                do t = 1, ntypes
+                    if (.not. (mass(t) > 0)) mass(t) = eam%mass(t)
+                end do
+                call move_alloc(eam, pot)
+            end block
+        else
+            block
+                type(lj_t), allocatable :: lj
+                allocate (lj)
+                call setup_lj(lj, cfg, ntypes)
+                call move_alloc(lj, pot)
+            end block
+        end if
+    end subroutine make_potential
+
+    !> LJ tables: per-pair epsilon, sigma (geometric mixing where a pair is not given) and cutoff.
+    subroutine setup_lj(lj, cfg, ntypes)
+        type(lj_t), intent(inout) :: lj
+        type(config_t), intent(in) :: cfg
+        integer, intent(in) :: ntypes
+        real(dp) :: cut(max_types, max_types), eps(max_types, max_types), sig(max_types, max_types)
+        integer :: t, i
+        character(len=64) :: s1
+        do t = 1, ntypes
+            if (is_unset(cfg%epsilon(t, t)) .or. is_unset(cfg%sigma(t, t))) then
+                write (s1, '(i0)') t
+                call stop_all(cfg%path//': &potential: epsilon: type '//trim(s1)//' needs epsilon('//trim(s1)//','// &
+                              trim(s1)//') and sigma('//trim(s1)//','//trim(s1)//')')
+            end if
+        end do
+        do t = 1, ntypes
+            do i = 1, ntypes
+                eps(i, t) = pick(cfg%epsilon, i, t, sqrt(cfg%epsilon(i, i)*cfg%epsilon(t, t)))
+                sig(i, t) = pick(cfg%sigma, i, t, sqrt(cfg%sigma(i, i)*cfg%sigma(t, t)))
+                cut(i, t) = pick(cfg%pair_cutoff, i, t, cfg%cutoff)
+            end do
+        end do
+        call lj%setup(ntypes, eps, sig, cut, cfg%shift, cfg%potential == 'lj/smooth/linear')
+    end subroutine setup_lj
+
+    pure real(dp) function pick(table, i, j, fallback) result(v)
+        real(dp), intent(in) :: table(:, :), fallback
+        integer, intent(in) :: i, j
+        if (.not. is_unset(table(i, j))) then
+            v = table(i, j)
+        else if (.not. is_unset(table(j, i))) then
+            v = table(j, i)
+        else
+            v = fallback
+        end if
+    end function pick
+
+end module terrace_potential_factory

@@ -1,0 +1,374 @@
+!> Scene building: from the validated configuration to the atoms each rank owns, with their box,
+!> masses, velocities and potential, the domain decomposition and the scene plan. The sources of a
+!> scene: a lattice (&system lattice, cells), a LAMMPS data file, an atoms file, a frame of an H5MD
+!> trajectory, or a checkpoint (which also carries the integrator's state and the forces, so that a
+!> restart continues bitwise). Everything read from files is checked here, before the engine (and
+!> any output) starts; the engine receives a built scene (terrace_engine's setup).
+module terrace_scene_builder
+    use terrace_kinds, only: dp, i8
+    use terrace_config, only: config_t, max_types, is_unset
+    use terrace_box, only: box_t
+    use terrace_atoms, only: atoms_t
+    use terrace_atom_table, only: atom_table_t, bcast_atom_table
+    use terrace_lammps_data, only: read_lammps_data
+    use terrace_atoms_file, only: read_atoms_file
+    use terrace_lattice, only: lattice_basis, lattice_cell
+    use terrace_velocities, only: create_velocities
+    use terrace_domain, only: domain_t
+    use terrace_potential, only: potential_t
+    use terrace_potential_factory, only: make_potential
+    use terrace_scene_plan, only: plan_t
+    use terrace_mpi_env, only: world, sum_all_i8
+    use terrace_errors, only: stop_all, check_all
+    use terrace_checkpoint, only: ckpt_values_t, ckpt_data_t, read_checkpoint, deck_hash
+    use terrace_h5md_reader, only: h5md_read_frame
+    use, intrinsic :: iso_fortran_env, only: output_unit
+    implicit none
+    private
+
+    !> A built scene, handed to the engine (which takes its parts over).
+    type, public :: scene_t
+        type(box_t) :: box
+        type(atoms_t) :: atoms                   !< the atoms this rank owns (no ghosts yet)
+        type(domain_t) :: dom                    !< set up for the potential's halo reach + skin
+        class(potential_t), allocatable :: pot
+        type(plan_t) :: plan
+        integer(i8) :: natoms = 0
+        real(dp) :: cutmax = 0                   !< the potential's largest cutoff (0: none)
+        character(len=:), allocatable :: source  !< where the atoms came from (for messages)
+        logical :: restarted = .false.           !< started from &system read_checkpoint
+        type(ckpt_values_t) :: restart_values    !< the checkpoint's named values (integrator state)
+        real(dp), allocatable :: restart_f(:, :) !< the checkpoint's forces, (3, N) by id
+    end type scene_t
+
+    public :: build_scene
+
+contains
+
+    !> The scene of a deck: read or build the atoms, the box, the masses and the potential, set up
+    !> the domain, hand every atom to the rank that owns it, make velocities, and plan. Collective.
+    subroutine build_scene(cfg, self)
+        type(scene_t), intent(out) :: self
+        type(config_t), intent(in) :: cfg
+        type(atom_table_t) :: table
+        type(ckpt_data_t) :: ckpt
+        logical :: from_table
+        real(dp) :: lo(3), hi(3), cell(3), cutghost
+        integer :: ntypes, d, t, i
+        character(len=64) :: s1, s2
+
+        self%restarted = len_trim(cfg%read_checkpoint) > 0
+        from_table = (len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0 .or. len_trim(cfg%read_h5md) > 0) &
+                     .and. .not. self%restarted
+        ntypes = 1
+        if (self%restarted) then
+            call load_checkpoint(cfg, ckpt, ntypes, lo, hi, table)
+        else if (len_trim(cfg%read_h5md) > 0) then
+            call read_h5md_table(cfg, table)
+            ntypes = table%ntypes
+        else if (from_table) then
+            if (world%rank == 0) then
+                if (len_trim(cfg%read_data) > 0) then
+                    call read_lammps_data(trim(cfg%read_data), table)
+                else
+                    call read_atoms_file(trim(cfg%atoms_file), table)
+                end if
+            end if
+            call bcast_atom_table(table)
+            if (.not. table%ok) call stop_all(trim(table%error))
+            ntypes = table%ntypes
+            if (ntypes > max_types) then
+                write (s1, '(i0)') max_types
+                write (s2, '(i0)') ntypes
+                call stop_all(trim(source_name(cfg))//': '//trim(s2)//' atom types: more atom types than Terrace supports (max '// &
+                              trim(s1)//')')
+            end if
+        end if
+
+        ! ---- box
+        if (self%restarted) then
+            continue                         ! lo, hi: the checkpoint's
+        else if (len_trim(cfg%lattice) > 0) then
+            cell = lattice_cell(cfg%lattice, cfg%lattice_constant, cfg%density, cfg%dimension)
+            lo = 0
+            hi = cell*max(cfg%cells, 1)
+        else if (len_trim(cfg%read_data) > 0 .or. len_trim(cfg%read_h5md) > 0) then
+            lo = table%lo; hi = table%hi
+        else
+            do d = 1, cfg%dimension
+                if (.not. is_unset(cfg%box_lo(d)) .and. .not. is_unset(cfg%box_hi(d))) then
+                    lo(d) = cfg%box_lo(d); hi(d) = cfg%box_hi(d)
+                    if (hi(d) <= lo(d)) call stop_all(cfg%where('system', 'box_hi')//': must be > box_lo')
+                else if (cfg%periodic(d)) then
+                    call stop_all(cfg%where('system', 'box_lo')//': a periodic dimension of an atoms_file scene '// &
+                                  'needs box_lo and box_hi')
+                else
+                    lo(d) = minval(table%x(d, :)) - max(cfg%cutoff, 1.0_dp)
+                    hi(d) = maxval(table%x(d, :)) + max(cfg%cutoff, 1.0_dp)
+                end if
+            end do
+        end if
+        call self%box%set(lo, hi, cfg%periodic, cfg%dimension)
+
+        if (from_table) then
+            if (cfg%dimension == 2) then
+                if (any(table%x(3, :) /= 0) .or. any(table%v(3, :) /= 0)) &
+                    call stop_all(trim(source_name(cfg))//': a 2-D run needs z = 0 and vz = 0 for every atom')
+            end if
+            do i = 1, table%n
+                do d = 1, cfg%dimension
+                    if (table%x(d, i) < self%box%lo(d) .or. table%x(d, i) > self%box%hi(d)) then
+                        write (s1, '(i0)') table%id(i)
+                        write (s2, '(es12.5)') table%x(d, i)
+                        call stop_all(trim(source_name(cfg))//': atom '//trim(s1)//' lies outside the box ('// &
+                                      'xyz'(d:d)//' = '//trim(adjustl(s2))//')')
+                    end if
+                end do
+            end do
+        end if
+
+        ! ---- masses
+        allocate (self%atoms%mass(ntypes))
+        self%atoms%ntypes = ntypes
+        self%atoms%mass = -1
+        if (from_table .or. self%restarted) then
+            if (table%has_masses) self%atoms%mass = table%mass(1:ntypes)
+        end if
+        call make_potential(cfg, ntypes, self%atoms%mass, self%pot)
+        do t = 1, ntypes
+            if (cfg%mass(t) > 0) self%atoms%mass(t) = cfg%mass(t)
+            if (.not. (self%atoms%mass(t) > 0)) then
+                write (s1, '(i0)') t
+                call stop_all(cfg%path//': &system: mass: type '//trim(s1)//' has no mass (give mass('//trim(s1)// &
+                              ') in '//trim(cfg%units%mass)//', or a Masses section in the data file)')
+            end if
+        end do
+
+        ! ---- potential range
+        self%cutmax = self%pot%cutoff()
+        do d = 1, cfg%dimension
+            if (.not. self%box%periodic(d)) cycle
+            if (self%cutmax > 0.5_dp*self%box%length(d)) then
+                write (s1, '(es12.5)') self%cutmax
+                write (s2, '(es12.5)') 0.5_dp*self%box%length(d)
+                call stop_all(cfg%where('potential', 'cutoff')//' = '//trim(adjustl(s1))//': beyond half the periodic '// &
+                              'box along '//'xyz'(d:d)//' ('//trim(adjustl(s2))//'); use a larger box or a smaller cutoff')
+            end if
+            if (self%cutmax + cfg%skin >= self%box%length(d)) &
+                call stop_all(cfg%where('neighbor', 'skin')//': cutoff + skin must be smaller than the periodic box')
+        end do
+
+        ! ---- distribute atoms
+        cutghost = self%pot%halo_reach() + cfg%skin
+        call self%dom%setup(self%box, cutghost)
+        if (self%restarted) then
+            call place_checkpoint_atoms(self, cfg, ckpt)
+        else if (len_trim(cfg%lattice) > 0) then
+            call create_lattice_atoms(self, cfg, cell)
+        else
+            do i = 1, table%n
+                if (self%dom%owns(table%x(:, i))) &
+                    call self%atoms%append(table%x(:, i), table%v(:, i), table%type(i), table%id(i), table%image(:, i))
+            end do
+        end if
+        self%natoms = self%atoms%nlocal
+        call sum_all_i8(self%natoms)
+        if (self%natoms == 0) call stop_all(trim(source_name(cfg))//': the system is empty (no atoms)')
+
+        if (cfg%temperature >= 0 .and. .not. self%restarted) then
+            call create_velocities(self%atoms, cfg%units, cfg%temperature, cfg%seed, cfg%dimension, &
+                                   .not. any(self%box%periodic(1:cfg%dimension)), self%natoms)
+        end if
+        if (cfg%reverse_velocities .and. .not. self%restarted) self%atoms%v(:, 1:self%atoms%nlocal) = -self%atoms%v(:, 1:self%atoms%nlocal)
+
+        ! ---- plan
+        call self%plan%decide(cfg, self%box, self%natoms, world%nprocs, self%dom%dims, self%pot)
+        self%source = source_name(cfg)
+        if (self%restarted) then
+            ! the forces of the interrupted run (rows of the checkpoint are ids 1..N) and its state
+            call move_alloc(ckpt%f, self%restart_f)
+            self%restart_values = ckpt%values
+        end if
+    end subroutine build_scene
+
+    !> Read &system read_checkpoint (every rank), check that it belongs to this deck, and return
+    !> the number of atom types, the box and the masses (in table). Collective.
+    subroutine load_checkpoint(cfg, ckpt, ntypes, lo, hi, table)
+        type(config_t), intent(in) :: cfg
+        type(ckpt_data_t), intent(out) :: ckpt
+        integer, intent(out) :: ntypes
+        real(dp), intent(out) :: lo(3), hi(3)
+        type(atom_table_t), intent(inout) :: table
+        logical :: ok
+        character(len=512) :: msg
+        character(len=16) :: tag
+        integer :: d, t
+        character(len=:), allocatable :: where
+        where = cfg%where('system', 'read_checkpoint')//" = '"//trim(cfg%read_checkpoint)//"'"
+        call read_checkpoint(trim(cfg%read_checkpoint), ckpt, ok, msg)
+        call check_all(ok, where//': '//trim(msg))
+        if (ckpt%deck_hash /= deck_hash(cfg%nml)) call stop_all(where//': the checkpoint was written by a different '// &
+            'deck (only &system read_checkpoint and &run walltime_limit may differ from the deck that wrote it)')
+        ok = .true.
+        do d = 1, 3
+            write (tag, '(i0)') d
+            lo(d) = ckpt%values%get_r('box_lo_'//trim(tag), ok)
+            hi(d) = ckpt%values%get_r('box_hi_'//trim(tag), ok)
+        end do
+        ntypes = int(ckpt%values%get_i('ntypes', ok))
+        if (ok .and. ntypes >= 1 .and. ntypes <= max_types) then
+            allocate (table%mass(ntypes))
+            do t = 1, ntypes
+                write (tag, '(i0)') t
+                table%mass(t) = ckpt%values%get_r('mass_'//trim(tag), ok)
+            end do
+            table%has_masses = .true.
+        else
+            ok = .false.
+        end if
+        if (ok) ok = all(ckpt%id == [(int(d, i8), d=1, size(ckpt%id))])
+        call check_all(ok, where//': damaged checkpoint (box, masses or atom ids missing)')
+    end subroutine load_checkpoint
+
+    !> Every atom back in its slot (rank and place in that rank's arrays) when the rank count is the
+    !> one that wrote the checkpoint; otherwise to the rank that owns its position.
+    subroutine place_checkpoint_atoms(self, cfg, ckpt)
+        type(scene_t), intent(inout) :: self
+        type(config_t), intent(in) :: cfg
+        type(ckpt_data_t), intent(in) :: ckpt
+        integer, allocatable :: order(:)
+        integer :: n, k, i
+        if (ckpt%nprocs == world%nprocs) then
+            n = count(ckpt%slot(1, :) == world%rank)
+            allocate (order(n))
+            order = 0
+            do k = 1, size(ckpt%id)
+                if (ckpt%slot(1, k) /= world%rank) cycle
+                i = int(ckpt%slot(2, k))
+                if (i >= 1 .and. i <= n) order(i) = k
+            end do
+            call check_all(all(order > 0), trim(cfg%read_checkpoint)//': &system: read_checkpoint: damaged '// &
+                           'checkpoint (atom slots)')
+        else
+            if (world%rank == 0) write (output_unit, '(a,i0,a)') '  note       : the checkpoint was written on ', &
+                ckpt%nprocs, ' ranks: the continuation is a valid run but not bitwise the uninterrupted one'
+            order = pack([(k, k=1, size(ckpt%id))], [(self%dom%owns(ckpt%x(:, k)), k=1, size(ckpt%id))])
+        end if
+        do k = 1, size(order)
+            i = order(k)
+            call self%atoms%append(ckpt%x(:, i), ckpt%v(:, i), ckpt%type(i), ckpt%id(i), ckpt%image(:, i))
+        end do
+    end subroutine place_checkpoint_atoms
+
+    !> A frame of an H5MD file as the starting scene: read in parallel (each rank a block of ids),
+    !> then shared with every rank, which keeps the atoms it owns. The box is box_lo (default 0)
+    !> plus the file's edges.
+    subroutine read_h5md_table(cfg, table)
+        use mpi_f08, only: MPI_Allgather, MPI_Allgatherv, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION
+        type(config_t), intent(in) :: cfg
+        type(atom_table_t), intent(out) :: table
+        integer(i8), allocatable :: ids(:)
+        integer, allocatable :: types(:), image(:, :), counts(:), displs(:)
+        real(dp), allocatable :: x(:, :), v(:, :), buf(:, :), mine(:, :)
+        integer(i8) :: natoms, step
+        integer :: dimension, n, total, r, i
+        real(dp) :: time, edges(3)
+        logical :: ok, has_v, has_image
+        character(len=1024) :: msg
+        call h5md_read_frame(trim(cfg%read_h5md), world%comm, cfg%h5md_frame, natoms, dimension, ids, types, x, v, image, &
+                             step, time, ok, msg, has_velocity=has_v, has_image=has_image, edges=edges)
+        call check_all(ok, trim(cfg%read_h5md)//': &system: read_h5md: '//trim(msg))
+        n = size(ids)
+        allocate (mine(11, n), counts(world%nprocs), displs(world%nprocs))
+        do i = 1, n
+            mine(1, i) = real(ids(i), dp); mine(2, i) = real(types(i), dp)
+            mine(3:5, i) = x(:, i); mine(6:8, i) = 0; mine(9:11, i) = 0
+            if (has_v) mine(6:8, i) = v(:, i)
+            if (has_image) mine(9:11, i) = real(image(:, i), dp)
+        end do
+        call MPI_Allgather(11*n, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, world%comm)
+        total = 0
+        do r = 1, world%nprocs
+            displs(r) = total; total = total + counts(r)
+        end do
+        allocate (buf(11, total/11))
+        call MPI_Allgatherv(mine, 11*n, MPI_DOUBLE_PRECISION, buf, counts, displs, MPI_DOUBLE_PRECISION, world%comm)
+        table%n = total/11
+        allocate (table%x(3, table%n), table%v(3, table%n), table%type(table%n), table%image(3, table%n), &
+                  table%id(table%n))
+        table%id = nint(buf(1, :), i8); table%type = nint(buf(2, :)); table%x = buf(3:5, :); table%v = buf(6:8, :)
+        table%image = nint(buf(9:11, :))
+        table%ntypes = maxval(table%type)
+        allocate (table%mass(table%ntypes)); table%mass = -1
+        table%has_velocities = has_v
+        table%lo = 0
+        do i = 1, 3
+            if (.not. is_unset(cfg%box_lo(i))) table%lo(i) = cfg%box_lo(i)
+        end do
+        table%hi = table%lo + edges
+        if (dimension == 2) table%x(3, :) = 0
+        ! frames hold positions as the run had them (up to skin/2 outside a periodic box): wrap
+        do i = 1, dimension
+            if (.not. cfg%periodic(i)) cycle
+            where (table%x(i, :) < table%lo(i))
+                table%x(i, :) = table%x(i, :) + edges(i); table%image(i, :) = table%image(i, :) - 1
+            elsewhere (table%x(i, :) >= table%hi(i))
+                table%x(i, :) = table%x(i, :) - edges(i); table%image(i, :) = table%image(i, :) + 1
+            end where
+        end do
+        table%has_box = .true.
+        if (dimension /= cfg%dimension) call stop_all(trim(cfg%read_h5md)//': &system: read_h5md: the file is '// &
+            merge('2-D', '3-D', dimension == 2)//', the run is not (&run dimension)')
+    end subroutine read_h5md_table
+
+    function source_name(cfg) result(s)
+        type(config_t), intent(in) :: cfg
+        character(len=:), allocatable :: s
+        if (len_trim(cfg%read_h5md) > 0) then
+            s = trim(cfg%read_h5md)//': &system: read_h5md'
+        else if (len_trim(cfg%read_data) > 0) then
+            s = trim(cfg%read_data)//': &system: read_data'
+        else if (len_trim(cfg%atoms_file) > 0) then
+            s = trim(cfg%atoms_file)//': &system: atoms_file'
+        else
+            s = cfg%path//': &system: lattice'
+        end if
+    end function source_name
+
+    subroutine create_lattice_atoms(self, cfg, cell)
+        type(scene_t), intent(inout) :: self
+        type(config_t), intent(in) :: cfg
+        real(dp), intent(in) :: cell(3)
+        real(dp), allocatable :: basis(:, :)
+        integer :: i, j, k, b, nb, nc(3)
+        integer :: lo(3), hi(3), d
+        real(dp) :: x(3)
+        integer(i8) :: id
+        call lattice_basis(cfg%lattice, basis)
+        nb = size(basis, 2)
+        nc = max(cfg%cells, 1)
+        if (cfg%dimension == 2) nc(3) = 1
+        ! only the cells that can hold owned sites
+        do d = 1, 3
+            lo(d) = max(0, int(floor((self%dom%sublo(d) - self%box%lo(d))/cell(d))) - 1)
+            hi(d) = min(nc(d) - 1, int(ceiling((self%dom%subhi(d) - self%box%lo(d))/cell(d))) + 1)
+        end do
+        if (cfg%dimension == 2) then
+            lo(3) = 0; hi(3) = 0
+        end if
+        do k = lo(3), hi(3)
+            do j = lo(2), hi(2)
+                do i = lo(1), hi(1)
+                    do b = 1, nb
+                        x = self%box%lo + ([real(dp) :: i, j, k] + basis(:, b))*cell
+                        if (cfg%dimension == 2) x(3) = 0
+                        if (.not. self%dom%owns(x)) cycle
+                        id = 1 + (b - 1) + int(nb, i8)*(i + int(nc(1), i8)*(j + int(nc(2), i8)*k))
+                        call self%atoms%append(x, [0.0_dp, 0.0_dp, 0.0_dp], 1, id, [0, 0, 0])
+                    end do
+                end do
+            end do
+        end do
+    end subroutine create_lattice_atoms
+
+end module terrace_scene_builder

@@ -98,6 +98,12 @@ contains
             write (s, '(a,a,g0.6,1x,a)') trim(cfg%integrator), ', dt = ', cfg%dt, trim(cfg%units%time)
         end if
         self%integrator = trim(s)
+        if (cfg%thermostat /= 'none') then
+            write (s, '(a,g0.6,a,g0.6,1x,a,a,g0.6,1x,a)') '; thermostat '//trim(cfg%thermostat)//', T = ', &
+                cfg%thermostat_temperature, ' -> ', cfg%thermostat_temperature_end, trim(cfg%units%temperature), &
+                ', damping ', cfg%thermostat_damping, trim(cfg%units%time)
+            self%integrator = self%integrator//trim(s)
+        end if
         self%outputs = 'screen'
         if (len_trim(cfg%thermo_file) > 0) self%outputs = self%outputs//', thermo CSV '//trim(cfg%thermo_file)
         if (len_trim(cfg%forces_file) > 0) self%outputs = self%outputs//', forces at step 0 '//trim(cfg%forces_file)

@@ -13,6 +13,7 @@ module terrace_observables
         integer(i8) :: step = 0
         real(dp) :: time = 0, temp = 0, pe = 0, ke = 0, etotal = 0, press = 0
         real(dp) :: momentum(3) = 0      !< total linear momentum (mass x velocity units)
+        real(dp) :: ecouple = 0          !< energy put in by the thermostat so far (0 without one)
         real(dp) :: angular(3) = 0       !< total angular momentum about the origin (unwrapped positions)
         real(dp) :: ecouple = 0          !< energy put in by the thermostat so far (0 without one)
     end type thermo_sample_t

@@ -15,7 +15,6 @@ module terrace_observables
         real(dp) :: momentum(3) = 0      !< total linear momentum (mass x velocity units)
         real(dp) :: ecouple = 0          !< energy put in by the thermostat so far (0 without one)
         real(dp) :: angular(3) = 0       !< total angular momentum about the origin (unwrapped positions)
-        real(dp) :: ecouple = 0          !< energy put in by the thermostat so far (0 without one)
     end type thermo_sample_t
 
 end module terrace_observables

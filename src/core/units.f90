@@ -2,6 +2,8 @@
 !>
 !> metal: energy eV, length Angstrom, time ps, mass amu (g/mol), temperature K, pressure bar.
 !> lj:    reduced units, every conversion factor is 1.
+!> si:    energy J, length m, time s, mass kg, temperature K, pressure Pa (elastic solids): every
+!>        conversion factor is 1, k_B = 1.380649e-23 J/K (exact since 2019).
 !>
 !> Kinetic energy     KE = mvv2e * sum m v^2 / 2
 !> Acceleration        a = ftm2v * f / m
@@ -23,7 +25,7 @@ module terrace_units
 
     public :: make_units, unit_names_allowed
 
-    character(len=*), parameter :: unit_names_allowed = "'metal', 'lj'"
+    character(len=*), parameter :: unit_names_allowed = "'metal', 'lj', 'si'"
 
 contains
 
@@ -41,6 +43,11 @@ contains
             u%boltz = 1.0_dp; u%mvv2e = 1.0_dp; u%ftm2v = 1.0_dp; u%nktv2p = 1.0_dp
             u%energy = 'epsilon'; u%length = 'sigma'; u%time = 'tau'; u%mass = 'm'
             u%temperature = 'epsilon/k_B'; u%pressure = 'epsilon/sigma^3'; u%velocity = 'sigma/tau'
+        case ('si')
+            u%name = 'si'
+            u%boltz = 1.380649e-23_dp; u%mvv2e = 1.0_dp; u%ftm2v = 1.0_dp; u%nktv2p = 1.0_dp
+            u%energy = 'J'; u%length = 'm'; u%time = 's'; u%mass = 'kg'
+            u%temperature = 'K'; u%pressure = 'Pa'; u%velocity = 'm/s'
         case default
             ok = .false.
         end select

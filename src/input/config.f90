@@ -22,6 +22,7 @@ module terrace_config
     private
 
     integer, parameter, public :: max_types = 8
+    integer, parameter, public :: max_bodies = 16  !< physical volumes of a mesh with their own rigid motion
     !> Longest file name a key may hold (Linux PATH_MAX); a longer one is refused, never truncated.
     integer, parameter, public :: path_max = 4096
     real(dp), parameter :: unset = -huge(1.0_dp)
@@ -51,6 +52,10 @@ module terrace_config
         real(dp) :: mass(max_types) = -1.0_dp
         real(dp) :: temperature = -1.0_dp
         logical :: reverse_velocities = .false.
+        character(len=path_max) :: mesh_file = ''    !< Gmsh MSH mesh: nodes are atoms, tetrahedra elements
+        real(dp) :: mass_density = -1.0_dp          !< mesh: lumped nodal masses rho V0 / 4 per element
+        real(dp) :: body_velocity(3, max_bodies) = 0, body_angular_velocity(3, max_bodies) = 0  !< per body
+        real(dp) :: lambda = unset, mu = unset      !< neohookean: Lame constants
         ! &potential
         character(len=24) :: potential = 'lj'
         character(len=path_max) :: potential_file = ''   !< EAM: the LAMMPS potential file
@@ -161,6 +166,7 @@ contains
             call one('system', 'atoms_file', cfg%atoms_file)
             call one('system', 'read_h5md', cfg%read_h5md)
             call one('system', 'read_checkpoint', cfg%read_checkpoint)
+            call one('system', 'mesh_file', cfg%mesh_file)
             call one('potential', 'file', cfg%potential_file)
         end if
         call check_all(len(msg) == 0, msg)
@@ -311,6 +317,8 @@ contains
             real_limit = 1.0e9_dp
         case ('run_time', 'thermo_interval', 'trajectory_interval', 'checkpoint_interval')
             real_limit = 1.0e12_dp
+        case ('lambda', 'mu')                  ! Pa: up to diamond's moduli with room
+            real_limit = 1.0e13_dp
         case default            ! lengths, densities, dt, target_mean_dt, root_tolerance
             real_limit = 1.0e6_dp
         end select
@@ -383,9 +391,15 @@ contains
         real(dp) :: lattice_constant, density, box_lo(3), box_hi(3), mass(max_types), temperature
         integer :: cells(3)
         logical :: periodic(3), reverse_velocities
+        character(len=path_max) :: mesh_file
+        real(dp) :: mass_density, velocity(3, max_bodies), angular_velocity(3, max_bodies)
         namelist /system/ read_data, atoms_file, lattice, lattice_constant, density, cells, periodic, &
-            box_lo, box_hi, mass, temperature, reverse_velocities, read_h5md, h5md_frame, read_checkpoint
-        character(len=*), parameter :: keys(15) = [character(len=60) :: 'read_data:a quoted file name', &
+            box_lo, box_hi, mass, temperature, reverse_velocities, read_h5md, h5md_frame, read_checkpoint, &
+            mesh_file, mass_density, velocity, angular_velocity
+        character(len=*), parameter :: keys(19) = [character(len=60) :: 'read_data:a quoted file name', &
+            'mesh_file:a quoted file name', 'mass_density:a real number', &
+            'velocity:three reals per body (velocity(:,2) = ...)', &
+            'angular_velocity:three reals per body', &
             'read_checkpoint:a quoted file name', &
             'read_h5md:a quoted file name', 'h5md_frame:an integer (1 = first, -1 = last)', &
             'reverse_velocities:a logical', &
@@ -401,6 +415,7 @@ contains
         read_h5md = ''; h5md_frame = -1; read_checkpoint = ''
         cells = 0; periodic = .true.; box_lo = unset; box_hi = unset; mass = -1; temperature = -1
         reverse_velocities = .false.
+        mesh_file = ''; mass_density = -1; velocity = 0; angular_velocity = 0
         do k = 1, cfg%nml%count
             if (cfg%nml%items(k)%group /= 'system') cycle
             kind = check_key(cfg, k, keys)
@@ -415,6 +430,8 @@ contains
         cfg%periodic = periodic; cfg%box_lo = box_lo; cfg%box_hi = box_hi; cfg%mass = mass
         cfg%temperature = temperature
         cfg%reverse_velocities = reverse_velocities
+        cfg%mesh_file = mesh_file; cfg%mass_density = mass_density
+        cfg%body_velocity = velocity; cfg%body_angular_velocity = angular_velocity
     end subroutine read_system
 
     subroutine read_potential(cfg)
@@ -425,8 +442,10 @@ contains
         real(dp) :: epsilon(max_types, max_types), sigma(max_types, max_types), cutoff
         real(dp) :: pair_cutoff(max_types, max_types)
         logical :: shift
-        namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements
-        character(len=*), parameter :: keys(8) = [character(len=60) :: 'style:a quoted string', &
+        real(dp) :: lambda, mu
+        namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements, lambda, mu
+        character(len=*), parameter :: keys(10) = [character(len=60) :: 'style:a quoted string', &
+            'lambda:a real number (Pa)', 'mu:a real number (Pa)', &
             'epsilon:a real number (or epsilon(i,j) = ...)', 'sigma:a real number (or sigma(i,j) = ...)', &
             'cutoff:a real number', 'pair_cutoff:pair_cutoff(i,j) = a real number', 'shift:a logical', &
             'file:a quoted file name', 'elements:quoted element names, one per atom type']
@@ -435,7 +454,7 @@ contains
         character(len=:), allocatable :: buf
         integer :: k, ios
         style = 'lj'; epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
-        file = ''; elements = ''
+        file = ''; elements = ''; lambda = unset; mu = unset
         do k = 1, cfg%nml%count
             if (cfg%nml%items(k)%group /= 'potential') cycle
             kind = check_key(cfg, k, keys)
@@ -447,6 +466,7 @@ contains
         cfg%potential = lower(style); cfg%epsilon = epsilon; cfg%sigma = sigma; cfg%cutoff = cutoff
         cfg%pair_cutoff = pair_cutoff; cfg%shift = shift
         cfg%potential_file = file; cfg%elements = elements
+        cfg%lambda = lambda; cfg%mu = mu
     end subroutine read_potential
 
     subroutine read_integrator(cfg)
@@ -647,12 +667,16 @@ contains
             call stop_all(cfg%path//': &run: n_steps: missing (give n_steps, or run_time in '//trim(cfg%units%time)//')')
         if (cfg%seed <= 0) call stop_all(cfg%where('run', 'seed')//': must be a positive integer')
 
-        nsrc = count([len_trim(cfg%read_data) > 0, len_trim(cfg%atoms_file) > 0, len_trim(cfg%lattice) > 0, &
-                      len_trim(cfg%read_h5md) > 0])
-        if (nsrc == 0) call stop_all(cfg%path//': &system: read_data: missing (give read_data, lattice, atoms_file '// &
-                                     'or read_h5md)')
-        if (nsrc > 1) call stop_all(cfg%path//': &system: read_data: give only one of read_data, lattice, '// &
-                                    'atoms_file, read_h5md')
+        nsrc = count([len_trim(cfg%read_data) > 0, len_trim(cfg%lattice) > 0, len_trim(cfg%read_h5md) > 0, &
+                      len_trim(cfg%mesh_file) > 0 .or. len_trim(cfg%atoms_file) > 0])
+        if (nsrc == 0) call stop_all(cfg%path//': &system: read_data: missing (give read_data, lattice, atoms_file, '// &
+                                     'read_h5md or mesh_file)')
+        if (nsrc > 1) then
+            if (len_trim(cfg%mesh_file) > 0) call stop_all(cfg%where('system', 'mesh_file')//': a mesh is its own '// &
+                'scene: give no read_data, lattice or read_h5md with it (atoms_file may give current positions)')
+            call stop_all(cfg%path//': &system: read_data: give only one of read_data, lattice, atoms_file, read_h5md')
+        end if
+        if (len_trim(cfg%mesh_file) > 0) call validate_mesh(cfg)
         if (cfg%h5md_frame == 0) call stop_all(cfg%where('system', 'h5md_frame')//': 1 is the first frame, -1 the last')
         if (len_trim(cfg%lattice) > 0) then
             select case (cfg%lattice)
@@ -683,12 +707,44 @@ contains
         case ('eam', 'eam/alloy', 'eam/fs')
             call validate_eam(cfg)
             return
+        case ('neohookean')
+            if (len_trim(cfg%mesh_file) == 0) call stop_all(cfg%where('potential', 'style')// &
+                " = 'neohookean': needs a mesh (&system mesh_file, a Gmsh MSH file of tetrahedra)")
+            call validate_run_settings(cfg)
+            return
         case default
             call stop_all(cfg%where('potential', 'style')//" = '"//trim(cfg%potential)// &
-                          "': unknown potential (allowed: 'lj', 'lj/smooth/linear', 'eam', 'eam/alloy', 'eam/fs')")
+                          "': unknown potential (allowed: 'lj', 'lj/smooth/linear', 'eam', 'eam/alloy', 'eam/fs', "// &
+                          "'neohookean')")
         end select
         call validate_lj(cfg)
     end subroutine validate
+
+    !> A mesh scene: the neo-Hookean potential with its Lame constants, a mass density, free boundaries.
+    subroutine validate_mesh(cfg)
+        type(config_t), intent(inout) :: cfg
+        if (cfg%potential /= 'neohookean') call stop_all(cfg%where('potential', 'style')//" = '"// &
+            trim(cfg%potential)//"': a mesh needs style = 'neohookean'")
+        if (.not. (cfg%mass_density > 0)) call stop_all(cfg%where('system', 'mass_density')//': missing or <= 0 '// &
+            '(the solid''s density in '//trim(cfg%units%mass)//'/'//trim(cfg%units%length)//'^3)')
+        if (is_unset(cfg%mu)) call stop_all(cfg%path//': &potential: mu: missing (the shear modulus, Lame''s mu, in '// &
+                                            trim(cfg%units%pressure)//')')
+        if (is_unset(cfg%lambda)) call stop_all(cfg%path//': &potential: lambda: missing (Lame''s first parameter, in '// &
+                                                trim(cfg%units%pressure)//')')
+        if (.not. (cfg%mu > 0)) call stop_all(cfg%where('potential', 'mu')//': must be > 0 (a shear modulus in '// &
+                                              trim(cfg%units%pressure)//')')
+        if (cfg%lambda < 0) call stop_all(cfg%where('potential', 'lambda')//': must be >= 0 (in '// &
+                                          trim(cfg%units%pressure)//')')
+        if (any(cfg%periodic(1:cfg%dimension))) call stop_all(cfg%where('system', 'periodic')// &
+            ': a mesh has free boundaries (set periodic = .false., .false., .false.)')
+        if (cfg%dimension /= 3) call stop_all(cfg%where('run', 'dimension')//': meshes of tetrahedra are 3-D')
+        if (cfg%thermostat /= 'none' .and. len_trim(cfg%thermostat) > 0) call stop_all(cfg%where('thermostat', 'style')// &
+            ': thermostats are not available for meshes yet')
+        if (cfg%temperature >= 0) call stop_all(cfg%where('system', 'temperature')// &
+            ': a mesh starts from its rigid motion (velocity, angular_velocity), not a temperature')
+        if (len_trim(cfg%checkpoint_file) > 0 .or. len_trim(cfg%read_checkpoint) > 0) call stop_all( &
+            cfg%where('output', 'checkpoint_file')//': checkpoints of mesh scenes are not available yet')
+    end subroutine validate_mesh
 
     !> The rest of the checks for an EAM scene (no LJ keys).
     subroutine validate_eam(cfg)

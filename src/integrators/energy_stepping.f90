@@ -121,7 +121,11 @@ contains
         integer :: i
         acc = 0
         do i = 1, eng%atoms%nlocal
-            m = eng%atoms%mass(eng%atoms%type(i))
+            if (eng%atoms%per_atom_mass) then
+                m = eng%atoms%rmass(i)
+            else
+                m = eng%atoms%mass(eng%atoms%type(i))
+            end if
             g2 = sum(eng%atoms%f(:, i)**2)
             acc(1) = acc(1) + g2*sum(eng%atoms%v(:, i)**2)
             acc(2) = acc(2) + g2/m
@@ -195,7 +199,7 @@ contains
             how = ' (period/50)'
         else
             dt_vv = 0.005_dp*tau
-            how = ' (0.005 tau)'
+            how = ' (0.005 tau; a mesh: half an element''s wave transit)'
         end if
         write (output_unit, '(a,es12.5,1x,a)') '  terrace h  : ', h, trim(eng%cfg%units%energy)
         write (output_unit, '(a,es12.5,1x,a,a,f0.1,a)') '  expected   : mean event interval ~ ', mean_dt, &
@@ -359,9 +363,15 @@ contains
                 lower = k*h
                 stats%downs = stats%downs + 1
             end select
-            do i = 1, eng%atoms%nlocal
-                eng%atoms%v(:, i) = eng%atoms%v(:, i) - lam*minv(eng%atoms%type(i))*eng%atoms%f(:, i)
-            end do
+            if (eng%atoms%per_atom_mass) then
+                do i = 1, eng%atoms%nlocal
+                    eng%atoms%v(:, i) = eng%atoms%v(:, i) - (lam/eng%atoms%rmass(i))*eng%atoms%f(:, i)
+                end do
+            else
+                do i = 1, eng%atoms%nlocal
+                    eng%atoms%v(:, i) = eng%atoms%v(:, i) - lam*minv(eng%atoms%type(i))*eng%atoms%f(:, i)
+                end do
+            end if
             call eng%sync_ghosts()
             p0 = [vstar, (b + lam*a)/mvv2e, 0.0_dp]
             have_c = .false.

@@ -9,7 +9,7 @@ module terrace_engine
     use terrace_config, only: config_t
     use terrace_box, only: box_t
     use terrace_atoms, only: atoms_t
-    use terrace_velocities, only: kinetic_energy
+    use terrace_velocities, only: kinetic_energy, atom_mass
     use terrace_thermostat, only: thermostat_dof, thermostat_style
     use terrace_domain, only: domain_t
     use terrace_replicate, only: replicate_t
@@ -41,6 +41,7 @@ module terrace_engine
         integer(i8) :: force_evaluations = 0
         character(len=:), allocatable :: source  !< where the atoms came from (for messages)
         logical :: restarted = .false.           !< started from &system read_checkpoint
+        logical :: validity_checks = .false.     !< the potential can reach states without finite energy
         type(ckpt_values_t) :: restart_values    !< the checkpoint's named values (integrator state)
     contains
         procedure :: setup => engine_setup
@@ -54,6 +55,7 @@ module terrace_engine
         procedure :: sync_ghosts => engine_sync_ghosts
         procedure :: list_expiry => engine_list_expiry
         procedure :: report_warnings => engine_report_warnings
+        procedure :: check_valid => engine_check_valid
     end type engine_t
 
     !> The halo operations handed to the potential during a force pass.
@@ -86,6 +88,9 @@ contains
         self%list%dimension = cfg%dimension
         self%list%all_pairs = self%plan%pair_mode == pair_all
         if (self%plan%pair_mode == pair_cells) call self%list%init(self%cutmax, cfg%skin, cfg%dimension)
+        ! no pair list: bins (for the spatial sort) sized by the halo, and the displacement reference
+        if (self%plan%pair_mode == pair_none) call self%list%init(self%pot%halo_reach(), cfg%skin, cfg%dimension)
+        self%validity_checks = self%pot%may_become_invalid()
         ! ray passes of some many-body terms need each owned atom's whole neighbourhood
         self%list%want_below = self%pot%ray_needs_full_neighbourhood() .and. cfg%integrator == 'energy_stepping'
         call self%rebuild()
@@ -116,6 +121,7 @@ contains
             call self%timers%start(t_comm)
             if (world%nprocs > 1) call self%rep%setup(self%atoms)
             call self%timers%stop(t_comm)
+            call self%atoms%refresh_rmass()
             call self%pot%on_rebuild(self%atoms)
             return
         end if
@@ -139,7 +145,12 @@ contains
         call self%dom%borders(self%atoms)
         call self%timers%stop(t_comm)
         call self%timers%start(t_neigh)
-        if (self%plan%pair_mode == pair_cells) call self%list%build(self%atoms)
+        if (self%plan%pair_mode == pair_cells) then
+            call self%list%build(self%atoms)
+        else
+            call self%list%hold(self%atoms)           ! no pair list: only the displacement reference
+        end if
+        call self%atoms%refresh_rmass()
         call self%pot%on_rebuild(self%atoms)
         call self%timers%stop(t_neigh)
     end subroutine engine_rebuild
@@ -225,7 +236,7 @@ contains
         s%ke = kinetic_energy(self%atoms, self%cfg%units)
         pl = 0
         do i = 1, self%atoms%nlocal
-            m = self%atoms%mass(self%atoms%type(i))
+            m = atom_mass(self%atoms, i)
             r = self%atoms%x(:, i) + self%atoms%image(:, i)*self%box%length
             pl(1:3) = pl(1:3) + m*self%atoms%v(:, i)
             pl(4:6) = pl(4:6) + m*[r(2)*self%atoms%v(3, i) - r(3)*self%atoms%v(2, i), &
@@ -325,6 +336,20 @@ contains
             if (world%rank == 0) call warn(trim(text))
         end if
     end subroutine engine_report_warnings
+
+    !> Stop every rank with the potential's description when any rank's state is invalid (after a
+    !> force pass of an integrator with fixed steps). Collective.
+    subroutine engine_check_valid(self, step, time)
+        class(engine_t), intent(inout) :: self
+        integer(i8), intent(in) :: step
+        real(dp), intent(in) :: time
+        character(len=512) :: text
+        character(len=64) :: at
+        logical :: bad
+        bad = self%pot%invalid_state(text)
+        write (at, '(a,i0,a,es12.5,1x,a)') ' at step ', step, ', time ', time, trim(self%cfg%units%time)
+        call check_all(.not. bad, trim(text)//trim(at))
+    end subroutine engine_check_valid
 
     !> Refuse a start with atoms on top of each other (closer than a quarter of the potential's
     !> contact distance, sigma for LJ).

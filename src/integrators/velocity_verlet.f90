@@ -16,7 +16,7 @@ module terrace_velocity_verlet
     use terrace_thermo, only: thermo_writer_t
     use terrace_observables, only: thermo_sample_t
     use terrace_trajectory, only: trajectory_t
-    use terrace_scene_plan, only: pair_cells
+    use terrace_scene_plan, only: pair_all
     use terrace_timers, only: t_output
     use terrace_errors, only: check_all
     use terrace_run_control, only: run_control_t
@@ -40,7 +40,7 @@ contains
         integer(i8), parameter :: poll_all_pairs = 10   !< all-pairs path: steps between stop polls
         integer(i8) :: step, step0
         integer :: i, t
-        real(dp) :: dt, dtfm(size(eng%atoms%mass))
+        real(dp) :: dt, dtfm(size(eng%atoms%mass)), dtf
         logical :: sample, frame, scheduled, safe, ok, stop_now
         type(thermo_sample_t) :: first, last
         type(energy_guard_t) :: guard
@@ -48,6 +48,7 @@ contains
         real(dp) :: t_mid
         dt = eng%cfg%dt
         call ts%configure(eng%cfg, eng%natoms, sched%n_steps*dt)
+        dtf = 0.5_dp*dt*eng%cfg%units%ftm2v
         do t = 1, size(dtfm)
             dtfm(t) = 0.5_dp*dt*eng%cfg%units%ftm2v/eng%atoms%mass(t)
         end do
@@ -88,6 +89,11 @@ contains
             end select
             if (ts%style == thermostat_langevin) then
                 call ts%langevin_kick_drift(eng%atoms, dtfm, dt, step, t_mid)
+            else if (eng%atoms%per_atom_mass) then
+                do i = 1, eng%atoms%nlocal
+                    eng%atoms%v(:, i) = eng%atoms%v(:, i) + (dtf/eng%atoms%rmass(i))*eng%atoms%f(:, i)
+                    eng%atoms%x(:, i) = eng%atoms%x(:, i) + dt*eng%atoms%v(:, i)
+                end do
             else
                 do i = 1, eng%atoms%nlocal
                     eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
@@ -96,7 +102,7 @@ contains
             end if
             scheduled = .false.
             if (ctl%every > 0) scheduled = mod(step, ctl%every) == 0
-            if (eng%plan%pair_mode == pair_cells) then
+            if (eng%plan%pair_mode /= pair_all) then
                 safe = scheduled
                 if (.not. safe) safe = eng%list%needs_rebuild(eng%atoms)
                 if (safe) then
@@ -111,9 +117,16 @@ contains
             sample = sched%sample_due(step) .or. step == sched%n_steps
             frame = sched%frame_due(step)
             call eng%compute_forces(sample .or. frame)
-            do i = 1, eng%atoms%nlocal
-                eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
-            end do
+            if (eng%validity_checks) call eng%check_valid(step, step*dt)
+            if (eng%atoms%per_atom_mass) then
+                do i = 1, eng%atoms%nlocal
+                    eng%atoms%v(:, i) = eng%atoms%v(:, i) + (dtf/eng%atoms%rmass(i))*eng%atoms%f(:, i)
+                end do
+            else
+                do i = 1, eng%atoms%nlocal
+                    eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
+                end do
+            end if
             select case (ts%style)
             case (thermostat_csvr)
                 call ts%csvr(eng%atoms, 0.5_dp*dt, 2*step + 1, t_mid)

@@ -50,6 +50,7 @@ module terrace_neighbor_list
         procedure :: setup_bins => nl_setup_bins
         procedure :: sort_owned => nl_sort_owned
         procedure :: build => nl_build
+        procedure :: hold => nl_hold
         procedure :: needs_rebuild => nl_needs_rebuild
     end type neighbor_list_t
 
@@ -289,14 +290,24 @@ contains
         do i = 1, nlocal
             self%max_neighbors = max(self%max_neighbors, self%first(i + 1) - self%first(i))
         end do
+        call self%hold(atoms)
+        if (self%want_below) call build_below(self, atoms)
+        self%builds = self%builds + 1
+    end subroutine nl_build
+
+    !> The positions the displacement checks measure from (at every build; alone when the scene
+    !> needs the rebuild schedule but no pair list).
+    subroutine nl_hold(self, atoms)
+        class(neighbor_list_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer :: nlocal
+        nlocal = atoms%nlocal
         if (allocated(self%xhold)) then
             if (size(self%xhold, 2) < nlocal) deallocate (self%xhold)
         end if
         if (.not. allocated(self%xhold)) allocate (self%xhold(3, max(nlocal, 1) + nlocal/4))
         self%xhold(:, 1:nlocal) = atoms%x(:, 1:nlocal)
-        if (self%want_below) call build_below(self, atoms)
-        self%builds = self%builds + 1
-    end subroutine nl_build
+    end subroutine nl_hold
 
     !> The complement of the half list's ghost pairs: for each owned atom, the ghosts of the
     !> stencil rows below in z (all of them) and of the rows at the same z and the centre row

@@ -57,7 +57,7 @@ module terrace_domain
     end type domain_t
 
     integer, parameter :: migrate_width = 11   ! x(3) v(3) type id image(3)
-    integer, parameter :: border_width = 7     ! x(3) v(3) type
+    integer, parameter :: border_width = 8     ! x(3) v(3) type id (ids: terms with fixed partners, e.g. mesh elements)
 
 contains
 
@@ -372,6 +372,7 @@ contains
                                 atoms%x(:, n) = atoms%x(:, i) + sw%shift
                                 atoms%v(:, n) = atoms%v(:, i)
                                 atoms%type(n) = atoms%type(i)
+                                atoms%id(n) = atoms%id(i)
                             end do
                         else
                             call reserve(self%sendbuf, border_width*ns, minimum=1024)
@@ -381,6 +382,7 @@ contains
                                 self%sendbuf(p + 1:p + 3) = atoms%x(:, i) + sw%shift
                                 self%sendbuf(p + 4:p + 6) = atoms%v(:, i)
                                 self%sendbuf(p + 7) = real(atoms%type(i), dp)
+                                self%sendbuf(p + 8) = real(atoms%id(i), dp)
                             end do
                             call MPI_Sendrecv(self%sendbuf, border_width*ns, MPI_DOUBLE_PRECISION, sw%send_to, 11, &
                                               self%recvbuf, border_width*sw%nrecv, MPI_DOUBLE_PRECISION, &
@@ -390,6 +392,7 @@ contains
                                 atoms%x(:, n) = self%recvbuf(p + 1:p + 3)
                                 atoms%v(:, n) = self%recvbuf(p + 4:p + 6)
                                 atoms%type(n) = nint(self%recvbuf(p + 7))
+                                atoms%id(n) = nint(self%recvbuf(p + 8), i8)
                             end do
                         end if
                         atoms%nghost = atoms%nghost + sw%nrecv

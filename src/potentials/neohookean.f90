@@ -37,6 +37,8 @@ module terrace_neohookean
         real(dp), allocatable :: dminv(:, :)        !< (9, nelem) Dm^-1, column major
         real(dp), allocatable :: v0(:)              !< reference volumes
         real(dp) :: reach = 0                       !< largest reference element extent (halo reach hint)
+        real(dp) :: min_height = huge(1.0_dp)       !< smallest reference element altitude (stability)
+        real(dp) :: density = 0                     !< mass density (for the wave speed; 0: unknown)
         ! after on_rebuild: the elements this rank computes and their nodes' local indices
         integer :: nmine = 0
         integer, allocatable :: mine(:)             !< element numbers
@@ -54,6 +56,9 @@ module terrace_neohookean
         procedure :: needs_pair_list => nh_needs_pair_list
         procedure :: on_rebuild => nh_on_rebuild
         procedure :: energy_density => nh_energy_density
+        procedure :: time_scale => nh_time_scale
+        procedure :: may_become_invalid => nh_may_become_invalid
+        procedure :: invalid_state => nh_invalid_state
     end type neohookean_t
 
     public :: det3, inv3
@@ -84,7 +89,7 @@ contains
             det = det3(dm)
             size3 = max(norm2(dm(:, 1)), norm2(dm(:, 2)), norm2(dm(:, 3)))**3
             if (.not. (det > 1.0e-10_dp*size3)) then
-                write (msg, '(a,i0,a,4(1x,i0),a,es10.3,a)') 'element ', e, ' (nodes', tets(:, e), ') is ', &
+                write (msg, '(a,i0,a,4(1x,i0),a,a,a,es10.3,a)') 'element ', e, ' (nodes', tets(:, e), ') is ', &
                     trim(merge('inverted  ', 'degenerate', det < 0)), ' in the reference mesh (det Dm = ', det, ')'
                 ok = .false.
                 return
@@ -92,6 +97,10 @@ contains
             minv = inv3(dm, det)
             self%dminv(:, e) = reshape(minv, [9])
             self%v0(e) = det/6
+            ! altitudes: 3 V0 / face area, for each face
+            self%min_height = min(self%min_height, det/norm2(cross3(dm(:, 1), dm(:, 2))), det/norm2(cross3(dm(:, 1), dm(:, 3))), &
+                                  det/norm2(cross3(dm(:, 2), dm(:, 3))), &
+                                  det/norm2(cross3(dm(:, 2) - dm(:, 1), dm(:, 3) - dm(:, 1))))
             self%reach = max(self%reach, norm2(dm(:, 1)), norm2(dm(:, 2)), norm2(dm(:, 3)), &
                              norm2(dm(:, 2) - dm(:, 1)), norm2(dm(:, 3) - dm(:, 1)), norm2(dm(:, 3) - dm(:, 2)))
         end do
@@ -255,6 +264,44 @@ contains
             out(4) = out(4) - self%v0(e)*(self%mu*(trf - 3) + 3*self%lambda*lnj)
         end do
     end subroutine nh_ray
+
+    !> The engine prints 0.005 tau as a stable velocity-Verlet step: tau = 100 l_min / c_d makes that
+    !> l_min / (2 c_d), half the element's dilatational transit time (c_d = sqrt((lambda + 2 mu)/rho)).
+    pure real(dp) function nh_time_scale(self, mass, mvv2e)
+        class(neohookean_t), intent(in) :: self
+        real(dp), intent(in) :: mass, mvv2e
+        nh_time_scale = 0
+        if (self%density > 0) nh_time_scale = 100*self%min_height/sqrt((self%lambda + 2*self%mu)/self%density)
+    end function nh_time_scale
+
+    pure function cross3(a, b) result(c)
+        real(dp), intent(in) :: a(3), b(3)
+        real(dp) :: c(3)
+        c = [a(2)*b(3) - a(3)*b(2), a(3)*b(1) - a(1)*b(3), a(1)*b(2) - a(2)*b(1)]
+    end function cross3
+
+    pure logical function nh_may_become_invalid(self)
+        class(neohookean_t), intent(in) :: self
+        nh_may_become_invalid = .true.
+    end function nh_may_become_invalid
+
+    !> An element turned inside out (J <= 0) at the last force pass, or one whose nodes were not all
+    !> on this rank (the halo was too short).
+    logical function nh_invalid_state(self, text) result(bad)
+        class(neohookean_t), intent(in) :: self
+        character(len=*), intent(out) :: text
+        bad = .false.
+        text = ''
+        if (self%first_inverted > 0) then
+            write (text, '(a,i0,a,4(1x,i0),a)') 'element ', self%first_inverted, ' (nodes', &
+                self%node(:, self%first_inverted), ') turned inside out (J <= 0): the time step is too large for '// &
+                'this mesh and material (see the stability estimate), or the deformation is beyond the mesh'
+            bad = .true.
+        else if (self%missing_node) then
+            text = 'an element''s node is not among this rank''s atoms (the halo is too short for the deformation)'
+            bad = .true.
+        end if
+    end function nh_invalid_state
 
     !> No pair interactions.
     pure real(dp) function nh_cutoff(self)

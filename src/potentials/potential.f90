@@ -45,6 +45,8 @@ module terrace_potential
         procedure :: warning_flags => potential_warning_flags
         procedure :: warning => potential_warning
         procedure :: on_rebuild => potential_on_rebuild
+        procedure :: may_become_invalid => potential_false
+        procedure :: invalid_state => potential_invalid_state
     end type potential_t
 
     abstract interface
@@ -147,5 +149,15 @@ contains
         class(potential_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
     end subroutine potential_on_rebuild
+
+    !> After a force pass: .true. with a description when this rank's state has no finite energy
+    !> (an inverted element); integrators with fixed steps stop there. Only asked of potentials whose
+    !> may_become_invalid() is .true.
+    logical function potential_invalid_state(self, text) result(bad)
+        class(potential_t), intent(in) :: self
+        character(len=*), intent(out) :: text
+        bad = .false.
+        text = ''
+    end function potential_invalid_state
 
 end module terrace_potential

@@ -8,6 +8,8 @@ module terrace_potential_factory
     use terrace_potential, only: potential_t
     use terrace_lj, only: lj_t
     use terrace_eam, only: eam_t
+    use terrace_neohookean, only: neohookean_t
+    use terrace_gmsh_mesh, only: mesh_t
     use terrace_errors, only: stop_all, check_all
     implicit none
     private
@@ -18,13 +20,29 @@ contains
 
     !> pot for the deck's &potential with ntypes atom types; mass(t) <= 0 is filled from the
     !> potential file where it has masses (EAM). Collective (errors stop every rank).
-    subroutine make_potential(cfg, ntypes, mass, pot)
+    subroutine make_potential(cfg, ntypes, mass, pot, mesh)
         type(config_t), intent(in) :: cfg
         integer, intent(in) :: ntypes
         real(dp), intent(inout) :: mass(:)
         class(potential_t), allocatable, intent(out) :: pot
+        type(mesh_t), intent(in), optional :: mesh      !< neohookean: the elements and reference nodes
         integer :: t
-        if (cfg%potential(1:3) == 'eam') then
+        if (cfg%potential == 'neohookean') then
+            block
+                type(neohookean_t), allocatable :: nh
+                real(dp), allocatable :: xref(:, :)
+                logical :: ok
+                character(len=512) :: msg
+                allocate (nh, xref(3, mesh%nnode))
+                do t = 1, mesh%nnode
+                    xref(:, mesh%node_tag(t)) = mesh%x(:, t)
+                end do
+                call nh%setup(cfg%lambda, cfg%mu, mesh%tet(:, 1:mesh%ntet), xref, ok, msg)
+                call check_all(ok, trim(cfg%mesh_file)//': &system: mesh_file: '//trim(msg))
+                nh%density = cfg%mass_density
+                call move_alloc(nh, pot)
+            end block
+        else if (cfg%potential(1:3) == 'eam') then
             block
                 type(eam_t), allocatable :: eam
                 logical :: ok

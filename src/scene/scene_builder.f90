@@ -22,6 +22,7 @@ module terrace_scene_builder
     use terrace_errors, only: stop_all, check_all
     use terrace_checkpoint, only: ckpt_values_t, ckpt_data_t, read_checkpoint, deck_hash
     use terrace_h5md_reader, only: h5md_read_frame
+    use terrace_gmsh_mesh, only: mesh_t, read_gmsh
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
     private
@@ -53,13 +54,14 @@ contains
         type(atom_table_t) :: table
         type(ckpt_data_t) :: ckpt
         logical :: from_table
-        real(dp) :: lo(3), hi(3), cell(3), cutghost
+        type(mesh_t) :: mesh
+        real(dp) :: lo(3), hi(3), cell(3), cutghost, margin
         integer :: ntypes, d, t, i
         character(len=64) :: s1, s2
 
         self%restarted = len_trim(cfg%read_checkpoint) > 0
-        from_table = (len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0 .or. len_trim(cfg%read_h5md) > 0) &
-                     .and. .not. self%restarted
+        from_table = (len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0 .or. len_trim(cfg%read_h5md) > 0 &
+                      .or. len_trim(cfg%mesh_file) > 0) .and. .not. self%restarted
         ntypes = 1
         if (self%restarted) then
             call load_checkpoint(cfg, ckpt, ntypes, lo, hi, table)
@@ -70,12 +72,15 @@ contains
             if (world%rank == 0) then
                 if (len_trim(cfg%read_data) > 0) then
                     call read_data_checked(cfg, table)
-                else
+                else if (len_trim(cfg%atoms_file) > 0) then
                     call read_atoms_file(trim(cfg%atoms_file), table)
                 end if
             end if
-            call bcast_atom_table(table)
-            if (.not. table%ok) call stop_all(trim(table%error))
+            if (len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0) then
+                call bcast_atom_table(table)
+                if (.not. table%ok) call stop_all(trim(table%error))
+            end if
+            if (len_trim(cfg%mesh_file) > 0) call mesh_scene(cfg, table, mesh, self%atoms)
             ntypes = table%ntypes
             if (ntypes > max_types) then
                 write (s1, '(i0)') max_types
@@ -85,7 +90,9 @@ contains
             end if
         end if
 
-        ! ---- box
+        ! ---- box (free dimensions: the atoms' extent plus a margin, the cutoff or half the mesh's size)
+        margin = max(cfg%cutoff, 1.0_dp)
+        if (len_trim(cfg%mesh_file) > 0) margin = 0.5_dp*maxval(maxval(table%x, 2) - minval(table%x, 2))
         if (self%restarted) then
             continue                         ! lo, hi: the checkpoint's
         else if (len_trim(cfg%lattice) > 0) then
@@ -103,8 +110,8 @@ contains
                     call stop_all(cfg%where('system', 'box_lo')//': a periodic dimension of an atoms_file scene '// &
                                   'needs box_lo and box_hi')
                 else
-                    lo(d) = minval(table%x(d, :)) - max(cfg%cutoff, 1.0_dp)
-                    hi(d) = maxval(table%x(d, :)) + max(cfg%cutoff, 1.0_dp)
+                    lo(d) = minval(table%x(d, :)) - margin
+                    hi(d) = maxval(table%x(d, :)) + margin
                 end if
             end do
         end if
@@ -134,7 +141,12 @@ contains
         if (from_table .or. self%restarted) then
             if (table%has_masses) self%atoms%mass = table%mass(1:ntypes)
         end if
-        call make_potential(cfg, ntypes, self%atoms%mass, self%pot)
+        if (len_trim(cfg%mesh_file) > 0) then
+            self%atoms%mass(1) = table%mass(1)
+            call make_potential(cfg, ntypes, self%atoms%mass, self%pot, mesh)
+        else
+            call make_potential(cfg, ntypes, self%atoms%mass, self%pot)
+        end if
         do t = 1, ntypes
             if (cfg%mass(t) > 0) self%atoms%mass(t) = cfg%mass(t)
             if (.not. (self%atoms%mass(t) > 0)) then
@@ -370,5 +382,89 @@ contains
             end do
         end do
     end subroutine create_lattice_atoms
+
+    !> A mesh as the scene: every rank reads the MSH file; nodes become atoms (id = node tag, type 1)
+    !> at their reference positions, or at the positions and velocities of &system atoms_file when it
+    !> is given (one line per node in tag order); lumped masses rho V0 / 4 per element and node
+    !> (atoms%mass_of_id; type 1's mass is the mean); each body (physical volume) gets the rigid
+    !> motion v = V_b + w_b x (x - c_b) about its centre of mass c_b.
+    subroutine mesh_scene(cfg, table, mesh, atoms)
+        use terrace_neohookean, only: det3
+        use terrace_config, only: max_bodies
+        type(config_t), intent(in) :: cfg
+        type(atom_table_t), intent(inout) :: table
+        type(mesh_t), intent(out) :: mesh
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), allocatable :: xref(:, :)
+        integer, allocatable :: node_body(:)
+        real(dp) :: dm(3, 3), v0, com(3, max_bodies), mb(max_bodies), w(3), r(3)
+        integer :: k, a, e, b, n
+        logical :: current
+        character(len=32) :: s1
+        call read_gmsh(trim(cfg%mesh_file), mesh)
+        call check_all(mesh%ok, trim(mesh%error))
+        n = mesh%nnode
+        current = len_trim(cfg%atoms_file) > 0
+        if (current .and. table%n /= n) then
+            write (s1, '(i0,a,i0)') table%n, ' lines for ', n
+            call stop_all(trim(cfg%atoms_file)//': &system: atoms_file: '//trim(s1)//' mesh nodes (one line per node, '// &
+                          'in node-tag order)')
+        end if
+        allocate (xref(3, n), node_body(n))
+        do k = 1, n
+            xref(:, mesh%node_tag(k)) = mesh%x(:, k)
+        end do
+        if (any(mesh%body < 1 .or. mesh%body > max_bodies)) then
+            write (s1, '(i0)') max_bodies
+            call stop_all(trim(cfg%mesh_file)//': &system: mesh_file: physical volume tags must be 1..'//trim(s1))
+        end if
+        allocate (atoms%mass_of_id(n))
+        atoms%mass_of_id = 0
+        node_body = 0
+        do e = 1, mesh%ntet
+            do a = 1, 3
+                dm(:, a) = xref(:, mesh%tet(a + 1, e)) - xref(:, mesh%tet(1, e))
+            end do
+            v0 = abs(det3(dm))/6
+            do a = 1, 4
+                atoms%mass_of_id(mesh%tet(a, e)) = atoms%mass_of_id(mesh%tet(a, e)) + cfg%mass_density*v0/4
+                if (node_body(mesh%tet(a, e)) == 0) node_body(mesh%tet(a, e)) = mesh%body(e)
+            end do
+        end do
+        if (any(node_body == 0)) call stop_all(trim(cfg%mesh_file)//': &system: mesh_file: a node belongs to no '// &
+                                               'tetrahedron (remove unused nodes: gmsh -save_all 0)')
+        atoms%per_atom_mass = .true.
+        if (.not. current) then
+            table%n = n
+            allocate (table%x(3, n), table%v(3, n), table%type(n), table%image(3, n), table%id(n))
+            table%x = xref
+            table%v = 0
+        end if
+        table%type = 1
+        table%image = 0
+        table%id = [(int(k, i8), k=1, n)]
+        table%ntypes = 1
+        if (allocated(table%mass)) deallocate (table%mass)
+        allocate (table%mass(1))
+        table%mass(1) = sum(atoms%mass_of_id)/n
+        table%has_masses = .true.
+        ! rigid motion of each body about its centre of mass
+        com = 0; mb = 0
+        do k = 1, n
+            b = node_body(k)
+            com(:, b) = com(:, b) + atoms%mass_of_id(k)*table%x(:, k)
+            mb(b) = mb(b) + atoms%mass_of_id(k)
+        end do
+        do b = 1, max_bodies
+            if (mb(b) > 0) com(:, b) = com(:, b)/mb(b)
+        end do
+        do k = 1, n
+            b = node_body(k)
+            w = cfg%body_angular_velocity(:, b)
+            r = table%x(:, k) - com(:, b)
+            table%v(:, k) = table%v(:, k) + cfg%body_velocity(:, b) + [w(2)*r(3) - w(3)*r(2), w(3)*r(1) - w(1)*r(3), &
+                                                                        w(1)*r(2) - w(2)*r(1)]
+        end do
+    end subroutine mesh_scene
 
 end module terrace_scene_builder

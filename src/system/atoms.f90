@@ -15,12 +15,18 @@ module terrace_atoms
         integer(i8), allocatable :: id(:)
         integer, allocatable :: image(:, :)
         real(dp), allocatable :: mass(:)            !< per type
+        !> Per-atom masses (meshes: lumped nodal masses): mass_of_id(id) for every atom of the scene,
+        !> copied into rmass(1:nall) in local order at every rebuild (refresh_rmass). Only when
+        !> per_atom_mass; otherwise mass(type(i)) holds.
+        logical :: per_atom_mass = .false.
+        real(dp), allocatable :: mass_of_id(:), rmass(:)
     contains
         procedure :: reserve => atoms_reserve
         procedure :: append => atoms_append
         procedure :: nall => atoms_nall
         procedure :: copy_owned => atoms_copy_owned
         procedure :: permute_owned => atoms_permute_owned
+        procedure :: refresh_rmass => atoms_refresh_rmass
     end type atoms_t
 
 contains
@@ -101,5 +107,20 @@ contains
         self%id(1:n) = self%id(perm(1:n))
         self%image(:, 1:n) = self%image(:, perm(1:n))
     end subroutine atoms_permute_owned
+
+    !> rmass(1:nall) from mass_of_id in the current local order (after migration and halo).
+    subroutine atoms_refresh_rmass(self)
+        class(atoms_t), intent(inout) :: self
+        integer :: i, n
+        if (.not. self%per_atom_mass) return
+        n = self%nall()
+        if (allocated(self%rmass)) then
+            if (size(self%rmass) < n) deallocate (self%rmass)
+        end if
+        if (.not. allocated(self%rmass)) allocate (self%rmass(max(n + n/4, 16)))
+        do i = 1, n
+            self%rmass(i) = self%mass_of_id(self%id(i))
+        end do
+    end subroutine atoms_refresh_rmass
 
 end module terrace_atoms

@@ -11,7 +11,7 @@ module terrace_velocities
     implicit none
     private
 
-    public :: create_velocities, remove_drift, momentum_and_mass, zero_angular_momentum, kinetic_energy, hash_uniform
+    public :: create_velocities, remove_drift, momentum_and_mass, atom_mass, zero_angular_momentum, kinetic_energy, hash_uniform
 
 contains
 
@@ -74,9 +74,15 @@ contains
         type(units_t), intent(in) :: units
         integer :: i
         ke = 0
-        do i = 1, atoms%nlocal
-            ke = ke + atoms%mass(atoms%type(i))*(atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
-        end do
+        if (atoms%per_atom_mass) then
+            do i = 1, atoms%nlocal
+                ke = ke + atoms%rmass(i)*(atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
+            end do
+        else
+            do i = 1, atoms%nlocal
+                ke = ke + atoms%mass(atoms%type(i))*(atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
+            end do
+        end if
         call sum_all(ke)
         ke = 0.5_dp*units%mvv2e*ke
     end function kinetic_energy
@@ -88,11 +94,22 @@ contains
         integer :: i
         p = 0
         do i = 1, atoms%nlocal
-            p(1:3) = p(1:3) + atoms%mass(atoms%type(i))*atoms%v(:, i)
-            p(4) = p(4) + atoms%mass(atoms%type(i))
+            p(1:3) = p(1:3) + atom_mass(atoms, i)*atoms%v(:, i)
+            p(4) = p(4) + atom_mass(atoms, i)
         end do
         call sum_all(p)
     end function momentum_and_mass
+
+    !> The mass of local atom i (per atom for meshes, else per type). Not for hot loops.
+    pure real(dp) function atom_mass(atoms, i)
+        type(atoms_t), intent(in) :: atoms
+        integer, intent(in) :: i
+        if (atoms%per_atom_mass) then
+            atom_mass = atoms%rmass(i)
+        else
+            atom_mass = atoms%mass(atoms%type(i))
+        end if
+    end function atom_mass
 
     subroutine remove_drift(atoms)
         type(atoms_t), intent(inout) :: atoms

@@ -1,0 +1,86 @@
+#!/usr/bin/env python3
+"""Spinning neo-Hookean cube (issue 12), small mesh (2 x 2 x 2 cells of the talk's subdivision,
+71 nodes, 192 tetrahedra, 0.1 m, rubber-like: rho 1100 kg/m^3, lambda 2.7 MPa, mu 0.3 MPa, spin
+100 rad/s about z):
+  - energy stepping (h = 1e-3 J, 500 events): K + k h constant to 1e-12 relative, |E - E0| <= h,
+    linear momentum and angular momentum conserved to round-off; the same 500 events on 2 and 4
+    ranks: events, time, pe, etotal, lz within 1e-10 relative of 1 rank;
+  - velocity Verlet at dt = 1e-4 s: max |E - E0| below 1e-3 J, L_z to round-off; at dt = 8e-4 s the
+    run is unstable and stops with one clear error line and a non-zero exit.
+usage: check_mesh_cube.py TERRACE OUTDIR
+"""
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+
+terrace, out = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
+repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+shutil.rmtree(out, ignore_errors=True)
+os.makedirs(out)
+subprocess.run([sys.executable, os.path.join(repo, "scripts", "make_cube_mesh.py"), os.path.join(out, "cube2.msh"),
+                "--cells", "2", "--size", "0.1", "--center"], check=True, stdout=subprocess.DEVNULL)
+failed = []
+
+
+def check(ok, what):
+    print(("ok   " if ok else "FAIL ") + what)
+    if not ok:
+        failed.append(what)
+
+
+def deck(name, integrator, length, thermo):
+    text = f"""&run units='si', dimension=3, {length}, seed=1 /
+&system mesh_file='cube2.msh', mass_density=1100.0, periodic=.false.,.false.,.false.,
+        angular_velocity(:,1)=0.0,0.0,100.0 /
+&potential style='neohookean', lambda=2.7e6, mu=3.0e5 /
+&integrator {integrator} /
+&output {thermo}, thermo_file='{name}.csv' /
+"""
+    open(os.path.join(out, name + ".nml"), "w").write(text)
+
+
+def run(name, np_=1):
+    cmd = [terrace, name + ".nml"] if np_ == 1 else ["mpirun", "--oversubscribe", "-np", str(np_), terrace, name + ".nml"]
+    return subprocess.run(cmd, cwd=out, capture_output=True, text=True, timeout=600)
+
+
+h = 1.0e-3
+for np_ in (1, 2, 4):
+    deck(f"es_np{np_}", f"style='energy_stepping', terrace_height={h}", "n_steps=500", "thermo_every=50")
+    r = run(f"es_np{np_}", np_)
+    check(r.returncode == 0, f"energy stepping on {np_} rank(s) ran (exit {r.returncode}) {r.stderr.strip()[:200]}")
+if failed:
+    sys.exit(1)
+t = {n: np.genfromtxt(os.path.join(out, f"es_np{n}.csv"), delimiter=",", names=True) for n in (1, 2, 4)}
+a = t[1]
+e0 = a["etotal"][0]
+check(np.ptp(a["e_terraced"]) <= 1e-12 * abs(e0), f"K + k h constant: spread {np.ptp(a['e_terraced']):.2e} J")
+# V - V_h lies in [0, h) at every state, so |E - E0| < h, up to the event solver's edge tolerance (1e-9 h)
+check(np.max(np.abs(a["etotal"] - e0)) <= h * (1 + 1e-6), f"|K + V - E0| <= h: {np.max(np.abs(a['etotal'] - e0)) / h:.9f} h")
+pscale = 1100 * 1e-3 * 100 * 0.05
+for c in ("px", "py", "pz"):
+    check(np.max(np.abs(a[c] - a[c][0])) <= 1e-12 * pscale, f"{c} conserved: {np.max(np.abs(a[c] - a[c][0])):.2e}")
+lz0 = a["lz"][0]
+for c in ("lx", "ly", "lz"):
+    check(np.max(np.abs(a[c] - a[c][0])) <= 1e-12 * abs(lz0), f"{c} conserved: {np.max(np.abs(a[c] - a[c][0])):.2e} "
+          f"(L_z = {lz0:.4e})")
+for n in (2, 4):
+    b = t[n]
+    for c in ("events", "time", "pe", "etotal", "lz"):
+        d = np.max(np.abs(a[c] - b[c]) / np.maximum(np.abs(a[c]), 1e-300))
+        check(d <= 1e-10, f"1 vs {n} ranks, first 500 events: {c} within {d:.1e}")
+deck("vv", "style='velocity_verlet', dt=1.0e-4", "run_time=0.02", "thermo_interval=0.001")
+r = run("vv")
+check(r.returncode == 0, f"velocity Verlet at dt = 1e-4 s ran (exit {r.returncode})")
+v = np.genfromtxt(os.path.join(out, "vv.csv"), delimiter=",", names=True)
+check(np.max(np.abs(v["etotal"] - v["etotal"][0])) < 1e-3, f"Verlet max |E - E0| = {np.max(np.abs(v['etotal'] - v['etotal'][0])):.2e} J")
+check(np.max(np.abs(v["lz"] - v["lz"][0])) <= 1e-12 * abs(v["lz"][0]), "Verlet L_z conserved")
+deck("vv_unstable", "style='velocity_verlet', dt=8.0e-4", "run_time=0.02", "thermo_interval=0.0008")
+r = run("vv_unstable")
+errors = [l for l in r.stderr.splitlines() if l.startswith("terrace: error")]
+check(r.returncode != 0 and len(errors) == 1 and "unstable" in errors[0] and "Backtrace" not in r.stderr,
+      f"Verlet at dt = 8e-4 s stops with one error line: {errors[0] if errors else r.stderr[:200]}")
+sys.exit(1 if failed else 0)

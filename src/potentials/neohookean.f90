@@ -325,7 +325,7 @@ contains
         class(neohookean_t), intent(in) :: self
         character(len=:), allocatable :: text
         character(len=200) :: s
-        write (s, '(a,i0,a,g0.6,a,g0.6,a)') 'neohookean, ', self%nelem, ' tetrahedra, lambda = ', self%lambda, &
+        write (s, '(a,i0,a,es11.4,a,es11.4,a)') 'neohookean, ', self%nelem, ' tetrahedra, lambda = ', self%lambda, &
             ', mu = ', self%mu, '; no pair list, no density pass'
         text = trim(s)
     end function nh_describe

@@ -5,7 +5,8 @@
   - energy stepping (h = 1e-3 J, 500 events): K + k h constant to 1e-12 relative, |E - E0| <= h,
     linear momentum and angular momentum conserved to round-off; the same 500 events on 2 and 4
     ranks: events, time, pe, etotal, lz within 1e-10 relative of 1 rank;
-  - velocity Verlet at dt = 1e-4 s: max |E - E0| below 1e-3 J, L_z to round-off; at dt = 8e-4 s the
+  - velocity Verlet at dt = 1e-4 s: max |E - E0| below 1e-3 J, L_z to round-off, the thermo of 200
+    steps on 2 and 4 ranks within 1e-10 relative of 1 rank; at dt = 8e-4 s the
     run is unstable and stops with one clear error line and a non-zero exit.
 usage: check_mesh_cube.py TERRACE OUTDIR
 """
@@ -78,6 +79,16 @@ check(r.returncode == 0, f"velocity Verlet at dt = 1e-4 s ran (exit {r.returncod
 v = np.genfromtxt(os.path.join(out, "vv.csv"), delimiter=",", names=True)
 check(np.max(np.abs(v["etotal"] - v["etotal"][0])) < 1e-3, f"Verlet max |E - E0| = {np.max(np.abs(v['etotal'] - v['etotal'][0])):.2e} J")
 check(np.max(np.abs(v["lz"] - v["lz"][0])) <= 1e-12 * abs(v["lz"][0]), "Verlet L_z conserved")
+# Verlet thermo on 1, 2 and 4 ranks (200 steps)
+for n in (1, 2, 4):
+    deck(f"vv_np{n}", "style='velocity_verlet', dt=1.0e-4", "n_steps=200", "thermo_every=20")
+    r = run(f"vv_np{n}", n)
+    check(r.returncode == 0, f"velocity Verlet on {n} rank(s) ran (exit {r.returncode})")
+w = {n: np.genfromtxt(os.path.join(out, f"vv_np{n}.csv"), delimiter=",", names=True) for n in (1, 2, 4)}
+for n in (2, 4):
+    for c in ("pe", "ke", "etotal", "lz"):
+        d = np.max(np.abs(w[1][c] - w[n][c]) / np.maximum(np.abs(w[1][c]), 1e-300))
+        check(d <= 1e-10, f"Verlet 1 vs {n} ranks, 200 steps: {c} within {d:.1e}")
 deck("vv_unstable", "style='velocity_verlet', dt=8.0e-4", "run_time=0.02", "thermo_interval=0.0008")
 r = run("vv_unstable")
 errors = [l for l in r.stderr.splitlines() if l.startswith("terrace: error")]

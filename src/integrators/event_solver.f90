@@ -315,8 +315,10 @@ contains
                 if (ua > margin .and. ua < width - margin) then
                     sn = sa + ua; err = third*ua**3/6
                 end if
-                if (ub > margin .and. ub < width - margin .and. third*ub**3/6 < err) then
-                    sn = sb - ub; err = third*ub**3/6
+                if (ub > margin .and. ub < width - margin) then      ! (nested: ub may be huge)
+                    if (third*ub**3/6 < err) then
+                        sn = sb - ub; err = third*ub**3/6
+                    end if
                 end if
                 if (sn < sa) then
                     sn = hermite_root(sa, pa, sb, pb, lv)

@@ -19,8 +19,17 @@
 !> Derived variates: uniform doubles in (0, 1) from two words (53 bits) or from one word (32 bits,
 !> the fast path of the per-atom kernels), standard normals by Box-Muller, exponentials -ln u, and
 !> Gamma(a, 1) by Marsaglia & Tsang (2000) (a < 1: Gamma(a + 1) u^(1/a)); chi-square(n) = 2 Gamma(n/2).
+!>
+!> The per-atom batch kernels (rng_blocks, normals4_many) are the cost of a stochastic thermostat:
+!> they are written so that gfortran vectorises them across atoms (AVX2: four or eight counters at
+!> a time): 32-bit words held as int32 patterns, each Philox product one unsigned 32 x 32 -> 64-bit
+!> multiply, Box-Muller by branch-free polynomials (box_muller_batch) rather than the
+!> library's scalar log/sin/cos. Fortran has no unsigned type: the words wrap modulo 2^32, so this
+!> file is compiled with -fwrapv (and -fno-trapping-math, which lets the selects be if-converted);
+!> see CMakeLists.txt.
 module terrace_counter_rng
     use terrace_kinds, only: dp, i8
+    use, intrinsic :: iso_fortran_env, only: i4 => int32
     implicit none
     private
 
@@ -32,7 +41,7 @@ module terrace_counter_rng
     integer(i8), parameter :: stream_mix = 2654435761_i8   ! 0x9E3779B1
     integer(i8), parameter :: m0_lo = iand(philox_m0, mask16), m0_hi = ishft(philox_m0, -16)  ! 16-bit halves
     integer(i8), parameter :: m1_lo = iand(philox_m1, mask16), m1_hi = ishft(philox_m1, -16)
-    real(dp), parameter :: two_pi = 8*atan(1.0_dp)
+    real(dp), parameter :: two_pi = 8*atan(1.0_dp), sqrt_2 = 1.4142135623730950488_dp
     real(dp), parameter :: inv_2_32 = 1.0_dp/4294967296.0_dp, inv_2_53 = 1.0_dp/9007199254740992.0_dp
 
     !> A sequence of draws for one (seed, stream, id, event): blocks sub = 0, 1, 2, ... consumed
@@ -52,7 +61,7 @@ module terrace_counter_rng
     end type rng_stream_t
 
     public :: philox4x32_10, rng_key, rng_counter, rng_block, rng_stream, unit_from_word, unit_from_words
-    public :: normals4, box_muller, rng_blocks, normals4_many
+    public :: normals4, box_muller, rng_blocks, normals4_many, box_muller_batch
 
     integer, parameter, public :: rng_batch = 64   !< atoms per batch of the vectorised kernels
 
@@ -90,59 +99,158 @@ contains
         end do
     end function philox4x32_10
 
-    !> Philox4x32-10 on n counters at once (c(:, 1..4) in place; the same key), written as loops
-    !> over the n counters so that the compiler vectorises the rounds: the same words as
-    !> philox4x32_10 counter by counter.
+    !> Philox4x32-10 on n counters at once (c(:, 1..4) in place; the same key): the same words as
+    !> philox4x32_10 counter by counter, through the vectorised rounds of philox_rounds.
     pure subroutine rng_blocks(n, c, key)
         integer, intent(in) :: n
         integer(i8), intent(inout) :: c(n, 4)
         integer(i8), intent(in) :: key(2)
-        integer(i8) :: k0, k1, p0, p1, t, hi0, lo0, hi1, lo1, x1, x3
-        integer :: r, i
-        k0 = key(1); k1 = key(2)
-        do r = 1, 10
-            do i = 1, n
-                p0 = c(i, 1)*m0_lo; p1 = c(i, 1)*m0_hi
-                t = p0 + ishft(iand(p1, mask16), 16)
-                lo0 = iand(t, mask32); hi0 = ishft(p1, -16) + ishft(t, -32)
-                p0 = c(i, 3)*m1_lo; p1 = c(i, 3)*m1_hi
-                t = p0 + ishft(iand(p1, mask16), 16)
-                lo1 = iand(t, mask32); hi1 = ishft(p1, -16) + ishft(t, -32)
-                x1 = ieor(ieor(hi1, c(i, 2)), k0)
-                x3 = ieor(ieor(hi0, c(i, 4)), k1)
-                c(i, 1) = x1; c(i, 2) = lo1; c(i, 3) = x3; c(i, 4) = lo0
-            end do
-            k0 = iand(k0 + philox_w0, mask32)
-            k1 = iand(k1 + philox_w1, mask32)
+        integer(i4) :: k0(10), k1(10), x0, x1, x2, x3
+        integer :: i
+        call round_keys(key, k0, k1)
+        do i = 1, n
+            x0 = pattern32(c(i, 1)); x1 = pattern32(c(i, 2)); x2 = pattern32(c(i, 3)); x3 = pattern32(c(i, 4))
+            call philox_rounds(k0, k1, x0, x1, x2, x3)
+            c(i, 1) = iand(int(x0, i8), mask32); c(i, 2) = iand(int(x1, i8), mask32)
+            c(i, 3) = iand(int(x2, i8), mask32); c(i, 4) = iand(int(x3, i8), mask32)
         end do
     end subroutine rng_blocks
 
-    !> normals4 for n ids at once (the same numbers as normals4 id by id): z(i, 1..4).
+    !> The ten round keys (k0, k1) of key, as 32-bit patterns.
+    pure subroutine round_keys(key, k0, k1)
+        integer(i8), intent(in) :: key(2)
+        integer(i4), intent(out) :: k0(10), k1(10)
+        integer(i8) :: a, b
+        integer :: r
+        a = key(1); b = key(2)
+        do r = 1, 10
+            k0(r) = pattern32(a)
+            k1(r) = pattern32(b)
+            a = iand(a + philox_w0, mask32); b = iand(b + philox_w1, mask32)
+        end do
+    end subroutine round_keys
+
+    !> The int32 bit pattern of a word w in [0, 2^32).
+    elemental integer(i4) function pattern32(w) result(p)
+        integer(i8), intent(in) :: w
+        p = int(w - merge(4294967296_i8, 0_i8, w > 2147483647_i8), i4)
+    end function pattern32
+
+    !> The ten Philox rounds on one counter held as four 32-bit patterns (x0..x3 in place). Written
+    !> for the vectoriser (inlined into loops over counters): the zero-extended word times the
+    !> multiplier is one unsigned 32 x 32 -> 64-bit product (vpmuludq); the product wraps past
+    !> 2^63 and the words are taken modulo 2^32, so this file is compiled with -fwrapv.
+    pure subroutine philox_rounds(k0, k1, x0, x1, x2, x3)
+        integer(i4), intent(in) :: k0(10), k1(10)
+        integer(i4), intent(inout) :: x0, x1, x2, x3
+        integer(i8) :: p0, p1
+        integer :: r
+!GCC$ unroll 10
+        do r = 1, 10
+            p0 = iand(int(x0, i8), mask32)*philox_m0
+            p1 = iand(int(x2, i8), mask32)*philox_m1
+            x0 = ieor(ieor(int(ishft(p1, -32), i4), x1), k0(r))
+            x2 = ieor(ieor(int(ishft(p0, -32), i4), x3), k1(r))
+            x1 = int(p1, i4); x3 = int(p0, i4)
+        end do
+    end subroutine philox_rounds
+
+    !> normals4 for n ids at once (the same numbers as normals4 id by id): z(i, 1..4). Two
+    !> vectorised loops over the batch: the Philox blocks of (seed, stream, id, event, 0), then two
+    !> Box-Muller pairs per block (box_muller_batch). Any n gives the same numbers for an id (the
+    !> vector and the remainder code agree bitwise, unit-tested).
     pure subroutine normals4_many(n, seed, stream, ids, event, z)
         integer, intent(in) :: n, stream
         integer(i8), intent(in) :: seed, ids(n), event
         real(dp), intent(out) :: z(n, 4)
-        integer(i8) :: c(n, 4), ev_lo, ev_hi
-        real(dp) :: r1, r2, a1, a2
+        integer(i4) :: k0(10), k1(10), ev_lo, ev_hi, w(n, 4)
         integer :: i
-        ev_lo = ishft(iand(event, mask16), 16)
-        ev_hi = iand(ishft(event, -16), mask32)
+        call round_keys(rng_key(seed, stream), k0, k1)
+        ev_lo = pattern32(ishft(iand(event, mask16), 16))
+        ev_hi = pattern32(iand(ishft(event, -16), mask32))
+        ! the counter words first (a loop of their own: the next one holds no 64-bit integer loads)
         do i = 1, n
-            c(i, 1) = 0
-            c(i, 2) = iand(ids(i), mask32)
-            c(i, 3) = ior(iand(ishft(ids(i), -32), mask16), ev_lo)
-            c(i, 4) = ev_hi
+            w(i, 1) = 0
+            w(i, 2) = pattern32(iand(ids(i), mask32))
+            w(i, 3) = ior(pattern32(iand(ishft(ids(i), -32), mask16)), ev_lo)
+            w(i, 4) = ev_hi
         end do
-        call rng_blocks(n, c, rng_key(seed, stream))
         do i = 1, n
-            r1 = sqrt(-2*log((real(c(i, 1), dp) + 0.5_dp)*inv_2_32))
-            a1 = two_pi*((real(c(i, 2), dp) + 0.5_dp)*inv_2_32)
-            r2 = sqrt(-2*log((real(c(i, 3), dp) + 0.5_dp)*inv_2_32))
-            a2 = two_pi*((real(c(i, 4), dp) + 0.5_dp)*inv_2_32)
-            z(i, 1) = r1*cos(a1); z(i, 2) = r1*sin(a1)
-            z(i, 3) = r2*cos(a2); z(i, 4) = r2*sin(a2)
+            call philox_rounds(k0, k1, w(i, 1), w(i, 2), w(i, 3), w(i, 4))
         end do
+        call box_muller_batch(n, w(:, 1), w(:, 2), z(:, 1), z(:, 2))
+        call box_muller_batch(n, w(:, 3), w(:, 4), z(:, 3), z(:, 4))
     end subroutine normals4_many
+
+    !> Box-Muller on n pairs of 32-bit words (patterns), one branch-free loop that vectorises:
+    !>   r = sqrt(-2 ln u), u = (wr + 1/2) 2^-32, with ln u = e ln 2 + ln m (u = m 2^e, m in
+    !>   [sqrt(1/2), sqrt(2))), ln m = 2 atanh(s), s = (m - 1)/(m + 1), |s| < 0.172, by its series
+    !>   to s^21 (truncation below 1e-18);
+    !>   the angle 2 pi (wa + 1/2) 2^-32 = k pi/2 + t, split exactly into the nearest quarter turn k
+    !>   and t in [-pi/4, pi/4]; sin t and cos t by their Taylor polynomials (to t^15 and t^16,
+    !>   truncation below 5e-17); cos and sin of the angle are then +-cos t or +-sin t.
+    !> The same numbers as box_muller on the same uniforms to a few ulp, without the library's
+    !> scalar log, sin and cos.
+    pure subroutine box_muller_batch(n, wr, wa, z1, z2)
+        integer, intent(in) :: n
+        integer(i4), intent(in) :: wr(n), wa(n)
+        real(dp), intent(out) :: z1(n), z2(n)
+        integer(i8), parameter :: mant_mask = 4503599627370495_i8, one_bits = 4607182418800017408_i8
+        real(dp), parameter :: ln2_hi = 6.93147180369123816490e-01_dp, ln2_lo = 1.90821492927058770002e-10_dp
+        integer(i8) :: b
+        integer(i4) :: q, k
+        real(dp) :: u, m, e, s, s2, y, r, t, t2, sn, cs, cc, ss
+        integer :: i
+        do i = 1, n
+            ! r = sqrt(-2 ln u)
+            u = (real(wr(i), dp) + merge(4294967296.5_dp, 0.5_dp, wr(i) < 0))*inv_2_32
+            b = transfer(u, b)
+            e = real(int(ishft(b, -52), i4) - 1023_i4, dp)
+            m = transfer(ior(iand(b, mant_mask), one_bits), m)
+            e = e + merge(1.0_dp, 0.0_dp, m > sqrt_2)
+            m = merge(0.5_dp*m, m, m > sqrt_2)
+            s = (m - 1)/(m + 1)
+            s2 = s*s
+            y = 1.0_dp/21
+            y = y*s2 + 1.0_dp/19
+            y = y*s2 + 1.0_dp/17
+            y = y*s2 + 1.0_dp/15
+            y = y*s2 + 1.0_dp/13
+            y = y*s2 + 1.0_dp/11
+            y = y*s2 + 1.0_dp/9
+            y = y*s2 + 1.0_dp/7
+            y = y*s2 + 1.0_dp/5
+            y = y*s2 + 1.0_dp/3
+            y = (y*s2)*s + s
+            r = sqrt(-2*(e*ln2_hi + (2*y + e*ln2_lo)))
+            ! the angle: q = wa + 2^29, k = q div 2^30 mod 4, t = (q mod 2^30 - 2^29 + 1/2) (pi/2) 2^-30
+            q = wa(i) + 536870912_i4
+            k = iand(ishft(q, -30), 3_i4)
+            t = (real(iand(q, 1073741823_i4), dp) - 536870911.5_dp)*(two_pi/4294967296.0_dp)
+            t2 = t*t
+            sn = -1.0_dp/1307674368000.0_dp
+            sn = sn*t2 + 1.0_dp/6227020800.0_dp
+            sn = sn*t2 - 1.0_dp/39916800.0_dp
+            sn = sn*t2 + 1.0_dp/362880.0_dp
+            sn = sn*t2 - 1.0_dp/5040.0_dp
+            sn = sn*t2 + 1.0_dp/120.0_dp
+            sn = sn*t2 - 1.0_dp/6.0_dp
+            sn = (sn*t2)*t + t
+            cs = 1.0_dp/20922789888000.0_dp
+            cs = cs*t2 - 1.0_dp/87178291200.0_dp
+            cs = cs*t2 + 1.0_dp/479001600.0_dp
+            cs = cs*t2 - 1.0_dp/3628800.0_dp
+            cs = cs*t2 + 1.0_dp/40320.0_dp
+            cs = cs*t2 - 1.0_dp/720.0_dp
+            cs = cs*t2 + 1.0_dp/24.0_dp
+            cs = cs*t2 - 0.5_dp
+            cs = cs*t2 + 1
+            cc = merge(sn, cs, iand(k, 1_i4) == 1)
+            ss = merge(cs, sn, iand(k, 1_i4) == 1)
+            z1(i) = r*merge(-cc, cc, iand(k + 1_i4, 2_i4) /= 0)
+            z2(i) = r*merge(-ss, ss, iand(k, 2_i4) /= 0)
+        end do
+    end subroutine box_muller_batch
 
     !> The key of (seed, stream).
     pure function rng_key(seed, stream) result(key)
@@ -195,15 +303,14 @@ contains
     end subroutine box_muller
 
     !> Four standard normals from one block (32-bit uniforms: tails cut at |z| ~ 6.7, a
-    !> probability of 2e-11). The fast path of the per-atom kernels.
+    !> probability of 2e-11): normals4_many for one id, bitwise the batch kernel's numbers.
     pure subroutine normals4(seed, stream, id, event, z)
         integer(i8), intent(in) :: seed, id, event
         integer, intent(in) :: stream
         real(dp), intent(out) :: z(4)
-        real(dp) :: u(4)
-        u = unit_from_word(rng_block(seed, stream, id, event, 0))
-        call box_muller(u(1), u(2), z(1), z(2))
-        call box_muller(u(3), u(4), z(3), z(4))
+        real(dp) :: zz(1, 4)
+        call normals4_many(1, seed, stream, [id], event, zz)
+        z = zz(1, :)
     end subroutine normals4
 
     !> The draw sequence of (seed, stream, id, event).

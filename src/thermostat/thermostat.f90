@@ -33,7 +33,7 @@ module terrace_thermostat
     use terrace_velocities, only: momentum_and_mass
     use terrace_mpi_env, only: sum_all
     use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, unit_from_word, box_muller, rng_blocks, &
-                                   normals4_many, rng_batch, rng_key, rng_counter
+                                   normals4_many, rng_batch, rng_key
     use terrace_config, only: config_t
     use terrace_checkpoint, only: ckpt_values_t
     implicit none
@@ -227,15 +227,30 @@ contains
         self%ecouple_local = self%ecouple_local + de
     end subroutine ts_langevin_kick_drift
 
-    !> Global kinetic energy (collective).
+    !> Global kinetic energy (collective). One type (the common case): m sum v^2 over the contiguous
+    !> velocities, a loop that vectorises; several types: per-type masses looked up.
     real(dp) function total_ke(self, atoms) result(ke)
         type(thermostat_t), intent(in) :: self
         type(atoms_t), intent(in) :: atoms
-        integer :: i
+        integer :: i, n
+        real(dp) :: acc
+        n = atoms%nlocal
         ke = 0
-        do i = 1, atoms%nlocal
-            ke = ke + atoms%mass(atoms%type(i))*sum(atoms%v(:, i)**2)
-        end do
+        if (atoms%per_atom_mass) then
+            do i = 1, n
+                ke = ke + atoms%rmass(i)*(atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
+            end do
+        else if (atoms%ntypes == 1) then
+            acc = 0
+            do i = 1, n
+                acc = acc + (atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
+            end do
+            ke = atoms%mass(1)*acc
+        else
+            do i = 1, n
+                ke = ke + atoms%mass(atoms%type(i))*(atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
+            end do
+        end if
         call sum_all(ke)
         ke = 0.5_dp*self%mvv2e*ke
     end function total_ke
@@ -243,9 +258,12 @@ contains
     subroutine scale_velocities(atoms, alpha)
         type(atoms_t), intent(inout) :: atoms
         real(dp), intent(in) :: alpha
-        integer :: n
-        n = atoms%nlocal
-        atoms%v(:, 1:n) = alpha*atoms%v(:, 1:n)
+        integer :: i
+        do i = 1, atoms%nlocal
+            atoms%v(1, i) = alpha*atoms%v(1, i)
+            atoms%v(2, i) = alpha*atoms%v(2, i)
+            atoms%v(3, i) = alpha*atoms%v(3, i)
+        end do
     end subroutine scale_velocities
 
     !> CSVR over a time span: one global kinetic-energy draw (every rank draws the same numbers,
@@ -380,22 +398,30 @@ contains
         real(dp), intent(in) :: dt, time
         integer(i8), intent(in) :: step
         real(dp) :: p, temp, vnew(3), de, m
-        integer(i8) :: key(2), c(rng_batch, 4)
+        integer(i8) :: key(2), c(rng_batch, 4), ev_lo, ev_hi, pw
         integer :: i, i0, nb, j
         p = 1 - exp(-dt/self%damping)
         temp = self%target(time)
         de = 0
         key = rng_key(self%seed, stream_andersen_pick)
-        ! batches of atoms: one vectorised Philox block per atom decides (word 1 < p), as rng_block
-        ! (seed, pick stream, id, step, 0) would
+        ! the collision test: word 1 < pw, the same decisions as unit_from_word(word 1) < p (exact in
+        ! both forms), words of rng_block(seed, pick stream, id, step, 0)
+        pw = ceiling(min(p*4294967296.0_dp - 0.5_dp, 4294967296.0_dp), i8)
+        ev_lo = ishft(iand(step, 65535_i8), 16)
+        ev_hi = iand(ishft(step, -16), 4294967295_i8)
+        ! batches of atoms: one vectorised Philox block per atom decides
         do i0 = 1, atoms%nlocal, rng_batch
             nb = min(rng_batch, atoms%nlocal - i0 + 1)
             do j = 1, nb
-                c(j, :) = rng_counter(atoms%id(i0 + j - 1), step, 0)
+                c(j, 1) = 0
+                c(j, 2) = iand(atoms%id(i0 + j - 1), 4294967295_i8)
+                c(j, 3) = ior(iand(ishft(atoms%id(i0 + j - 1), -32), 65535_i8), ev_lo)
+                c(j, 4) = ev_hi
             end do
             call rng_blocks(nb, c(1:nb, :), key)
+            if (.not. any(c(1:nb, 1) < pw)) cycle
             do j = 1, nb
-                if (unit_from_word(c(j, 1)) >= p) cycle
+                if (c(j, 1) >= pw) cycle
                 i = i0 + j - 1
                 m = atoms%mass(atoms%type(i))
                 vnew = maxwell_velocity(self, atoms%id(i), step, 0, temp, m)

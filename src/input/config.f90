@@ -8,7 +8,7 @@
 !>   &integrator style, dt
 !>   &neighbor   skin, list
 !>   &output     thermo_every, thermo_interval, thermo_file, forces_file
-!>   &thermostat style, temperature, temperature_end, damping, chain_length, seed, zero_momentum
+!>   &thermostat style, temperature, temperature_end, damping, chain_length, seed, zero_momentum, interval
 !> Every key is read on its own, so that an error names file, line, group and key.
 module terrace_config
     use terrace_kinds, only: dp, i8
@@ -93,6 +93,7 @@ module terrace_config
         real(dp) :: thermostat_temperature = -1.0_dp      !< target at time 0
         real(dp) :: thermostat_temperature_end = -1.0_dp  !< target at the end (linear ramp); < 0: no ramp
         real(dp) :: thermostat_damping = -1.0_dp          !< relaxation time
+        real(dp) :: thermostat_interval = -1.0_dp         !< energy stepping CSVR: time between rescalings
         integer :: chain_length = 3                       !< Nose-Hoover chain length
         integer(i8) :: thermostat_seed = -1               !< < 0: &run seed
         logical :: zero_momentum = .false.
@@ -568,16 +569,17 @@ contains
         integer :: chain_length
         integer(i8) :: seed
         logical :: zero_momentum
-        namelist /thermostat/ style, temperature, temperature_end, damping, chain_length, seed, zero_momentum
-        character(len=*), parameter :: keys(7) = [character(len=40) :: 'style:a quoted string', &
+        real(dp) :: interval
+        namelist /thermostat/ style, temperature, temperature_end, damping, chain_length, seed, zero_momentum, interval
+        character(len=*), parameter :: keys(8) = [character(len=40) :: 'style:a quoted string', &
             'temperature:a real number', 'temperature_end:a real number', 'damping:a real number', &
-            'chain_length:an integer', 'seed:an integer', 'zero_momentum:a logical']
+            'chain_length:an integer', 'seed:an integer', 'zero_momentum:a logical', 'interval:a real number']
         character(len=:), allocatable :: kind
         character(len=256) :: msg
         character(len=:), allocatable :: buf
         integer :: k, ios
         style = 'none'; temperature = -1; temperature_end = -1; damping = -1; chain_length = 3; seed = -1
-        zero_momentum = .false.
+        zero_momentum = .false.; interval = -1
         do k = 1, cfg%nml%count
             if (cfg%nml%items(k)%group /= 'thermostat') cycle
             kind = check_key(cfg, k, keys)
@@ -588,7 +590,7 @@ contains
         cfg%thermostat = lower(style)
         cfg%thermostat_temperature = temperature; cfg%thermostat_temperature_end = temperature_end
         cfg%thermostat_damping = damping; cfg%chain_length = chain_length; cfg%thermostat_seed = seed
-        cfg%zero_momentum = zero_momentum
+        cfg%zero_momentum = zero_momentum; cfg%thermostat_interval = interval
     end subroutine read_thermostat
 
     !> &thermostat: the style, its keys, and whether it fits the integrator.
@@ -601,7 +603,8 @@ contains
         if (.not. given) then
             if (cfg%nml%find('thermostat', 'temperature') > 0 .or. cfg%nml%find('thermostat', 'damping') > 0 .or. &
                 cfg%nml%find('thermostat', 'temperature_end') > 0 .or. cfg%nml%find('thermostat', 'chain_length') > 0 &
-                .or. cfg%nml%find('thermostat', 'seed') > 0 .or. cfg%nml%find('thermostat', 'zero_momentum') > 0) &
+                .or. cfg%nml%find('thermostat', 'seed') > 0 .or. cfg%nml%find('thermostat', 'zero_momentum') > 0 &
+                .or. cfg%nml%find('thermostat', 'interval') > 0) &
                 call stop_all(cfg%path//': &thermostat: style: missing (allowed: '//styles//')')
             return
         end if
@@ -613,9 +616,10 @@ contains
         case default
             call stop_all(style_is//': unknown thermostat (allowed: '//styles//')')
         end select
-        if (cfg%integrator == 'energy_stepping' .and. cfg%thermostat /= 'andersen') &
+        if (cfg%integrator == 'energy_stepping' .and. cfg%thermostat /= 'andersen' .and. cfg%thermostat /= 'csvr') &
             call stop_all(style_is//': not available with energy stepping, whose trajectory is straight lines and '// &
-                          "jumps between events (allowed there: 'andersen', collisions at exact times; or 'none')")
+                          "jumps between events (allowed there: 'andersen', collisions at exact times; 'csvr', "// &
+                          "rescaling at fixed intervals; or 'none')")
         if (cfg%nml%find('thermostat', 'temperature') == 0) &
             call stop_all(cfg%path//': &thermostat: temperature: missing (the target temperature in '// &
                           trim(cfg%units%temperature)//')')
@@ -639,6 +643,16 @@ contains
             if (cfg%thermostat /= 'nose_hoover') call stop_all(cfg%where('thermostat', 'chain_length')// &
                 ": only for style = 'nose_hoover'")
             if (cfg%chain_length < 1) call stop_all(cfg%where('thermostat', 'chain_length')//': must be >= 1')
+        end if
+        ! CSVR with energy stepping acts at multiples of interval (default damping/10)
+        if (cfg%nml%find('thermostat', 'interval') > 0) then
+            if (cfg%integrator /= 'energy_stepping' .or. cfg%thermostat /= 'csvr') call stop_all( &
+                cfg%where('thermostat', 'interval')//": only for style = 'csvr' with energy stepping (the time "// &
+                'between rescalings; velocity Verlet rescales every half step)')
+            if (.not. (cfg%thermostat_interval > 0)) call stop_all(cfg%where('thermostat', 'interval')// &
+                ': must be > 0 (a time in '//trim(cfg%units%time)//')')
+        else if (cfg%integrator == 'energy_stepping' .and. cfg%thermostat == 'csvr') then
+            cfg%thermostat_interval = cfg%thermostat_damping/10
         end if
         if (cfg%nml%find('thermostat', 'seed') > 0) then
             if (cfg%thermostat_seed <= 0) call stop_all(cfg%where('thermostat', 'seed')//': must be a positive integer')

@@ -25,6 +25,10 @@
 !> velocity, the terrace index and edges stay as they are (V is continuous), the ghosts' velocities
 !> are re-synchronised and the search restarts from a ray pass at the collision point (V' and V''
 !> along the new velocities); with zero_momentum the total momentum is removed after each collision.
+!> With CSVR (stochastic velocity rescaling) the thermostat acts at the multiples of its interval,
+!> one more candidate of the window minimum: all velocities are scaled by Bussi's exact
+!> kinetic-energy propagator over the interval (one global draw keyed by the rescaling's index), the
+!> terrace index and edges stay, and the search restarts from a ray pass as after a collision.
 !> Thermo gains ecouple and econserve = K + k h - ecouple.
 module terrace_energy_stepping
     use terrace_kinds, only: dp, i8
@@ -239,8 +243,9 @@ contains
         type(energy_guard_t) :: guard
         type(thermostat_t) :: ts
         real(dp) :: t_coll
-        logical :: collide
+        logical :: collide, rescale
         integer :: changed
+        real(dp) :: t_resc
 
         associate (t => st%t, k => st%k, lower => st%lower, upper => st%upper, p0 => st%p0, have_c => st%have_c, &
                    have_guess => st%have_guess, c_guess => st%c_guess, trust => st%trust, t_exp => st%t_exp, &
@@ -264,9 +269,10 @@ contains
             call start_state()
         end if
         call schedule_collisions()
+        t_resc = ts%rescale_time()
         do
             if (t >= t_end .or. stats%events >= max_events) exit
-            window = max(0.0_dp, min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end, t_coll) - t)
+            window = max(0.0_dp, min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end, t_coll, t_resc) - t)
             ray%evals = 0
             if (have_c .or. .not. have_guess) then
                 call solver%first_crossing(ray, lower, upper, window, p0, have_c, trust, res)
@@ -282,13 +288,20 @@ contains
                 have_c = .true.
                 if (ray%last_s /= window) call ray%eval(window, p0)
                 call eng%drift(window)
-                t = min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end, t_coll)
+                t = min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end, t_coll, t_resc)
                 ckpt_due = t >= t_next_ckpt
                 ! Andersen collisions due now (before a list build reorders the atoms)
                 collide = t >= t_coll
                 if (collide) then
                     changed = ts%andersen_collide(eng%atoms, t)
                     if (ts%zero_momentum) call ts%remove_momentum(eng%atoms)
+                end if
+                ! a scheduled CSVR rescaling due now
+                rescale = t >= t_resc
+                if (rescale) then
+                    call ts%rescale(eng%atoms, t)
+                    if (ts%zero_momentum) call ts%remove_momentum(eng%atoms)
+                    t_resc = ts%rescale_time()
                 end if
                 ! well inside the nominal terrace again: edges shifted at earlier kicks revert
                 if (p0(1) > k*h + solver%tol .and. p0(1) < (k + 1)*h - solver%tol) then
@@ -302,7 +315,7 @@ contains
                     t_exp = expiry_after(t)
                     if (ts%style == thermostat_andersen) call schedule_collisions()
                 end if
-                if (collide) then
+                if (collide .or. rescale) then
                     ! new velocities: ghosts, list expiry, and V' and V'' at the search origin along them
                     if (.not. rebuilt) then
                         call eng%sync_ghosts()
@@ -311,6 +324,8 @@ contains
                     call ray%eval(0.0_dp, p0)
                     stats%ray_evals = stats%ray_evals + 1
                     have_c = .true.
+                end if
+                if (collide) then
                     t_coll = ts%andersen_first(eng%atoms)
                     call min_all(t_coll)
                 end if

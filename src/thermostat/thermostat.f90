@@ -62,6 +62,10 @@ module terrace_thermostat
         real(dp) :: ecouple_global = 0          !< energy put in, the same on every rank
         real(dp) :: ecouple_local = 0           !< this rank's part not yet folded into ecouple_global
         real(dp), allocatable :: eta(:), v_eta(:)   !< Nose-Hoover chain positions and velocities
+        ! CSVR with energy stepping: a rescaling at every multiple of interval (0: none), the next one
+        ! the n_rescale-th (its draws keyed by n_rescale)
+        real(dp) :: interval = 0
+        integer(i8) :: n_rescale = 1
         ! Andersen with energy stepping: next collision time of each owned atom (same order as atoms)
         real(dp), allocatable :: next_collision(:)
         integer(i8), allocatable :: collision_slot(:)
@@ -75,6 +79,8 @@ module terrace_thermostat
         procedure :: active => ts_active
         procedure :: langevin_kick_drift => ts_langevin_kick_drift
         procedure :: csvr => ts_csvr
+        procedure :: rescale_time => ts_rescale_time
+        procedure :: rescale => ts_rescale
         procedure :: nose_hoover => ts_nose_hoover
         procedure :: andersen_step => ts_andersen_step
         procedure :: remove_momentum => ts_remove_momentum
@@ -142,6 +148,9 @@ contains
         call self%init(max(0, thermostat_style(cfg%thermostat)), cfg%thermostat_temperature, &
                        cfg%thermostat_temperature_end, run_time, cfg%thermostat_damping, cfg%chain_length, &
                        cfg%thermostat_seed, cfg%zero_momentum, cfg%dimension, natoms, cfg%units%boltz, cfg%units%mvv2e)
+        self%interval = 0
+        self%n_rescale = 1
+        if (cfg%integrator == 'energy_stepping' .and. self%style == thermostat_csvr) self%interval = cfg%thermostat_interval
     end subroutine ts_configure
 
     !> The thermostat's state for a checkpoint: ecouple (folded: collective) and the chain.
@@ -153,6 +162,7 @@ contains
         real(dp) :: e
         e = self%ecouple()
         call values%put_r('ts_ecouple', e)
+        if (self%interval > 0) call values%put_i('ts_n_rescale', self%n_rescale)
         do j = 1, self%chain_length
             write (tag, '(i0)') j
             call values%put_r('ts_eta_'//trim(tag), self%eta(j))
@@ -168,6 +178,7 @@ contains
         integer :: j
         self%ecouple_global = values%get_r('ts_ecouple', ok)
         self%ecouple_local = 0
+        if (self%interval > 0) self%n_rescale = values%get_i('ts_n_rescale', ok)
         do j = 1, self%chain_length
             write (tag, '(i0)') j
             self%eta(j) = values%get_r('ts_eta_'//trim(tag), ok)
@@ -303,6 +314,24 @@ contains
         if (ke > 0) call scale_velocities(atoms, sqrt(ke_new/ke))
         self%ecouple_global = self%ecouple_global + (ke_new - ke)
     end subroutine ts_csvr
+
+    !> Time of the next scheduled CSVR rescaling (energy stepping; huge when none).
+    pure real(dp) function ts_rescale_time(self) result(t)
+        class(thermostat_t), intent(in) :: self
+        t = huge(1.0_dp)
+        if (self%interval > 0) t = real(self%n_rescale, dp)*self%interval
+    end function ts_rescale_time
+
+    !> The scheduled CSVR rescaling at time t (energy stepping): Bussi's exact kinetic-energy
+    !> propagator over one interval, its draws keyed by the rescaling's index (the same on every
+    !> rank and after a restart). Collective.
+    subroutine ts_rescale(self, atoms, t)
+        class(thermostat_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: t
+        call self%csvr(atoms, self%interval, self%n_rescale, t)
+        self%n_rescale = self%n_rescale + 1
+    end subroutine ts_rescale
 
     !> Bussi's resampled kinetic energy (see the module header); the exact solution of the
     !> kinetic-energy SDE over `span`.

@@ -10,6 +10,7 @@ liquid; every case then starts from it and runs `--length` ps (1000; --quick 200
   vv_langevin, vv_csvr, vv_nose_hoover, vv_andersen   velocity Verlet at 10 fs, damping 1 ps
   es_andersen                                         energy stepping (h = 2e-3 eV), Andersen 1 ps
   es_csvr                                             energy stepping (h = 2e-3 eV), CSVR 1 ps every 0.1 ps
+  es_andersen_global                                  energy stepping (h = 2e-3 eV), every velocity every 1 ps
   vv_nve                                              velocity Verlet, no thermostat (drift reference)
 and the script reports, after dropping the first 20 ps:
   1. canonical kinetic energy: K is Gamma(Nf/2, k_B T); a Kolmogorov-Smirnov test (scipy) on
@@ -49,6 +50,7 @@ CASES = {
     "vv_andersen": ("velocity_verlet", "style='andersen', temperature=94.4, damping=1.0"),
     "es_andersen": ("energy_stepping", "style='andersen', temperature=94.4, damping=1.0"),
     "es_csvr": ("energy_stepping", "style='csvr', temperature=94.4, damping=1.0, interval=0.1"),
+    "es_andersen_global": ("energy_stepping", "style='andersen', temperature=94.4, damping=1.0, interval=1.0"),
     "vv_nve": ("velocity_verlet", None),
 }
 

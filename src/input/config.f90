@@ -644,11 +644,12 @@ contains
                 ": only for style = 'nose_hoover'")
             if (cfg%chain_length < 1) call stop_all(cfg%where('thermostat', 'chain_length')//': must be >= 1')
         end if
-        ! CSVR with energy stepping acts at multiples of interval (default damping/10)
+        ! energy stepping: CSVR acts at multiples of interval (default damping/10); Andersen with an
+        ! interval is the global variant (every atom at multiples of interval)
         if (cfg%nml%find('thermostat', 'interval') > 0) then
-            if (cfg%integrator /= 'energy_stepping' .or. cfg%thermostat /= 'csvr') call stop_all( &
-                cfg%where('thermostat', 'interval')//": only for style = 'csvr' with energy stepping (the time "// &
-                'between rescalings; velocity Verlet rescales every half step)')
+            if (cfg%integrator /= 'energy_stepping') call stop_all(cfg%where('thermostat', 'interval')// &
+                ": only for energy stepping ('csvr': the time between rescalings; 'andersen': the global variant, "// &
+                'every velocity resampled at that interval); velocity Verlet acts at every step')
             if (.not. (cfg%thermostat_interval > 0)) call stop_all(cfg%where('thermostat', 'interval')// &
                 ': must be > 0 (a time in '//trim(cfg%units%time)//')')
         else if (cfg%integrator == 'energy_stepping' .and. cfg%thermostat == 'csvr') then

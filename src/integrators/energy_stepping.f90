@@ -25,10 +25,11 @@
 !> velocity, the terrace index and edges stay as they are (V is continuous), the ghosts' velocities
 !> are re-synchronised and the search restarts from a ray pass at the collision point (V' and V''
 !> along the new velocities); with zero_momentum the total momentum is removed after each collision.
-!> With CSVR (stochastic velocity rescaling) the thermostat acts at the multiples of its interval,
-!> one more candidate of the window minimum: all velocities are scaled by Bussi's exact
-!> kinetic-energy propagator over the interval (one global draw keyed by the rescaling's index), the
-!> terrace index and edges stay, and the search restarts from a ray pass as after a collision.
+!> With CSVR (stochastic velocity rescaling), or Andersen's global variant (&thermostat interval),
+!> the thermostat acts at the multiples of its interval, one more candidate of the window minimum:
+!> all velocities are scaled by Bussi's exact kinetic-energy propagator over the interval (one
+!> global draw keyed by the rescaling's index), or all are resampled (keyed by atom id and index);
+!> the terrace index and edges stay, and the search restarts from a ray pass as after a collision.
 !> Thermo gains ecouple and econserve = K + k h - ecouple.
 module terrace_energy_stepping
     use terrace_kinds, only: dp, i8
@@ -426,7 +427,7 @@ contains
 
         !> Next Andersen collision of every owned atom after t, and the global first one.
         subroutine schedule_collisions()
-            if (ts%style /= thermostat_andersen) return
+            if (ts%style /= thermostat_andersen .or. ts%interval > 0) return   ! (the global variant: scheduled)
             call ts%andersen_schedule(eng%atoms, st%t)
             t_coll = ts%andersen_first(eng%atoms)
             call min_all(t_coll)

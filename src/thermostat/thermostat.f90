@@ -46,7 +46,7 @@ module terrace_thermostat
 
     ! streams of the counter-based generator, one per purpose
     integer, parameter :: stream_langevin = 101, stream_csvr = 102, stream_andersen_pick = 103, &
-                          stream_andersen_velocity = 104, stream_andersen_time = 105
+                          stream_andersen_velocity = 104, stream_andersen_time = 105, stream_andersen_global = 106
 
     type, public :: thermostat_t
         integer :: style = thermostat_none
@@ -62,8 +62,9 @@ module terrace_thermostat
         real(dp) :: ecouple_global = 0          !< energy put in, the same on every rank
         real(dp) :: ecouple_local = 0           !< this rank's part not yet folded into ecouple_global
         real(dp), allocatable :: eta(:), v_eta(:)   !< Nose-Hoover chain positions and velocities
-        ! CSVR with energy stepping: a rescaling at every multiple of interval (0: none), the next one
-        ! the n_rescale-th (its draws keyed by n_rescale)
+        ! energy stepping at scheduled times: CSVR rescaling, or the global Andersen variant (every
+        ! atom's velocity resampled), at every multiple of interval (0: none); the next one the
+        ! n_rescale-th (its draws keyed by n_rescale)
         real(dp) :: interval = 0
         integer(i8) :: n_rescale = 1
         ! Andersen with energy stepping: next collision time of each owned atom (same order as atoms)
@@ -150,7 +151,8 @@ contains
                        cfg%thermostat_seed, cfg%zero_momentum, cfg%dimension, natoms, cfg%units%boltz, cfg%units%mvv2e)
         self%interval = 0
         self%n_rescale = 1
-        if (cfg%integrator == 'energy_stepping' .and. self%style == thermostat_csvr) self%interval = cfg%thermostat_interval
+        if (cfg%integrator == 'energy_stepping' .and. cfg%thermostat_interval > 0 .and. &
+            (self%style == thermostat_csvr .or. self%style == thermostat_andersen)) self%interval = cfg%thermostat_interval
     end subroutine ts_configure
 
     !> The thermostat's state for a checkpoint: ecouple (folded: collective) and the chain.
@@ -322,14 +324,28 @@ contains
         if (self%interval > 0) t = real(self%n_rescale, dp)*self%interval
     end function ts_rescale_time
 
-    !> The scheduled CSVR rescaling at time t (energy stepping): Bussi's exact kinetic-energy
-    !> propagator over one interval, its draws keyed by the rescaling's index (the same on every
-    !> rank and after a restart). Collective.
+    !> The scheduled thermostat action at time t (energy stepping), its draws keyed by the index of
+    !> the action (the same on every rank and after a restart): CSVR, Bussi's exact kinetic-energy
+    !> propagator over one interval (collective); Andersen (global variant), a fresh
+    !> Maxwell-Boltzmann velocity for every atom, keyed by (id, index).
     subroutine ts_rescale(self, atoms, t)
         class(thermostat_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
         real(dp), intent(in) :: t
-        call self%csvr(atoms, self%interval, self%n_rescale, t)
+        real(dp) :: vnew(3), m, temp
+        integer :: i
+        if (self%style == thermostat_csvr) then
+            call self%csvr(atoms, self%interval, self%n_rescale, t)
+        else
+            temp = self%target(t)
+            do i = 1, atoms%nlocal
+                m = atoms%mass(atoms%type(i))
+                if (atoms%per_atom_mass) m = atoms%rmass(i)
+                vnew = maxwell_velocity(self, atoms%id(i), self%n_rescale, 0, temp, m, stream_andersen_global)
+                self%ecouple_local = self%ecouple_local + 0.5_dp*self%mvv2e*m*(sum(vnew**2) - sum(atoms%v(:, i)**2))
+                atoms%v(:, i) = vnew
+            end do
+        end if
         self%n_rescale = self%n_rescale + 1
     end subroutine ts_rescale
 
@@ -428,14 +444,19 @@ contains
     end function ts_chain_energy
 
     !> Maxwell-Boltzmann velocity at temperature temp for mass m (dimension 2: vz = 0), from one
-    !> block keyed by (seed, stream, id, event, sub).
-    function maxwell_velocity(self, id, event, sub, temp, m) result(v)
+    !> block keyed by (seed, stream, id, event, sub); stream: the Andersen velocity stream unless
+    !> given.
+    function maxwell_velocity(self, id, event, sub, temp, m, stream) result(v)
         type(thermostat_t), intent(in) :: self
         integer(i8), intent(in) :: id, event
         integer, intent(in) :: sub
         real(dp), intent(in) :: temp, m
+        integer, intent(in), optional :: stream
         real(dp) :: v(3), u(4), z(4)
-        u = unit_from_word(rng_block(self%seed, stream_andersen_velocity, id, event, sub))
+        integer :: st
+        st = stream_andersen_velocity
+        if (present(stream)) st = stream
+        u = unit_from_word(rng_block(self%seed, st, id, event, sub))
         call box_muller(u(1), u(2), z(1), z(2))
         call box_muller(u(3), u(4), z(3), z(4))
         v = sqrt(self%boltz*temp/(m*self%mvv2e))*z(1:3)

@@ -21,6 +21,7 @@ program terrace
     use terrace_timers, only: timers_t
     use terrace_errors, only: stop_all, check_all
     use terrace_version, only: terrace_version_string
+    use terrace_info_flags, only: answer_info_flag
     use terrace_run_control, only: run_control_t
     use terrace_signals, only: exit_stopped
     use terrace_checkpoint, only: probe_checkpoint_path
@@ -52,13 +53,8 @@ program terrace
     path = ''
     do k = 1, command_argument_count()
         call get_command_argument(k, arg)
+        call answer_info_flag(arg, 'terrace', print_help)
         select case (trim(arg))
-        case ('--help', '-h')
-            if (world%rank == 0) call print_help()
-            call end_mpi(); stop
-        case ('--version', '-V')
-            if (world%rank == 0) write (output_unit, '(a)') 'terrace '//terrace_version_string
-            call end_mpi(); stop
         case ('--check')
             check_only = .true.
         case default

@@ -27,7 +27,7 @@
 !> along the new velocities); with zero_momentum the total momentum is removed after each collision.
 !> Thermo gains ecouple and econserve = K + k h - ecouple.
 module terrace_energy_stepping
-    use terrace_kinds, only: dp, i8
+    use terrace_kinds, only: dp, i8, pi
     use terrace_engine, only: engine_t
     use terrace_schedule, only: schedule_t
     use terrace_event_solver, only: ray_t, event_solver_t, crossing_t, level_upper, level_lower
@@ -158,7 +158,6 @@ contains
     real(dp) function choose_terrace_height(eng) result(h)
         type(engine_t), intent(inout) :: eng
         real(dp) :: sigma2
-        real(dp), parameter :: pi = 4*atan(1.0_dp)
         if (eng%cfg%terrace_height > 0) then
             h = eng%cfg%terrace_height
         else
@@ -177,7 +176,6 @@ contains
         type(engine_t), intent(inout) :: eng
         real(dp), intent(in) :: h
         real(dp) :: sigma2, a, b, mean_dt, refl, tau, dt_vv, ray(4), omega2
-        real(dp), parameter :: pi = 4*atan(1.0_dp)
         character(len=:), allocatable :: how
         call gradient_sums(eng, sigma2, a, b)
         sigma2 = crossing_sigma2(eng)
@@ -314,18 +312,12 @@ contains
                     t_coll = ts%andersen_first(eng%atoms)
                     call min_all(t_coll)
                 end if
-                if (t >= t_next_sample) then
+                if (reached(t, n_sample, sample_interval, t_next_sample)) then
                     call write_sample(t)
-                    n_sample = n_sample + 1
-                    t_next_sample = n_sample*sample_interval
                 else if (t >= t_end) then
-                    call write_sample(t)
+                    call write_sample(t)     ! the end of the run is always sampled
                 end if
-                if (t >= t_next_frame) then
-                    call write_frame(t)
-                    n_frame = n_frame + 1
-                    t_next_frame = n_frame*traj_interval
-                end if
+                if (reached(t, n_frame, traj_interval, t_next_frame)) call write_frame(t)
                 ! a safe point: after a list build, or anywhere on the all-pairs path (its replicated
                 ! atoms drift bitwise like their owners)
                 ! (ecouple's per-rank parts are folded at every safe point: a restart sums them alike)
@@ -464,7 +456,7 @@ contains
             logical :: ok
             character(len=512) :: msg
             call eng%timers%start(t_output)
-            call val%put_r('h', h)
+            call val%put('h', h)
             if (ts%active()) call ts%save(val)
             st%tol = solver%tol
             st%pe = eng%pe; st%virial = eng%virial
@@ -553,18 +545,30 @@ contains
         subroutine x1(name, x)
             character(len=*), intent(in) :: name
             class(*), intent(inout) :: x
+            if (saving) then
+                call val%put(name, x); return
+            end if
             select type (x)
             type is (real(dp))
-                if (saving) call val%put_r(name, x)
-                if (.not. saving) x = val%get_r(name, ok)
+                x = val%get_r(name, ok)
             type is (integer(i8))
-                if (saving) call val%put_i(name, x)
-                if (.not. saving) x = val%get_i(name, ok)
+                x = val%get_i(name, ok)
             type is (logical)
-                if (saving) call val%put_l(name, x)
-                if (.not. saving) x = val%get_l(name, ok)
+                x = val%get_l(name, ok)
             end select
         end subroutine x1
     end subroutine es_state_exchange
+
+    !> A time-scheduled output is due: t has reached t_next, which then moves to the next multiple
+    !> of the interval (n counts them).
+    logical function reached(t, n, interval, t_next)
+        real(dp), intent(in) :: t, interval
+        integer(i8), intent(inout) :: n
+        real(dp), intent(inout) :: t_next
+        reached = t >= t_next
+        if (.not. reached) return
+        n = n + 1
+        t_next = n*interval
+    end function reached
 
 end module terrace_energy_stepping

@@ -473,11 +473,19 @@ contains
 
     !> A scalar attribute read as v's type (integer(i8) or real(dp), converted by HDF5 from the
     !> file's); st fails when it is missing or unreadable (v is then left unchanged).
-    subroutine h5_read_attr_scalar(st, loc, name, v)
+    !> With if_present, a missing attribute is no failure (v keeps its value).
+    subroutine h5_read_attr_scalar(st, loc, name, v, if_present)
         type(h5_status_t), intent(inout) :: st
         integer(hid_t), intent(in) :: loc
         character(len=*), intent(in) :: name
         class(*), intent(inout), target :: v
+        logical, intent(in), optional :: if_present
+        logical :: exists
+        integer :: err
+        if (present(if_present)) then
+            call h5aexists_f(loc, name, exists, err)
+            if (if_present .and. (err < 0 .or. .not. exists)) return
+        end if
         select type (v)
         type is (integer(i8))
             call read_attr(st, loc, name, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(v))

@@ -83,19 +83,13 @@ contains
     pure real(dp) function sum_cutoff(self)
         class(potential_sum_t), intent(in) :: self
         integer :: k
-        sum_cutoff = 0
-        do k = 1, size(self%terms)
-            sum_cutoff = max(sum_cutoff, self%terms(k)%p%cutoff())
-        end do
+        sum_cutoff = max(0.0_dp, maxval([(self%terms(k)%p%cutoff(), k = 1, size(self%terms))]))
     end function sum_cutoff
 
     pure real(dp) function sum_halo_reach(self)
         class(potential_sum_t), intent(in) :: self
         integer :: k
-        sum_halo_reach = 0
-        do k = 1, size(self%terms)
-            sum_halo_reach = max(sum_halo_reach, self%terms(k)%p%halo_reach())
-        end do
+        sum_halo_reach = max(0.0_dp, maxval([(self%terms(k)%p%halo_reach(), k = 1, size(self%terms))]))
     end function sum_halo_reach
 
     function sum_describe(self) result(text)
@@ -111,28 +105,19 @@ contains
     pure logical function sum_needs_pair_list(self)
         class(potential_sum_t), intent(in) :: self
         integer :: k
-        sum_needs_pair_list = .false.
-        do k = 1, size(self%terms)
-            sum_needs_pair_list = sum_needs_pair_list .or. self%terms(k)%p%needs_pair_list()
-        end do
+        sum_needs_pair_list = any([(self%terms(k)%p%needs_pair_list(), k = 1, size(self%terms))])
     end function sum_needs_pair_list
 
     pure logical function sum_supports_all_pairs(self)
         class(potential_sum_t), intent(in) :: self
         integer :: k
-        sum_supports_all_pairs = .true.
-        do k = 1, size(self%terms)
-            sum_supports_all_pairs = sum_supports_all_pairs .and. self%terms(k)%p%supports_all_pairs()
-        end do
+        sum_supports_all_pairs = all([(self%terms(k)%p%supports_all_pairs(), k = 1, size(self%terms))])
     end function sum_supports_all_pairs
 
     pure logical function sum_ray_needs_full(self)
         class(potential_sum_t), intent(in) :: self
         integer :: k
-        sum_ray_needs_full = .false.
-        do k = 1, size(self%terms)
-            sum_ray_needs_full = sum_ray_needs_full .or. self%terms(k)%p%ray_needs_full_neighbourhood()
-        end do
+        sum_ray_needs_full = any([(self%terms(k)%p%ray_needs_full_neighbourhood(), k = 1, size(self%terms))])
     end function sum_ray_needs_full
 
     pure real(dp) function sum_contact_distance(self, ti, tj)

@@ -85,7 +85,7 @@ contains
             if (ntypes > max_types) then
                 write (s1, '(i0)') max_types
                 write (s2, '(i0)') ntypes
-                call stop_all(trim(source_name(cfg))//': '//trim(s2)//' atom types: more atom types than Terrace supports (max '// &
+                call stop_all(trim(cfg%scene_source())//': '//trim(s2)//' atom types: more atom types than Terrace supports (max '// &
                               trim(s1)//')')
             end if
         end if
@@ -120,14 +120,14 @@ contains
         if (from_table) then
             if (cfg%dimension == 2) then
                 if (any(table%x(3, :) /= 0) .or. any(table%v(3, :) /= 0)) &
-                    call stop_all(trim(source_name(cfg))//': a 2-D run needs z = 0 and vz = 0 for every atom')
+                    call stop_all(trim(cfg%scene_source())//': a 2-D run needs z = 0 and vz = 0 for every atom')
             end if
             do i = 1, table%n
                 do d = 1, cfg%dimension
                     if (table%x(d, i) < self%box%lo(d) .or. table%x(d, i) > self%box%hi(d)) then
                         write (s1, '(i0)') table%id(i)
                         write (s2, '(es12.5)') table%x(d, i)
-                        call stop_all(trim(source_name(cfg))//': atom '//trim(s1)//' lies outside the box ('// &
+                        call stop_all(trim(cfg%scene_source())//': atom '//trim(s1)//' lies outside the box ('// &
                                       'xyz'(d:d)//' = '//trim(adjustl(s2))//')')
                     end if
                 end do
@@ -185,7 +185,7 @@ contains
         end if
         self%natoms = self%atoms%nlocal
         call sum_all_i8(self%natoms)
-        if (self%natoms == 0) call stop_all(trim(source_name(cfg))//': the system is empty (no atoms)')
+        if (self%natoms == 0) call stop_all(trim(cfg%scene_source())//': the system is empty (no atoms)')
 
         if (cfg%temperature >= 0 .and. .not. self%restarted) then
             call create_velocities(self%atoms, cfg%units, cfg%temperature, cfg%seed, cfg%dimension, &
@@ -195,7 +195,7 @@ contains
 
         ! ---- plan
         call self%plan%decide(cfg, self%box, self%natoms, world%nprocs, self%dom%dims, self%pot)
-        self%source = source_name(cfg)
+        self%source = cfg%scene_source()
         if (self%restarted) then
             ! the forces of the interrupted run (rows of the checkpoint are ids 1..N) and its state
             call move_alloc(ckpt%f, self%restart_f)
@@ -333,19 +333,6 @@ contains
             merge('2-D', '3-D', dimension == 2)//', the run is not (&run dimension)')
     end subroutine read_h5md_table
 
-    function source_name(cfg) result(s)
-        type(config_t), intent(in) :: cfg
-        character(len=:), allocatable :: s
-        if (len_trim(cfg%read_h5md) > 0) then
-            s = trim(cfg%read_h5md)//': &system: read_h5md'
-        else if (len_trim(cfg%read_data) > 0) then
-            s = trim(cfg%read_data)//': &system: read_data'
-        else if (len_trim(cfg%atoms_file) > 0) then
-            s = trim(cfg%atoms_file)//': &system: atoms_file'
-        else
-            s = cfg%path//': &system: lattice'
-        end if
-    end function source_name
 
     subroutine create_lattice_atoms(self, cfg, cell)
         type(scene_t), intent(inout) :: self

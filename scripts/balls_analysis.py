@@ -15,7 +15,7 @@ energy split after separation with the balance against the initial energy, the t
 angular momentum spreads over the run, and the peak contact force against Hertz's.
 
 usage: balls_analysis.py DECK.nml [--traj FILE.h5] [--mesh FILE.msh] [--radius 0.1] [--plot OUT.png]
-                         [--json OUT.json] [--label TEXT]
+                         [--snapshots OUT.png] [--json OUT.json] [--label TEXT]
 (the deck gives mesh_file, trajectory_file, mass_density, lambda, mu, contact_stiffness and
 contact_distance; paths are relative to the deck's directory)
 """
@@ -114,6 +114,7 @@ ap.add_argument("--mesh")
 ap.add_argument("--radius", type=float, default=0.1)
 ap.add_argument("--plot")
 ap.add_argument("--json")
+ap.add_argument("--snapshots", help="PNG: cross-sections z ~ 0 of the balls before, during and after the contact")
 ap.add_argument("--label", default="")
 a = ap.parse_args()
 here = os.path.dirname(os.path.abspath(a.deck))
@@ -277,3 +278,38 @@ if a.plot:
     ax[1].legend(fontsize=7, loc="lower left")
     fig.tight_layout()
     fig.savefig(a.plot, dpi=110)
+if a.snapshots:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+    ipk = int(np.argmax(Fc))
+    picks = [max(i0 - 1, 0), (i0 + ipk) // 2, ipk, (ipk + i1) // 2, min(i1 + 1 + (i1 - i0) // 4, nf - 1)]
+    fig, ax = plt.subplots(1, len(picks), figsize=(3.2 * len(picks), 3.4))
+    # the tetrahedra cut by the plane z = 0, drawn as their xy outline (triangles of their nodes
+    # nearest the plane), coloured by the strain-energy density W (log scale)
+    cut = np.ptp(np.sign(X[tets][:, :, 2]), axis=1) > 0
+    vmax = None
+    for k, t in enumerate(picks):
+        x = pos[t]
+        w = neohookean_energy(x, tets[cut], dminv[cut], v0[cut], lam, mu) / v0[cut]
+        polys = []
+        for e in np.where(cut)[0]:
+            p = x[tets[e]]
+            o = np.argsort(np.abs(p[:, 2]))[:3]
+            polys.append(p[o, :2])
+        wl = np.log10(np.maximum(w, 1.0))
+        if vmax is None:
+            vmax = np.log10(max(np.max(neohookean_energy(pos[ipk], tets[cut], dminv[cut], v0[cut], lam, mu) /
+                                       v0[cut]), 10.0))
+        pc = PolyCollection(polys, array=wl, cmap="viridis", edgecolors="k", linewidths=0.15, clim=(0, vmax))
+        ax[k].add_collection(pc)
+        c = 0.5 * (rows[t]["c1"] + rows[t]["c2"])
+        ax[k].set_xlim(c[0] - 2.3 * R, c[0] + 2.3 * R)
+        ax[k].set_ylim(-1.3 * R, 1.3 * R)
+        ax[k].set_aspect("equal")
+        ax[k].set_title(f"t = {tt[t] * 1e3:.1f} ms, F = {Fc[t]:.0f} N", fontsize=9)
+        ax[k].set_xticks([]); ax[k].set_yticks([])
+    fig.colorbar(pc, ax=ax, shrink=0.8, label="log10 W (J/m^3)")
+    fig.suptitle(f"two rubber balls {a.label}: section z = 0 (tetrahedra cut by it), strain-energy density", fontsize=10)
+    fig.savefig(a.snapshots, dpi=110, bbox_inches="tight")

@@ -57,6 +57,7 @@ module terrace_config
         real(dp) :: mass_density = -1.0_dp          !< mesh: lumped nodal masses rho V0 / 4 per element
         real(dp) :: body_velocity(3, max_bodies) = 0, body_angular_velocity(3, max_bodies) = 0  !< per body
         real(dp) :: lambda = unset, mu = unset      !< neohookean: Lame constants
+        real(dp) :: contact_stiffness = unset, contact_distance = unset  !< contact between mesh bodies (N/m, m)
         ! &potential
         character(len=24) :: potential = 'lj'
         character(len=path_max) :: potential_file = ''   !< EAM: the LAMMPS potential file
@@ -368,7 +369,7 @@ contains
             real_limit = 1.0e9_dp
         case ('run_time', 'thermo_interval', 'trajectory_interval', 'checkpoint_interval')
             real_limit = 1.0e12_dp
-        case ('lambda', 'mu')                  ! Pa: up to diamond's moduli with room
+        case ('lambda', 'mu', 'contact_stiffness')   ! Pa; N/m: up to diamond's moduli with room
             real_limit = 1.0e13_dp
         case default            ! lengths, densities, dt, target_mean_dt, root_tolerance
             real_limit = 1.0e6_dp
@@ -472,16 +473,18 @@ contains
         real(dp) :: epsilon(max_types, max_types), sigma(max_types, max_types), cutoff
         real(dp) :: pair_cutoff(max_types, max_types)
         logical :: shift
-        real(dp) :: lambda, mu
-        namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements, lambda, mu
-        character(len=*), parameter :: keys(10) = [character(len=60) :: 'style:a quoted string', &
+        real(dp) :: lambda, mu, contact_stiffness, contact_distance
+        namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements, lambda, mu, &
+            contact_stiffness, contact_distance
+        character(len=*), parameter :: keys(12) = [character(len=60) :: 'style:a quoted string', &
             'lambda:a real number (Pa)', 'mu:a real number (Pa)', &
+            'contact_stiffness:a real number (N/m)', 'contact_distance:a real number (m)', &
             'epsilon:a real number (or epsilon(i,j) = ...)', 'sigma:a real number (or sigma(i,j) = ...)', &
             'cutoff:a real number', 'pair_cutoff:pair_cutoff(i,j) = a real number', 'shift:a logical', &
             'file:a quoted file name', 'elements:quoted element names, one per atom type']
         type(item_reader_t) :: it
         style = 'lj'; epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
-        file = ''; elements = ''; lambda = unset; mu = unset
+        file = ''; elements = ''; lambda = unset; mu = unset; contact_stiffness = unset; contact_distance = unset
         do while (it%next(cfg, 'potential', keys))
             read (it%buf, nml=potential, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
@@ -490,6 +493,7 @@ contains
         cfg%pair_cutoff = pair_cutoff; cfg%shift = shift
         cfg%potential_file = file; cfg%elements = elements
         cfg%lambda = lambda; cfg%mu = mu
+        cfg%contact_stiffness = contact_stiffness; cfg%contact_distance = contact_distance
     end subroutine read_potential
 
     subroutine read_integrator(cfg)
@@ -698,6 +702,12 @@ contains
         if (cfg%nml%find('system', 'temperature') > 0 .and. cfg%temperature < 0) &
             call stop_all(cfg%where('system', 'temperature')//': must be >= 0 (in '//trim(cfg%units%temperature)//')')
 
+        if (cfg%potential /= 'neohookean') then
+            if (cfg%nml%find('potential', 'contact_stiffness') > 0) call stop_all(cfg%where('potential', &
+                'contact_stiffness')//": contact is between the bodies of a mesh (style = 'neohookean')")
+            if (cfg%nml%find('potential', 'contact_distance') > 0) call stop_all(cfg%where('potential', &
+                'contact_distance')//": contact is between the bodies of a mesh (style = 'neohookean')")
+        end if
         select case (cfg%potential)
         case ('lj', 'lj/smooth/linear')
         case ('eam', 'eam/alloy', 'eam/fs')
@@ -731,6 +741,12 @@ contains
                                               trim(cfg%units%pressure)//')')
         if (cfg%lambda < 0) call stop_all(cfg%where('potential', 'lambda')//': must be >= 0 (in '// &
                                           trim(cfg%units%pressure)//')')
+        if (cfg%nml%find('potential', 'contact_stiffness') > 0 .and. .not. (cfg%contact_stiffness > 0)) &
+            call stop_all(cfg%where('potential', 'contact_stiffness')//': must be > 0 (a spring constant in N/m; '// &
+                          'leave it out for the default E d0)')
+        if (cfg%nml%find('potential', 'contact_distance') > 0 .and. .not. (cfg%contact_distance > 0)) &
+            call stop_all(cfg%where('potential', 'contact_distance')//': must be > 0 (a length in '// &
+                          trim(cfg%units%length)//'; leave it out for the mean boundary edge length)')
         if (any(cfg%periodic(1:cfg%dimension))) call stop_all(cfg%where('system', 'periodic')// &
             ': a mesh has free boundaries (set periodic = .false., .false., .false.)')
         if (cfg%dimension /= 3) call stop_all(cfg%where('run', 'dimension')//': meshes of tetrahedra are 3-D')

@@ -50,7 +50,7 @@ contains
     !> the domain, hand every atom to the rank that owns it, make velocities, and plan. Collective.
     subroutine build_scene(cfg, self)
         type(scene_t), intent(out) :: self
-        type(config_t), intent(in) :: cfg
+        type(config_t), intent(inout) :: cfg      !< skin: the potential's preference when the deck gives none
         type(atom_table_t) :: table
         type(ckpt_data_t) :: ckpt
         logical :: from_table
@@ -143,7 +143,7 @@ contains
         end if
         if (len_trim(cfg%mesh_file) > 0) then
             self%atoms%mass(1) = table%mass(1)
-            call make_potential(cfg, ntypes, self%atoms%mass, self%pot, mesh)
+            call make_potential(cfg, ntypes, self%atoms%mass, self%pot, mesh, table%x)
         else
             call make_potential(cfg, ntypes, self%atoms%mass, self%pot)
         end if
@@ -156,7 +156,8 @@ contains
             end if
         end do
 
-        ! ---- potential range
+        ! ---- potential range (and the skin a term asks for when the deck gives none)
+        if (cfg%nml%find('neighbor', 'skin') == 0 .and. self%pot%preferred_skin() > 0) cfg%skin = self%pot%preferred_skin()
         self%cutmax = self%pot%cutoff()
         do d = 1, cfg%dimension
             if (.not. self%box%periodic(d)) cycle

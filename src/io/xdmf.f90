@@ -9,7 +9,7 @@
 !>           <Topology TopologyType="Tetrahedron" ...>          the connectivity, 0-based rows:
 !>             <DataItem ... Format="HDF">traj.h5:/parameters/terrace/tetrahedra_index</DataItem>
 !>           <Geometry GeometryType="XYZ">                      frame K of the positions:
-!>             <DataItem ItemType="HyperSlab" Dimensions="1 N 3">
+!>             <DataItem ItemType="HyperSlab" Dimensions="N 3">
 !>               <DataItem Dimensions="3 3" Format="XML">K 0 0  1 1 1  1 N 3</DataItem>
 !>               <DataItem Dimensions="F N 3" ... Format="HDF">traj.h5:/particles/all/position/value</DataItem>
 !>
@@ -91,7 +91,7 @@ contains
                      ':/parameters/terrace/tetrahedra_index</DataItem>')
             call put('        </Topology>')
             call put('        <Geometry GeometryType="XYZ">')
-            call put('          <DataItem ItemType="HyperSlab" Dimensions="1 '//sn//' 3" Type="HyperSlab">')
+            call put('          <DataItem ItemType="HyperSlab" Dimensions="'//sn//' 3" Type="HyperSlab">')
             call put('            <DataItem Dimensions="3 3" Format="XML">'//trim(buf)//' 0 0 1 1 1 1 '//sn//' 3</DataItem>')
             call put('            <DataItem Dimensions="'//sf//' '//sn//' 3" NumberType="Float" Precision="8" '// &
                      'Format="HDF">'//h5//':/particles/all/position/value</DataItem>')

@@ -99,7 +99,8 @@ contains
         call MPI_Barrier(world%comm)
         t1 = MPI_Wtime()
         call thermo%close()
-        call traj%close()
+        call traj%close(ok, msg)
+        call check_all(ok, trim(cfg%trajectory_file)//': &output trajectory_file: '//trim(msg))
         if (ctl%stopped) call stop_early()
         call write_final(sched%end_time(cfg))
         call commit_small_outputs(cfg)                  ! outputs replaced only on success
@@ -145,7 +146,8 @@ contains
         call MPI_Barrier(world%comm)
         t1 = MPI_Wtime()
         call thermo%close()
-        call traj%close()
+        call traj%close(ok, msg)
+        call check_all(ok, trim(cfg%trajectory_file)//': &output trajectory_file: '//trim(msg))
         if (ctl%stopped) call stop_early()
         call write_final(es%time)
         call commit_small_outputs(cfg)                  ! issue 15: outputs replaced only on success
@@ -207,6 +209,12 @@ contains
                        eng%atoms%mass, cfg%units, ok, msg)
         call check_all(ok, trim(cfg%trajectory_file)//': cannot create the trajectory (&output trajectory_file): '// &
                        trim(msg))
+        if (allocated(eng%mesh_tet)) then        ! a mesh: its tetrahedra and the XDMF sidecar
+            call traj%add_mesh(eng%mesh_tet, eng%natoms, ok, msg)
+            if (.not. ok) call traj%discard()
+            call check_all(ok, trim(cfg%trajectory_file)//': cannot create the trajectory (&output trajectory_file): '// &
+                           trim(msg))
+        end if
         ! a failure after the trajectory was created removes what was written: no partial outputs
         call thermo%open(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, ok, msg, units=cfg%units)
         call any_failed(ok)
@@ -236,6 +244,11 @@ contains
         call traj%open_append(trim(cfg%trajectory_file), world%comm, frames, ok, msg)
         call check_all(ok, trim(cfg%trajectory_file)//': cannot continue the trajectory (&output trajectory_file) '// &
                        'from the checkpoint: '//trim(msg))
+        if (allocated(eng%mesh_tet)) then
+            call traj%add_mesh(eng%mesh_tet, eng%natoms, ok, msg)
+            call check_all(ok, trim(cfg%trajectory_file)//': cannot continue the trajectory (&output trajectory_file) '// &
+                           'from the checkpoint: '//trim(msg))
+        end if
         call thermo%open_append(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, lines, ok, msg, &
                                  units=cfg%units)
         call any_failed(ok)

@@ -754,8 +754,6 @@ contains
             ': thermostats are not available for meshes yet')
         if (cfg%temperature >= 0) call stop_all(cfg%where('system', 'temperature')// &
             ': a mesh starts from its rigid motion (velocity, angular_velocity), not a temperature')
-        if (len_trim(cfg%checkpoint_file) > 0 .or. len_trim(cfg%read_checkpoint) > 0) call stop_all( &
-            cfg%where('output', 'checkpoint_file')//': checkpoints of mesh scenes are not available yet')
     end subroutine validate_mesh
 
     !> The rest of the checks for an EAM scene (no LJ keys).

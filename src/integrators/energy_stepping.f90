@@ -16,7 +16,7 @@
 !> MPI_Allreduce(MIN) per event; the crossing search (event_solver) costs one global sum of
 !> (V, V', V'', W) per ray evaluation; samples are written at exactly the requested times.
 !> Checkpoints (&output checkpoint_interval) are window ends too, with a forced neighbour-list build
-!> (cell lists), and hold the whole event-loop state (terrace index, edges, the solver's last
+!> (cell lists, or the sort and element remap of a mesh), and hold the whole event-loop state (terrace index, edges, the solver's last
 !> values at the search origin, counters, next sample times), so a restart continues bitwise.
 !>
 !> With an Andersen thermostat (terrace_thermostat) each atom's next collision time (a Poisson
@@ -42,7 +42,7 @@ module terrace_energy_stepping
     use terrace_jump, only: terrace_jump_lambda, jump_climb, jump_reflect, jump_fall, jump_none
     use terrace_run_control, only: run_control_t
     use terrace_checkpoint, only: ckpt_values_t
-    use terrace_scene_plan, only: pair_cells
+    use terrace_scene_plan, only: pair_all
     use terrace_thermostat, only: thermostat_t, thermostat_andersen
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -293,7 +293,7 @@ contains
                     lower = k*h; upper = (k + 1)*h
                 end if
                 eng%pe = ray%last_out(1); eng%virial = ray%last_out(4)
-                rebuilt = t >= t_exp .or. (ckpt_due .and. eng%plan%pair_mode == pair_cells)
+                rebuilt = t >= t_exp .or. (ckpt_due .and. eng%plan%pair_mode /= pair_all)
                 if (rebuilt) then
                     call eng%rebuild()
                     stats%rebuilds = stats%rebuilds + 1
@@ -319,10 +319,11 @@ contains
                 end if
                 if (reached(t, n_frame, traj_interval, t_next_frame)) call write_frame(t)
                 ! a safe point: after a list build, or anywhere on the all-pairs path (its replicated
-                ! atoms drift bitwise like their owners)
+                ! atoms drift bitwise like their owners); without a pair list (a mesh) the build
+                ! sorts the atoms and remaps the elements as a restart does, so only after one
                 ! (ecouple's per-rank parts are folded at every safe point: a restart sums them alike)
-                if (ts%active() .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode /= pair_cells)) call ts%fold()
-                if (ctl%active .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode /= pair_cells)) then
+                if (ts%active() .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode == pair_all)) call ts%fold()
+                if (ctl%active .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode == pair_all)) then
                     stop_now = ctl%stop_requested()
                     if (ckpt_due .or. stop_now) call checkpoint(ckpt_due)
                     if (ckpt_due) t_next_ckpt = (ctl%written + 1)*ctl%interval

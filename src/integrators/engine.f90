@@ -44,6 +44,8 @@ module terrace_engine
         logical :: restarted = .false.           !< started from &system read_checkpoint
         logical :: validity_checks = .false.     !< the potential can reach states without finite energy
         type(ckpt_values_t) :: restart_values    !< the checkpoint's named values (integrator state)
+        integer(i8), allocatable :: mesh_tet(:, :) !< a mesh scene: (4, ntet) node ids (trajectory, XDMF)
+        integer(i8) :: mesh_hash = 0             !< a mesh scene: its fingerprint (checkpoints)
     contains
         procedure :: setup => engine_setup
         procedure :: rebuild => engine_rebuild
@@ -86,6 +88,8 @@ contains
         self%cutmax = scene%cutmax
         self%source = scene%source
         self%restarted = scene%restarted
+        if (allocated(scene%mesh_tet)) call move_alloc(scene%mesh_tet, self%mesh_tet)
+        self%mesh_hash = scene%mesh_hash
         self%list%dimension = cfg%dimension
         self%list%all_pairs = self%plan%pair_mode == pair_all
         if (self%plan%pair_mode == pair_cells) call self%list%init(self%cutmax, cfg%skin, cfg%dimension)

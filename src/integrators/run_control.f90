@@ -144,6 +144,11 @@ contains
             write (tag, '(i0)') t
             call values%put('mass_'//trim(tag), eng%atoms%mass(t))
         end do
+        if (allocated(eng%mesh_tet)) then       ! a mesh scene: which mesh (checked on restart)
+            call values%put('mesh_nodes', eng%natoms)
+            call values%put('mesh_elements', size(eng%mesh_tet, 2, kind=i8))
+            call values%put('mesh_hash', eng%mesh_hash)
+        end if
         call write_checkpoint(self%path, eng%atoms, eng%natoms, eng%cfg%dimension, trim(eng%cfg%integrator), &
                               eng%cfg%path, deck_hash(eng%cfg%nml), terrace_version_string, values, ok, msg)
         call check_all(ok, trim(self%path)//': &output checkpoint_file: '//trim(msg))

@@ -18,6 +18,7 @@ import csv
 import json
 import math
 import os
+import re
 import resource
 import subprocess
 import sys
@@ -178,7 +179,6 @@ def bisect_dt(ctx, scene, work, mesh, p, lo, hi, t_end):
 
 def short_why(msg):
     """The engine's failure message in a few words."""
-    import re
     m = re.search(r'at time\s+([0-9.Ee+-]+) \(step (\d+)\)', msg)
     if 'energy blow-up' in msg and m:
         return 'the engine stops it: energy blow-up at t = %.3g s, step %s' % (float(m.group(1)), m.group(2))
@@ -414,7 +414,7 @@ def section(ctx, results, env):
         L.append('### %s\n' % TITLES[key])
         ev_ = res.get('env', env)
         L.append('`%s` (commit %s%s), %s, load %s at the start.\n'
-                 % (ev_.get('command', '?').replace(' --work ' + ctx.work, ''), ev_.get('commit', '?'),
+                 % (re.sub(r' --work \S+', '', ev_.get('command', '?')), ev_.get('commit', '?'),
                     ' + uncommitted changes' if ev_.get('dirty') else '', ev_.get('date', '?'), ev_.get('load', '?')))
         L.append('Mesh: %s. Reference: velocity Verlet at dt = %g s (max |E - E0| = %.2g J, initial energy '
                  '%.4g J). Runs of %g s.\n' % (_mesh_words(res), p['dt_ref'], res['reference']['max_de'],

@@ -303,6 +303,7 @@ def _ok(rows, method, k):
 def fig_wp(res, path):
     import matplotlib
     matplotlib.use('Agg')
+    import matplotlib.ticker
     import matplotlib.pyplot as plt
     panels = [('max_de', 'max |E(t) − E0|  [J]'), ('max_dl', 'max |L(t) − L0| / |L0|'),
               ('pos_err', 'max node-position error at t = %g s  [m]' % res['params']['t_long'])]
@@ -318,6 +319,10 @@ def fig_wp(res, path):
                 ax.annotate('%g' % r['param'], (r[k], r[COST]), textcoords='offset points', xytext=(4, 3),
                             fontsize=7, color=col)
         ax.set_xlabel(lab)
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+        if k == 'max_dl':        # round-off for both integrators: show it on a few decades
+            ax.set_xlim(1e-17, 1e-12)
+            ax.set_xlabel(lab + '  (round-off for both)')
         ax.set_ylabel('CPU time [s] (run less a zero-length run)')
         ax.grid(True, which='both', alpha=0.3)
     axs[0].legend(fontsize=8, loc='lower left')

@@ -21,6 +21,8 @@ doc/figures/bench_*.png and the tables behind them (CSV, doc/bench_data/):
 Usage:
   /usr/bin/python3 scripts/bench/study.py --quick            # minutes (9 min 50 s with --repeat 3 on the 2-vCPU box, load 3-4)
   /usr/bin/python3 scripts/bench/study.py --full             # hours: 100 ns cluster, 32,000-atom LJ, ...
+  /usr/bin/python3 scripts/bench/study.py --quick --scenes cube,balls
+                           # the mesh scenes only (4 min on the 2-vCPU box), spliced into the page
   /usr/bin/python3 scripts/bench/study.py --quick --scaling 1,2,4,8,16 --scaling-only
                            # scaling runs only, added to the page made before in the same mode
   options: --build DIR (default build/), --scenes a,b, --skip-sweep, --skip-stress, --no-lammps,

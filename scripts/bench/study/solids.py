@@ -53,7 +53,9 @@ PARAMS = {
     'balls': {
         'quick': dict(refine=3, gap=0.035, t_long=0.065, thermo=0.0005, dt_ref=2.0e-6,
                       dts=[5e-6, 1e-5, 2e-5, 4e-5], hs=[3e-3, 1e-3, 3e-4, 1e-4], h_events=1e-3,
-                      bisect=(1e-5, 1e-3), bisect_time=0.065),
+                      bisect=(1e-5, 1e-3), bisect_time=0.065,
+                      # the deck's mesh and gap (input/balls_es.nml: refine 4, 5 cm), its 0.1 s
+                      deck=dict(refine=4, gap=None, t_long=0.1, hs=[1e-3], bisect=(1e-5, 1e-3))),
         'full': dict(refine=4, gap=0.035, t_long=0.065, thermo=0.0005, dt_ref=1.0e-6,
                      dts=[5e-6, 1e-5, 2e-5, 4e-5], hs=[3e-3, 1e-3, 3e-4, 1e-4, 3e-5], h_events=1e-3,
                      bisect=(1e-5, 1e-3), bisect_time=0.065),
@@ -95,7 +97,7 @@ def make_mesh(scene, p, work, cells=None):
     else:
         name = 'balls%d.msh' % p['refine']
         cmd = [sys.executable, os.path.join(REPO, 'scripts', 'make_ball_mesh.py'), name, '--refine',
-               str(p['refine']), '--gap', str(p['gap'])]
+               str(p['refine'])] + (['--gap', str(p['gap'])] if p.get('gap') else [])
     r = subprocess.run(cmd, cwd=work, capture_output=True, text=True)
     if r.returncode != 0:
         raise RuntimeError('%s: mesh: %s' % (scene, (r.stdout + r.stderr).strip()[-300:]))
@@ -189,6 +191,33 @@ def short_why(msg):
     return msg.replace('|', '\\|')
 
 
+def event_split(ctx, work, mesh, p, h):
+    """One energy-stepping run with a thermo line per event and a trajectory: event times and intervals,
+    the contact window (balls_analysis.py), the run's row."""
+    row, th = one_run(ctx, 'balls', work, mesh, 'stepping', h, p, traj=0.0005, every=1)
+    if row['rc'] != 0:
+        raise RuntimeError('balls: %s h = %g: %s' % (mesh, h, row['error']))
+    d, text = contact_window(ctx, work, row['name'])
+    t = th['time']
+    keep = np.r_[False, np.diff(th['events']) > 0]       # one line per event (and the start)
+    te, dte = t[keep], np.diff(t)[keep[1:]]
+    print('    balls  %s events at h = %g J: %d, contact %.4g to %.4g s' % (mesh, h, len(te), d['t_start'], d['t_end']),
+          flush=True)
+    row.pop('x', None)
+    return dict(h=h, t=te.tolist(), dt=dte.tolist(), start=d['t_start'], end=d['t_end'], analysis=text.strip(),
+                cpu=row['cpu'], max_de=row['max_de'], events=row['events'])
+
+
+def split_text(ev):
+    t, dt = np.array(ev['t']), np.array(ev['dt'])
+    s, e = ev['start'], ev['end']
+    parts = []
+    for lab, m in (('before', t < s), ('during', (t >= s) & (t <= e)), ('after', t > e)):
+        if m.any():
+            parts.append((lab, int(m.sum()), float(dt[m].mean()), float(np.median(dt[m])), float(dt[m].min())))
+    return parts
+
+
 def contact_window(ctx, work, name):
     """Contact start and end (s) from balls_analysis.py on the run's trajectory."""
     js = os.path.join(work, name + '.json')
@@ -256,17 +285,14 @@ def run_scene(key, ctx):
                                                            else row['error']), flush=True)
         res['talk'] = talk
     if key == 'balls':
-        h = p['h_events']
-        row, th = one_run(ctx, key, work, mesh, 'stepping', h, p, traj=0.0005, every=1)
-        d, text = contact_window(ctx, work, row['name'])
-        t = th['time']
-        ev = th['events']
-        keep = np.r_[False, np.diff(ev) > 0]       # one line per event (and the start)
-        te, dte = t[keep], np.diff(t)[keep[1:]]
-        res['events'] = dict(h=h, t=te.tolist(), dt=dte.tolist(), start=d['t_start'], end=d['t_end'],
-                             analysis=text.strip())
-        print('    balls  events at h = %g J: %d, contact %.4g to %.4g s' % (h, len(te), d['t_start'],
-                                                                            d['t_end']), flush=True)
+        res['events'] = event_split(ctx, work, mesh, p, p['h_events'])
+        if p.get('deck'):        # the deck's mesh (input/balls_es.nml): stability limit and event split only
+            dk = dict(p, **p['deck'])
+            dmesh, info = make_mesh(key, dk, work)
+            deck = dict(mesh=info, refine=dk['refine'], t=dk['t_long'])
+            deck['bisect'] = bisect_dt(ctx, key, work, dmesh, dk, dk['bisect'][0], dk['bisect'][1], dk['t_long'])
+            deck['events'] = [event_split(ctx, work, dmesh, dk, h) for h in dk['hs']]
+            res['deck'] = deck
     if not ctx.keep:
         for f in os.listdir(work):
             if f.endswith('.h5'):
@@ -499,6 +525,28 @@ def section(ctx, results, env):
                      'same mesh and contact stiffness is %.3g s.\n' % (ev['h'], s * 1e3, e * 1e3, '; '.join(parts),
                                                                       bs['stable']))
             L.append('![event intervals before, during and after the contact](figures/bench_balls_intervals.png)\n')
+        if key == 'balls' and res.get('deck'):
+            dk = res['deck']
+            db = dk['bisect']
+            L.append("On the deck's mesh (input/balls_es.nml: %s, the deck's 5 cm gap, runs of %g s): velocity "
+                     "Verlet's largest stable step is **%.3g s** (max \\|E − E0\\| %.2g J there; fails at %.3g s: %s)."
+                     % (dk['mesh'].split(': ', 1)[1].split('; mean')[0] if ': ' in dk['mesh'] else dk['mesh'], dk['t'],
+                        db['stable'], db.get('stable_de', float('nan')), db['fail'] or float('nan'),
+                        short_why(db.get('fail_why', '-'))))
+            L.append('')
+            L.append('| energy stepping h [J] | events | max \\|E − E0\\| [J] | CPU [s] | contact [ms] | before: events, '
+                     'mean interval [s] | during: events, mean, median, shortest [s] | after: events, mean [s] | '
+                     'Verlet stable dt / mean interval during the contact |')
+            L.append('|---|---|---|---|---|---|---|---|---|')
+            for ev in dk['events']:
+                parts = {q[0]: q for q in split_text(ev)}
+                b_, d_, a_ = parts.get('before'), parts.get('during'), parts.get('after')
+                L.append('| %g | %d | %.2g | %.3g | %.2f to %.2f | %s | %s | %s | %s |' % (
+                    ev['h'], ev['events'], ev['max_de'], ev['cpu'], ev['start'] * 1e3, ev['end'] * 1e3,
+                    '%d, %.3g' % (b_[1], b_[2]) if b_ else '-',
+                    '%d, %.3g, %.3g, %.3g' % (d_[1], d_[2], d_[3], d_[4]) if d_ else '-',
+                    '%d, %.3g' % (a_[1], a_[2]) if a_ else '-', '%.3g' % (db['stable'] / d_[2]) if d_ else '-'))
+            L.append('')
         eq = {k: equal_error(res, k) for k in ('max_de', 'pos_err')}
         L.append(verdict_line(res, eq))
     L.append('<!-- solids:end -->')

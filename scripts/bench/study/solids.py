@@ -204,7 +204,7 @@ def event_split(ctx, work, mesh, p, h):
     print('    balls  %s events at h = %g J: %d, contact %.4g to %.4g s' % (mesh, h, len(te), d['t_start'], d['t_end']),
           flush=True)
     row.pop('x', None)
-    return dict(h=h, t=te.tolist(), dt=dte.tolist(), start=d['t_start'], end=d['t_end'], analysis=text.strip(),
+    return dict(h=h, t=[float('%.7g' % x) for x in te], dt=[float('%.5g' % x) for x in dte], start=d['t_start'], end=d['t_end'], analysis=text.strip(),
                 cpu=row['cpu'], max_de=row['max_de'], events=row['events'])
 
 

@@ -433,7 +433,9 @@ def section(ctx, results, env):
              'process (user + system) less that of a zero-length run on the same mesh (start-up, mesh reading, '
              'final output): on this shared 2-vCPU machine, under a load of 10 to 20, the loop\'s wall time of '
              'the same deck varied up to 9-fold between two runs, the CPU time does not count the waits for a '
-             'core (the loop wall time is in the tables too, and in the CSVs). The error columns are exact. Velocity Verlet\'s largest stable step is a '
+             'core (the loop wall time is in the tables too, and in the CSVs). CPU times under about 0.1 s (Verlet near its stable limit) still differ by up to 2 times '
+             'between repeats; the ratio of energy-stepping events to Verlet steps in the equal-error tables does '
+             'not depend on the machine. The error columns are exact. Velocity Verlet\'s largest stable step is a '
              'bisection of dt (geometric, to 3 %%): a run fails when the engine stops it (energy blow-up or an '
              'inverted element) or when max |E - E0| exceeds %g of the initial energy.\n'
              % (ctx.mode, env.get('cpu', '?'), env.get('nproc', '?'), FAIL_FRACTION))

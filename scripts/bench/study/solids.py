@@ -386,7 +386,7 @@ def fig_intervals(res, path):
     b.set_yscale('log')
     b.set_xlabel('event interval [s]')
     b.set_ylabel('events')
-    b.legend(fontsize=8)
+    b.legend(fontsize=8, loc='upper right')
     b.grid(True, which='both', alpha=0.3)
     fig.suptitle('%s — %s: energy-stepping event intervals' % (TITLES['balls'], _mesh_words(res)), fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.94))

@@ -473,7 +473,7 @@ contains
             call st%exchange(val, .true., stats, ok)
             ! the trajectory holds every frame the checkpoint counts, even if the run is killed next
             call traj%flush(ok, msg)
-            call check_all(ok, 'trajectory: '//trim(msg))
+            call check_all(ok, trim(msg))
             call ctl%write(eng, val, stats%events, st%t, thermo%lines, traj%frames(), scheduled)
             call eng%timers%stop(t_output)
         end subroutine checkpoint
@@ -514,7 +514,7 @@ contains
             s = eng%sample(stats%events, time)
             call traj%write(stats%events, time, eng%atoms, s, ok, msg, names, &
                             [real(stats%events, dp), real(stats%reflections, dp), h, s%ke + st%k*h])
-            call check_all(ok, 'trajectory: '//trim(msg))
+            call check_all(ok, trim(msg))
             call eng%timers%stop(t_output)
         end subroutine write_frame
 

@@ -32,9 +32,11 @@ module terrace_checkpoint
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: world, any_all
     use terrace_id_blocks, only: to_id_blocks
+    use terrace_errors, only: note_broken_hdf5_file
+    use terrace_file_ops, only: remove_file, remove_at_exit, keep_at_exit
     use terrace_checksum, only: checksum_rows, checksum_text, checksum_add, checksum_over_ranks
     use terrace_namelist_text, only: namelist_file_t
-    use terrace_hdf5_io, only: h5_status_t, h5_open_file, h5_create, h5_read, h5_transfer_list, h5_make_fixed, &
+    use terrace_hdf5_io, only: h5_status_t, h5_agree, h5_writer_closed, h5_guard_begin, h5_guard_end, h5_open_file, h5_create, h5_read, h5_transfer_list, h5_make_fixed, &
                                h5_write_slab, h5_dataset_rank, h5_dataset_dims, h5_read_whole, h5_attr_text, &
                                h5_attr_scalar, h5_read_attr_scalar, h5_read_attr_string
     use mpi_f08, only: MPI_Barrier
@@ -288,10 +290,12 @@ contains
             ok = .false.; msg = 'checkpoint: the atom ids are not 1..N over the ranks'; return
         end if
 
-        call h5_open_file(st, tmp, h5_create, file, world%comm)
+        if (world%rank == 0) call remove_at_exit(tmp, always=.true.)
+        call h5_open_file(st, tmp, h5_create, file, world%comm, label=path//' (&output checkpoint_file; writing '//tmp//')')
         failed = .not. st%ok .or. file < 0
         call any_all(failed)
         if (failed) then
+            if (world%rank == 0) k = remove_file(tmp)
             ok = .false.; msg = 'checkpoint: cannot create '//tmp; return
         end if
         call h5_transfer_list(st, .true., dxpl)
@@ -344,16 +348,24 @@ contains
         call h5_attr_scalar(st, file, 'state_checksum', state_checksum(natoms, int(world%nprocs, i8), &
                             int(dimension, i8), hash, values))
         call h5pclose_f(dxpl, err)
-        call h5fclose_f(file, err); call st%check(err, 'H5Fclose')
+        call h5_guard_begin('H5Fclose'); call h5fclose_f(file, err); call h5_guard_end()
+        call st%check(err, 'H5Fclose')
+        call h5_writer_closed()
 
-        failed = .not. st%ok
-        call any_all(failed)
+        call h5_agree(world%comm, st, good, msg)
+        failed = .not. good
         if (failed) then
-            ok = .false.; msg = 'checkpoint: HDF5 failed while writing '//tmp; return
+            ! a full device: HDF5 cannot end cleanly (terrace_errors); the previous checkpoint stays
+            call note_broken_hdf5_file()
+            if (world%rank == 0) k = remove_file(tmp)
+            ok = .false.; msg = 'checkpoint: HDF5 failed while writing '//tmp//' (is the device full?)'; return
         end if
         ! the file is complete on disk: replace the previous checkpoint
         call MPI_Barrier(world%comm)
-        if (world%rank == 0) good = c_rename(tmp//c_null_char, path//c_null_char) == 0
+        if (world%rank == 0) then
+            good = c_rename(tmp//c_null_char, path//c_null_char) == 0
+            call keep_at_exit(tmp)
+        end if
         failed = .not. good
         call any_all(failed)
         if (failed) then

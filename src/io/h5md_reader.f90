@@ -26,7 +26,7 @@ module terrace_h5md_reader
     use terrace_kinds, only: dp, i8
     use terrace_errors, only: check_all
     use terrace_id_blocks, only: id_block
-    use terrace_hdf5_io, only: h5_status_t, h5_library, h5_agree, h5_open_file, h5_read, h5_link_exists, &
+    use terrace_hdf5_io, only: h5_status_t, h5_library, h5_watch_begin, h5_watch_end, h5_agree, h5_open_file, h5_read, h5_link_exists, &
                                h5_dataset_rank, h5_dataset_dims, h5_read_whole, h5_read_slab, &
                                h5_read_attr_scalar, h5_read_attr_strings, h5_read_attr_string
     use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Comm_size
@@ -125,7 +125,10 @@ contains
         if (present(constants)) read_constants = constants
         self%key = 'trajectory_file'
         if (present(key)) self%key = key
+        call h5_library(st)
+        call h5_watch_begin(trim(path), self%key)
         call open_file(self, st, path, group, need_position, need_velocity, why_position, why_velocity, read_constants)
+        call h5_watch_end()
         if (.not. st%ok) call self%close()
         if (present(ok)) then
             ok = st%ok

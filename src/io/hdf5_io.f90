@@ -33,7 +33,8 @@ module terrace_hdf5_io
 
     integer, parameter, public :: h5_create = 1, h5_read = 2, h5_append = 3   !< h5_open_file modes
 
-    public :: h5_library, h5_agree, h5_open_file, h5_transfer_list, h5_writer_closed, h5_guard_begin, h5_guard_end
+    public :: h5_library, h5_agree, h5_open_file, h5_transfer_list, h5_writer_closed, h5_guard_begin, h5_guard_end, &
+              h5_watch_begin, h5_watch_end
     public :: h5_make_fixed, h5_make_series, h5_extend, h5_dataset_rank, h5_dataset_dims
     public :: h5_write_slab, h5_read_slab, h5_read_whole, h5_read_at
     public :: h5_attr_int, h5_attr_scalar, h5_attr_text, h5_attr_text_list, h5_attr_vltext
@@ -110,6 +111,23 @@ contains
     subroutine h5_guard_end()
         if (.not. failure_pending) call watchdog_disarm()
     end subroutine h5_guard_end
+
+    !> Guard the opening of a file to read and the reading of its metadata (issue 15, class 9):
+    !> on some files with one damaged byte (in HDF5's global heap) HDF5 1.10 spins forever. If
+    !> h5_watch_end is not reached within write_watchdog_s seconds, one line
+    !> 'terrace: error: <path>: <key>: ...' and exit status 1.
+    subroutine h5_watch_begin(path, key)
+        character(len=*), intent(in) :: path, key
+        character(len=16) :: s
+        write (s, '(i0)') write_watchdog_s
+        call arm_on_rank('terrace: error: '//path//': '//key//': opening the file and reading its metadata did '// &
+                         'not finish within '//trim(s)//' s: HDF5 is stuck on it (a damaged file, or a file '// &
+                         'system that does not answer)')
+    end subroutine h5_watch_begin
+
+    subroutine h5_watch_end()
+        call watchdog_disarm()
+    end subroutine h5_watch_end
 
     !> A file opened for parallel writing (h5_open_file with a communicator) has been closed.
     subroutine h5_writer_closed()

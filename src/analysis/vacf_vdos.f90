@@ -17,6 +17,7 @@
 !> frames and sums their power spectra; one reduction.
 module terrace_vacf_vdos
     use terrace_kinds, only: dp, i8
+    use terrace_text, only: fixed
     use terrace_mpi_env, only: world
     use terrace_errors, only: check_all
     use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window
@@ -135,7 +136,7 @@ contains
                 ' ; correlation up to ', M, ' lags (', M*plan%dt, ')'
             write (output_unit, '(a,a,a,es12.5,a,es12.5,a,i0)') '  window: ', trim(cfg%window), &
                 ' ; resolution 1/(M dt) = ', 1/(M*plan%dt), ' ; grid ', 1/(L*plan%dt), ' ; transform length ', L
-            write (output_unit, '(a,f0.1,a,es22.15)') '  degrees of freedom D N = ', dof, &
+            write (output_unit, '(a,es22.15)') '  degrees of freedom D N = '//fixed(dof, 1)// &
                 ' ; integral of the VDOS = ', integral
             write (output_unit, '(a,es14.7,1x,a)') '  highest peak at ', ipeak/(L*plan%dt), fl
             write (output_unit, '(a)') '  wrote '//trim(cfg%output_prefix)//'_vacf.csv, '//trim(cfg%output_prefix)// &

@@ -28,6 +28,7 @@
 !> Thermo gains ecouple and econserve = K + k h - ecouple.
 module terrace_energy_stepping
     use terrace_kinds, only: dp, i8
+    use terrace_text, only: fixed
     use terrace_engine, only: engine_t
     use terrace_schedule, only: schedule_t
     use terrace_event_solver, only: ray_t, event_solver_t, crossing_t, level_upper, level_lower
@@ -210,10 +211,10 @@ contains
             write (output_unit, '(a,es12.5,1x,a,a)') '  vs Verlet  : a stable Verlet step here is ~ ', dt_vv, &
                 trim(eng%cfg%units%time), how
         else
-            write (output_unit, '(a,es12.5,1x,a,a,f0.1,a)') '  expected   : mean event interval ~ ', mean_dt, &
-                trim(eng%cfg%units%time), ', about ', 100*refl/2, ' % of events reflections'
-            write (output_unit, '(a,es12.5,1x,a,a,f0.2,a)') '  vs Verlet  : a stable Verlet step here is ~ ', dt_vv, &
-                trim(eng%cfg%units%time), how//'; ratio ', mean_dt/dt_vv, &
+            write (output_unit, '(a,es12.5,1x,a,a)') '  expected   : mean event interval ~ ', mean_dt, &
+                trim(eng%cfg%units%time), ', about '//fixed(100*refl/2, 1)//' % of events reflections'
+            write (output_unit, '(a,es12.5,1x,a,a)') '  vs Verlet  : a stable Verlet step here is ~ ', dt_vv, &
+                trim(eng%cfg%units%time), how//'; ratio '//fixed(mean_dt/dt_vv, 2)// &
                 ' (an event costs about 2-3 force passes: energy stepping pays off above ~3)'
         end if
     end subroutine print_es_estimates

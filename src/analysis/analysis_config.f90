@@ -10,7 +10,7 @@
 !> length unit, frames are numbered from 1 (first_frame) and -1 is the last (last_frame).
 module terrace_analysis_config
     use terrace_kinds, only: dp, i8
-    use terrace_namelist_text, only: namelist_file_t, parse_namelist_text, lower
+    use terrace_namelist_text, only: namelist_file_t, parse_namelist_text, lower, at_line
     use terrace_errors, only: stop_all
     use terrace_files, only: read_input_text
     implicit none
@@ -49,6 +49,13 @@ module terrace_analysis_config
     end type analysis_config_t
 
     public :: read_analysis_config, is_unset, frame_window
+
+    integer(i8), parameter, public :: batch_values = 4194304   !< positions an analysis reads at once (32 MiB)
+
+    !> The frames an analysis reads: first (0-based), how many, every stride-th; its plans extend it.
+    type, public :: frame_plan_t
+        integer(i8) :: f0 = 0, nsel = 0, stride = 1
+    end type frame_plan_t
 
     character(len=*), parameter :: keys(21) = [character(len=72) :: &
         'trajectory_file:s:a quoted file name', 'particles_group:s:a quoted group name', &
@@ -205,12 +212,12 @@ contains
                     names = names//keys(i)(1:index(keys(i), ':') - 1)
                     if (i < size(keys) - 1) names = names//', '
                 end do
-                call stop_all(prefix(nf, k)//'&analysis: '//trim(nf%items(k)%key)//': unknown key (allowed: '// &
+                call stop_all(at_line(nf%path, nf%items(k)%line)//'&analysis: '//trim(nf%items(k)%key)//': unknown key (allowed: '// &
                               names//')')
             end if
             buf = '&analysis '//nf%items(k)%target//' = '//nf%items(k)%value//' /'
             read (buf, nml=analysis, iostat=ios, iomsg=msg)
-            if (ios /= 0) call stop_all(prefix(nf, k)//'&analysis: '//nf%items(k)%target//' = '// &
+            if (ios /= 0) call stop_all(at_line(nf%path, nf%items(k)%line)//'&analysis: '//nf%items(k)%target//' = '// &
                                         nf%items(k)%value//': cannot read the value (expected '//kind//'; '// &
                                         trim(msg)//')')
         end do
@@ -223,18 +230,6 @@ contains
         cfg%msd_fit_end = msd_fit_end; cfg%sq_q_max = sq_q_max; cfg%sq_bin_width = sq_bin_width
     end subroutine read_items
 
-    function prefix(nf, k) result(s)
-        type(namelist_file_t), intent(in) :: nf
-        integer, intent(in) :: k
-        character(len=:), allocatable :: s
-        character(len=16) :: ln
-        write (ln, '(i0)') nf%items(k)%line
-        if (nf%path == '(command line)') then
-            s = nf%path//': '
-        else
-            s = nf%path//':'//trim(ln)//': '
-        end if
-    end function prefix
 
     !> Checks that need no trajectory (those against the file's frames are made once it is open).
     subroutine validate(cfg)
@@ -315,11 +310,11 @@ contains
 
     !> The frames selected by first_frame, last_frame and frame_stride * extra_stride from an element
     !> of nframes frames (`element` names it in messages): f0 (0-based), nsel frames, stride.
-    subroutine frame_window(cfg, nframes, element, extra_stride, f0, nsel, stride)
+    subroutine frame_window(cfg, nframes, element, extra_stride, plan)
         class(analysis_config_t), intent(in) :: cfg
         integer(i8), intent(in) :: nframes, extra_stride
         character(len=*), intent(in) :: element
-        integer(i8), intent(out) :: f0, nsel, stride
+        class(frame_plan_t), intent(inout) :: plan
         integer(i8) :: last
         character(len=32) :: a, b
         write (b, '(i0)') nframes
@@ -337,9 +332,9 @@ contains
                           ' ('//trim(b)//' frames)')
         end if
         if (last < cfg%first_frame) call stop_all(cfg%where('last_frame')//': before first_frame')
-        stride = cfg%frame_stride*extra_stride
-        f0 = cfg%first_frame - 1
-        nsel = (last - cfg%first_frame)/stride + 1
+        plan%stride = cfg%frame_stride*extra_stride
+        plan%f0 = cfg%first_frame - 1
+        plan%nsel = (last - cfg%first_frame)/plan%stride + 1
     end subroutine frame_window
 
 end module terrace_analysis_config

@@ -16,7 +16,7 @@ module terrace_msd_diffusion
     use terrace_kinds, only: dp, i8
     use terrace_mpi_env, only: world, sum_all
     use terrace_errors, only: check_all
-    use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window
+    use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window, frame_plan_t
     use terrace_h5md_reader, only: h5md_trajectory_t, el_position, el_image
     use terrace_id_blocks, only: id_block
     use terrace_fft_correlation, only: autocorrelation_t
@@ -25,8 +25,7 @@ module terrace_msd_diffusion
     implicit none
     private
 
-    type, public :: msd_plan_t
-        integer(i8) :: f0 = 0, nsel = 0, stride = 1
+    type, public, extends(frame_plan_t) :: msd_plan_t
         real(dp) :: dt = 0
         integer :: maxlag = 0, nblocks = 0, block_len = 0, fit_lo = 0, fit_hi = 0
         logical :: use_images = .false., continuity = .false.
@@ -43,8 +42,7 @@ contains
         character(len=160) :: a
         integer :: D
         D = traj%dimension
-        call frame_window(cfg, traj%frames(el_position), traj%where('position/value'), 1_i8, plan%f0, plan%nsel, &
-                          plan%stride)
+        call frame_window(cfg, traj%frames(el_position), traj%where('position/value'), 1_i8, plan)
         plan%dt = traj%time_step(el_position, plan%f0, plan%nsel, plan%stride, 'the MSD')
         plan%nblocks = cfg%msd_blocks
         plan%block_len = int(plan%nsel/plan%nblocks)

@@ -14,10 +14,10 @@
 !> Parallel over frames (a contiguous block of the selected frames per rank, read in batches),
 !> one reduction of the histograms.
 module terrace_rdf
-    use terrace_kinds, only: dp, i8
+    use terrace_kinds, only: dp, i8, pi
     use terrace_mpi_env, only: world, sum_all
     use terrace_errors, only: check_all
-    use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window
+    use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window, frame_plan_t, batch_values
     use terrace_h5md_reader, only: h5md_trajectory_t, el_position
     use terrace_id_blocks, only: id_block
     use terrace_analysis_csv, only: write_csv, unit_label
@@ -25,16 +25,13 @@ module terrace_rdf
     implicit none
     private
 
-    type, public :: rdf_plan_t
-        integer(i8) :: f0 = 0, nsel = 0, stride = 1
+    type, public, extends(frame_plan_t) :: rdf_plan_t
         real(dp) :: r_max = 0
         logical :: periodic_box = .false.
     end type rdf_plan_t
 
     public :: plan_rdf, run_rdf, pair_histogram
 
-    real(dp), parameter :: pi = acos(-1.0_dp)
-    integer(i8), parameter :: batch_values = 4194304      !< positions read at once (32 MiB)
 
 contains
 
@@ -47,8 +44,7 @@ contains
         real(dp) :: half, e(3)
         real(dp), allocatable :: x(:, :, :)
         character(len=32) :: a
-        call frame_window(cfg, traj%frames(el_position), traj%where('position/value'), cfg%rdf_every, plan%f0, &
-                          plan%nsel, plan%stride)
+        call frame_window(cfg, traj%frames(el_position), traj%where('position/value'), cfg%rdf_every, plan)
         call check_all(traj%natoms >= 2, traj%where('position/value')//': g(r) needs at least two atoms')
         d = traj%dimension
         plan%periodic_box = all(traj%periodic(1:d))

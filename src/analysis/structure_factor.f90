@@ -10,10 +10,10 @@
 !> a = (V/N)^(1/D) the mean spacing. Parallel over frames (a contiguous block per rank, read in
 !> batches), one reduction.
 module terrace_structure_factor
-    use terrace_kinds, only: dp, i8
+    use terrace_kinds, only: dp, i8, pi
     use terrace_mpi_env, only: world, sum_all
     use terrace_errors, only: check_all
-    use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window
+    use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window, frame_plan_t, batch_values
     use terrace_h5md_reader, only: h5md_trajectory_t, el_position
     use terrace_id_blocks, only: id_block
     use terrace_analysis_csv, only: write_csv, unit_label
@@ -21,17 +21,14 @@ module terrace_structure_factor
     implicit none
     private
 
-    type, public :: sq_plan_t
-        integer(i8) :: f0 = 0, nsel = 0, stride = 1
+    type, public, extends(frame_plan_t) :: sq_plan_t
         real(dp) :: q_max = 0, bin_width = 0
         integer :: nbins = 0
     end type sq_plan_t
 
     public :: plan_sq, run_sq
 
-    real(dp), parameter :: pi = acos(-1.0_dp)
     integer, parameter :: max_q_index = 4096
-    integer(i8), parameter :: batch_values = 4194304      !< positions read at once (32 MiB)
 
 contains
 
@@ -44,8 +41,7 @@ contains
         D = traj%dimension
         call check_all(traj%has_box .and. all(traj%periodic(1:D)), traj%where('box')//': S(q) needs a periodic '// &
                        "box (boundary = 'periodic' in every dimension); drop 'sq' from &analysis compute")
-        call frame_window(cfg, traj%frames(el_position), traj%where('position/value'), cfg%sq_every, plan%f0, &
-                          plan%nsel, plan%stride)
+        call frame_window(cfg, traj%frames(el_position), traj%where('position/value'), cfg%sq_every, plan)
         e = traj%box_edges(plan%f0 + 1)
         spacing = (product(e(1:D))/real(traj%natoms, dp))**(1.0_dp/D)
         plan%q_max = 3*2*pi/spacing

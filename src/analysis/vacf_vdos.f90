@@ -16,11 +16,11 @@
 !> Parallel over atoms: each rank reads the velocities of its block of atoms for all selected
 !> frames and sums their power spectra; one reduction.
 module terrace_vacf_vdos
-    use terrace_kinds, only: dp, i8
+    use terrace_kinds, only: dp, i8, pi
     use terrace_text, only: fixed
     use terrace_mpi_env, only: world
     use terrace_errors, only: check_all
-    use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window
+    use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window, frame_plan_t
     use terrace_h5md_reader, only: h5md_trajectory_t, el_velocity
     use terrace_id_blocks, only: id_block
     use terrace_fft_correlation, only: autocorrelation_t, cosine_spectrum, next_power_of_two
@@ -29,8 +29,7 @@ module terrace_vacf_vdos
     implicit none
     private
 
-    type, public :: vdos_plan_t
-        integer(i8) :: f0 = 0, nsel = 0, stride = 1
+    type, public, extends(frame_plan_t) :: vdos_plan_t
         real(dp) :: dt = 0
         integer :: maxlag = 0
         integer :: length = 0
@@ -38,7 +37,6 @@ module terrace_vacf_vdos
 
     public :: plan_vdos, run_vdos
 
-    real(dp), parameter :: pi = acos(-1.0_dp)
 
 contains
 
@@ -48,8 +46,7 @@ contains
         type(analysis_config_t), intent(in) :: cfg
         type(vdos_plan_t), intent(out) :: plan
         character(len=1024) :: a
-        call frame_window(cfg, traj%frames(el_velocity), traj%where('velocity/value'), 1_i8, plan%f0, plan%nsel, &
-                          plan%stride)
+        call frame_window(cfg, traj%frames(el_velocity), traj%where('velocity/value'), 1_i8, plan)
         plan%dt = traj%time_step(el_velocity, plan%f0, plan%nsel, plan%stride, 'the VACF/VDOS')
         if (is_unset(cfg%correlation_time)) then
             plan%maxlag = int(plan%nsel/2)

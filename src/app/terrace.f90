@@ -22,6 +22,7 @@ program terrace
     use terrace_timers, only: timers_t
     use terrace_errors, only: stop_all, check_all
     use terrace_version, only: terrace_version_string
+    use terrace_info_flags, only: answer_info_flag
     use terrace_run_control, only: run_control_t
     use terrace_signals, only: exit_stopped
     use terrace_checkpoint, only: probe_checkpoint_path
@@ -53,13 +54,8 @@ program terrace
     path = ''
     do k = 1, command_argument_count()
         call get_command_argument(k, arg)
+        call answer_info_flag(arg, 'terrace', print_help)
         select case (trim(arg))
-        case ('--help', '-h')
-            if (world%rank == 0) call print_help()
-            call end_mpi(); stop
-        case ('--version', '-V')
-            if (world%rank == 0) write (output_unit, '(a)') 'terrace '//terrace_version_string
-            call end_mpi(); stop
         case ('--check')
             check_only = .true.
         case default
@@ -97,17 +93,9 @@ contains
         end if
         call open_outputs(trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), &
                           sched%end_time(cfg))
-        call MPI_Barrier(world%comm)
-        eng%timers = timers_t()
-        t0 = MPI_Wtime()
+        call start_clock()
         call run_velocity_verlet(eng, thermo, traj, sched, ctl)
-        call MPI_Barrier(world%comm)
-        t1 = MPI_Wtime()
-        call thermo%close()
-        call traj%close()
-        if (ctl%stopped) call stop_early()
-        call write_final(sched%end_time(cfg))
-        call commit_small_outputs(cfg)                  ! outputs replaced only on success
+        call close_run(sched%end_time(cfg))
         call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps')
         call eng%report_warnings()
     end subroutine verlet_run
@@ -143,17 +131,9 @@ contains
         end if
         call open_outputs(es_thermo_header//trim(merge(',ecouple,econserve', '                  ', &
                                                         cfg%thermostat /= 'none')), sched%end_time(cfg))
-        call MPI_Barrier(world%comm)
-        eng%timers = timers_t()
-        t0 = MPI_Wtime()
+        call start_clock()
         call run_energy_stepping(eng, thermo, traj, h, sched, es, ctl)
-        call MPI_Barrier(world%comm)
-        t1 = MPI_Wtime()
-        call thermo%close()
-        call traj%close()
-        if (ctl%stopped) call stop_early()
-        call write_final(es%time)
-        call commit_small_outputs(cfg)                  ! issue 15: outputs replaced only on success
+        call close_run(es%time)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events')
         if (world%rank == 0) then
             write (output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'Events: ', es%events, ' (', es%ups, ' up, ', es%downs, &
@@ -168,6 +148,27 @@ contains
                 'energy no longer exchange. Use a smaller terrace_height.'
         end if
     end subroutine energy_stepping_run
+
+    !> Timers and wall clock start together on every rank.
+    subroutine start_clock()
+        call MPI_Barrier(world%comm)
+        eng%timers = timers_t()
+        t0 = MPI_Wtime()
+    end subroutine start_clock
+
+    !> After the integrator: the wall clock stops, the outputs are closed, the final state written
+    !> and the small outputs committed (replaced only on success), or the early stop reported.
+    subroutine close_run(end_time)
+        real(dp), intent(in) :: end_time
+        call MPI_Barrier(world%comm)
+        t1 = MPI_Wtime()
+        call thermo%close()
+        call traj%close(ok, msg)
+        call check_all(ok, trim(cfg%trajectory_file)//': &output trajectory_file: '//trim(msg))
+        if (ctl%stopped) call stop_early()
+        call write_final(end_time)
+        call commit_small_outputs(cfg)
+    end subroutine close_run
 
     !> The run stopped early with a checkpoint (walltime_limit or a signal): say so and exit with
     !> exit_stopped on every rank, so that a batch script can resubmit it with read_checkpoint.
@@ -212,6 +213,12 @@ contains
                        eng%atoms%mass, cfg%units, ok, msg)
         call check_all(ok, trim(cfg%trajectory_file)//': cannot create the trajectory (&output trajectory_file): '// &
                        trim(msg))
+        if (allocated(eng%mesh_tet)) then        ! a mesh: its tetrahedra and the XDMF sidecar
+            call traj%add_mesh(eng%mesh_tet, eng%natoms, ok, msg)
+            if (.not. ok) call traj%discard()
+            call check_all(ok, trim(cfg%trajectory_file)//': cannot create the trajectory (&output trajectory_file): '// &
+                           trim(msg))
+        end if
         ! a failure after the trajectory was created removes what was written: no partial outputs
         call thermo%open(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, ok, msg, units=cfg%units)
         call any_failed(ok)
@@ -241,6 +248,11 @@ contains
         call traj%open_append(trim(cfg%trajectory_file), world%comm, frames, ok, msg)
         call check_all(ok, trim(cfg%trajectory_file)//': cannot continue the trajectory (&output trajectory_file) '// &
                        'from the checkpoint: '//trim(msg))
+        if (allocated(eng%mesh_tet)) then
+            call traj%add_mesh(eng%mesh_tet, eng%natoms, ok, msg)
+            call check_all(ok, trim(cfg%trajectory_file)//': cannot continue the trajectory (&output trajectory_file) '// &
+                           'from the checkpoint: '//trim(msg))
+        end if
         call thermo%open_append(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, lines, ok, msg, &
                                  units=cfg%units)
         call any_failed(ok)

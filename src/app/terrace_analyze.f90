@@ -11,6 +11,7 @@ program terrace_analyze
     use terrace_errors, only: stop_all
     use terrace_files, only: peak_memory_kib
     use terrace_version, only: terrace_version_string
+    use terrace_info_flags, only: answer_info_flag
     use terrace_analysis_config, only: analysis_config_t, read_analysis_config
     use terrace_h5md_reader, only: h5md_trajectory_t
     use terrace_vacf_vdos, only: vdos_plan_t, plan_vdos, run_vdos
@@ -41,14 +42,7 @@ program terrace_analyze
     k = 1
     do while (k <= command_argument_count())
         call get_command_argument(k, arg)
-        select case (trim(arg))
-        case ('--help', '-h')
-            if (world%rank == 0) call print_help()
-            call end_mpi(); stop
-        case ('--version', '-V')
-            if (world%rank == 0) write (output_unit, '(a)') 'terrace-analyze '//terrace_version_string
-            call end_mpi(); stop
-        end select
+        call answer_info_flag(arg, 'terrace-analyze', print_help)
         if (arg(1:2) == '--') then
             nflags = nflags + 1; flags(nflags) = arg
             if (index(arg, '=') == 0 .and. k < command_argument_count()) then

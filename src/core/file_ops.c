@@ -138,3 +138,18 @@ int terrace_lock_file(const char *path)
 
 /* The process id (for messages). */
 int terrace_pid(void) { return (int)getpid(); }
+
+/* One entry for the operations on a single path, so that Fortran binds one C function:
+ * 1 path kind, 2 writable, 3 unlink, 4 lock, 5 register for removal at exit, 6 forget it. */
+int terrace_path_op(int op, const char *path)
+{
+    switch (op) {
+    case 1: return terrace_path_kind(path);
+    case 2: return terrace_writable(path);
+    case 3: return terrace_unlink(path);
+    case 4: return terrace_lock_file(path);
+    case 5: return terrace_cleanup_register(path);
+    case 6: terrace_cleanup_forget(path); return 0;
+    default: return -1;
+    }
+}

@@ -19,34 +19,16 @@ module terrace_file_ops
             character(kind=c_char), intent(out) :: out(*)
             integer(c_int), value :: outlen
         end function c_resolve
-        integer(c_int) function c_kind(path) bind(C, name='terrace_path_kind')
-            import :: c_int, c_char
-            character(kind=c_char), intent(in) :: path(*)
-        end function c_kind
-        integer(c_int) function c_writable(path) bind(C, name='terrace_writable')
-            import :: c_int, c_char
-            character(kind=c_char), intent(in) :: path(*)
-        end function c_writable
         integer(c_int) function c_rename(from, to) bind(C, name='terrace_rename')
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: from(*), to(*)
         end function c_rename
-        integer(c_int) function c_unlink(path) bind(C, name='terrace_unlink')
+        !> 1 kind, 2 writable, 3 unlink, 4 lock, 5 remove at exit, 6 keep at exit (file_ops.c)
+        integer(c_int) function c_path_op(op, path) bind(C, name='terrace_path_op')
             import :: c_int, c_char
+            integer(c_int), value :: op
             character(kind=c_char), intent(in) :: path(*)
-        end function c_unlink
-        integer(c_int) function c_lock(path) bind(C, name='terrace_lock_file')
-            import :: c_int, c_char
-            character(kind=c_char), intent(in) :: path(*)
-        end function c_lock
-        integer(c_int) function c_register(path) bind(C, name='terrace_cleanup_register')
-            import :: c_int, c_char
-            character(kind=c_char), intent(in) :: path(*)
-        end function c_register
-        subroutine c_forget(path) bind(C, name='terrace_cleanup_forget')
-            import :: c_char
-            character(kind=c_char), intent(in) :: path(*)
-        end subroutine c_forget
+        end function c_path_op
         subroutine cleanup_now() bind(C, name='terrace_cleanup_now')
         end subroutine cleanup_now
         integer(c_int) function c_pid() bind(C, name='terrace_pid')
@@ -100,12 +82,12 @@ contains
 
     integer function path_kind(path)
         character(len=*), intent(in) :: path
-        path_kind = int(c_kind(trim(path)//c_null_char))
+        path_kind = int(c_path_op(1_c_int, trim(path)//c_null_char))
     end function path_kind
 
     logical function is_writable(path)
         character(len=*), intent(in) :: path
-        is_writable = c_writable(trim(path)//c_null_char) == 1
+        is_writable = c_path_op(2_c_int, trim(path)//c_null_char) == 1
     end function is_writable
 
     !> Atomic rename; returns 0 or the errno.
@@ -116,13 +98,13 @@ contains
 
     integer function remove_file(path)
         character(len=*), intent(in) :: path
-        remove_file = int(c_unlink(trim(path)//c_null_char))
+        remove_file = int(c_path_op(3_c_int, trim(path)//c_null_char))
     end function remove_file
 
     !> 0: locked (the lock file is removed at exit); 1: held by another process; 2: cannot create.
     integer function lock_file(path)
         character(len=*), intent(in) :: path
-        lock_file = int(c_lock(trim(path)//c_null_char))
+        lock_file = int(c_path_op(4_c_int, trim(path)//c_null_char))
     end function lock_file
 
     !> Remove path at exit (an uncommitted output), unless keep_at_exit is called first. Runs that
@@ -136,12 +118,13 @@ contains
         force = .false.
         if (present(always)) force = always
         if (in_place .and. .not. force) return
-        rc = int(c_register(trim(path)//c_null_char))
+        rc = int(c_path_op(5_c_int, trim(path)//c_null_char))
     end subroutine remove_at_exit
 
     subroutine keep_at_exit(path)
         character(len=*), intent(in) :: path
-        call c_forget(trim(path)//c_null_char)
+        integer :: rc
+        rc = int(c_path_op(6_c_int, trim(path)//c_null_char))
     end subroutine keep_at_exit
 
     !> The temporary name an output is written under: '.NAME.terrace-partial' in its directory.

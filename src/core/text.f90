@@ -2,7 +2,7 @@
 module terrace_text
     implicit none
     private
-    public :: count_tokens, fixed
+    public :: count_tokens, fixed, int_text
 
 contains
 
@@ -20,6 +20,15 @@ contains
             end if
         end do
     end function count_tokens
+
+    !> An integer as text, no padding.
+    pure function int_text(i) result(s)
+        integer, intent(in) :: i
+        character(len=:), allocatable :: s
+        character(len=16) :: b
+        write (b, '(i0)') i
+        s = trim(b)
+    end function int_text
 
     !> x in fixed notation with d decimals and no padding, with the leading zero that gfortran's
     !> f0.d leaves out ('0.8269', '-0.5', not '.8269', '-.5').

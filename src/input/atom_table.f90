@@ -26,9 +26,24 @@ module terrace_atom_table
         character(len=8192) :: error = ''
     end type atom_table_t
 
-    public :: bcast_atom_table
+    public :: bcast_atom_table, open_table_file
 
 contains
+
+    !> Open a text input of the table for reading; on failure t records '<path>: &system: <key>:
+    !> cannot open the <what>' and ok is false.
+    subroutine open_table_file(t, path, key, what, unit, ok)
+        type(atom_table_t), intent(inout) :: t
+        character(len=*), intent(in) :: path, key, what
+        integer, intent(out) :: unit
+        logical, intent(out) :: ok
+        integer :: ios
+        open (newunit=unit, file=path, status='old', action='read', iostat=ios)
+        ok = ios == 0
+        if (ok) return
+        t%ok = .false.
+        t%error = path//': &system: '//key//': cannot open the '//what
+    end subroutine open_table_file
 
     !> Broadcast the table (and its error state) from rank 0 to all ranks.
     subroutine bcast_atom_table(t)

@@ -2,7 +2,7 @@
 !> units; '#' starts a comment. Ids are the line order (1, 2, ...). In 2-D, z and vz must be 0.
 module terrace_atoms_file
     use terrace_kinds, only: dp, i8
-    use terrace_atom_table, only: atom_table_t
+    use terrace_atom_table, only: atom_table_t, open_table_file
     use terrace_text, only: count_tokens
     use terrace_grow, only: grow_keep
     use terrace_config, only: max_types
@@ -23,13 +23,10 @@ contains
         real(dp), allocatable :: x(:, :), v(:, :)
         integer, allocatable :: types(:)
         character(len=16) :: ln
+        logical :: opened
 
-        open (newunit=unit, file=path, status='old', action='read', iostat=ios)
-        if (ios /= 0) then
-            t%ok = .false.
-            t%error = path//': &system: atoms_file: cannot open the atoms file'
-            return
-        end if
+        call open_table_file(t, path, 'atoms_file', 'atoms file', unit, opened)
+        if (.not. opened) return
         allocate (x(3, 64), v(3, 64), types(64))
         n = 0; nvel = 0; line = 0
         do

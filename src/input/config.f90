@@ -13,11 +13,12 @@
 module terrace_config
     use terrace_kinds, only: dp, i8
     use terrace_units, only: units_t, make_units, unit_names_allowed
-    use terrace_namelist_text, only: namelist_file_t, parse_namelist_text, lower
+    use terrace_namelist_text, only: namelist_file_t, parse_namelist_text, lower, at_line
     use terrace_errors, only: stop_all
     use terrace_files, only: read_input_text
     use terrace_mpi_env, only: world
     use terrace_file_ops, only: path_kind, resolve_path, directory_of, path_regular, path_directory, path_special
+    use terrace_text, only: int_text
     implicit none
     private
 
@@ -56,6 +57,7 @@ module terrace_config
         real(dp) :: mass_density = -1.0_dp          !< mesh: lumped nodal masses rho V0 / 4 per element
         real(dp) :: body_velocity(3, max_bodies) = 0, body_angular_velocity(3, max_bodies) = 0  !< per body
         real(dp) :: lambda = unset, mu = unset      !< neohookean: Lame constants
+        real(dp) :: contact_stiffness = unset, contact_distance = unset  !< contact between mesh bodies (N/m, m)
         ! &potential
         character(len=24) :: potential = 'lj'
         character(len=path_max) :: potential_file = ''   !< EAM: the LAMMPS potential file
@@ -98,11 +100,22 @@ module terrace_config
         logical :: zero_momentum = .false.
     contains
         procedure :: where => cfg_where
+        procedure :: scene_source => cfg_scene_source
     end type config_t
 
     public :: read_config, is_unset
 
     character(len=*), parameter :: groups_allowed = 'run, system, potential, integrator, neighbor, output, thermostat'
+
+    !> Walks the assignments of one namelist group: the current item, its key's kind, its text.
+    type :: item_reader_t
+        integer :: k = 0, ios = 0
+        character(len=:), allocatable :: kind, buf
+        character(len=256) :: msg = ''
+    contains
+        procedure :: next => reader_next
+        procedure :: done => reader_done
+    end type item_reader_t
 
 contains
 
@@ -117,6 +130,23 @@ contains
         character(len=:), allocatable :: s
         s = self%nml%where(group, key)
     end function cfg_where
+
+    !> 'file: &system: key' for the input the atoms come from (for messages about the scene).
+    function cfg_scene_source(self) result(s)
+        class(config_t), intent(in) :: self
+        character(len=:), allocatable :: s
+        if (len_trim(self%read_h5md) > 0) then
+            s = trim(self%read_h5md)//': &system: read_h5md'
+        else if (len_trim(self%read_data) > 0) then
+            s = trim(self%read_data)//': &system: read_data'
+        else if (len_trim(self%atoms_file) > 0) then
+            s = trim(self%atoms_file)//': &system: atoms_file'
+        else if (len_trim(self%mesh_file) > 0) then
+            s = trim(self%mesh_file)//': &system: mesh_file'
+        else
+            s = self%path//': &system: lattice'
+        end if
+    end function cfg_scene_source
 
     !> Read the file on rank 0, broadcast it, parse and validate on every rank (collective).
     subroutine read_config(path, cfg)
@@ -135,10 +165,10 @@ contains
             select case (cfg%nml%groups(i))
             case ('run', 'system', 'potential', 'integrator', 'neighbor', 'output', 'thermostat')
                 if (count(cfg%nml%groups(1:i - 1) == cfg%nml%groups(i)) > 0) &
-                    call stop_all(line_prefix(cfg, cfg%nml%group_lines(i))//'&'//trim(cfg%nml%groups(i))// &
+                    call stop_all(at_line(cfg%path, cfg%nml%group_lines(i))//'&'//trim(cfg%nml%groups(i))// &
                                   ': group given twice (merge its keys into one group)')
             case default
-                call stop_all(line_prefix(cfg, cfg%nml%group_lines(i))//'&'//trim(cfg%nml%groups(i))// &
+                call stop_all(at_line(cfg%path, cfg%nml%group_lines(i))//'&'//trim(cfg%nml%groups(i))// &
                               ': unknown namelist group (allowed: '//groups_allowed//')')
             end select
         end do
@@ -197,14 +227,36 @@ contains
         end subroutine one
     end subroutine check_input_files
 
-    function line_prefix(cfg, line) result(s)
+
+    !> The next assignment of group after the current item: its key checked against allowed, its
+    !> type description in kind and its text for a namelist read in buf; .false. when none is left.
+    logical function reader_next(self, cfg, group, allowed) result(found)
+        class(item_reader_t), intent(inout) :: self
         type(config_t), intent(in) :: cfg
-        integer, intent(in) :: line
-        character(len=:), allocatable :: s
-        character(len=16) :: ln
-        write (ln, '(i0)') line
-        s = cfg%path//':'//trim(ln)//': '
-    end function line_prefix
+        character(len=*), intent(in) :: group, allowed(:)
+        found = .false.
+        do while (self%k < cfg%nml%count)
+            self%k = self%k + 1
+            if (cfg%nml%items(self%k)%group /= group) cycle
+            self%kind = check_key(cfg, self%k, allowed)
+            self%buf = item_text(cfg, self%k, group)
+            found = .true.
+            return
+        end do
+    end function reader_next
+
+    !> After the namelist read of the current item: a read error, or a value text that does not fit
+    !> the key's kind (unless check_text is .false.), stops the run.
+    subroutine reader_done(self, cfg, check_text)
+        class(item_reader_t), intent(in) :: self
+        type(config_t), intent(in) :: cfg
+        logical, intent(in), optional :: check_text
+        if (self%ios /= 0) call bad_value(cfg, self%k, self%kind, self%msg)
+        if (present(check_text)) then
+            if (.not. check_text) return
+        end if
+        call check_value_text(cfg, self%k, self%kind)
+    end subroutine reader_done
 
     !> Key k must be one of `allowed` ("name:type" entries); returns the type description.
     function check_key(cfg, k, allowed) result(kind)
@@ -226,7 +278,7 @@ contains
             names = names//allowed(i)(1:p - 1)
             if (i < size(allowed)) names = names//', '
         end do
-        call stop_all(line_prefix(cfg, cfg%nml%items(k)%line)//'&'//trim(cfg%nml%items(k)%group)//': '// &
+        call stop_all(at_line(cfg%path, cfg%nml%items(k)%line)//'&'//trim(cfg%nml%items(k)%group)//': '// &
                       trim(cfg%nml%items(k)%key)//': unknown key (allowed: '//names//')')
     end function check_key
 
@@ -246,7 +298,7 @@ contains
         integer :: i, j, ios, star, width
         key = trim(cfg%nml%items(k)%key)
         v = cfg%nml%items(k)%value
-        head = line_prefix(cfg, cfg%nml%items(k)%line)//'&'//trim(cfg%nml%items(k)%group)//': '// &
+        head = at_line(cfg%path, cfg%nml%items(k)%line)//'&'//trim(cfg%nml%items(k)%group)//': '// &
                cfg%nml%items(k)%target//' = '
         if (index(kind, 'real') > 0) then
             write (lim, '(es8.1)') real_limit(key)
@@ -317,26 +369,19 @@ contains
             real_limit = 1.0e9_dp
         case ('run_time', 'thermo_interval', 'trajectory_interval', 'checkpoint_interval')
             real_limit = 1.0e12_dp
-        case ('lambda', 'mu')                  ! Pa: up to diamond's moduli with room
+        case ('lambda', 'mu', 'contact_stiffness')   ! Pa; N/m: up to diamond's moduli with room
             real_limit = 1.0e13_dp
         case default            ! lengths, densities, dt, target_mean_dt, root_tolerance
             real_limit = 1.0e6_dp
         end select
     end function real_limit
 
-    pure function int_text(i) result(s)
-        integer, intent(in) :: i
-        character(len=:), allocatable :: s
-        character(len=16) :: b
-        write (b, '(i0)') i
-        s = trim(b)
-    end function int_text
 
     subroutine bad_value(cfg, k, kind, msg)
         type(config_t), intent(in) :: cfg
         integer, intent(in) :: k
         character(len=*), intent(in) :: kind, msg
-        call stop_all(line_prefix(cfg, cfg%nml%items(k)%line)//'&'//trim(cfg%nml%items(k)%group)//': '// &
+        call stop_all(at_line(cfg%path, cfg%nml%items(k)%line)//'&'//trim(cfg%nml%items(k)%group)//': '// &
                       cfg%nml%items(k)%target//' = '//cfg%nml%items(k)%value//': cannot read the value (expected '// &
                       kind//'; '//trim(msg)//')')
     end subroutine bad_value
@@ -359,19 +404,12 @@ contains
         character(len=*), parameter :: keys(6) = [character(len=40) :: 'units:a quoted string', &
             'dimension:an integer', 'n_steps:an integer', 'run_time:a real number', 'seed:an integer', &
             'walltime_limit:a real number (seconds)']
-        character(len=:), allocatable :: kind
-        character(len=256) :: msg
-        character(len=:), allocatable :: buf
-        integer :: k, ios
+        type(item_reader_t) :: it
         logical :: ok
         units = 'metal'; dimension = 3; n_steps = -1; run_time = -1.0_dp; seed = 12345; walltime_limit = -1.0_dp
-        do k = 1, cfg%nml%count
-            if (cfg%nml%items(k)%group /= 'run') cycle
-            kind = check_key(cfg, k, keys)
-            buf = item_text(cfg, k, 'run')
-            read (buf, nml=run, iostat=ios, iomsg=msg)
-            if (ios /= 0) call bad_value(cfg, k, kind, msg)
-            call check_value_text(cfg, k, kind)
+        do while (it%next(cfg, 'run', keys))
+            read (it%buf, nml=run, iostat=it%ios, iomsg=it%msg)
+            call it%done(cfg)
         end do
         cfg%units = make_units(lower(trim(units)), ok)
         if (.not. ok) call stop_all(cfg%where('run', 'units')//" = '"//trim(units)//"': unsupported units (allowed: "// &
@@ -407,22 +445,15 @@ contains
             'density:a real number', 'cells:three integers', 'periodic:three logicals (.true./.false.)', &
             'box_lo:three real numbers', 'box_hi:three real numbers', 'mass:real numbers, one per atom type', &
             'temperature:a real number']
-        character(len=:), allocatable :: kind
-        character(len=256) :: msg
-        character(len=:), allocatable :: buf
-        integer :: k, ios
+        type(item_reader_t) :: it
         read_data = ''; atoms_file = ''; lattice = ''; lattice_constant = -1; density = -1
         read_h5md = ''; h5md_frame = -1; read_checkpoint = ''
         cells = 0; periodic = .true.; box_lo = unset; box_hi = unset; mass = -1; temperature = -1
         reverse_velocities = .false.
         mesh_file = ''; mass_density = -1; velocity = 0; angular_velocity = 0
-        do k = 1, cfg%nml%count
-            if (cfg%nml%items(k)%group /= 'system') cycle
-            kind = check_key(cfg, k, keys)
-            buf = item_text(cfg, k, 'system')
-            read (buf, nml=system, iostat=ios, iomsg=msg)
-            if (ios /= 0) call bad_value(cfg, k, kind, msg)
-            call check_value_text(cfg, k, kind)
+        do while (it%next(cfg, 'system', keys))
+            read (it%buf, nml=system, iostat=it%ios, iomsg=it%msg)
+            call it%done(cfg)
         end do
         cfg%read_data = read_data; cfg%atoms_file = atoms_file; cfg%lattice = lower(lattice)
         cfg%read_h5md = read_h5md; cfg%h5md_frame = h5md_frame; cfg%read_checkpoint = read_checkpoint
@@ -442,31 +473,27 @@ contains
         real(dp) :: epsilon(max_types, max_types), sigma(max_types, max_types), cutoff
         real(dp) :: pair_cutoff(max_types, max_types)
         logical :: shift
-        real(dp) :: lambda, mu
-        namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements, lambda, mu
-        character(len=*), parameter :: keys(10) = [character(len=60) :: 'style:a quoted string', &
+        real(dp) :: lambda, mu, contact_stiffness, contact_distance
+        namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements, lambda, mu, &
+            contact_stiffness, contact_distance
+        character(len=*), parameter :: keys(12) = [character(len=60) :: 'style:a quoted string', &
             'lambda:a real number (Pa)', 'mu:a real number (Pa)', &
+            'contact_stiffness:a real number (N/m)', 'contact_distance:a real number (m)', &
             'epsilon:a real number (or epsilon(i,j) = ...)', 'sigma:a real number (or sigma(i,j) = ...)', &
             'cutoff:a real number', 'pair_cutoff:pair_cutoff(i,j) = a real number', 'shift:a logical', &
             'file:a quoted file name', 'elements:quoted element names, one per atom type']
-        character(len=:), allocatable :: kind
-        character(len=256) :: msg
-        character(len=:), allocatable :: buf
-        integer :: k, ios
+        type(item_reader_t) :: it
         style = 'lj'; epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
-        file = ''; elements = ''; lambda = unset; mu = unset
-        do k = 1, cfg%nml%count
-            if (cfg%nml%items(k)%group /= 'potential') cycle
-            kind = check_key(cfg, k, keys)
-            buf = item_text(cfg, k, 'potential')
-            read (buf, nml=potential, iostat=ios, iomsg=msg)
-            if (ios /= 0) call bad_value(cfg, k, kind, msg)
-            call check_value_text(cfg, k, kind)
+        file = ''; elements = ''; lambda = unset; mu = unset; contact_stiffness = unset; contact_distance = unset
+        do while (it%next(cfg, 'potential', keys))
+            read (it%buf, nml=potential, iostat=it%ios, iomsg=it%msg)
+            call it%done(cfg)
         end do
         cfg%potential = lower(style); cfg%epsilon = epsilon; cfg%sigma = sigma; cfg%cutoff = cutoff
         cfg%pair_cutoff = pair_cutoff; cfg%shift = shift
         cfg%potential_file = file; cfg%elements = elements
         cfg%lambda = lambda; cfg%mu = mu
+        cfg%contact_stiffness = contact_stiffness; cfg%contact_distance = contact_distance
     end subroutine read_potential
 
     subroutine read_integrator(cfg)
@@ -476,18 +503,11 @@ contains
         namelist /integrator/ style, dt, terrace_height, target_mean_dt, root_tolerance
         character(len=*), parameter :: keys(5) = [character(len=40) :: 'style:a quoted string', 'dt:a real number', &
             'terrace_height:a real number', 'target_mean_dt:a real number', 'root_tolerance:a real number']
-        character(len=:), allocatable :: kind
-        character(len=256) :: msg
-        character(len=:), allocatable :: buf
-        integer :: k, ios
+        type(item_reader_t) :: it
         style = 'velocity_verlet'; dt = -1; terrace_height = -1; target_mean_dt = -1; root_tolerance = 1.0e-9_dp
-        do k = 1, cfg%nml%count
-            if (cfg%nml%items(k)%group /= 'integrator') cycle
-            kind = check_key(cfg, k, keys)
-            buf = item_text(cfg, k, 'integrator')
-            read (buf, nml=integrator, iostat=ios, iomsg=msg)
-            if (ios /= 0) call bad_value(cfg, k, kind, msg)
-            call check_value_text(cfg, k, kind)
+        do while (it%next(cfg, 'integrator', keys))
+            read (it%buf, nml=integrator, iostat=it%ios, iomsg=it%msg)
+            call it%done(cfg)
         end do
         cfg%integrator = lower(style); cfg%dt = dt
         cfg%terrace_height = terrace_height; cfg%target_mean_dt = target_mean_dt; cfg%root_tolerance = root_tolerance
@@ -499,18 +519,11 @@ contains
         character(len=16) :: list
         namelist /neighbor/ skin, list
         character(len=*), parameter :: keys(2) = [character(len=40) :: 'skin:a real number', 'list:a quoted string']
-        character(len=:), allocatable :: kind
-        character(len=256) :: msg
-        character(len=:), allocatable :: buf
-        integer :: k, ios
+        type(item_reader_t) :: it
         skin = -1; list = 'auto'
-        do k = 1, cfg%nml%count
-            if (cfg%nml%items(k)%group /= 'neighbor') cycle
-            kind = check_key(cfg, k, keys)
-            buf = item_text(cfg, k, 'neighbor')
-            read (buf, nml=neighbor, iostat=ios, iomsg=msg)
-            if (ios /= 0) call bad_value(cfg, k, kind, msg)
-            call check_value_text(cfg, k, kind)
+        do while (it%next(cfg, 'neighbor', keys))
+            read (it%buf, nml=neighbor, iostat=it%ios, iomsg=it%msg)
+            call it%done(cfg)
         end do
         cfg%skin = skin; cfg%list = lower(list)
     end subroutine read_neighbor
@@ -536,21 +549,14 @@ contains
             'final_atoms_file:a quoted file name', 'trajectory_file:a quoted file name', &
             'trajectory_every:an integer', 'trajectory_interval:a real number', &
             'trajectory_fields:a quoted list of position, velocity, force, image', 'overwrite:a logical']
-        character(len=:), allocatable :: kind
-        character(len=256) :: msg
-        character(len=:), allocatable :: buf
-        integer :: k, ios
+        type(item_reader_t) :: it
         thermo_every = -1; thermo_interval = -1; thermo_file = ''; forces_file = ''; final_atoms_file = ''
         trajectory_file = ''; trajectory_every = -1; trajectory_interval = -1
         trajectory_fields = 'position velocity image'; overwrite = .false.
         checkpoint_file = ''; checkpoint_interval = -1; checkpoint_every = -1
-        do k = 1, cfg%nml%count
-            if (cfg%nml%items(k)%group /= 'output') cycle
-            kind = check_key(cfg, k, keys)
-            buf = item_text(cfg, k, 'output')
-            read (buf, nml=output, iostat=ios, iomsg=msg)
-            if (ios /= 0) call bad_value(cfg, k, kind, msg)
-            call check_value_text(cfg, k, kind)
+        do while (it%next(cfg, 'output', keys))
+            read (it%buf, nml=output, iostat=it%ios, iomsg=it%msg)
+            call it%done(cfg)
         end do
         cfg%thermo_every = thermo_every; cfg%thermo_interval = thermo_interval
         cfg%thermo_file = thermo_file; cfg%forces_file = forces_file; cfg%final_atoms_file = final_atoms_file
@@ -572,18 +578,12 @@ contains
         character(len=*), parameter :: keys(7) = [character(len=40) :: 'style:a quoted string', &
             'temperature:a real number', 'temperature_end:a real number', 'damping:a real number', &
             'chain_length:an integer', 'seed:an integer', 'zero_momentum:a logical']
-        character(len=:), allocatable :: kind
-        character(len=256) :: msg
-        character(len=:), allocatable :: buf
-        integer :: k, ios
+        type(item_reader_t) :: it
         style = 'none'; temperature = -1; temperature_end = -1; damping = -1; chain_length = 3; seed = -1
         zero_momentum = .false.
-        do k = 1, cfg%nml%count
-            if (cfg%nml%items(k)%group /= 'thermostat') cycle
-            kind = check_key(cfg, k, keys)
-            buf = item_text(cfg, k, 'thermostat')
-            read (buf, nml=thermostat, iostat=ios, iomsg=msg)
-            if (ios /= 0) call bad_value(cfg, k, kind, msg)
+        do while (it%next(cfg, 'thermostat', keys))
+            read (it%buf, nml=thermostat, iostat=it%ios, iomsg=it%msg)
+            call it%done(cfg, check_text=.false.)
         end do
         cfg%thermostat = lower(style)
         cfg%thermostat_temperature = temperature; cfg%thermostat_temperature_end = temperature_end
@@ -702,6 +702,12 @@ contains
         if (cfg%nml%find('system', 'temperature') > 0 .and. cfg%temperature < 0) &
             call stop_all(cfg%where('system', 'temperature')//': must be >= 0 (in '//trim(cfg%units%temperature)//')')
 
+        if (cfg%potential /= 'neohookean') then
+            if (cfg%nml%find('potential', 'contact_stiffness') > 0) call stop_all(cfg%where('potential', &
+                'contact_stiffness')//": contact is between the bodies of a mesh (style = 'neohookean')")
+            if (cfg%nml%find('potential', 'contact_distance') > 0) call stop_all(cfg%where('potential', &
+                'contact_distance')//": contact is between the bodies of a mesh (style = 'neohookean')")
+        end if
         select case (cfg%potential)
         case ('lj', 'lj/smooth/linear')
         case ('eam', 'eam/alloy', 'eam/fs')
@@ -735,6 +741,12 @@ contains
                                               trim(cfg%units%pressure)//')')
         if (cfg%lambda < 0) call stop_all(cfg%where('potential', 'lambda')//': must be >= 0 (in '// &
                                           trim(cfg%units%pressure)//')')
+        if (cfg%nml%find('potential', 'contact_stiffness') > 0 .and. .not. (cfg%contact_stiffness > 0)) &
+            call stop_all(cfg%where('potential', 'contact_stiffness')//': must be > 0 (a spring constant in N/m; '// &
+                          'leave it out for the default E d0)')
+        if (cfg%nml%find('potential', 'contact_distance') > 0 .and. .not. (cfg%contact_distance > 0)) &
+            call stop_all(cfg%where('potential', 'contact_distance')//': must be > 0 (a length in '// &
+                          trim(cfg%units%length)//'; leave it out for the mean boundary edge length)')
         if (any(cfg%periodic(1:cfg%dimension))) call stop_all(cfg%where('system', 'periodic')// &
             ': a mesh has free boundaries (set periodic = .false., .false., .false.)')
         if (cfg%dimension /= 3) call stop_all(cfg%where('run', 'dimension')//': meshes of tetrahedra are 3-D')
@@ -742,8 +754,6 @@ contains
             ': thermostats are not available for meshes yet')
         if (cfg%temperature >= 0) call stop_all(cfg%where('system', 'temperature')// &
             ': a mesh starts from its rigid motion (velocity, angular_velocity), not a temperature')
-        if (len_trim(cfg%checkpoint_file) > 0 .or. len_trim(cfg%read_checkpoint) > 0) call stop_all( &
-            cfg%where('output', 'checkpoint_file')//': checkpoints of mesh scenes are not available yet')
     end subroutine validate_mesh
 
     !> The rest of the checks for an EAM scene (no LJ keys).

@@ -5,6 +5,7 @@
 !> refused. Errors name the file and line.
 module terrace_gmsh_mesh
     use terrace_kinds, only: dp, i8
+    use terrace_text, only: int_text
     implicit none
     private
 
@@ -156,17 +157,26 @@ contains
             mesh%nnode = int(nnodes)
         end subroutine nodes22
 
+        !> After the $Elements header line (read with status ios): room for nelem elements, or a
+        !> failure naming the line.
+        logical function elements_start(nelem, what) result(ok)
+            integer(i8), intent(in) :: nelem
+            character(len=*), intent(in) :: what
+            line_no = line_no + 1
+            ok = ios == 0 .and. nelem >= 0 .and. nelem <= 1000000000_i8
+            if (.not. ok) then
+                call fail(line_no, what); return
+            end if
+            allocate (mesh%tet(4, nelem), mesh%body(nelem))
+        end function elements_start
+
         !> 4.1: entity blocks; physical tags of volumes come from $Entities, which this reader does not
         !> parse: the volume entity's tag is taken as its body (gmsh writes one volume per body).
         subroutine elements41()
             integer(i8) :: nblocks, nelem, mintag, maxtag, nb, tags(5)
             integer :: b, k, dim, tag, etype
             read (u, *, iostat=ios) nblocks, nelem, mintag, maxtag
-            line_no = line_no + 1
-            if (ios /= 0 .or. nelem < 0 .or. nelem > 1000000000_i8) then
-                call fail(line_no, 'bad $Elements header'); return
-            end if
-            allocate (mesh%tet(4, nelem), mesh%body(nelem))
+            if (.not. elements_start(nelem, 'bad $Elements header')) return
             do b = 1, int(nblocks)
                 read (u, *, iostat=ios) dim, tag, etype, nb
                 line_no = line_no + 1
@@ -174,7 +184,7 @@ contains
                     call fail(line_no, 'bad element block header'); return
                 end if
                 if (etype /= 4 .and. etype /= 15 .and. etype /= 1 .and. etype /= 2) then
-                    call fail(line_no, 'unsupported element type '//itoa(etype)//' (allowed: 4 = 4-node '// &
+                    call fail(line_no, 'unsupported element type '//int_text(etype)//' (allowed: 4 = 4-node '// &
                               'tetrahedron; points, lines and triangles are skipped)'); return
                 end if
                 do k = 1, int(nb)
@@ -183,6 +193,9 @@ contains
                         line_no = line_no + 1
                         if (ios /= 0) then
                             call fail(line_no, 'bad tetrahedron line (expected: tag n1 n2 n3 n4)'); return
+                        end if
+                        if (mesh%ntet == size(mesh%tet, 2)) then
+                            call fail(line_no, 'more elements than the $Elements header says'); return
                         end if
                         mesh%ntet = mesh%ntet + 1
                         mesh%tet(:, mesh%ntet) = tags(2:5)
@@ -200,11 +213,7 @@ contains
             integer :: k, etype, ntags, n, ios2
             integer(i8) :: vals(64)
             read (u, *, iostat=ios) nelem
-            line_no = line_no + 1
-            if (ios /= 0 .or. nelem < 0 .or. nelem > 1000000000_i8) then
-                call fail(line_no, 'bad $Elements count'); return
-            end if
-            allocate (mesh%tet(4, nelem), mesh%body(nelem))
+            if (.not. elements_start(nelem, 'bad $Elements count')) return
             do k = 1, int(nelem)
                 read (u, '(a)', iostat=ios) line
                 line_no = line_no + 1
@@ -215,7 +224,7 @@ contains
                 end if
                 etype = int(vals(2)); ntags = int(vals(3))
                 if (etype /= 4 .and. etype /= 15 .and. etype /= 1 .and. etype /= 2) then
-                    call fail(line_no, 'unsupported element type '//itoa(etype)//' (allowed: 4 = 4-node '// &
+                    call fail(line_no, 'unsupported element type '//int_text(etype)//' (allowed: 4 = 4-node '// &
                               'tetrahedron; points, lines and triangles are skipped)'); return
                 end if
                 if (etype /= 4) cycle
@@ -242,28 +251,21 @@ contains
             seen = .false.
             do k = 1, mesh%nnode
                 if (mesh%node_tag(k) < 1 .or. mesh%node_tag(k) > mesh%nnode) then
-                    call fail(0, 'node tags must be 1..'//itoa(mesh%nnode)//' (renumber the mesh: gmsh -renumber)')
+                    call fail(0, 'node tags must be 1..'//int_text(mesh%nnode)//' (renumber the mesh: gmsh -renumber)')
                     return
                 end if
                 if (seen(mesh%node_tag(k))) then
-                    call fail(0, 'node tag '//itoa(int(mesh%node_tag(k)))//' appears twice'); return
+                    call fail(0, 'node tag '//int_text(int(mesh%node_tag(k)))//' appears twice'); return
                 end if
                 seen(mesh%node_tag(k)) = .true.
             end do
             do k = 1, mesh%ntet
                 if (any(mesh%tet(:, k) < 1) .or. any(mesh%tet(:, k) > mesh%nnode)) then
-                    call fail(0, 'tetrahedron '//itoa(k)//' names a node that is not in the mesh'); return
+                    call fail(0, 'tetrahedron '//int_text(k)//' names a node that is not in the mesh'); return
                 end if
             end do
         end subroutine check_nodes
     end subroutine read_gmsh
 
-    function itoa(i) result(s)
-        integer, intent(in) :: i
-        character(len=:), allocatable :: s
-        character(len=16) :: b
-        write (b, '(i0)') i
-        s = trim(b)
-    end function itoa
 
 end module terrace_gmsh_mesh

@@ -5,7 +5,7 @@
 !> topology, a tilted box, or a malformed line is an error naming the file and line.
 module terrace_lammps_data
     use terrace_kinds, only: dp, i8
-    use terrace_atom_table, only: atom_table_t
+    use terrace_atom_table, only: atom_table_t, open_table_file
     use terrace_text, only: count_tokens
     use terrace_config, only: max_types
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
@@ -40,17 +40,13 @@ contains
         real(dp) :: a, b, vals(8)
         integer(i8) :: id
         integer(i8), allocatable :: order(:)
-        logical :: have(3), seen_masses, seen_atoms, seen_vel, seen_coeffs
+        logical :: have(3), seen_masses, seen_atoms, seen_vel, seen_coeffs, opened
         logical, allocatable :: vel_set(:)
         character(len=32) :: section
         character(len=24) :: cnt
 
-        open (newunit=unit, file=path, status='old', action='read', iostat=ios)
-        if (ios /= 0) then
-            t%ok = .false.
-            t%error = path//': &system: read_data: cannot open the data file'
-            return
-        end if
+        call open_table_file(t, path, 'read_data', 'data file', unit, opened)
+        if (.not. opened) return
         inquire (unit=unit, size=nbytes)
         have = .false.
         nbonds = 0

@@ -10,7 +10,7 @@
 !> data file (already bounded there by the file's size). The available memory is MemAvailable of
 !> /proc/meminfo, or the cgroup limit (memory.max) when that is lower.
 module terrace_memory_guard
-    use terrace_kinds, only: dp, i8
+    use terrace_kinds, only: dp, i8, pi
     use terrace_text, only: fixed
     use terrace_config, only: config_t
     use terrace_mpi_env, only: world
@@ -23,7 +23,6 @@ module terrace_memory_guard
 
     real(dp), parameter :: process_base = 64.0_dp*2**20    !< libraries, MPI and HDF5 buffers per rank
     real(dp), parameter :: per_atom = 400.0_dp             !< per-atom arrays (bytes), ghosts included
-    real(dp), parameter :: pi = 3.141592653589793_dp
 
 contains
 
@@ -54,10 +53,8 @@ contains
         character(len=:), allocatable :: s
         if (len_trim(cfg%lattice) > 0) then
             s = cfg%where('system', 'cells')
-        else if (len_trim(cfg%read_data) > 0) then
-            s = trim(cfg%read_data)//': &system: read_data'
         else
-            s = cfg%path//': &system'
+            s = cfg%scene_source()
         end if
     end function source
 

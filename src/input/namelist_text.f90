@@ -30,7 +30,7 @@ module terrace_namelist_text
         procedure :: has_group => nl_has_group
     end type namelist_file_t
 
-    public :: parse_namelist_text, lower
+    public :: parse_namelist_text, lower, at_line
 
     character(len=*), parameter :: blanks = ' '//achar(9)//achar(10)//achar(13)
 
@@ -88,11 +88,7 @@ contains
     logical function nl_has_group(self, group)
         class(namelist_file_t), intent(in) :: self
         character(len=*), intent(in) :: group
-        integer :: i
-        nl_has_group = .false.
-        do i = 1, self%ngroups
-            if (self%groups(i) == group) nl_has_group = .true.
-        end do
+        nl_has_group = any(self%groups(1:self%ngroups) == group)
     end function nl_has_group
 
     subroutine set_error(nf, line, msg)
@@ -353,13 +349,8 @@ contains
         type(namelist_file_t), intent(inout) :: nf
         character(len=*), intent(in) :: group, target, value
         integer, intent(in) :: line
-        type(assignment_t), allocatable :: tmp(:)
         integer :: p
-        if (nf%count == size(nf%items)) then
-            allocate (tmp(2*nf%count))
-            tmp(1:nf%count) = nf%items
-            call move_alloc(tmp, nf%items)
-        end if
+        if (nf%count == size(nf%items)) nf%items = [nf%items, nf%items]   ! full: double it
         nf%count = nf%count + 1
         nf%items(nf%count)%group = group
         nf%items(nf%count)%target = lower(strip(target))
@@ -385,5 +376,19 @@ contains
             t = s(a:b)
         end if
     end function strip
+
+    !> 'path:line: ', the prefix of a message about one line of an input ('path: ' for the command line).
+    function at_line(path, line) result(s)
+        character(len=*), intent(in) :: path
+        integer, intent(in) :: line
+        character(len=:), allocatable :: s
+        character(len=16) :: ln
+        write (ln, '(i0)') line
+        if (path == '(command line)') then
+            s = path//': '
+        else
+            s = path//':'//trim(ln)//': '
+        end if
+    end function at_line
 
 end module terrace_namelist_text

@@ -16,7 +16,7 @@
 !> MPI_Allreduce(MIN) per event; the crossing search (event_solver) costs one global sum of
 !> (V, V', V'', W) per ray evaluation; samples are written at exactly the requested times.
 !> Checkpoints (&output checkpoint_interval) are window ends too, with a forced neighbour-list build
-!> (cell lists), and hold the whole event-loop state (terrace index, edges, the solver's last
+!> (cell lists, or the sort and element remap of a mesh), and hold the whole event-loop state (terrace index, edges, the solver's last
 !> values at the search origin, counters, next sample times), so a restart continues bitwise.
 !>
 !> With an Andersen thermostat (terrace_thermostat) each atom's next collision time (a Poisson
@@ -27,7 +27,7 @@
 !> along the new velocities); with zero_momentum the total momentum is removed after each collision.
 !> Thermo gains ecouple and econserve = K + k h - ecouple.
 module terrace_energy_stepping
-    use terrace_kinds, only: dp, i8
+    use terrace_kinds, only: dp, i8, pi
     use terrace_text, only: fixed
     use terrace_engine, only: engine_t
     use terrace_schedule, only: schedule_t
@@ -43,7 +43,7 @@ module terrace_energy_stepping
     use terrace_jump, only: terrace_jump_lambda, jump_climb, jump_reflect, jump_fall, jump_none
     use terrace_run_control, only: run_control_t
     use terrace_checkpoint, only: ckpt_values_t
-    use terrace_scene_plan, only: pair_cells
+    use terrace_scene_plan, only: pair_all
     use terrace_thermostat, only: thermostat_t, thermostat_andersen
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -159,7 +159,6 @@ contains
     real(dp) function choose_terrace_height(eng) result(h)
         type(engine_t), intent(inout) :: eng
         real(dp) :: sigma2
-        real(dp), parameter :: pi = 4*atan(1.0_dp)
         if (eng%cfg%terrace_height > 0) then
             h = eng%cfg%terrace_height
         else
@@ -178,7 +177,6 @@ contains
         type(engine_t), intent(inout) :: eng
         real(dp), intent(in) :: h
         real(dp) :: sigma2, a, b, mean_dt, refl, tau, dt_vv, ray(4), omega2
-        real(dp), parameter :: pi = 4*atan(1.0_dp)
         character(len=:), allocatable :: how
         call gradient_sums(eng, sigma2, a, b)
         sigma2 = crossing_sigma2(eng)
@@ -296,7 +294,7 @@ contains
                     lower = k*h; upper = (k + 1)*h
                 end if
                 eng%pe = ray%last_out(1); eng%virial = ray%last_out(4)
-                rebuilt = t >= t_exp .or. (ckpt_due .and. eng%plan%pair_mode == pair_cells)
+                rebuilt = t >= t_exp .or. (ckpt_due .and. eng%plan%pair_mode /= pair_all)
                 if (rebuilt) then
                     call eng%rebuild()
                     stats%rebuilds = stats%rebuilds + 1
@@ -315,23 +313,18 @@ contains
                     t_coll = ts%andersen_first(eng%atoms)
                     call min_all(t_coll)
                 end if
-                if (t >= t_next_sample) then
+                if (reached(t, n_sample, sample_interval, t_next_sample)) then
                     call write_sample(t)
-                    n_sample = n_sample + 1
-                    t_next_sample = n_sample*sample_interval
                 else if (t >= t_end) then
-                    call write_sample(t)
+                    call write_sample(t)     ! the end of the run is always sampled
                 end if
-                if (t >= t_next_frame) then
-                    call write_frame(t)
-                    n_frame = n_frame + 1
-                    t_next_frame = n_frame*traj_interval
-                end if
+                if (reached(t, n_frame, traj_interval, t_next_frame)) call write_frame(t)
                 ! a safe point: after a list build, or anywhere on the all-pairs path (its replicated
-                ! atoms drift bitwise like their owners)
+                ! atoms drift bitwise like their owners); without a pair list (a mesh) the build
+                ! sorts the atoms and remaps the elements as a restart does, so only after one
                 ! (ecouple's per-rank parts are folded at every safe point: a restart sums them alike)
-                if (ts%active() .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode /= pair_cells)) call ts%fold()
-                if (ctl%active .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode /= pair_cells)) then
+                if (ts%active() .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode == pair_all)) call ts%fold()
+                if (ctl%active .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode == pair_all)) then
                     stop_now = ctl%stop_requested()
                     if (ckpt_due .or. stop_now) call checkpoint(ckpt_due)
                     if (ckpt_due) t_next_ckpt = (ctl%written + 1)*ctl%interval
@@ -465,7 +458,7 @@ contains
             logical :: ok
             character(len=512) :: msg
             call eng%timers%start(t_output)
-            call val%put_r('h', h)
+            call val%put('h', h)
             if (ts%active()) call ts%save(val)
             st%tol = solver%tol
             st%pe = eng%pe; st%virial = eng%virial
@@ -554,18 +547,30 @@ contains
         subroutine x1(name, x)
             character(len=*), intent(in) :: name
             class(*), intent(inout) :: x
+            if (saving) then
+                call val%put(name, x); return
+            end if
             select type (x)
             type is (real(dp))
-                if (saving) call val%put_r(name, x)
-                if (.not. saving) x = val%get_r(name, ok)
+                x = val%get_r(name, ok)
             type is (integer(i8))
-                if (saving) call val%put_i(name, x)
-                if (.not. saving) x = val%get_i(name, ok)
+                x = val%get_i(name, ok)
             type is (logical)
-                if (saving) call val%put_l(name, x)
-                if (.not. saving) x = val%get_l(name, ok)
+                x = val%get_l(name, ok)
             end select
         end subroutine x1
     end subroutine es_state_exchange
+
+    !> A time-scheduled output is due: t has reached t_next, which then moves to the next multiple
+    !> of the interval (n counts them).
+    logical function reached(t, n, interval, t_next)
+        real(dp), intent(in) :: t, interval
+        integer(i8), intent(inout) :: n
+        real(dp), intent(inout) :: t_next
+        reached = t >= t_next
+        if (.not. reached) return
+        n = n + 1
+        t_next = n*interval
+    end function reached
 
 end module terrace_energy_stepping

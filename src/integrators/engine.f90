@@ -19,7 +19,8 @@ module terrace_engine
     use terrace_observables, only: thermo_sample_t
     use terrace_scene_plan, only: plan_t, pair_all, pair_cells, pair_none
     use terrace_scene_builder, only: scene_t
-    use terrace_mpi_env, only: world, sum_all, min_all, any_all
+    use terrace_overlap_check, only: check_overlaps
+    use terrace_mpi_env, only: world, sum_all, any_all
     use terrace_errors, only: stop_all, check_all, warn
     use terrace_checkpoint, only: ckpt_values_t
     implicit none
@@ -43,6 +44,8 @@ module terrace_engine
         logical :: restarted = .false.           !< started from &system read_checkpoint
         logical :: validity_checks = .false.     !< the potential can reach states without finite energy
         type(ckpt_values_t) :: restart_values    !< the checkpoint's named values (integrator state)
+        integer(i8), allocatable :: mesh_tet(:, :) !< a mesh scene: (4, ntet) node ids (trajectory, XDMF)
+        integer(i8) :: mesh_hash = 0             !< a mesh scene: its fingerprint (checkpoints)
     contains
         procedure :: setup => engine_setup
         procedure :: rebuild => engine_rebuild
@@ -85,6 +88,8 @@ contains
         self%cutmax = scene%cutmax
         self%source = scene%source
         self%restarted = scene%restarted
+        if (allocated(scene%mesh_tet)) call move_alloc(scene%mesh_tet, self%mesh_tet)
+        self%mesh_hash = scene%mesh_hash
         self%list%dimension = cfg%dimension
         self%list%all_pairs = self%plan%pair_mode == pair_all
         if (self%plan%pair_mode == pair_cells) call self%list%init(self%cutmax, cfg%skin, cfg%dimension)
@@ -94,7 +99,7 @@ contains
         ! ray passes of some many-body terms need each owned atom's whole neighbourhood
         self%list%want_below = self%pot%ray_needs_full_neighbourhood() .and. cfg%integrator == 'energy_stepping'
         call self%rebuild()
-        call check_overlaps(self)
+        call check_overlaps(self%atoms, self%list, self%pot, self%plan%pair_mode, self%source)
         call self%compute_forces(.true.)
         if (self%restarted) then
             do i = 1, self%atoms%nlocal
@@ -158,13 +163,7 @@ contains
     !> Bring ghost positions up to date (no rebuild).
     subroutine engine_refresh_ghosts(self)
         class(engine_t), intent(inout) :: self
-        call self%timers%start(t_comm)
-        if (self%plan%pair_mode == pair_all) then
-            if (world%nprocs > 1) call self%rep%gather(self%atoms, self%atoms%x)
-        else
-            call self%dom%forward(self%atoms%x, .true.)
-        end if
-        call self%timers%stop(t_comm)
+        call ghosts_from_owners(self, velocities=.false.)
     end subroutine engine_refresh_ghosts
 
     !> Forces on owned atoms (ghost contributions summed back); with want_energy also the global
@@ -223,7 +222,6 @@ contains
         call self%eng%timers%start(t_pair)
     end subroutine halo_forward
 
-
     !> Thermo quantities from the current velocities and the last energy evaluation.
     function engine_sample(self, step, time) result(s)
         class(engine_t), intent(inout) :: self
@@ -279,18 +277,22 @@ contains
     !> Ghost positions and velocities from their owners (after a velocity jump).
     subroutine engine_sync_ghosts(self)
         class(engine_t), intent(inout) :: self
+        call ghosts_from_owners(self, velocities=.true.)
+    end subroutine engine_sync_ghosts
+
+    subroutine ghosts_from_owners(self, velocities)
+        class(engine_t), intent(inout) :: self
+        logical, intent(in) :: velocities
         call self%timers%start(t_comm)
         if (self%plan%pair_mode == pair_all) then
-            if (world%nprocs > 1) then
-                call self%rep%gather(self%atoms, self%atoms%x)
-                call self%rep%gather(self%atoms, self%atoms%v)
-            end if
+            if (world%nprocs > 1) call self%rep%gather(self%atoms, self%atoms%x)
+            if (world%nprocs > 1 .and. velocities) call self%rep%gather(self%atoms, self%atoms%v)
         else
             call self%dom%forward(self%atoms%x, .true.)
-            call self%dom%forward(self%atoms%v, .false.)
+            if (velocities) call self%dom%forward(self%atoms%v, .false.)
         end if
         call self%timers%stop(t_comm)
-    end subroutine engine_sync_ghosts
+    end subroutine ghosts_from_owners
 
     !> Earliest time (from now, this rank's atoms) at which an owned atom's displacement since the
     !> last list build reaches skin/2, moving in a straight line: the root of
@@ -332,9 +334,7 @@ contains
         do k = 1, max_warning_flags
             call any_all(flags(k))
         end do
-        if (self%pot%warning(flags, text)) then
-            if (world%rank == 0) call warn(trim(text))
-        end if
+        if (self%pot%warning(flags, text) .and. world%rank == 0) call warn(trim(text))
     end subroutine engine_report_warnings
 
     !> Stop every rank with the potential's description when any rank's state is invalid (after a
@@ -350,40 +350,5 @@ contains
         write (at, '(a,i0,a,es12.5,1x,a)') ' at step ', step, ', time ', time, trim(self%cfg%units%time)
         call check_all(.not. bad, trim(text)//trim(at))
     end subroutine engine_check_valid
-
-    !> Refuse a start with atoms on top of each other (closer than a quarter of the potential's
-    !> contact distance, sigma for LJ).
-    subroutine check_overlaps(self)
-        type(engine_t), intent(inout) :: self
-        real(dp) :: rmin_ratio, rsq, sig
-        integer :: i, k, j, jend
-        character(len=32) :: s
-        rmin_ratio = huge(1.0_dp)
-        if (self%plan%pair_mode == pair_none) return
-        do i = 1, self%atoms%nlocal
-            if (self%plan%pair_mode == pair_cells) then
-                k = self%list%first(i); jend = self%list%first(i + 1) - 1
-            else
-                k = i + 1; jend = self%atoms%nall()
-            end if
-            do while (k <= jend)
-                if (self%plan%pair_mode == pair_cells) then
-                    j = self%list%neigh(k)
-                else
-                    j = k
-                end if
-                sig = self%pot%contact_distance(self%atoms%type(i), self%atoms%type(j))
-                if (sig > 0) then
-                    rsq = sum((self%atoms%x(:, i) - self%atoms%x(:, j))**2)
-                    rmin_ratio = min(rmin_ratio, sqrt(rsq)/sig)
-                end if
-                k = k + 1
-            end do
-        end do
-        call min_all(rmin_ratio)
-        write (s, '(es10.3)') rmin_ratio
-        call check_all(.not. (rmin_ratio < 0.25_dp), self%source//': overlapping atoms (closest pair '// &
-                       'at '//trim(adjustl(s))//' sigma; at least sigma/4 is required)')
-    end subroutine check_overlaps
 
 end module terrace_engine

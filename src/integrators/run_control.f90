@@ -129,22 +129,27 @@ contains
         integer :: d, t
         t0 = MPI_Wtime()
         if (scheduled) self%written = self%written + 1
-        call values%put_i('step', step)
-        call values%put_r('time', time)
-        call values%put_i('checkpoints', self%written)
-        call values%put_i('thermo_lines', thermo_lines)
-        call values%put_i('trajectory_frames', traj_frames)
-        call values%put_i('seed', eng%cfg%seed)
+        call values%put('step', step)
+        call values%put('time', time)
+        call values%put('checkpoints', self%written)
+        call values%put('thermo_lines', thermo_lines)
+        call values%put('trajectory_frames', traj_frames)
+        call values%put('seed', eng%cfg%seed)
         do d = 1, 3
             write (tag, '(i0)') d
-            call values%put_r('box_lo_'//trim(tag), eng%box%lo(d))
-            call values%put_r('box_hi_'//trim(tag), eng%box%hi(d))
+            call values%put('box_lo_'//trim(tag), eng%box%lo(d))
+            call values%put('box_hi_'//trim(tag), eng%box%hi(d))
         end do
-        call values%put_i('ntypes', int(size(eng%atoms%mass), i8))
+        call values%put('ntypes', int(size(eng%atoms%mass), i8))
         do t = 1, size(eng%atoms%mass)
             write (tag, '(i0)') t
-            call values%put_r('mass_'//trim(tag), eng%atoms%mass(t))
+            call values%put('mass_'//trim(tag), eng%atoms%mass(t))
         end do
+        if (allocated(eng%mesh_tet)) then       ! a mesh scene: which mesh (checked on restart)
+            call values%put('mesh_nodes', eng%natoms)
+            call values%put('mesh_elements', size(eng%mesh_tet, 2, kind=i8))
+            call values%put('mesh_hash', eng%mesh_hash)
+        end if
         call write_checkpoint(self%path, eng%atoms, eng%natoms, eng%cfg%dimension, trim(eng%cfg%integrator), &
                               eng%cfg%path, deck_hash(eng%cfg%nml), terrace_version_string, values, ok, msg)
         call check_all(ok, trim(self%path)//': &output checkpoint_file: '//trim(msg))

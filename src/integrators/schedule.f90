@@ -76,16 +76,21 @@ contains
     pure logical function schedule_sample_due(self, n) result(due)
         class(schedule_t), intent(in) :: self
         integer(i8), intent(in) :: n
-        due = .false.
-        if (self%thermo_every > 0) due = mod(n, self%thermo_every) == 0
+        due = every(self%thermo_every, n)
     end function schedule_sample_due
 
     pure logical function schedule_frame_due(self, n) result(due)
         class(schedule_t), intent(in) :: self
         integer(i8), intent(in) :: n
-        due = .false.
-        if (self%traj_every > 0) due = mod(n, self%traj_every) == 0
+        due = every(self%traj_every, n)
     end function schedule_frame_due
+
+    !> n is a multiple of k (never, when k is 0).
+    pure logical function every(k, n)
+        integer(i8), intent(in) :: k, n
+        every = .false.
+        if (k > 0) every = mod(n, k) == 0
+    end function every
 
     !> The time the outputs cover: n_steps dt for Verlet, run_time for energy stepping (0: unknown).
     pure real(dp) function schedule_end_time(self, cfg) result(t)

@@ -175,12 +175,12 @@ contains
             logical :: ok
             character(len=512) :: msg
             call eng%timers%start(t_output)
-            call values%put_r('first_etotal', first%etotal)
-            call values%put_r('first_px', first%momentum(1))
-            call values%put_r('first_py', first%momentum(2))
-            call values%put_r('first_pz', first%momentum(3))
+            call values%put('first_etotal', first%etotal)
+            call values%put('first_px', first%momentum(1))
+            call values%put('first_py', first%momentum(2))
+            call values%put('first_pz', first%momentum(3))
             if (ts%active()) then
-                call values%put_r('first_ecouple', first%ecouple)
+                call values%put('first_ecouple', first%ecouple)
                 call ts%save(values)
             end if
             ! the trajectory holds every frame the checkpoint counts, even if the run is killed next

@@ -59,14 +59,13 @@ module terrace_checkpoint
         logical, allocatable :: is_int(:)
         integer :: n = 0
     contains
-        procedure :: put_i => values_put_i
-        procedure :: put_r => values_put_r
-        procedure :: put_l => values_put_l
+        procedure :: put => values_put
         procedure :: get_i => values_get_i
         procedure :: get_r => values_get_r
         procedure :: get_l => values_get_l
         procedure :: has => values_has
         procedure, private :: slot => values_slot
+        procedure, private :: find => values_find
     end type ckpt_values_t
 
     !> What a checkpoint holds, as read (every rank holds all of it, rows in id order).
@@ -115,37 +114,27 @@ contains
         self%names(k) = name; self%ival(k) = 0; self%rval(k) = 0
     end function values_slot
 
-    subroutine values_put_i(self, name, v)
+    !> Store v (integer(i8), real(dp) or logical, kept as 0/1) under name.
+    subroutine values_put(self, name, v)
         class(ckpt_values_t), intent(inout) :: self
         character(len=*), intent(in) :: name
-        integer(i8), intent(in) :: v
+        class(*), intent(in) :: v
         integer :: k
-        k = self%slot(name); self%ival(k) = v; self%is_int(k) = .true.
-    end subroutine values_put_i
-
-    subroutine values_put_r(self, name, v)
-        class(ckpt_values_t), intent(inout) :: self
-        character(len=*), intent(in) :: name
-        real(dp), intent(in) :: v
-        integer :: k
-        k = self%slot(name); self%rval(k) = v; self%is_int(k) = .false.
-    end subroutine values_put_r
-
-    subroutine values_put_l(self, name, v)
-        class(ckpt_values_t), intent(inout) :: self
-        character(len=*), intent(in) :: name
-        logical, intent(in) :: v
-        call self%put_i(name, merge(1_i8, 0_i8, v))
-    end subroutine values_put_l
+        k = self%slot(name)
+        select type (v)
+        type is (integer(i8))
+            self%ival(k) = v; self%is_int(k) = .true.
+        type is (real(dp))
+            self%rval(k) = v; self%is_int(k) = .false.
+        type is (logical)
+            self%ival(k) = merge(1_i8, 0_i8, v); self%is_int(k) = .true.
+        end select
+    end subroutine values_put
 
     logical function values_has(self, name)
         class(ckpt_values_t), intent(in) :: self
         character(len=*), intent(in) :: name
-        integer :: k
-        values_has = .false.
-        do k = 1, self%n
-            if (self%names(k) == name) values_has = .true.
-        end do
+        values_has = any(self%names(1:self%n) == name)
     end function values_has
 
     !> The value called name; ok becomes .false. (and stays so) when it is missing.
@@ -155,12 +144,8 @@ contains
         logical, intent(inout) :: ok
         integer :: k
         v = 0
-        do k = 1, self%n
-            if (self%names(k) == name .and. self%is_int(k)) then
-                v = self%ival(k); return
-            end if
-        end do
-        ok = .false.
+        k = self%find(name, .true., ok)
+        if (k > 0) v = self%ival(k)
     end function values_get_i
 
     real(dp) function values_get_r(self, name, ok) result(v)
@@ -169,13 +154,22 @@ contains
         logical, intent(inout) :: ok
         integer :: k
         v = 0
-        do k = 1, self%n
-            if (self%names(k) == name .and. .not. self%is_int(k)) then
-                v = self%rval(k); return
-            end if
-        end do
-        ok = .false.
+        k = self%find(name, .false., ok)
+        if (k > 0) v = self%rval(k)
     end function values_get_r
+
+    !> The slot of name holding an integer (is_int) or a real; 0, and ok = .false., when none does.
+    integer function values_find(self, name, is_int, ok) result(k)
+        class(ckpt_values_t), intent(in) :: self
+        character(len=*), intent(in) :: name
+        logical, intent(in) :: is_int
+        logical, intent(inout) :: ok
+        do k = 1, self%n
+            if (self%names(k) == name .and. (self%is_int(k) .eqv. is_int)) return
+        end do
+        k = 0
+        ok = .false.
+    end function values_find
 
     logical function values_get_l(self, name, ok) result(v)
         class(ckpt_values_t), intent(in) :: self
@@ -491,11 +485,11 @@ contains
                 if (cls == H5T_INTEGER_F) then
                     pbuf = c_loc(ibuf)
                     call h5aread_f(a, h5kind_to_type(i8, H5_INTEGER_KIND), pbuf, err)
-                    call data%values%put_i(trim(name), ibuf)
+                    call data%values%put(trim(name), ibuf)
                 else
                     pbuf = c_loc(rbuf)
                     call h5aread_f(a, H5T_NATIVE_DOUBLE, pbuf, err)
-                    call data%values%put_r(trim(name), rbuf)
+                    call data%values%put(trim(name), rbuf)
                 end if
                 call st%check(err, 'read a state attribute')
                 call h5tclose_f(t, err)

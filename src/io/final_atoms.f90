@@ -8,7 +8,7 @@ module terrace_final_atoms
     use terrace_box, only: box_t
     use terrace_mpi_env, only: world
     use terrace_gather_by_id, only: gather_by_id
-    use terrace_checked_text, only: checked_text_t
+    use terrace_checked_text, only: write_table
     implicit none
     private
 
@@ -26,7 +26,6 @@ contains
         real(dp), allocatable :: mine(:, :), all(:, :)
         integer(i8), allocatable :: ids(:)
         integer :: n, i, d
-        type(checked_text_t) :: out
         character(len=256) :: line
         ok = .true.; msg = ''
         n = atoms%nlocal
@@ -41,19 +40,9 @@ contains
         end do
         call gather_by_id(n, atoms%id(1:n), mine, ids, all)
         if (world%rank /= 0) return
-        ! written under a temporary name, renamed over path when the run succeeds
-        ! (terrace_output_files: commit_small_outputs); every write is checked (a full disk)
-        call out%open(path, ok, msg)
-        if (.not. ok) return
         write (line, '(a,es24.16e3)') '# terrace final state at time ', time
-        call out%put(line, msg)
-        call out%put('# type x y z vx vy vz   (one line per atom, in id order)', msg)
-        do i = 1, size(ids)
-            if (out%ios /= 0) exit
-            write (line, '(i0,6(1x,es24.16e3))') nint(all(1, i)), all(2:7, i)
-            call out%put(line, msg)
-        end do
-        call out%close(ok, msg)
+        call write_table(path, [character(len=256) :: line, '# type x y z vx vy vz   (one line per atom, in id order)'], &
+                         nint(all(1, :), i8), all(2:7, :), ok, msg)
     end subroutine write_final_atoms
 
 end module terrace_final_atoms

@@ -5,7 +5,7 @@ module terrace_forces_file
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: world
     use terrace_gather_by_id, only: gather_by_id
-    use terrace_checked_text, only: checked_text_t
+    use terrace_checked_text, only: write_table
     implicit none
     private
 
@@ -21,25 +21,12 @@ contains
         character(len=*), intent(out) :: msg
         integer(i8), allocatable :: ids(:)
         real(dp), allocatable :: f(:, :)
-        integer :: i
-        type(checked_text_t) :: out
         character(len=128) :: line
         ok = .true.; msg = ''
         call gather_by_id(atoms%nlocal, atoms%id(1:atoms%nlocal), atoms%f(:, 1:atoms%nlocal), ids, f)
         if (world%rank /= 0) return
-        ! written under a temporary name, renamed over path when the run succeeds
-        ! (terrace_output_files: commit_small_outputs); every write is checked (a full disk)
-        call out%open(path, ok, msg)
-        if (.not. ok) return
         write (line, '(a,i0)') '# terrace per-atom forces at step ', step
-        call out%put(line, msg)
-        call out%put('# id fx fy fz', msg)
-        do i = 1, size(ids)
-            if (out%ios /= 0) exit
-            write (line, '(i0,3(1x,es24.16e3))') ids(i), f(:, i)
-            call out%put(line, msg)
-        end do
-        call out%close(ok, msg)
+        call write_table(path, [character(len=128) :: line, '# id fx fy fz'], ids, f, ok, msg)
     end subroutine write_forces_file
 
 end module terrace_forces_file

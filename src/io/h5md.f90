@@ -22,6 +22,12 @@
 !>     observables/<name>
 !>      \-- step, time, value: [variable]                (step, time: hard links to box/edges/ when
 !>                                                       the observable is written with every frame)
+!>     connectivity/<name>: Integer[M][T]              (optional, write_connectivity: H5MD 1.1
+!>      +-- particles_group = 'all'                      tuples of particle ids, int64; a mesh's
+!>                                                       tetrahedra: T = 4)
+!>     parameters/terrace/<name>_index: Integer[M][T]  (the same tuples as 0-based rows of the
+!>                                                       id-ordered particle arrays, int32: what
+!>                                                       an XDMF Topology reads)
 !>
 !> The box does not change during a run, but edges is written as a time-dependent element (one
 !> row per frame) because readers such as MDAnalysis read box/edges/value[frame] unconditionally;
@@ -44,7 +50,8 @@ module terrace_h5md
     use terrace_kinds, only: dp, i8
     use terrace_id_blocks, only: id_block, exchange_plan
     use terrace_errors, only: note_broken_hdf5_file
-    use terrace_hdf5_io, only: h5_status_t, h5_library, h5_agree, h5_writer_closed, h5_guard_begin, h5_guard_end, h5_open_file, h5_create, h5_append, &
+    use terrace_hdf5_io, only: h5_status_t, h5_group, h5_library, h5_agree, h5_writer_closed, h5_guard_begin, &
+                               h5_guard_end, h5_open_file, h5_create, h5_append, &
                                h5_transfer_list, h5_make_fixed, h5_make_series, h5_extend, h5_dataset_dims, &
                                h5_write_slab, h5_read_slab, h5_attr_int, h5_attr_text, h5_attr_text_list, &
                                h5_attr_vltext
@@ -108,6 +115,7 @@ module terrace_h5md
         real(dp) :: edges(3) = 0
         integer(hid_t) :: id = -1, species = -1, mass = -1
         integer(hsize_t) :: nframes = 0
+        integer(hsize_t) :: nflushed = 0                   !< frames on disk at the last flush
         integer(i8) :: last_step = 0
         real(dp) :: last_flush = 0                          !< rank 0's MPI_Wtime at the last writer_flush
         integer(i8) :: first = 1, nmine = 0               !< this rank's block of ids: first .. first+nmine-1
@@ -125,6 +133,9 @@ module terrace_h5md
         procedure :: close => writer_close
         procedure :: is_open => writer_is_open
         procedure :: frames_written => writer_frames_written
+        procedure :: frames_flushed => writer_frames_flushed
+        procedure :: frame_times => writer_frame_times
+        procedure :: write_connectivity => writer_write_connectivity
     end type h5md_writer_t
 
 
@@ -193,7 +204,7 @@ contains
         self%want = [want_position, want_velocity, want_force, want_image]
         self%masses_by_type = masses_by_type
         self%unit_time = trim(unit_time)
-        self%nframes = 0; self%last_step = 0
+        self%nframes = 0; self%last_step = 0; self%nflushed = 0
         self%nobs = 0
         if (allocated(self%obs)) deallocate (self%obs)
         allocate (self%obs(4))
@@ -406,6 +417,7 @@ contains
             call st%fail(trim(oname))
         end if
         self%nframes = int(keep, hsize_t)
+        self%nflushed = self%nframes
         if (st%ok) then
             do e = 1, nel
                 if (self%want(e)) call h5_extend(st, self%value(e), [int(self%dimension, hsize_t), &
@@ -723,7 +735,6 @@ contains
         type(observable_t), allocatable :: grown(:)
         integer :: k, i, err
         integer(hid_t) :: g, go
-        logical :: exists
         integer(i8), target :: step_t
         real(dp), target :: time_t, value_t
 
@@ -749,12 +760,7 @@ contains
                 o%name = trim(name); o%n = 0
                 o%per_frame = .false.
                 if (present(per_frame)) o%per_frame = per_frame
-                call h5lexists_f(self%file, 'observables', exists, err); call st%check(err, 'H5Lexists')
-                if (exists) then
-                    call h5gopen_f(self%file, 'observables', g, err); call st%check(err, 'open observables')
-                else
-                    call h5gcreate_f(self%file, 'observables', g, err); call st%check(err, 'create observables')
-                end if
+                call h5_group(st, self%file, 'observables', g)
                 call h5gcreate_f(g, o%name, go, err); call st%check(err, 'create observables/'//o%name)
                 if (o%per_frame) then
                     call h5lcreate_hard_f(self%file, pgroup//'/box/edges/step', go, 'step', err)
@@ -812,6 +818,7 @@ contains
         end if
         call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
         call st%check(err, 'H5Fflush')
+        self%nflushed = self%nframes
     end subroutine flush_unless_told
 
     !> Flush the file to disk (collective).
@@ -841,6 +848,7 @@ contains
                 call h5_agree(self%comm, st, ok_, msg_)
                 if (.not. ok_) call note_broken_hdf5_file()
                 self%last_flush = MPI_Wtime()
+                if (ok_) self%nflushed = self%nframes
             end if
         end if
         if (present(ok)) ok = ok_
@@ -877,6 +885,83 @@ contains
         class(h5md_writer_t), intent(in) :: self
         writer_frames_written = int(self%nframes, i8)
     end function writer_frames_written
+
+    !> Frames on disk: written and flushed (by write_frame, flush or write_observable).
+    integer(i8) function writer_frames_flushed(self)
+        class(h5md_writer_t), intent(in) :: self
+        writer_frames_flushed = int(self%nflushed, i8)
+    end function writer_frames_flushed
+
+    !> The times of the frames written so far (every rank reads them; collective).
+    subroutine writer_frame_times(self, times, ok, msg)
+        class(h5md_writer_t), intent(inout) :: self
+        real(dp), allocatable, target, intent(out) :: times(:)
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        type(h5_status_t) :: st
+        allocate (times(self%nframes))
+        ok = .true.; msg = ''
+        if (.not. self%opened) then
+            ok = .false.; msg = 'h5md: frame_times: the writer is not open'; return
+        end if
+        if (self%nframes > 0) call h5_read_slab(st, self%time, H5T_NATIVE_DOUBLE, c_loc(times), [0_hsize_t], &
+                                                [self%nframes], .true., self%dxpl)
+        call h5_agree(self%comm, st, ok, msg)
+        if (.not. ok) msg = 'h5md: frame_times: '//trim(msg)
+    end subroutine writer_frame_times
+
+    !> Time-independent tuples of particles, written once (H5MD 1.1, proposals 101 and 103):
+    !> /connectivity/<name> holds tuples(:, k) as particle ids (int64, [M][T] in C order), with the
+    !> attribute particles_group = 'all' (particles/all has an id element, so the values are ids);
+    !> /parameters/terrace/<name>_index holds the same tuples as 0-based rows of the id-ordered
+    !> particle arrays (id - 1, int32), the indexing an XDMF Topology reads. Collective; rank 0's
+    !> tuples are written (every rank must pass the same shape).
+    subroutine writer_write_connectivity(self, name, tuples, ok, msg)
+        class(h5md_writer_t), intent(inout) :: self
+        character(len=*), intent(in) :: name
+        integer(i8), intent(in), target, contiguous :: tuples(:, :)
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        type(h5_status_t) :: st
+        integer(hid_t) :: g, gp, d
+        integer :: err
+        integer(hsize_t) :: dims(2)
+        integer, allocatable, target :: rows(:, :)
+        ok = .true.; msg = ''
+        if (.not. self%opened) then
+            ok = .false.; msg = 'h5md: write_connectivity: the writer is not open'; return
+        end if
+        if (len_trim(name) == 0 .or. index(name, '/') > 0) then
+            ok = .false.; msg = 'h5md: write_connectivity: bad name "'//trim(name)//'"'; return
+        end if
+        if (size(tuples) > 0) then
+            if (minval(tuples) < 1 .or. maxval(tuples) > self%natoms) &
+                call st%fail('a tuple names a particle id outside 1..N')
+        end if
+        dims = [int(size(tuples, 1), hsize_t), int(size(tuples, 2), hsize_t)]
+        call h5_group(st, self%file, 'connectivity', g)
+        call h5_make_fixed(st, g, trim(name), H5T_STD_I64LE, dims, d)
+        call h5_attr_text(st, d, 'particles_group', 'all')
+        call h5_write_slab(st, d, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(tuples), [0_hsize_t, 0_hsize_t], dims, &
+                           self%rank == 0 .and. size(tuples) > 0, self%dxpl_rank0)
+        call h5dclose_f(d, err)
+        call h5gclose_f(g, err)
+        allocate (rows(size(tuples, 1), size(tuples, 2)))
+        rows = int(tuples - 1)
+        call h5_group(st, self%file, 'parameters', g)
+        call h5_group(st, g, 'terrace', gp)
+        call h5_make_fixed(st, gp, trim(name)//'_index', H5T_STD_I32LE, dims, d)
+        call h5_write_slab(st, d, H5T_NATIVE_INTEGER, c_loc(rows), [0_hsize_t, 0_hsize_t], dims, &
+                           self%rank == 0 .and. size(tuples) > 0, self%dxpl_rank0)
+        call h5dclose_f(d, err)
+        call h5gclose_f(gp, err)
+        call h5gclose_f(g, err)
+        call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
+        call st%check(err, 'H5Fflush')
+        call h5_agree(self%comm, st, ok, msg)
+        if (.not. ok) call note_broken_hdf5_file()
+        if (.not. ok) msg = 'h5md: write_connectivity '//trim(name)//': '//trim(msg)
+    end subroutine writer_write_connectivity
 
     !> Close every HDF5 object of the writer and the file; free the communicator.
     subroutine release(self)

@@ -259,7 +259,7 @@ contains
         integer(i8), allocatable, target :: steps(:)
         character(len=:), allocatable :: name, tag
         character(len=16) :: s1, s2
-        logical :: has_offset, is_time
+        logical :: is_time
         type(h5_status_t) :: lenient
         is_time = what == 'time'
         associate (el => self%el(e))
@@ -279,13 +279,8 @@ contains
                 if (rank == 0) then
                     call h5_read_whole(lenient, d, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(iscal), tag)
                     ioffset = 0
-                    call h5aexists_f(d, 'offset', has_offset, err)
-                    if (has_offset) call h5_read_attr_scalar(lenient, d, 'offset', ioffset)
-                    deallocate (el%step)
-                    allocate (el%step(el%nframes))
-                    do k = 1, el%nframes
-                        el%step(k) = ioffset + (k - 1)*iscal(1)
-                    end do
+                    call h5_read_attr_scalar(lenient, d, 'offset', ioffset, if_present=.true.)
+                    el%step = [(ioffset + (k - 1)*iscal(1), k = 1, el%nframes)]
                 else if (rank == 1) then
                     call h5_dataset_dims(lenient, d, dims)
                     if (int(dims(1), i8) == el%nframes) then
@@ -309,13 +304,8 @@ contains
                 call h5_read_whole(st, d, H5T_NATIVE_DOUBLE, c_loc(scal), tag)
                 if (failed(st, st%ok, self%where(tag)//': cannot read')) return
                 offset = 0
-                call h5aexists_f(d, 'offset', has_offset, err)
-                if (has_offset) call h5_read_attr_scalar(st, d, 'offset', offset)
-                deallocate (el%time)
-                allocate (el%time(el%nframes))
-                do k = 1, el%nframes
-                    el%time(k) = offset + real(k - 1, dp)*scal(1)
-                end do
+                call h5_read_attr_scalar(st, d, 'offset', offset, if_present=.true.)
+                el%time = [(offset + real(k - 1, dp)*scal(1), k = 1, el%nframes)]
             else
                 if (failed(st, rank == 1, self%where(tag)// &
                            ': wrong shape (expected time[frames] or a scalar time step)')) return

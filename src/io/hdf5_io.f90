@@ -39,7 +39,7 @@ module terrace_hdf5_io
     public :: h5_write_slab, h5_read_slab, h5_read_whole, h5_read_at
     public :: h5_attr_int, h5_attr_scalar, h5_attr_text, h5_attr_text_list, h5_attr_vltext
     public :: h5_read_attr_scalar, h5_read_attr_strings, h5_read_attr_string
-    public :: h5_link_exists
+    public :: h5_link_exists, h5_group
 
     integer(hsize_t), parameter :: chunk_scalar = 512      !< default chunk of a series of scalars
 
@@ -571,11 +571,19 @@ contains
 
     !> A scalar attribute read as v's type (integer(i8) or real(dp), converted by HDF5 from the
     !> file's); st fails when it is missing or unreadable (v is then left unchanged).
-    subroutine h5_read_attr_scalar(st, loc, name, v)
+    !> With if_present, a missing attribute is no failure (v keeps its value).
+    subroutine h5_read_attr_scalar(st, loc, name, v, if_present)
         type(h5_status_t), intent(inout) :: st
         integer(hid_t), intent(in) :: loc
         character(len=*), intent(in) :: name
         class(*), intent(inout), target :: v
+        logical, intent(in), optional :: if_present
+        logical :: exists
+        integer :: err
+        if (present(if_present)) then
+            call h5aexists_f(loc, name, exists, err)
+            if (if_present .and. (err < 0 .or. .not. exists)) return
+        end if
         select type (v)
         type is (integer(i8))
             call read_attr(st, loc, name, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(v))
@@ -699,5 +707,22 @@ contains
         q = p
         call h5aread_f(a, memtype, q, err)
     end subroutine aread
+
+
+    !> Open the group name under loc, creating it when it does not exist yet.
+    subroutine h5_group(st, loc, name, g)
+        type(h5_status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: loc
+        character(len=*), intent(in) :: name
+        integer(hid_t), intent(out) :: g
+        logical :: exists
+        integer :: err
+        call h5lexists_f(loc, name, exists, err); call st%check(err, 'H5Lexists')
+        if (exists) then
+            call h5gopen_f(loc, name, g, err); call st%check(err, 'open '//name)
+        else
+            call h5gcreate_f(loc, name, g, err); call st%check(err, 'create '//name)
+        end if
+    end subroutine h5_group
 
 end module terrace_hdf5_io

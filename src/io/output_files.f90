@@ -19,13 +19,14 @@ module terrace_output_files
     use terrace_file_ops, only: resolve_path, path_kind, is_writable, lock_file, remove_at_exit, keep_at_exit, &
                                 process_id, directory_of, path_missing, path_regular, &
                                 temporary_name, commit_output, write_in_place
+    use terrace_xdmf, only: xdmf_sidecar_path
     use mpi_f08, only: MPI_Allreduce, MPI_MAX, MPI_INTEGER8
     implicit none
     private
 
     public :: check_outputs, check_output_ids, commit_small_outputs
 
-    integer, parameter :: nout = 5, nin = 6
+    integer, parameter :: nout = 6, nin = 7   !< output 6: a mesh trajectory's XDMF sidecar
 
 contains
 
@@ -68,15 +69,19 @@ contains
         integer :: i, j
         logical :: ok
         out_keys = [character(len=16) :: 'thermo_file', 'forces_file', 'final_atoms_file', 'trajectory_file', &
-                    'checkpoint_file']
+                    'checkpoint_file', 'trajectory_file']
         out_path(1)%s = trim(cfg%thermo_file); out_path(2)%s = trim(cfg%forces_file)
         out_path(3)%s = trim(cfg%final_atoms_file); out_path(4)%s = trim(cfg%trajectory_file)
         out_path(5)%s = trim(cfg%checkpoint_file)
-        in_keys = [character(len=16) :: 'input deck', 'read_data', 'atoms_file', 'read_h5md', 'file', 'read_checkpoint']
-        in_groups = [character(len=16) :: '', 'system', 'system', 'system', 'potential', 'system']
+        out_path(6)%s = ''
+        if (len_trim(cfg%mesh_file) > 0 .and. len_trim(cfg%trajectory_file) > 0) &
+            out_path(6)%s = xdmf_sidecar_path(trim(cfg%trajectory_file))
+        in_keys = [character(len=16) :: 'input deck', 'read_data', 'atoms_file', 'read_h5md', 'file', 'read_checkpoint', &
+                   'mesh_file']
+        in_groups = [character(len=16) :: '', 'system', 'system', 'system', 'potential', 'system', 'system']
         in_path(1)%s = cfg%path; in_path(2)%s = trim(cfg%read_data); in_path(3)%s = trim(cfg%atoms_file)
         in_path(4)%s = trim(cfg%read_h5md); in_path(5)%s = trim(cfg%potential_file)
-        in_path(6)%s = trim(cfg%read_checkpoint)
+        in_path(6)%s = trim(cfg%read_checkpoint); in_path(7)%s = trim(cfg%mesh_file)
         msg = ''
         ! a checkpointed run writes its small outputs in place (a killed job is continued)
         call write_in_place(len_trim(cfg%checkpoint_file) > 0 .or. len_trim(cfg%read_checkpoint) > 0)
@@ -113,6 +118,8 @@ contains
             integer, intent(in) :: i
             character(len=:), allocatable :: s
             s = cfg%where('output', trim(out_keys(i)))//" = '"//out_path(i)%s//"'"
+            if (i == 6) s = cfg%where('output', 'trajectory_file')//" = '"//trim(cfg%trajectory_file)// &
+                            "': its XDMF sidecar '"//out_path(i)%s//"'"
         end function where
 
         function verb(i) result(s)

@@ -2,6 +2,13 @@
 !> thermo quantities as H5MD observables, written at the sample times the integrator chooses; the
 !> file is flushed after a frame when a second of wall time has passed since the last flush, and
 !> when it is closed.
+!>
+!> A mesh scene (add_mesh) also writes its tetrahedra into the file once (/connectivity/tetrahedra,
+!> node ids; /parameters/terrace/tetrahedra_index, 0-based rows) and keeps an XDMF sidecar beside
+!> it (terrace_xdmf: <trajectory>.xdmf) that lists the frames on disk: rank 0 rewrites it after a
+!> flush that put new frames on disk (at most every few seconds of wall time, and never for more
+!> than about 1 % of the run's wall time) and when the trajectory is flushed for a checkpoint or
+!> closed.
 module terrace_trajectory
     use terrace_kinds, only: dp, i8
     use terrace_h5md, only: h5md_writer_t
@@ -12,7 +19,8 @@ module terrace_trajectory
     use terrace_version, only: terrace_version_string
     use terrace_mpi_env, only: world
     use terrace_file_ops, only: remove_at_exit, keep_at_exit, remove_file
-    use mpi_f08, only: MPI_Comm
+    use terrace_xdmf, only: xdmf_sidecar_path, write_xdmf_mesh
+    use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Bcast, MPI_LOGICAL, MPI_CHARACTER, MPI_Wtime
     implicit none
     private
 
@@ -26,7 +34,18 @@ module terrace_trajectory
         logical :: active = .false.
         character(len=:), allocatable :: path
         logical :: want_position = .false., want_velocity = .false., want_force = .false., want_image = .false.
+        ! a mesh scene's XDMF sidecar
+        logical :: mesh = .false.
+        type(MPI_Comm) :: comm
+        integer :: rank = 0
+        character(len=:), allocatable :: xdmf_path
+        integer(i8) :: natoms = 0, ntet = 0
+        real(dp), allocatable :: times(:)            !< time of every frame written: times(1:ntimes)
+        integer(i8) :: ntimes = 0
+        integer(i8) :: xdmf_frames = -1              !< frames listed in the sidecar now
+        real(dp) :: xdmf_last = -huge(1.0_dp), xdmf_cost = 0
     contains
+        procedure :: add_mesh => trajectory_add_mesh
         procedure :: open => trajectory_open
         procedure :: open_append => trajectory_open_append
         procedure :: write => trajectory_write
@@ -34,6 +53,7 @@ module terrace_trajectory
         procedure :: discard => trajectory_discard
         procedure :: frames => trajectory_frames
         procedure :: flush => trajectory_flush
+        procedure, private :: write_sidecar => trajectory_write_sidecar
     end type trajectory_t
 
 contains
@@ -65,6 +85,8 @@ contains
         ! a trajectory that cannot be created (a full device) is not left behind, even when the
         ! job is aborted (terrace_hdf5_io: h5_agree)
         if (world%rank == 0) call remove_at_exit(path, always=.true.)
+        self%comm = comm
+        self%natoms = natoms
         call self%h5%create(path, comm, natoms, box%dimension, box%lo, box%hi, box%periodic, self%want_position, &
                             self%want_velocity, self%want_force, self%want_image, masses, trim(ul), trim(ut), &
                             trim(ue), trim(uv), trim(um), terrace_version_string, ok, msg)
@@ -87,9 +109,60 @@ contains
         ok = .true.; msg = ''
         if (len_trim(path) == 0) return
         self%path = path
+        self%comm = comm
         call self%h5%open_append(path, comm, frames, ok, msg)
         self%active = ok
     end subroutine trajectory_open_append
+
+    !> A mesh scene: the tetrahedra tets(4, ntet) (node ids, the same on every rank) go into the file
+    !> (a new trajectory; a continued one has them already) and the XDMF sidecar is written.
+    !> Collective; after open or open_append.
+    subroutine trajectory_add_mesh(self, tets, natoms, ok, msg)
+        class(trajectory_t), intent(inout) :: self
+        integer(i8), intent(in), contiguous :: tets(:, :)
+        integer(i8), intent(in) :: natoms
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        ok = .true.; msg = ''
+        if (.not. self%active) return
+        self%mesh = .true.
+        self%natoms = natoms
+        self%ntet = size(tets, 2, kind=i8)
+        self%xdmf_path = xdmf_sidecar_path(self%path)
+        call MPI_Comm_rank(self%comm, self%rank)
+        if (self%h5%frames_written() == 0) then
+            call self%h5%write_connectivity('tetrahedra', tets, ok, msg)
+            allocate (self%times(64))
+            self%ntimes = 0
+        else
+            call self%h5%frame_times(self%times, ok, msg)
+            self%ntimes = size(self%times, kind=i8)
+        end if
+        if (ok) call self%write_sidecar(ok, msg)
+    end subroutine trajectory_add_mesh
+
+    !> Rewrite the XDMF sidecar with the frames on disk (rank 0 writes; its ok is every rank's).
+    !> Collective.
+    subroutine trajectory_write_sidecar(self, ok, msg)
+        class(trajectory_t), intent(inout) :: self
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        integer(i8) :: nf
+        real(dp) :: t0
+        ok = .true.; msg = ''
+        if (.not. self%mesh) return
+        nf = min(self%h5%frames_flushed(), self%ntimes)
+        if (self%rank == 0) then
+            t0 = MPI_Wtime()
+            call write_xdmf_mesh(self%xdmf_path, self%path, self%natoms, self%ntet, self%times(1:nf), ok, msg)
+            self%xdmf_cost = MPI_Wtime() - t0
+            self%xdmf_last = MPI_Wtime()
+            if (.not. ok) msg = 'XDMF sidecar '//self%xdmf_path//': '//trim(msg)
+        end if
+        call MPI_Bcast(ok, 1, MPI_LOGICAL, 0, self%comm)
+        if (.not. ok) call MPI_Bcast(msg, len(msg), MPI_CHARACTER, 0, self%comm)
+        self%xdmf_frames = nf
+    end subroutine trajectory_write_sidecar
 
     !> Flush every frame written so far to disk (before a checkpoint records the frame count).
     !> Collective.
@@ -99,6 +172,9 @@ contains
         character(len=*), intent(out) :: msg
         ok = .true.; msg = ''
         if (self%active) call self%h5%flush(ok, msg)
+        if (ok .and. self%active .and. self%mesh) then
+            if (self%h5%frames_flushed() /= self%xdmf_frames) call self%write_sidecar(ok, msg)
+        end if
         if (.not. ok) msg = self%path//': &output trajectory_file: cannot flush: '//trim(msg)
     end subroutine trajectory_flush
 
@@ -143,10 +219,35 @@ contains
                 call observable(trim(extra_names(k)), extra(k))
             end do
         end if
+        if (ok .and. self%mesh) call add_time()
         if (ok) call self%h5%flush(ok, msg, min_interval=flush_interval)
+        if (ok .and. self%mesh) then
+            ! new frames on disk: list them in the sidecar, unless it was rewritten a moment ago
+            ! (the rewrite costs O(frames): it is kept to about 1 % of the wall time)
+            if (self%h5%frames_flushed() > self%xdmf_frames .and. due_sidecar()) call self%write_sidecar(ok, msg)
+        end if
         if (.not. ok) msg = self%path//': &output trajectory_file: cannot write a frame: '//trim(msg)
 
     contains
+
+        subroutine add_time()
+            real(dp), allocatable :: grown(:)
+            if (self%ntimes == size(self%times, kind=i8)) then
+                allocate (grown(max(64_i8, 2*self%ntimes)))
+                grown(1:self%ntimes) = self%times(1:self%ntimes)
+                call move_alloc(grown, self%times)
+            end if
+            self%ntimes = self%ntimes + 1
+            self%times(self%ntimes) = time
+        end subroutine add_time
+
+        !> Rank 0's clock decides for every rank.
+        logical function due_sidecar()
+            due_sidecar = .false.
+            if (self%rank == 0) due_sidecar = MPI_Wtime() - self%xdmf_last >= max(5*flush_interval, 100*self%xdmf_cost)
+            call MPI_Bcast(due_sidecar, 1, MPI_LOGICAL, 0, self%comm)
+        end function due_sidecar
+
 
         subroutine observable(name, value)
             character(len=*), intent(in) :: name
@@ -162,17 +263,48 @@ contains
         class(trajectory_t), intent(inout) :: self
         integer :: unit, ios
         if (.not. self%active) return
+        self%mesh = .false.                   ! close writes no sidecar
         call self%close()
         if (world%rank == 0) then
             open (newunit=unit, file=self%path, status='old', iostat=ios)
             if (ios == 0) close (unit, status='delete')
+            if (allocated(self%xdmf_path)) then
+                open (newunit=unit, file=self%xdmf_path, status='old', iostat=ios)
+                if (ios == 0) close (unit, status='delete')
+            end if
         end if
     end subroutine trajectory_discard
 
-    subroutine trajectory_close(self)
+    !> Close the file; a mesh trajectory's sidecar then lists every frame. Collective. ok/msg
+    !> (optional) report a failure to write the sidecar.
+    subroutine trajectory_close(self, ok, msg)
         class(trajectory_t), intent(inout) :: self
-        if (self%active) call self%h5%close()
+        logical, intent(out), optional :: ok
+        character(len=*), intent(out), optional :: msg
+        logical :: ok_
+        character(len=512) :: msg_
+        ok_ = .true.; msg_ = ''
+        if (self%active) then
+            call self%h5%close()
+            if (self%mesh .and. self%ntimes /= self%xdmf_frames) then
+                ! every frame is on disk now (h5%frames_flushed no longer answers: the writer is closed)
+                self%xdmf_frames = -1
+                call close_sidecar()
+            end if
+        end if
         self%active = .false.
+        self%mesh = .false.
+        if (present(ok)) ok = ok_
+        if (present(msg)) msg = msg_
+    contains
+        subroutine close_sidecar()
+            if (self%rank == 0) then
+                call write_xdmf_mesh(self%xdmf_path, self%path, self%natoms, self%ntet, self%times(1:self%ntimes), ok_, msg_)
+                if (.not. ok_) msg_ = 'XDMF sidecar '//self%xdmf_path//': '//trim(msg_)
+            end if
+            call MPI_Bcast(ok_, 1, MPI_LOGICAL, 0, self%comm)
+            if (.not. ok_) call MPI_Bcast(msg_, len(msg_), MPI_CHARACTER, 0, self%comm)
+        end subroutine close_sidecar
     end subroutine trajectory_close
 
 end module terrace_trajectory

@@ -24,6 +24,7 @@
 module terrace_eam_files
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use terrace_kinds, only: dp, i8
+    use terrace_text, only: int_text
     implicit none
     private
 
@@ -137,7 +138,7 @@ contains
         if (ntok /= n + 1) then
             write (s, '(i0)') n
             ok = .false.
-            msg = where(txt, ln)//trim(s)//' elements declared, '//itoa(ntok - 1)//' names given'
+            msg = where(txt, ln)//trim(s)//' elements declared, '//int_text(ntok - 1)//' names given'
             return
         end if
         file%nelements = n
@@ -206,7 +207,7 @@ contains
         if (.not. ok) return
         ln = txt%line
         if (ntok < 5) then
-            ok = .false.; msg = where(txt, ln)//'expected "nrho drho nr dr cutoff", found '//itoa(ntok)//' values'
+            ok = .false.; msg = where(txt, ln)//'expected "nrho drho nr dr cutoff", found '//int_text(ntok)//' values'
             return
         end if
         call to_int(txt, ln, tok(1), 'nrho', file%nrho, ok, msg)
@@ -220,7 +221,7 @@ contains
         if (.not. ok) return
         if (file%nrho < 5 .or. file%nr < 5) then
             ok = .false.
-            msg = where(txt, ln)//'nrho and nr must be at least 5, found '//itoa(file%nrho)//' and '//itoa(file%nr)
+            msg = where(txt, ln)//'nrho and nr must be at least 5, found '//int_text(file%nrho)//' and '//int_text(file%nr)
         end if
     end subroutine grid_line
 
@@ -293,16 +294,9 @@ contains
         type(text_t), intent(in) :: txt
         integer, intent(in) :: line
         character(len=:), allocatable :: s
-        s = txt%path//':'//itoa(line)//': '
+        s = txt%path//':'//int_text(line)//': '
     end function where
 
-    pure function itoa(i) result(s)
-        integer, intent(in) :: i
-        character(len=:), allocatable :: s
-        character(len=16) :: b
-        write (b, '(i0)') i
-        s = trim(b)
-    end function itoa
 
     !> Next token of line k at or after position pos (buffer index); tlo > thi when there is none.
     !> A '#' ends the line.
@@ -387,10 +381,10 @@ contains
         do while (count < n)
             if (.not. next_data_line(txt)) then
                 if (start == 0) then
-                    msg = where(txt, max(txt%nlines, 1))//'expected '//itoa(n)//' values of '//what// &
+                    msg = where(txt, max(txt%nlines, 1))//'expected '//int_text(n)//' values of '//what// &
                           ', found the end of the file'
                 else
-                    msg = where(txt, start)//'expected '//itoa(n)//' values of '//what//', found '//itoa(count)
+                    msg = where(txt, start)//'expected '//int_text(n)//' values of '//what//', found '//int_text(count)
                 end if
                 return
             end if
@@ -400,29 +394,29 @@ contains
                 call next_token(txt, txt%line, pos, tlo, thi)
                 if (thi < tlo) exit
                 if (count == n) then
-                    msg = where(txt, txt%line)//'more values than the '//itoa(n)//' of '//what// &
-                          ' (table starting on line '//itoa(start)//'; each table starts on a new line)'
+                    msg = where(txt, txt%line)//'more values than the '//int_text(n)//' of '//what// &
+                          ' (table starting on line '//int_text(start)//'; each table starts on a new line)'
                     return
                 end if
                 if (verify(txt%buf(tlo:thi), '0123456789+-.eEdD') /= 0) then
                     msg = where(txt, txt%line)//'"'//txt%buf(tlo:thi)//'" is not a number (value '// &
-                          itoa(count + 1)//' of '//itoa(n)//' of '//what//')'
+                          int_text(count + 1)//' of '//int_text(n)//' of '//what//')'
                     return
                 end if
                 if (.not. in_range(txt%buf(tlo:thi))) then
                     msg = where(txt, txt%line)//'"'//txt%buf(tlo:thi)//'" is out of range (value '// &
-                          itoa(count + 1)//' of '//itoa(n)//' of '//what//')'
+                          int_text(count + 1)//' of '//int_text(n)//' of '//what//')'
                     return
                 end if
                 read (txt%buf(tlo:thi), *, iostat=ios) y(count + 1)
                 if (ios /= 0) then
                     msg = where(txt, txt%line)//'"'//txt%buf(tlo:thi)//'" is not a number (value '// &
-                          itoa(count + 1)//' of '//itoa(n)//' of '//what//')'
+                          int_text(count + 1)//' of '//int_text(n)//' of '//what//')'
                     return
                 end if
                 if (.not. ieee_is_finite(y(count + 1))) then
                     msg = where(txt, txt%line)//'"'//txt%buf(tlo:thi)//'" is not a finite number (value '// &
-                          itoa(count + 1)//' of '//itoa(n)//' of '//what//')'
+                          int_text(count + 1)//' of '//int_text(n)//' of '//what//')'
                     return
                 end if
                 count = count + 1

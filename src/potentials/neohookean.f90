@@ -22,6 +22,7 @@
 !> arithmetic branch-free, and scatter.
 module terrace_neohookean
     use terrace_kinds, only: dp, i8
+    use terrace_vec3, only: cross
     use terrace_atoms, only: atoms_t
     use terrace_neighbor_list, only: neighbor_list_t
     use terrace_potential, only: potential_t, halo_ops_t
@@ -98,9 +99,9 @@ contains
             self%dminv(:, e) = reshape(minv, [9])
             self%v0(e) = det/6
             ! altitudes: 3 V0 / face area, for each face
-            self%min_height = min(self%min_height, det/norm2(cross3(dm(:, 1), dm(:, 2))), det/norm2(cross3(dm(:, 1), dm(:, 3))), &
-                                  det/norm2(cross3(dm(:, 2), dm(:, 3))), &
-                                  det/norm2(cross3(dm(:, 2) - dm(:, 1), dm(:, 3) - dm(:, 1))))
+            self%min_height = min(self%min_height, det/norm2(cross(dm(:, 1), dm(:, 2))), det/norm2(cross(dm(:, 1), dm(:, 3))), &
+                                  det/norm2(cross(dm(:, 2), dm(:, 3))), &
+                                  det/norm2(cross(dm(:, 2) - dm(:, 1), dm(:, 3) - dm(:, 1))))
             self%reach = max(self%reach, norm2(dm(:, 1)), norm2(dm(:, 2)), norm2(dm(:, 3)), &
                              norm2(dm(:, 2) - dm(:, 1)), norm2(dm(:, 3) - dm(:, 1)), norm2(dm(:, 3) - dm(:, 2)))
         end do
@@ -274,11 +275,6 @@ contains
         if (self%density > 0) nh_time_scale = 100*self%min_height/sqrt((self%lambda + 2*self%mu)/self%density)
     end function nh_time_scale
 
-    pure function cross3(a, b) result(c)
-        real(dp), intent(in) :: a(3), b(3)
-        real(dp) :: c(3)
-        c = [a(2)*b(3) - a(3)*b(2), a(3)*b(1) - a(1)*b(3), a(1)*b(2) - a(2)*b(1)]
-    end function cross3
 
     pure logical function nh_may_become_invalid(self)
         class(neohookean_t), intent(in) :: self

@@ -42,6 +42,7 @@ module terrace_potential
         procedure :: ray_needs_full_neighbourhood => potential_false
         procedure :: contact_distance => potential_contact_distance
         procedure :: time_scale => potential_time_scale
+        procedure :: preferred_skin => potential_preferred_skin
         procedure :: warning_flags => potential_warning_flags
         procedure :: warning => potential_warning
         procedure :: on_rebuild => potential_on_rebuild
@@ -127,6 +128,13 @@ contains
         real(dp), intent(in) :: mass, mvv2e
         potential_time_scale = 0
     end function potential_time_scale
+
+    !> The neighbour-list skin the term wants when the deck gives none (a length natural to the
+    !> term, such as a fraction of a contact distance); 0: no preference (the units' default).
+    pure real(dp) function potential_preferred_skin(self)
+        class(potential_t), intent(in) :: self
+        potential_preferred_skin = 0
+    end function potential_preferred_skin
 
     !> This rank's sticky warning conditions (the engine ORs them over ranks).
     pure function potential_warning_flags(self) result(flags)

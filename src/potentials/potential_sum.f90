@@ -29,6 +29,9 @@ module terrace_potential_sum
         procedure :: contact_distance => sum_contact_distance
         procedure :: time_scale => sum_time_scale
         procedure :: on_rebuild => sum_on_rebuild
+        procedure :: preferred_skin => sum_preferred_skin
+        procedure :: may_become_invalid => sum_may_become_invalid
+        procedure :: invalid_state => sum_invalid_state
     end type potential_sum_t
 
 contains
@@ -83,19 +86,13 @@ contains
     pure real(dp) function sum_cutoff(self)
         class(potential_sum_t), intent(in) :: self
         integer :: k
-        sum_cutoff = 0
-        do k = 1, size(self%terms)
-            sum_cutoff = max(sum_cutoff, self%terms(k)%p%cutoff())
-        end do
+        sum_cutoff = max(0.0_dp, maxval([(self%terms(k)%p%cutoff(), k = 1, size(self%terms))]))
     end function sum_cutoff
 
     pure real(dp) function sum_halo_reach(self)
         class(potential_sum_t), intent(in) :: self
         integer :: k
-        sum_halo_reach = 0
-        do k = 1, size(self%terms)
-            sum_halo_reach = max(sum_halo_reach, self%terms(k)%p%halo_reach())
-        end do
+        sum_halo_reach = max(0.0_dp, maxval([(self%terms(k)%p%halo_reach(), k = 1, size(self%terms))]))
     end function sum_halo_reach
 
     function sum_describe(self) result(text)
@@ -111,28 +108,19 @@ contains
     pure logical function sum_needs_pair_list(self)
         class(potential_sum_t), intent(in) :: self
         integer :: k
-        sum_needs_pair_list = .false.
-        do k = 1, size(self%terms)
-            sum_needs_pair_list = sum_needs_pair_list .or. self%terms(k)%p%needs_pair_list()
-        end do
+        sum_needs_pair_list = any([(self%terms(k)%p%needs_pair_list(), k = 1, size(self%terms))])
     end function sum_needs_pair_list
 
     pure logical function sum_supports_all_pairs(self)
         class(potential_sum_t), intent(in) :: self
         integer :: k
-        sum_supports_all_pairs = .true.
-        do k = 1, size(self%terms)
-            sum_supports_all_pairs = sum_supports_all_pairs .and. self%terms(k)%p%supports_all_pairs()
-        end do
+        sum_supports_all_pairs = all([(self%terms(k)%p%supports_all_pairs(), k = 1, size(self%terms))])
     end function sum_supports_all_pairs
 
     pure logical function sum_ray_needs_full(self)
         class(potential_sum_t), intent(in) :: self
         integer :: k
-        sum_ray_needs_full = .false.
-        do k = 1, size(self%terms)
-            sum_ray_needs_full = sum_ray_needs_full .or. self%terms(k)%p%ray_needs_full_neighbourhood()
-        end do
+        sum_ray_needs_full = any([(self%terms(k)%p%ray_needs_full_neighbourhood(), k = 1, size(self%terms))])
     end function sum_ray_needs_full
 
     pure real(dp) function sum_contact_distance(self, ti, tj)
@@ -166,5 +154,40 @@ contains
             call self%terms(k)%p%on_rebuild(atoms)
         end do
     end subroutine sum_on_rebuild
+
+    !> The smallest positive preference of the terms (0 if none has one).
+    pure real(dp) function sum_preferred_skin(self)
+        class(potential_sum_t), intent(in) :: self
+        real(dp) :: t
+        integer :: k
+        sum_preferred_skin = 0
+        do k = 1, size(self%terms)
+            t = self%terms(k)%p%preferred_skin()
+            if (t > 0 .and. (sum_preferred_skin == 0 .or. t < sum_preferred_skin)) sum_preferred_skin = t
+        end do
+    end function sum_preferred_skin
+
+    pure logical function sum_may_become_invalid(self)
+        class(potential_sum_t), intent(in) :: self
+        integer :: k
+        sum_may_become_invalid = .false.
+        do k = 1, size(self%terms)
+            sum_may_become_invalid = sum_may_become_invalid .or. self%terms(k)%p%may_become_invalid()
+        end do
+    end function sum_may_become_invalid
+
+    !> The first term's invalid state (the terms that may become invalid are asked in order).
+    logical function sum_invalid_state(self, text) result(bad)
+        class(potential_sum_t), intent(in) :: self
+        character(len=*), intent(out) :: text
+        integer :: k
+        bad = .false.
+        text = ''
+        do k = 1, size(self%terms)
+            if (.not. self%terms(k)%p%may_become_invalid()) cycle
+            bad = self%terms(k)%p%invalid_state(text)
+            if (bad) return
+        end do
+    end function sum_invalid_state
 
 end module terrace_potential_sum

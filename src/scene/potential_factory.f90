@@ -9,6 +9,8 @@ module terrace_potential_factory
     use terrace_lj, only: lj_t
     use terrace_eam, only: eam_t
     use terrace_neohookean, only: neohookean_t
+    use terrace_contact, only: contact_t
+    use terrace_potential_sum, only: potential_sum_t
     use terrace_gmsh_mesh, only: mesh_t
     use terrace_errors, only: stop_all, check_all
     implicit none
@@ -20,12 +22,13 @@ contains
 
     !> pot for the deck's &potential with ntypes atom types; mass(t) <= 0 is filled from the
     !> potential file where it has masses (EAM). Collective (errors stop every rank).
-    subroutine make_potential(cfg, ntypes, mass, pot, mesh)
+    subroutine make_potential(cfg, ntypes, mass, pot, mesh, xstart)
         type(config_t), intent(in) :: cfg
         integer, intent(in) :: ntypes
         real(dp), intent(inout) :: mass(:)
         class(potential_t), allocatable, intent(out) :: pot
         type(mesh_t), intent(in), optional :: mesh      !< neohookean: the elements and reference nodes
+        real(dp), intent(in), optional :: xstart(:, :)  !< mesh: starting positions by node id (overlap check)
         integer :: t
         if (cfg%potential == 'neohookean') then
             block
@@ -40,7 +43,15 @@ contains
                 call nh%setup(cfg%lambda, cfg%mu, mesh%tet(:, 1:mesh%ntet), xref, ok, msg)
                 call check_all(ok, trim(cfg%mesh_file)//': &system: mesh_file: '//trim(msg))
                 nh%density = cfg%mass_density
-                call move_alloc(nh, pot)
+                if (count_bodies(mesh%body(1:mesh%ntet)) < 2) then
+                    if (.not. is_unset(cfg%contact_stiffness)) call stop_all(cfg%where('potential', 'contact_stiffness')// &
+                        ': contact needs two or more bodies (physical volumes); '//trim(cfg%mesh_file)//' has one')
+                    if (.not. is_unset(cfg%contact_distance)) call stop_all(cfg%where('potential', 'contact_distance')// &
+                        ': contact needs two or more bodies (physical volumes); '//trim(cfg%mesh_file)//' has one')
+                    call move_alloc(nh, pot)
+                else
+                    call add_contact(cfg, mesh, xref, xstart, nh, pot)
+                end if
             end block
         else if (cfg%potential(1:3) == 'eam') then
             block
@@ -64,6 +75,59 @@ contains
             end block
         end if
     end subroutine make_potential
+
+    !> Several bodies: the elements plus the contact between the bodies (potential_sum_t). Checks the
+    !> contact parameters against the mesh and the start for bodies that already touch.
+    subroutine add_contact(cfg, mesh, xref, xstart, nh, pot)
+        type(config_t), intent(in) :: cfg
+        type(mesh_t), intent(in) :: mesh
+        real(dp), intent(in) :: xref(:, :)
+        real(dp), intent(in), optional :: xstart(:, :)
+        type(neohookean_t), allocatable, intent(inout) :: nh
+        class(potential_t), allocatable, intent(out) :: pot
+        type(contact_t), allocatable :: ct
+        type(potential_sum_t), allocatable :: total
+        class(potential_t), allocatable :: term
+        real(dp) :: youngs, k, d0
+        logical :: ok
+        character(len=512) :: msg
+        character(len=40) :: s1, s2
+        k = -1; d0 = -1
+        if (.not. is_unset(cfg%contact_stiffness)) k = cfg%contact_stiffness
+        if (.not. is_unset(cfg%contact_distance)) d0 = cfg%contact_distance
+        youngs = cfg%mu*(3*cfg%lambda + 2*cfg%mu)/(cfg%lambda + cfg%mu)
+        allocate (ct)
+        call ct%setup(k, d0, youngs, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), xref, cfg%mass_density)
+        if (d0 > 0) then
+            write (s1, '(es10.3)') 0.6_dp*ct%spacing
+            write (s2, '(es10.3)') 0.25_dp*ct%min_body_extent
+            if (d0 < 0.6_dp*ct%spacing .or. d0 > 0.25_dp*ct%min_body_extent) call stop_all(cfg%where('potential', &
+                'contact_distance')//': allowed '//trim(adjustl(s1))//' .. '//trim(adjustl(s2))//' '// &
+                trim(cfg%units%length)//' for this mesh (from 0.6 x the mean boundary edge, below which a node '// &
+                'slips between the nodes of the other body, to a quarter of the smallest body)')
+        end if
+        if (present(xstart)) then
+            call ct%check_start(xstart, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), ok, msg)
+        else
+            call ct%check_start(xref, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), ok, msg)
+        end if
+        call check_all(ok, trim(cfg%mesh_file)//': &system: mesh_file: '//trim(msg))
+        allocate (total)
+        call move_alloc(nh, term)
+        call total%add(term)
+        call move_alloc(ct, term)
+        call total%add(term)
+        call move_alloc(total, pot)
+    end subroutine add_contact
+
+    pure integer function count_bodies(body) result(n)
+        integer, intent(in) :: body(:)
+        integer :: b
+        n = 0
+        do b = minval(body), maxval(body)
+            if (any(body == b)) n = n + 1
+        end do
+    end function count_bodies
 
     !> LJ tables: per-pair epsilon, sigma (geometric mixing where a pair is not given) and cutoff.
     subroutine setup_lj(lj, cfg, ntypes)

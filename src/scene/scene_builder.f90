@@ -40,6 +40,8 @@ module terrace_scene_builder
         logical :: restarted = .false.           !< started from &system read_checkpoint
         type(ckpt_values_t) :: restart_values    !< the checkpoint's named values (integrator state)
         real(dp), allocatable :: restart_f(:, :) !< the checkpoint's forces, (3, N) by id
+        integer(i8), allocatable :: mesh_tet(:, :) !< a mesh scene: (4, ntet) node ids of the tetrahedra
+        integer(i8) :: mesh_hash = 0             !< a mesh scene: fingerprint of its connectivity and reference
     end type scene_t
 
     public :: build_scene
@@ -50,7 +52,7 @@ contains
     !> the domain, hand every atom to the rank that owns it, make velocities, and plan. Collective.
     subroutine build_scene(cfg, self)
         type(scene_t), intent(out) :: self
-        type(config_t), intent(in) :: cfg
+        type(config_t), intent(inout) :: cfg      !< skin: the potential's preference when the deck gives none
         type(atom_table_t) :: table
         type(ckpt_data_t) :: ckpt
         logical :: from_table
@@ -65,6 +67,9 @@ contains
         ntypes = 1
         if (self%restarted) then
             call load_checkpoint(cfg, ckpt, ntypes, lo, hi, table)
+            ! a mesh is read again for its reference configuration, masses and connectivity; the
+            ! checkpoint supplies positions, velocities and the integrator's state
+            if (len_trim(cfg%mesh_file) > 0) call mesh_restart(cfg, ckpt, mesh, self)
         else if (len_trim(cfg%read_h5md) > 0) then
             call read_h5md_table(cfg, table)
             ntypes = table%ntypes
@@ -80,19 +85,23 @@ contains
                 call bcast_atom_table(table)
                 if (.not. table%ok) call stop_all(trim(table%error))
             end if
-            if (len_trim(cfg%mesh_file) > 0) call mesh_scene(cfg, table, mesh, self%atoms)
+            if (len_trim(cfg%mesh_file) > 0) then
+                call mesh_scene(cfg, table, mesh, self%atoms, .false.)
+                self%mesh_hash = mesh_fingerprint(mesh)
+            end if
             ntypes = table%ntypes
             if (ntypes > max_types) then
                 write (s1, '(i0)') max_types
                 write (s2, '(i0)') ntypes
-                call stop_all(trim(source_name(cfg))//': '//trim(s2)//' atom types: more atom types than Terrace supports (max '// &
+                call stop_all(trim(cfg%scene_source())//': '//trim(s2)//' atom types: more atom types than Terrace supports (max '// &
                               trim(s1)//')')
             end if
         end if
 
         ! ---- box (free dimensions: the atoms' extent plus a margin, the cutoff or half the mesh's size)
         margin = max(cfg%cutoff, 1.0_dp)
-        if (len_trim(cfg%mesh_file) > 0) margin = 0.5_dp*maxval(maxval(table%x, 2) - minval(table%x, 2))
+        if (len_trim(cfg%mesh_file) > 0 .and. .not. self%restarted) &
+            margin = 0.5_dp*maxval(maxval(table%x, 2) - minval(table%x, 2))
         if (self%restarted) then
             continue                         ! lo, hi: the checkpoint's
         else if (len_trim(cfg%lattice) > 0) then
@@ -120,14 +129,14 @@ contains
         if (from_table) then
             if (cfg%dimension == 2) then
                 if (any(table%x(3, :) /= 0) .or. any(table%v(3, :) /= 0)) &
-                    call stop_all(trim(source_name(cfg))//': a 2-D run needs z = 0 and vz = 0 for every atom')
+                    call stop_all(trim(cfg%scene_source())//': a 2-D run needs z = 0 and vz = 0 for every atom')
             end if
             do i = 1, table%n
                 do d = 1, cfg%dimension
                     if (table%x(d, i) < self%box%lo(d) .or. table%x(d, i) > self%box%hi(d)) then
                         write (s1, '(i0)') table%id(i)
                         write (s2, '(es12.5)') table%x(d, i)
-                        call stop_all(trim(source_name(cfg))//': atom '//trim(s1)//' lies outside the box ('// &
+                        call stop_all(trim(cfg%scene_source())//': atom '//trim(s1)//' lies outside the box ('// &
                                       'xyz'(d:d)//' = '//trim(adjustl(s2))//')')
                     end if
                 end do
@@ -143,7 +152,8 @@ contains
         end if
         if (len_trim(cfg%mesh_file) > 0) then
             self%atoms%mass(1) = table%mass(1)
-            call make_potential(cfg, ntypes, self%atoms%mass, self%pot, mesh)
+            call make_potential(cfg, ntypes, self%atoms%mass, self%pot, mesh, table%x)
+            self%mesh_tet = mesh%tet
         else
             call make_potential(cfg, ntypes, self%atoms%mass, self%pot)
         end if
@@ -156,7 +166,8 @@ contains
             end if
         end do
 
-        ! ---- potential range
+        ! ---- potential range (and the skin a term asks for when the deck gives none)
+        if (cfg%nml%find('neighbor', 'skin') == 0 .and. self%pot%preferred_skin() > 0) cfg%skin = self%pot%preferred_skin()
         self%cutmax = self%pot%cutoff()
         do d = 1, cfg%dimension
             if (.not. self%box%periodic(d)) cycle
@@ -185,7 +196,7 @@ contains
         end if
         self%natoms = self%atoms%nlocal
         call sum_all_i8(self%natoms)
-        if (self%natoms == 0) call stop_all(trim(source_name(cfg))//': the system is empty (no atoms)')
+        if (self%natoms == 0) call stop_all(trim(cfg%scene_source())//': the system is empty (no atoms)')
 
         if (cfg%temperature >= 0 .and. .not. self%restarted) then
             call create_velocities(self%atoms, cfg%units, cfg%temperature, cfg%seed, cfg%dimension, &
@@ -195,7 +206,7 @@ contains
 
         ! ---- plan
         call self%plan%decide(cfg, self%box, self%natoms, world%nprocs, self%dom%dims, self%pot)
-        self%source = source_name(cfg)
+        self%source = cfg%scene_source()
         if (self%restarted) then
             ! the forces of the interrupted run (rows of the checkpoint are ids 1..N) and its state
             call move_alloc(ckpt%f, self%restart_f)
@@ -333,19 +344,6 @@ contains
             merge('2-D', '3-D', dimension == 2)//', the run is not (&run dimension)')
     end subroutine read_h5md_table
 
-    function source_name(cfg) result(s)
-        type(config_t), intent(in) :: cfg
-        character(len=:), allocatable :: s
-        if (len_trim(cfg%read_h5md) > 0) then
-            s = trim(cfg%read_h5md)//': &system: read_h5md'
-        else if (len_trim(cfg%read_data) > 0) then
-            s = trim(cfg%read_data)//': &system: read_data'
-        else if (len_trim(cfg%atoms_file) > 0) then
-            s = trim(cfg%atoms_file)//': &system: atoms_file'
-        else
-            s = cfg%path//': &system: lattice'
-        end if
-    end function source_name
 
     subroutine create_lattice_atoms(self, cfg, cell)
         type(scene_t), intent(inout) :: self
@@ -387,14 +385,16 @@ contains
     !> at their reference positions, or at the positions and velocities of &system atoms_file when it
     !> is given (one line per node in tag order); lumped masses rho V0 / 4 per element and node
     !> (atoms%mass_of_id; type 1's mass is the mean); each body (physical volume) gets the rigid
-    !> motion v = V_b + w_b x (x - c_b) about its centre of mass c_b.
-    subroutine mesh_scene(cfg, table, mesh, atoms)
+    !> motion v = V_b + w_b x (x - c_b) about its centre of mass c_b. With masses_only (a restart)
+    !> only the mesh and the masses are made: the atoms file and the rigid motion are not used.
+    subroutine mesh_scene(cfg, table, mesh, atoms, masses_only)
         use terrace_neohookean, only: det3
         use terrace_config, only: max_bodies
         type(config_t), intent(in) :: cfg
         type(atom_table_t), intent(inout) :: table
         type(mesh_t), intent(out) :: mesh
         type(atoms_t), intent(inout) :: atoms
+        logical, intent(in) :: masses_only
         real(dp), allocatable :: xref(:, :)
         integer, allocatable :: node_body(:)
         real(dp) :: dm(3, 3), v0, com(3, max_bodies), mb(max_bodies), w(3), r(3)
@@ -404,7 +404,7 @@ contains
         call read_gmsh(trim(cfg%mesh_file), mesh)
         call check_all(mesh%ok, trim(mesh%error))
         n = mesh%nnode
-        current = len_trim(cfg%atoms_file) > 0
+        current = len_trim(cfg%atoms_file) > 0 .and. .not. masses_only
         if (current .and. table%n /= n) then
             write (s1, '(i0,a,i0)') table%n, ' lines for ', n
             call stop_all(trim(cfg%atoms_file)//': &system: atoms_file: '//trim(s1)//' mesh nodes (one line per node, '// &
@@ -434,6 +434,7 @@ contains
         if (any(node_body == 0)) call stop_all(trim(cfg%mesh_file)//': &system: mesh_file: a node belongs to no '// &
                                                'tetrahedron (remove unused nodes: gmsh -save_all 0)')
         atoms%per_atom_mass = .true.
+        if (masses_only) return
         if (.not. current) then
             table%n = n
             allocate (table%x(3, n), table%v(3, n), table%type(n), table%image(3, n), table%id(n))
@@ -466,5 +467,69 @@ contains
                                                                         w(1)*r(2) - w(2)*r(1)]
         end do
     end subroutine mesh_scene
+
+    !> A restart of a mesh scene: the mesh file is read again (reference configuration, lumped
+    !> masses, connectivity) and must be the mesh the checkpoint was written for: the same nodes
+    !> (count and ids 1..N) and the same fingerprint of connectivity and reference positions.
+    subroutine mesh_restart(cfg, ckpt, mesh, self)
+        type(config_t), intent(in) :: cfg
+        type(ckpt_data_t), intent(in) :: ckpt
+        type(mesh_t), intent(out) :: mesh
+        type(scene_t), intent(inout) :: self
+        type(atom_table_t) :: unused
+        character(len=:), allocatable :: where
+        character(len=64) :: s1, s2
+        logical :: ok
+        integer(i8) :: nodes, elements, hash
+        where = cfg%where('system', 'read_checkpoint')//" = '"//trim(cfg%read_checkpoint)//"'"
+        call mesh_scene(cfg, unused, mesh, self%atoms, .true.)
+        self%mesh_hash = mesh_fingerprint(mesh)
+        ok = .true.
+        nodes = ckpt%values%get_i('mesh_nodes', ok)
+        elements = ckpt%values%get_i('mesh_elements', ok)
+        hash = ckpt%values%get_i('mesh_hash', ok)
+        if (.not. ok) call stop_all(where//': the checkpoint holds no mesh (it was not written by a mesh scene)')
+        if (nodes /= mesh%nnode .or. size(ckpt%id, kind=i8) /= mesh%nnode .or. elements /= mesh%ntet) then
+            write (s1, '(i0,a,i0,a)') nodes, ' nodes and ', elements, ' tetrahedra'
+            write (s2, '(i0,a,i0,a)') mesh%nnode, ' nodes and ', mesh%ntet, ' tetrahedra'
+            call stop_all(where//': a checkpoint of a different mesh ('//trim(s1)//'; &system mesh_file = '''// &
+                          trim(cfg%mesh_file)//''' has '//trim(s2)//')')
+        end if
+        if (hash /= self%mesh_hash) call stop_all(where//': a checkpoint of a different mesh (&system mesh_file = '''// &
+            trim(cfg%mesh_file)//''' has the same numbers of nodes and tetrahedra but other connectivity or reference '// &
+            'positions than the mesh the checkpoint was written for)')
+    end subroutine mesh_restart
+
+    !> A fingerprint of a mesh (node ids of every tetrahedron, reference positions by node tag, bit
+    !> for bit): two polynomial hashes modulo primes, as the deck's (terrace_checkpoint: deck_hash).
+    integer(i8) function mesh_fingerprint(mesh) result(h)
+        type(mesh_t), intent(in) :: mesh
+        integer(i8), parameter :: p1 = 2147483647_i8, p2 = 2147483629_i8
+        integer(i8) :: h1, h2, bits
+        integer :: e, a, k, d
+        h1 = 13; h2 = 17
+        do e = 1, mesh%ntet
+            do a = 1, 4
+                call mix(mesh%tet(a, e))
+            end do
+        end do
+        do k = 1, mesh%nnode
+            call mix(mesh%node_tag(k))
+            do d = 1, 3
+                bits = transfer(mesh%x(d, k), bits)
+                call mix(bits)
+            end do
+        end do
+        h = h1*2147483648_i8 + h2
+    contains
+        subroutine mix(v)
+            integer(i8), intent(in) :: v
+            integer(i8) :: lo, hi
+            lo = iand(v, 2147483647_i8)             ! 31 low bits
+            hi = iand(ishft(v, -31), 4294967295_i8)  ! the 33 high bits
+            h1 = mod(mod(h1*131, p1) + lo, p1); h1 = mod(mod(h1*131, p1) + hi, p1)
+            h2 = mod(mod(h2*257, p2) + lo, p2); h2 = mod(mod(h2*257, p2) + hi, p2)
+        end subroutine mix
+    end function mesh_fingerprint
 
 end module terrace_scene_builder

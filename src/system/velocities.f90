@@ -5,6 +5,7 @@
 !> velocities are scaled to T exactly, T = 2 KE / (dof k_B), dof = d N - d (as LAMMPS).
 module terrace_velocities
     use terrace_kinds, only: dp, i8
+    use terrace_vec3, only: cross
     use terrace_atoms, only: atoms_t
     use terrace_units, only: units_t
     use terrace_mpi_env, only: sum_all
@@ -167,11 +168,6 @@ contains
         end do
     end subroutine zero_angular_momentum
 
-    pure function cross(a, b) result(c)
-        real(dp), intent(in) :: a(3), b(3)
-        real(dp) :: c(3)
-        c = [a(2)*b(3) - a(3)*b(2), a(3)*b(1) - a(1)*b(3), a(1)*b(2) - a(2)*b(1)]
-    end function cross
 
     pure function solve3(a, b, det) result(x)
         real(dp), intent(in) :: a(3, 3), b(3), det

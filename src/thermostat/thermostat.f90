@@ -152,11 +152,11 @@ contains
         integer :: j
         real(dp) :: e
         e = self%ecouple()
-        call values%put_r('ts_ecouple', e)
+        call values%put('ts_ecouple', e)
         do j = 1, self%chain_length
             write (tag, '(i0)') j
-            call values%put_r('ts_eta_'//trim(tag), self%eta(j))
-            call values%put_r('ts_v_eta_'//trim(tag), self%v_eta(j))
+            call values%put('ts_eta_'//trim(tag), self%eta(j))
+            call values%put('ts_v_eta_'//trim(tag), self%v_eta(j))
         end do
     end subroutine ts_save
 

@@ -142,6 +142,9 @@ contains
                 es%time/es%events, ';  ray evaluations per event: '//fixed(real(es%ray_evals, dp)/es%events, 3)// &
                 ';  force passes per event: '//fixed(real(es%force_passes, dp)/es%events, 3)// &
                 ';  verification misses: ', es%verify_misses
+            if (es%have_conserved) write (output_unit, '(a,es17.10,a,es17.10,a,es10.3,a)') &
+                'Conserved K + k h (first, last thermo sample): ', es%conserved_first, ', ', es%conserved_last, &
+                '; drift ', es%conserved_last - es%conserved_first, ' (round-off; K + V stays within h of it)'
             if (es%events >= 100 .and. es%reflections > 0.9_dp*es%events) write (output_unit, '(a)') &
                 'terrace: warning: more than 90 % of the events were reflections: the state is trapped below a '// &
                 'terrace edge (its climbs never carry enough kinetic energy across it), so kinetic and potential '// &

@@ -63,6 +63,10 @@ module terrace_energy_stepping
         integer(i8) :: events = 0, reflections = 0, ups = 0, downs = 0
         integer(i8) :: ray_evals = 0, force_passes = 0, verify_misses = 0, rebuilds = 0
         real(dp) :: time = 0
+        !> the conserved K + k h (less the thermostat's exchange) at the first and the last thermo
+        !> sample of this run (of the continuation after a restart), for the closing summary
+        real(dp) :: conserved_first = 0, conserved_last = 0
+        logical :: have_conserved = .false.
     end type es_stats_t
 
     !> The event loop's whole state between two events: time, terrace index and edges, the solver's
@@ -486,6 +490,10 @@ contains
                 evals = real(stats%ray_evals - st%last_evals, dp)/(stats%events - st%last_events)
             end if
             extra(1:6) = [real(stats%events, dp), real(stats%reflections, dp), mean_dt, evals, h, s%ke + st%k*h]
+            stats%conserved_last = s%ke + st%k*h
+            if (ts%active()) stats%conserved_last = stats%conserved_last - s%ecouple
+            if (.not. stats%have_conserved) stats%conserved_first = stats%conserved_last
+            stats%have_conserved = .true.
             if (ts%active()) then
                 extra(7) = s%ecouple
                 extra(8) = s%ke + st%k*h - extra(7)

@@ -510,9 +510,7 @@ contains
             ntypes = data%values%get_i('ntypes', have)
             if (data%nprocs < 1 .or. (data%dimension /= 2 .and. data%dimension /= 3)) then
                 call st%fail('nprocs or dimension out of range')
-            else if (.not. have) then
-                call st%fail('/state has no ntypes')
-            else if (any(data%type < 1) .or. any(data%type > ntypes)) then
+            else if (any(data%type < 1) .or. (have .and. any(data%type > ntypes))) then
                 call st%fail('an atom type outside 1..ntypes')
             else if (.not. (all(abs(data%x) <= huge(1.0_dp)) .and. all(abs(data%v) <= huge(1.0_dp)) .and. &
                             all(abs(data%f) <= huge(1.0_dp)))) then

@@ -19,7 +19,7 @@ module terrace_vacf_vdos
     use terrace_kinds, only: dp, i8, pi
     use terrace_text, only: fixed
     use terrace_mpi_env, only: world
-    use terrace_errors, only: check_all
+    use terrace_errors, only: check_all, warn
     use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window, frame_plan_t
     use terrace_h5md_reader, only: h5md_trajectory_t, el_velocity
     use terrace_id_blocks, only: id_block
@@ -139,6 +139,14 @@ contains
             write (output_unit, '(a)') '  wrote '//trim(cfg%output_prefix)//'_vacf.csv, '//trim(cfg%output_prefix)// &
                 '_vdos.csv'
         end if
+        ! what the sampling cannot resolve (issue 15): a peak below the resolution 1/(M dt), or a
+        ! spectrum still high at the Nyquist frequency 1/(2 dt) (frames too far apart: aliased)
+        if (ipeak/(L*plan%dt) < 1/(M*plan%dt)) call warn('VDOS: the highest peak ('// &
+            fixed(ipeak/(L*plan%dt), 6)//' '//trim(fl)//') lies below the resolution 1/(M dt) = '// &
+            fixed(1/(M*plan%dt), 6)//' '//trim(fl)//': use a longer run and correlation_time; the peak is not resolved')
+        if (sum(s(L/2 - L/20:L/2)) > 0.05_dp*sum(s(0:L/2))) call warn('VDOS: more than 5 % of the spectrum '// &
+            'lies in the top tenth below the Nyquist frequency 1/(2 dt) = '//fixed(1/(2*plan%dt), 4)//' '// &
+            trim(fl)//': the frames are too far apart for the vibrations (aliased); write frames more often')
     end subroutine run_vdos
 
 end module terrace_vacf_vdos

@@ -58,7 +58,7 @@ module terrace_neohookean
         real(dp), allocatable :: rdm(:, :)          !< (k, 1:9) Dm^-1, column major
         real(dp), allocatable :: rv0(:)             !< V0
         real(dp), allocatable :: wgt(:)             !< 1: its energy counts here; 0: forces only
-        real(dp), allocatable :: hf(:, :)           !< (k, 3 (corner - 1) + r) nodal forces of the last pass
+        real(dp), allocatable :: hf(:, :)           !< (3 (corner - 1) + r, k) nodal forces of the last pass
         real(dp), allocatable :: terms(:, :)        !< (k, 1:4) per-element energy terms, for the exact sums
         integer, allocatable :: first_slot(:)       !< (nlocal + 1) CSR over owned nodes
         integer, allocatable :: slot_k(:), slot_c(:) !< the node's (k, 3 (corner - 1)) in element order
@@ -214,7 +214,7 @@ contains
         end if
         if (.not. allocated(self%wl)) then
             k = max(self%npad, nblk)
-            allocate (self%wl(k), self%lidx(k, 4), self%rdm(k, 9), self%rv0(k), self%wgt(k), self%hf(k, 12), self%terms(k, 4))
+            allocate (self%wl(k), self%lidx(k, 4), self%rdm(k, 9), self%rv0(k), self%wgt(k), self%hf(12, k), self%terms(k, 4))
         end if
         if (allocated(self%first_slot)) then
             if (size(self%first_slot) < nlocal + 1) deallocate (self%first_slot)
@@ -303,16 +303,15 @@ contains
         real(dp), intent(out) :: energy, virial
         real(dp) :: ds(nblk, 9), tot(2)
         integer :: b, j, k0, i, s, c
-        logical :: bad(nblk)
-        real(dp) :: acc(3)
+        real(dp) :: bad(nblk), acc(3)
         self%first_inverted = 0
         do b = 1, self%npad/nblk
             k0 = (b - 1)*nblk
             call gather_edges(atoms%x, self%lidx, k0, ds)
             call force_block(k0, ds, self%rdm, self%rv0, self%wgt, self%lambda, self%mu, self%hf, self%terms, bad)
-            if (self%first_inverted == 0 .and. any(bad)) then
+            if (self%first_inverted == 0 .and. any(bad > 0)) then
                 do j = 1, nblk
-                    if (bad(j) .and. k0 + j <= self%nwork) then
+                    if (bad(j) > 0 .and. k0 + j <= self%nwork) then
                         self%first_inverted = self%wl(k0 + j)
                         exit
                     end if
@@ -324,7 +323,7 @@ contains
             acc = 0
             do s = self%first_slot(i), self%first_slot(i + 1) - 1
                 do c = 1, 3
-                    acc(c) = acc(c) + self%hf(self%slot_k(s), self%slot_c(s) + c)
+                    acc(c) = acc(c) + self%hf(self%slot_c(s) + c, self%slot_k(s))
                 end do
             end do
             atoms%f(:, i) = atoms%f(:, i) + acc
@@ -354,13 +353,17 @@ contains
 
     !> One block of the force pass: F = Ds Dm^-1, J, F^-T = cof(F)/J, P = mu (F - F^-T) + lambda ln J F^-T,
     !> H = -V0 P Dm^-T (nodes 2..4; node 1 gets minus their sum), and the weighted energy and virial.
+    !> (The nodal forces go to hf(12, k): with hf(k, 12), twelve separate store streams, GCC 12 does
+    !> not vectorise the loop.)
     !> An inverted element (J <= 0) gets no force and no energy and is flagged.
     subroutine force_block(k0, ds, rdm, rv0, wgt, lambda, mu, hf, terms, bad)
         integer, intent(in) :: k0
-        real(dp), intent(in) :: ds(nblk, 9), rdm(:, :), rv0(:), wgt(:), lambda, mu
-        real(dp), intent(inout) :: hf(:, :), terms(:, :)
-        logical, intent(out) :: bad(nblk)
+        real(dp), intent(in) :: ds(nblk, 9), lambda, mu
+        real(dp), intent(in), contiguous :: rdm(:, :), rv0(:), wgt(:)
+        real(dp), intent(inout), contiguous :: hf(:, :), terms(:, :)
+        real(dp), intent(out) :: bad(nblk)       !< 1: inverted
         integer :: j, k
+        logical :: okj
         real(dp) :: f11, f21, f31, f12, f22, f32, f13, f23, f33, c11, c21, c31, c12, c22, c32, c13, c23, c33, &
                     jac, js, rj, lnj, v0, p11, p21, p31, p12, p22, p32, p13, p23, p33, h11, h21, h31, h12, h22, h32, &
                     h13, h23, h33, ff, w, m11, m21, m31, m12, m22, m32, m13, m23, m33
@@ -383,9 +386,12 @@ contains
             c21 = f13*f32 - f12*f33; c22 = f11*f33 - f13*f31; c23 = f12*f31 - f11*f32
             c31 = f12*f23 - f13*f22; c32 = f13*f21 - f11*f23; c33 = f11*f22 - f12*f21
             jac = f11*c11 + f12*c12 + f13*c13
-            bad(j) = .not. (jac > 0)
-            js = merge(1.0_dp, jac, bad(j))
-            v0 = merge(0.0_dp, rv0(k), bad(j))
+            ! branch-free: the operands of every merge are plain values computed before it
+            v0 = rv0(k)
+            okj = jac > 0
+            js = merge(jac, 1.0_dp, okj)
+            v0 = merge(v0, 0.0_dp, okj)
+            bad(j) = merge(0.0_dp, 1.0_dp, okj)
             rj = 1/js
             lnj = log(js)
             ! P = mu F + (lambda ln J - mu) F^-T
@@ -403,13 +409,14 @@ contains
             h13 = -v0*(p11*m31 + p12*m32 + p13*m33)
             h23 = -v0*(p21*m31 + p22*m32 + p23*m33)
             h33 = -v0*(p31*m31 + p32*m32 + p33*m33)
-            hf(k, 1) = -(h11 + h12 + h13); hf(k, 2) = -(h21 + h22 + h23); hf(k, 3) = -(h31 + h32 + h33)
-            hf(k, 4) = h11; hf(k, 5) = h21; hf(k, 6) = h31
-            hf(k, 7) = h12; hf(k, 8) = h22; hf(k, 9) = h32
-            hf(k, 10) = h13; hf(k, 11) = h23; hf(k, 12) = h33
+            hf(1, k) = -(h11 + h12 + h13); hf(2, k) = -(h21 + h22 + h23); hf(3, k) = -(h31 + h32 + h33)
+            hf(4, k) = h11; hf(5, k) = h21; hf(6, k) = h31
+            hf(7, k) = h12; hf(8, k) = h22; hf(9, k) = h32
+            hf(10, k) = h13; hf(11, k) = h23; hf(12, k) = h33
             ff = f11*f11 + f21*f21 + f31*f31 + f12*f12 + f22*f22 + f32*f32 + f13*f13 + f23*f23 + f33*f33
-            terms(k, 1) = wgt(k)*v0*(0.5_dp*lambda*lnj*lnj - mu*lnj + 0.5_dp*mu*(ff - 3))
-            terms(k, 2) = -wgt(k)*v0*(mu*(ff - 3) + 3*lambda*lnj)
+            v0 = wgt(k)*v0
+            terms(k, 1) = v0*(0.5_dp*lambda*lnj*lnj - mu*lnj + 0.5_dp*mu*(ff - 3))
+            terms(k, 2) = -v0*(mu*(ff - 3) + 3*lambda*lnj)
         end do
     end subroutine force_block
 
@@ -438,14 +445,15 @@ contains
     !> Past an inversion (J0 <= 0, or p(s) <= 0) the wall energy and no derivatives.
     subroutine ray_block(k0, s, ds, dv, rdm, rv0, wgt, lambda, mu, terms)
         integer, intent(in) :: k0
-        real(dp), intent(in) :: s, ds(nblk, 9), dv(nblk, 9), rdm(:, :), rv0(:), wgt(:), lambda, mu
-        real(dp), intent(inout) :: terms(:, :)
+        real(dp), intent(in) :: s, ds(nblk, 9), dv(nblk, 9), lambda, mu
+        real(dp), intent(in), contiguous :: rdm(:, :), rv0(:), wgt(:)
+        real(dp), intent(inout), contiguous :: terms(:, :)
         integer :: j, k
         real(dp) :: f11, f21, f31, f12, f22, f32, f13, f23, f33, g11, g21, g31, g12, g22, g32, g13, g23, g33, &
                     a11, a21, a31, a12, a22, a32, a13, a23, a33, c11, c21, c31, c12, c22, c32, c13, c23, c33, &
                     m11, m21, m31, m12, m22, m32, m13, m23, m33, j0, js, rj, q1, q2, q3, pp, ps, p1, p2, lnj, l1, l2, &
-                    t0, fg, gg, trf, w, w1, w2, v0, wall, lm
-        logical :: inv0, ok
+                    t0, fg, gg, trf, w, w1, w2, v0, wall, lm, vir
+        logical :: inv0, ok, okp
         do j = 1, nblk
             k = k0 + j
             m11 = rdm(k, 1); m21 = rdm(k, 2); m31 = rdm(k, 3)
@@ -491,7 +499,8 @@ contains
             q2 = 0.5_dp*(q1*q1 - (a11*a11 + a22*a22 + a33*a33 + 2*(a12*a21 + a13*a31 + a23*a32)))
             q3 = a11*(a22*a33 - a23*a32) - a12*(a21*a33 - a23*a31) + a13*(a21*a32 - a22*a31)
             pp = 1 + s*(q1 + s*(q2 + s*q3))
-            ok = (.not. inv0) .and. pp > 0
+            okp = pp > 0
+            ok = okp .and. .not. inv0
             ps = merge(pp, 1.0_dp, ok)
             p1 = q1 + s*(2*q2 + 3*s*q3)
             p2 = 2*q2 + 6*s*q3
@@ -508,11 +517,15 @@ contains
             w2 = lambda*l1*l1 + lm*l2 + mu*gg
             v0 = wgt(k)*rv0(k)
             ! an energy wall the search cannot pass: at J0 <= 0, and beyond the inversion along the ray
-            wall = inverted_energy*v0*(lambda + mu)*merge(1.0_dp, 1 + abs(s), inv0)
-            terms(k, 1) = merge(v0*w, wall, ok)
-            terms(k, 2) = merge(v0*w1, 0.0_dp, ok)
-            terms(k, 3) = merge(v0*w2, 0.0_dp, ok)
-            terms(k, 4) = merge(-v0*(mu*(trf - 3) + 3*lambda*lnj), 0.0_dp, ok)
+            ! (branch-free: the operands of every merge are plain values computed before it)
+            wall = merge(1.0_dp, 1 + abs(s), inv0)
+            wall = inverted_energy*v0*(lambda + mu)*wall
+            w = v0*w; w1 = v0*w1; w2 = v0*w2
+            vir = -v0*(mu*(trf - 3) + 3*lambda*lnj)
+            terms(k, 1) = merge(w, wall, ok)
+            terms(k, 2) = merge(w1, 0.0_dp, ok)
+            terms(k, 3) = merge(w2, 0.0_dp, ok)
+            terms(k, 4) = merge(vir, 0.0_dp, ok)
         end do
     end subroutine ray_block
 

@@ -8,7 +8,7 @@ Measured, each run repeated --repeat times (median):
   * one velocity-Verlet step and one energy-stepping event in microseconds, two ways:
       wall: from the run log ("Loop time" over the steps/events; "Pair" = force passes, "Search" =
             ray passes), the difference of a long and a short run so that the start-up cancels;
-      cpu:  the process's user CPU time (wait4), long minus short run: on a shared, loaded machine
+      cpu:  the process's CPU time (user + system, wait4), long minus short run: on a shared, loaded machine
             the wall clock counts the time the process waited for a core, the CPU time does not;
   * with --callgrind (valgrind): instructions per element in one force pass and in one ray pass
     (inclusive Ir of nh_forces / nh_ray over their calls, repeatable on a loaded machine).
@@ -155,13 +155,15 @@ end program calib
 
 
 def run_cpu(cmd, cwd):
-    """Run cmd under /usr/bin/time; return (log text, user CPU seconds)."""
-    full = ['/usr/bin/time', '-f', 'CPUTIME %U'] + cmd
-    r = subprocess.run(full, cwd=cwd, capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit(f'mesh_cost: {" ".join(cmd)} failed (exit {r.returncode}):\n{(r.stdout + r.stderr)[-2000:]}')
-    m = re.search(r'CPUTIME ([0-9.]+)', r.stderr)
-    return r.stdout, float(m.group(1))
+    """Run cmd; return (log text, user + system CPU seconds of the child, from wait4)."""
+    with open(os.path.join(cwd, 'run.log'), 'w') as f:
+        p = subprocess.Popen(cmd, cwd=cwd, stdout=f, stderr=subprocess.STDOUT)
+        _, status, ru = os.wait4(p.pid, 0)
+        p.returncode = os.waitstatus_to_exitcode(status)
+    text = open(os.path.join(cwd, 'run.log')).read()
+    if p.returncode != 0:
+        sys.exit(f'mesh_cost: {" ".join(cmd)} failed (exit {p.returncode}):\n{text[-2000:]}')
+    return text, ru.ru_utime + ru.ru_stime
 
 
 def log_values(text):

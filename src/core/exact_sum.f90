@@ -18,6 +18,8 @@ module terrace_exact_sum
 
     integer, parameter :: nlevel = 3
     integer, parameter :: max_quantities = 8
+    integer, parameter :: nlane = 8                  !< independent partial sums (vectorised)
+    real(dp), parameter :: magic = 1.5_dp*2.0_dp**52
 
     public :: exact_sum_all
 
@@ -32,21 +34,29 @@ contains
         integer(i8), intent(in) :: nglobal
         real(dp), intent(out) :: total(:)
         logical, intent(in) :: reduce
-        real(dp) :: m(max_quantities), acc(nlevel), q(nlevel), rq(nlevel), r, a1, a2, a3
+        real(dp) :: m(max_quantities), acc(nlevel), q(nlevel), rq(nlevel), z, mv(nlane), zv(nlane), av(nlane, nlevel)
         integer(i8) :: kint(nlevel, max_quantities)
         logical :: plain(max_quantities)
-        integer :: nq, c, i, lbits, e
+        integer :: nq, c, i, l, lbits, e, nb
         nq = size(total)
+        nb = (n/nlane)*nlane
         do c = 1, nq
-            m(c) = 0
-            do i = 1, n
-                m(c) = max(m(c), abs(terms(i, c)))
+            ! largest |term|, and z = sum of 0 t: NaN if a term is NaN or Inf (vectorised, no branch)
+            mv = 0; zv = 0
+            do i = 1, nb, nlane
+                do l = 1, nlane
+                    mv(l) = max(mv(l), abs(terms(i + l - 1, c)))
+                    zv(l) = zv(l) + 0*terms(i + l - 1, c)
+                end do
             end do
+            do i = nb + 1, n
+                mv(1) = max(mv(1), abs(terms(i, c)))
+                zv(1) = zv(1) + 0*terms(i, c)
+            end do
+            m(c) = maxval(mv)
+            z = sum(zv)
             ! NaN or Inf: flag with the largest finite value, so that every rank takes the plain path
-            if (.not. (m(c) <= huge(1.0_dp))) m(c) = huge(1.0_dp)
-            do i = 1, n
-                if (.not. (abs(terms(i, c)) <= huge(1.0_dp))) m(c) = huge(1.0_dp)
-            end do
+            if (.not. (z == 0 .and. m(c) <= huge(1.0_dp))) m(c) = huge(1.0_dp)
         end do
         if (reduce .and. world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, m, nq, MPI_DOUBLE_PRECISION, MPI_MAX, world%comm)
         lbits = 52 - ceiling(log(real(nglobal + 1, dp))/log(2.0_dp))
@@ -68,18 +78,17 @@ contains
                 q(i) = scale(1.0_dp, e - i*lbits)
                 rq(i) = scale(1.0_dp, i*lbits - e)
             end do
-            acc = 0
-            do i = 1, n
-                r = terms(i, c)
-                a1 = anint(r*rq(1))
-                r = r - a1*q(1)
-                a2 = anint(r*rq(2))
-                r = r - a2*q(2)
-                a3 = anint(r*rq(3))
-                acc(1) = acc(1) + a1
-                acc(2) = acc(2) + a2
-                acc(3) = acc(3) + a3
+            av = 0
+            do i = 1, nb, nlane
+                do l = 1, nlane
+                    call cut(terms(i + l - 1, c), q, rq, av(l, :))
+                end do
             end do
+            do i = nb + 1, n
+                call cut(terms(i, c), q, rq, av(1, :))
+            end do
+            ! integer-valued partial sums below 2^52: exact, so the lanes add up in any order
+            acc = sum(av, 1)
             kint(:, c) = int(acc, i8)
         end do
         if (reduce .and. world%nprocs > 1) then
@@ -99,5 +108,22 @@ contains
                        + real(kint(3, c), dp)*scale(1.0_dp, e - 3*lbits)
         end do
     end subroutine exact_sum_all
+
+    !> t cut on the three grids, added to acc: (x + 1.5 2^52) - 1.5 2^52 is x rounded to an integer
+    !> for |x| <= 2^40; the products are exact, so a fused multiply-add gives the same bits.
+    pure subroutine cut(t, q, rq, acc)
+        real(dp), intent(in) :: t, q(nlevel), rq(nlevel)
+        real(dp), intent(inout) :: acc(nlevel)
+        real(dp) :: r, a1, a2, a3
+        r = t
+        a1 = (r*rq(1) + magic) - magic
+        r = r - a1*q(1)
+        a2 = (r*rq(2) + magic) - magic
+        r = r - a2*q(2)
+        a3 = (r*rq(3) + magic) - magic
+        acc(1) = acc(1) + a1
+        acc(2) = acc(2) + a2
+        acc(3) = acc(3) + a3
+    end subroutine cut
 
 end module terrace_exact_sum

@@ -34,7 +34,8 @@ contains
         integer(i8), intent(in) :: nglobal
         real(dp), intent(out) :: total(:)
         logical, intent(in) :: reduce
-        real(dp) :: m(max_quantities), acc(nlevel), q(nlevel), rq(nlevel), z, mv(nlane), zv(nlane), av(nlane, nlevel)
+        real(dp) :: m(max_quantities), acc(nlevel), q(nlevel), rq(nlevel), z, mv(nlane), zv(nlane), &
+                    av1(nlane), av2(nlane), av3(nlane), r, a1, a2, a3
         integer(i8) :: kint(nlevel, max_quantities)
         logical :: plain(max_quantities)
         integer :: nq, c, i, l, lbits, e, nb
@@ -78,17 +79,35 @@ contains
                 q(i) = scale(1.0_dp, e - i*lbits)
                 rq(i) = scale(1.0_dp, i*lbits - e)
             end do
-            av = 0
+            av1 = 0; av2 = 0; av3 = 0
             do i = 1, nb, nlane
                 do l = 1, nlane
-                    call cut(terms(i + l - 1, c), q, rq, av(l, :))
+                    ! (x + 1.5 2^52) - 1.5 2^52 is x rounded to an integer for |x| <= 2^40; the
+                    ! products are exact, so a fused multiply-add gives the same bits
+                    r = terms(i + l - 1, c)
+                    a1 = (r*rq(1) + magic) - magic
+                    r = r - a1*q(1)
+                    a2 = (r*rq(2) + magic) - magic
+                    r = r - a2*q(2)
+                    a3 = (r*rq(3) + magic) - magic
+                    av1(l) = av1(l) + a1
+                    av2(l) = av2(l) + a2
+                    av3(l) = av3(l) + a3
                 end do
             end do
             do i = nb + 1, n
-                call cut(terms(i, c), q, rq, av(1, :))
+                r = terms(i, c)
+                a1 = (r*rq(1) + magic) - magic
+                r = r - a1*q(1)
+                a2 = (r*rq(2) + magic) - magic
+                r = r - a2*q(2)
+                a3 = (r*rq(3) + magic) - magic
+                av1(1) = av1(1) + a1
+                av2(1) = av2(1) + a2
+                av3(1) = av3(1) + a3
             end do
             ! integer-valued partial sums below 2^52: exact, so the lanes add up in any order
-            acc = sum(av, 1)
+            acc = [sum(av1), sum(av2), sum(av3)]
             kint(:, c) = int(acc, i8)
         end do
         if (reduce .and. world%nprocs > 1) then
@@ -108,22 +127,5 @@ contains
                        + real(kint(3, c), dp)*scale(1.0_dp, e - 3*lbits)
         end do
     end subroutine exact_sum_all
-
-    !> t cut on the three grids, added to acc: (x + 1.5 2^52) - 1.5 2^52 is x rounded to an integer
-    !> for |x| <= 2^40; the products are exact, so a fused multiply-add gives the same bits.
-    pure subroutine cut(t, q, rq, acc)
-        real(dp), intent(in) :: t, q(nlevel), rq(nlevel)
-        real(dp), intent(inout) :: acc(nlevel)
-        real(dp) :: r, a1, a2, a3
-        r = t
-        a1 = (r*rq(1) + magic) - magic
-        r = r - a1*q(1)
-        a2 = (r*rq(2) + magic) - magic
-        r = r - a2*q(2)
-        a3 = (r*rq(3) + magic) - magic
-        acc(1) = acc(1) + a1
-        acc(2) = acc(2) + a2
-        acc(3) = acc(3) + a3
-    end subroutine cut
 
 end module terrace_exact_sum

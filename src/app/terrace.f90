@@ -92,18 +92,9 @@ contains
         end if
         call open_outputs(trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), &
                           sched%end_time(cfg))
-        call MPI_Barrier(world%comm)
-        eng%timers = timers_t()
-        t0 = MPI_Wtime()
+        call start_clock()
         call run_velocity_verlet(eng, thermo, traj, sched, ctl)
-        call MPI_Barrier(world%comm)
-        t1 = MPI_Wtime()
-        call thermo%close()
-        call traj%close(ok, msg)
-        call check_all(ok, trim(cfg%trajectory_file)//': &output trajectory_file: '//trim(msg))
-        if (ctl%stopped) call stop_early()
-        call write_final(sched%end_time(cfg))
-        call commit_small_outputs(cfg)                  ! outputs replaced only on success
+        call close_run(sched%end_time(cfg))
         call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps')
         call eng%report_warnings()
     end subroutine verlet_run
@@ -139,18 +130,9 @@ contains
         end if
         call open_outputs(es_thermo_header//trim(merge(',ecouple,econserve', '                  ', &
                                                         cfg%thermostat /= 'none')), sched%end_time(cfg))
-        call MPI_Barrier(world%comm)
-        eng%timers = timers_t()
-        t0 = MPI_Wtime()
+        call start_clock()
         call run_energy_stepping(eng, thermo, traj, h, sched, es, ctl)
-        call MPI_Barrier(world%comm)
-        t1 = MPI_Wtime()
-        call thermo%close()
-        call traj%close(ok, msg)
-        call check_all(ok, trim(cfg%trajectory_file)//': &output trajectory_file: '//trim(msg))
-        if (ctl%stopped) call stop_early()
-        call write_final(es%time)
-        call commit_small_outputs(cfg)                  ! issue 15: outputs replaced only on success
+        call close_run(es%time)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events')
         if (world%rank == 0) then
             write (output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'Events: ', es%events, ' (', es%ups, ' up, ', es%downs, &
@@ -165,6 +147,27 @@ contains
                 'energy no longer exchange. Use a smaller terrace_height.'
         end if
     end subroutine energy_stepping_run
+
+    !> Timers and wall clock start together on every rank.
+    subroutine start_clock()
+        call MPI_Barrier(world%comm)
+        eng%timers = timers_t()
+        t0 = MPI_Wtime()
+    end subroutine start_clock
+
+    !> After the integrator: the wall clock stops, the outputs are closed, the final state written
+    !> and the small outputs committed (replaced only on success), or the early stop reported.
+    subroutine close_run(end_time)
+        real(dp), intent(in) :: end_time
+        call MPI_Barrier(world%comm)
+        t1 = MPI_Wtime()
+        call thermo%close()
+        call traj%close(ok, msg)
+        call check_all(ok, trim(cfg%trajectory_file)//': &output trajectory_file: '//trim(msg))
+        if (ctl%stopped) call stop_early()
+        call write_final(end_time)
+        call commit_small_outputs(cfg)
+    end subroutine close_run
 
     !> The run stopped early with a checkpoint (walltime_limit or a signal): say so and exit with
     !> exit_stopped on every rank, so that a batch script can resubmit it with read_checkpoint.

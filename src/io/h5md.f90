@@ -49,7 +49,7 @@ module terrace_h5md
     use, intrinsic :: iso_c_binding, only: c_loc
     use terrace_kinds, only: dp, i8
     use terrace_id_blocks, only: id_block, exchange_plan
-    use terrace_hdf5_io, only: h5_status_t, h5_library, h5_agree, h5_open_file, h5_create, h5_append, &
+    use terrace_hdf5_io, only: h5_status_t, h5_group, h5_library, h5_agree, h5_open_file, h5_create, h5_append, &
                                h5_transfer_list, h5_make_fixed, h5_make_series, h5_extend, h5_dataset_dims, &
                                h5_write_slab, h5_read_slab, h5_attr_int, h5_attr_text, h5_attr_text_list, &
                                h5_attr_vltext
@@ -725,7 +725,6 @@ contains
         type(observable_t), allocatable :: grown(:)
         integer :: k, i, err
         integer(hid_t) :: g, go
-        logical :: exists
         integer(i8), target :: step_t
         real(dp), target :: time_t, value_t
 
@@ -751,12 +750,7 @@ contains
                 o%name = trim(name); o%n = 0
                 o%per_frame = .false.
                 if (present(per_frame)) o%per_frame = per_frame
-                call h5lexists_f(self%file, 'observables', exists, err); call st%check(err, 'H5Lexists')
-                if (exists) then
-                    call h5gopen_f(self%file, 'observables', g, err); call st%check(err, 'open observables')
-                else
-                    call h5gcreate_f(self%file, 'observables', g, err); call st%check(err, 'create observables')
-                end if
+                call h5_group(st, self%file, 'observables', g)
                 call h5gcreate_f(g, o%name, go, err); call st%check(err, 'create observables/'//o%name)
                 if (o%per_frame) then
                     call h5lcreate_hard_f(self%file, pgroup//'/box/edges/step', go, 'step', err)
@@ -915,7 +909,6 @@ contains
         type(h5_status_t) :: st
         integer(hid_t) :: g, gp, d
         integer :: err
-        logical :: exists
         integer(hsize_t) :: dims(2)
         integer, allocatable, target :: rows(:, :)
         ok = .true.; msg = ''
@@ -930,12 +923,7 @@ contains
                 call st%fail('a tuple names a particle id outside 1..N')
         end if
         dims = [int(size(tuples, 1), hsize_t), int(size(tuples, 2), hsize_t)]
-        call h5lexists_f(self%file, 'connectivity', exists, err); call st%check(err, 'H5Lexists')
-        if (exists) then
-            call h5gopen_f(self%file, 'connectivity', g, err); call st%check(err, 'open connectivity')
-        else
-            call h5gcreate_f(self%file, 'connectivity', g, err); call st%check(err, 'create connectivity')
-        end if
+        call h5_group(st, self%file, 'connectivity', g)
         call h5_make_fixed(st, g, trim(name), H5T_STD_I64LE, dims, d)
         call h5_attr_text(st, d, 'particles_group', 'all')
         call h5_write_slab(st, d, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(tuples), [0_hsize_t, 0_hsize_t], dims, &
@@ -944,18 +932,8 @@ contains
         call h5gclose_f(g, err)
         allocate (rows(size(tuples, 1), size(tuples, 2)))
         rows = int(tuples - 1)
-        call h5lexists_f(self%file, 'parameters', exists, err); call st%check(err, 'H5Lexists')
-        if (exists) then
-            call h5gopen_f(self%file, 'parameters', g, err); call st%check(err, 'open parameters')
-        else
-            call h5gcreate_f(self%file, 'parameters', g, err); call st%check(err, 'create parameters')
-        end if
-        call h5lexists_f(g, 'terrace', exists, err); call st%check(err, 'H5Lexists')
-        if (exists) then
-            call h5gopen_f(g, 'terrace', gp, err); call st%check(err, 'open parameters/terrace')
-        else
-            call h5gcreate_f(g, 'terrace', gp, err); call st%check(err, 'create parameters/terrace')
-        end if
+        call h5_group(st, self%file, 'parameters', g)
+        call h5_group(st, g, 'terrace', gp)
         call h5_make_fixed(st, gp, trim(name)//'_index', H5T_STD_I32LE, dims, d)
         call h5_write_slab(st, d, H5T_NATIVE_INTEGER, c_loc(rows), [0_hsize_t, 0_hsize_t], dims, &
                            self%rank == 0 .and. size(tuples) > 0, self%dxpl_rank0)

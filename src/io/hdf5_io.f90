@@ -37,7 +37,7 @@ module terrace_hdf5_io
     public :: h5_write_slab, h5_read_slab, h5_read_whole, h5_read_at
     public :: h5_attr_int, h5_attr_scalar, h5_attr_text, h5_attr_text_list, h5_attr_vltext
     public :: h5_read_attr_scalar, h5_read_attr_strings, h5_read_attr_string
-    public :: h5_link_exists
+    public :: h5_link_exists, h5_group
 
     integer(hsize_t), parameter :: chunk_scalar = 512      !< default chunk of a series of scalars
     logical, save :: library_open = .false.
@@ -609,5 +609,22 @@ contains
         q = p
         call h5aread_f(a, memtype, q, err)
     end subroutine aread
+
+
+    !> Open the group name under loc, creating it when it does not exist yet.
+    subroutine h5_group(st, loc, name, g)
+        type(h5_status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: loc
+        character(len=*), intent(in) :: name
+        integer(hid_t), intent(out) :: g
+        logical :: exists
+        integer :: err
+        call h5lexists_f(loc, name, exists, err); call st%check(err, 'H5Lexists')
+        if (exists) then
+            call h5gopen_f(loc, name, g, err); call st%check(err, 'open '//name)
+        else
+            call h5gcreate_f(loc, name, g, err); call st%check(err, 'create '//name)
+        end if
+    end subroutine h5_group
 
 end module terrace_hdf5_io

@@ -130,7 +130,7 @@ contains
         logical, allocatable :: bnd(:)
         real(dp), allocatable :: mass(:), lo(:, :), hi(:, :)
         integer, allocatable :: node_body(:), faces(:, :)
-        integer :: nnode, e, a, q, nb, i
+        integer :: nnode, e, a, q, nb
         real(dp) :: dm(3, 3), v0, sum_edge
         integer(i8) :: n_edge
         nnode = size(xref, 2)
@@ -161,12 +161,7 @@ contains
         self%nboundary = count(bnd)
         self%nbodies = 0
         allocate (lo(3, nb), hi(3, nb))
-        lo = huge(1.0_dp); hi = -huge(1.0_dp)
-        do i = 1, nnode
-            if (node_body(i) < 1) cycle
-            lo(:, node_body(i)) = min(lo(:, node_body(i)), xref(:, i))
-            hi(:, node_body(i)) = max(hi(:, node_body(i)), xref(:, i))
-        end do
+        call body_boxes(xref, node_body, lo, hi)
         self%min_body_extent = huge(1.0_dp)
         do a = 1, nb
             if (count(self%tag_of_id == a) == 0) cycle
@@ -199,7 +194,7 @@ contains
         integer, allocatable :: node_body(:)
         real(dp), allocatable :: lo(:, :), hi(:, :)
         real(dp) :: r, tlo(3), thi(3), lam(4)
-        integer :: nb, i, j, e, a, bi, bj, n
+        integer :: nb, i, j, e, bi, bj, n
         ok = .true.; msg = ''
         n = size(x, 2)
         nb = maxval(body)
@@ -208,12 +203,7 @@ contains
         do e = 1, size(tets, 2)
             node_body(tets(:, e)) = body(e)
         end do
-        lo = huge(1.0_dp); hi = -huge(1.0_dp)
-        do i = 1, n
-            if (node_body(i) < 1) cycle
-            lo(:, node_body(i)) = min(lo(:, node_body(i)), x(:, i))
-            hi(:, node_body(i)) = max(hi(:, node_body(i)), x(:, i))
-        end do
+        call body_boxes(x, node_body, lo, hi)
         ! a node of one body inside a tetrahedron of another (bounding boxes first)
         do e = 1, size(tets, 2)
             bj = body(e)
@@ -418,5 +408,20 @@ contains
             ' (mean boundary edge ', self%spacing, '); pairs of boundary nodes of different bodies from the list'
         text = trim(s)
     end function ct_describe
+
+
+    !> The bounding box of each body's nodes (node_body(i) < 1: a node in no body).
+    pure subroutine body_boxes(x, node_body, lo, hi)
+        real(dp), intent(in) :: x(:, :)
+        integer, intent(in) :: node_body(:)
+        real(dp), intent(out) :: lo(:, :), hi(:, :)
+        integer :: i
+        lo = huge(1.0_dp); hi = -huge(1.0_dp)
+        do i = 1, size(node_body)
+            if (node_body(i) < 1) cycle
+            lo(:, node_body(i)) = min(lo(:, node_body(i)), x(:, i))
+            hi(:, node_body(i)) = max(hi(:, node_body(i)), x(:, i))
+        end do
+    end subroutine body_boxes
 
 end module terrace_contact

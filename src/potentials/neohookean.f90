@@ -37,6 +37,7 @@ module terrace_neohookean
     private
 
     integer, parameter :: nblk = 32                              !< elements per vectorised block
+    integer, parameter :: ncoef = 9                              !< ray coefficients per element
     real(dp), parameter, public :: inverted_energy = 1.0e30_dp   !< wall height past an inversion, per V0 (lambda + mu)
 
     type, extends(potential_t), public :: neohookean_t
@@ -65,6 +66,10 @@ module terrace_neohookean
         integer, allocatable :: pos(:)              !< scratch: element -> work index (>0 mine, <0 extra)
         integer, allocatable :: fill(:)             !< scratch
         integer, allocatable :: id_map(:)           !< scratch: global id -> local index (0: not here)
+        ! the ray pass's search-origin coefficients (coef(1:ncoef, k)) and the x, v they were made from
+        logical :: coef_valid = .false.
+        integer :: nall_coef = 0
+        real(dp), allocatable :: coef(:, :), xcoef(:, :), vcoef(:, :)
         logical :: missing_node = .false.           !< an element's node was not on this rank
         integer :: first_inverted = 0               !< element with J <= 0 at the last force pass (0: none)
     contains
@@ -287,6 +292,7 @@ contains
             end do
         end do
         self%nlocal = nlocal
+        self%coef_valid = .false.
     end subroutine nh_on_rebuild
 
     !> Forces, and the energy and virial (always computed: they cost nothing extra here). Blocks of
@@ -421,6 +427,10 @@ contains
     end subroutine force_block
 
     !> (V, V', V'', W) of this rank's elements at x + s v (exact sums, global when global_sums is set).
+    !> Everything but the cubic p(s), its log and tr F^T F (s) depends only on the search origin x, v:
+    !> those per-element coefficients are kept (coef) while x and v (owned and ghosts) are bitwise
+    !> those of the last pass, so the further evaluations of one event's search cost only the
+    !> s-dependent part. on_rebuild drops them.
     subroutine nh_ray(self, atoms, list, s, out)
         class(neohookean_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
@@ -428,32 +438,53 @@ contains
         real(dp), intent(in) :: s
         real(dp), intent(out) :: out(4)
         real(dp) :: ds(nblk, 9), dv(nblk, 9)
-        integer :: b, k0, nb, nmine_pad
+        integer :: b, k0, nb, nmine_pad, nall
+        logical :: same
         nmine_pad = nblk*((self%nmine + nblk - 1)/nblk)
         nb = nmine_pad/nblk
+        nall = atoms%nall()
+        same = self%coef_valid .and. nall == self%nall_coef
+        if (same) same = all(atoms%x(:, 1:nall) == self%xcoef(:, 1:nall))
+        if (same) same = all(atoms%v(:, 1:nall) == self%vcoef(:, 1:nall))
+        if (.not. same) then
+            if (allocated(self%xcoef)) then
+                if (size(self%xcoef, 2) < nall) deallocate (self%xcoef, self%vcoef)
+            end if
+            if (.not. allocated(self%xcoef)) allocate (self%xcoef(3, max(nall, 1)), self%vcoef(3, max(nall, 1)))
+            if (allocated(self%coef)) then
+                if (size(self%coef, 2) < nmine_pad) deallocate (self%coef)
+            end if
+            if (.not. allocated(self%coef)) allocate (self%coef(ncoef, max(nmine_pad, nblk)))
+            do b = 1, nb
+                k0 = (b - 1)*nblk
+                call gather_edges(atoms%x, self%lidx, k0, ds)
+                call gather_edges(atoms%v, self%lidx, k0, dv)
+                call ray_coef_block(k0, ds, dv, self%rdm, self%rv0, self%wgt, self%coef)
+            end do
+            self%xcoef(:, 1:nall) = atoms%x(:, 1:nall)
+            self%vcoef(:, 1:nall) = atoms%v(:, 1:nall)
+            self%nall_coef = nall
+            self%coef_valid = .true.
+        end if
         do b = 1, nb
-            k0 = (b - 1)*nblk
-            call gather_edges(atoms%x, self%lidx, k0, ds)
-            call gather_edges(atoms%v, self%lidx, k0, dv)
-            call ray_block(k0, s, ds, dv, self%rdm, self%rv0, self%wgt, self%lambda, self%mu, self%terms)
+            call ray_eval_block((b - 1)*nblk, s, self%coef, self%lambda, self%mu, self%terms)
         end do
         call exact_sum_all(self%terms, nmine_pad, int(self%nelem, i8), out, self%global_sums)
     end subroutine nh_ray
 
-    !> One block of the ray pass: F0 = Ds Dm^-1, G = Dv Dm^-1, A = F0^-1 G = adj(F0) G / J0, the cubic
-    !> p(s) = det(I + s A) = 1 + c1 s + c2 s^2 + c3 s^3, then W, W', W'' and the virial term at s.
-    !> Past an inversion (J0 <= 0, or p(s) <= 0) the wall energy and no derivatives.
-    subroutine ray_block(k0, s, ds, dv, rdm, rv0, wgt, lambda, mu, terms)
+    !> The search origin's part of one block of the ray pass: F0 = Ds Dm^-1, G = Dv Dm^-1,
+    !> A = F0^-1 G = adj(F0) G / J0, and p(s) = det(I + s A) = 1 + c1 s + c2 s^2 + c3 s^3:
+    !> coef(:, k) = (c1, c2, c3, ln J0, |F0|^2, F0:G, |G|^2, weighted V0, 1 if J0 <= 0).
+    subroutine ray_coef_block(k0, ds, dv, rdm, rv0, wgt, coef)
         integer, intent(in) :: k0
-        real(dp), intent(in) :: s, ds(nblk, 9), dv(nblk, 9), lambda, mu
+        real(dp), intent(in) :: ds(nblk, 9), dv(nblk, 9)
         real(dp), intent(in), contiguous :: rdm(:, :), rv0(:), wgt(:)
-        real(dp), intent(inout), contiguous :: terms(:, :)
+        real(dp), intent(inout), contiguous :: coef(:, :)
         integer :: j, k
         real(dp) :: f11, f21, f31, f12, f22, f32, f13, f23, f33, g11, g21, g31, g12, g22, g32, g13, g23, g33, &
                     a11, a21, a31, a12, a22, a32, a13, a23, a33, c11, c21, c31, c12, c22, c32, c13, c23, c33, &
-                    m11, m21, m31, m12, m22, m32, m13, m23, m33, j0, js, rj, q1, q2, q3, pp, ps, p1, p2, lnj, l1, l2, &
-                    t0, fg, gg, trf, w, w1, w2, v0, wall, lm, vir
-        logical :: inv0, ok, okp
+                    m11, m21, m31, m12, m22, m32, m13, m23, m33, j0, js, rj, q1, q2, q3, t0, fg, gg
+        logical :: inv0
         do j = 1, nblk
             k = k0 + j
             m11 = rdm(k, 1); m21 = rdm(k, 2); m31 = rdm(k, 3)
@@ -498,24 +529,55 @@ contains
             q1 = a11 + a22 + a33
             q2 = 0.5_dp*(q1*q1 - (a11*a11 + a22*a22 + a33*a33 + 2*(a12*a21 + a13*a31 + a23*a32)))
             q3 = a11*(a22*a33 - a23*a32) - a12*(a21*a33 - a23*a31) + a13*(a21*a32 - a22*a31)
+            t0 = f11*f11 + f21*f21 + f31*f31 + f12*f12 + f22*f22 + f32*f32 + f13*f13 + f23*f23 + f33*f33
+            fg = f11*g11 + f21*g21 + f31*g31 + f12*g12 + f22*g22 + f32*g32 + f13*g13 + f23*g23 + f33*g33
+            gg = g11*g11 + g21*g21 + g31*g31 + g12*g12 + g22*g22 + g32*g32 + g13*g13 + g23*g23 + g33*g33
+            coef(1, k) = q1; coef(2, k) = q2; coef(3, k) = q3
+            coef(4, k) = log(js)
+            coef(5, k) = t0; coef(6, k) = fg; coef(7, k) = gg
+            coef(8, k) = wgt(k)*rv0(k)
+            coef(9, k) = merge(1.0_dp, 0.0_dp, inv0)
+        end do
+    end subroutine ray_coef_block
+
+    !> The s-dependent part of one block of the ray pass, from coef: p(s), p', p'', ln J = ln J0 +
+    !> ln p, W, W', W'' and the virial term at s. Past an inversion (J0 <= 0, or p(s) <= 0) the wall
+    !> energy and no derivatives.
+    subroutine ray_eval_block(k0, s, coef, lambda, mu, terms)
+        integer, intent(in) :: k0
+        real(dp), intent(in) :: s, lambda, mu
+        real(dp), intent(in), contiguous :: coef(:, :)
+        real(dp), intent(inout), contiguous :: terms(:, :)
+        integer :: j, k
+        real(dp) :: q1, q2, q3, pp, ps, p1, p2, lnj, l1, l2, t0, fg, gg, trf, w, w1, w2, v0, wall, lm, vir
+        real(dp) :: cb(nblk, ncoef)
+        logical :: inv0, ok, okp
+        integer :: c
+        ! the block's coefficients into contiguous rows
+        do j = 1, nblk
+            do c = 1, ncoef
+                cb(j, c) = coef(c, k0 + j)
+            end do
+        end do
+        do j = 1, nblk
+            k = k0 + j
+            q1 = cb(j, 1); q2 = cb(j, 2); q3 = cb(j, 3)
+            t0 = cb(j, 5); fg = cb(j, 6); gg = cb(j, 7); v0 = cb(j, 8)
+            inv0 = cb(j, 9) > 0
             pp = 1 + s*(q1 + s*(q2 + s*q3))
             okp = pp > 0
             ok = okp .and. .not. inv0
             ps = merge(pp, 1.0_dp, ok)
             p1 = q1 + s*(2*q2 + 3*s*q3)
             p2 = 2*q2 + 6*s*q3
-            lnj = log(js) + log(ps)
+            lnj = cb(j, 4) + log(ps)
             l1 = p1/ps
             l2 = p2/ps - l1*l1
-            t0 = f11*f11 + f21*f21 + f31*f31 + f12*f12 + f22*f22 + f32*f32 + f13*f13 + f23*f23 + f33*f33
-            fg = f11*g11 + f21*g21 + f31*g31 + f12*g12 + f22*g22 + f32*g32 + f13*g13 + f23*g23 + f33*g33
-            gg = g11*g11 + g21*g21 + g31*g31 + g12*g12 + g22*g22 + g32*g32 + g13*g13 + g23*g23 + g33*g33
             trf = t0 + 2*s*fg + s*s*gg
             lm = lambda*lnj - mu
             w = 0.5_dp*lambda*lnj*lnj - mu*lnj + 0.5_dp*mu*(trf - 3)
             w1 = lm*l1 + mu*(fg + s*gg)
             w2 = lambda*l1*l1 + lm*l2 + mu*gg
-            v0 = wgt(k)*rv0(k)
             ! an energy wall the search cannot pass: at J0 <= 0, and beyond the inversion along the ray
             ! (branch-free: the operands of every merge are plain values computed before it)
             wall = merge(1.0_dp, 1 + abs(s), inv0)
@@ -527,7 +589,7 @@ contains
             terms(k, 3) = merge(w2, 0.0_dp, ok)
             terms(k, 4) = merge(vir, 0.0_dp, ok)
         end do
-    end subroutine ray_block
+    end subroutine ray_eval_block
 
     !> The engine prints 0.005 tau as a stable velocity-Verlet step: tau = 100 l_min / c_d makes that
     !> l_min / (2 c_d), half the element's dilatational transit time (c_d = sqrt((lambda + 2 mu)/rho)).

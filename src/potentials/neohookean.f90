@@ -25,7 +25,9 @@
 !> Kernels (as the pair kernels): per-element data in structures of arrays refreshed by on_rebuild,
 !> blocks of nblk elements, the four nodes gathered into contiguous rows, the 3x3 arithmetic
 !> branch-free over the block (vectorised; fixed block length, so every element takes the same
-!> instructions whatever its place), the nodal forces scattered by owned node after.
+!> instructions whatever its place), the nodal forces scattered by owned node after. The ray pass
+!> keeps its search-origin coefficients per element while x and v are unchanged, so that the
+!> further evaluations of one event's search do only the s-dependent part.
 module terrace_neohookean
     use terrace_kinds, only: dp, i8
     use terrace_vec3, only: cross

@@ -4,12 +4,15 @@
 One command runs the whole study from a built tree and writes doc/benchmarks.md, the PNG figures
 doc/figures/bench_*.png and the tables behind them (CSV, doc/bench_data/):
 
-  1. work-precision sweeps on five scenes (seven-atom 2-D argon cluster, 147-atom argon
+  1. work-precision sweeps on five atomistic scenes (seven-atom 2-D argon cluster, 147-atom argon
      icosahedron, Rahman's liquid argon, the LAMMPS LJ benchmark scene, Cu with EAM): h for energy
      stepping, dt for velocity Verlet in Terrace and in LAMMPS, against a Terrace Verlet reference
      with a much finer step: wall time against (a) max energy error per atom, (b) energy drift and
      momentum change, (c) trajectory error at a short horizon, (d) long-run observables with
      error bars;
+     and on two mesh scenes (issues 12, 13: `cube`, the talk's spinning neo-Hookean cube; `balls`,
+     two colliding rubber balls with contact; study/solids.py): both integrators against a fine
+     Verlet reference, Verlet's largest stable dt by bisection, energy stepping's event intervals;
   2. stability stress tests (dt and h raised until each method fails, a hot collision to 0.8 sigma,
      more ranks than atoms, an evaporating cluster);
   3. parallel scaling (strong and weak, both integrators, with the Search and Comm phases), only
@@ -18,6 +21,8 @@ doc/figures/bench_*.png and the tables behind them (CSV, doc/bench_data/):
 Usage:
   /usr/bin/python3 scripts/bench/study.py --quick            # minutes (9 min 50 s with --repeat 3 on the 2-vCPU box, load 3-4)
   /usr/bin/python3 scripts/bench/study.py --full             # hours: 100 ns cluster, 32,000-atom LJ, ...
+  /usr/bin/python3 scripts/bench/study.py --quick --scenes cube,balls
+                           # the mesh scenes only (4 min on the 2-vCPU box), spliced into the page
   /usr/bin/python3 scripts/bench/study.py --quick --scaling 1,2,4,8,16 --scaling-only
                            # scaling runs only, added to the page made before in the same mode
   options: --build DIR (default build/), --scenes a,b, --skip-sweep, --skip-stress, --no-lammps,
@@ -36,7 +41,7 @@ import tempfile
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from study import common, scenes as S, sweep, stress, scaling, report, analysis  # noqa: E402
+from study import common, scenes as S, sweep, stress, scaling, report, analysis, solids  # noqa: E402
 
 
 class Ctx:
@@ -49,7 +54,9 @@ def main():
     g.add_argument('--quick', action='store_true', help='minutes (default)')
     g.add_argument('--full', action='store_true', help='hours')
     ap.add_argument('--build', default=os.path.join(common.REPO, 'build'), help='build directory (terrace binary)')
-    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS))
+    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS + solids.SOLID_KEYS),
+                    help='default: all; the mesh scenes alone: --scenes cube,balls (their section is '
+                         'spliced into the existing page)')
     ap.add_argument('--skip-sweep', action='store_true')
     ap.add_argument('--skip-stress', action='store_true')
     ap.add_argument('--no-lammps', action='store_true')
@@ -95,8 +102,10 @@ def main():
     ctx.env['analyze'] = ctx.analyzer.exe or 'not in this build (numpy fallback)'
     keys = [k.strip() for k in a.scenes.split(',') if k.strip()]
     for k in keys:
-        if k not in S.SCENE_KEYS:
-            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS)))
+        if k not in S.SCENE_KEYS + solids.SOLID_KEYS:
+            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS + solids.SOLID_KEYS)))
+    solid_keys = [k for k in keys if k in solids.SOLID_KEYS]
+    keys = [k for k in keys if k not in solids.SOLID_KEYS]
 
     e = ctx.env
     print('Terrace benchmark study, %s mode' % ctx.mode)
@@ -106,9 +115,12 @@ def main():
     print('commit  : %s%s;  date %s' % (e['commit'], ' (+ uncommitted changes)' if e['dirty'] else '', e['date']))
     print('work dir: %s' % ctx.work, flush=True)
 
+    page = os.path.join(ctx.doc, 'benchmarks.md')
     if a.report_only:
-        results = report.load(ctx, keys)
-        report.write(ctx, results)
+        if keys:
+            results = report.load(ctx, keys)
+            report.write(ctx, results)
+        solids.splice(page, solids.write_report(ctx, {}, e))      # the mesh scenes' saved results
         return
     sw = common.Stopwatch()
     results = {'env': e, 'sweeps': {}, 'curves': {}, 'stress': None, 'scaling': None}
@@ -126,7 +138,15 @@ def main():
                     rows, curves = [], {}
             results['sweeps'][k] = rows
             results['curves'][k] = curves
-    if not a.skip_stress and not a.scaling_only:
+    results['solids'] = {}
+    if not a.skip_sweep and not a.scaling_only:
+        for k in solid_keys:
+            with sw.part('mesh scene %s' % k):
+                try:
+                    results['solids'][k] = solids.run_scene(k, ctx)
+                except RuntimeError as err:
+                    print('    %s: FAILED: %s' % (k, err), flush=True)
+    if not a.skip_stress and not a.scaling_only and keys:
         with sw.part('stress tests'):
             results['stress'] = stress.run_all(ctx)
     if a.scaling:
@@ -136,14 +156,17 @@ def main():
     results['timing'] = sw.parts if not a.scaling_only else kept.get('timing', []) + sw.parts
     if not a.no_report:
         with sw.part('figures and doc/benchmarks.md'):
-            report.write(ctx, results)
+            if keys:
+                report.write(ctx, results)
+            solids.splice(page, solids.write_report(ctx, results['solids'], e))   # this run's or saved
     results['timing'] = sw.parts
     print()
     print('Time per part:')
     for name, dt in sw.parts:
         print('  %-32s %7.1f s' % (name, dt))
     print('  %-32s %7.1f s' % ('total', sw.total()))
-    with open(os.path.join(ctx.data, 'timing_%s.json' % ctx.mode), 'w') as f:
+    tfile = 'timing_%s.json' % ctx.mode if keys else 'timing_solids_%s.json' % ctx.mode
+    with open(os.path.join(ctx.data, tfile), 'w') as f:
         json.dump({'parts': sw.parts, 'total': sw.total(), 'env': e}, f, indent=1)
 
 

@@ -15,7 +15,8 @@
 module terrace_msd_diffusion
     use terrace_kinds, only: dp, i8
     use terrace_mpi_env, only: world, sum_all
-    use terrace_errors, only: check_all
+    use terrace_errors, only: check_all, warn
+    use, intrinsic :: iso_fortran_env, only: error_unit
     use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window, frame_plan_t
     use terrace_h5md_reader, only: h5md_trajectory_t, el_position, el_image
     use terrace_id_blocks, only: id_block
@@ -198,6 +199,10 @@ contains
                 '  (mean of blocks ', d_mean, ')'
             if (to_cm2s > 0) write (output_unit, '(a,es13.6,a,es10.3,a)') '  D = ', d_full*to_cm2s, ' +- ', &
                 d_err*to_cm2s, ' cm^2/s'
+            if (d_full <= 0 .or. d_err >= abs(d_full)) write (error_unit, '(a)') 'terrace: warning: MSD: D = '// &
+                trim(adjustl(es_text(d_full)))//' +- '//trim(adjustl(es_text(d_err)))//' is not a meaningful '// &
+                'diffusion coefficient (negative, or not larger than its block error): the atoms do not diffuse '// &
+                'over the fit window (a solid or a cluster), or the run is too short'
             write (output_unit, '(a)') '  wrote '//trim(cfg%output_prefix)//'_msd.csv, '//trim(cfg%output_prefix)// &
                 '_diffusion.csv'
         end if
@@ -218,6 +223,12 @@ contains
             a(k) = a(k) + q
         end do
     end subroutine add_squares
+
+    function es_text(x) result(t)
+        real(dp), intent(in) :: x
+        character(len=16) :: t
+        write (t, '(es12.4)') x
+    end function es_text
 
     !> Least-squares slope of y(lo..hi) against lag * dt.
     real(dp) function fit_slope(y, dt, lo, hi) result(slope)

@@ -17,8 +17,9 @@
 !> frames and sums their power spectra; one reduction.
 module terrace_vacf_vdos
     use terrace_kinds, only: dp, i8, pi
+    use terrace_text, only: fixed
     use terrace_mpi_env, only: world
-    use terrace_errors, only: check_all
+    use terrace_errors, only: check_all, warn
     use terrace_analysis_config, only: analysis_config_t, is_unset, frame_window, frame_plan_t
     use terrace_h5md_reader, only: h5md_trajectory_t, el_velocity
     use terrace_id_blocks, only: id_block
@@ -132,12 +133,20 @@ contains
                 ' ; correlation up to ', M, ' lags (', M*plan%dt, ')'
             write (output_unit, '(a,a,a,es12.5,a,es12.5,a,i0)') '  window: ', trim(cfg%window), &
                 ' ; resolution 1/(M dt) = ', 1/(M*plan%dt), ' ; grid ', 1/(L*plan%dt), ' ; transform length ', L
-            write (output_unit, '(a,f0.1,a,es22.15)') '  degrees of freedom D N = ', dof, &
+            write (output_unit, '(a,es22.15)') '  degrees of freedom D N = '//fixed(dof, 1)// &
                 ' ; integral of the VDOS = ', integral
             write (output_unit, '(a,es14.7,1x,a)') '  highest peak at ', ipeak/(L*plan%dt), fl
             write (output_unit, '(a)') '  wrote '//trim(cfg%output_prefix)//'_vacf.csv, '//trim(cfg%output_prefix)// &
                 '_vdos.csv'
         end if
+        ! what the sampling cannot resolve (issue 15): a peak below the resolution 1/(M dt), or a
+        ! spectrum still high at the Nyquist frequency 1/(2 dt) (frames too far apart: aliased)
+        if (ipeak/(L*plan%dt) < 1/(M*plan%dt)) call warn('VDOS: the highest peak ('// &
+            fixed(ipeak/(L*plan%dt), 6)//' '//trim(fl)//') lies below the resolution 1/(M dt) = '// &
+            fixed(1/(M*plan%dt), 6)//' '//trim(fl)//': use a longer run and correlation_time; the peak is not resolved')
+        if (sum(s(L/2 - L/20:L/2)) > 0.05_dp*sum(s(0:L/2))) call warn('VDOS: more than 5 % of the spectrum '// &
+            'lies in the top tenth below the Nyquist frequency 1/(2 dt) = '//fixed(1/(2*plan%dt), 4)//' '// &
+            trim(fl)//': the frames are too far apart for the vibrations (aliased); write frames more often')
     end subroutine run_vdos
 
 end module terrace_vacf_vdos

@@ -4,6 +4,7 @@
 !>   terrace --version | --help
 program terrace
     use terrace_kinds, only: dp, i8
+    use terrace_text, only: fixed
     use terrace_mpi_env, only: world, start_mpi, end_mpi, any_all
     use terrace_config, only: config_t, read_config
     use terrace_engine, only: engine_t
@@ -137,10 +138,13 @@ contains
         if (world%rank == 0) then
             write (output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'Events: ', es%events, ' (', es%ups, ' up, ', es%downs, &
                 ' down, ', es%reflections, ' reflections)'
-            if (es%events > 0) write (output_unit, '(a,es12.5,a,f0.3,a,f0.3,a,i0)') 'Mean event interval: ', &
-                es%time/es%events, ';  ray evaluations per event: ', real(es%ray_evals, dp)/es%events, &
-                ';  force passes per event: ', real(es%force_passes, dp)/es%events, ';  verification misses: ', &
-                es%verify_misses
+            if (es%events > 0) write (output_unit, '(a,es12.5,a,i0)') 'Mean event interval: ', &
+                es%time/es%events, ';  ray evaluations per event: '//fixed(real(es%ray_evals, dp)/es%events, 3)// &
+                ';  force passes per event: '//fixed(real(es%force_passes, dp)/es%events, 3)// &
+                ';  verification misses: ', es%verify_misses
+            if (es%have_conserved) write (output_unit, '(a,es17.10,a,es17.10,a,es10.3,a)') &
+                'Conserved K + k h (first, last thermo sample): ', es%conserved_first, ', ', es%conserved_last, &
+                '; drift ', es%conserved_last - es%conserved_first, ' (round-off; K + V stays within h of it)'
             if (es%events >= 100 .and. es%reflections > 0.9_dp*es%events) write (output_unit, '(a)') &
                 'terrace: warning: more than 90 % of the events were reflections: the state is trapped below a '// &
                 'terrace edge (its climbs never carry enough kinetic energy across it), so kinetic and potential '// &

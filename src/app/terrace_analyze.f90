@@ -6,6 +6,7 @@
 !> correlation lengths) before any analysis runs, so bad input writes no output file.
 program terrace_analyze
     use terrace_kinds, only: dp
+    use terrace_text, only: fixed
     use terrace_mpi_env, only: world, start_mpi, end_mpi
     use terrace_errors, only: stop_all
     use terrace_files, only: peak_memory_kib
@@ -83,7 +84,7 @@ program terrace_analyze
     if (cfg%msd) call run_msd(traj, cfg, msd)
     if (cfg%sq) call run_sq(traj, cfg, sq)
     call traj%close()
-    if (world%rank == 0) write (output_unit, '(a,f0.3,a,i0,a)') 'Analysis time: ', MPI_Wtime() - t0, ' s; peak memory ', &
+    if (world%rank == 0) write (output_unit, '(a,i0,a)') 'Analysis time: '//fixed(MPI_Wtime() - t0, 3)//' s; peak memory ', &
         peak_memory_kib(), ' KiB (rank 0)'
     call end_mpi()
 

@@ -7,15 +7,30 @@
 !> have failed: the message of the lowest failing rank is printed. `abort_all` is for a failure
 !> that only one rank sees in a place where the others cannot be reached: it calls MPI_Abort.
 module terrace_errors
-    use, intrinsic :: iso_fortran_env, only: error_unit
-    use mpi_f08, only: MPI_Comm_rank, MPI_COMM_WORLD, MPI_Finalize, MPI_Abort, MPI_Allreduce, &
+    use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
+    use, intrinsic :: iso_c_binding, only: c_int
+    use mpi_f08, only: MPI_Comm_rank, MPI_COMM_WORLD, MPI_Finalize, MPI_Abort, MPI_Allreduce, MPI_Barrier, &
                        MPI_Bcast, MPI_INTEGER, MPI_CHARACTER, MPI_MIN, MPI_Initialized, MPI_Finalized
     use terrace_file_ops, only: cleanup_now
     implicit none
     private
 
     integer, parameter, public :: exit_error = 1
-    public :: stop_all, check_all, abort_all, warn
+    public :: stop_all, check_all, abort_all, warn, note_broken_hdf5_file
+
+    !> An HDF5 file could not be flushed or closed (a full device): HDF5 1.10 then crashes in its
+    !> own clean-up, which MPI_Finalize runs (H5F__close_cb on the half-closed file). stop_all
+    !> then ends the processes with _exit after a barrier, without MPI_Finalize, once stdout and
+    !> stderr are flushed (the small outputs of a failed run are removed anyway; in-place thermo
+    !> files of checkpointed runs are flushed line by line).
+    logical :: broken_hdf5 = .false.
+
+    interface
+        subroutine c_exit(code) bind(C, name='_exit')
+            import :: c_int
+            integer(c_int), value :: code
+        end subroutine c_exit
+    end interface
 
 contains
 
@@ -41,9 +56,21 @@ contains
         end if
         call cleanup_now()        ! uncommitted temporary outputs and lock files (terrace_file_ops)
         call MPI_Initialized(up)
+        if (up .and. broken_hdf5) then
+            flush (output_unit); flush (error_unit)
+            call MPI_Barrier(MPI_COMM_WORLD)
+            call c_exit(int(exit_code, c_int))
+        end if
         if (up) call MPI_Finalize()
         stop exit_code, quiet=.true.
     end subroutine stop_all
+
+    !> Called (on every rank, or on the ranks that saw it) when an HDF5 file could not be written
+    !> out: the coming stop_all must not run HDF5's clean-up.
+    subroutine note_broken_hdf5_file()
+        broken_hdf5 = .true.
+    end subroutine note_broken_hdf5_file
+
 
     !> Collective check: stops every rank if `ok` is false on any of them.
     subroutine check_all(ok, msg)

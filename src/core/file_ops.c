@@ -32,6 +32,13 @@ static void terrace_cleanup_at_exit(void)
     cleanup_count = 0;
 }
 
+/* Unlink the registered files without freeing anything (from a signal handler). */
+void terrace_cleanup_signal_safe(void)
+{
+    for (int i = 0; i < cleanup_count; ++i)
+        if (cleanup_paths[i] != NULL) unlink(cleanup_paths[i]);
+}
+
 /* Remove the registered files now (the error path calls it before MPI_Finalize / MPI_Abort, so
  * that no rank's exit can let mpirun kill this one before its files are gone). */
 void terrace_cleanup_now(void) { terrace_cleanup_at_exit(); }

@@ -107,10 +107,17 @@ contains
         lock_file = int(c_path_op(4_c_int, trim(path)//c_null_char))
     end function lock_file
 
-    subroutine remove_at_exit(path)
+    !> Remove path at exit (an uncommitted output), unless keep_at_exit is called first. Runs that
+    !> write in place keep their outputs, except for files registered with always = .true.
+    !> (a checkpoint's temporary file).
+    subroutine remove_at_exit(path, always)
         character(len=*), intent(in) :: path
+        logical, intent(in), optional :: always
         integer :: rc
-        if (in_place) return
+        logical :: force
+        force = .false.
+        if (present(always)) force = always
+        if (in_place .and. .not. force) return
         rc = int(c_path_op(5_c_int, trim(path)//c_null_char))
     end subroutine remove_at_exit
 

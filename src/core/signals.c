@@ -27,3 +27,52 @@ int terrace_stop_signal(void) { return (int)terrace_signal_flag; }
 /* Signal numbers, for the messages. */
 int terrace_sigterm_number(void) { return SIGTERM; }
 int terrace_sigusr1_number(void) { return SIGUSR1; }
+
+/* Watchdog (issue 15, classes 8 and 9): alarm() with a handler that writes a prepared message,
+ * removes the registered temporary files (terrace_cleanup_signal_safe, unlink only) and ends the
+ * process with _exit(status). Used where a library call may never return: a parallel HDF5 write
+ * that failed on this rank while the others wait in a collective inside HDF5 (mpirun then ends
+ * the other ranks), and the analyser opening a damaged HDF5 file (HDF5 can spin on a damaged
+ * global heap). Only async-signal-safe calls in the handler. */
+#include <unistd.h>
+
+void terrace_cleanup_signal_safe(void);
+
+static char terrace_watchdog_msg[4096];
+static size_t terrace_watchdog_len = 0;
+static int terrace_watchdog_status = 1;
+
+static void terrace_on_alarm(int sig)
+{
+    (void)sig;
+    if (terrace_watchdog_len > 0) {
+        ssize_t w = write(2, terrace_watchdog_msg, terrace_watchdog_len);
+        (void)w;
+    }
+    terrace_cleanup_signal_safe();
+    _exit(terrace_watchdog_status);
+}
+
+/* Arm: after `seconds`, print msg (len bytes, a newline is added) and exit with `status`.
+ * Re-arming replaces the previous alarm. Returns 0 on success. */
+int terrace_watchdog_arm(int seconds, const char *msg, int len, int status)
+{
+    struct sigaction sa;
+    if (len < 0) len = 0;
+    if ((size_t)len > sizeof terrace_watchdog_msg - 2) len = (int)sizeof terrace_watchdog_msg - 2;
+    alarm(0);
+    memcpy(terrace_watchdog_msg, msg, (size_t)len);
+    terrace_watchdog_msg[len] = '\n';
+    terrace_watchdog_len = len > 0 ? (size_t)len + 1 : 0;
+    terrace_watchdog_status = status;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = terrace_on_alarm;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = 0;
+    if (sigaction(SIGALRM, &sa, NULL) != 0) return 1;
+    alarm((unsigned)seconds);
+    return 0;
+}
+
+/* Disarm (the guarded call returned). */
+void terrace_watchdog_disarm(void) { alarm(0); }

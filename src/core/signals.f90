@@ -4,7 +4,7 @@
 !> the checkpoint and exits with exit_stopped. The wall-clock limit (&run walltime_limit) is
 !> decided in the same reduction.
 module terrace_signals
-    use, intrinsic :: iso_c_binding, only: c_int
+    use, intrinsic :: iso_c_binding, only: c_int, c_char
     implicit none
     private
 
@@ -12,7 +12,7 @@ module terrace_signals
     !> resubmit it with &system read_checkpoint.
     integer, parameter, public :: exit_stopped = 3
 
-    public :: install_stop_handlers, stop_signal_name, local_stop_signal
+    public :: install_stop_handlers, stop_signal_name, local_stop_signal, watchdog_arm, watchdog_disarm
 
     interface
         integer(c_int) function c_install() bind(C, name='terrace_install_stop_handlers')
@@ -27,6 +27,13 @@ module terrace_signals
         integer(c_int) function c_sigusr1() bind(C, name='terrace_sigusr1_number')
             import :: c_int
         end function c_sigusr1
+        integer(c_int) function c_arm(seconds, msg, len, status) bind(C, name='terrace_watchdog_arm')
+            import :: c_int, c_char
+            integer(c_int), value :: seconds, len, status
+            character(kind=c_char), intent(in) :: msg(*)
+        end function c_arm
+        subroutine watchdog_disarm() bind(C, name='terrace_watchdog_disarm')
+        end subroutine watchdog_disarm
     end interface
 
 contains
@@ -36,6 +43,17 @@ contains
         logical, intent(out) :: ok
         ok = c_install() == 0
     end subroutine install_stop_handlers
+
+    !> After `seconds` (unless watchdog_disarm is called first) print msg on stderr, remove the
+    !> registered temporary files and exit with `status` (signals.c): for library calls that may
+    !> never return (HDF5 stuck in a collective after a failed write, or spinning on a damaged
+    !> file). Not collective.
+    subroutine watchdog_arm(seconds, msg, status)
+        integer, intent(in) :: seconds, status
+        character(len=*), intent(in) :: msg
+        integer(c_int) :: rc
+        rc = c_arm(int(seconds, c_int), msg, int(len(msg), c_int), int(status, c_int))
+    end subroutine watchdog_arm
 
     !> The stop signal this process received (0: none). Not collective.
     integer function local_stop_signal()

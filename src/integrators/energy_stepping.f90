@@ -28,6 +28,7 @@
 !> Thermo gains ecouple and econserve = K + k h - ecouple.
 module terrace_energy_stepping
     use terrace_kinds, only: dp, i8, pi
+    use terrace_text, only: fixed
     use terrace_engine, only: engine_t
     use terrace_schedule, only: schedule_t
     use terrace_event_solver, only: ray_t, event_solver_t, crossing_t, level_upper, level_lower
@@ -63,6 +64,10 @@ module terrace_energy_stepping
         integer(i8) :: events = 0, reflections = 0, ups = 0, downs = 0
         integer(i8) :: ray_evals = 0, force_passes = 0, verify_misses = 0, rebuilds = 0
         real(dp) :: time = 0
+        !> the conserved K + k h (less the thermostat's exchange) at the first and the last thermo
+        !> sample of this run (of the continuation after a restart), for the closing summary
+        real(dp) :: conserved_first = 0, conserved_last = 0
+        logical :: have_conserved = .false.
     end type es_stats_t
 
     !> The event loop's whole state between two events: time, terrace index and edges, the solver's
@@ -223,10 +228,10 @@ contains
             write (output_unit, '(a,es12.5,1x,a,a)') '  vs Verlet  : a stable Verlet step here is ~ ', dt_vv, &
                 trim(eng%cfg%units%time), how
         else
-            write (output_unit, '(a,es12.5,1x,a,a,f0.1,a)') '  expected   : mean event interval ~ ', mean_dt, &
-                trim(eng%cfg%units%time), ', about ', 100*refl/2, ' % of events reflections'
-            write (output_unit, '(a,es12.5,1x,a,a,f0.2,a)') '  vs Verlet  : a stable Verlet step here is ~ ', dt_vv, &
-                trim(eng%cfg%units%time), how//'; ratio ', mean_dt/dt_vv, &
+            write (output_unit, '(a,es12.5,1x,a,a)') '  expected   : mean event interval ~ ', mean_dt, &
+                trim(eng%cfg%units%time), ', about '//fixed(100*refl/2, 1)//' % of events reflections'
+            write (output_unit, '(a,es12.5,1x,a,a)') '  vs Verlet  : a stable Verlet step here is ~ ', dt_vv, &
+                trim(eng%cfg%units%time), how//'; ratio '//fixed(mean_dt/dt_vv, 2)// &
                 ' (an event costs about 2-3 force passes: energy stepping pays off above ~3)'
         end if
     end subroutine print_es_estimates
@@ -481,7 +486,7 @@ contains
             call st%exchange(val, .true., stats, ok)
             ! the trajectory holds every frame the checkpoint counts, even if the run is killed next
             call traj%flush(ok, msg)
-            call check_all(ok, 'trajectory: '//trim(msg))
+            call check_all(ok, trim(msg))
             call ctl%write(eng, val, stats%events, st%t, thermo%lines, traj%frames(), scheduled)
             call eng%timers%stop(t_output)
         end subroutine checkpoint
@@ -500,6 +505,10 @@ contains
                 evals = real(stats%ray_evals - st%last_evals, dp)/(stats%events - st%last_events)
             end if
             extra(1:6) = [real(stats%events, dp), real(stats%reflections, dp), mean_dt, evals, h, s%ke + st%k*h]
+            stats%conserved_last = s%ke + st%k*h
+            if (ts%active()) stats%conserved_last = stats%conserved_last - s%ecouple
+            if (.not. stats%have_conserved) stats%conserved_first = stats%conserved_last
+            stats%have_conserved = .true.
             if (ts%active()) then
                 extra(7) = s%ecouple
                 extra(8) = s%ke + st%k*h - extra(7)
@@ -522,7 +531,7 @@ contains
             s = eng%sample(stats%events, time)
             call traj%write(stats%events, time, eng%atoms, s, ok, msg, names, &
                             [real(stats%events, dp), real(stats%reflections, dp), h, s%ke + st%k*h])
-            call check_all(ok, 'trajectory: '//trim(msg))
+            call check_all(ok, trim(msg))
             call eng%timers%stop(t_output)
         end subroutine write_frame
 

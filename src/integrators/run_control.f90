@@ -16,6 +16,7 @@
 !> points so far) + 2 x (last checkpoint write) + 1 s would pass the limit.
 module terrace_run_control
     use terrace_kinds, only: dp, i8
+    use terrace_text, only: fixed
     use terrace_engine, only: engine_t
     use terrace_checkpoint, only: ckpt_values_t, write_checkpoint, deck_hash
     use terrace_signals, only: install_stop_handlers, local_stop_signal, stop_signal_name
@@ -153,8 +154,8 @@ contains
                               eng%cfg%path, deck_hash(eng%cfg%nml), terrace_version_string, values, ok, msg)
         call check_all(ok, trim(self%path)//': &output checkpoint_file: '//trim(msg))
         self%write_seconds = MPI_Wtime() - t0
-        if (world%rank == 0) write (output_unit, '(a,i0,a,es16.9,a,f0.3,a)') 'checkpoint: step ', step, ', time ', &
-            time, ' -> '//self%path//' (', self%write_seconds, ' s)'
+        if (world%rank == 0) write (output_unit, '(a,i0,a,es16.9,a)') 'checkpoint: step ', step, ', time ', &
+            time, ' -> '//self%path//' ('//fixed(self%write_seconds, 3)//' s)'
     end subroutine control_write
 
 end module terrace_run_control

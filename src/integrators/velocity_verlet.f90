@@ -185,7 +185,7 @@ contains
             end if
             ! the trajectory holds every frame the checkpoint counts, even if the run is killed next
             call traj%flush(ok, msg)
-            call check_all(ok, 'trajectory: '//trim(msg))
+            call check_all(ok, trim(msg))
             call ctl%write(eng, values, step, step*dt, thermo%lines, traj%frames(), scheduled)
             call eng%timers%stop(t_output)
         end subroutine checkpoint
@@ -198,7 +198,7 @@ contains
             if (.not. sched%frame_due(step)) return
             call eng%timers%start(t_output)
             call traj%write(step, step*dt, eng%atoms, s, ok, msg)
-            call check_all(ok, 'trajectory: '//trim(msg))
+            call check_all(ok, trim(msg))
             call eng%timers%stop(t_output)
         end subroutine write_frame
 

@@ -10,6 +10,14 @@
 !>     /state       attrs: one scalar per quantity (int64 or float64): step, time, box_lo_1..3,
 !>                         box_hi_1..3, mass_1..ntypes, output counters, integrator state
 !>
+!> Integrity (format_version 2): every /atoms dataset has an int64 attribute `checksum`, the
+!> order-independent sum of terrace_checksum over its rows (the same on any rank count), and the
+!> root attribute `state_checksum` covers natoms, nprocs, dimension, deck_hash and every /state
+!> value (name and bits). A restart recomputes them all and refuses a checkpoint where one differs
+!> (a damaged byte), then range-checks what it read (finite reals, types, slots). HDF5's own
+!> metadata (superblock v2, object headers v2, written with libver 1.8 bounds) carries HDF5's
+!> checksums, so a damaged header fails on open.
+!>
 !> Written collectively with parallel HDF5: every atom's row goes to the rank whose id block holds
 !> it (terrace_id_blocks), which writes its block as one hyperslab; the scalars are the same on
 !> every rank. The file is written as <path>.tmp and renamed to <path> by rank 0 after the
@@ -24,20 +32,23 @@ module terrace_checkpoint
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: world, any_all
     use terrace_id_blocks, only: to_id_blocks
+    use terrace_errors, only: note_broken_hdf5_file
+    use terrace_file_ops, only: remove_file, remove_at_exit, keep_at_exit
+    use terrace_checksum, only: checksum_rows, checksum_text, checksum_add, checksum_over_ranks
     use terrace_namelist_text, only: namelist_file_t
-    use terrace_hdf5_io, only: h5_status_t, h5_open_file, h5_create, h5_read, h5_transfer_list, h5_make_fixed, &
+    use terrace_hdf5_io, only: h5_status_t, h5_agree, h5_writer_closed, h5_guard_begin, h5_guard_end, h5_open_file, h5_create, h5_read, h5_transfer_list, h5_make_fixed, &
                                h5_write_slab, h5_dataset_rank, h5_dataset_dims, h5_read_whole, h5_attr_text, &
                                h5_attr_scalar, h5_read_attr_scalar, h5_read_attr_string
     use mpi_f08, only: MPI_Barrier
     use hdf5, only: hid_t, hsize_t, size_t, h5gcreate_f, h5gclose_f, h5gopen_f, h5dopen_f, h5dclose_f, h5fclose_f, &
-                    h5pclose_f, h5aget_num_attrs_f, h5aopen_by_idx_f, h5aget_name_f, h5aget_type_f, h5tget_class_f, &
+                    h5pclose_f, h5aget_num_attrs_f, h5aexists_f, h5aopen_by_idx_f, h5aget_name_f, h5aget_type_f, h5tget_class_f, &
                     h5aread_f, h5tclose_f, h5aclose_f, h5kind_to_type, H5_INTEGER_KIND, H5_INDEX_NAME_F, &
                     H5_ITER_INC_F, H5T_INTEGER_F, H5T_NATIVE_DOUBLE, H5T_STD_I64LE, H5T_STD_I32LE, H5T_IEEE_F64LE
     implicit none
     private
 
     character(len=*), parameter :: format_name = 'terrace-checkpoint'
-    integer, parameter :: format_version = 1
+    integer, parameter :: format_version = 2
     integer, parameter :: ncol = 15           !< type, x(3), v(3), f(3), image(3), slot rank, slot index
 
     !> Named scalars of the run state (integer or real), written as attributes of /state.
@@ -216,6 +227,25 @@ contains
         if (.not. ok) msg = 'cannot create '//path//'.tmp (is the directory there and writable?)'
     end subroutine probe_checkpoint_path
 
+    !> Checksum of the scalars: natoms, nprocs, dimension, deck hash and every named value (name and
+    !> bits), independent of the order of the values.
+    integer(i8) function state_checksum(natoms, nprocs, dimension, hash, values) result(h)
+        integer(i8), intent(in) :: natoms, nprocs, dimension, hash
+        type(ckpt_values_t), intent(in) :: values
+        character(len=8) :: bits
+        integer :: k
+        h = checksum_text(1_i8, transfer(natoms, bits)//transfer(nprocs, bits)//transfer(dimension, bits)// &
+                          transfer(hash, bits))
+        do k = 1, values%n
+            if (values%is_int(k)) then
+                bits = transfer(values%ival(k), bits)
+            else
+                bits = transfer(values%rval(k), bits)
+            end if
+            h = checksum_add(h, checksum_text(merge(2_i8, 3_i8, values%is_int(k)), trim(values%names(k))//'='//bits))
+        end do
+    end function state_checksum
+
     ! ------------------------------------------------------------------ writing
 
     !> Write the checkpoint of the owned atoms and the named values. Collective; ok is the same on
@@ -254,10 +284,12 @@ contains
             ok = .false.; msg = 'checkpoint: the atom ids are not 1..N over the ranks'; return
         end if
 
-        call h5_open_file(st, tmp, h5_create, file, world%comm)
+        if (world%rank == 0) call remove_at_exit(tmp, always=.true.)
+        call h5_open_file(st, tmp, h5_create, file, world%comm, label=path//' (&output checkpoint_file; writing '//tmp//')')
         failed = .not. st%ok .or. file < 0
         call any_all(failed)
         if (failed) then
+            if (world%rank == 0) k = remove_file(tmp)
             ok = .false.; msg = 'checkpoint: cannot create '//tmp; return
         end if
         call h5_transfer_list(st, .true., dxpl)
@@ -285,16 +317,16 @@ contains
                 images(:, k) = int(nint(block(11:13, k)), int32)
                 slots(:, k) = nint(block(14:15, k), i8)
             end do
-            call put_rows(g, 'id', H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), 0, c_loc(ids))
-            call put_rows(g, 'type', H5T_STD_I32LE, h5kind_to_type(int32, H5_INTEGER_KIND), 0, c_loc(types))
-            call put_rows(g, 'image', H5T_STD_I32LE, h5kind_to_type(int32, H5_INTEGER_KIND), 3, c_loc(images))
-            call put_rows(g, 'slot', H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), 2, c_loc(slots))
+            call put_rows(g, 'id', H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), 0, 8, c_loc(ids))
+            call put_rows(g, 'type', H5T_STD_I32LE, h5kind_to_type(int32, H5_INTEGER_KIND), 0, 4, c_loc(types))
+            call put_rows(g, 'image', H5T_STD_I32LE, h5kind_to_type(int32, H5_INTEGER_KIND), 3, 4, c_loc(images))
+            call put_rows(g, 'slot', H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), 2, 8, c_loc(slots))
             r3 = block(2:4, 1:max(count, 1_i8))
-            call put_rows(g, 'position', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, c_loc(r3))
+            call put_rows(g, 'position', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, 8, c_loc(r3))
             r3 = block(5:7, 1:max(count, 1_i8))
-            call put_rows(g, 'velocity', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, c_loc(r3))
+            call put_rows(g, 'velocity', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, 8, c_loc(r3))
             r3 = block(8:10, 1:max(count, 1_i8))
-            call put_rows(g, 'force', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, c_loc(r3))
+            call put_rows(g, 'force', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, 8, c_loc(r3))
         end block
         call h5gclose_f(g, err)
 
@@ -307,17 +339,27 @@ contains
             end if
         end do
         call h5gclose_f(gs, err)
+        call h5_attr_scalar(st, file, 'state_checksum', state_checksum(natoms, int(world%nprocs, i8), &
+                            int(dimension, i8), hash, values))
         call h5pclose_f(dxpl, err)
-        call h5fclose_f(file, err); call st%check(err, 'H5Fclose')
+        call h5_guard_begin('H5Fclose'); call h5fclose_f(file, err); call h5_guard_end()
+        call st%check(err, 'H5Fclose')
+        call h5_writer_closed()
 
-        failed = .not. st%ok
-        call any_all(failed)
+        call h5_agree(world%comm, st, good, msg)
+        failed = .not. good
         if (failed) then
-            ok = .false.; msg = 'checkpoint: HDF5 failed while writing '//tmp; return
+            ! a full device: HDF5 cannot end cleanly (terrace_errors); the previous checkpoint stays
+            call note_broken_hdf5_file()
+            if (world%rank == 0) k = remove_file(tmp)
+            ok = .false.; msg = 'checkpoint: HDF5 failed while writing '//tmp//' (is the device full?)'; return
         end if
         ! the file is complete on disk: replace the previous checkpoint
         call MPI_Barrier(world%comm)
-        if (world%rank == 0) good = c_rename(tmp//c_null_char, path//c_null_char) == 0
+        if (world%rank == 0) then
+            good = c_rename(tmp//c_null_char, path//c_null_char) == 0
+            call keep_at_exit(tmp)
+        end if
         failed = .not. good
         call any_all(failed)
         if (failed) then
@@ -327,13 +369,14 @@ contains
     contains
 
         !> Dataset name of shape [N] (inner = 0) or [N][inner]; this rank writes its block of rows.
-        subroutine put_rows(loc, name, ftype, mtype, inner, buf)
+        subroutine put_rows(loc, name, ftype, mtype, inner, elsize, buf)
             integer(hid_t), intent(in) :: loc, ftype, mtype
             character(len=*), intent(in) :: name
-            integer, intent(in) :: inner
+            integer, intent(in) :: inner, elsize
             type(c_ptr), intent(in) :: buf
             integer(hid_t) :: d
             integer(hsize_t) :: nn, f0, c
+            integer(i8) :: partial
             nn = int(natoms, hsize_t); f0 = int(first - 1, hsize_t); c = int(count, hsize_t)
             if (inner == 0) then
                 call h5_make_fixed(st, loc, name, ftype, [nn], d)
@@ -342,6 +385,9 @@ contains
                 call h5_make_fixed(st, loc, name, ftype, [int(inner, hsize_t), nn], d)
                 call h5_write_slab(st, d, mtype, buf, [0_hsize_t, f0], [int(inner, hsize_t), c], count > 0, dxpl)
             end if
+            partial = 0
+            if (count > 0) partial = checksum_rows(first, count, max(inner, 1), elsize, buf)
+            call h5_attr_scalar(st, d, 'checksum', checksum_over_ranks(partial))
             call h5dclose_f(d, err)
         end subroutine put_rows
 
@@ -365,7 +411,8 @@ contains
         integer(size_t) :: nlen
         type(c_ptr) :: pbuf
         type(h5_status_t) :: st
-        integer(i8) :: v
+        integer(i8) :: v, stored, ntypes
+        logical :: have
 
         ok = .true.; msg = ''
         v = 0
@@ -382,6 +429,17 @@ contains
         call h5_read_attr_string(file, 'format', fmt)
         if (fmt /= format_name) then
             ok = .false.; msg = 'not a Terrace checkpoint (no format = '''//format_name//''' attribute)'
+            call h5aexists_f(file, 'format', have, err)
+            if (err < 0) msg = 'damaged checkpoint: its root object header is unreadable (fails HDF5''s checksum)'
+            call h5fclose_f(file, err)
+            call agree_fail(); return
+        end if
+        v = 0
+        call h5_read_attr_scalar(st, file, 'format_version', v)
+        if (st%ok .and. v /= format_version) then
+            ok = .false.
+            write (msg, '(a,i0,a,i0,a)') 'checkpoint format_version ', v, ' (this Terrace reads version ', &
+                format_version, ', with checksums): start the run again from its deck'
             call h5fclose_f(file, err)
             call agree_fail(); return
         end if
@@ -389,6 +447,8 @@ contains
         call h5_read_attr_scalar(st, file, 'nprocs', v); data%nprocs = int(v)
         call h5_read_attr_scalar(st, file, 'dimension', v); data%dimension = int(v)
         call h5_read_attr_scalar(st, file, 'deck_hash', data%deck_hash)
+        ! the atom count must be the datasets' length before anything is allocated with it
+        if (st%ok) call check_length('atoms/id')
         if (st%ok .and. data%natoms > 0) then
             block
                 integer(i8), allocatable, target :: ids(:), slots(:, :)
@@ -397,14 +457,14 @@ contains
                 integer(hsize_t) :: nn
                 nn = int(data%natoms, hsize_t)
                 allocate (ids(nn), slots(2, nn), types(nn), images(3, nn), r3(3, nn))
-                call get_rows('atoms/id', h5kind_to_type(i8, H5_INTEGER_KIND), [nn], c_loc(ids))
-                call get_rows('atoms/slot', h5kind_to_type(i8, H5_INTEGER_KIND), [2_hsize_t, nn], c_loc(slots))
-                call get_rows('atoms/type', h5kind_to_type(int32, H5_INTEGER_KIND), [nn], c_loc(types))
-                call get_rows('atoms/image', h5kind_to_type(int32, H5_INTEGER_KIND), [3_hsize_t, nn], c_loc(images))
+                call get_rows('atoms/id', h5kind_to_type(i8, H5_INTEGER_KIND), [nn], 8, c_loc(ids))
+                call get_rows('atoms/slot', h5kind_to_type(i8, H5_INTEGER_KIND), [2_hsize_t, nn], 8, c_loc(slots))
+                call get_rows('atoms/type', h5kind_to_type(int32, H5_INTEGER_KIND), [nn], 4, c_loc(types))
+                call get_rows('atoms/image', h5kind_to_type(int32, H5_INTEGER_KIND), [3_hsize_t, nn], 4, c_loc(images))
                 data%id = ids; data%slot = slots; data%type = int(types); data%image = int(images)
-                call get_rows('atoms/position', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], c_loc(r3)); data%x = r3
-                call get_rows('atoms/velocity', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], c_loc(r3)); data%v = r3
-                call get_rows('atoms/force', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], c_loc(r3)); data%f = r3
+                call get_rows('atoms/position', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], 8, c_loc(r3)); data%x = r3
+                call get_rows('atoms/velocity', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], 8, c_loc(r3)); data%v = r3
+                call get_rows('atoms/force', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], 8, c_loc(r3)); data%f = r3
             end block
         else
             call st%fail('natoms')
@@ -415,7 +475,7 @@ contains
             call h5aget_num_attrs_f(g, na, err)
             do k = 0, na - 1
                 call h5aopen_by_idx_f(g, '.', H5_INDEX_NAME_F, H5_ITER_INC_F, int(k, hsize_t), a, err)
-                call st%check(err, 'open a state attribute')
+                call st%check(err, 'reading /state (its header fails HDF5''s checksum?)')
                 if (err < 0) exit
                 nlen = len(name)
                 name = ''
@@ -437,9 +497,37 @@ contains
             end do
             call h5gclose_f(g, err)
         end if
+        ! the scalars against their checksum, then the ranges of what was read
+        if (st%ok) then
+            stored = 0
+            call h5_read_attr_scalar(st, file, 'state_checksum', stored)
+            if (st%ok .and. stored /= state_checksum(data%natoms, int(data%nprocs, i8), int(data%dimension, i8), &
+                                                     data%deck_hash, data%values)) &
+                call st%fail('the scalars (natoms, nprocs, /state) do not match state_checksum')
+        end if
+        if (st%ok) then
+            have = .true.
+            ntypes = data%values%get_i('ntypes', have)
+            if (data%nprocs < 1 .or. (data%dimension /= 2 .and. data%dimension /= 3)) then
+                call st%fail('nprocs or dimension out of range')
+            else if (any(data%type < 1) .or. (have .and. any(data%type > ntypes))) then
+                call st%fail('an atom type outside 1..ntypes')
+            else if (.not. (all(abs(data%x) <= huge(1.0_dp)) .and. all(abs(data%v) <= huge(1.0_dp)) .and. &
+                            all(abs(data%f) <= huge(1.0_dp)))) then
+                call st%fail('a position, velocity or force that is NaN or infinite')
+            else if (any(data%slot(1, :) < 0) .or. any(data%slot(1, :) >= data%nprocs) .or. any(data%slot(2, :) < 1)) then
+                call st%fail('an atom slot outside the ranks that wrote it')
+            end if
+            do k = 1, data%values%n
+                if (.not. data%values%is_int(k)) then
+                    if (.not. abs(data%values%rval(k)) <= huge(1.0_dp)) &
+                        call st%fail('/state '//trim(data%values%names(k))//' is NaN or infinite')
+                end if
+            end do
+        end if
         call h5fclose_f(file, err)
         if (.not. st%ok) then
-            ok = .false.; msg = 'damaged checkpoint (a dataset or attribute is missing or unreadable)'
+            ok = .false.; msg = 'damaged checkpoint: '//trim(st%msg)
         end if
         call agree_fail()
 
@@ -453,14 +541,31 @@ contains
             end if
         end subroutine agree_fail
 
-        !> The whole dataset dname, which must have the Fortran shape dims.
-        subroutine get_rows(dname, mtype, dims, buf)
+        !> natoms must be the length of dataset dname (one dimension) before it sizes any array.
+        subroutine check_length(dname)
+            character(len=*), intent(in) :: dname
+            integer(hid_t) :: d
+            integer(hsize_t) :: fd(1)
+            integer :: e
+            call h5dopen_f(file, dname, d, e); call st%check(e, 'open '//dname)
+            if (e < 0) return
+            if (h5_dataset_rank(d) /= 1) call st%fail(dname//' has the wrong rank')
+            if (st%ok) call h5_dataset_dims(st, d, fd)
+            if (st%ok .and. fd(1) /= data%natoms) call st%fail('natoms differs from the length of '//dname)
+            call h5dclose_f(d, e)
+        end subroutine check_length
+
+        !> The whole dataset dname, which must have the Fortran shape dims (elements of elsize
+        !> bytes), and must match its checksum attribute.
+        subroutine get_rows(dname, mtype, dims, elsize, buf)
             character(len=*), intent(in) :: dname
             integer(hid_t), intent(in) :: mtype
             integer(hsize_t), intent(in) :: dims(:)
+            integer, intent(in) :: elsize
             type(c_ptr), intent(in) :: buf
             integer(hid_t) :: d
             integer(hsize_t) :: fd(size(dims))
+            integer(i8) :: sum
             integer :: e
             if (.not. st%ok) return
             call h5dopen_f(file, dname, d, e); call st%check(e, 'open '//dname)
@@ -469,6 +574,12 @@ contains
             if (st%ok) call h5_dataset_dims(st, d, fd)
             if (st%ok .and. any(fd /= dims)) call st%fail(dname//' has the wrong shape')
             if (st%ok) call h5_read_whole(st, d, mtype, buf, dname)
+            sum = 0
+            if (st%ok) call h5_read_attr_scalar(st, d, 'checksum', sum)
+            if (st%ok) then
+                if (sum /= checksum_rows(1_i8, int(dims(size(dims)), i8), int(product(dims(1:size(dims) - 1))), &
+                                         elsize, buf)) call st%fail(dname//' does not match its checksum')
+            end if
             call h5dclose_f(d, e)
         end subroutine get_rows
 

@@ -49,7 +49,9 @@ module terrace_h5md
     use, intrinsic :: iso_c_binding, only: c_loc
     use terrace_kinds, only: dp, i8
     use terrace_id_blocks, only: id_block, exchange_plan
-    use terrace_hdf5_io, only: h5_status_t, h5_group, h5_library, h5_agree, h5_open_file, h5_create, h5_append, &
+    use terrace_errors, only: note_broken_hdf5_file
+    use terrace_hdf5_io, only: h5_status_t, h5_group, h5_library, h5_agree, h5_writer_closed, h5_guard_begin, &
+                               h5_guard_end, h5_open_file, h5_create, h5_append, &
                                h5_transfer_list, h5_make_fixed, h5_make_series, h5_extend, h5_dataset_dims, &
                                h5_write_slab, h5_read_slab, h5_attr_int, h5_attr_text, h5_attr_text_list, &
                                h5_attr_vltext
@@ -209,7 +211,8 @@ contains
         call id_block(natoms, self%nprocs, self%rank, self%first, self%nmine)
 
         ! file (collective): MPI-IO driver, HDF5 file format version 2 (1.8 object headers)
-        call h5_open_file(st, self%path, h5_create, self%file, self%comm, collective_metadata=.true.)
+        call h5_open_file(st, self%path, h5_create, self%file, self%comm, collective_metadata=.true., &
+                          label=trim(self%path)//' (&output trajectory_file)')
         if (self%file < 0 .or. .not. st%ok) then
             call MPI_Comm_free(self%comm)
             ok = .false.; msg = 'h5md: cannot create '//self%path
@@ -310,10 +313,12 @@ contains
         call h5gclose_f(gp, err)
         call h5gclose_f(g, err)
 
-        call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
+        call st%check(err, 'H5Fflush')
         self%last_flush = MPI_Wtime()
         self%opened = .true.
         call h5_agree(self%comm, st, ok, msg)
+        if (.not. ok) call note_broken_hdf5_file()
         if (.not. ok) then
             call release(self)
             msg = 'h5md: '//trim(self%path)//': '//trim(msg)
@@ -366,7 +371,8 @@ contains
         if (.not. st%ok) then
             ok = .false.; msg = st%msg; return
         end if
-        call h5_open_file(st, self%path, h5_append, self%file, self%comm, collective_metadata=.true.)
+        call h5_open_file(st, self%path, h5_append, self%file, self%comm, collective_metadata=.true., &
+                          label=trim(self%path)//' (&output trajectory_file)')
         if (self%file < 0) then
             call MPI_Comm_free(self%comm)
             ok = .false.; msg = 'h5md: cannot open '//self%path//' to append to it'
@@ -468,8 +474,10 @@ contains
         self%unit_time = ''
         self%masses_by_type = [0.0_dp]   ! only read at the first frame, which is written already
         call id_block(self%natoms, self%nprocs, self%rank, self%first, self%nmine)
-        call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
+        call st%check(err, 'H5Fflush')
         call h5_agree(self%comm, st, ok, msg)
+        if (.not. ok) call note_broken_hdf5_file()
         if (.not. ok) then
             call release(self)
             msg = 'h5md: '//trim(self%path)//': '//trim(msg)
@@ -546,6 +554,7 @@ contains
         total = merge(int(nlocal, i8), 0_i8, st%ok)
         call MPI_Allreduce(MPI_IN_PLACE, total, 1, MPI_INTEGER8, MPI_SUM, self%comm)
         call h5_agree(self%comm, st, ok, msg)
+        if (.not. ok) call note_broken_hdf5_file()
         if (.not. ok) return
         if (total /= self%natoms) then
             ok = .false.
@@ -655,6 +664,7 @@ contains
         end associate
         call flush_unless_told(self, st, flush)
         call h5_agree(self%comm, st, ok, msg)
+        if (.not. ok) call note_broken_hdf5_file()
         if (ok) then
             self%nframes = self%nframes + 1
             self%last_step = step
@@ -789,6 +799,7 @@ contains
         end associate
         call flush_unless_told(self, st, flush)
         call h5_agree(self%comm, st, ok, msg)
+        if (.not. ok) call note_broken_hdf5_file()
         if (ok) then
             self%obs(k)%n = self%obs(k)%n + 1
         else
@@ -805,7 +816,8 @@ contains
         if (present(flush)) then
             if (.not. flush) return
         end if
-        call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
+        call st%check(err, 'H5Fflush')
         self%nflushed = self%nframes
     end subroutine flush_unless_told
 
@@ -831,8 +843,10 @@ contains
                 call MPI_Bcast(due, 1, MPI_LOGICAL, 0, self%comm)
             end if
             if (due) then
-                call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+                call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
+                call st%check(err, 'H5Fflush')
                 call h5_agree(self%comm, st, ok_, msg_)
+                if (.not. ok_) call note_broken_hdf5_file()
                 self%last_flush = MPI_Wtime()
                 if (ok_) self%nflushed = self%nframes
             end if
@@ -852,8 +866,10 @@ contains
         character(len=256) :: msg_
         ok_ = .true.; msg_ = ''
         if (self%opened) then
-            call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+            call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
+            call st%check(err, 'H5Fflush')
             call h5_agree(self%comm, st, ok_, msg_)
+            if (.not. ok_) call note_broken_hdf5_file()
             call release(self)
         end if
         if (present(ok)) ok = ok_
@@ -940,8 +956,10 @@ contains
         call h5dclose_f(d, err)
         call h5gclose_f(gp, err)
         call h5gclose_f(g, err)
-        call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call st%check(err, 'H5Fflush')
+        call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
+        call st%check(err, 'H5Fflush')
         call h5_agree(self%comm, st, ok, msg)
+        if (.not. ok) call note_broken_hdf5_file()
         if (.not. ok) msg = 'h5md: write_connectivity '//trim(name)//': '//trim(msg)
     end subroutine writer_write_connectivity
 
@@ -971,7 +989,10 @@ contains
         if (self%dxpl >= 0) call h5pclose_f(self%dxpl, err)
         if (self%dxpl_rank0 >= 0) call h5pclose_f(self%dxpl_rank0, err)
         self%dxpl = -1; self%dxpl_rank0 = -1
-        if (self%file >= 0) call h5fclose_f(self%file, err)
+        if (self%file >= 0) then
+            call h5_guard_begin('H5Fclose'); call h5fclose_f(self%file, err); call h5_guard_end()
+            call h5_writer_closed()
+        end if
         self%file = -1
         if (self%opened) call MPI_Comm_free(self%comm)
         self%opened = .false.

@@ -22,11 +22,11 @@
 !> the collective error path (terrace-analyze: every rank checks the same file) or returns ok/msg
 !> (h5md_read_frame, which makes its ranks agree over its own communicator).
 module terrace_h5md_reader
-    use, intrinsic :: iso_c_binding, only: c_ptr, c_loc
+    use, intrinsic :: iso_c_binding, only: c_ptr, c_loc, c_f_pointer
     use terrace_kinds, only: dp, i8
-    use terrace_errors, only: check_all
+    use terrace_errors, only: check_all, abort_all
     use terrace_id_blocks, only: id_block
-    use terrace_hdf5_io, only: h5_status_t, h5_library, h5_agree, h5_open_file, h5_read, h5_link_exists, &
+    use terrace_hdf5_io, only: h5_status_t, h5_library, h5_watch_begin, h5_watch_end, h5_agree, h5_open_file, h5_read, h5_link_exists, &
                                h5_dataset_rank, h5_dataset_dims, h5_read_whole, h5_read_slab, &
                                h5_read_attr_scalar, h5_read_attr_strings, h5_read_attr_string
     use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Comm_size
@@ -125,7 +125,10 @@ contains
         if (present(constants)) read_constants = constants
         self%key = 'trajectory_file'
         if (present(key)) self%key = key
+        call h5_library(st)
+        call h5_watch_begin(trim(path), self%key)
         call open_file(self, st, path, group, need_position, need_velocity, why_position, why_velocity, read_constants)
+        call h5_watch_end()
         if (.not. st%ok) call self%close()
         if (present(ok)) then
             ok = st%ok
@@ -611,6 +614,8 @@ contains
         count = [int(self%dimension, hsize_t), int(na, hsize_t), int(nf, hsize_t)]
         strides = [1_hsize_t, 1_hsize_t, int(max(stride, 1_i8), hsize_t)]
         call h5_read_slab(st, self%el(e)%value, memtype, p, start, count, .true., stride=strides)
+        ! positions and velocities must be finite: a NaN is the file's fault, named as such
+        if (st%ok .and. memtype == H5T_NATIVE_DOUBLE) call check_finite()
         if (present(status)) then
             if (.not. st%ok) call status%fail(self%where(trim(el_name(e))//'/value')//': read failed')
         else if (.not. st%ok) then
@@ -618,6 +623,31 @@ contains
             write (*, '(a)') 'terrace: error: '//self%where(trim(el_name(e))//'/value')//': read failed'
             error stop 1
         end if
+
+    contains
+
+        subroutine check_finite()
+            real(dp), pointer :: r(:, :, :)
+            integer(i8) :: j, a
+            character(len=64) :: where
+            call c_f_pointer(p, r, [int(self%dimension, i8), na, nf])
+            if (all(abs(r) <= huge(1.0_dp))) return
+            do j = 1, nf
+                do a = 1, na
+                    if (all(abs(r(:, a, j)) <= huge(1.0_dp))) cycle
+                    write (where, '(a,i0,a,i0)') 'frame ', f0 + (j - 1)*stride + 1, ', atom row ', a0 + a
+                    if (present(status)) then
+                        call status%fail(self%where(trim(el_name(e))//'/value')//': '//trim(where)//': NaN or '// &
+                                         'infinite value in the file')
+                    else
+                        call abort_all(self%where(trim(el_name(e))//'/value')//': '//trim(where)//': NaN or '// &
+                                       'infinite value in the file')
+                    end if
+                    return
+                end do
+            end do
+        end subroutine check_finite
+
     end subroutine read_block
 
     subroutine traj_close(self)
@@ -727,7 +757,14 @@ contains
         if (present(has_velocity)) has_velocity = hv .and. st%ok
         if (present(has_image)) has_image = hi .and. st%ok
         call h5_agree(comm, st, ok, msg)
-        if (.not. ok) msg = 'h5md: '//trim(path)//': '//trim(msg)
+        if (.not. ok) then
+            ! messages that name the file already (traj%where) lose it: the caller names it
+            if (index(msg, trim(path)//': ') == 1) then
+                msg = msg(len_trim(path) + 3:)
+            else
+                msg = 'h5md: '//trim(path)//': '//trim(msg)
+            end if
+        end if
     end subroutine h5md_read_frame
 
 end module terrace_h5md_reader

@@ -16,7 +16,8 @@ module terrace_hdf5_io
     use, intrinsic :: iso_fortran_env, only: int32
     use terrace_kinds, only: dp, i8
     use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Comm_size, MPI_Allreduce, MPI_Bcast, MPI_IN_PLACE, &
-                       MPI_INTEGER, MPI_MIN, MPI_CHARACTER, MPI_INFO_NULL
+                       MPI_INTEGER, MPI_MIN, MPI_CHARACTER, MPI_INFO_NULL, MPI_COMM_WORLD
+    use terrace_signals, only: watchdog_arm, watchdog_disarm
     use hdf5
     implicit none
     private
@@ -32,7 +33,8 @@ module terrace_hdf5_io
 
     integer, parameter, public :: h5_create = 1, h5_read = 2, h5_append = 3   !< h5_open_file modes
 
-    public :: h5_library, h5_agree, h5_open_file, h5_transfer_list
+    public :: h5_library, h5_agree, h5_open_file, h5_transfer_list, h5_writer_closed, h5_guard_begin, h5_guard_end, &
+              h5_watch_begin, h5_watch_end
     public :: h5_make_fixed, h5_make_series, h5_extend, h5_dataset_rank, h5_dataset_dims
     public :: h5_write_slab, h5_read_slab, h5_read_whole, h5_read_at
     public :: h5_attr_int, h5_attr_scalar, h5_attr_text, h5_attr_text_list, h5_attr_vltext
@@ -40,6 +42,20 @@ module terrace_hdf5_io
     public :: h5_link_exists, h5_group
 
     integer(hsize_t), parameter :: chunk_scalar = 512      !< default chunk of a series of scalars
+
+    !> Files open for parallel writing, and the last one's label (file and key) for the watchdog:
+    !> when an HDF5 call fails while one is open, the ranks may no longer meet in the same
+    !> collective (HDF5 1.10 on a full device: the failing rank skips the MPI_File_sync the others
+    !> wait in). The failure arms a watchdog (terrace_signals) that ends the job after
+    !> write_watchdog_s seconds with one error line unless h5_agree is reached first.
+    !> The same watchdog guards every flush and close of such a file (h5_guard_begin/end): on a
+    !> full device HDF5 1.10 can leave the ranks in different collectives inside H5Fclose without
+    !> any call having returned an error. write_watchdog_s: 60 s, or the environment variable
+    !> TERRACE_IO_WATCHDOG_S (the full-disk tests shorten it).
+    integer :: writers_open = 0
+    character(len=:), allocatable :: write_label
+    integer :: write_watchdog_s = 60
+    logical :: failure_pending = .false.
     logical, save :: library_open = .false.
 
 contains
@@ -52,14 +68,78 @@ contains
         character(len=*), intent(in) :: what
         if (err < 0 .and. self%ok) then
             self%ok = .false.; self%msg = 'HDF5 error in '//what
+            call arm_write_watchdog(self%msg)
         end if
     end subroutine status_check
+
+    subroutine arm_write_watchdog(what)
+        character(len=*), intent(in) :: what
+        character(len=16) :: s
+        if (writers_open <= 0) return
+        write (s, '(i0)') write_watchdog_s
+        call arm_on_rank('terrace: error: '//write_label//': '//trim(what)//' and the ranks '// &
+                         'did not meet again within '//trim(s)//' s (stuck in HDF5''s collective I/O; is the device full?)')
+        failure_pending = .true.
+    end subroutine arm_write_watchdog
+
+    !> Guard a collective flush or close of a file open for parallel writing: if it has not
+    !> returned within write_watchdog_s seconds, the process prints one error line and exits.
+    subroutine h5_guard_begin(what)
+        character(len=*), intent(in) :: what
+        character(len=16) :: s
+        if (writers_open <= 0 .or. failure_pending) return
+        write (s, '(i0)') write_watchdog_s
+        call arm_on_rank('terrace: error: '//write_label//': HDF5 '//what//' did not return within '//trim(s)// &
+                         ' s (the ranks are stuck in HDF5''s collective I/O; is the device full?)')
+    end subroutine h5_guard_begin
+
+    !> One error line for the job: rank 0's watchdog fires first and prints; rank 1's fires 3 s
+    !> later (mpirun has ended it by then when rank 0's fired) and prints; the others exit silently.
+    subroutine arm_on_rank(msg)
+        character(len=*), intent(in) :: msg
+        integer :: rank
+        call MPI_Comm_rank(MPI_COMM_WORLD, rank)
+        if (rank == 0) then
+            call watchdog_arm(write_watchdog_s, msg, 1)
+        else if (rank == 1) then
+            call watchdog_arm(write_watchdog_s + 3, msg, 1)
+        else
+            call watchdog_arm(write_watchdog_s + 3, '', 1)
+        end if
+    end subroutine arm_on_rank
+
+    subroutine h5_guard_end()
+        if (.not. failure_pending) call watchdog_disarm()
+    end subroutine h5_guard_end
+
+    !> Guard the opening of a file to read and the reading of its metadata (issue 15, class 9):
+    !> on some files with one damaged byte (in HDF5's global heap) HDF5 1.10 spins forever. If
+    !> h5_watch_end is not reached within write_watchdog_s seconds, one line
+    !> 'terrace: error: <path>: <key>: ...' and exit status 1.
+    subroutine h5_watch_begin(path, key)
+        character(len=*), intent(in) :: path, key
+        character(len=16) :: s
+        write (s, '(i0)') write_watchdog_s
+        call arm_on_rank('terrace: error: '//path//': '//key//': opening the file and reading its metadata did '// &
+                         'not finish within '//trim(s)//' s: HDF5 is stuck on it (a damaged file, or a file '// &
+                         'system that does not answer)')
+    end subroutine h5_watch_begin
+
+    subroutine h5_watch_end()
+        call watchdog_disarm()
+    end subroutine h5_watch_end
+
+    !> A file opened for parallel writing (h5_open_file with a communicator) has been closed.
+    subroutine h5_writer_closed()
+        writers_open = max(0, writers_open - 1)
+    end subroutine h5_writer_closed
 
     subroutine status_fail(self, what)
         class(h5_status_t), intent(inout) :: self
         character(len=*), intent(in) :: what
         if (self%ok) then
             self%ok = .false.; self%msg = what
+            call arm_write_watchdog(self%msg)
         end if
     end subroutine status_fail
 
@@ -71,9 +151,19 @@ contains
         call h5open_f(err); call st%check(err, 'H5open')
         call h5eset_auto_f(0, err)
         library_open = st%ok
+        block
+            character(len=32) :: v
+            integer :: n, ios, s
+            call get_environment_variable('TERRACE_IO_WATCHDOG_S', v, n)
+            if (n > 0) then
+                read (v, *, iostat=ios) s
+                if (ios == 0 .and. s >= 1) write_watchdog_s = s
+            end if
+        end block
     end subroutine h5_library
 
-    !> The same ok on every rank of comm; msg is that of the lowest failing rank.
+    !> The same ok on every rank of comm; msg is that of the lowest failing rank. Disarms the
+    !> watchdog a failed parallel write armed (status_check): the ranks are in step again.
     subroutine h5_agree(comm, st, ok, msg)
         type(MPI_Comm), intent(in) :: comm
         type(h5_status_t), intent(in) :: st
@@ -85,6 +175,8 @@ contains
         call MPI_Comm_size(comm, nprocs)
         failing = merge(nprocs, rank, st%ok)
         call MPI_Allreduce(MPI_IN_PLACE, failing, 1, MPI_INTEGER, MPI_MIN, comm)
+        failure_pending = .false.
+        call watchdog_disarm()
         ok = failing == nprocs
         msg = ''
         if (ok) return
@@ -98,13 +190,14 @@ contains
     !> collective over comm, and with collective_metadata, metadata writes are collective too.
     !> file < 0 when the file cannot be opened or created (the caller says so); a failure to set
     !> up the access properties is kept in st.
-    subroutine h5_open_file(st, path, mode, file, comm, collective_metadata)
+    subroutine h5_open_file(st, path, mode, file, comm, collective_metadata, label)
         type(h5_status_t), intent(inout) :: st
         character(len=*), intent(in) :: path
         integer, intent(in) :: mode
         integer(hid_t), intent(out) :: file
         type(MPI_Comm), intent(in), optional :: comm
         logical, intent(in), optional :: collective_metadata
+        character(len=*), intent(in), optional :: label     !< the file and its key, for messages
         integer(hid_t) :: fapl
         integer :: err
         file = -1
@@ -134,6 +227,11 @@ contains
         end select
         if (err < 0) file = -1
         call h5pclose_f(fapl, err)
+        if (present(comm) .and. mode /= h5_read .and. file >= 0) then
+            writers_open = writers_open + 1
+            write_label = path
+            if (present(label)) write_label = label
+        end if
     end subroutine h5_open_file
 
     !> A dataset transfer property list for MPI-IO: collective or independent transfers.

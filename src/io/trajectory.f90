@@ -17,6 +17,8 @@ module terrace_trajectory
     use terrace_units, only: units_t
     use terrace_observables, only: thermo_sample_t
     use terrace_version, only: terrace_version_string
+    use terrace_mpi_env, only: world
+    use terrace_file_ops, only: remove_at_exit, keep_at_exit, remove_file
     use terrace_xdmf, only: xdmf_sidecar_path, write_xdmf_mesh
     use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Bcast, MPI_LOGICAL, MPI_CHARACTER, MPI_Wtime
     implicit none
@@ -67,6 +69,7 @@ contains
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
         character(len=16) :: ul, ut, ue, uv, um
+        integer :: rc
         ok = .true.; msg = ''
         if (len_trim(path) == 0) return
         self%path = path
@@ -79,11 +82,18 @@ contains
         else
             ul = ''; ut = ''; ue = ''; uv = ''; um = ''
         end if
+        ! a trajectory that cannot be created (a full device) is not left behind, even when the
+        ! job is aborted (terrace_hdf5_io: h5_agree)
+        if (world%rank == 0) call remove_at_exit(path, always=.true.)
         self%comm = comm
         self%natoms = natoms
         call self%h5%create(path, comm, natoms, box%dimension, box%lo, box%hi, box%periodic, self%want_position, &
                             self%want_velocity, self%want_force, self%want_image, masses, trim(ul), trim(ut), &
                             trim(ue), trim(uv), trim(um), terrace_version_string, ok, msg)
+        if (world%rank == 0) then
+            call keep_at_exit(path)
+            if (.not. ok) rc = remove_file(path)
+        end if
         self%active = ok
     end subroutine trajectory_open
 
@@ -165,6 +175,7 @@ contains
         if (ok .and. self%active .and. self%mesh) then
             if (self%h5%frames_flushed() /= self%xdmf_frames) call self%write_sidecar(ok, msg)
         end if
+        if (.not. ok) msg = self%path//': &output trajectory_file: cannot flush: '//trim(msg)
     end subroutine trajectory_flush
 
     !> Frames written so far (including those kept from before a restart).
@@ -193,7 +204,10 @@ contains
         call self%h5%write_frame(step, time, n, atoms%id(1:n), atoms%type(1:n), x=atoms%x(:, 1:n), &
                                  v=atoms%v(:, 1:n), f=atoms%f(:, 1:n), image=atoms%image(:, 1:n), ok=ok, msg=msg, &
                                  flush=.false.)
-        if (.not. ok) return
+        if (.not. ok) then
+            msg = self%path//': &output trajectory_file: cannot write a frame: '//trim(msg)
+            return
+        end if
         ! observables: sampled with the frame (their step and time are the frame's), flushed below
         call observable('potential_energy', s%pe)
         call observable('kinetic_energy', s%ke)
@@ -212,6 +226,7 @@ contains
             ! (the rewrite costs O(frames): it is kept to about 1 % of the wall time)
             if (self%h5%frames_flushed() > self%xdmf_frames .and. due_sidecar()) call self%write_sidecar(ok, msg)
         end if
+        if (.not. ok) msg = self%path//': &output trajectory_file: cannot write a frame: '//trim(msg)
 
     contains
 
@@ -245,7 +260,6 @@ contains
     !> Close and delete the file (a run that stops before its first step leaves no trajectory).
     !> Collective.
     subroutine trajectory_discard(self)
-        use terrace_mpi_env, only: world
         class(trajectory_t), intent(inout) :: self
         integer :: unit, ios
         if (.not. self%active) return

@@ -4,7 +4,7 @@
 # previous run's file. On 1 and 3 ranks the run must exit non-zero within the time limit with one
 # 'terrace: error:' line naming the file and the &output key, leave no new file on the device, and
 # leave the previous file byte-identical. Needs root for the mount; skipped (77) where it fails.
-# (Trajectory and checkpoint on a full device are not covered here.)
+# (Trajectory and checkpoint on a full device: full_disk_hdf5.sh.)
 #
 # usage: full_disk_small.sh TERRACE_BIN OUTPUT_DIR
 set -u

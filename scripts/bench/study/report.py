@@ -47,8 +47,8 @@ def series(rows, method, key, with_trapped=False):
 # ----------------------------------------------------------------------------------- figures
 def fig_workprecision(scene, rows, path):
     panels = [('max_de', '(a) max |E(t) − E0| / N  [%s/atom]' % scene.eunit),
-              ('drift_abs', '(b) |energy drift|  [%s/atom/%s]' % (scene.eunit, scene.tunit)),
-              ('max_dp', '(b) max |P(t) − P(0)|  [mass·velocity]'),
+              ('drift_abs', '(b1) |energy drift|  [%s/atom/%s]' % (scene.eunit, scene.tunit)),
+              ('max_dp', '(b2) max |P(t) − P(0)|  [mass·velocity]'),
               ('traj_err', '(c) RMS position error at t = %g %s  [%s]'
                % (scene.params_used['t_short'], scene.tunit, scene.lunit))]
     for r in rows:
@@ -77,17 +77,37 @@ def fig_workprecision(scene, rows, path):
                                               else '%g' % r['param'])
                 ax.annotate(lab, (e, w), textcoords='offset points', xytext=(4, 3), fontsize=7, color=st['color'])
         ax.set_xlabel(label)
-        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_ylabel('wall time [s] (timing run, no output)')
         ax.grid(True, which='both', alpha=0.3)
-    handles, labels = axs[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc='lower center', ncol=5, fontsize=8)
+        log_tick_labels(ax)
+    # one legend for the figure, from every panel (a method may be missing from one), in two rows
+    seen = {}
+    for ax in axs.ravel():
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            seen.setdefault(lab, h)
+    fig.legend(list(seen.values()), list(seen.keys()), loc='lower center', ncol=3, fontsize=8)
     lab = 'labels: dt in fs, h in K k_B' if scene.units == 'metal' else 'labels: dt in tau, h in eps'
-    fig.suptitle('%s: %d atoms, %g %s per run (%s)' % (scene.title, scene.natoms, scene.params_used['t_long'],
-                                                     scene.tunit, lab), fontsize=10)
-    fig.tight_layout(rect=(0, 0.04, 1, 0.97))
+    atoms = '' if ('%d atoms' % scene.natoms) in scene.title else '%d atoms, ' % scene.natoms
+    fig.suptitle('%s: %s%g %s per run (%s)' % (scene.title, atoms, scene.params_used['t_long'],
+                                               scene.tunit, lab), fontsize=10)
+    fig.tight_layout(rect=(0, 0.07, 1, 0.97))
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def log_tick_labels(ax):
+    """Log axes spanning less than about two decades get labels at 2 and 5 times the powers of
+    ten too (else such an axis may show a single label); wider ones keep only the powers."""
+    for axis, lim in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+        if axis.get_scale() != 'log':
+            continue
+        lo, hi = min(lim), max(lim)
+        if lo > 0 and math.log10(hi / lo) < 2.0:
+            axis.set_minor_locator(matplotlib.ticker.LogLocator(base=10, subs=(2.0, 5.0)))
+            axis.set_minor_formatter(matplotlib.ticker.LogFormatterSciNotation(labelOnlyBase=False,
+                                                                               minor_thresholds=(3, 3)))
+        else:
+            axis.set_minor_formatter(matplotlib.ticker.NullFormatter())
 
 
 OBS = [('T', 'T_se', 'temperature [%s]', None), ('P', 'P_se', 'pressure [%s]', None),
@@ -438,7 +458,7 @@ def write(ctx, results):
       'stepping needs a continuous potential; LAMMPS `pair_modify shift yes`); LAMMPS runs with '
       '`neigh_modify every 1 delay 0 check yes` and the same skin.\n')
     w('- **(a)** max over thermo samples of |E(t) − E0| / N (E = K + V, the true energy also for energy stepping).')
-    w('- **(b)** energy drift: least-squares slope of (E − E0)/N against time; momentum: max |P(t) − P(0)|.')
+    w('- **(b1)** energy drift: least-squares slope of (E − E0)/N against time; **(b2)** momentum: max |P(t) − P(0)|.')
     w('- **(c)** trajectory error: RMS over atoms of |x(t_s) − x_ref(t_s)| at a short horizon t_s, '
       'unwrapped positions in id order (Terrace H5MD frames, LAMMPS `dump ... xu yu zu` sorted by id), '
       'against the reference: Terrace Verlet with dt_ref (4 to 8 times finer than the finest swept dt, '

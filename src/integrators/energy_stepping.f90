@@ -42,6 +42,7 @@ module terrace_energy_stepping
     use terrace_trajectory, only: trajectory_t
     use terrace_timers, only: t_output
     use terrace_mpi_env, only: world, sum_all, min_all
+    use terrace_exact_sum, only: exact_sum_all
     use terrace_errors, only: stop_all, check_all
     use terrace_run_checks, only: energy_guard_t
     use terrace_velocities, only: kinetic_energy
@@ -128,7 +129,13 @@ contains
         type(engine_t), intent(inout) :: eng
         real(dp), intent(out) :: sigma2, a, b
         real(dp) :: acc(3), g2, m
+        real(dp), allocatable :: part(:, :)
         integer :: i
+        logical :: exact
+        ! a potential that sums exactly (a mesh): these sums too, so that the kicks are the same
+        ! bits on any number of ranks
+        exact = eng%pot%sums_global()
+        if (exact) allocate (part(max(eng%atoms%nlocal, 1), 3))
         acc = 0
         do i = 1, eng%atoms%nlocal
             if (eng%atoms%per_atom_mass) then
@@ -137,11 +144,19 @@ contains
                 m = eng%atoms%mass(eng%atoms%type(i))
             end if
             g2 = sum(eng%atoms%f(:, i)**2)
-            acc(1) = acc(1) + g2*sum(eng%atoms%v(:, i)**2)
-            acc(2) = acc(2) + g2/m
-            acc(3) = acc(3) - sum(eng%atoms%f(:, i)*eng%atoms%v(:, i))
+            if (exact) then
+                part(i, :) = [g2*sum(eng%atoms%v(:, i)**2), g2/m, -sum(eng%atoms%f(:, i)*eng%atoms%v(:, i))]
+            else
+                acc(1) = acc(1) + g2*sum(eng%atoms%v(:, i)**2)
+                acc(2) = acc(2) + g2/m
+                acc(3) = acc(3) - sum(eng%atoms%f(:, i)*eng%atoms%v(:, i))
+            end if
         end do
-        call sum_all(acc)
+        if (exact) then
+            call exact_sum_all(part, eng%atoms%nlocal, eng%natoms, acc, .true.)
+        else
+            call sum_all(acc)
+        end if
         sigma2 = acc(1)/eng%box%dimension
         a = eng%cfg%units%mvv2e*acc(2)
         b = eng%cfg%units%mvv2e*acc(3)

@@ -187,9 +187,11 @@ contains
             call self%timers%stop(t_comm)
         end if
         if (want_energy) then
-            call self%timers%start(t_comm)
-            call sum_all(ew)
-            call self%timers%stop(t_comm)
+            if (.not. self%pot%sums_global()) then
+                call self%timers%start(t_comm)
+                call sum_all(ew)
+                call self%timers%stop(t_comm)
+            end if
             self%pe = ew(1); self%virial = ew(2)
         end if
         self%force_evaluations = self%force_evaluations + 1
@@ -260,6 +262,7 @@ contains
         call self%timers%start(t_search)
         call self%pot%ray(self%atoms, self%list, s, out)
         call self%timers%stop(t_search)
+        if (self%pot%sums_global()) return
         call self%timers%start(t_comm)
         call sum_all(out)
         call self%timers%stop(t_comm)

@@ -47,6 +47,9 @@ module terrace_potential
         procedure :: warning => potential_warning
         procedure :: on_rebuild => potential_on_rebuild
         procedure :: may_become_invalid => potential_false
+        !> .true.: forces' energies and ray sums come back already summed over the ranks (the
+        !> potential reduces them itself, e.g. exactly); the engine then does not sum them again
+        procedure :: sums_global => potential_false
         procedure :: invalid_state => potential_invalid_state
     end type potential_t
 

@@ -48,6 +48,7 @@ contains
                         ': contact needs two or more bodies (physical volumes); '//trim(cfg%mesh_file)//' has one')
                     if (.not. is_unset(cfg%contact_distance)) call stop_all(cfg%where('potential', 'contact_distance')// &
                         ': contact needs two or more bodies (physical volumes); '//trim(cfg%mesh_file)//' has one')
+                    nh%global_sums = .true.     ! alone: it sums its energies over the ranks itself, exactly
                     call move_alloc(nh, pot)
                 else
                     call add_contact(cfg, mesh, xref, xstart, nh, pot)

@@ -3,7 +3,10 @@
 # benchmark scene (input/lj_bench.nml, 32,000 atoms) and the LAMMPS EAM scene (Cu_u3, 32,000 atoms,
 # the in.eam set-up of scripts/bench/eam_bench.sh), one rank, OLD and NEW alternating, REPEAT times
 # each; prints each loop time, the best of each build and new/old.
-# Usage: scripts/bench/old_new_speed.sh OLD_TERRACE NEW_TERRACE [NSTEPS_LJ [NSTEPS_EAM [REPEAT]]]
+# COUNT=instructions: each build runs once per scene under `valgrind --tool=callgrind` and the
+# whole process's instruction counts are compared instead (they repeat exactly on a machine too
+# busy for wall times; use fewer steps, e.g. 100 and 20, so that it takes minutes).
+# Usage: [COUNT=instructions] scripts/bench/old_new_speed.sh OLD_TERRACE NEW_TERRACE [NSTEPS_LJ [NSTEPS_EAM [REPEAT]]]
 set -euo pipefail
 old="$(realpath "$1")"; new="$(realpath "$2")"
 nlj="${3:-1000}"; neam="${4:-200}"; repeat="${5:-3}"
@@ -22,6 +25,16 @@ echo "old: $old"; echo "new: $new"
 echo "machine: $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(nproc) cores visible, load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "date: $(date -u '+%Y-%m-%d %H:%M UTC')"
 loop() { "$1" "$2" 2>&1 | sed -n 's/^Loop time: *\([0-9.eE+-]*\).*/\1/p' | head -1; }
+if [[ "${COUNT:-}" == instructions ]]; then
+  command -v valgrind > /dev/null || { echo "old_new_speed: valgrind is not installed" >&2; exit 2; }
+  count() { valgrind --tool=callgrind --callgrind-out-file=cg.out "$1" "$2" > /dev/null 2>cg.err
+            sed -n 's/^summary: *\([0-9]*\).*/\1/p' cg.out | head -1; }
+  for scene in lj eam; do
+    io=$(count "$old" $scene.nml); in=$(count "$new" $scene.nml)
+    awk -v s=$scene -v o="$io" -v n="$in" 'BEGIN{printf "%-4s old %.4e, new %.4e instructions, new/old = %.4f\n", s, o, n, n/o}'
+  done
+  exit 0
+fi
 for scene in lj eam; do
   best_old=1e30; best_new=1e30
   for r in $(seq "$repeat"); do

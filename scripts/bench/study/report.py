@@ -2,6 +2,7 @@
 in the page is computed here from the rows that the sweeps, stress tests and scaling runs wrote to
 doc/bench_data/*.csv; the conclusions are derived from the same rows (equal-error comparisons by
 log-log interpolation of the Verlet curve), not written by hand."""
+import textwrap
 import math
 import os
 
@@ -159,10 +160,18 @@ def fig_observables(scene, rows, path):
         ax.set_xlabel('wall time [s]')
         ax.set_ylabel(obs_label(scene, k, text))
         ax.grid(True, alpha=0.3)
-    axs[0][0].legend(fontsize=7)
-    fig.suptitle('%s: long-run observables over %g %s (error bars ± 2 SE)' % (scene.title, scene.params_used['t_long'],
-                                                                             scene.tunit), fontsize=10)
-    fig.tight_layout()
+    # one legend below the panels, from every panel's entries: inside a panel it hid data points
+    seen = {}
+    for ax in axs[0]:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            seen.setdefault(lab, h)
+    ncol = min(len(seen), 2 * len(keys))                   # a narrow figure gets several rows
+    nrow = -(-len(seen) // ncol)
+    fig.legend(list(seen.values()), list(seen.keys()), loc='lower center', ncol=ncol, fontsize=8)
+    title = '%s: long-run observables over %g %s (error bars ± 2 SE)' % (scene.title, scene.params_used['t_long'],
+                                                                        scene.tunit)
+    fig.suptitle(textwrap.fill(title, 60 * len(keys)), fontsize=10)
+    fig.tight_layout(rect=(0, 0.06 * nrow + 0.02, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return True

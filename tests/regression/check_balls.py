@@ -17,35 +17,16 @@ usage: check_balls.py TERRACE OUTDIR
 """
 import json
 import os
-import shutil
 import subprocess
 import sys
 
 import numpy as np
 
-terrace, out = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
-repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-shutil.rmtree(out, ignore_errors=True)
-os.makedirs(out)
-venv = os.path.expanduser("~/.cache/terrace-venv")
-vpy = os.path.join(venv, "bin", "python")
-if subprocess.run([vpy, "-c", "import gmsh"], capture_output=True).returncode != 0 if os.path.exists(vpy) else True:
-    if not os.path.exists(vpy):
-        subprocess.run(["/usr/bin/python3", "-m", "venv", "--system-site-packages", venv], capture_output=True)
-    r = subprocess.run([vpy, "-m", "pip", "install", "-q", "gmsh"], capture_output=True, text=True, timeout=600)
-    if r.returncode != 0:
-        print("SKIPPED: the gmsh Python package is not installed and cannot be installed (offline?): "
-              + r.stderr.strip()[-200:])
-        sys.exit(77)
-subprocess.run([sys.executable, os.path.join(repo, "scripts", "make_ball_mesh.py"), os.path.join(out, "balls.msh"),
-                "--refine", "3", "--gap", "0.035"], check=True, stdout=subprocess.DEVNULL)
-failed = []
+from mesh_checks import REPO, ball_mesh, check, failed, run as run_terrace, start
 
+terrace, out = start()
 
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    if not ok:
-        failed.append(what)
+ball_mesh(os.path.join(out, "balls.msh"), 3, 0.035)
 
 
 def deck(name, integrator, length, outputs):
@@ -60,14 +41,13 @@ def deck(name, integrator, length, outputs):
 
 
 def run(name, np_=1):
-    cmd = [terrace, name + ".nml"] if np_ == 1 else ["mpirun", "--oversubscribe", "-np", str(np_), terrace, name + ".nml"]
-    r = subprocess.run(cmd, cwd=out, capture_output=True, text=True, timeout=600)
+    r = run_terrace(terrace, out, np_, name + ".nml", timeout=600)
     check(r.returncode == 0, f"{name} on {np_} rank(s) ran (exit {r.returncode}) {r.stderr.strip()[:300]}")
     return r
 
 
 def analyse(name):
-    subprocess.run([sys.executable, os.path.join(repo, "scripts", "balls_analysis.py"), os.path.join(out, name + ".nml"),
+    subprocess.run([sys.executable, os.path.join(REPO, "scripts", "balls_analysis.py"), os.path.join(out, name + ".nml"),
                     "--json", os.path.join(out, name + ".json")], check=True)
     return json.load(open(os.path.join(out, name + ".json")))
 

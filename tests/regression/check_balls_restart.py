@@ -21,36 +21,15 @@ usage: check_balls_restart.py TERRACE OUTDIR
 import os
 import re
 import shutil
-import subprocess
-import sys
 
 import h5py
 import numpy as np
 
-terrace, out = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
-repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-shutil.rmtree(out, ignore_errors=True)
-os.makedirs(out)
-venv = os.path.expanduser("~/.cache/terrace-venv")
-vpy = os.path.join(venv, "bin", "python")
-if subprocess.run([vpy, "-c", "import gmsh"], capture_output=True).returncode != 0 if os.path.exists(vpy) else True:
-    if not os.path.exists(vpy):
-        subprocess.run(["/usr/bin/python3", "-m", "venv", "--system-site-packages", venv], capture_output=True)
-    r = subprocess.run([vpy, "-m", "pip", "install", "-q", "gmsh"], capture_output=True, text=True, timeout=600)
-    if r.returncode != 0:
-        print("SKIPPED: the gmsh Python package is not installed and cannot be installed (offline?): "
-              + r.stderr.strip()[-200:])
-        sys.exit(77)
+from mesh_checks import ball_mesh, check, finish, read, run as run_terrace, same_h5, start
+
+terrace, out = start()
 mesh = os.path.join(out, "balls.msh")
-subprocess.run([sys.executable, os.path.join(repo, "scripts", "make_ball_mesh.py"), mesh, "--refine", "3",
-                "--gap", "0.031"], check=True, stdout=subprocess.DEVNULL)
-failed = []
-
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    if not ok:
-        failed.append(what)
+ball_mesh(mesh, 3, 0.031)
 
 
 def deck(integrator, length, ckpt, extra=""):
@@ -65,34 +44,7 @@ def deck(integrator, length, ckpt, extra=""):
 
 
 def run(cwd, np_):
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    cmd = [terrace, "run.nml"] if np_ == 1 else ["mpirun", "--oversubscribe", "-np", str(np_), terrace, "run.nml"]
-    return subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
-
-
-def same_h5(a_path, b_path):
-    a, b = h5py.File(a_path, "r"), h5py.File(b_path, "r")
-    na, nb = [], []
-    a.visit(na.append)
-    b.visit(nb.append)
-    if sorted(na) != sorted(nb):
-        return f"layouts differ: {sorted(set(na) ^ set(nb))}"
-    n = 0
-    for name in ["/"] + na:
-        oa, ob = a[name], b[name]
-        if sorted(oa.attrs) != sorted(ob.attrs) or any(
-                not np.array_equal(np.asarray(oa.attrs[k]), np.asarray(ob.attrs[k])) for k in oa.attrs):
-            return f"{name}: attributes differ"
-        if isinstance(oa, h5py.Dataset):
-            va, vb = oa[()], ob[()]
-            if va.dtype != vb.dtype or va.shape != vb.shape or not np.array_equal(va, vb):
-                return f"{name}: dataset differs"
-            n += 1
-    return n
-
-
-def read(path):
-    return open(path, "rb").read()
+    return run_terrace(terrace, cwd, np_)
 
 
 def closest(x, nb):
@@ -150,7 +102,4 @@ for name, integ, length, ckpt in cases:
         xa, xb = read(os.path.join(a, "traj.xdmf")), read(os.path.join(b, "traj.xdmf"))
         check(xa == xb, f"{name}, {np_} rank(s): XDMF sidecar identical ({xa.count(b'<Time ')} frames)")
 
-if failed:
-    print(f"{len(failed)} check(s) failed")
-    sys.exit(1)
-print("PASS")
+finish()

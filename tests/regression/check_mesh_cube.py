@@ -14,25 +14,14 @@
 usage: check_mesh_cube.py TERRACE OUTDIR
 """
 import os
-import shutil
-import subprocess
 import sys
 
 import numpy as np
 
-terrace, out = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
-repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-shutil.rmtree(out, ignore_errors=True)
-os.makedirs(out)
-subprocess.run([sys.executable, os.path.join(repo, "scripts", "make_cube_mesh.py"), os.path.join(out, "cube2.msh"),
-                "--cells", "2", "--size", "0.1", "--center"], check=True, stdout=subprocess.DEVNULL)
-failed = []
+from mesh_checks import check, cube_mesh, failed, run as run_terrace, start
 
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    if not ok:
-        failed.append(what)
+terrace, out = start()
+cube_mesh(os.path.join(out, "cube2.msh"))
 
 
 def deck(name, integrator, length, thermo):
@@ -47,8 +36,7 @@ def deck(name, integrator, length, thermo):
 
 
 def run(name, np_=1):
-    cmd = [terrace, name + ".nml"] if np_ == 1 else ["mpirun", "--oversubscribe", "-np", str(np_), terrace, name + ".nml"]
-    return subprocess.run(cmd, cwd=out, capture_output=True, text=True, timeout=600)
+    return run_terrace(terrace, out, np_, name + ".nml", timeout=600)
 
 
 h = 1.0e-3

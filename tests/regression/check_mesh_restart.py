@@ -18,28 +18,12 @@ usage: check_mesh_restart.py TERRACE OUTDIR
 """
 import os
 import shutil
-import subprocess
-import sys
 
 import h5py
-import numpy as np
 
-terrace, out = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
-repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-shutil.rmtree(out, ignore_errors=True)
-os.makedirs(out)
-failed = []
+from mesh_checks import check, cube_mesh as mesh, finish, read, run as run_terrace, same_h5, start
 
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    if not ok:
-        failed.append(what)
-
-
-def mesh(path, cells=2, size=0.1):
-    subprocess.run([sys.executable, os.path.join(repo, "scripts", "make_cube_mesh.py"), path, "--cells", str(cells),
-                    "--size", str(size), "--center"], check=True, stdout=subprocess.DEVNULL)
+terrace, out = start()
 
 
 def deck(integrator, length, extra=""):
@@ -54,34 +38,7 @@ def deck(integrator, length, extra=""):
 
 
 def run(cwd, np_):
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    cmd = [terrace, "run.nml"] if np_ == 1 else ["mpirun", "--oversubscribe", "-np", str(np_), terrace, "run.nml"]
-    return subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
-
-
-def same_h5(a_path, b_path):
-    a, b = h5py.File(a_path, "r"), h5py.File(b_path, "r")
-    na, nb = [], []
-    a.visit(na.append)
-    b.visit(nb.append)
-    if sorted(na) != sorted(nb):
-        return f"layouts differ: {sorted(set(na) ^ set(nb))}"
-    n = 0
-    for name in ["/"] + na:
-        oa, ob = a[name], b[name]
-        if sorted(oa.attrs) != sorted(ob.attrs) or any(
-                not np.array_equal(np.asarray(oa.attrs[k]), np.asarray(ob.attrs[k])) for k in oa.attrs):
-            return f"{name}: attributes differ"
-        if isinstance(oa, h5py.Dataset):
-            va, vb = oa[()], ob[()]
-            if va.dtype != vb.dtype or va.shape != vb.shape or not np.array_equal(va, vb):
-                return f"{name}: dataset differs"
-            n += 1
-    return n
-
-
-def read(path):
-    return open(path, "rb").read()
+    return run_terrace(terrace, cwd, np_)
 
 
 cases = [("velocity Verlet", "style='velocity_verlet', dt=1.0e-4", "n_steps=199", "checkpoint_every=100"),
@@ -148,7 +105,4 @@ for what, cells, size, expect in (("a 3 x 3 x 3 mesh", 3, 0.1, "a checkpoint of 
           and not os.path.exists(os.path.join(c, "traj.xdmf")) and not os.path.exists(os.path.join(c, "final.txt")),
           f"restart with {what}: no output written or changed")
 
-if failed:
-    print(f"{len(failed)} check(s) failed")
-    sys.exit(1)
-print("PASS")
+finish()

@@ -129,13 +129,18 @@ contains
         type(engine_t), intent(inout) :: eng
         real(dp), intent(out) :: sigma2, a, b
         real(dp) :: acc(3), g2, m
-        real(dp), allocatable :: part(:, :)
+        real(dp), allocatable, save :: part(:, :)   ! per-atom terms for the exact sums, kept between events
         integer :: i
         logical :: exact
         ! a potential that sums exactly (a mesh): these sums too, so that the kicks are the same
         ! bits on any number of ranks
         exact = eng%pot%sums_global()
-        if (exact) allocate (part(max(eng%atoms%nlocal, 1), 3))
+        if (exact) then
+            if (allocated(part)) then
+                if (size(part, 1) < eng%atoms%nlocal) deallocate (part)
+            end if
+            if (.not. allocated(part)) allocate (part(max(eng%atoms%nlocal + eng%atoms%nlocal/4, 1), 3))
+        end if
         acc = 0
         do i = 1, eng%atoms%nlocal
             if (eng%atoms%per_atom_mass) then

@@ -121,30 +121,26 @@ contains
     !> tetrahedron, xref(3, id) reference positions, density (for the lumped masses in the time
     !> scale). k <= 0 or d0 <= 0: the defaults (E d0 and the mean boundary edge); E the elements'
     !> Young's modulus. ok = .false. with a message when fewer than two bodies hold boundary nodes.
-    subroutine ct_setup(self, k, d0, youngs, tets, body, xref, density)
+    subroutine ct_setup(self, k, d0, youngs, tets, body, xref, node_mass)
         class(contact_t), intent(inout) :: self
-        real(dp), intent(in) :: k, d0, youngs, density
+        real(dp), intent(in) :: k, d0, youngs
+        real(dp), intent(in) :: node_mass(:)      !< lumped node masses by id (the scene's)
         integer(i8), intent(in) :: tets(:, :)
         integer, intent(in) :: body(:)
         real(dp), intent(in) :: xref(:, :)
         logical, allocatable :: bnd(:)
-        real(dp), allocatable :: mass(:), lo(:, :), hi(:, :)
+        real(dp), allocatable :: lo(:, :), hi(:, :)
         integer, allocatable :: node_body(:), faces(:, :)
         integer :: nnode, e, a, q, nb
-        real(dp) :: dm(3, 3), v0, sum_edge
+        real(dp) :: sum_edge
         integer(i8) :: n_edge
         nnode = size(xref, 2)
-        allocate (bnd(nnode), mass(nnode), node_body(nnode))
+        allocate (bnd(nnode), node_body(nnode))
         call boundary_nodes(tets, nnode, bnd, faces)
         nb = maxval(body)
-        mass = 0; node_body = 0
+        node_body = 0
         do e = 1, size(tets, 2)
-            do a = 1, 3
-                dm(:, a) = xref(:, tets(a + 1, e)) - xref(:, tets(1, e))
-            end do
-            v0 = abs(det(dm))/6
             do a = 1, 4
-                mass(tets(a, e)) = mass(tets(a, e)) + density*v0/4
                 node_body(tets(a, e)) = body(e)
             end do
         end do
@@ -168,17 +164,11 @@ contains
             self%nbodies = self%nbodies + 1
             self%min_body_extent = min(self%min_body_extent, minval(hi(:, a) - lo(:, a)))
         end do
-        self%min_mass = minval(mass, mask=bnd)
+        self%min_mass = minval(node_mass(1:nnode), mask=bnd)
         self%d0 = d0
         if (.not. (d0 > 0)) self%d0 = self%spacing
         self%k = k
         if (.not. (k > 0)) self%k = youngs*self%d0
-    contains
-        pure real(dp) function det(m)
-            real(dp), intent(in) :: m(3, 3)
-            det = m(1, 1)*(m(2, 2)*m(3, 3) - m(2, 3)*m(3, 2)) - m(1, 2)*(m(2, 1)*m(3, 3) - m(2, 3)*m(3, 1)) &
-                  + m(1, 3)*(m(2, 1)*m(3, 2) - m(2, 2)*m(3, 1))
-        end function det
     end subroutine ct_setup
 
     !> Refuse a start where two bodies already touch or overlap: boundary nodes of different bodies

@@ -22,13 +22,14 @@ contains
 
     !> pot for the deck's &potential with ntypes atom types; mass(t) <= 0 is filled from the
     !> potential file where it has masses (EAM). Collective (errors stop every rank).
-    subroutine make_potential(cfg, ntypes, mass, pot, mesh, xstart)
+    subroutine make_potential(cfg, ntypes, mass, pot, mesh, xstart, node_mass)
         type(config_t), intent(in) :: cfg
         integer, intent(in) :: ntypes
         real(dp), intent(inout) :: mass(:)
         class(potential_t), allocatable, intent(out) :: pot
         type(mesh_t), intent(in), optional :: mesh      !< neohookean: the elements and reference nodes
         real(dp), intent(in), optional :: xstart(:, :)  !< mesh: starting positions by node id (overlap check)
+        real(dp), intent(in), optional :: node_mass(:)  !< mesh: lumped node masses by id (contact's time scale)
         integer :: t
         if (cfg%potential == 'neohookean') then
             block
@@ -51,7 +52,7 @@ contains
                     nh%global_sums = .true.     ! alone: it sums its energies over the ranks itself, exactly
                     call move_alloc(nh, pot)
                 else
-                    call add_contact(cfg, mesh, xref, xstart, nh, pot)
+                    call add_contact(cfg, mesh, xref, xstart, node_mass, nh, pot)
                 end if
             end block
         else if (cfg%potential(1:3) == 'eam') then
@@ -79,11 +80,12 @@ contains
 
     !> Several bodies: the elements plus the contact between the bodies (potential_sum_t). Checks the
     !> contact parameters against the mesh and the start for bodies that already touch.
-    subroutine add_contact(cfg, mesh, xref, xstart, nh, pot)
+    subroutine add_contact(cfg, mesh, xref, xstart, node_mass, nh, pot)
         type(config_t), intent(in) :: cfg
         type(mesh_t), intent(in) :: mesh
         real(dp), intent(in) :: xref(:, :)
         real(dp), intent(in), optional :: xstart(:, :)
+        real(dp), intent(in) :: node_mass(:)
         type(neohookean_t), allocatable, intent(inout) :: nh
         class(potential_t), allocatable, intent(out) :: pot
         type(contact_t), allocatable :: ct
@@ -98,7 +100,7 @@ contains
         if (.not. is_unset(cfg%contact_distance)) d0 = cfg%contact_distance
         youngs = cfg%mu*(3*cfg%lambda + 2*cfg%mu)/(cfg%lambda + cfg%mu)
         allocate (ct)
-        call ct%setup(k, d0, youngs, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), xref, cfg%mass_density)
+        call ct%setup(k, d0, youngs, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), xref, node_mass)
         if (d0 > 0) then
             write (s1, '(es10.3)') 0.6_dp*ct%spacing
             write (s2, '(es10.3)') 0.25_dp*ct%min_body_extent

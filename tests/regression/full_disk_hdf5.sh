@@ -15,16 +15,7 @@
 #
 # usage: full_disk_hdf5.sh TERRACE_BIN OUTPUT_DIR
 set -u
-terrace=$(readlink -f "$1")
-out=$(mkdir -p "$2" && cd "$2" && pwd)
-mnt=$out/full
-mkdir -p "$mnt"
-if ! mount -t tmpfs -o size=64k tmpfs "$mnt" 2> /dev/null; then
-    echo "SKIP: cannot mount a small tmpfs here (needs root); the full-disk test did not run" >&2
-    exit 77
-fi
-trap 'umount "$mnt" 2> /dev/null' EXIT
-[ "$(id -u)" = 0 ] && export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+source "$(dirname "$(readlink -f "$0")")/full_disk_common.sh" "$@"
 export TERRACE_IO_WATCHDOG_S=8
 fail=0
 for kind in trajectory checkpoint; do

@@ -8,16 +8,7 @@
 #
 # usage: full_disk_small.sh TERRACE_BIN OUTPUT_DIR
 set -u
-terrace=$(readlink -f "$1")
-out=$(mkdir -p "$2" && cd "$2" && pwd)
-mnt=$out/full
-mkdir -p "$mnt"
-if ! mount -t tmpfs -o size=64k tmpfs "$mnt" 2> /dev/null; then
-    echo "SKIP: cannot mount a small tmpfs here (needs root); the full-disk test did not run" >&2
-    exit 77
-fi
-trap 'umount "$mnt" 2> /dev/null' EXIT
-[ "$(id -u)" = 0 ] && export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+source "$(dirname "$(readlink -f "$0")")/full_disk_common.sh" "$@"
 fail=0
 for key in thermo_file forces_file final_atoms_file; do
     for np in 1 3; do

@@ -25,7 +25,7 @@ import shutil
 import h5py
 import numpy as np
 
-from mesh_checks import ball_mesh, check, finish, read, run as run_terrace, same_h5, start
+from mesh_checks import ball_mesh, check, compare_restart, finish, run as run_terrace, start
 
 terrace, out = start()
 mesh = os.path.join(out, "balls.msh")
@@ -84,22 +84,7 @@ for name, integ, length, ckpt in cases:
         check(abs(times[k] - tc) < 1e-9 and d_ck < d0 < d_first,
               f"{name}, {np_} rank(s): the checkpoint ({at}) is inside the contact: closest nodes of the two balls "
               f"{d_ck * 1e3:.2f} mm < d0 = {d0 * 1e3:.2f} mm (at t = 0: {d_first * 1e3:.2f} mm)")
-        for f in ("restart.h5", "thermo.csv", "traj.h5"):
-            shutil.copy(os.path.join(a, f), b)
-        open(os.path.join(b, "run.nml"), "w").write(deck(integ, length, ckpt, "read_checkpoint='restart.h5', "))
-        r = run(b, np_)
-        check(r.returncode == 0, f"{name}, {np_} rank(s): restart from the checkpoint (exit {r.returncode}) "
-              f"{r.stderr.strip()[-300:]}")
-        if r.returncode != 0:
-            continue
-        lines = read(os.path.join(a, "thermo.csv")).count(b"\n") - 1
-        check(read(os.path.join(a, "thermo.csv")) == read(os.path.join(b, "thermo.csv")),
-              f"{name}, {np_} rank(s): {lines} thermo lines of the restarted run byte-identical to the straight run's")
-        check(read(os.path.join(a, "final.txt")) == read(os.path.join(b, "final.txt")),
-              f"{name}, {np_} rank(s): final positions and velocities byte-identical")
-        n = same_h5(os.path.join(a, "traj.h5"), os.path.join(b, "traj.h5"))
-        check(isinstance(n, int), f"{name}, {np_} rank(s): trajectory identical ({n} datasets)")
-        xa, xb = read(os.path.join(a, "traj.xdmf")), read(os.path.join(b, "traj.xdmf"))
-        check(xa == xb, f"{name}, {np_} rank(s): XDMF sidecar identical ({xa.count(b'<Time ')} frames)")
+        compare_restart(terrace, a, b, np_, f"{name}, {np_} rank(s)",
+                        deck(integ, length, ckpt, "read_checkpoint='restart.h5', "), f"(checkpoint at {at})")
 
 finish()

@@ -21,7 +21,7 @@ import shutil
 
 import h5py
 
-from mesh_checks import check, cube_mesh as mesh, finish, read, run as run_terrace, same_h5, start
+from mesh_checks import check, compare_restart, cube_mesh as mesh, finish, read, run as run_terrace, start
 
 terrace, out = start()
 
@@ -62,27 +62,9 @@ for name, integ, length, ckpt in cases:
             at = f"step {int(st['step'])}, time {float(st['time']):g} s"
             check(int(st["mesh_nodes"]) == 71 and int(st["mesh_elements"]) == 192,
                   f"{name}, {np_} rank(s): the checkpoint ({at}) names its mesh (71 nodes, 192 tetrahedra)")
-        for f in ("restart.h5", "thermo.csv", "traj.h5"):
-            shutil.copy(os.path.join(a, f), b)
-        open(os.path.join(b, "run.nml"), "w").write(
-            deck(integ, length, "read_checkpoint='restart.h5', ").replace("{CKPT}", ckpt))
-        r = run(b, np_)
-        check(r.returncode == 0, f"{name}, {np_} rank(s): restart from the checkpoint (exit {r.returncode}) "
-              f"{r.stderr.strip()[-300:]}")
-        if r.returncode != 0:
-            continue
-        lines = read(os.path.join(a, "thermo.csv")).count(b"\n") - 1
-        check(read(os.path.join(a, "thermo.csv")) == read(os.path.join(b, "thermo.csv")),
-              f"{name}, {np_} rank(s): {lines} thermo lines of the restarted run byte-identical to the straight run's "
-              f"(checkpoint at {at})")
-        check(read(os.path.join(a, "final.txt")) == read(os.path.join(b, "final.txt")),
-              f"{name}, {np_} rank(s): final positions and velocities byte-identical")
-        n = same_h5(os.path.join(a, "traj.h5"), os.path.join(b, "traj.h5"))
-        check(isinstance(n, int), f"{name}, {np_} rank(s): trajectory identical ({n} datasets, connectivity included)")
-        xa, xb = read(os.path.join(a, "traj.xdmf")), read(os.path.join(b, "traj.xdmf"))
-        frames = xa.count(b"<Time ")
-        check(xa == xb and frames == len(h5py.File(os.path.join(a, "traj.h5"), "r")["particles/all/position/time"]),
-              f"{name}, {np_} rank(s): XDMF sidecar identical, listing all {frames} frames")
+        compare_restart(terrace, a, b, np_, f"{name}, {np_} rank(s)",
+                        deck(integ, length, "read_checkpoint='restart.h5', ").replace("{CKPT}", ckpt),
+                        f"(checkpoint at {at})")
 
 # a checkpoint of another mesh: a finer mesh, or the same connectivity at other reference positions
 base = os.path.join(out, "velocity_np1", "straight")

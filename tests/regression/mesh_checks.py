@@ -93,3 +93,29 @@ def ball_mesh(path, refine, gap):
 def cube_mesh(path, cells=2, size=0.1):
     subprocess.run([sys.executable, os.path.join(REPO, "scripts", "make_cube_mesh.py"), path, "--cells", str(cells),
                     "--size", str(size), "--center"], check=True, stdout=subprocess.DEVNULL)
+
+
+def compare_restart(terrace, a, b, np_, label, deck_text, note=""):
+    """Restart in b from the checkpoint the straight run in a wrote (with a's thermo and trajectory,
+    which a restart cuts back and continues; deck_text reads the checkpoint) and check that the
+    thermo CSV, the final state, every dataset and attribute of the trajectory and the XDMF sidecar
+    (listing every frame) are identical to the straight run's."""
+    for f in ("restart.h5", "thermo.csv", "traj.h5"):
+        shutil.copy(os.path.join(a, f), b)
+    open(os.path.join(b, "run.nml"), "w").write(deck_text)
+    r = run(terrace, b, np_)
+    check(r.returncode == 0, f"{label}: restart from the checkpoint (exit {r.returncode}) {r.stderr.strip()[-300:]}")
+    if r.returncode != 0:
+        return
+    lines = read(os.path.join(a, "thermo.csv")).count(b"\n") - 1
+    check(read(os.path.join(a, "thermo.csv")) == read(os.path.join(b, "thermo.csv")),
+          f"{label}: {lines} thermo lines of the restarted run byte-identical to the straight run's {note}")
+    check(read(os.path.join(a, "final.txt")) == read(os.path.join(b, "final.txt")),
+          f"{label}: final positions and velocities byte-identical")
+    n = same_h5(os.path.join(a, "traj.h5"), os.path.join(b, "traj.h5"))
+    check(isinstance(n, int), f"{label}: trajectory identical ({n} datasets, connectivity included)")
+    xa, xb = read(os.path.join(a, "traj.xdmf")), read(os.path.join(b, "traj.xdmf"))
+    frames = xa.count(b"<Time ")
+    with h5py.File(os.path.join(a, "traj.h5"), "r") as f:
+        nt = len(f["particles/all/position/time"])
+    check(xa == xb and frames == nt, f"{label}: XDMF sidecar identical, listing all {frames} frames")

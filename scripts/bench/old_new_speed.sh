@@ -27,7 +27,11 @@ echo "date: $(date -u '+%Y-%m-%d %H:%M UTC')"
 loop() { "$1" "$2" 2>&1 | sed -n 's/^Loop time: *\([0-9.eE+-]*\).*/\1/p' | head -1; }
 if [[ "${COUNT:-}" == instructions ]]; then
   command -v valgrind > /dev/null || { echo "old_new_speed: valgrind is not installed" >&2; exit 2; }
-  count() { valgrind --tool=callgrind --callgrind-out-file=cg.out "$1" "$2" > /dev/null 2>cg.err
+  # a build with -march=native may use instructions valgrind cannot run (it stops with SIGILL after
+  # start-up, and the count would be start-up only): configure both with -DTERRACE_PORTABLE=ON
+  count() { valgrind --tool=callgrind --callgrind-out-file=cg.out "$1" "$2" > /dev/null 2>cg.err || {
+              echo "old_new_speed: $1 $2 failed under valgrind (a -march=native build? use -DTERRACE_PORTABLE=ON):" >&2
+              tail -3 cg.err >&2; exit 2; }
             sed -n 's/^summary: *\([0-9]*\).*/\1/p' cg.out | head -1; }
   for scene in lj eam; do
     io=$(count "$old" $scene.nml); in=$(count "$new" $scene.nml)

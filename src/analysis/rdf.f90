@@ -98,11 +98,11 @@ contains
     subroutine pair_histogram(x, L, invL, r_max, h)
         real(dp), intent(in) :: x(:, :), L(3), invL(3), r_max
         real(dp), intent(inout) :: h(:)
-        integer :: i, j, b, n, D, nbins
+        integer :: i, j, n, D
         real(dp) :: dx, dy, dz, r2, rmax2, scale
-        n = size(x, 2); D = size(x, 1); nbins = size(h)
+        n = size(x, 2); D = size(x, 1)
         rmax2 = r_max*r_max
-        scale = nbins/r_max
+        scale = size(h)/r_max
         select case (D)
         case (3)
             do j = 2, n
@@ -111,10 +111,7 @@ contains
                     dy = x(2, j) - x(2, i); dy = dy - L(2)*anint(dy*invL(2))
                     dz = x(3, j) - x(3, i); dz = dz - L(3)*anint(dz*invL(3))
                     r2 = dx*dx + dy*dy + dz*dz
-                    if (r2 < rmax2) then
-                        b = min(int(sqrt(r2)*scale) + 1, nbins)
-                        h(b) = h(b) + 1
-                    end if
+                    if (r2 < rmax2) call count_pair(r2, scale, h)
                 end do
             end do
         case (2)
@@ -123,10 +120,7 @@ contains
                     dx = x(1, j) - x(1, i); dx = dx - L(1)*anint(dx*invL(1))
                     dy = x(2, j) - x(2, i); dy = dy - L(2)*anint(dy*invL(2))
                     r2 = dx*dx + dy*dy
-                    if (r2 < rmax2) then
-                        b = min(int(sqrt(r2)*scale) + 1, nbins)
-                        h(b) = h(b) + 1
-                    end if
+                    if (r2 < rmax2) call count_pair(r2, scale, h)
                 end do
             end do
         case default
@@ -134,14 +128,20 @@ contains
                 do i = 1, j - 1
                     dx = x(1, j) - x(1, i); dx = dx - L(1)*anint(dx*invL(1))
                     r2 = dx*dx
-                    if (r2 < rmax2) then
-                        b = min(int(sqrt(r2)*scale) + 1, nbins)
-                        h(b) = h(b) + 1
-                    end if
+                    if (r2 < rmax2) call count_pair(r2, scale, h)
                 end do
             end do
         end select
     end subroutine pair_histogram
+
+    !> One pair at squared distance r2 (< r_max^2) into its bin of h (scale = bins per length).
+    pure subroutine count_pair(r2, scale, h)
+        real(dp), intent(in) :: r2, scale
+        real(dp), intent(inout) :: h(:)
+        integer :: b
+        b = min(int(sqrt(r2)*scale) + 1, size(h))
+        h(b) = h(b) + 1
+    end subroutine count_pair
 
     subroutine run_rdf(traj, cfg, plan)
         type(h5md_trajectory_t), intent(in) :: traj

@@ -2,7 +2,7 @@
 !> rank (a single-rank run makes no MPI call after initialisation).
 module terrace_mpi_env
     use terrace_kinds, only: dp, i8
-    use mpi_f08, only: MPI_Comm, MPI_COMM_WORLD, MPI_Init, MPI_Comm_rank, MPI_Comm_size, &
+    use mpi_f08, only: MPI_Comm, MPI_Op, MPI_Datatype, MPI_COMM_WORLD, MPI_Init, MPI_Comm_rank, MPI_Comm_size, &
                        MPI_Allreduce, MPI_IN_PLACE, MPI_DOUBLE_PRECISION, MPI_INTEGER8, &
                        MPI_LOGICAL, MPI_SUM, MPI_MAX, MPI_MIN, MPI_LOR, MPI_Bcast, &
                        MPI_CHARACTER, MPI_INTEGER, MPI_Finalize
@@ -27,9 +27,7 @@ contains
 
     subroutine start_mpi()
         call MPI_Init()
-        world%comm = MPI_COMM_WORLD
-        call MPI_Comm_rank(world%comm, world%rank)
-        call MPI_Comm_size(world%comm, world%nprocs)
+        call use_communicator(MPI_COMM_WORLD)
     end subroutine start_mpi
 
     !> Run on an existing communicator (MPI already initialised: unit tests, embedding).
@@ -44,35 +42,44 @@ contains
         call MPI_Finalize()
     end subroutine end_mpi
 
+    !> x(1:n) becomes op over all ranks of x(1:n), in place (nothing is called on one rank): the one
+    !> reduction the typed ones below share.
+    subroutine reduce_in_place(x, n, datatype, op)
+        type(*), intent(inout) :: x(..)
+        integer, intent(in) :: n
+        type(MPI_Datatype), intent(in) :: datatype
+        type(MPI_Op), intent(in) :: op
+        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, x, n, datatype, op, world%comm)
+    end subroutine reduce_in_place
+
     subroutine sum_all_scalar(x)
         real(dp), intent(inout) :: x
-        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, x, 1, MPI_DOUBLE_PRECISION, MPI_SUM, world%comm)
+        call reduce_in_place(x, 1, MPI_DOUBLE_PRECISION, MPI_SUM)
     end subroutine sum_all_scalar
 
     subroutine sum_all_array(x)
         real(dp), intent(inout) :: x(:)
-        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, x, size(x), MPI_DOUBLE_PRECISION, &
-                                                 MPI_SUM, world%comm)
+        call reduce_in_place(x, size(x), MPI_DOUBLE_PRECISION, MPI_SUM)
     end subroutine sum_all_array
 
     subroutine sum_all_i8(n)
         integer(i8), intent(inout) :: n
-        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, n, 1, MPI_INTEGER8, MPI_SUM, world%comm)
+        call reduce_in_place(n, 1, MPI_INTEGER8, MPI_SUM)
     end subroutine sum_all_i8
 
     subroutine max_all(x)
         real(dp), intent(inout) :: x
-        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, x, 1, MPI_DOUBLE_PRECISION, MPI_MAX, world%comm)
+        call reduce_in_place(x, 1, MPI_DOUBLE_PRECISION, MPI_MAX)
     end subroutine max_all
 
     subroutine min_all(x)
         real(dp), intent(inout) :: x
-        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, x, 1, MPI_DOUBLE_PRECISION, MPI_MIN, world%comm)
+        call reduce_in_place(x, 1, MPI_DOUBLE_PRECISION, MPI_MIN)
     end subroutine min_all
 
     subroutine any_all(flag)
         logical, intent(inout) :: flag
-        if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, flag, 1, MPI_LOGICAL, MPI_LOR, world%comm)
+        call reduce_in_place(flag, 1, MPI_LOGICAL, MPI_LOR)
     end subroutine any_all
 
     !> Broadcast an allocatable string from rank 0.

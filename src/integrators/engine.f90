@@ -297,34 +297,14 @@ contains
         call self%timers%stop(t_comm)
     end subroutine ghosts_from_owners
 
-    !> Earliest time (from now, this rank's atoms) at which an owned atom's displacement since the
-    !> last list build reaches skin/2, moving in a straight line: the root of
-    !> |d + s v|^2 = (skin/2)^2. Huge when there is no list.
+    !> Earliest time (from now, this rank's atoms) at which the neighbour list expires (an owned
+    !> atom moving in a straight line reaches skin/2 from where the list was built). Huge when there
+    !> is no list.
     real(dp) function engine_list_expiry(self) result(t)
         class(engine_t), intent(in) :: self
-        integer :: i
-        real(dp) :: r2, a, b, c, d(3), disc
         t = huge(1.0_dp)
         if (self%plan%pair_mode == pair_all) return
-        r2 = (0.5_dp*self%list%skin)**2
-        do i = 1, self%atoms%nlocal
-            d = self%atoms%x(:, i) - self%list%xhold(:, i)
-            a = sum(self%atoms%v(:, i)**2)
-            if (a <= 0) cycle
-            b = sum(d*self%atoms%v(:, i))
-            c = sum(d*d) - r2
-            if (c >= 0) then
-                t = 0
-                return
-            end if
-            disc = b*b - a*c
-            ! positive root of a s^2 + 2 b s + c = 0 (c < 0), without cancellation
-            if (b >= 0) then
-                t = min(t, -c/(b + sqrt(disc)))
-            else
-                t = min(t, (-b + sqrt(disc))/a)
-            end if
-        end do
+        t = self%list%expiry(self%atoms)
     end function engine_list_expiry
 
     !> Warnings gathered during the run, printed once by rank 0 (collective).

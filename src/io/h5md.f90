@@ -313,6 +313,17 @@ contains
         call h5gclose_f(gp, err)
         call h5gclose_f(g, err)
 
+        call end_open(self, st, ok, msg)
+    end subroutine writer_create
+
+    !> What create and open_append do last: flush the file, then agree on every rank whether all
+    !> went well; if not, the writer is released (closed) and msg says why.
+    subroutine end_open(self, st, ok, msg)
+        class(h5md_writer_t), intent(inout) :: self
+        type(h5_status_t), intent(inout) :: st
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        integer :: err
         call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
         call st%check(err, 'H5Fflush')
         self%last_flush = MPI_Wtime()
@@ -323,7 +334,7 @@ contains
             call release(self)
             msg = 'h5md: '//trim(self%path)//': '//trim(msg)
         end if
-    end subroutine writer_create
+    end subroutine end_open
 
     !> What create and open_append do before the file: the HDF5 library, the writer's own
     !> communicator (a duplicate of comm), its rank and size, the path.
@@ -381,7 +392,6 @@ contains
         self%opened = .true.
         call h5_transfer_list(st, .true., self%dxpl)
         call h5_transfer_list(st, .false., self%dxpl_rank0)
-        self%last_flush = MPI_Wtime()
 
         ! per-atom data and the elements present
         call h5dopen_f(self%file, pgroup//'/id', self%id, err); call st%check(err, 'open '//pgroup//'/id')
@@ -474,14 +484,7 @@ contains
         self%unit_time = ''
         self%masses_by_type = [0.0_dp]   ! only read at the first frame, which is written already
         call id_block(self%natoms, self%nprocs, self%rank, self%first, self%nmine)
-        call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
-        call st%check(err, 'H5Fflush')
-        call h5_agree(self%comm, st, ok, msg)
-        if (.not. ok) call note_broken_hdf5_file()
-        if (.not. ok) then
-            call release(self)
-            msg = 'h5md: '//trim(self%path)//': '//trim(msg)
-        end if
+        call end_open(self, st, ok, msg)
     contains
         subroutine grow_obs(w)
             type(h5md_writer_t), intent(inout) :: w

@@ -52,6 +52,7 @@ module terrace_neighbor_list
         procedure :: build => nl_build
         procedure :: hold => nl_hold
         procedure :: needs_rebuild => nl_needs_rebuild
+        procedure :: expiry => nl_expiry
     end type neighbor_list_t
 
 contains
@@ -147,15 +148,28 @@ contains
     subroutine nl_sort_owned(self, atoms)
         class(neighbor_list_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
-        integer :: i, b, ntot, n
+        integer :: n
         n = atoms%nlocal
-        ntot = product(self%nbin)
         call reserve(self%atom_bin, max(n, 1))
         call reserve(self%perm, max(n, 1))
+        call bin_sort(self, atoms%x, 1, n, self%owned_start, self%perm)
+        call atoms%permute_owned(self%perm(1:n))
+    end subroutine nl_sort_owned
+
+    !> Counting sort of atoms i1..i2 by bin (atom_bin(i1:i2) set): start(b) is the first slot of
+    !> bin b (start(ntot + 1) one past the last) and order(start(b) : start(b + 1) - 1) its atoms in
+    !> index order.
+    subroutine bin_sort(self, x, i1, i2, start, order)
+        type(neighbor_list_t), intent(inout) :: self
+        real(dp), intent(in) :: x(:, :)
+        integer, intent(in) :: i1, i2
+        integer, intent(inout) :: start(:), order(:)
+        integer :: i, b, ntot
+        ntot = product(self%nbin)
         call reserve(self%counts, ntot + 1)
         self%counts(1:ntot + 1) = 0
-        do i = 1, n
-            b = bin_of(self, atoms%x(:, i))
+        do i = i1, i2
+            b = bin_of(self, x(:, i))
             self%atom_bin(i) = b
             self%counts(b + 1) = self%counts(b + 1) + 1
         end do
@@ -163,14 +177,13 @@ contains
         do b = 2, ntot + 1
             self%counts(b) = self%counts(b) + self%counts(b - 1)
         end do
-        self%owned_start(1:ntot + 1) = self%counts(1:ntot + 1)
-        do i = 1, n
+        start(1:ntot + 1) = self%counts(1:ntot + 1)
+        do i = i1, i2
             b = self%atom_bin(i)
-            self%perm(self%counts(b)) = i
+            order(self%counts(b)) = i
             self%counts(b) = self%counts(b) + 1
         end do
-        call atoms%permute_owned(self%perm(1:n))
-    end subroutine nl_sort_owned
+    end subroutine bin_sort
 
     !> Build the half list (owned atoms sorted, ghosts present). Remembers positions for the
     !> skin/2 displacement test.
@@ -197,23 +210,7 @@ contains
         ! ghosts by bin
         call reserve(self%atom_bin, max(nall, 1))
         call reserve(self%ghost_atoms, max(nghost, 1))
-        call reserve(self%counts, ntot + 1)
-        self%counts(1:ntot + 1) = 0
-        do i = nlocal + 1, nall
-            b = bin_of(self, atoms%x(:, i))
-            self%atom_bin(i) = b
-            self%counts(b + 1) = self%counts(b + 1) + 1
-        end do
-        self%counts(1) = 1
-        do b = 2, ntot + 1
-            self%counts(b) = self%counts(b) + self%counts(b - 1)
-        end do
-        self%ghost_start(1:ntot + 1) = self%counts(1:ntot + 1)
-        do i = nlocal + 1, nall
-            b = self%atom_bin(i)
-            self%ghost_atoms(self%counts(b)) = i
-            self%counts(b) = self%counts(b) + 1
-        end do
+        call bin_sort(self, atoms%x, nlocal + 1, nall, self%ghost_start, self%ghost_atoms)
         maxbin = 0
         occupied = 0
         do b = 1, ntot
@@ -237,10 +234,7 @@ contains
         call reserve(self%cj, bound)
         call reserve(self%first, nlocal + 1)
         need = int(min(1.15_dp*expect + bound + 1024, real(huge(1), dp)/2))
-        if (allocated(self%neigh)) then
-            if (size(self%neigh) < need) deallocate (self%neigh)
-        end if
-        if (.not. allocated(self%neigh)) allocate (self%neigh(need))
+        call reserve(self%neigh, need, exact=.true.)
         n = 0
         self%first(1) = 1
         associate (owned_start => self%owned_start, ghost_start => self%ghost_start, row_lo => self%row_lo, &
@@ -277,19 +271,16 @@ contains
                                                                      real(huge(1), dp)/4)))
                 call owned_after(i, owned_start(b + 1) - 1, x, cutsq, self%neigh, n)
                 call scan(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, 1, m1, cutsq, &
-                          self%neigh, n)
-                if (m2 > m1) call scan_above(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, &
-                                             m1 + 1, m2, cutsq, self%neigh, n)
+                          .false., self%neigh, n)
+                if (m2 > m1) call scan(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, m1 + 1, &
+                                       m2, cutsq, .true., self%neigh, n)
                 if (m3 > m2) call scan(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, m2 + 1, &
-                                       m3, cutsq, self%neigh, n)
+                                       m3, cutsq, .false., self%neigh, n)
                 self%first(i + 1) = n + 1
             end do
         end do
         end associate
-        self%max_neighbors = 0
-        do i = 1, nlocal
-            self%max_neighbors = max(self%max_neighbors, self%first(i + 1) - self%first(i))
-        end do
+        self%max_neighbors = longest_row(self%first, nlocal)
         call self%hold(atoms)
         if (self%want_below) call build_below(self, atoms)
         self%builds = self%builds + 1
@@ -323,10 +314,7 @@ contains
         cr = self%center_reach
         call reserve(self%below_first, nlocal + 1)
         need = max(self%first(nlocal + 1), 1024)
-        if (allocated(self%below)) then
-            if (size(self%below) < need) deallocate (self%below)
-        end if
-        if (.not. allocated(self%below)) allocate (self%below(need))
+        call reserve(self%below, need, exact=.true.)
         n = 0
         self%below_first(1) = 1
         associate (owned_start => self%owned_start, ghost_start => self%ghost_start, row_lo => self%row_lo, &
@@ -342,10 +330,7 @@ contains
             end do
         end do
         end associate
-        self%max_below = 0
-        do i = 1, nlocal
-            self%max_below = max(self%max_below, self%below_first(i + 1) - self%below_first(i))
-        end do
+        self%max_below = longest_row(self%below_first, nlocal)
     contains
         subroutine take(k1, k2, test_order)
             integer, intent(in) :: k1, k2
@@ -367,6 +352,16 @@ contains
         end subroutine take
     end subroutine build_below
 
+    !> The longest of the n rows of a list laid out by first(1:n+1) (0 when n = 0).
+    pure integer function longest_row(first, n) result(m)
+        integer, intent(in) :: first(:), n
+        integer :: i
+        m = 0
+        do i = 1, n
+            m = max(m, first(i + 1) - first(i))
+        end do
+    end function longest_row
+
     !> Owned atoms after i in its own bin (i+1..last), within the cutoff.
     subroutine owned_after(i, last, x, cutsq, neigh, n)
         integer, intent(in) :: i, last
@@ -384,51 +379,39 @@ contains
         end do
     end subroutine owned_after
 
-    !> Candidates k1..k2 of the shared rows within the cutoff of (xi, yi, zi): 0/1 flags in one
-    !> vectorised pass, then a branch-free compaction.
-    subroutine scan(xi, yi, zi, cx, cy, cz, cj, keep, k1, k2, cutsq, neigh, n)
+    !> Candidates k1..k2 of the shared rows within the cutoff of (xi, yi, zi) and, when above, also
+    !> above it in (z, y, x) order (ghosts of the rows at the same z): 0/1 flags in one vectorised
+    !> pass, then a branch-free compaction.
+    subroutine scan(xi, yi, zi, cx, cy, cz, cj, keep, k1, k2, cutsq, above, neigh, n)
         real(dp), intent(in) :: xi, yi, zi, cutsq
         real(dp), intent(in), contiguous :: cx(:), cy(:), cz(:)
         integer, intent(inout), contiguous :: keep(:)
         integer, intent(in), contiguous :: cj(:)
         integer, intent(in) :: k1, k2
+        logical, intent(in) :: above
         integer, intent(inout), contiguous :: neigh(:)
         integer, intent(inout) :: n
         integer :: k
         real(dp) :: dx, dy, dz
-        do k = k1, k2
-            dx = xi - cx(k); dy = yi - cy(k); dz = zi - cz(k)
-            keep(k) = merge(1, 0, dx*dx + dy*dy + dz*dz < cutsq)
-        end do
+        if (above) then
+            do k = k1, k2
+                dx = cx(k) - xi; dy = cy(k) - yi; dz = cz(k) - zi
+                ! inside * (dz > 0 or (dz = 0 and (dy > 0 or (dy = 0 and dx > 0)))), without branches
+                keep(k) = merge(1, 0, dx*dx + dy*dy + dz*dz < cutsq)* &
+                          (merge(1, 0, dz > 0) + merge(1, 0, dz == 0)*(merge(1, 0, dy > 0) + &
+                                                                       merge(1, 0, dy == 0)*merge(1, 0, dx > 0)))
+            end do
+        else
+            do k = k1, k2
+                dx = xi - cx(k); dy = yi - cy(k); dz = zi - cz(k)
+                keep(k) = merge(1, 0, dx*dx + dy*dy + dz*dz < cutsq)
+            end do
+        end if
         do k = k1, k2
             neigh(n + 1) = cj(k)
             n = n + keep(k)
         end do
     end subroutine scan
-
-    !> As scan, for ghost candidates that must also lie above (xi, yi, zi) in (z, y, x) order.
-    subroutine scan_above(xi, yi, zi, cx, cy, cz, cj, keep, k1, k2, cutsq, neigh, n)
-        real(dp), intent(in) :: xi, yi, zi, cutsq
-        real(dp), intent(in), contiguous :: cx(:), cy(:), cz(:)
-        integer, intent(inout), contiguous :: keep(:)
-        integer, intent(in), contiguous :: cj(:)
-        integer, intent(in) :: k1, k2
-        integer, intent(inout), contiguous :: neigh(:)
-        integer, intent(inout) :: n
-        integer :: k
-        real(dp) :: dx, dy, dz
-        do k = k1, k2
-            dx = cx(k) - xi; dy = cy(k) - yi; dz = cz(k) - zi
-            ! inside * (dz > 0 or (dz = 0 and (dy > 0 or (dy = 0 and dx > 0)))), without branches
-            keep(k) = merge(1, 0, dx*dx + dy*dy + dz*dz < cutsq)* &
-                      (merge(1, 0, dz > 0) + merge(1, 0, dz == 0)*(merge(1, 0, dy > 0) + &
-                                                                   merge(1, 0, dy == 0)*merge(1, 0, dx > 0)))
-        end do
-        do k = k1, k2
-            neigh(n + 1) = cj(k)
-            n = n + keep(k)
-        end do
-    end subroutine scan_above
 
     !> Append owned atoms first..last to the shared candidate rows.
     subroutine take_owned(first, last, x, cx, cy, cz, cj, m)
@@ -468,6 +451,35 @@ contains
         flag = moved_too_far(atoms%nlocal, atoms%x, self%xhold, (0.5_dp*self%skin)**2)
         call any_all(flag)
     end function nl_needs_rebuild
+
+    !> Earliest time (from now, this rank's atoms) at which an owned atom's displacement since the
+    !> last build reaches skin/2, moving in a straight line: the root of |d + s v|^2 = (skin/2)^2.
+    real(dp) function nl_expiry(self, atoms) result(t)
+        class(neighbor_list_t), intent(in) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer :: i
+        real(dp) :: r2, a, b, c, d(3), disc
+        t = huge(1.0_dp)
+        r2 = (0.5_dp*self%skin)**2
+        do i = 1, atoms%nlocal
+            d = atoms%x(:, i) - self%xhold(:, i)
+            a = sum(atoms%v(:, i)**2)
+            if (a <= 0) cycle
+            b = sum(d*atoms%v(:, i))
+            c = sum(d*d) - r2
+            if (c >= 0) then
+                t = 0
+                return
+            end if
+            disc = b*b - a*c
+            ! positive root of a s^2 + 2 b s + c = 0 (c < 0), without cancellation
+            if (b >= 0) then
+                t = min(t, -c/(b + sqrt(disc)))
+            else
+                t = min(t, (-b + sqrt(disc))/a)
+            end if
+        end do
+    end function nl_expiry
 
     !> Any of the n atoms displaced by more than sqrt(limit) from xhold: counted over all atoms
     !> in blocks (branch-free, vectorised), stopping after the first block that has one.

@@ -404,15 +404,7 @@ contains
         class(eam_t), intent(in) :: self
         integer, intent(in) :: a, b
         real(dp), intent(in) :: r
-        real(dp) :: p
-        integer :: m, k
-        v = 0
-        if (r*r >= self%cutsq) return
-        k = self%t2rho(a, b)
-        p = r*self%rdr + 1
-        m = int(min(p, real(self%nr - 1, dp)))
-        p = min(p - m, 1.0_dp)
-        v = ((self%rspl(4, m, k)*p + self%rspl(5, m, k))*p + self%rspl(6, m, k))*p + self%rspl(7, m, k)
+        v = r_table_value(self, self%rspl, self%t2rho(a, b), r)
     end function eam_density_function
 
     !> Pair energy phi_ab(r) (0 at and beyond the cutoff).
@@ -420,16 +412,25 @@ contains
         class(eam_t), intent(in) :: self
         integer, intent(in) :: a, b
         real(dp), intent(in) :: r
+        v = r_table_value(self, self%zspl, self%t2z(a, b), r)/r
+    end function eam_pair_energy
+
+    !> Value at distance r of the cubic spline k of an r-table (rspl or zspl); 0 at and beyond the
+    !> cutoff.
+    pure real(dp) function r_table_value(self, spl, k, r) result(v)
+        class(eam_t), intent(in) :: self
+        real(dp), intent(in) :: spl(:, :, :)
+        integer, intent(in) :: k
+        real(dp), intent(in) :: r
         real(dp) :: p
-        integer :: m, k
+        integer :: m
         v = 0
         if (r*r >= self%cutsq) return
-        k = self%t2z(a, b)
         p = r*self%rdr + 1
         m = int(min(p, real(self%nr - 1, dp)))
         p = min(p - m, 1.0_dp)
-        v = (((self%zspl(4, m, k)*p + self%zspl(5, m, k))*p + self%zspl(6, m, k))*p + self%zspl(7, m, k))/r
-    end function eam_pair_energy
+        v = ((spl(4, m, k)*p + spl(5, m, k))*p + spl(6, m, k))*p + spl(7, m, k)
+    end function r_table_value
 
     !> A message, once per kind of event, when the tables were left: rho outside [0, rhomax] (F
     !> continued) or a cutoff beyond the last r knot. Returns .false. when there is nothing new.

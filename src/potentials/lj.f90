@@ -52,7 +52,6 @@ module terrace_lj
         procedure :: compute => lj_compute
         procedure :: compute_all_pairs => lj_compute_all_pairs
         procedure :: pair_energy => lj_pair_energy
-        procedure :: ray_list => lj_ray
         procedure :: ray_all_pairs => lj_ray_all_pairs
     end type lj_t
 
@@ -116,6 +115,8 @@ contains
         end if
     end subroutine lj_forces
 
+    !> Ray pass: out = (f, f', f'', virial) of the pairs this rank holds (half list, or all pairs),
+    !> at positions x + s v (owned and ghost atoms; nothing is moved and no force is stored).
     subroutine lj_ray_any(self, atoms, list, s, out)
         class(lj_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
@@ -124,8 +125,14 @@ contains
         real(dp), intent(out) :: out(4)
         if (list%all_pairs) then
             call self%ray_all_pairs(atoms, s, out)
+        else if (self%ntypes == 1 .and. .not. self%smooth) then
+            call reserve_work(self, list)
+            call ray_one_type(atoms%nlocal, atoms%x, atoms%v, list%first, list%neigh, s, self%lj1(1, 1), self%lj2(1, 1), &
+                              self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1), infinity, one, zero, &
+                              self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
+                              self%work(:, 6), self%work(:, 7), self%work(:, 8), self%work(:, 9), self%work(:, 10), out)
         else
-            call self%ray_list(atoms, list, s, out)
+            call ray_general(self, atoms, list%first, list%neigh, s, out)
         end if
     end subroutine lj_ray_any
 
@@ -191,128 +198,37 @@ contains
         type(neighbor_list_t), intent(in) :: list
         logical, intent(in) :: want_energy
         real(dp), intent(out) :: energy, virial
-        integer :: nb
         energy = 0; virial = 0
-        ! work rows, one entry per neighbour of the current atom: separations / pair forces (3),
-        ! per-pair coefficients (up to 8), pair energies and virials (2)
+        call reserve_work(self, list)
+        call kernel(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, want_energy, infinity, &
+                    one, zero, self%work, energy, virial)
+    end subroutine lj_compute
+
+    !> Work rows, one entry per neighbour of the current atom (the longest row of the list, plus a
+    !> margin): separations / pair forces (3), per-pair coefficients (up to 8), pair energies and
+    !> virials (2).
+    subroutine reserve_work(self, list)
+        class(lj_t), intent(inout) :: self
+        type(neighbor_list_t), intent(in) :: list
+        integer :: nb
         nb = list%max_neighbors + 16
         if (allocated(self%work)) then
             if (size(self%work, 1) < nb .or. size(self%work, 2) < 13) deallocate (self%work)
         end if
         if (.not. allocated(self%work)) allocate (self%work(nb, 13))
-        associate (work => self%work)
-        if (self%smooth) then
-            call kernel_smooth(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, want_energy, &
-                               infinity, one, zero, work, energy, virial)
-        else if (self%ntypes == 1) then
-            if (want_energy) then
-                call kernel_one_type_energy(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%lj1(1, 1), &
-                                            self%lj2(1, 1), self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), &
-                                            self%offset(1, 1), infinity, one, zero, work(:, 1), work(:, 2), work(:, 3), &
-                                            work(:, 4), work(:, 5), energy, virial)
-            else
-                call kernel_one_type(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%lj1(1, 1), &
-                                     self%lj2(1, 1), self%cutsq(1, 1), infinity, work(:, 1), work(:, 2), work(:, 3))
-            end if
-        else
-            call kernel_types(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, want_energy, &
-                              infinity, one, zero, work, energy, virial)
-        end if
-        end associate
-    end subroutine lj_compute
+    end subroutine reserve_work
 
-    !> Force-only kernel, one type. Three passes per atom: the separations to all its neighbours
-    !> are gathered into work rows (scalar loads, contiguous stores), the pair forces are computed
-    !> branch-free over the contiguous rows (vectorised: GCC does not emit gathers for this CPU),
-    !> then scattered (Newton's third law) while the force on i is summed in list order.
-    subroutine kernel_one_type(nlocal, x, f, first, neigh, lj1_, lj2_, cutsq_, inf, fx, fy, fz)
-        integer, intent(in) :: nlocal
-        integer, intent(in), contiguous :: first(:), neigh(:)
-        real(dp), intent(in), contiguous :: x(:, :)
-        real(dp), intent(in) :: lj1_, lj2_, cutsq_, inf
-        real(dp), intent(inout), contiguous :: f(:, :)
-        real(dp), intent(inout), contiguous :: fx(:), fy(:), fz(:)
-        integer :: i, k, j, k0, nn
-        real(dp) :: xi, yi, zi, fxi, fyi, fzi, rsq, r2inv, r6inv, fpair, lj1, lj2, cutsq, far
-        lj1 = lj1_; lj2 = lj2_; cutsq = cutsq_; far = inf
-        do i = 1, nlocal
-            xi = x(1, i); yi = x(2, i); zi = x(3, i)
-            k0 = first(i) - 1
-            nn = first(i + 1) - first(i)
-            !GCC$ novector
-            do k = 1, nn
-                j = neigh(k0 + k)
-                fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)
-            end do
-            do k = 1, nn
-                rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
-                r2inv = 1/merge(rsq, far, rsq < cutsq)
-                r6inv = r2inv*r2inv*r2inv
-                fpair = r6inv*(lj1*r6inv - lj2)*r2inv
-                fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
-            end do
-            fxi = 0; fyi = 0; fzi = 0
-            do k = 1, nn
-                j = neigh(k0 + k)
-                f(1, j) = f(1, j) - fx(k); f(2, j) = f(2, j) - fy(k); f(3, j) = f(3, j) - fz(k)
-                fxi = fxi + fx(k); fyi = fyi + fy(k); fzi = fzi + fz(k)
-            end do
-            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
-        end do
-    end subroutine kernel_one_type
-
-    !> Kernel_one_type plus the energy and the virial of the pairs (pair values kept in work rows,
-    !> summed in list order during the scatter).
-    subroutine kernel_one_type_energy(nlocal, x, f, first, neigh, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, &
-                                      one_, zero_, fx, fy, fz, ep, wp, energy, virial)
-        integer, intent(in) :: nlocal
-        integer, intent(in), contiguous :: first(:), neigh(:)
-        real(dp), intent(in), contiguous :: x(:, :)
-        real(dp), intent(in) :: lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_
-        real(dp), intent(inout), contiguous :: f(:, :)
-        real(dp), intent(inout), contiguous :: fx(:), fy(:), fz(:), ep(:), wp(:)
-        real(dp), intent(inout) :: energy, virial
-        integer :: i, k, j, k0, nn
-        real(dp) :: xi, yi, zi, fxi, fyi, fzi, rsq, r2inv, r6inv, fpair, e, w, inside, lj1, lj2, lj3, lj4, cutsq, &
-                    offset, far, one, zero
-        lj1 = lj1_; lj2 = lj2_; lj3 = lj3_; lj4 = lj4_; cutsq = cutsq_; offset = offset_; far = inf
-        one = one_; zero = zero_
-        e = 0; w = 0
-        do i = 1, nlocal
-            xi = x(1, i); yi = x(2, i); zi = x(3, i)
-            k0 = first(i) - 1
-            nn = first(i + 1) - first(i)
-            !GCC$ novector
-            do k = 1, nn
-                j = neigh(k0 + k)
-                fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)
-            end do
-            do k = 1, nn
-                rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
-                inside = merge(one, zero, rsq < cutsq)
-                r2inv = 1/merge(rsq, far, rsq < cutsq)
-                r6inv = r2inv*r2inv*r2inv
-                fpair = r6inv*(lj1*r6inv - lj2)*r2inv
-                ep(k) = r6inv*(lj3*r6inv - lj4) - offset*inside
-                wp(k) = rsq*fpair
-                fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
-            end do
-            fxi = 0; fyi = 0; fzi = 0
-            do k = 1, nn
-                j = neigh(k0 + k)
-                f(1, j) = f(1, j) - fx(k); f(2, j) = f(2, j) - fy(k); f(3, j) = f(3, j) - fz(k)
-                fxi = fxi + fx(k); fyi = fyi + fy(k); fzi = fzi + fz(k)
-                e = e + ep(k); w = w + wp(k)
-            end do
-            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
-        end do
-        energy = energy + e; virial = virial + w
-    end subroutine kernel_one_type_energy
-
-    !> Several types: as kernel_one_type(_energy), the per-pair coefficients gathered with the
-    !> separations (columns of work: separations 1-3, lj1, lj2, cutsq, lj3, lj4, offset, pair
-    !> energy, pair virial).
-    subroutine kernel_types(self, nlocal, x, f, type, first, neigh, want_energy, inf, one_, zero_, work, energy, virial)
+    !> The half-list kernel. Three passes per atom: the separations to all its neighbours (with
+    !> several types or lj/smooth/linear, also the per-pair coefficients) are gathered into the
+    !> columns of work (scalar loads, contiguous stores); the pair forces (and, when want_energy,
+    !> the pair energies and virials) are computed branch-free over the contiguous rows
+    !> (vectorised: GCC does not emit gathers for this CPU); then they are scattered (Newton's third
+    !> law) while the force on i is summed in list order, and the pair energies and virials are
+    !> summed in list order. One type (lj/cut): scalar coefficients, only the separations gathered.
+    !> Columns of work: separations / pair forces 1-3, lj1, lj2, cutsq, lj3, lj4, offset, pair
+    !> energy, pair virial; for lj/smooth/linear also 12, 13: rc and fc (fpair - fc/r and the
+    !> energy term (r - rc) fc).
+    subroutine kernel(self, nlocal, x, f, type, first, neigh, want_energy, inf, one_, zero_, work, energy, virial)
         type(lj_t), intent(in) :: self
         integer, intent(in) :: nlocal
         integer, intent(in), contiguous :: type(:), first(:), neigh(:)
@@ -323,86 +239,61 @@ contains
         logical, intent(in) :: want_energy
         real(dp), intent(inout), contiguous, target :: work(:, :)
         integer :: i, k, j, k0, nn, ti, tj
-        real(dp) :: xi, yi, zi, e, w, far, one, zero
-        real(dp), pointer, contiguous :: fx(:), fy(:), fz(:), c1(:), c2(:), cs(:), c3(:), c4(:), co(:), ep(:), wp(:)
-        fx => work(:, 1); fy => work(:, 2); fz => work(:, 3); c1 => work(:, 4); c2 => work(:, 5); cs => work(:, 6)
-        c3 => work(:, 7); c4 => work(:, 8); co => work(:, 9); ep => work(:, 10); wp => work(:, 11)
-        far = inf; one = one_; zero = zero_
-        e = 0; w = 0
-        do i = 1, nlocal
-            xi = x(1, i); yi = x(2, i); zi = x(3, i); ti = type(i)
-            k0 = first(i) - 1
-            nn = first(i + 1) - first(i)
-            !GCC$ novector
-            do k = 1, nn
-                j = neigh(k0 + k); tj = type(j)
-                fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)
-                c1(k) = self%lj1(tj, ti); c2(k) = self%lj2(tj, ti); cs(k) = self%cutsq(tj, ti)
-            end do
-            if (want_energy) then
-                !GCC$ novector
-                do k = 1, nn
-                    tj = type(neigh(k0 + k))
-                    c3(k) = self%lj3(tj, ti); c4(k) = self%lj4(tj, ti); co(k) = self%offset(tj, ti)
-                end do
-                call pair_forces_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, far, one, zero, ep, wp)
-            else
-                call pair_forces(nn, fx, fy, fz, c1, c2, cs, far)
-            end if
-            call scatter(i, nn, neigh(k0 + 1:k0 + nn), fx, fy, fz, f)
-            if (want_energy) then
-                do k = 1, nn
-                    e = e + ep(k); w = w + wp(k)
-                end do
-            end if
-        end do
-        energy = energy + e; virial = virial + w
-    end subroutine kernel_types
-
-    !> Style lj/smooth/linear: as kernel_types, with fpair - fc/r and the energy term (r - rc) fc
-    !> (columns 12, 13 of work: rc and fc).
-    subroutine kernel_smooth(self, nlocal, x, f, type, first, neigh, want_energy, inf, one_, zero_, work, energy, virial)
-        type(lj_t), intent(in) :: self
-        integer, intent(in) :: nlocal
-        integer, intent(in), contiguous :: type(:), first(:), neigh(:)
-        real(dp), intent(in), contiguous :: x(:, :)
-        real(dp), intent(in) :: inf, one_, zero_
-        real(dp), intent(inout), contiguous :: f(:, :)
-        real(dp), intent(inout) :: energy, virial
-        logical, intent(in) :: want_energy
-        real(dp), intent(inout), contiguous, target :: work(:, :)
-        integer :: i, k, j, k0, nn, ti, tj
-        real(dp) :: xi, yi, zi, e, w, far, one, zero
+        real(dp) :: xi, yi, zi, fxi, fyi, fzi, e, w, far, one, zero, lj1, lj2, lj3, lj4, cutsq, offset
+        logical :: one_type, smooth
         real(dp), pointer, contiguous :: fx(:), fy(:), fz(:), c1(:), c2(:), cs(:), c3(:), c4(:), co(:), ep(:), wp(:), &
                                          crc(:), cfc(:)
         fx => work(:, 1); fy => work(:, 2); fz => work(:, 3); c1 => work(:, 4); c2 => work(:, 5); cs => work(:, 6)
         c3 => work(:, 7); c4 => work(:, 8); co => work(:, 9); ep => work(:, 10); wp => work(:, 11)
         crc => work(:, 12); cfc => work(:, 13)
         far = inf; one = one_; zero = zero_
+        smooth = self%smooth
+        one_type = self%ntypes == 1 .and. .not. smooth
+        lj1 = self%lj1(1, 1); lj2 = self%lj2(1, 1); lj3 = self%lj3(1, 1); lj4 = self%lj4(1, 1)
+        cutsq = self%cutsq(1, 1); offset = self%offset(1, 1)
         e = 0; w = 0
         do i = 1, nlocal
-            xi = x(1, i); yi = x(2, i); zi = x(3, i); ti = type(i)
+            xi = x(1, i); yi = x(2, i); zi = x(3, i)
             k0 = first(i) - 1
             nn = first(i + 1) - first(i)
-            !GCC$ novector
-            do k = 1, nn
-                j = neigh(k0 + k); tj = type(j)
-                fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)
-                c1(k) = self%lj1(tj, ti); c2(k) = self%lj2(tj, ti); cs(k) = self%cutsq(tj, ti)
-                cfc(k) = self%fc(tj, ti)
-            end do
-            if (want_energy) then
+            if (one_type) then
+                call separations(xi, yi, zi, x, neigh(k0 + 1:k0 + nn), fx, fy, fz)
+                call one_type_pairs(nn, fx, fy, fz, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero, ep, wp)
+            else
+                ti = type(i)
                 !GCC$ novector
                 do k = 1, nn
-                    tj = type(neigh(k0 + k))
-                    c3(k) = self%lj3(tj, ti); c4(k) = self%lj4(tj, ti); co(k) = self%offset(tj, ti)
-                    crc(k) = self%rc(tj, ti)
+                    j = neigh(k0 + k); tj = type(j)
+                    fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)
+                    c1(k) = self%lj1(tj, ti); c2(k) = self%lj2(tj, ti); cs(k) = self%cutsq(tj, ti)
+                    if (smooth) cfc(k) = self%fc(tj, ti)
                 end do
-                call pair_forces_smooth_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, crc, cfc, far, one, zero, ep, wp)
-            else
-                call pair_forces_smooth(nn, fx, fy, fz, c1, c2, cs, cfc, far)
+                if (want_energy) then
+                    !GCC$ novector
+                    do k = 1, nn
+                        tj = type(neigh(k0 + k))
+                        c3(k) = self%lj3(tj, ti); c4(k) = self%lj4(tj, ti); co(k) = self%offset(tj, ti)
+                        if (smooth) crc(k) = self%rc(tj, ti)
+                    end do
+                    if (smooth) then
+                        call pair_forces_smooth_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, crc, cfc, far, one, zero, &
+                                                       ep, wp)
+                    else
+                        call pair_forces_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, far, one, zero, ep, wp)
+                    end if
+                else if (smooth) then
+                    call pair_forces_smooth(nn, fx, fy, fz, c1, c2, cs, cfc, far)
+                else
+                    call pair_forces(nn, fx, fy, fz, c1, c2, cs, far)
+                end if
             end if
-            call scatter(i, nn, neigh(k0 + 1:k0 + nn), fx, fy, fz, f)
+            fxi = 0; fyi = 0; fzi = 0
+            do k = 1, nn
+                j = neigh(k0 + k)
+                f(1, j) = f(1, j) - fx(k); f(2, j) = f(2, j) - fy(k); f(3, j) = f(3, j) - fz(k)
+                fxi = fxi + fx(k); fyi = fyi + fy(k); fzi = fzi + fz(k)
+            end do
+            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
             if (want_energy) then
                 do k = 1, nn
                     e = e + ep(k); w = w + wp(k)
@@ -410,7 +301,34 @@ contains
             end if
         end do
         energy = energy + e; virial = virial + w
-    end subroutine kernel_smooth
+    end subroutine kernel
+
+    !> One type: pair forces fpair*(dx, dy, dz) in place of the separations, with scalar
+    !> coefficients; when want_energy, also the pair energies ep and virials wp.
+    pure subroutine one_type_pairs(nn, fx, fy, fz, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero, ep, wp)
+        integer, intent(in) :: nn
+        real(dp), intent(inout) :: fx(nn), fy(nn), fz(nn), ep(nn), wp(nn)
+        logical, intent(in) :: want_energy
+        real(dp), intent(in) :: lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero
+        integer :: k
+        real(dp) :: rsq, r2inv, r6inv, fpair, inside
+        if (want_energy) then
+            do k = 1, nn
+                rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
+                inside = merge(one, zero, rsq < cutsq)
+                call lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
+                ep(k) = r6inv*(lj3*r6inv - lj4) - offset*inside
+                wp(k) = rsq*fpair
+                fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+            end do
+        else
+            do k = 1, nn
+                rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
+                call lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
+                fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+            end do
+        end if
+    end subroutine one_type_pairs
 
     !> Pair forces fpair*(dx, dy, dz) in place of the separations, per-pair coefficients.
     pure subroutine pair_forces(nn, fx, fy, fz, c1, c2, cs, far)
@@ -421,9 +339,7 @@ contains
         real(dp) :: rsq, r2inv, r6inv, fpair
         do k = 1, nn
             rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
-            r2inv = 1/merge(rsq, far, rsq < cs(k))
-            r6inv = r2inv*r2inv*r2inv
-            fpair = r6inv*(c1(k)*r6inv - c2(k))*r2inv
+            call lj_terms(rsq, cs(k), far, c1(k), c2(k), r2inv, r6inv, fpair)
             fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
         end do
     end subroutine pair_forces
@@ -439,9 +355,7 @@ contains
         do k = 1, nn
             rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
             inside = merge(one, zero, rsq < cs(k))
-            r2inv = 1/merge(rsq, far, rsq < cs(k))
-            r6inv = r2inv*r2inv*r2inv
-            fpair = r6inv*(c1(k)*r6inv - c2(k))*r2inv
+            call lj_terms(rsq, cs(k), far, c1(k), c2(k), r2inv, r6inv, fpair)
             ep(k) = r6inv*(c3(k)*r6inv - c4(k)) - co(k)*inside
             wp(k) = rsq*fpair
             fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
@@ -457,11 +371,10 @@ contains
         real(dp) :: rsq, r2inv, r6inv, fpair, r, rinv
         do k = 1, nn
             rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
-            r2inv = 1/merge(rsq, far, rsq < cs(k))
-            r6inv = r2inv*r2inv*r2inv
+            call lj_terms(rsq, cs(k), far, c1(k), c2(k), r2inv, r6inv, fpair)
             r = sqrt(rsq)
             rinv = r*r2inv                       ! 1/r inside the cutoff, 0 beyond
-            fpair = r6inv*(c1(k)*r6inv - c2(k))*r2inv - cfc(k)*rinv
+            fpair = fpair - cfc(k)*rinv
             fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
         end do
     end subroutine pair_forces_smooth
@@ -477,56 +390,41 @@ contains
         do k = 1, nn
             rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
             inside = merge(one, zero, rsq < cs(k))
-            r2inv = 1/merge(rsq, far, rsq < cs(k))
-            r6inv = r2inv*r2inv*r2inv
+            call lj_terms(rsq, cs(k), far, c1(k), c2(k), r2inv, r6inv, fpair)
             r = sqrt(rsq)
             rinv = r*r2inv                       ! 1/r inside the cutoff, 0 beyond
-            fpair = r6inv*(c1(k)*r6inv - c2(k))*r2inv - cfc(k)*rinv
+            fpair = fpair - cfc(k)*rinv
             ep(k) = r6inv*(c3(k)*r6inv - c4(k)) - co(k)*inside + (r - crc(k))*cfc(k)*inside
             wp(k) = rsq*fpair
             fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
         end do
     end subroutine pair_forces_smooth_energy
 
-    !> Newton's third law for the pair forces (fx, fy, fz)(1:nn) on atom i from its neighbours.
-    pure subroutine scatter(i, nn, neigh, fx, fy, fz, f)
-        integer, intent(in) :: i, nn, neigh(:)
-        real(dp), intent(in) :: fx(:), fy(:), fz(:)
-        real(dp), intent(inout) :: f(:, :)
-        integer :: k, j
-        real(dp) :: fxi, fyi, fzi
-        fxi = 0; fyi = 0; fzi = 0
-        do k = 1, nn
-            j = neigh(k)
-            f(1, j) = f(1, j) - fx(k); f(2, j) = f(2, j) - fy(k); f(3, j) = f(3, j) - fz(k)
-            fxi = fxi + fx(k); fyi = fyi + fy(k); fzi = fzi + fz(k)
-        end do
-        f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
-    end subroutine scatter
+    !> The Lennard-Jones terms of one pair at squared distance rsq: r2inv = 1/rsq and r6inv = r2inv^3
+    !> inside the cutoff (beyond it 1/far, with far = infinity: 0), and fpair = r6inv (lj1 r6inv -
+    !> lj2) r2inv, the pair force over the separation.
+    pure subroutine lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
+        real(dp), intent(in) :: rsq, cutsq, far, lj1, lj2
+        real(dp), intent(out) :: r2inv, r6inv, fpair
+        r2inv = 1/merge(rsq, far, rsq < cutsq)
+        r6inv = r2inv*r2inv*r2inv
+        fpair = r6inv*(lj1*r6inv - lj2)*r2inv
+    end subroutine lj_terms
 
-    !> Ray pass over the half list: out = (f, f', f'', virial) of the pairs this rank holds, at
-    !> positions x + s v (owned and ghost atoms; nothing is moved and no force is stored).
-    subroutine lj_ray(self, atoms, list, s, out)
-        class(lj_t), intent(inout) :: self
-        type(atoms_t), intent(in) :: atoms
-        type(neighbor_list_t), intent(in) :: list
-        real(dp), intent(in) :: s
-        real(dp), intent(out) :: out(4)
-        integer :: nb
-        if (self%ntypes == 1 .and. .not. self%smooth) then
-            nb = list%max_neighbors + 16
-            if (allocated(self%work)) then
-                if (size(self%work, 1) < nb .or. size(self%work, 2) < 13) deallocate (self%work)
-            end if
-            if (.not. allocated(self%work)) allocate (self%work(nb, 13))
-            call ray_one_type(atoms%nlocal, atoms%x, atoms%v, list%first, list%neigh, s, self%lj1(1, 1), self%lj2(1, 1), &
-                              self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1), infinity, one, zero, &
-                              self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
-                              self%work(:, 6), self%work(:, 7), self%work(:, 8), self%work(:, 9), self%work(:, 10), out)
-        else
-            call ray_general(self, atoms, list%first, list%neigh, s, out)
-        end if
-    end subroutine lj_ray
+    !> Separations (xi, yi, zi) - x(:, j) of atom i from its neighbours j = nbrs(1:nn) into fx, fy,
+    !> fz (scalar loads, contiguous stores).
+    pure subroutine separations(xi, yi, zi, x, nbrs, fx, fy, fz)
+        real(dp), intent(in) :: xi, yi, zi
+        real(dp), intent(in), contiguous :: x(:, :)
+        integer, intent(in), contiguous :: nbrs(:)
+        real(dp), intent(inout), contiguous :: fx(:), fy(:), fz(:)
+        integer :: k, j
+        !GCC$ novector
+        do k = 1, size(nbrs)
+            j = nbrs(k)
+            fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)
+        end do
+    end subroutine separations
 
     !> Ray pass, one type: per atom a scalar gather of the pair separations d and relative
     !> velocities w at s, a branch-free vectorised pass for the four per-pair terms (the cutoff is a
@@ -559,9 +457,7 @@ contains
             do k = 1, nn
                 rsq = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
                 inside = merge(one, zero, rsq < cutsq)
-                r2inv = 1/merge(rsq, far, rsq < cutsq)
-                r6inv = r2inv*r2inv*r2inv
-                fpair = r6inv*(lj1*r6inv - lj2)*r2inv
+                call lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
                 dpsi = -0.5_dp*fpair
                 d2psi = 0.5_dp*(7*lj1*r6inv - 4*lj2)*r6inv*r2inv*r2inv
                 rho1 = 2*(dx(k)*wx(k) + dy(k)*wy(k) + dz(k)*wz(k))

@@ -377,18 +377,7 @@ contains
                     h13, h23, h33, ff, w, m11, m21, m31, m12, m22, m32, m13, m23, m33
         do j = 1, nblk
             k = k0 + j
-            m11 = rdm(k, 1); m21 = rdm(k, 2); m31 = rdm(k, 3)
-            m12 = rdm(k, 4); m22 = rdm(k, 5); m32 = rdm(k, 6)
-            m13 = rdm(k, 7); m23 = rdm(k, 8); m33 = rdm(k, 9)
-            f11 = ds(j, 1)*m11 + ds(j, 4)*m21 + ds(j, 7)*m31
-            f21 = ds(j, 2)*m11 + ds(j, 5)*m21 + ds(j, 8)*m31
-            f31 = ds(j, 3)*m11 + ds(j, 6)*m21 + ds(j, 9)*m31
-            f12 = ds(j, 1)*m12 + ds(j, 4)*m22 + ds(j, 7)*m32
-            f22 = ds(j, 2)*m12 + ds(j, 5)*m22 + ds(j, 8)*m32
-            f32 = ds(j, 3)*m12 + ds(j, 6)*m22 + ds(j, 9)*m32
-            f13 = ds(j, 1)*m13 + ds(j, 4)*m23 + ds(j, 7)*m33
-            f23 = ds(j, 2)*m13 + ds(j, 5)*m23 + ds(j, 8)*m33
-            f33 = ds(j, 3)*m13 + ds(j, 6)*m23 + ds(j, 9)*m33
+            include 'neohookean_f.inc'
             ! cofactors: F^-T = C / J
             c11 = f22*f33 - f23*f32; c12 = f23*f31 - f21*f33; c13 = f21*f32 - f22*f31
             c21 = f13*f32 - f12*f33; c22 = f11*f33 - f13*f31; c23 = f12*f31 - f11*f32
@@ -489,18 +478,7 @@ contains
         logical :: inv0
         do j = 1, nblk
             k = k0 + j
-            m11 = rdm(k, 1); m21 = rdm(k, 2); m31 = rdm(k, 3)
-            m12 = rdm(k, 4); m22 = rdm(k, 5); m32 = rdm(k, 6)
-            m13 = rdm(k, 7); m23 = rdm(k, 8); m33 = rdm(k, 9)
-            f11 = ds(j, 1)*m11 + ds(j, 4)*m21 + ds(j, 7)*m31
-            f21 = ds(j, 2)*m11 + ds(j, 5)*m21 + ds(j, 8)*m31
-            f31 = ds(j, 3)*m11 + ds(j, 6)*m21 + ds(j, 9)*m31
-            f12 = ds(j, 1)*m12 + ds(j, 4)*m22 + ds(j, 7)*m32
-            f22 = ds(j, 2)*m12 + ds(j, 5)*m22 + ds(j, 8)*m32
-            f32 = ds(j, 3)*m12 + ds(j, 6)*m22 + ds(j, 9)*m32
-            f13 = ds(j, 1)*m13 + ds(j, 4)*m23 + ds(j, 7)*m33
-            f23 = ds(j, 2)*m13 + ds(j, 5)*m23 + ds(j, 8)*m33
-            f33 = ds(j, 3)*m13 + ds(j, 6)*m23 + ds(j, 9)*m33
+            include 'neohookean_f.inc'
             g11 = dv(j, 1)*m11 + dv(j, 4)*m21 + dv(j, 7)*m31
             g21 = dv(j, 2)*m11 + dv(j, 5)*m21 + dv(j, 8)*m31
             g31 = dv(j, 3)*m11 + dv(j, 6)*m21 + dv(j, 9)*m31

@@ -12,7 +12,8 @@ module terrace_velocities
     implicit none
     private
 
-    public :: create_velocities, remove_drift, momentum_and_mass, atom_mass, zero_angular_momentum, kinetic_energy, hash_uniform
+    public :: create_velocities, remove_drift, momentum_and_mass, atom_mass, zero_angular_momentum, kinetic_energy, &
+              local_mv2, hash_uniform
 
 contains
 
@@ -73,20 +74,26 @@ contains
     real(dp) function kinetic_energy(atoms, units) result(ke)
         type(atoms_t), intent(in) :: atoms
         type(units_t), intent(in) :: units
-        integer :: i
-        ke = 0
-        if (atoms%per_atom_mass) then
-            do i = 1, atoms%nlocal
-                ke = ke + atoms%rmass(i)*(atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
-            end do
-        else
-            do i = 1, atoms%nlocal
-                ke = ke + atoms%mass(atoms%type(i))*(atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
-            end do
-        end if
+        ke = local_mv2(atoms)
         call sum_all(ke)
         ke = 0.5_dp*units%mvv2e*ke
     end function kinetic_energy
+
+    !> sum m v^2 over this rank's atoms, in index order (no reduction).
+    real(dp) function local_mv2(atoms) result(s)
+        type(atoms_t), intent(in) :: atoms
+        integer :: i
+        s = 0
+        if (atoms%per_atom_mass) then
+            do i = 1, atoms%nlocal
+                s = s + atoms%rmass(i)*(atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
+            end do
+        else
+            do i = 1, atoms%nlocal
+                s = s + atoms%mass(atoms%type(i))*(atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
+            end do
+        end if
+    end function local_mv2
 
     !> (total momentum, total mass) of all atoms on all ranks (collective).
     function momentum_and_mass(atoms) result(p)

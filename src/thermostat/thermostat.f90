@@ -30,7 +30,7 @@
 module terrace_thermostat
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
-    use terrace_velocities, only: momentum_and_mass
+    use terrace_velocities, only: momentum_and_mass, local_mv2
     use terrace_mpi_env, only: sum_all
     use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, unit_from_word, box_muller, rng_blocks, &
                                    normals4_many, rng_batch, rng_key
@@ -264,28 +264,20 @@ contains
     end subroutine baoab_batch
 
     !> Global kinetic energy (collective). One type (the common case): m sum v^2 over the contiguous
-    !> velocities, a loop that vectorises; several types: per-type masses looked up.
+    !> velocities, a loop that vectorises; otherwise the sum of m v^2 that kinetic_energy takes.
     real(dp) function total_ke(self, atoms) result(ke)
         type(thermostat_t), intent(in) :: self
         type(atoms_t), intent(in) :: atoms
-        integer :: i, n
+        integer :: i
         real(dp) :: acc
-        n = atoms%nlocal
-        ke = 0
-        if (atoms%per_atom_mass) then
-            do i = 1, n
-                ke = ke + atoms%rmass(i)*(atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
-            end do
-        else if (atoms%ntypes == 1) then
+        if (.not. atoms%per_atom_mass .and. atoms%ntypes == 1) then
             acc = 0
-            do i = 1, n
+            do i = 1, atoms%nlocal
                 acc = acc + (atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
             end do
             ke = atoms%mass(1)*acc
         else
-            do i = 1, n
-                ke = ke + atoms%mass(atoms%type(i))*(atoms%v(1, i)**2 + atoms%v(2, i)**2 + atoms%v(3, i)**2)
-            end do
+            ke = local_mv2(atoms)
         end if
         call sum_all(ke)
         ke = 0.5_dp*self%mvv2e*ke

@@ -3,6 +3,7 @@
 
 usage: scripts/thermostat_validation.py [--quick] [--out DIR] [--cases a,b,...] [--np N]
                                         [--terrace BIN] [--analyze BIN] [--markdown FILE]
+                                        [--length PS] [--seed N]
 
 One equilibration run (fcc start at 184 K, which melts, held at 94.4 K by Langevin) writes the
 liquid; every case then starts from it and runs `--length` ps (1000; --quick 200), thermo every
@@ -94,7 +95,7 @@ def production(args, name, eq):
     integ = "style='velocity_verlet', dt=0.01" if integrator == "velocity_verlet" else \
         "style='energy_stepping', terrace_height=2.0e-3"
     ts = f"&thermostat {thermostat} /\n" if thermostat else ""
-    deck = f"""&run units='metal', dimension=3, run_time={args.length}, seed=2014 /
+    deck = f"""&run units='metal', dimension=3, run_time={args.length}, seed={args.seed} /
 &system atoms_file='{eq}', box_lo=0.0,0.0,0.0, box_hi={BOX},{BOX},{BOX},
         periodic=.true.,.true.,.true., mass=39.948 /
 {COMMON}&integrator {integ} /
@@ -220,6 +221,8 @@ def main():
     p.add_argument("--quick", action="store_true", help="200 ps per case instead of 1000")
     p.add_argument("--length", type=float, default=None, help="ps per case")
     p.add_argument("--out", default="thermostat_validation")
+    p.add_argument("--seed", type=int, default=2014,
+                   help="&run seed of the production runs (the thermostats' random numbers; default 2014)")
     p.add_argument("--cases", default=",".join(CASES))
     p.add_argument("--np", type=int, default=1)
     p.add_argument("--terrace", default=os.path.join(repo, "build", "terrace"))
@@ -239,7 +242,7 @@ def main():
         results.append(analyse(args, name, d))
         print(f"{name}: done", flush=True)
     text = (f"Rahman argon, 864 atoms, target {T_TARGET} K, first 20 ps of each case dropped, "
-            f"`scripts/thermostat_validation.py{' --quick' if args.quick else ''}`\n\n" + markdown(results))
+            f"`scripts/thermostat_validation.py{' --quick' if args.quick else ''}`, seed {args.seed}\n\n" + markdown(results))
     print(text)
     if args.markdown:
         open(args.markdown, "w").write(text + "\n")

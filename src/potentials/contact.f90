@@ -42,6 +42,7 @@ module terrace_contact
     use terrace_neighbor_list, only: neighbor_list_t
     use terrace_potential, only: potential_t, halo_ops_t
     use terrace_point_triangle, only: closest_point, distance_derivatives
+    use terrace_heap_sort, only: sort_by_id
     implicit none
     private
 
@@ -57,6 +58,7 @@ module terrace_contact
         integer, allocatable :: faces(:, :), face_first(:), face_of(:)
         integer, allocatable :: id_map(:)           !< scratch: node id -> local index (0: not here)
         integer(i8), allocatable :: keys(:)         !< scratch: candidate keys (node id - 1) nface + face
+        integer, allocatable :: order(:)            !< scratch: the keys' sorted order
         ! node_face candidates (after the first pass past a build): node, face vertices (local), weight
         integer :: ncand = 0
         integer, allocatable :: cand(:, :)          !< (4, ncand): p, a, b, c local indices
@@ -495,8 +497,8 @@ contains
 
     !> node_face candidates from the list: for each list pair (i, j) of boundary nodes of different
     !> bodies (i owned; j from the half list or its complement below), the faces around j with node
-    !> i and the faces around i with node j; sorted by key (node id - 1) nface + face, without
-    !> repeats, so that the force pass's order does not depend on the partition. Each candidate
+    !> i and the faces around i with node j; sorted by key (node id - 1) nface + face (heap sort),
+    !> without repeats, so that the force pass's order does not depend on the partition. Each candidate
     !> has an owned node (i as the node, or i as a face vertex).
     subroutine build_candidates(self, atoms, list)
         class(contact_t), intent(inout) :: self
@@ -536,14 +538,22 @@ contains
                 if (.not. allocated(self%keys)) allocate (self%keys(max(n, 64)))
             end if
         end do
-        call sort_unique(self%keys, n)
+        if (allocated(self%order)) then
+            if (size(self%order) < n) deallocate (self%order)
+        end if
+        if (.not. allocated(self%order)) allocate (self%order(size(self%keys)))
+        self%order(1:n) = [(m, m = 1, n)]
+        call sort_by_id(self%keys(1:n), self%order(1:n))
         if (allocated(self%cand)) then
             if (size(self%cand, 2) < n) deallocate (self%cand, self%cwgt)
         end if
         if (.not. allocated(self%cand)) allocate (self%cand(4, max(n, 64)), self%cwgt(max(n, 64)))
         c = 0
         do m = 1, n
-            key = self%keys(m) - 1
+            if (m > 1) then          ! repeats (a pair found through several vertices) once
+                if (self%keys(self%order(m)) == self%keys(self%order(m - 1))) cycle
+            end if
+            key = self%keys(self%order(m)) - 1
             pid = key/self%nface + 1
             q = int(mod(key, int(self%nface, i8))) + 1
             c = c + 1
@@ -573,47 +583,6 @@ contains
             end do
         end subroutine add_faces
     end subroutine build_candidates
-
-    !> keys(1:n) sorted ascending, repeats removed (n updated). Heap sort: no recursion, no scratch.
-    subroutine sort_unique(keys, n)
-        integer(i8), intent(inout) :: keys(:)
-        integer, intent(inout) :: n
-        integer :: i, m, last
-        integer(i8) :: t
-        do i = n/2, 1, -1
-            call sift(i, n)
-        end do
-        do last = n, 2, -1
-            t = keys(1); keys(1) = keys(last); keys(last) = t
-            call sift(1, last - 1)
-        end do
-        m = min(n, 1)
-        do i = 2, n
-            if (keys(i) /= keys(m)) then
-                m = m + 1
-                keys(m) = keys(i)
-            end if
-        end do
-        n = m
-    contains
-        subroutine sift(root, hi)
-            integer, intent(in) :: root, hi
-            integer :: r, ch
-            integer(i8) :: v
-            r = root; v = keys(r)
-            do
-                ch = 2*r
-                if (ch > hi) exit
-                if (ch < hi) then
-                    if (keys(ch + 1) > keys(ch)) ch = ch + 1
-                end if
-                if (keys(ch) <= v) exit
-                keys(r) = keys(ch)
-                r = ch
-            end do
-            keys(r) = v
-        end subroutine sift
-    end subroutine sort_unique
 
     !> node_face forces: each candidate in key order; forces added to owned nodes only (so each owned
     !> node sums its pairs in the same order on any number of ranks), energy and virial where the

@@ -607,6 +607,7 @@ contains
         do i = 1, atoms%nlocal
             if (self%next_collision(i) > t) cycle
             m = atoms%mass(atoms%type(i))
+            if (atoms%per_atom_mass) m = atoms%rmass(i)
             vnew = maxwell_velocity(self, atoms%id(i), self%collision_slot(i), self%collision_index(i), temp, m)
             self%ecouple_local = self%ecouple_local + 0.5_dp*self%mvv2e*m*(sum(vnew**2) - sum(atoms%v(:, i)**2))
             atoms%v(:, i) = vnew

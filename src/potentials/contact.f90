@@ -410,6 +410,18 @@ contains
         self%stale = .false.
     end subroutine filter_pairs
 
+    !> The candidates of the model (node-face or node-node pairs) after a list build.
+    subroutine refresh_candidates(self, atoms, list)
+        class(contact_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        if (self%model == model_node_face) then
+            call build_candidates(self, atoms, list)
+        else
+            call filter_pairs(self, list, atoms%nlocal)
+        end if
+    end subroutine refresh_candidates
+
     subroutine ct_forces(self, atoms, list, halo, want_energy, energy, virial)
         class(contact_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
@@ -419,12 +431,11 @@ contains
         real(dp), intent(out) :: energy, virial
         integer :: p, i, j
         real(dp) :: dx(3), r2, r, gap, fr(3), d0sq
+        if (self%stale) call refresh_candidates(self, atoms, list)
         if (self%model == model_node_face) then
-            if (self%stale) call build_candidates(self, atoms, list)
             call face_forces(self, atoms, energy, virial)
             return
         end if
-        if (self%stale) call filter_pairs(self, list, atoms%nlocal)
         energy = 0; virial = 0
         d0sq = self%d0**2
         do p = 1, self%npair
@@ -454,12 +465,11 @@ contains
         real(dp), intent(out) :: out(4)
         integer :: p, i, j
         real(dp) :: dx(3), dv(3), r2, r, gap, a, b, r1, rr, d0sq
+        if (self%stale) call refresh_candidates(self, atoms, list)
         if (self%model == model_node_face) then
-            if (self%stale) call build_candidates(self, atoms, list)
             call face_ray(self, atoms, s, out)
             return
         end if
-        if (self%stale) call filter_pairs(self, list, atoms%nlocal)
         out = 0
         d0sq = self%d0**2
         do p = 1, self%npair

@@ -112,6 +112,27 @@ run() {
         echo "$t" > "$label.best"; cp "$log" "$label.best.log"
     fi
 }
+# launch LABEL: one timed run of that code on its scene (LJ: lj.nml, in.lj_bench, gmx*.tpr; EAM: in.eam)
+gargs=(mdrun -ntmpi 1 -ntomp 1 -nb cpu -pin off -noconfout -g md.log -e ener.edr -o traj.trr -cpo state.cpt)
+launch() {
+    case $1 in
+        terrace)        run terrace terrace terrace.out ./terrace lj.nml ;;
+        lammps)         run lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$nlj" -in "$here/in.lj_bench" ;;
+        lammps_opt)     run lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$nlj" -in "$here/in.lj_bench" ;;
+        gromacs_mix)    run gromacs_mix gromacs md.log gmx "${gargs[@]}" -s gmx.tpr ;;
+        gromacs_dbl)    run gromacs_dbl gromacs md.log gmx_d "${gargs[@]}" -s gmx_d.tpr ;;
+        eam_terrace)    run eam_terrace terrace eam_terrace.out ./terrace eam.nml ;;
+        eam_lammps)     run eam_lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$neam" -in "$here/in.eam_bench" ;;
+        eam_lammps_opt) run eam_lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$neam" -in "$here/in.eam_bench" ;;
+    esac
+}
+# rounds LABEL...: REPEAT rounds, each code once per round in the given order (alternating)
+rounds() {
+    local rep l
+    for ((rep = 1; rep <= repeat; rep++)); do
+        for l in "$@"; do launch "$l"; done
+    done
+}
 # summary NATOMS NSTEPS REF LABEL...: best and median loop time, ns per atom-step, ratios to REF
 summary() {
     python3 - "$@" <<'PY'
@@ -203,18 +224,7 @@ PY
         fi
     fi
     echo "== LJ scene: 32,000 atoms, $nlj steps; codes: ${labels[*]}"
-    gargs=(mdrun -ntmpi 1 -ntomp 1 -nb cpu -pin off -noconfout -g md.log -e ener.edr -o traj.trr -cpo state.cpt)
-    for ((rep = 1; rep <= repeat; rep++)); do
-        for l in "${labels[@]}"; do
-            case $l in
-                terrace)     run terrace terrace terrace.out ./terrace lj.nml ;;
-                lammps)      run lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$nlj" -in "$here/in.lj_bench" ;;
-                lammps_opt)  run lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$nlj" -in "$here/in.lj_bench" ;;
-                gromacs_mix) run gromacs_mix gromacs md.log gmx "${gargs[@]}" -s gmx.tpr ;;
-                gromacs_dbl) run gromacs_dbl gromacs md.log gmx_d "${gargs[@]}" -s gmx_d.tpr ;;
-            esac
-        done
-    done
+    rounds "${labels[@]}"
     summary 32000 "$nlj" terrace "${labels[@]}"
     echo
     echo "Terrace phases (best run):"
@@ -278,15 +288,7 @@ if [[ "$parts" == *,eam,* ]]; then
 NML
     labels=(eam_terrace); have lmp && labels+=(eam_lammps eam_lammps_opt)
     echo "== EAM scene (in.eam): 32,000 Cu atoms, Cu_u3.eam, $neam steps; both rebuild on the skin/2 check"
-    for ((rep = 1; rep <= repeat; rep++)); do
-        for l in "${labels[@]}"; do
-            case $l in
-                eam_terrace)    run eam_terrace terrace eam_terrace.out ./terrace eam.nml ;;
-                eam_lammps)     run eam_lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$neam" -in "$here/in.eam_bench" ;;
-                eam_lammps_opt) run eam_lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$neam" -in "$here/in.eam_bench" ;;
-            esac
-        done
-    done
+    rounds "${labels[@]}"
     summary 32000 "$neam" eam_terrace "${labels[@]}"
     echo "Terrace phases (best run):"
     sed -n '/^Phase /,/^Neighbour list builds/p' eam_terrace.best.log | sed 's/^/    /'

@@ -43,6 +43,7 @@ module terrace_contact
     use terrace_potential, only: potential_t, halo_ops_t
     use terrace_point_triangle, only: closest_point, distance_derivatives
     use terrace_heap_sort, only: sort_by_id
+    use terrace_errors, only: abort_all
     implicit none
     private
 
@@ -409,6 +410,18 @@ contains
         self%stale = .false.
     end subroutine filter_pairs
 
+    !> The candidates of the model (node-face or node-node pairs) after a list build.
+    subroutine refresh_candidates(self, atoms, list)
+        class(contact_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        type(neighbor_list_t), intent(in) :: list
+        if (self%model == model_node_face) then
+            call build_candidates(self, atoms, list)
+        else
+            call filter_pairs(self, list, atoms%nlocal)
+        end if
+    end subroutine refresh_candidates
+
     subroutine ct_forces(self, atoms, list, halo, want_energy, energy, virial)
         class(contact_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
@@ -418,12 +431,11 @@ contains
         real(dp), intent(out) :: energy, virial
         integer :: p, i, j
         real(dp) :: dx(3), r2, r, gap, fr(3), d0sq
+        if (self%stale) call refresh_candidates(self, atoms, list)
         if (self%model == model_node_face) then
-            if (self%stale) call build_candidates(self, atoms, list)
             call face_forces(self, atoms, energy, virial)
             return
         end if
-        if (self%stale) call filter_pairs(self, list, atoms%nlocal)
         energy = 0; virial = 0
         d0sq = self%d0**2
         do p = 1, self%npair
@@ -453,12 +465,11 @@ contains
         real(dp), intent(out) :: out(4)
         integer :: p, i, j
         real(dp) :: dx(3), dv(3), r2, r, gap, a, b, r1, rr, d0sq
+        if (self%stale) call refresh_candidates(self, atoms, list)
         if (self%model == model_node_face) then
-            if (self%stale) call build_candidates(self, atoms, list)
             call face_ray(self, atoms, s, out)
             return
         end if
-        if (self%stale) call filter_pairs(self, list, atoms%nlocal)
         out = 0
         d0sq = self%d0**2
         do p = 1, self%npair
@@ -519,6 +530,7 @@ contains
         do i = nall, 1, -1          ! owned atoms last: an owned copy wins
             if (atoms%id(i) >= 1 .and. atoms%id(i) <= size(self%id_map)) self%id_map(atoms%id(i)) = i
         end do
+        call check_stretch(self, atoms, list%skin)
         do pass = 1, 2
             n = 0
             do i = 1, nlocal
@@ -583,6 +595,38 @@ contains
             end do
         end subroutine add_faces
     end subroutine build_candidates
+
+    !> The list cutoff holds every pair within d0 only while no boundary edge is longer than
+    !> edge_allowance times the longest reference edge; edges grow by at most the skin before the
+    !> next build. Every owned boundary node's edges are checked at each build: a longer edge, or a
+    !> face vertex missing on this rank, stops the run (on one rank, without a collective: MPI_Abort)
+    !> rather than miss contact pairs silently.
+    subroutine check_stretch(self, atoms, skin)
+        class(contact_t), intent(in) :: self
+        type(atoms_t), intent(in) :: atoms
+        real(dp), intent(in) :: skin
+        integer :: i, f, a, v
+        real(dp) :: limit, len
+        character(len=320) :: text
+        limit = edge_allowance*self%max_edge - skin
+        do i = 1, atoms%nlocal
+            if (self%tag(i) == 0) cycle
+            do f = self%face_first(atoms%id(i)), self%face_first(atoms%id(i) + 1) - 1
+                do a = 1, 3
+                    v = self%id_map(self%faces(a, self%face_of(f)))
+                    len = huge(1.0_dp)
+                    if (v > 0) len = norm2(atoms%x(:, v) - atoms%x(:, i))
+                    if (len <= limit) cycle
+                    write (text, '(a,i0,a,i0,a,es10.3,a,es10.3,a,es10.3,a)') 'contact: the boundary edge of nodes ', &
+                        atoms%id(i), ' and ', self%faces(a, self%face_of(f)), ' has stretched to ', len, &
+                        ' (longest reference boundary edge ', self%max_edge, ', skin ', skin, &
+                        '): the contact search would miss pairs; the deformation is beyond the mesh, '// &
+                        'or the skin is too large'
+                    call abort_all(trim(text))
+                end do
+            end do
+        end do
+    end subroutine check_stretch
 
     !> node_face forces: each candidate in key order; forces added to owned nodes only (so each owned
     !> node sums its pairs in the same order on any number of ranks), energy and virial where the

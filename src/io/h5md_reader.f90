@@ -72,6 +72,7 @@ module terrace_h5md_reader
         integer, allocatable :: species(:)
         real(dp), allocatable :: mass(:)
         character(len=32) :: unit_length = '', unit_time = '', unit_velocity = ''
+        integer(i8) :: values_checked(3, 3) = -1      !< (f0, nsel, stride) check_values last passed, per element
     contains
         procedure :: open => traj_open
         procedure :: close => traj_close
@@ -112,6 +113,7 @@ contains
         type(h5_status_t) :: st
         real(dp), allocatable, target :: buf(:, :)
         integer(i8) :: j
+        if (all(self%values_checked(:, e) == [f0, nsel, stride])) return   ! the same frames again
         if (self%el(e)%present .and. self%natoms > 0) then
             allocate (buf(self%dimension, self%natoms))
             do j = world%rank, nsel - 1, world%nprocs
@@ -121,6 +123,7 @@ contains
             end do
         end if
         call check_all(st%ok, trim(st%msg))
+        self%values_checked(:, e) = [f0, nsel, stride]
     end subroutine traj_check_values
 
     !> Record `text` as the failure when cond is false; .true. once the sequence has failed.

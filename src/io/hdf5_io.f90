@@ -122,8 +122,9 @@ contains
 
     !> A collective section on the file `label` names (its path and input key): every rank of the
     !> file's communicator calls it on entering `what` (e.g. 'writing a frame') and
-    !> h5_section_end at the end, whatever happened in between. bytes: about what this rank
-    !> moves (a second more per 10 MiB). Sections nest; the outermost one arms and disarms.
+    !> h5_section_end at the end, whatever happened in between. bytes: about what the section
+    !> moves over all ranks (a second more per 10 MiB; the same on every rank, so that the ranks'
+    !> alarms keep their order). Sections nest; the outermost one arms and disarms.
     subroutine h5_section_begin(label, what, bytes)
         character(len=*), intent(in) :: label, what
         integer(i8), intent(in), optional :: bytes

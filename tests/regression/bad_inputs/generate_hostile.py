@@ -3,7 +3,10 @@
 decks and files: NaN, Inf, overflowing and subnormal numbers for every real key and in every file
 format, counts beyond what a file can hold, scenes too large for memory, over-long paths,
 non-finite boxes and coordinates, ids the trajectory cannot take, colliding and special output
-paths, outputs equal to inputs, a locked output, the smaller defects, and the files users have.
+paths, outputs equal to inputs, a locked output, the smaller defects, the files users have, and
+damaged H5MD trajectories (NaN, Inf and huge values in positions, velocities and box, wrong shapes,
+missing datasets) for the engine's read_h5md and for terrace-analyze ('@analyze' cases). Needs
+numpy and h5py (check_bad_inputs.sh picks a python that has them).
 
 usage: generate_hostile.py OUT_DIR
 Writes OUT_DIR/cases.txt (the manifest format of bad_inputs/cases.txt) and one directory per

@@ -5,9 +5,11 @@ velocities of every node) and its mesh (MSH 2.2, one physical volume per ball).
 Per frame: each ball's mass, centre of mass, centre-of-mass velocity, angular momentum about its
 centre and spin w = I^-1 L, kinetic energy split into translation (M V^2/2), rotation (w.L/2) and
 the rest (vibration), the neo-Hookean elastic energy of each ball, and the contact force and energy
-(the pair barrier k/2 (d0 - r)^2 between boundary nodes of different balls, recomputed here from the
-positions with the deck's k and d0 or their defaults). Contact start and end: where the smallest
-distance between boundary nodes of different balls crosses d0 (interpolated between frames).
+recomputed here from the positions with the deck's contact_model, k and d0 or their defaults
+(doc/contact.md): node_face (default), k/2 (d0 - d)^2 over (boundary node of one ball, boundary
+triangle of the other), d the point-triangle distance; node_node, k/2 (d0 - r)^2 over pairs of
+boundary nodes of different balls. Contact start and end: where the smallest such distance crosses
+d0 (interpolated between frames).
 
 Printed: the contact start, end and duration against Hertz's T = 2.868 (m*^2/(R* E*^2 v))^(1/5),
 the balls' velocities and spins before and after, the normal coefficient of restitution, the
@@ -16,8 +18,8 @@ angular momentum spreads over the run, and the peak contact force against Hertz'
 
 usage: balls_analysis.py DECK.nml [--traj FILE.h5] [--mesh FILE.msh] [--radius 0.1] [--plot OUT.png]
                          [--snapshots OUT.png] [--json OUT.json] [--label TEXT]
-(the deck gives mesh_file, trajectory_file, mass_density, lambda, mu, contact_stiffness and
-contact_distance; paths are relative to the deck's directory)
+(the deck gives mesh_file, trajectory_file, mass_density, lambda, mu, contact_model,
+contact_stiffness and contact_distance; paths are relative to the deck's directory)
 """
 import argparse
 import json
@@ -27,6 +29,8 @@ import sys
 
 import h5py
 import numpy as np
+
+from point_triangle import boundary_faces, closest_on_triangles
 
 
 def deck_values(path):
@@ -42,7 +46,8 @@ def deck_values(path):
         return m.group(1) if m else default
     return dict(mesh=word("mesh_file"), traj=word("trajectory_file"), thermo=word("thermo_file"),
                 rho=num("mass_density"), lam=num("lambda"), mu=num("mu"),
-                k=num("contact_stiffness"), d0=num("contact_distance"), integrator=word("style", ""))
+                k=num("contact_stiffness"), d0=num("contact_distance"), integrator=word("style", ""),
+                model=(word("contact_model") or "node_face").lower())
 
 
 def read_msh22(path):
@@ -66,14 +71,24 @@ def read_msh22(path):
 
 
 def boundary(tets, n):
-    f = np.concatenate([tets[:, [1, 2, 3]], tets[:, [0, 2, 3]], tets[:, [0, 1, 3]], tets[:, [0, 1, 2]]])
-    fs = np.sort(f, axis=1)
-    _, inv, cnt = np.unique(fs, axis=0, return_inverse=True, return_counts=True)
-    faces = fs[cnt[inv.ravel()] == 1]
+    faces = boundary_faces(tets)
     is_b = np.zeros(n, bool)
     is_b[faces.ravel()] = True
     edges = np.concatenate([np.linalg.norm(X[faces[:, a]] - X[faces[:, (a + 1) % 3]], axis=1) for a in range(3)])
-    return is_b, edges.mean()
+    return is_b, edges.mean(), faces, edges.max()
+
+
+def node_face_pairs(x, nodes, faces, reach):
+    """(node, face) pairs of nodes against faces whose centroid is within reach: the vectors
+    p - c (closest point) and the distances."""
+    cen = x[faces].mean(1)
+    dd = np.linalg.norm(x[nodes][:, None, :] - cen[None, :, :], axis=2)
+    i, q = np.nonzero(dd < reach)
+    p = x[nodes[i]]
+    fa, fb, fc = x[faces[q, 0]], x[faces[q, 1]], x[faces[q, 2]]
+    w = closest_on_triangles(p, fa, fb, fc)
+    dv = p - (w[:, 0:1] * fa + w[:, 1:2] * fb + w[:, 2:3] * fc)
+    return dv, np.sqrt((dv * dv).sum(1))
 
 
 def neohookean_energy(x, tets, dminv, v0, lam, mu):
@@ -126,9 +141,10 @@ n = len(X)
 lam, mu, rho = dv["lam"], dv["mu"], dv["rho"]
 E = mu * (3 * lam + 2 * mu) / (lam + mu)
 nu = lam / (2 * (lam + mu))
-is_b, hb = boundary(tets, n)
-d0 = dv["d0"] or hb
-kc = dv["k"] or E * d0
+is_b, hb, bfaces, max_edge = boundary(tets, n)
+model = dv["model"]
+d0 = dv["d0"] or (0.5 * hb if model == "node_face" else hb)
+kc = dv["k"] or E * hb
 nodebody = np.zeros(n, int)
 for b in (1, 2):
     nodebody[np.unique(tets[body == b])] = b
@@ -140,6 +156,8 @@ for c in range(4):
     np.add.at(mass, tets[:, c], rho * v0 / 4)
 b1 = np.where(is_b & (nodebody == 1))[0]
 b2 = np.where(is_b & (nodebody == 2))[0]
+faces1 = bfaces[nodebody[bfaces[:, 0]] == 1]
+faces2 = bfaces[nodebody[bfaces[:, 0]] == 2]
 
 with h5py.File(traj_path, "r") as f:
     ids = f["particles/all/id"][()]
@@ -170,11 +188,25 @@ for t in range(nf):
         el = neohookean_energy(x, tets[body == b], dminv[body == b], v0[body == b], lam, mu).sum()
         rec.update({f"M{b}": M, f"c{b}": c, f"V{b}": V, f"w{b}": w, f"K{b}": K, f"Kt{b}": Kt, f"Kr{b}": Kr,
                     f"el{b}": el})
-    d = x[b1][:, None, :] - x[b2][None, :, :]
-    r = np.sqrt((d * d).sum(2))
-    inside = r < d0
-    fmag = np.where(inside, kc * (d0 - r), 0.0)
-    fvec = (fmag[:, :, None] * d / np.maximum(r, 1e-300)[:, :, None]).sum((0, 1))   # force on ball 1 from ball 2
+    if model == "node_face":
+        # force on ball 1 from ball 2: on its nodes from ball 2's faces, minus that on ball 2's nodes
+        fvec = np.zeros(3)
+        rs = []
+        for nodes, fc, sg in ((b1, faces2, 1.0), (b2, faces1, -1.0)):
+            d, r = node_face_pairs(x, nodes, fc, d0 + max_edge)
+            if len(r) == 0:
+                continue
+            inside = r < d0
+            fvec += sg * ((kc * (d0 - r[inside]) / r[inside])[:, None] * d[inside]).sum(0)
+            rs.append(r)
+        r = np.concatenate(rs) if rs else np.array([np.inf])
+        inside = r < d0
+    else:
+        d = x[b1][:, None, :] - x[b2][None, :, :]
+        r = np.sqrt((d * d).sum(2))
+        inside = r < d0
+        fmag = np.where(inside, kc * (d0 - r), 0.0)
+        fvec = (fmag[:, :, None] * d / np.maximum(r, 1e-300)[:, :, None]).sum((0, 1))   # force on ball 1 from ball 2
     rec["rmin"] = r.min()
     rec["Fc"] = np.linalg.norm(fvec)
     rec["Ec"] = (0.5 * kc * (d0 - r[inside]) ** 2).sum()
@@ -232,7 +264,7 @@ out = dict(label=a.label, frames=nf, d0=d0, k=kc, E=E, nu=nu, mass=M, v=abs(vn_b
            w_before=[pre["w1"].tolist(), pre["w2"].tolist()], w_after=[post["w1"].tolist(), post["w2"].tolist()])
 
 print(f"two-ball collision {a.label}: {nf} frames every {out['frame_dt']:.3g} s; ball mass {M:.5g} kg, R = {R:g} m, "
-      f"E = {E:.4g} Pa, nu = {nu:.4g}; contact k = {kc:.4g} N/m, d0 = {d0:.4g} m")
+      f"E = {E:.4g} Pa, nu = {nu:.4g}; contact {model}, k = {kc:.4g} N/m, d0 = {d0:.4g} m")
 print(f"  contact: start {t_start * 1e3:.3f} ms, end {t_end * 1e3:.3f} ms, duration {duration * 1e3:.3f} ms; "
       f"Hertz T = {T * 1e3:.3f} ms at v = {abs(vn_before):.4g} m/s: ratio {duration / T:.4f}")
 print(f"  peak contact force {Fc.max():.4g} N (Hertz {hf.max():.4g} N)")

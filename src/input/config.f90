@@ -58,6 +58,7 @@ module terrace_config
         real(dp) :: body_velocity(3, max_bodies) = 0, body_angular_velocity(3, max_bodies) = 0  !< per body
         real(dp) :: lambda = unset, mu = unset      !< neohookean: Lame constants
         real(dp) :: contact_stiffness = unset, contact_distance = unset  !< contact between mesh bodies (N/m, m)
+        character(len=16) :: contact_model = 'node_face'                 !< 'node_face' or 'node_node'
         ! &potential
         character(len=24) :: potential = 'lj'
         character(len=path_max) :: potential_file = ''   !< EAM: the LAMMPS potential file
@@ -475,17 +476,20 @@ contains
         real(dp) :: pair_cutoff(max_types, max_types)
         logical :: shift
         real(dp) :: lambda, mu, contact_stiffness, contact_distance
+        character(len=16) :: contact_model
         namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements, lambda, mu, &
-            contact_stiffness, contact_distance
-        character(len=*), parameter :: keys(12) = [character(len=60) :: 'style:a quoted string', &
+            contact_stiffness, contact_distance, contact_model
+        character(len=*), parameter :: keys(13) = [character(len=60) :: 'style:a quoted string', &
             'lambda:a real number (Pa)', 'mu:a real number (Pa)', &
             'contact_stiffness:a real number (N/m)', 'contact_distance:a real number (m)', &
+            'contact_model:a quoted string', &
             'epsilon:a real number (or epsilon(i,j) = ...)', 'sigma:a real number (or sigma(i,j) = ...)', &
             'cutoff:a real number', 'pair_cutoff:pair_cutoff(i,j) = a real number', 'shift:a logical', &
             'file:a quoted file name', 'elements:quoted element names, one per atom type']
         type(item_reader_t) :: it
         style = 'lj'; epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
         file = ''; elements = ''; lambda = unset; mu = unset; contact_stiffness = unset; contact_distance = unset
+        contact_model = 'node_face'
         do while (it%next(cfg, 'potential', keys))
             read (it%buf, nml=potential, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
@@ -495,6 +499,7 @@ contains
         cfg%potential_file = file; cfg%elements = elements
         cfg%lambda = lambda; cfg%mu = mu
         cfg%contact_stiffness = contact_stiffness; cfg%contact_distance = contact_distance
+        cfg%contact_model = lower(contact_model)
     end subroutine read_potential
 
     subroutine read_integrator(cfg)
@@ -722,6 +727,8 @@ contains
                 'contact_stiffness')//": contact is between the bodies of a mesh (style = 'neohookean')")
             if (cfg%nml%find('potential', 'contact_distance') > 0) call stop_all(cfg%where('potential', &
                 'contact_distance')//": contact is between the bodies of a mesh (style = 'neohookean')")
+            if (cfg%nml%find('potential', 'contact_model') > 0) call stop_all(cfg%where('potential', &
+                'contact_model')//": contact is between the bodies of a mesh (style = 'neohookean')")
         end if
         select case (cfg%potential)
         case ('lj', 'lj/smooth/linear')
@@ -758,10 +765,18 @@ contains
                                           trim(cfg%units%pressure)//')')
         if (cfg%nml%find('potential', 'contact_stiffness') > 0 .and. .not. (cfg%contact_stiffness > 0)) &
             call stop_all(cfg%where('potential', 'contact_stiffness')//': must be > 0 (a spring constant in N/m; '// &
-                          'leave it out for the default E d0)')
+                          'leave it out for the default E h_b, h_b the mean boundary edge)')
         if (cfg%nml%find('potential', 'contact_distance') > 0 .and. .not. (cfg%contact_distance > 0)) &
             call stop_all(cfg%where('potential', 'contact_distance')//': must be > 0 (a length in '// &
-                          trim(cfg%units%length)//'; leave it out for the mean boundary edge length)')
+                          trim(cfg%units%length)//'; leave it out for the default: half the mean boundary edge '// &
+                          'for node_face, the mean boundary edge for node_node)')
+        select case (cfg%contact_model)
+        case ('node_face', 'node_node')
+        case default
+            call stop_all(cfg%where('potential', 'contact_model')//" = '"//trim(cfg%contact_model)// &
+                          "': unknown contact model (allowed: 'node_face' (boundary nodes against the other "// &
+                          "body's boundary triangles, the default), 'node_node' (boundary node pairs))")
+        end select
         if (any(cfg%periodic(1:cfg%dimension))) call stop_all(cfg%where('system', 'periodic')// &
             ': a mesh has free boundaries (set periodic = .false., .false., .false.)')
         if (cfg%dimension /= 3) call stop_all(cfg%where('run', 'dimension')//': meshes of tetrahedra are 3-D')

@@ -96,8 +96,10 @@ contains
         ! no pair list: bins (for the spatial sort) sized by the halo, and the displacement reference
         if (self%plan%pair_mode == pair_none) call self%list%init(self%pot%halo_reach(), cfg%skin, cfg%dimension)
         self%validity_checks = self%pot%may_become_invalid()
-        ! ray passes of some many-body terms need each owned atom's whole neighbourhood
-        self%list%want_below = self%pot%ray_needs_full_neighbourhood() .and. cfg%integrator == 'energy_stepping'
+        ! ray passes of some many-body terms (and the force pass of node-to-face contact) need each
+        ! owned atom's whole neighbourhood
+        self%list%want_below = (self%pot%ray_needs_full_neighbourhood() .and. cfg%integrator == 'energy_stepping') &
+                               .or. self%pot%forces_need_full_neighbourhood()
         call self%rebuild()
         call check_overlaps(self%atoms, self%list, self%pot, self%plan%pair_mode, self%source)
         call self%compute_forces(.true.)

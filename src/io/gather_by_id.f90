@@ -2,6 +2,7 @@
 !> diagnostic text outputs (forces file, final atoms file). Production output (H5MD) never gathers.
 module terrace_gather_by_id
     use terrace_kinds, only: dp, i8
+    use terrace_heap_sort, only: sort_by_id
     use terrace_mpi_env, only: world
     use mpi_f08, only: MPI_Gather, MPI_Gatherv, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION
     implicit none
@@ -42,35 +43,5 @@ contains
         all_ids = gids(order)
         all_values = gvals(:, order)
     end subroutine gather_by_id
-
-    !> Heap sort of an index array by id.
-    subroutine sort_by_id(ids, order)
-        integer(i8), intent(in) :: ids(:)
-        integer, intent(inout) :: order(:)
-        integer :: n, i, tmp
-        n = size(order)
-        do i = n/2, 1, -1
-            call sift(i, n)
-        end do
-        do i = n, 2, -1
-            tmp = order(1); order(1) = order(i); order(i) = tmp
-            call sift(1, i - 1)
-        end do
-    contains
-        subroutine sift(start, last)
-            integer, intent(in) :: start, last
-            integer :: root, child, t
-            root = start
-            do while (2*root <= last)
-                child = 2*root
-                if (child < last) then
-                    if (ids(order(child + 1)) > ids(order(child))) child = child + 1
-                end if
-                if (ids(order(root)) >= ids(order(child))) return
-                t = order(root); order(root) = order(child); order(child) = t
-                root = child
-            end do
-        end subroutine sift
-    end subroutine sort_by_id
 
 end module terrace_gather_by_id

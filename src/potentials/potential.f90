@@ -40,6 +40,9 @@ module terrace_potential
         procedure :: needs_pair_list => potential_needs_pair_list
         procedure :: supports_all_pairs => potential_false
         procedure :: ray_needs_full_neighbourhood => potential_false
+        !> .true.: the force pass too needs each owned atom's whole neighbourhood (the list's
+        !> complement of ghosts below, list%below), whatever the integrator
+        procedure :: forces_need_full_neighbourhood => potential_false
         procedure :: contact_distance => potential_contact_distance
         procedure :: time_scale => potential_time_scale
         procedure :: preferred_skin => potential_preferred_skin

@@ -9,7 +9,7 @@ module terrace_potential_factory
     use terrace_lj, only: lj_t
     use terrace_eam, only: eam_t
     use terrace_neohookean, only: neohookean_t
-    use terrace_contact, only: contact_t
+    use terrace_contact, only: contact_t, model_node_face, model_node_node
     use terrace_potential_sum, only: potential_sum_t
     use terrace_gmsh_mesh, only: mesh_t
     use terrace_errors, only: stop_all, check_all
@@ -49,6 +49,9 @@ contains
                         ': contact needs two or more bodies (physical volumes); '//trim(cfg%mesh_file)//' has one')
                     if (.not. is_unset(cfg%contact_distance)) call stop_all(cfg%where('potential', 'contact_distance')// &
                         ': contact needs two or more bodies (physical volumes); '//trim(cfg%mesh_file)//' has one')
+                    if (cfg%nml%find('potential', 'contact_model') > 0) call stop_all(cfg%where('potential', &
+                        'contact_model')//': contact needs two or more bodies (physical volumes); '// &
+                        trim(cfg%mesh_file)//' has one')
                     nh%global_sums = .true.     ! alone: it sums its energies over the ranks itself, exactly
                     call move_alloc(nh, pot)
                 else
@@ -92,6 +95,7 @@ contains
         type(potential_sum_t), allocatable :: total
         class(potential_t), allocatable :: term
         real(dp) :: youngs, k, d0
+        integer :: model
         logical :: ok
         character(len=512) :: msg
         character(len=40) :: s1, s2
@@ -100,14 +104,22 @@ contains
         if (.not. is_unset(cfg%contact_distance)) d0 = cfg%contact_distance
         youngs = cfg%mu*(3*cfg%lambda + 2*cfg%mu)/(cfg%lambda + cfg%mu)
         allocate (ct)
-        call ct%setup(k, d0, youngs, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), xref, node_mass)
-        if (d0 > 0) then
+        model = model_node_face
+        if (cfg%contact_model == 'node_node') model = model_node_node
+        call ct%setup(k, d0, youngs, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), xref, node_mass, model)
+        if (d0 > 0 .and. model == model_node_node) then
             write (s1, '(es10.3)') 0.6_dp*ct%spacing
             write (s2, '(es10.3)') 0.25_dp*ct%min_body_extent
             if (d0 < 0.6_dp*ct%spacing .or. d0 > 0.25_dp*ct%min_body_extent) call stop_all(cfg%where('potential', &
                 'contact_distance')//': allowed '//trim(adjustl(s1))//' .. '//trim(adjustl(s2))//' '// &
-                trim(cfg%units%length)//' for this mesh (from 0.6 x the mean boundary edge, below which a node '// &
-                'slips between the nodes of the other body, to a quarter of the smallest body)')
+                trim(cfg%units%length)//" for this mesh with contact_model = 'node_node' (from 0.6 x the mean "// &
+                'boundary edge, below which a node slips between the nodes of the other body, to a quarter of '// &
+                'the smallest body)')
+        else if (d0 > 0) then
+            write (s2, '(es10.3)') 0.25_dp*ct%min_body_extent
+            if (d0 > 0.25_dp*ct%min_body_extent) call stop_all(cfg%where('potential', 'contact_distance')// &
+                ': allowed up to '//trim(adjustl(s2))//' '//trim(cfg%units%length)//' for this mesh (a quarter of '// &
+                'the smallest body)')
         end if
         if (present(xstart)) then
             call ct%check_start(xstart, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), ok, msg)

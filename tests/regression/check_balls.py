@@ -1,12 +1,14 @@
 #!/usr/bin/env python3
 """Two colliding rubber balls with contact (issue 13), coarse mesh (scripts/make_ball_mesh.py
 --refine 3: 208 nodes and 672 tetrahedra per ball, R = 0.1 m, gap 35 mm; rho 1100 kg/m^3,
-lambda 2.7 MPa, mu 0.3 MPa; ball 2 at 1 m/s along -x with 10 rad/s about z; default contact):
+lambda 2.7 MPa, mu 0.3 MPa; ball 2 at 1 m/s along -x with 10 rad/s about z; default contact,
+node_face):
   - energy stepping (h = 1e-3 J), the whole collision: linear and angular momentum of the two balls
     conserved to 1e-12 relative through the contact (thermo px..lz), |E - E0| <= h at every sample,
     and from the trajectory (scripts/balls_analysis.py): contact begins and ends, duration within
-    15 % of Hertz, 0.85 < e < 1, translation + rotation + vibration + elastic after separation equal
-    to the initial energy within h;
+    15 % of Hertz, 0.85 < e < 1.1 (the spinning faceted ball may feed a little spin into the normal
+    motion), translation + rotation + vibration + elastic after separation equal to the initial
+    energy within h; the same without spin: 0.85 < e < 1 and the balance within h;
   - velocity Verlet (dt = 2e-5 s): max |E - E0| < 1e-4 J, P to round-off, L to 1e-10 relative, and
     the restitution within 0.02 of energy stepping's (their difference at these settings: 0.009);
   - ranks: energy stepping's first 1000 events (through the start of the contact) and Verlet's first
@@ -29,10 +31,10 @@ terrace, out = start()
 ball_mesh(os.path.join(out, "balls.msh"), 3, 0.035)
 
 
-def deck(name, integrator, length, outputs):
+def deck(name, integrator, length, outputs, spin=10.0):
     text = f"""&run units='si', dimension=3, {length}, seed=1 /
 &system mesh_file='balls.msh', mass_density=1100.0, periodic=.false.,.false.,.false.,
-        velocity(:,2)=-1.0,0.0,0.0, angular_velocity(:,2)=0.0,0.0,10.0 /
+        velocity(:,2)=-1.0,0.0,0.0, angular_velocity(:,2)=0.0,0.0,{spin} /
 &potential style='neohookean', lambda=2.7e6, mu=3.0e5 /
 &integrator {integrator} /
 &output {outputs}, thermo_file='{name}.csv' /
@@ -76,7 +78,11 @@ es = analyse("es")
 check(es["t_start"] > 0 and es["t_end"] < 0.064, f"ES contact from {es['t_start'] * 1e3:.2f} to {es['t_end'] * 1e3:.2f} ms")
 check(abs(es["ratio"] - 1) < 0.15, f"ES contact {es['duration'] * 1e3:.2f} ms vs Hertz {es['hertz_T'] * 1e3:.2f} ms "
       f"(ratio {es['ratio']:.3f})")
-check(0.85 < es["restitution"] < 1, f"ES restitution {es['restitution']:.4f}")
+# With 10 rad/s (surface speed 1 m/s, the approach speed) the faceted balls trade some spin for
+# normal motion (the contact normals of a polyhedron do not pass through the ball's centre), so e
+# may exceed 1 a little on this coarse mesh (node_face: 1.03; node_node gave up to 1.34); without
+# spin no energy can feed the normal motion and e < 1 is asserted on a run of its own below.
+check(0.85 < es["restitution"] < 1.1, f"ES restitution with spin {es['restitution']:.4f} (within 0.1 of 1)")
 check(abs(es["balance"]) <= h, f"ES energy after separation: translation {es['Kt_after']:.5f} + rotation "
       f"{es['Kr_after']:.5f} + vibration {es['Kvib_after']:.5f} + elastic {es['el_after']:.5f} - E0 = "
       f"{es['balance']:.2e} J (h = {h:g})")
@@ -94,6 +100,13 @@ check(abs(vv["restitution"] - es["restitution"]) < 0.02, f"restitution: Verlet {
       f"energy stepping {es['restitution']:.4f}")
 check(abs(vv["duration"] - es["duration"]) < 0.02 * vv["duration"], f"duration: Verlet {vv['duration'] * 1e3:.3f} ms, "
       f"energy stepping {es['duration'] * 1e3:.3f} ms")
+# no spin: the normal restitution is below 1 (energy goes into vibration, none comes from rotation)
+deck("es0", f"style='energy_stepping', terrace_height={h}", "run_time=0.065",
+     "thermo_interval=0.0005, trajectory_file='es0.h5', trajectory_interval=0.0005", spin=0.0)
+run("es0")
+es0 = analyse("es0")
+check(0.85 < es0["restitution"] < 1, f"ES restitution without spin {es0['restitution']:.4f} (< 1)")
+check(abs(es0["balance"]) <= h, f"ES energy balance after separation without spin: {es0['balance']:.2e} J (h = {h:g})")
 # ranks
 for n in (1, 2, 4):
     deck(f"es_np{n}", f"style='energy_stepping', terrace_height={h}", "n_steps=1000", "thermo_every=100")

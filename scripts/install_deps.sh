@@ -3,6 +3,8 @@
 # (apt-get); otherwise it prints the exact command and exits 1. pFUnit is in no package registry:
 # CMake finds an installed one or builds it from $TERRACE_PFUNIT_SOURCE (tests/pfunit_from_source.cmake);
 # without either the unit tests are reported as skipped.
+# Usage: scripts/install_deps.sh [--bench]   (--bench adds the optional benchmark anchors below; the
+# build and the tests never need them)
 set -euo pipefail
 packages=(
   gfortran cmake make pkg-config            # build
@@ -13,6 +15,14 @@ packages=(
   python3-venv                               # MDAnalysis test: a venv with PyPI's MDAnalysis
   lammps lammps-data                         # reference runs and EAM tables
 )
+bench=(
+  gromacs                                    # optional: gmx, gmx_d for scripts/bench/anchors.sh only
+)
+case "${1:-}" in
+  --bench) packages+=("${bench[@]}") ;;
+  "") ;;
+  *) echo "usage: $0 [--bench]" >&2; exit 2 ;;
+esac
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -13,7 +13,7 @@ program terrace_analyze
     use terrace_version, only: terrace_version_string
     use terrace_info_flags, only: answer_info_flag
     use terrace_analysis_config, only: analysis_config_t, read_analysis_config
-    use terrace_h5md_reader, only: h5md_trajectory_t
+    use terrace_h5md_reader, only: h5md_trajectory_t, el_position, el_velocity
     use terrace_vacf_vdos, only: vdos_plan_t, plan_vdos, run_vdos
     use terrace_rdf, only: rdf_plan_t, plan_rdf, run_rdf
     use terrace_msd_diffusion, only: msd_plan_t, plan_msd, run_msd
@@ -73,6 +73,11 @@ program terrace_analyze
     if (cfg%rdf) call plan_rdf(traj, cfg, rdf)
     if (cfg%msd) call plan_msd(traj, cfg, msd)
     if (cfg%sq) call plan_sq(traj, cfg, sq)
+    ! every value the analyses will read is finite and in range (one error line, no output yet)
+    if (cfg%vdos) call traj%check_values(el_velocity, vdos%f0, vdos%nsel, vdos%stride)
+    if (cfg%rdf) call traj%check_values(el_position, rdf%f0, rdf%nsel, rdf%stride)
+    if (cfg%msd) call traj%check_values(el_position, msd%f0, msd%nsel, msd%stride)
+    if (cfg%sq) call traj%check_values(el_position, sq%f0, sq%nsel, sq%stride)
     if (world%rank == 0) then
         write (output_unit, '(a)') 'terrace-analyze '//terrace_version_string//': '//trim(cfg%trajectory_file)
         write (output_unit, '(a,i0,a,i0,a,i0,a)') '  ', traj%natoms, ' atoms, dimension ', traj%dimension, ', ', &

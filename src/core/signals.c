@@ -76,3 +76,21 @@ int terrace_watchdog_arm(int seconds, const char *msg, int len, int status)
 
 /* Disarm (the guarded call returned). */
 void terrace_watchdog_disarm(void) { alarm(0); }
+
+/* Test hook (TERRACE_TEST_STALL_RANK, terrace_hdf5_io): this process stops inside a write as a
+ * process stuck in the kernel or on a file system that does not answer would, for `seconds`
+ * (the watchdog of this or of another rank ends the job first). With block_alarm, SIGALRM is
+ * ignored from then on (process-wide: blocking it in this thread alone would not do, MPI's own
+ * threads would take it): this rank's watchdog cannot report, as when the rank cannot run at
+ * all, so another rank must. Signals that interrupt the sleep do not end the stall. */
+#include <time.h>
+
+void terrace_test_stall(int seconds, int block_alarm)
+{
+    struct timespec left;
+    if (block_alarm) signal(SIGALRM, SIG_IGN);
+    left.tv_sec = seconds;
+    left.tv_nsec = 0;
+    while (nanosleep(&left, &left) != 0) {
+    }
+}

@@ -12,7 +12,7 @@ module terrace_signals
     !> resubmit it with &system read_checkpoint.
     integer, parameter, public :: exit_stopped = 3
 
-    public :: install_stop_handlers, stop_signal_name, local_stop_signal, watchdog_arm, watchdog_disarm
+    public :: install_stop_handlers, stop_signal_name, local_stop_signal, watchdog_arm, watchdog_disarm, test_stall
 
     interface
         integer(c_int) function c_install() bind(C, name='terrace_install_stop_handlers')
@@ -34,6 +34,10 @@ module terrace_signals
         end function c_arm
         subroutine watchdog_disarm() bind(C, name='terrace_watchdog_disarm')
         end subroutine watchdog_disarm
+        subroutine c_stall(seconds, block_alarm) bind(C, name='terrace_test_stall')
+            import :: c_int
+            integer(c_int), value :: seconds, block_alarm
+        end subroutine c_stall
     end interface
 
 contains
@@ -54,6 +58,15 @@ contains
         integer(c_int) :: rc
         rc = c_arm(int(seconds, c_int), msg, int(len(msg), c_int), int(status, c_int))
     end subroutine watchdog_arm
+
+    !> Test hook only (TERRACE_TEST_STALL_RANK): stop here for `seconds` as a process stuck in an
+    !> I/O call would; with block_alarm this process's own watchdog cannot report (SIGALRM is
+    !> ignored: a process that cannot run at all), so another rank's must (signals.c).
+    subroutine test_stall(seconds, block_alarm)
+        integer, intent(in) :: seconds
+        logical, intent(in) :: block_alarm
+        call c_stall(int(seconds, c_int), merge(1_c_int, 0_c_int, block_alarm))
+    end subroutine test_stall
 
     !> The stop signal this process received (0: none). Not collective.
     integer function local_stop_signal()

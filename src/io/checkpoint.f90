@@ -36,7 +36,8 @@ module terrace_checkpoint
     use terrace_file_ops, only: remove_file, remove_at_exit, keep_at_exit
     use terrace_checksum, only: checksum_rows, checksum_text, checksum_add, checksum_over_ranks
     use terrace_namelist_text, only: namelist_file_t
-    use terrace_hdf5_io, only: h5_status_t, h5_agree, h5_writer_closed, h5_guard_begin, h5_guard_end, h5_open_file, h5_create, h5_read, h5_transfer_list, h5_make_fixed, &
+    use terrace_hdf5_io, only: h5_status_t, h5_agree, h5_writer_closed, h5_guard_begin, h5_guard_end, h5_section_begin, &
+                               h5_section_end, h5_open_file, h5_create, h5_read, h5_transfer_list, h5_make_fixed, &
                                h5_write_slab, h5_dataset_rank, h5_dataset_dims, h5_read_whole, h5_attr_text, &
                                h5_attr_scalar, h5_read_attr_scalar, h5_read_attr_string
     use mpi_f08, only: MPI_Barrier
@@ -285,10 +286,15 @@ contains
         end if
 
         if (world%rank == 0) call remove_at_exit(tmp, always=.true.)
+        ! one section of the I/O watchdog (terrace_hdf5_io), to the rename: a rank stuck in HDF5
+        ! ends the job with one line, whichever rank it is (15 reals and integers per atom)
+        call h5_section_begin(path//' (&output checkpoint_file; writing '//tmp//')', 'writing the checkpoint', &
+                              bytes=120*natoms)
         call h5_open_file(st, tmp, h5_create, file, world%comm, label=path//' (&output checkpoint_file; writing '//tmp//')')
         failed = .not. st%ok .or. file < 0
         call any_all(failed)
         if (failed) then
+            call h5_section_end(world%comm)
             if (world%rank == 0) k = remove_file(tmp)
             ok = .false.; msg = 'checkpoint: cannot create '//tmp; return
         end if
@@ -351,6 +357,7 @@ contains
         if (failed) then
             ! a full device: HDF5 cannot end cleanly (terrace_errors); the previous checkpoint stays
             call note_broken_hdf5_file()
+            call h5_section_end(world%comm)
             if (world%rank == 0) k = remove_file(tmp)
             ok = .false.; msg = 'checkpoint: HDF5 failed while writing '//tmp//' (is the device full?)'; return
         end if
@@ -362,6 +369,7 @@ contains
         end if
         failed = .not. good
         call any_all(failed)
+        call h5_section_end(world%comm)
         if (failed) then
             ok = .false.; msg = 'checkpoint: cannot rename '//tmp//' to '//path
         end if

@@ -30,6 +30,8 @@ module terrace_h5md_reader
                                h5_dataset_rank, h5_dataset_dims, h5_read_whole, h5_read_slab, &
                                h5_read_attr_scalar, h5_read_attr_strings, h5_read_attr_string
     use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Comm_size
+    use terrace_mpi_env, only: world
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use hdf5, only: hid_t, hsize_t, h5dopen_f, h5dclose_f, h5gopen_f, h5gclose_f, h5fclose_f, h5aexists_f, &
                     h5kind_to_type, H5_INTEGER_KIND, H5T_NATIVE_DOUBLE, H5T_NATIVE_INTEGER
     implicit none
@@ -37,6 +39,10 @@ module terrace_h5md_reader
 
     integer, parameter, public :: el_position = 1, el_velocity = 2, el_image = 3
     character(len=8), parameter :: el_name(3) = [character(len=8) :: 'position', 'velocity', 'image']
+    !> Largest magnitude of a position, velocity or box edge read from a file, in the file's units
+    !> (as for a data file's box bounds): beyond it nothing the engine or the analyses compute
+    !> with it means anything (a position of 1e300 wraps to noise), so it is damage.
+    real(dp), parameter :: value_limit = 1.0e9_dp
 
     !> One time-dependent particle element.
     type :: element_t
@@ -66,6 +72,7 @@ module terrace_h5md_reader
         integer, allocatable :: species(:)
         real(dp), allocatable :: mass(:)
         character(len=32) :: unit_length = '', unit_time = '', unit_velocity = ''
+        integer(i8) :: values_checked(3, 3) = -1      !< (f0, nsel, stride) check_values last passed, per element
     contains
         procedure :: open => traj_open
         procedure :: close => traj_close
@@ -76,6 +83,7 @@ module terrace_h5md_reader
         procedure :: read_real => traj_read
         procedure :: read_int => traj_read
         procedure :: where => traj_where
+        procedure :: check_values => traj_check_values
         procedure :: time_step => traj_time_step
     end type h5md_trajectory_t
 
@@ -90,8 +98,33 @@ contains
         class(h5md_trajectory_t), intent(in) :: self
         character(len=*), intent(in) :: what
         character(len=:), allocatable :: s
-        s = self%path//': '//self%group//'/'//what
+        s = self%path//': '//self%key//': '//self%group//'/'//what
     end function traj_where
+
+    !> Every value of element e (el_position or el_velocity) in the frames f0+1, f0+1+stride, ...
+    !> (nsel of them, 0-based f0) is finite and at most value_limit in magnitude; otherwise one
+    !> error naming the file, the dataset, the frame and the atom row stops every rank. Collective
+    !> over MPI_COMM_WORLD: the frames are shared among the ranks, one frame read at a time (the
+    !> analyses call it while planning, before any output is written).
+    subroutine traj_check_values(self, e, f0, nsel, stride)
+        class(h5md_trajectory_t), intent(inout) :: self
+        integer, intent(in) :: e
+        integer(i8), intent(in) :: f0, nsel, stride
+        type(h5_status_t) :: st
+        real(dp), allocatable, target :: buf(:, :)
+        integer(i8) :: j
+        if (all(self%values_checked(:, e) == [f0, nsel, stride])) return   ! the same frames again
+        if (self%el(e)%present .and. self%natoms > 0) then
+            allocate (buf(self%dimension, self%natoms))
+            do j = world%rank, nsel - 1, world%nprocs
+                call read_block(self, e, f0 + j*stride, 1_i8, 1_i8, 0_i8, self%natoms, H5T_NATIVE_DOUBLE, c_loc(buf), &
+                                size(buf, kind=i8), st)
+                if (.not. st%ok) exit
+            end do
+        end if
+        call check_all(st%ok, trim(st%msg))
+        self%values_checked(:, e) = [f0, nsel, stride]
+    end subroutine traj_check_values
 
     !> Record `text` as the failure when cond is false; .true. once the sequence has failed.
     logical function failed(st, cond, text)
@@ -161,10 +194,10 @@ contains
         if (failed(st, self%file >= 0, self%path//': '//self%key//': cannot open as HDF5 (not an HDF5/H5MD file?)')) &
             return
         if (self%key == 'trajectory_file') then
-            if (failed(st, h5_link_exists(self%file, self%group), self%path//': '//self%group// &
+            if (failed(st, h5_link_exists(self%file, self%group), self%path//': '//self%key//': '//self%group// &
                        ': missing (no particles group of that name; set &analysis particles_group)')) return
         else
-            if (failed(st, h5_link_exists(self%file, self%group), self%path//': '//self%group// &
+            if (failed(st, h5_link_exists(self%file, self%group), self%path//': '//self%key//': '//self%group// &
                        ': missing (no particles group of that name)')) return
         end if
 
@@ -437,6 +470,10 @@ contains
                            ')')) return
             end if
         end if
+        if (failed(st, all(ieee_is_finite(self%edges(1:Dm, :))), self%where('box/edges')// &
+                   ': NaN or infinite value in the file')) return
+        if (failed(st, all(abs(self%edges(1:Dm, :)) <= value_limit), self%where('box/edges')// &
+                   ': a value beyond 1e9 in magnitude (allowed: |edge| <= 1e9 in the file''s units)')) return
         if (ok) then
             if (failed(st, size(boundary) == Dm, self%where('box')//': boundary attribute: wrong length '// &
                        '(one entry per dimension)')) return
@@ -630,18 +667,22 @@ contains
             real(dp), pointer :: r(:, :, :)
             integer(i8) :: j, a
             character(len=64) :: where
+            character(len=:), allocatable :: what
             call c_f_pointer(p, r, [int(self%dimension, i8), na, nf])
-            if (all(abs(r) <= huge(1.0_dp))) return
+            if (all(abs(r) <= value_limit)) return
             do j = 1, nf
                 do a = 1, na
-                    if (all(abs(r(:, a, j)) <= huge(1.0_dp))) cycle
+                    if (all(abs(r(:, a, j)) <= value_limit)) cycle
                     write (where, '(a,i0,a,i0)') 'frame ', f0 + (j - 1)*stride + 1, ', atom row ', a0 + a
-                    if (present(status)) then
-                        call status%fail(self%where(trim(el_name(e))//'/value')//': '//trim(where)//': NaN or '// &
-                                         'infinite value in the file')
+                    if (all(ieee_is_finite(r(:, a, j)))) then
+                        what = 'a value beyond 1e9 in magnitude (allowed: |value| <= 1e9 in the file''s units)'
                     else
-                        call abort_all(self%where(trim(el_name(e))//'/value')//': '//trim(where)//': NaN or '// &
-                                       'infinite value in the file')
+                        what = 'NaN or infinite value in the file'
+                    end if
+                    if (present(status)) then
+                        call status%fail(self%where(trim(el_name(e))//'/value')//': '//trim(where)//': '//what)
+                    else
+                        call abort_all(self%where(trim(el_name(e))//'/value')//': '//trim(where)//': '//what)
                     end if
                     return
                 end do
@@ -759,7 +800,9 @@ contains
         call h5_agree(comm, st, ok, msg)
         if (.not. ok) then
             ! messages that name the file already (traj%where) lose it: the caller names it
-            if (index(msg, trim(path)//': ') == 1) then
+            if (index(msg, trim(path)//': read_h5md: ') == 1) then
+                msg = msg(len_trim(path) + 14:)
+            else if (index(msg, trim(path)//': ') == 1) then
                 msg = msg(len_trim(path) + 3:)
             else
                 msg = 'h5md: '//trim(path)//': '//trim(msg)

@@ -16,8 +16,8 @@ module terrace_hdf5_io
     use, intrinsic :: iso_fortran_env, only: int32
     use terrace_kinds, only: dp, i8
     use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Comm_size, MPI_Allreduce, MPI_Bcast, MPI_IN_PLACE, &
-                       MPI_INTEGER, MPI_MIN, MPI_CHARACTER, MPI_INFO_NULL, MPI_COMM_WORLD
-    use terrace_signals, only: watchdog_arm, watchdog_disarm
+                       MPI_INTEGER, MPI_MIN, MPI_CHARACTER, MPI_INFO_NULL, MPI_COMM_WORLD, MPI_Barrier
+    use terrace_signals, only: watchdog_arm, watchdog_disarm, test_stall
     use hdf5
     implicit none
     private
@@ -34,7 +34,7 @@ module terrace_hdf5_io
     integer, parameter, public :: h5_create = 1, h5_read = 2, h5_append = 3   !< h5_open_file modes
 
     public :: h5_library, h5_agree, h5_open_file, h5_transfer_list, h5_writer_closed, h5_guard_begin, h5_guard_end, &
-              h5_watch_begin, h5_watch_end
+              h5_watch_begin, h5_watch_end, h5_section_begin, h5_section_end
     public :: h5_make_fixed, h5_make_series, h5_extend, h5_dataset_rank, h5_dataset_dims
     public :: h5_write_slab, h5_read_slab, h5_read_whole, h5_read_at
     public :: h5_attr_int, h5_attr_scalar, h5_attr_text, h5_attr_text_list, h5_attr_vltext
@@ -43,20 +43,43 @@ module terrace_hdf5_io
 
     integer(hsize_t), parameter :: chunk_scalar = 512      !< default chunk of a series of scalars
 
-    !> Files open for parallel writing, and the last one's label (file and key) for the watchdog:
-    !> when an HDF5 call fails while one is open, the ranks may no longer meet in the same
-    !> collective (HDF5 1.10 on a full device: the failing rank skips the MPI_File_sync the others
-    !> wait in). The failure arms a watchdog (terrace_signals) that ends the job after
-    !> write_watchdog_s seconds with one error line unless h5_agree is reached first.
-    !> The same watchdog guards every flush and close of such a file (h5_guard_begin/end): on a
-    !> full device HDF5 1.10 can leave the ranks in different collectives inside H5Fclose without
-    !> any call having returned an error. write_watchdog_s: 60 s, or the environment variable
-    !> TERRACE_IO_WATCHDOG_S (the full-disk tests shorten it).
+    !> The I/O watchdog (terrace_signals: an alarm that prints one prepared line and ends the
+    !> process), for HDF5 calls that may never return:
+    !>  - Collective sections (h5_section_begin/h5_section_end): every rank arms the watchdog when
+    !>    it enters an operation on a file open for parallel writing (a trajectory frame with its
+    !>    observables, a flush, a close, a checkpoint) and disarms it only after a barrier over
+    !>    the file's communicator at the end, so while any rank is stuck inside (a failed write
+    !>    that left the ranks in different collectives: HDF5 1.10 on a full device skips the
+    !>    MPI_File_sync the others wait in; a file system that does not answer), every other rank
+    !>    stays armed too, waiting in HDF5's collectives or in that barrier.
+    !>  - Opening a file to read (h5_watch_begin/h5_watch_end; each process alone): HDF5 1.10
+    !>    spins forever on some damaged files.
+    !>  - Outside a section, a failed call while a file is open for parallel writing (status_check)
+    !>    and every flush and close of such a file (h5_guard_begin/h5_guard_end) arm it too.
+    !> One line for the job, whichever rank is stuck (arm_on_rank): rank r of MPI_COMM_WORLD fires
+    !> after limit + r*watchdog_grace_s seconds, so rank 0 prints when it is armed and can run;
+    !> otherwise (not armed, or its process cannot run at all) the lowest armed rank that can
+    !> prints one grace later (rank r after r graces), and the launcher ends
+    !> the others when it exits (mpirun does within a second); every armed rank also ends by its
+    !> own alarm, so none hangs. Ranks from watchdog_quiet_from on end silently, last.
+    !> limit: write_watchdog_s (60 s, or the environment variable TERRACE_IO_WATCHDOG_S; the
+    !> full-disk tests shorten it), plus one second per 10 MiB a section says it moves (a slow
+    !> file system writing a large frame is not stuck).
+    !> Test hook (tests/regression/io_watchdog_stall.sh): TERRACE_TEST_STALL_RANK=k makes rank k
+    !> of MPI_COMM_WORLD stop inside its first slab write as a stuck process would ('k,blocked':
+    !> with its own watchdog silenced, as for a process that cannot run at all); unset, the cost
+    !> is one integer comparison per slab write.
     integer :: writers_open = 0
     character(len=:), allocatable :: write_label
     integer :: write_watchdog_s = 60
+    integer, parameter :: watchdog_grace_s = 3
+    integer, parameter :: watchdog_quiet_from = 4
+    integer(i8), parameter :: slow_bytes_per_s = 10485760_i8
+    integer :: section_depth = 0                   !< nesting of h5_section_begin
     logical :: failure_pending = .false.
     logical, save :: library_open = .false.
+    integer :: stall_rank = -1
+    logical :: stall_blocked = .false.
 
 contains
 
@@ -75,58 +98,92 @@ contains
     subroutine arm_write_watchdog(what)
         character(len=*), intent(in) :: what
         character(len=16) :: s
-        if (writers_open <= 0) return
+        if (writers_open <= 0 .or. section_depth > 0) return
         write (s, '(i0)') write_watchdog_s
-        call arm_on_rank('terrace: error: '//write_label//': '//trim(what)//' and the ranks '// &
+        call arm_on_rank(write_watchdog_s, 'terrace: error: '//write_label//': '//trim(what)//' and the ranks '// &
                          'did not meet again within '//trim(s)//' s (stuck in HDF5''s collective I/O; is the device full?)')
         failure_pending = .true.
     end subroutine arm_write_watchdog
 
-    !> Guard a collective flush or close of a file open for parallel writing: if it has not
-    !> returned within write_watchdog_s seconds, the process prints one error line and exits.
+    !> Guard a collective flush or close of a file open for parallel writing, outside a section:
+    !> if it has not returned within write_watchdog_s seconds, one error line and the job ends.
     subroutine h5_guard_begin(what)
         character(len=*), intent(in) :: what
         character(len=16) :: s
-        if (writers_open <= 0 .or. failure_pending) return
+        if (writers_open <= 0 .or. failure_pending .or. section_depth > 0) return
         write (s, '(i0)') write_watchdog_s
-        call arm_on_rank('terrace: error: '//write_label//': HDF5 '//what//' did not return within '//trim(s)// &
-                         ' s (the ranks are stuck in HDF5''s collective I/O; is the device full?)')
+        call arm_on_rank(write_watchdog_s, 'terrace: error: '//write_label//': HDF5 '//what//' did not return within '// &
+                         trim(s)//' s (the ranks are stuck in HDF5''s collective I/O; is the device full?)')
     end subroutine h5_guard_begin
 
-    !> One error line for the job: rank 0's watchdog fires first and prints; rank 1's fires 3 s
-    !> later (mpirun has ended it by then when rank 0's fired) and prints; the others exit silently.
-    subroutine arm_on_rank(msg)
+    subroutine h5_guard_end()
+        if (.not. failure_pending .and. section_depth == 0) call watchdog_disarm()
+    end subroutine h5_guard_end
+
+    !> A collective section on the file `label` names (its path and input key): every rank of the
+    !> file's communicator calls it on entering `what` (e.g. 'writing a frame') and
+    !> h5_section_end at the end, whatever happened in between. bytes: about what the section
+    !> moves over all ranks (a second more per 10 MiB; the same on every rank, so that the ranks'
+    !> alarms keep their order). Sections nest; the outermost one arms and disarms.
+    subroutine h5_section_begin(label, what, bytes)
+        character(len=*), intent(in) :: label, what
+        integer(i8), intent(in), optional :: bytes
+        character(len=16) :: s
+        integer :: limit
+        type(h5_status_t) :: st
+        section_depth = section_depth + 1
+        if (section_depth > 1) return
+        call h5_library(st)
+        limit = write_watchdog_s
+        if (present(bytes)) limit = limit + int(min(max(bytes, 0_i8)/slow_bytes_per_s, 86400_i8))
+        write (s, '(i0)') limit
+        call arm_on_rank(limit, 'terrace: error: '//label//': '//what//' did not finish on every rank within '// &
+                         trim(s)//' s: a rank is stuck in HDF5''s collective I/O (is the device full, or the file '// &
+                         'system not answering?)')
+    end subroutine h5_section_begin
+
+    !> The end of a collective section (collective over comm, the file's communicator): a barrier,
+    !> then the watchdog is disarmed; until every rank has reached it, every rank stays armed.
+    subroutine h5_section_end(comm)
+        type(MPI_Comm), intent(in) :: comm
+        section_depth = max(0, section_depth - 1)
+        if (section_depth > 0) return
+        call MPI_Barrier(comm)
+        failure_pending = .false.
+        call watchdog_disarm()
+    end subroutine h5_section_end
+
+    !> Arm this process's watchdog so that the job prints one line (see write_watchdog_s above):
+    !> rank r fires after seconds + r*watchdog_grace_s; from watchdog_quiet_from on, silently.
+    subroutine arm_on_rank(seconds, msg)
+        integer, intent(in) :: seconds
         character(len=*), intent(in) :: msg
         integer :: rank
         call MPI_Comm_rank(MPI_COMM_WORLD, rank)
-        if (rank == 0) then
-            call watchdog_arm(write_watchdog_s, msg, 1)
-        else if (rank == 1) then
-            call watchdog_arm(write_watchdog_s + 3, msg, 1)
+        if (rank < watchdog_quiet_from) then
+            call watchdog_arm(seconds + rank*watchdog_grace_s, msg, 1)
         else
-            call watchdog_arm(write_watchdog_s + 3, '', 1)
+            call watchdog_arm(seconds + watchdog_quiet_from*watchdog_grace_s, '', 1)
         end if
     end subroutine arm_on_rank
-
-    subroutine h5_guard_end()
-        if (.not. failure_pending) call watchdog_disarm()
-    end subroutine h5_guard_end
 
     !> Guard the opening of a file to read and the reading of its metadata (issue 15, class 9):
     !> on some files with one damaged byte (in HDF5's global heap) HDF5 1.10 spins forever. If
     !> h5_watch_end is not reached within write_watchdog_s seconds, one line
-    !> 'terrace: error: <path>: <key>: ...' and exit status 1.
+    !> 'terrace: error: <path>: <key>: ...' and exit status 1. Inside a section: nothing (the
+    !> section's watchdog is armed).
     subroutine h5_watch_begin(path, key)
         character(len=*), intent(in) :: path, key
         character(len=16) :: s
+        if (section_depth > 0) return
         write (s, '(i0)') write_watchdog_s
-        call arm_on_rank('terrace: error: '//path//': '//key//': opening the file and reading its metadata did '// &
-                         'not finish within '//trim(s)//' s: HDF5 is stuck on it (a damaged file, or a file '// &
-                         'system that does not answer)')
+        call arm_on_rank(write_watchdog_s, 'terrace: error: '//path//': '//key//': opening the file and reading its '// &
+                         'metadata did not finish within '//trim(s)//' s: HDF5 is stuck on it (a damaged file, or a '// &
+                         'file system that does not answer)')
     end subroutine h5_watch_begin
 
     subroutine h5_watch_end()
-        call watchdog_disarm()
+        if (section_depth == 0) call watchdog_disarm()
     end subroutine h5_watch_end
 
     !> A file opened for parallel writing (h5_open_file with a communicator) has been closed.
@@ -159,11 +216,18 @@ contains
                 read (v, *, iostat=ios) s
                 if (ios == 0 .and. s >= 1) write_watchdog_s = s
             end if
+            call get_environment_variable('TERRACE_TEST_STALL_RANK', v, n)
+            if (n > 0) then
+                read (v, *, iostat=ios) s
+                if (ios == 0 .and. s >= 0) stall_rank = s
+                stall_blocked = index(v, 'blocked') > 0
+            end if
         end block
     end subroutine h5_library
 
-    !> The same ok on every rank of comm; msg is that of the lowest failing rank. Disarms the
-    !> watchdog a failed parallel write armed (status_check): the ranks are in step again.
+    !> The same ok on every rank of comm; msg is that of the lowest failing rank. Outside a
+    !> section, disarms the watchdog a failed parallel write armed (status_check): the ranks are in
+    !> step again.
     subroutine h5_agree(comm, st, ok, msg)
         type(MPI_Comm), intent(in) :: comm
         type(h5_status_t), intent(in) :: st
@@ -175,8 +239,10 @@ contains
         call MPI_Comm_size(comm, nprocs)
         failing = merge(nprocs, rank, st%ok)
         call MPI_Allreduce(MPI_IN_PLACE, failing, 1, MPI_INTEGER, MPI_MIN, comm)
-        failure_pending = .false.
-        call watchdog_disarm()
+        if (section_depth == 0) then
+            failure_pending = .false.
+            call watchdog_disarm()
+        end if
         ok = failing == nprocs
         msg = ''
         if (ok) return
@@ -391,8 +457,18 @@ contains
         integer(hsize_t), intent(in) :: start(:), count(:)
         logical, intent(in) :: active
         integer(hid_t), intent(in), optional :: dxpl
+        if (stall_rank >= 0) call test_stall_here()
         call transfer_slab(st, d, memtype, buf, start, count, active, .false., dxpl)
     end subroutine h5_write_slab
+
+    !> The test hook TERRACE_TEST_STALL_RANK (see write_watchdog_s): rank k stops here, once.
+    subroutine test_stall_here()
+        integer :: rank
+        call MPI_Comm_rank(MPI_COMM_WORLD, rank)
+        if (rank /= stall_rank) return
+        stall_rank = -1
+        call test_stall(3600, stall_blocked)
+    end subroutine test_stall_here
 
     subroutine h5_read_slab(st, d, memtype, buf, start, count, active, dxpl, stride)
         type(h5_status_t), intent(inout) :: st

@@ -9,6 +9,10 @@
 !> flush that put new frames on disk (at most every few seconds of wall time, and never for more
 !> than about 1 % of the run's wall time) and when the trajectory is flushed for a checkpoint or
 !> closed.
+!>
+!> Every collective procedure here is one section of the I/O watchdog (terrace_hdf5_io:
+!> h5_section_begin/h5_section_end): a rank stuck in HDF5 ends the job with one error line naming
+!> the file and &output trajectory_file, whichever rank it is.
 module terrace_trajectory
     use terrace_kinds, only: dp, i8
     use terrace_h5md, only: h5md_writer_t
@@ -20,6 +24,7 @@ module terrace_trajectory
     use terrace_mpi_env, only: world
     use terrace_file_ops, only: remove_at_exit, keep_at_exit, remove_file
     use terrace_xdmf, only: xdmf_sidecar_path, write_xdmf_mesh
+    use terrace_hdf5_io, only: h5_section_begin, h5_section_end
     use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Bcast, MPI_LOGICAL, MPI_CHARACTER, MPI_Wtime
     implicit none
     private
@@ -87,9 +92,11 @@ contains
         if (world%rank == 0) call remove_at_exit(path, always=.true.)
         self%comm = comm
         self%natoms = natoms
+        call h5_section_begin(label(self), 'creating the file')
         call self%h5%create(path, comm, natoms, box%dimension, box%lo, box%hi, box%periodic, self%want_position, &
                             self%want_velocity, self%want_force, self%want_image, masses, trim(ul), trim(ut), &
                             trim(ue), trim(uv), trim(um), terrace_version_string, ok, msg)
+        call h5_section_end(comm)
         if (world%rank == 0) then
             call keep_at_exit(path)
             if (.not. ok) rc = remove_file(path)
@@ -110,7 +117,9 @@ contains
         if (len_trim(path) == 0) return
         self%path = path
         self%comm = comm
+        call h5_section_begin(label(self), 'opening the file to continue it')
         call self%h5%open_append(path, comm, frames, ok, msg)
+        call h5_section_end(comm)
         self%active = ok
     end subroutine trajectory_open_append
 
@@ -130,6 +139,7 @@ contains
         self%ntet = size(tets, 2, kind=i8)
         self%xdmf_path = xdmf_sidecar_path(self%path)
         call MPI_Comm_rank(self%comm, self%rank)
+        call h5_section_begin(label(self), 'writing the mesh')
         if (self%h5%frames_written() == 0) then
             call self%h5%write_connectivity('tetrahedra', tets, ok, msg)
             allocate (self%times(64))
@@ -139,6 +149,7 @@ contains
             self%ntimes = size(self%times, kind=i8)
         end if
         if (ok) call self%write_sidecar(ok, msg)
+        call h5_section_end(self%comm)
     end subroutine trajectory_add_mesh
 
     !> Rewrite the XDMF sidecar with the frames on disk (rank 0 writes; its ok is every rank's).
@@ -171,10 +182,13 @@ contains
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
         ok = .true.; msg = ''
-        if (self%active) call self%h5%flush(ok, msg)
-        if (ok .and. self%active .and. self%mesh) then
+        if (.not. self%active) return
+        call h5_section_begin(label(self), 'flushing the file')
+        call self%h5%flush(ok, msg)
+        if (ok .and. self%mesh) then
             if (self%h5%frames_flushed() /= self%xdmf_frames) call self%write_sidecar(ok, msg)
         end if
+        call h5_section_end(self%comm)
         if (.not. ok) msg = self%path//': &output trajectory_file: cannot flush: '//trim(msg)
     end subroutine trajectory_flush
 
@@ -201,13 +215,11 @@ contains
         ok = .true.; msg = ''
         if (.not. self%active) return
         n = atoms%nlocal
+        ! a frame moves at most 3 fields of 3 reals per atom over all ranks (the watchdog's limit)
+        call h5_section_begin(label(self), 'writing a frame', bytes=72*self%natoms)
         call self%h5%write_frame(step, time, n, atoms%id(1:n), atoms%type(1:n), x=atoms%x(:, 1:n), &
                                  v=atoms%v(:, 1:n), f=atoms%f(:, 1:n), image=atoms%image(:, 1:n), ok=ok, msg=msg, &
                                  flush=.false.)
-        if (.not. ok) then
-            msg = self%path//': &output trajectory_file: cannot write a frame: '//trim(msg)
-            return
-        end if
         ! observables: sampled with the frame (their step and time are the frame's), flushed below
         call observable('potential_energy', s%pe)
         call observable('kinetic_energy', s%ke)
@@ -226,6 +238,7 @@ contains
             ! (the rewrite costs O(frames): it is kept to about 1 % of the wall time)
             if (self%h5%frames_flushed() > self%xdmf_frames .and. due_sidecar()) call self%write_sidecar(ok, msg)
         end if
+        call h5_section_end(self%comm)
         if (.not. ok) msg = self%path//': &output trajectory_file: cannot write a frame: '//trim(msg)
 
     contains
@@ -285,12 +298,14 @@ contains
         character(len=512) :: msg_
         ok_ = .true.; msg_ = ''
         if (self%active) then
+            call h5_section_begin(label(self), 'closing the file')
             call self%h5%close()
             if (self%mesh .and. self%ntimes /= self%xdmf_frames) then
                 ! every frame is on disk now (h5%frames_flushed no longer answers: the writer is closed)
                 self%xdmf_frames = -1
                 call close_sidecar()
             end if
+            call h5_section_end(self%comm)
         end if
         self%active = .false.
         self%mesh = .false.
@@ -306,5 +321,12 @@ contains
             if (.not. ok_) call MPI_Bcast(msg_, len(msg_), MPI_CHARACTER, 0, self%comm)
         end subroutine close_sidecar
     end subroutine trajectory_close
+
+    !> The file and its key, for the watchdog's message.
+    function label(self)
+        class(trajectory_t), intent(in) :: self
+        character(len=:), allocatable :: label
+        label = self%path//' (&output trajectory_file)'
+    end function label
 
 end module terrace_trajectory

@@ -6,7 +6,11 @@
 # usage: check_bad_inputs.sh [--hostile] TERRACE_BIN [NPROCS...]      (default NPROCS: 1 4)
 #   --hostile: run the cases that bad_inputs/generate_hostile.py generates (issue 15: NaN and Inf,
 #   counts beyond the file, scenes beyond memory, long paths, colliding and special outputs, locks,
-#   ...) instead of bad_inputs/cases.txt.
+#   ...) instead of bad_inputs/cases.txt. The generator needs numpy and h5py (damaged H5MD
+#   trajectories): it runs with $TERRACE_PYTHON, else the first of /usr/bin/python3 and python3 that
+#   has them (scripts/install_deps.sh installs python3-h5py); with none, the test fails saying so.
+# A case whose arguments start with '@analyze' runs terrace-analyze (beside TERRACE_BIN) with the
+# rest of them instead of the engine; its error line starts with 'terrace: error' likewise.
 # Every case also must: print no crash text (Backtrace, SIGSEGV, 'Error allocating', ...) on stdout
 # or stderr, and leave every file that was in its directory beforehand byte-identical.
 # Cases run in parallel (JOBS at a time, default: the number of processors).
@@ -50,9 +54,19 @@ fi
 
 scratch=$(mktemp -d "${TMPDIR:-/tmp}/terrace_bad_inputs.XXXXXX")
 trap 'chmod -R u+rwx "$scratch" 2> /dev/null; rm -rf "$scratch"' EXIT
+analyze=$(dirname "$bin")/terrace-analyze
 if [ "$hostile" = 1 ]; then
     cases_dir=$scratch/hostile_cases
-    python3 "$here/bad_inputs/generate_hostile.py" "$cases_dir" > /dev/null || { echo "$0: generator failed" >&2; exit 2; }
+    py=''
+    for p in ${TERRACE_PYTHON:-} /usr/bin/python3 python3; do
+        if "$p" -c 'import h5py, numpy' 2> /dev/null; then py=$p; break; fi
+    done
+    if [ -z "$py" ]; then
+        echo "$0: no python with h5py and numpy (set TERRACE_PYTHON, or run scripts/install_deps.sh):" \
+            "the damaged-trajectory cases cannot be generated" >&2
+        exit 2
+    fi
+    "$py" "$here/bad_inputs/generate_hostile.py" "$cases_dir" > /dev/null || { echo "$0: generator failed" >&2; exit 2; }
     manifest=$cases_dir/cases.txt
     cp -a "$here/bad_inputs/control_ok" "$cases_dir/"
 fi
@@ -66,8 +80,9 @@ trim() { local s=$1; s=${s#"${s%%[![:space:]]*}"}; s=${s%"${s##*[![:space:]]}"};
 # sums (checksums of the files that were there beforehand). A case directory with '.hold_lock'
 # runs while another process holds an flock on the lock file it names.
 run_case() {
-    local name=$1 np=$2 holder=''
+    local name=$1 np=$2 holder='' exe=$bin
     shift 2
+    if [ "${1:-}" = @analyze ]; then exe=$analyze; shift; fi
     work=$(mktemp -d "$scratch/work.XXXXXX")
     err=$scratch/stderr.$name.$np
     out=$scratch/stdout.$name.$np
@@ -79,9 +94,9 @@ run_case() {
     before=$(cd "$work" && find . -mindepth 1 | LC_ALL=C sort)
     sums=$(cd "$work" && find . -type f -readable | LC_ALL=C sort | xargs -r md5sum)
     if [ "$np" = 1 ]; then
-        (cd "$work" && exec timeout -k 10 "$limit" "$bin" "$@") > "$out" 2> "$err" < /dev/null
+        (cd "$work" && exec timeout -k 10 "$limit" "$exe" "$@") > "$out" 2> "$err" < /dev/null
     else
-        (cd "$work" && exec timeout -k 10 "$limit" "$mpirun_cmd" "${mpirun_flags[@]}" -np "$np" "$bin" "$@") \
+        (cd "$work" && exec timeout -k 10 "$limit" "$mpirun_cmd" "${mpirun_flags[@]}" -np "$np" "$exe" "$@") \
             > "$out" 2> "$err" < /dev/null
     fi
     rc=$?

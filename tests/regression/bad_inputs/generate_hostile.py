@@ -3,7 +3,10 @@
 decks and files: NaN, Inf, overflowing and subnormal numbers for every real key and in every file
 format, counts beyond what a file can hold, scenes too large for memory, over-long paths,
 non-finite boxes and coordinates, ids the trajectory cannot take, colliding and special output
-paths, outputs equal to inputs, a locked output, the smaller defects, and the files users have.
+paths, outputs equal to inputs, a locked output, the smaller defects, the files users have, and
+damaged H5MD trajectories (NaN, Inf and huge values in positions, velocities and box, wrong shapes,
+missing datasets) for the engine's read_h5md and for terrace-analyze ('@analyze' cases). Needs
+numpy and h5py (check_bad_inputs.sh picks a python that has them).
 
 usage: generate_hostile.py OUT_DIR
 Writes OUT_DIR/cases.txt (the manifest format of bad_inputs/cases.txt) and one directory per
@@ -336,6 +339,125 @@ case('input_is_device', ['/dev/zero', '&system', 'atoms_file', 'not a regular fi
      groups=dict(ATOMS, system="atoms_file='/dev/zero', box_lo=0,0,0, box_hi=4,4,4, mass=1.0"))
 case('eam_file_missing_beside', ['Cu.set', '&potential', 'file', 'next to the deck'], groups=EAM,
      deck_name='sub/deck.nml', args='sub/deck.nml', files={'sub/Cu.set': setfl()})
+
+# ------------------------------------------------------------------ classes 1, 5: damaged H5MD trajectories
+# A small valid trajectory (16 atoms on a jittered lattice in a periodic box of 10, 40 frames, the
+# layout Terrace writes: box/edges a time-dependent element), damaged one way per case, read by the
+# engine (&system read_h5md, the damaged frame) and by terrace-analyze (the analysis that reads the
+# damaged element). Every message must name the file, the key and the dataset.
+import h5py  # noqa: E402  (the harness runs this generator with a python that has h5py)
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'analysis'))
+from common import write_h5md  # noqa: E402
+
+H5_NF, H5_N = 40, 16
+_rng = np.random.default_rng(15)
+_grid = np.array([[2.5 * i + 1.25, 5.0 * j + 2.5, 5.0 * k + 2.5] for i in range(4) for j in range(2) for k in range(2)])
+H5_X = _grid[None, :, :] + _rng.uniform(-0.2, 0.2, size=(H5_NF, H5_N, 3))
+H5_V = _rng.normal(scale=0.5, size=(H5_NF, H5_N, 3))
+H5_T = np.arange(H5_NF) * 0.01
+
+
+def h5_file(path, x=None, v=None, edges=(10.0, 10.0, 10.0), edit=None):
+    """The valid trajectory with positions x / velocities v replaced (None: the valid ones), then
+    edit(f) applied to the open file (to delete or reshape a dataset)."""
+    x = H5_X if x is None else x
+    v = H5_V if v is None else v
+    write_h5md(path, 3, positions=x, velocities=v, images=np.zeros(x.shape, np.int32), times=H5_T,
+               edges=list(edges), edges_series=True, species=np.ones(x.shape[1]), mass=np.ones(x.shape[1]))
+    if edit is not None:
+        with h5py.File(path, 'a') as f:
+            edit(f)
+
+
+H5_DECK = dict(LJ, system="read_h5md='in.h5', mass=1.0")
+
+
+def h5_cases(name, engine_subs, analyze_subs, compute='rdf', frame=None, **kw):
+    """Two cases on one damaged file in.h5: the engine starting from it (frame: h5md_frame) and
+    terrace-analyze --compute=compute on it."""
+    system = "read_h5md='in.h5', mass=1.0" + ('' if frame is None else ', h5md_frame=%d' % frame)
+    for who, subs, args in (('eng', engine_subs, None),
+                            ('ana', analyze_subs, '@analyze --trajectory_file=in.h5 --compute=' + compute)):
+        cname = 'h5_%s_%s' % (who, name)
+        case(cname, subs, groups=dict(H5_DECK, system=system), args=args)
+        h5_file(os.path.join(OUT, cname, 'in.h5'), **kw)
+
+
+ENG = ['in.h5', '&system', 'read_h5md']
+ANA = ['in.h5', 'trajectory_file']
+# non-finite and huge values in positions and velocities: first, middle and last frame
+for field, compute in (('position', 'rdf'), ('velocity', 'vdos')):
+    for tag, value, what in (('nan', np.nan, 'NaN or infinite'), ('inf', np.inf, 'NaN or infinite'),
+                             ('neginf', -np.inf, 'NaN or infinite'), ('huge', 1e300, 'beyond 1e9'),
+                             ('1e10', -1e10, 'beyond 1e9')):
+        for frame, atom in ((0, 0), (H5_NF // 2, 7), (H5_NF - 1, H5_N - 1)):
+            if tag in ('neginf', '1e10') and frame != H5_NF // 2:
+                continue
+            a = (H5_X if field == 'position' else H5_V).copy()
+            a[frame, atom, frame % 3] = value
+            ds = '/particles/all/%s/value' % field
+            where = 'frame %d, atom row %d' % (frame + 1, atom + 1)
+            c = compute if frame != H5_NF - 1 or field == 'velocity' else 'msd'
+            h5_cases('%s_%s_f%d' % (field, tag, frame + 1), ENG + [ds, where, what], ANA + [ds, where, what],
+                     compute=c, frame=frame + 1, **{'x' if field == 'position' else 'v': a})
+# every frame damaged (a run that blew up): still one line on every rank count
+h5_cases('position_all_nan', ENG + ['/particles/all/position/value', 'NaN or infinite'],
+         ANA + ['/particles/all/position/value', 'NaN or infinite'], compute='sq', x=np.full(H5_X.shape, np.nan))
+# the box
+for tag, value, what in (('nan', np.nan, 'NaN or infinite'), ('inf', np.inf, 'NaN or infinite'),
+                         ('huge', 1e300, 'beyond 1e9'), ('zero', 0.0, 'not positive'),
+                         ('negative', -10.0, 'not positive')):
+    h5_cases('box_edge_%s' % tag, ENG + ['/particles/all/box/edges', what], ANA + ['/particles/all/box/edges', what],
+             edges=(10.0, value, 10.0))
+
+
+def _replace(path, data):
+    def edit(f):
+        attrs = dict(f[path].attrs)
+        del f[path]
+        f[path] = data
+        for k, val in attrs.items():
+            f[path].attrs[k] = val
+    return edit
+
+
+def _delete(*paths):
+    def edit(f):
+        for q in paths:
+            del f[q]
+    return edit
+
+
+P = '/particles/all/'
+# wrong shapes
+h5_cases('position_rank2', ENG + [P + 'position/value', 'wrong shape'], ANA + [P + 'position/value', 'wrong shape'],
+         edit=_replace(P + 'position/value', H5_X[0]))
+h5_cases('position_dim4', ENG + [P + 'position/value'], ANA + [P + 'position/value'],
+         edit=_replace(P + 'position/value', np.zeros((H5_NF, H5_N, 4))))
+h5_cases('velocity_atoms', ENG + [P + 'velocity/value'], ANA + [P + 'velocity/value', 'wrong shape'], compute='vdos',
+         edit=_replace(P + 'velocity/value', H5_V[:, :-1]))
+h5_cases('velocity_frames', ENG + [P + 'velocity/time', 'wrong shape', 'velocity/value'],
+         ANA + [P + 'velocity/time', 'wrong shape', 'velocity/value'], compute='vdos',
+         edit=_replace(P + 'velocity/value', H5_V[:-1]))
+h5_cases('box_edges_dim2', ENG + [P + 'box/edges/value', 'wrong shape'], ANA + [P + 'box/edges/value', 'wrong shape'],
+         edit=_replace(P + 'box/edges/value', np.full((H5_NF, 2), 10.0)))
+h5_cases('box_edges_frames', ENG + [P + 'box/edges/value', 'wrong shape'],
+         ANA + [P + 'box/edges/value', 'wrong shape'], edit=_replace(P + 'box/edges/value', np.full((7, 3), 10.0)))
+h5_cases('position_time_length', ENG + [P + 'position/time', 'wrong shape'],
+         ANA + [P + 'position/time', 'wrong shape'], edit=_replace(P + 'position/time', H5_T[:-3]))
+# missing datasets and groups
+h5_cases('no_position', ENG + [P + 'position/value', 'missing'], ANA + [P + 'position/value', 'missing'],
+         edit=_delete(P + 'position'))
+h5_cases('no_velocity_vdos', ENG + [P + 'position/value', 'missing'], ANA + [P + 'velocity/value', 'missing'],
+         compute='vdos', edit=_delete(P + 'velocity', P + 'position'))
+h5_cases('no_particles', ENG + ['/particles/all', 'missing'], ANA + ['/particles/all', 'missing'],
+         edit=_delete('/particles'))
+h5_cases('no_edges_value', ENG + [P + 'box/edges/value', 'missing'], ANA + [P + 'box/edges/value', 'missing'],
+         edit=_delete(P + 'box/edges/value'))
+h5_cases('no_position_step', ENG + [P + 'position/step', 'missing'], ANA + [P + 'position/time', 'missing'], compute='msd',
+         edit=_delete(P + 'position/step', P + 'position/time'))
 
 with open(os.path.join(OUT, 'cases.txt'), 'w') as f:
     f.write('# generated by generate_hostile.py: name | exit | arguments | substrings\n')

@@ -1,0 +1,394 @@
+#!/usr/bin/env bash
+# Terrace against its CPU anchors on one rank, one thread (issue 16). Parts (PARTS, default all):
+#   lj     LAMMPS's LJ benchmark scene (scripts/bench/in.lj_bench, input/lj_bench.nml): 32,000 atoms,
+#          fcc rho* = 0.8442, T* = 1.44, rc 2.5 sigma, skin 0.3 sigma, NVE, dt 0.005 tau. Runs Terrace
+#          (velocity Verlet, double), LAMMPS plain and with -sf opt, GROMACS mixed (gmx mdrun) and
+#          double (gmx_d mdrun) on the same lattice in argon units (sigma 0.3405 nm, eps/k_B 119.8 K,
+#          m 39.948 u: rc 0.85125 nm, rlist 0.9534 nm, dt 0.010782 ps, velocities at 172.5 K).
+#   eam    LAMMPS's in.eam scene (scripts/bench/in.eam_bench, Cu_u3.eam, 32,000 atoms, 1600 K, skin
+#          1 A): Terrace against LAMMPS plain and -sf opt.
+#   types  EAM cost per pair of the multi-type paths against the one-type path: fcc Cu with Cu_u3.eam
+#          (eam, funcfl), a random 50/50 Cu-Ni alloy with CuNi.eam.alloy (eam/alloy), the same lattice
+#          all Cu with CuNi.eam.alloy (setfl path, one element), bcc Fe with Fe_mm.eam.fs (eam/fs) and
+#          fcc Cu with Cu_mishin1.eam.alloy (one element, but 10,001 table knots like Fe_mm against 500);
+#          32,000 atoms (Fe 31,250), 1600 K start, skin 1 A, Terrace and LAMMPS. Cost per pair = the
+#          "Pair" phase time / (steps x pairs within rc + skin), the pair count from LAMMPS's neighbour
+#          list of the same scene ("Total # of neighbors", half list, start and end averaged); LAMMPS
+#          runs each scene once (first round), Terrace every round.
+#   es     energy stepping: mean cost of one event in Verlet steps (scripts/bench/es_cost.py on the
+#          864-atom liquid, the 32,000-atom LJ liquid and the seven-atom cluster).
+# Every timed code runs once per round, in the same order, REPEAT rounds (alternating); the script
+# prints the best and the median loop time of each, the time per atom-step and the ratios
+# anchor/Terrace (> 1: Terrace is faster). Loop times are each code's own: LAMMPS "Loop time of",
+# Terrace "Loop time:", GROMACS md.log "Time: ... wall t" (the MD loop; set-up and grompp excluded).
+#
+# Differences of the GROMACS run from the other two (as close as GROMACS allows):
+#   - leap-frog (integrator = md), not velocity Verlet: the same one force evaluation per step;
+#   - its cluster-pair list (nbnxm, 4x4 / 4x2 clusters) with rlist = rc + skin, rebuilt every 20
+#     steps (verlet-buffer-tolerance = -1, so no automatic buffer and no dynamic pruning); LAMMPS's
+#     bench input rebuilds every 20 steps without a check, Terrace whenever an atom has moved skin/2;
+#   - vdw-modifier = Potential-shift (the energy shifted at rc; forces identical to the plain cutoff
+#     Terrace and LAMMPS use here); zero charges with coulombtype = Cut-off (the LJ-only kernels);
+#   - velocities from GROMACS's generator at the same temperature (a different random draw);
+#   - energies every 100 steps like the thermo output of the other two, no trajectory output.
+#
+# Usage: scripts/bench/anchors.sh [NSTEPS_LJ [NSTEPS_EAM [TERRACE_BINARY]]]   (defaults 1000 200 build/terrace)
+# Environment: REPEAT (rounds, default 3), PARTS (comma list, default lj,eam,types,es), INSTALL=0 to
+# skip installing missing Debian packages (lammps, lammps-data, gromacs; as root with apt-get,
+# otherwise the command is printed and the missing anchor skipped), ES_REPEAT (default 1), KEEP=1.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
+nlj="${1:-1000}"; neam="${2:-200}"; terrace="$(realpath "${3:-$repo/build/terrace}")"
+repeat="${REPEAT:-3}"; parts=",${PARTS:-lj,eam,types,es},"
+for v in "$nlj" "$neam" "$repeat"; do
+    [[ "$v" =~ ^[1-9][0-9]*$ ]] || { echo "usage: $0 [NSTEPS_LJ [NSTEPS_EAM [TERRACE]]] (positive integers; REPEAT too)" >&2; exit 2; }
+done
+[[ -x "$terrace" ]] || { echo "anchors: Terrace binary '$terrace' not found (bash scripts/build.sh)" >&2; exit 2; }
+pot=/usr/share/lammps/potentials
+export OMP_NUM_THREADS=1 GMX_MAXBACKUP=-1
+
+# ---- install what is missing ------------------------------------------------------------------
+need=()
+command -v lmp > /dev/null || need+=(lammps)
+[[ -r $pot/Cu_u3.eam ]] || need+=(lammps-data)
+if [[ "$parts" == *,lj,* ]]; then
+    { command -v gmx > /dev/null && command -v gmx_d > /dev/null; } || need+=(gromacs)
+fi
+if [[ ${#need[@]} -gt 0 && "${INSTALL:-1}" != 0 ]]; then
+    if [[ $(id -u) -eq 0 ]]; then
+        echo "anchors: installing ${need[*]} (apt-get)"
+        DEBIAN_FRONTEND=noninteractive apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${need[@]}" > /tmp/anchors-apt.log 2>&1 \
+            || { echo "anchors: apt-get failed, see /tmp/anchors-apt.log" >&2; exit 1; }
+    else
+        echo "anchors: missing ${need[*]}; as root: apt-get install -y ${need[*]} (those anchors are skipped)" >&2
+    fi
+fi
+have() { command -v "$1" > /dev/null; }
+
+work="$(mktemp -d "${TMPDIR:-/tmp}/anchors.XXXXXX")"
+if [[ "${KEEP:-0}" != 1 ]]; then trap 'rm -rf "$work"' EXIT; fi
+cd "$work"
+cp "$terrace" ./terrace     # a private copy: a rebuild meanwhile must not mix versions
+echo "Terrace against its CPU anchors, 1 rank, 1 thread, $repeat alternating rounds"
+echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1) ($(nproc) cores visible; flags:$(grep -o -w -E 'avx2|fma|avx512f' /proc/cpuinfo | sort -u | tr '\n' ' '))"
+echo "date    : $(date -u '+%Y-%m-%d %H:%M UTC')"
+echo "commit  : $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)$(git -C "$repo" status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo ' (+ uncommitted changes)')"
+echo "load    : $(cut -d' ' -f1-3 /proc/loadavg) (load average at start)"
+echo "compiler: $(gfortran --version | head -1)"
+if have lmp; then echo "LAMMPS  : $(lmp -h | sed -n 's/^Large-scale Atomic.* - \(.* 20[0-9][0-9].*\)$/\1/p' | head -1)"; fi
+for g in gmx gmx_d; do
+    if have $g; then echo "$(printf '%-8s' $g): $($g --version 2>&1 | sed -n 's/^GROMACS version: *//p'), $($g --version 2>&1 | sed -n 's/^Precision: *//p') precision, SIMD $($g --version 2>&1 | sed -n 's/^SIMD instructions: *//p')"; fi
+done
+echo
+
+# ---- timing --------------------------------------------------------------------------------------
+# run LABEL KIND LOG cmd...: runs cmd in $work, appends "LABEL loop user pair" to runs.txt, where
+# loop is the code's own loop time and pair its pair-force time (LAMMPS and Terrace; 0 if none).
+: > runs.txt
+loop_of() {   # KIND LOG
+    case $1 in
+        lammps)  sed -n 's/^Loop time of \([0-9.eE+-]*\) on .*/\1/p' "$2" | tail -1 ;;
+        terrace) sed -n 's/^Loop time: *\([0-9.eE+-]*\) s.*/\1/p' "$2" | tail -1 ;;
+        gromacs) awk '/^ *Time: /{print $3}' "$2" | tail -1 ;;
+    esac
+}
+pair_of() {
+    case $1 in
+        lammps)  awk -F'|' '/^Pair /{gsub(/ /,"",$3); print $3}' "$2" | tail -1 ;;
+        terrace) awk '/^Pair /{print $2}' "$2" | tail -1 ;;
+        *)       echo 0 ;;
+    esac
+}
+run() {
+    local label=$1 kind=$2 log=$3; shift 3
+    if ! /usr/bin/time -f '%U' -o user.txt "$@" > "$label.out" 2>&1; then
+        echo "anchors: $label failed: $*" >&2; tail -n 15 "$label.out" >&2; [[ -f "$log" ]] && tail -n 15 "$log" >&2; exit 1
+    fi
+    local t; t="$(loop_of "$kind" "$log")"
+    [[ -n "$t" ]] || { echo "anchors: no loop time for $label in $log" >&2; exit 1; }
+    echo "$label $t $(tail -1 user.txt) $(pair_of "$kind" "$log")" >> runs.txt
+    if [[ ! -f $label.best ]] || awk -v a="$t" -v b="$(cat "$label.best")" 'BEGIN { exit !(a < b) }'; then
+        echo "$t" > "$label.best"; cp "$log" "$label.best.log"
+    fi
+}
+# launch LABEL: one timed run of that code on its scene (LJ: lj.nml, in.lj_bench, gmx*.tpr; EAM: in.eam)
+gargs=(mdrun -ntmpi 1 -ntomp 1 -nb cpu -pin off -noconfout -g md.log -e ener.edr -o traj.trr -cpo state.cpt)
+launch() {
+    case $1 in
+        terrace)        run terrace terrace terrace.out ./terrace lj.nml ;;
+        lammps)         run lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$nlj" -in "$here/in.lj_bench" ;;
+        lammps_opt)     run lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$nlj" -in "$here/in.lj_bench" ;;
+        gromacs_mix)    run gromacs_mix gromacs md.log gmx "${gargs[@]}" -s gmx.tpr ;;
+        gromacs_dbl)    run gromacs_dbl gromacs md.log gmx_d "${gargs[@]}" -s gmx_d.tpr ;;
+        eam_terrace)    run eam_terrace terrace eam_terrace.out ./terrace eam.nml ;;
+        eam_lammps)     run eam_lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$neam" -in "$here/in.eam_bench" ;;
+        eam_lammps_opt) run eam_lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$neam" -in "$here/in.eam_bench" ;;
+    esac
+}
+# rounds LABEL...: REPEAT rounds, each code once per round in the given order (alternating)
+rounds() {
+    local rep l
+    for ((rep = 1; rep <= repeat; rep++)); do
+        for l in "$@"; do launch "$l"; done
+    done
+}
+# summary NATOMS NSTEPS REF LABEL...: best and median loop time, ns per atom-step, ratios to REF
+summary() {
+    python3 - "$@" <<'PY'
+import sys, statistics as st
+natoms, nsteps, ref, labels = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3], sys.argv[4:]
+runs = {}
+for line in open('runs.txt'):
+    f = line.split()
+    runs.setdefault(f[0], []).append([float(x) for x in f[1:]])
+rows = [(l, runs[l]) for l in labels if l in runs]
+best = {l: min(r[0] for r in rs) for l, rs in rows}
+med = {l: st.median([r[0] for r in rs]) for l, rs in rows}
+print('%-14s %4s %8s %8s %9s %8s %9s %9s  %s' % ('code', 'runs', 'best s', 'median s', 'ns/at-st', 'user s',
+                                                  'ns/at-st', 'vs Terr.', 'all loop times (s)'))
+print('%-14s %4s %8s %8s %9s %8s %9s %9s' % ('', '', 'loop', 'loop', 'best loop', 'median', 'med user',
+                                             'best/med'))
+for l, rs in rows:
+    ratio = ('%4.2f/%4.2f' % (best[l] / best[ref], med[l] / med[ref])) if ref in best and l != ref else ''
+    u = st.median([r[1] for r in rs])
+    print('%-14s %4d %8.3f %8.3f %9.1f %8.2f %9.1f %9s  %s' % (l, len(rs), best[l], med[l],
+          1e9 * best[l] / (natoms * nsteps), u, 1e9 * u / (natoms * nsteps), ratio,
+          ' '.join('%.2f' % r[0] for r in rs)))
+if ref in best:
+    print("ratios anchor/Terrace ('vs Terr.'; > 1: Terrace is faster): loop times best, median; user CPU "
+          "time of the whole process, median (includes set-up)")
+    user = {l: st.median([r[1] for r in rs]) for l, rs in rows}
+    for l, _ in rows:
+        if l != ref:
+            print('  %-14s %.3f (best)  %.3f (median)  %.3f (user)' % (l, best[l] / best[ref], med[l] / med[ref],
+                                                                    user[l] / user[ref]))
+PY
+}
+
+# ---- LJ scene ------------------------------------------------------------------------------------
+if [[ "$parts" == *,lj,* ]]; then
+    sed -E "s/n_steps=[0-9]+/n_steps=$nlj/" "$repo/input/lj_bench.nml" > lj.nml
+    labels=(terrace)
+    have lmp && labels+=(lammps lammps_opt)
+    gro=0; have gmx && gro=1; have gmx_d && gro=1
+    if [[ $gro == 1 ]]; then
+        # the LAMMPS lattice (fcc, 4-atom basis, 20^3 cells at rho* 0.8442) in argon units
+        python3 - "$nlj" <<'PY'
+import sys
+nsteps = int(sys.argv[1])
+sigma, eps_k, mass, kb = 0.3405, 119.8, 39.948, 0.00831446261815324   # nm, K, u, kJ/mol/K
+eps = eps_k * kb
+a = sigma * (4.0 / 0.8442) ** (1.0 / 3.0)
+n = 20
+tau = sigma * (mass / eps) ** 0.5                       # ps
+basis = [(0, 0, 0), (0.5, 0.5, 0), (0.5, 0, 0.5), (0, 0.5, 0.5)]
+with open('lj.gro', 'w') as g:
+    g.write('fcc LJ, rho* 0.8442, 20^3 cells (argon units)\n%d\n' % (4 * n ** 3))
+    k = 0
+    for i in range(n):
+        for j in range(n):
+            for l in range(n):
+                for b in basis:
+                    k += 1
+                    g.write('%5d%-5s%5s%5d%8.3f%8.3f%8.3f\n' % (k % 100000, 'AR', 'AR', k % 100000,
+                            (i + b[0]) * a, (j + b[1]) * a, (l + b[2]) * a))
+    g.write('%10.5f%10.5f%10.5f\n' % (n * a, n * a, n * a))
+with open('lj.top', 'w') as t:
+    t.write('[ defaults ]\n; nbfunc comb-rule gen-pairs\n1 2 no\n\n[ atomtypes ]\n'
+            '; name mass charge ptype sigma epsilon\nAR %.3f 0.0 A %.6f %.8f\n\n'
+            '[ moleculetype ]\nAR 1\n\n[ atoms ]\n1 AR 1 AR AR 1 0.0 %.3f\n\n'
+            '[ system ]\nLJ bench\n\n[ molecules ]\nAR %d\n' % (mass, sigma, eps, mass, 4 * n ** 3))
+rc, rl = 2.5 * sigma, 2.8 * sigma
+mdp = dict(integrator='md', dt='%.7f' % (0.005 * tau), nsteps=nsteps, **{
+    'cutoff-scheme': 'Verlet', 'nstlist': 20, 'verlet-buffer-tolerance': -1, 'rlist': '%.6f' % rl,
+    'pbc': 'xyz', 'coulombtype': 'Cut-off', 'rcoulomb': '%.6f' % rc, 'vdwtype': 'Cut-off',
+    'vdw-modifier': 'Potential-shift', 'rvdw': '%.6f' % rc, 'DispCorr': 'no', 'tcoupl': 'no',
+    'pcoupl': 'no', 'comm-mode': 'None', 'constraints': 'none', 'gen-vel': 'yes',
+    'gen-temp': '%.3f' % (1.44 * eps_k), 'gen-seed': 87287, 'nstcalcenergy': 100, 'nstenergy': 100,
+    'nstlog': 100, 'nstxout': 0, 'nstvout': 0, 'nstfout': 0, 'nstxout-compressed': 0})
+with open('lj.mdp', 'w') as m:
+    for k, v in mdp.items():
+        m.write('%-24s = %s\n' % (k, v))
+PY
+        for g in gmx gmx_d; do
+            have $g || continue
+            $g grompp -f lj.mdp -c lj.gro -p lj.top -o $g.tpr -po $g.mdout.mdp -maxwarn 10 > $g.grompp.log 2>&1 \
+                || { echo "anchors: $g grompp failed:" >&2; tail -30 $g.grompp.log >&2; exit 1; }
+            if [[ $g == gmx ]]; then labels+=(gromacs_mix); else labels+=(gromacs_dbl); fi
+        done
+        glog=$(ls gmx*.grompp.log | head -1)
+        if grep -q -E '^(WARNING|NOTE)' "$glog"; then
+            echo "grompp notes and warnings (the LJ scene in GROMACS; -maxwarn 10):"
+            grep -h -A4 -E '^(WARNING|NOTE)' "$glog" | grep -v -E '^(--)?$' | sed 's/^/    /' | head -20
+        fi
+    fi
+    echo "== LJ scene: 32,000 atoms, $nlj steps; codes: ${labels[*]}"
+    rounds "${labels[@]}"
+    summary 32000 "$nlj" terrace "${labels[@]}"
+    echo
+    echo "Terrace phases (best run):"
+    sed -n '/^Phase /,/^Neighbour list builds/p' terrace.best.log | sed 's/^/    /'
+    python3 - "$nlj" <<'PY'
+import os, re, sys
+nsteps, natoms = int(sys.argv[1]), 32000
+def read(name):
+    return open(name).read() if os.path.exists(name) else None
+def num(pat, text, k=1):
+    m = re.findall(pat, text, re.M)
+    return float(m[-1] if isinstance(m[-1], str) else m[-1][k - 1]) if m else None
+pairs = None
+lmp = read('lammps.best.log')
+if lmp:
+    pairs = num(r'^Total # of neighbors = (\d+)', lmp)
+print('Where the time goes (best run of each; pairs = %s atom pairs within rc + skin, LAMMPS half list at the end):'
+      % ('%.4g' % pairs if pairs else '?'))
+print('  %-14s %10s %12s %10s %12s %14s' % ('code', 'force s', 'ns/pair', 'builds', 'ms/build', 'ns/atom-build'))
+rows = []
+ter = read('terrace.best.log')
+if ter:
+    rows.append(('terrace', num(r'^Pair\s+([0-9.eE+-]+)', ter), num(r'^Neigh\s+([0-9.eE+-]+)', ter),
+                 num(r'^Neighbour list builds:\s*(\d+)', ter)))
+for l in ('lammps', 'lammps_opt'):
+    t = read(l + '.best.log')
+    if t:
+        rows.append((l, num(r'^Pair\s+\|\s*[0-9.eE+-]+\s*\|\s*([0-9.eE+-]+)', t),
+                     num(r'^Neigh\s+\|\s*[0-9.eE+-]+\s*\|\s*([0-9.eE+-]+)', t), num(r'^Neighbor list builds = (\d+)', t)))
+for l in ('gromacs_mix', 'gromacs_dbl'):
+    t = read(l + '.best.log')
+    if t:
+        ns = re.findall(r'^ Neighbor search\s+\d+\s+\d+\s+(\d+)\s+([0-9.]+)', t, re.M)
+        fo = re.findall(r'^ Force\s+\d+\s+\d+\s+\d+\s+([0-9.]+)', t, re.M)
+        nxn = sum(float(x) for x in re.findall(r'^ NxN LJ \[V?&?F\]\s+([0-9.]+)', t, re.M))
+        rows.append((l, float(fo[-1]), float(ns[-1][1]), float(ns[-1][0]) - 1))
+        print('  (%s: %.4g cluster-pair atom-pair interactions per step computed, %.2f per list pair; '
+              'GROMACS counts its initial search as a build, not here)' % (l, 1e6 * nxn / nsteps, 1e6 * nxn / nsteps / pairs if pairs else float('nan')))
+for l, fp, nb, b in rows:
+    if fp is None:
+        continue
+    per_pair = 1e9 * fp / (nsteps * pairs) if pairs else float('nan')
+    b = max(b or 0, 1)
+    print('  %-14s %10.3f %12.3f %10d %12.2f %14.1f' % (l, fp, per_pair, b, 1e3 * nb / b, 1e9 * nb / b / natoms))
+PY
+    for l in gromacs_mix gromacs_dbl; do
+        [[ -f $l.best.log ]] && echo "  $l: $(grep -m1 -E 'Using .*nonbonded short-range kernels' $l.best.log), $(grep -m1 -E 'updated every .* steps, buffer' $l.best.log | sed 's/^ *//')"
+    done
+    echo
+fi
+
+# ---- EAM: LAMMPS's in.eam ------------------------------------------------------------------------
+if [[ "$parts" == *,eam,* ]]; then
+    cat > eam.nml <<NML
+&run units='metal', dimension=3, n_steps=$neam, seed=376847 /
+&system lattice='fcc', lattice_constant=3.615, cells=20,20,20, periodic=.true.,.true.,.true., temperature=1600.0 /
+&potential style='eam', file='$pot/Cu_u3.eam' /
+&integrator style='velocity_verlet', dt=0.005 /
+&neighbor skin=1.0 /
+&output thermo_every=50, thermo_file='' /
+NML
+    labels=(eam_terrace); have lmp && labels+=(eam_lammps eam_lammps_opt)
+    echo "== EAM scene (in.eam): 32,000 Cu atoms, Cu_u3.eam, $neam steps; both rebuild on the skin/2 check"
+    rounds "${labels[@]}"
+    summary 32000 "$neam" eam_terrace "${labels[@]}"
+    echo "Terrace phases (best run):"
+    sed -n '/^Phase /,/^Neighbour list builds/p' eam_terrace.best.log | sed 's/^/    /'
+    echo
+fi
+
+# ---- EAM: cost per pair, one type against eam/alloy and eam/fs --------------------------------
+if [[ "$parts" == *,types,* ]] && have lmp; then
+    # name lattice a cells style file elements(LAMMPS order) data?
+    scenes=("cu_u3 fcc 3.615 20 eam Cu_u3.eam - 0"
+            "cuni_alloy fcc 3.56 20 eam/alloy CuNi.eam.alloy Cu,Ni 1"
+            "cu_alloy fcc 3.56 20 eam/alloy CuNi.eam.alloy Cu 0"
+            "fe_fs bcc 2.8553 25 eam/fs Fe_mm.eam.fs Fe 0"
+            "cu_mishin fcc 3.615 20 eam/alloy Cu_mishin1.eam.alloy Cu 0")
+    echo "== EAM cost per pair: one type (eam) against eam/alloy and eam/fs, $neam steps, 1600 K start, skin 1 A"
+    : > types.txt
+    for s in "${scenes[@]}"; do
+        read -r name lat a n style file elems data <<< "$s"
+        ntypes=1; [[ $data == 1 ]] && ntypes=2
+        coeff="* * $pot/$file ${elems//,/ }"; [[ $style == eam ]] && coeff="1 1 $pot/$file"
+        cat > $name.in <<LMP
+variable nrun index $neam
+units metal
+atom_style atomic
+lattice $lat $a
+region box block 0 $n 0 $n 0 $n
+create_box $ntypes box
+create_atoms 1 box
+$( [[ $data == 1 ]] && echo "set type 1 type/fraction 2 0.5 8675309" )
+pair_style $style
+pair_coeff $coeff
+velocity all create 1600.0 376847 loop geom
+neighbor 1.0 bin
+neigh_modify every 1 delay 0 check yes
+fix 1 all nve
+timestep 0.005
+thermo 50
+$( [[ $data == 1 ]] && echo "write_data $name.data nocoeff" )
+run 0
+run \${nrun}
+LMP
+        tel=""; [[ $style != eam ]] && tel=", elements=$(sed "s/\([A-Za-z]*\)/'\1'/g" <<< "$elems")"
+        if [[ $data == 1 ]]; then
+            sys="read_data='$name.data'"
+            lmp -screen none -log $name.make.log -var nrun 0 -in $name.in > /dev/null   # writes the data file
+        else
+            sys="lattice='$lat', lattice_constant=$a, cells=$n,$n,$n, periodic=.true.,.true.,.true., temperature=1600.0"
+        fi
+        cat > $name.nml <<NML
+&run units='metal', dimension=3, n_steps=$neam, seed=376847 /
+&system $sys /
+&potential style='$style', file='$pot/$file'$tel /
+&integrator style='velocity_verlet', dt=0.005 /
+&neighbor skin=1.0 /
+&output thermo_every=50, thermo_file='' /
+NML
+        echo "$name $style $file" >> types.txt
+    done
+    for ((rep = 1; rep <= repeat; rep++)); do
+        while read -r name style file; do
+            run "t_$name" terrace "t_$name.out" ./terrace $name.nml
+            if [[ $rep == 1 ]]; then   # LAMMPS once: the pair counts and its own per-pair costs
+                run "l_$name" lammps lammps.log lmp -screen none -log lammps.log -in $name.in
+            fi
+        done < types.txt
+    done
+    python3 - "$neam" <<'PY'
+import sys, re, statistics as st
+nsteps = int(sys.argv[1])
+runs = {}
+for line in open('runs.txt'):
+    f = line.split()
+    runs.setdefault(f[0], []).append([float(x) for x in f[1:]])
+print('%-11s %-9s %-20s %7s %9s %11s %11s %9s %9s %11s %9s' % ('scene', 'style', 'file', 'atoms', 'pairs/at',
+      'T pair s', 'T ns/pair', 'T vs Cu', 'T med', 'L ns/pair', 'L vs Cu'))
+ref = None
+for line in open('types.txt'):
+    name, style, fname = line.split()
+    log = open('l_%s.best.log' % name).read()
+    nb = [int(x) for x in re.findall(r'^Total # of neighbors = (\d+)', log, re.M)]
+    natoms = int(re.findall(r'^Loop time of .* with (\d+) atoms', log, re.M)[-1])
+    pairs = 0.5 * (nb[-2] + nb[-1])          # start (run 0) and end of the timed run
+    tp = min(r[2] for r in runs['t_' + name]); tm = st.median(r[2] for r in runs['t_' + name])
+    lp = min(r[2] for r in runs['l_' + name])
+    tns, tms, lns = (1e9 * t / (nsteps * pairs) for t in (tp, tm, lp))
+    if ref is None:
+        ref = (tns, tms, lns)
+    print('%-11s %-9s %-20s %7d %9.2f %11.3f %11.3f %9.2f %9.2f %11.3f %9.2f' % (name, style, fname, natoms,
+          pairs / natoms, tp, tns, tns / ref[0], tms / ref[1], lns, lns / ref[2]))
+print('T = Terrace ("Pair" phase time: the best of the rounds; vs Cu from the best and from the median), L = LAMMPS (one '
+      'run, its "Pair" time), per step and per pair within rc + skin (LAMMPS half list); vs Cu = per-pair cost / that of '
+      'cu_u3 (goal for Terrace: <= 1.20).')
+PY
+    echo
+fi
+
+# ---- energy stepping ------------------------------------------------------------------------------
+if [[ "$parts" == *,es,* ]]; then
+    echo "== energy stepping: cost of one event in Verlet steps (scripts/bench/es_cost.py)"
+    python3 "$here/es_cost.py" --terrace ./terrace --scenes rahman,lj32k,cluster7 --repeat "${ES_REPEAT:-1}" \
+        | sed -n '/^scene /,$p'
+fi
+if [[ "${KEEP:-0}" == 1 ]]; then echo "work dir: $work"; fi

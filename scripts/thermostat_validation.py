@@ -3,6 +3,7 @@
 
 usage: scripts/thermostat_validation.py [--quick] [--out DIR] [--cases a,b,...] [--np N]
                                         [--terrace BIN] [--analyze BIN] [--markdown FILE]
+                                        [--length PS] [--seed N] [--phase PS]
 
 One equilibration run (fcc start at 184 K, which melts, held at 94.4 K by Langevin) writes the
 liquid; every case then starts from it and runs `--length` ps (1000; --quick 200), thermo every
@@ -22,6 +23,12 @@ and the script reports, after dropping the first 20 ps:
      difference between cases in combined standard errors;
   3. the drift of econserve (etotal - ecouple; e_terraced - ecouple for energy stepping) per atom
      per ns, a least-squares slope.
+With --phase P (e.g. 1.0, the interval of es_andersen_global) it also prints, for each case, the
+means of T, V and P over the samples at each phase of period P (time mod P, one row per thermo
+interval) and each phase's difference from the mean over all phases, paired over 20 blocks: a
+thermostat acting at the multiples of P that leaves the canonical distribution invariant gives the
+same means at every phase (stationarity), so a phase dependence beyond the errors would show a
+bias of its action or of its timing.
 Numbers in doc/thermostats.md come from this script (its --markdown output).
 """
 import argparse
@@ -94,7 +101,7 @@ def production(args, name, eq):
     integ = "style='velocity_verlet', dt=0.01" if integrator == "velocity_verlet" else \
         "style='energy_stepping', terrace_height=2.0e-3"
     ts = f"&thermostat {thermostat} /\n" if thermostat else ""
-    deck = f"""&run units='metal', dimension=3, run_time={args.length}, seed=2014 /
+    deck = f"""&run units='metal', dimension=3, run_time={args.length}, seed={args.seed} /
 &system atoms_file='{eq}', box_lo=0.0,0.0,0.0, box_hi={BOX},{BOX},{BOX},
         periodic=.true.,.true.,.true., mass=39.948 /
 {COMMON}&integrator {integ} /
@@ -182,6 +189,39 @@ def analyse(args, name, d):
     return res
 
 
+def phase_table(name, d, period, nb=20):
+    """Means of T, V and P at each phase (time mod period), and each phase's difference from the mean
+    over all phases, paired block by block (nb blocks of whole periods): its standard error is
+    that of the difference, far smaller than that of the mean."""
+    th = np.genfromtxt(os.path.join(d, "thermo.csv"), delimiter=",", names=True)
+    keep = th["time"] >= 20.0
+    t = th["time"][keep]
+    dt = float(np.median(np.diff(t)))
+    nphase = int(round(period / dt))
+    ph = np.rint((t % period) / dt).astype(int) % nphase
+    blk = np.minimum((np.arange(len(t)) * nb) // len(t), nb - 1)
+    out = [f"{name}: means by phase of period {period} ps (time mod {period}); differences from the mean over "
+           f"all phases paired over {nb} blocks",
+           "| phase (ps) | samples | T (K) | T − mean (K) | ⟨V⟩ (eV) | V − mean (eV) | ⟨P⟩ (bar) | P − mean (bar) |",
+           "|---|---|---|---|---|---|---|---|"]
+    worst = {}
+    for k in range(nphase):
+        sel = ph == k
+        row = [f"| {k * dt:.2f} | {int(sel.sum())}"]
+        for key, f1, f2 in (("temp", "{:.3f}", "{:+.3f} ± {:.3f}"), ("pe", "{:.4f}", "{:+.4f} ± {:.4f}"),
+                            ("press", "{:.1f}", "{:+.1f} ± {:.1f}")):
+            x = th[key][keep]
+            diff = np.array([x[(blk == j) & sel].mean() - x[blk == j].mean() for j in range(nb)])
+            m, e = diff.mean(), diff.std(ddof=1) / math.sqrt(nb)
+            worst[key] = max(worst.get(key, 0.0), abs(m) / e)
+            row.append(f1.format(x[sel].mean()))
+            row.append(f2.format(m, e))
+        out.append(" | ".join(row) + " |")
+    out.append("- largest |phase − mean| in standard errors: " +
+               ", ".join(f"{k} {v:.2f}" for k, v in worst.items()) + f" (over {nphase} phases)")
+    return "\n".join(out)
+
+
 def markdown(results):
     out = []
     out.append("| case | run (ps) | N_f | samples (KS) | tau_K (ps) | KS D | KS p | T from ⟨K⟩ (K) | "
@@ -220,11 +260,15 @@ def main():
     p.add_argument("--quick", action="store_true", help="200 ps per case instead of 1000")
     p.add_argument("--length", type=float, default=None, help="ps per case")
     p.add_argument("--out", default="thermostat_validation")
+    p.add_argument("--seed", type=int, default=2014,
+                   help="&run seed of the production runs (the thermostats' random numbers; default 2014)")
     p.add_argument("--cases", default=",".join(CASES))
     p.add_argument("--np", type=int, default=1)
     p.add_argument("--terrace", default=os.path.join(repo, "build", "terrace"))
     p.add_argument("--analyze", default=os.path.join(repo, "build", "terrace-analyze"))
     p.add_argument("--markdown", default=None, help="also write the tables to this file")
+    p.add_argument("--phase", type=float, default=0.0,
+                   help="also tabulate T, V and P by phase of this period (ps), e.g. a scheduled thermostat's interval")
     args = p.parse_args()
     if args.length is None:
         args.length = 200.0 if args.quick else 1000.0
@@ -239,7 +283,10 @@ def main():
         results.append(analyse(args, name, d))
         print(f"{name}: done", flush=True)
     text = (f"Rahman argon, 864 atoms, target {T_TARGET} K, first 20 ps of each case dropped, "
-            f"`scripts/thermostat_validation.py{' --quick' if args.quick else ''}`\n\n" + markdown(results))
+            f"`scripts/thermostat_validation.py{' --quick' if args.quick else ''}`, seed {args.seed}\n\n" + markdown(results))
+    if args.phase > 0:
+        for name in args.cases.split(","):
+            text += "\n\n" + phase_table(name, os.path.join(args.out, name), args.phase)
     print(text)
     if args.markdown:
         open(args.markdown, "w").write(text + "\n")

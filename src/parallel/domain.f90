@@ -15,7 +15,7 @@
 module terrace_domain
     use terrace_kinds, only: dp, i8
     use terrace_box, only: box_t
-    use terrace_atoms, only: atoms_t
+    use terrace_atoms, only: atoms_t, clock_unset
     use terrace_mpi_env, only: world, any_all
     use terrace_errors, only: check_all
     use terrace_grow, only: reserve
@@ -56,7 +56,7 @@ module terrace_domain
         procedure :: reverse => domain_reverse
     end type domain_t
 
-    integer, parameter :: migrate_width = 11   ! x(3) v(3) type id image(3)
+    integer, parameter :: migrate_width = 12   ! x(3) v(3) type id image(3) clock
     integer, parameter :: border_width = 8     ! x(3) v(3) type id (ids: terms with fixed partners, e.g. mesh elements)
 
 contains
@@ -270,6 +270,8 @@ contains
         buf(7) = real(atoms%type(i), dp)
         buf(8) = transfer(atoms%id(i), 1.0_dp)
         buf(9:11) = real(atoms%image(:, i), dp)
+        buf(12) = clock_unset
+        if (allocated(atoms%clock)) buf(12) = atoms%clock(i)
     end subroutine pack_atom
 
     subroutine unpack_atom(atoms, buf)
@@ -281,6 +283,7 @@ contains
         atoms%type(n) = nint(buf(7))
         atoms%id(n) = transfer(buf(8), 1_i8)
         atoms%image(:, n) = nint(buf(9:11))
+        if (allocated(atoms%clock)) atoms%clock(n) = buf(12)
         atoms%nlocal = n
     end subroutine unpack_atom
 

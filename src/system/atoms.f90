@@ -20,6 +20,10 @@ module terrace_atoms
         !> per_atom_mass; otherwise mass(type(i)) holds.
         logical :: per_atom_mass = .false.
         real(dp), allocatable :: mass_of_id(:), rmass(:)
+        !> A per-atom time kept by a thermostat (Andersen with velocity Verlet: the atom's next
+        !> collision time), carried with the owned atom when atoms are reordered or migrate.
+        !> Allocated only by its user (enable_clock); clock_unset until the user sets it.
+        real(dp), allocatable :: clock(:)
     contains
         procedure :: reserve => atoms_reserve
         procedure :: append => atoms_append
@@ -27,7 +31,10 @@ module terrace_atoms
         procedure :: copy_owned => atoms_copy_owned
         procedure :: permute_owned => atoms_permute_owned
         procedure :: refresh_rmass => atoms_refresh_rmass
+        procedure :: enable_clock => atoms_enable_clock
     end type atoms_t
+
+    real(dp), parameter, public :: clock_unset = -1   !< a clock not set yet (after a start or a restart)
 
 contains
 
@@ -41,7 +48,7 @@ contains
         class(atoms_t), intent(inout) :: self
         integer, intent(in) :: n
         integer :: cap, keep
-        real(dp), allocatable :: r2(:, :)
+        real(dp), allocatable :: r2(:, :), r1(:)
         integer, allocatable :: i1(:), i2(:, :)
         integer(i8), allocatable :: l1(:)
         if (allocated(self%x)) then
@@ -70,7 +77,21 @@ contains
         allocate (i2(3, cap)); i2 = 0
         if (keep > 0) i2(:, 1:keep) = self%image(:, 1:keep)
         call move_alloc(i2, self%image)
+        if (allocated(self%clock)) then
+            allocate (r1(cap)); r1 = clock_unset
+            if (keep > 0) r1(1:keep) = self%clock(1:keep)
+            call move_alloc(r1, self%clock)
+        end if
     end subroutine atoms_reserve
+
+    !> Allocate the per-atom clock (every entry clock_unset), if not yet there.
+    subroutine atoms_enable_clock(self)
+        class(atoms_t), intent(inout) :: self
+        if (allocated(self%clock)) return
+        call self%reserve(max(self%nlocal + self%nghost, 1))
+        allocate (self%clock(size(self%x, 2)))
+        self%clock = clock_unset
+    end subroutine atoms_enable_clock
 
     !> Append an owned atom (only while there are no ghosts).
     subroutine atoms_append(self, x, v, type, id, image)
@@ -92,6 +113,7 @@ contains
         integer, intent(in) :: src, dst
         self%x(:, dst) = self%x(:, src); self%v(:, dst) = self%v(:, src); self%f(:, dst) = self%f(:, src)
         self%type(dst) = self%type(src); self%id(dst) = self%id(src); self%image(:, dst) = self%image(:, src)
+        if (allocated(self%clock)) self%clock(dst) = self%clock(src)
     end subroutine atoms_copy_owned
 
     !> Reorder owned atoms: new atom k is old atom perm(k). `work` must hold 3*nlocal reals.
@@ -106,6 +128,7 @@ contains
         self%type(1:n) = self%type(perm(1:n))
         self%id(1:n) = self%id(perm(1:n))
         self%image(:, 1:n) = self%image(:, perm(1:n))
+        if (allocated(self%clock)) self%clock(1:n) = self%clock(perm(1:n))
     end subroutine atoms_permute_owned
 
     !> rmass(1:nall) from mass_of_id in the current local order (after migration and halo).

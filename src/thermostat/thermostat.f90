@@ -11,9 +11,10 @@
 !>     Tuckerman, Tobias & Klein 1996 with third-order Suzuki-Yoshida weights): chain of M
 !>     thermostats, masses Q1 = Nf k_B T damping^2, Qj = k_B T damping^2, forces
 !>     G1 = (2K - Nf k_B T)/Q1, Gj = (Q_{j-1} v_{j-1}^2 - k_B T)/Qj; v <- v exp(-dt v_1 ...).
-!>   Andersen: each atom's velocity is replaced by a Maxwell-Boltzmann one at rate 1/damping;
-!>     with velocity Verlet each step with probability 1 - exp(-dt/damping); with energy stepping
-!>     at exact collision times, a Poisson process per atom (below).
+!>   Andersen: each atom's velocity is replaced by a Maxwell-Boltzmann one at rate 1/damping, at
+!>     the points of a Poisson process per atom (below); with velocity Verlet in the step whose
+!>     span holds a point (probability 1 - exp(-dt/damping)), with energy stepping at the exact
+!>     collision times.
 !>
 !> Every random number is drawn from the counter-based generator keyed by (seed, stream, atom id,
 !> step or event), never by rank or by order of atoms: a run gives the same trajectory on any rank
@@ -22,18 +23,20 @@
 !> atom's collisions are at k damping + damping (E_1 + ... + E_j) for the partial sums below one,
 !> E_i exponential draws keyed by (id, k). The slots' points together are a Poisson process of rate
 !> 1/damping (independent increments), and the next collision after t is found from (id, t) alone,
-!> so nothing per atom migrates with the atoms or goes into a checkpoint.
+!> so nothing per atom needs to go into a checkpoint. Velocity Verlet keeps each atom's next
+!> collision time with the atom (atoms%clock) so that a step touches only the colliding atoms;
+!> energy stepping recomputes them after every list build.
 !>
 !> Each operator adds the kinetic energy it changed to ecouple (energy put in by the thermostat),
 !> so that etotal - ecouple (econserve) measures the integrator's own error. Per-atom operators
 !> keep a per-rank partial sum, folded into the global value (one sum) at samples and checkpoints.
 module terrace_thermostat
     use terrace_kinds, only: dp, i8
-    use terrace_atoms, only: atoms_t
+    use terrace_atoms, only: atoms_t, clock_unset
     use terrace_velocities, only: momentum_and_mass, local_mv2
     use terrace_mpi_env, only: sum_all
-    use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, unit_from_word, box_muller, rng_blocks, &
-                                   normals4_many, rng_batch, rng_key
+    use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, unit_from_word, box_muller, &
+                                   normals4_many, rng_batch
     use terrace_config, only: config_t
     use terrace_checkpoint, only: ckpt_values_t
     implicit none
@@ -44,8 +47,9 @@ module terrace_thermostat
     character(len=12), parameter, public :: thermostat_names(0:4) = [character(len=12) :: 'none', 'langevin', &
                                                                      'csvr', 'nose_hoover', 'andersen']
 
-    ! streams of the counter-based generator, one per purpose
-    integer, parameter :: stream_langevin = 101, stream_csvr = 102, stream_andersen_pick = 103, &
+    ! streams of the counter-based generator, one per purpose (103, the per-step Andersen choice of
+    ! earlier versions, is retired: Verlet's Andersen collisions now come from the collision times)
+    integer, parameter :: stream_langevin = 101, stream_csvr = 102, &
                           stream_andersen_velocity = 104, stream_andersen_time = 105, stream_andersen_global = 106
 
     type, public :: thermostat_t
@@ -455,44 +459,42 @@ contains
         if (self%dimension == 2) v(3) = 0
     end function maxwell_velocity
 
-    !> Andersen for a fixed step: each owned atom collides with probability 1 - exp(-dt/damping),
-    !> the choice and the new velocity keyed by (seed, id, step).
+    !> Andersen for a fixed step (velocity Verlet): atom i collides in step n when its Poisson process
+    !> of collision times (andersen_next_collision: rate 1/damping, a function of (seed, id, time)
+    !> alone) has a point in ((n - 1) dt, n dt], which happens with probability 1 - exp(-dt/damping);
+    !> it then gets a fresh Maxwell-Boltzmann velocity keyed by (seed, id, n). The first point after
+    !> the last step looked at is kept in atoms%clock, which travels with the atom (reordering,
+    !> migration): a step only compares each atom's clock with n dt and draws for the colliding
+    !> atoms (about N dt/damping), instead of one decision per atom per step. A clock not set (the
+    !> start of a run, a restart, atoms made afresh) is the first point after (n - 1) dt, the value
+    !> the uninterrupted run holds there: nothing goes into a checkpoint, and a restart continues
+    !> bitwise.
     subroutine ts_andersen_step(self, atoms, dt, step, time)
         class(thermostat_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
         real(dp), intent(in) :: dt, time
         integer(i8), intent(in) :: step
-        real(dp) :: p, temp, vnew(3), de, m
-        integer(i8) :: key(2), c(rng_batch, 4), ev_lo, ev_hi, pw
-        integer :: i, i0, nb, j
-        p = 1 - exp(-dt/self%damping)
+        real(dp) :: temp, vnew(3), de, m, t_now, t_prev, t_next
+        integer(i8) :: slot
+        integer :: i, index
+        call atoms%enable_clock()
+        t_now = real(step, dp)*dt
+        t_prev = real(step - 1, dp)*dt
         temp = self%target(time)
         de = 0
-        key = rng_key(self%seed, stream_andersen_pick)
-        ! the collision test: word 1 < pw, the same decisions as unit_from_word(word 1) < p (exact in
-        ! both forms), words of rng_block(seed, pick stream, id, step, 0)
-        pw = ceiling(min(p*4294967296.0_dp - 0.5_dp, 4294967296.0_dp), i8)
-        ev_lo = ishft(iand(step, 65535_i8), 16)
-        ev_hi = iand(ishft(step, -16), 4294967295_i8)
-        ! batches of atoms: one vectorised Philox block per atom decides
-        do i0 = 1, atoms%nlocal, rng_batch
-            nb = min(rng_batch, atoms%nlocal - i0 + 1)
-            do j = 1, nb
-                c(j, 1) = 0
-                c(j, 2) = iand(atoms%id(i0 + j - 1), 4294967295_i8)
-                c(j, 3) = ior(iand(ishft(atoms%id(i0 + j - 1), -32), 65535_i8), ev_lo)
-                c(j, 4) = ev_hi
-            end do
-            call rng_blocks(nb, c(1:nb, :), key)
-            if (.not. any(c(1:nb, 1) < pw)) cycle
-            do j = 1, nb
-                if (c(j, 1) >= pw) cycle
-                i = i0 + j - 1
-                m = atoms%mass(atoms%type(i))
-                vnew = maxwell_velocity(self, atoms%id(i), step, 0, temp, m)
-                de = de + 0.5_dp*self%mvv2e*m*(sum(vnew**2) - sum(atoms%v(:, i)**2))
-                atoms%v(:, i) = vnew
-            end do
+        do i = 1, atoms%nlocal
+            if (atoms%clock(i) > t_now) cycle
+            if (atoms%clock(i) == clock_unset) then
+                call andersen_next_collision(self%seed, self%damping, atoms%id(i), t_prev, atoms%clock(i), slot, index)
+                if (atoms%clock(i) > t_now) cycle
+            end if
+            m = atoms%mass(atoms%type(i))
+            if (atoms%per_atom_mass) m = atoms%rmass(i)
+            vnew = maxwell_velocity(self, atoms%id(i), step, 0, temp, m)
+            de = de + 0.5_dp*self%mvv2e*m*(sum(vnew**2) - sum(atoms%v(:, i)**2))
+            atoms%v(:, i) = vnew
+            call andersen_next_collision(self%seed, self%damping, atoms%id(i), t_now, t_next, slot, index)
+            atoms%clock(i) = t_next
         end do
         self%ecouple_local = self%ecouple_local + de
     end subroutine ts_andersen_step
@@ -605,6 +607,7 @@ contains
         do i = 1, atoms%nlocal
             if (self%next_collision(i) > t) cycle
             m = atoms%mass(atoms%type(i))
+            if (atoms%per_atom_mass) m = atoms%rmass(i)
             vnew = maxwell_velocity(self, atoms%id(i), self%collision_slot(i), self%collision_index(i), temp, m)
             self%ecouple_local = self%ecouple_local + 0.5_dp*self%mvv2e*m*(sum(vnew**2) - sum(atoms%v(:, i)**2))
             atoms%v(:, i) = vnew

@@ -98,8 +98,7 @@ contains
         self%validity_checks = self%pot%may_become_invalid()
         ! ray passes of some many-body terms (and the force pass of node-to-face contact) need each
         ! owned atom's whole neighbourhood
-        self%list%want_below = (self%pot%ray_needs_full_neighbourhood() .and. cfg%integrator == 'energy_stepping') &
-                               .or. self%pot%forces_need_full_neighbourhood()
+        self%list%want_below = self%pot%needs_full_neighbourhood(cfg%integrator == 'energy_stepping')
         call self%rebuild()
         call check_overlaps(self%atoms, self%list, self%pot, self%plan%pair_mode, self%source)
         call self%compute_forces(.true.)

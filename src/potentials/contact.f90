@@ -85,7 +85,7 @@ module terrace_contact
         procedure :: on_rebuild => ct_on_rebuild
         procedure :: time_scale => ct_time_scale
         procedure :: preferred_skin => ct_preferred_skin
-        procedure :: forces_need_full_neighbourhood => ct_needs_full
+        procedure :: needs_full_neighbourhood => ct_needs_full
     end type contact_t
 
     public :: boundary_nodes
@@ -501,8 +501,9 @@ contains
 
     !> node_face builds its candidates from each owned node's whole neighbourhood (the half list and
     !> its complement of ghosts below): a pair whose only owned node is a face vertex must be found.
-    pure logical function ct_needs_full(self)
+    pure logical function ct_needs_full(self, energy_stepping)
         class(contact_t), intent(in) :: self
+        logical, intent(in) :: energy_stepping
         ct_needs_full = self%model == model_node_face
     end function ct_needs_full
 

@@ -89,7 +89,7 @@ module terrace_eam
         procedure :: forces => eam_forces
         procedure :: cutoff => eam_cutoff
         procedure :: describe => eam_describe
-        procedure :: ray_needs_full_neighbourhood => eam_ray_needs_full
+        procedure :: needs_full_neighbourhood => eam_needs_full
         procedure :: contact_distance => eam_contact_distance
         procedure :: warning_flags => eam_warning_flags
         procedure :: embedding => eam_embedding
@@ -505,11 +505,13 @@ contains
         text = trim(self%style)//' from '//self%file_name//'; density pass, reverse sum of rho and forward halo of F''(rho)'
     end function eam_describe
 
-    !> The ray pass completes every owned atom's density locally (list%below).
-    pure logical function eam_ray_needs_full(self)
+    !> The ray pass completes every owned atom's density locally (list%below); the force pass
+    !> reverse-sums instead.
+    pure logical function eam_needs_full(self, energy_stepping)
         class(eam_t), intent(in) :: self
-        eam_ray_needs_full = .true.
-    end function eam_ray_needs_full
+        logical, intent(in) :: energy_stepping
+        eam_needs_full = energy_stepping
+    end function eam_needs_full
 
     !> A contact distance for the overlap check: about the nearest-neighbour distance.
     pure real(dp) function eam_contact_distance(self, ti, tj)

@@ -39,10 +39,9 @@ module terrace_potential
         procedure :: halo_reach => potential_halo_reach
         procedure :: needs_pair_list => potential_needs_pair_list
         procedure :: supports_all_pairs => potential_false
-        procedure :: ray_needs_full_neighbourhood => potential_false
-        !> .true.: the force pass too needs each owned atom's whole neighbourhood (the list's
-        !> complement of ghosts below, list%below), whatever the integrator
-        procedure :: forces_need_full_neighbourhood => potential_false
+        !> .true.: the passes of this integrator need each owned atom's whole neighbourhood (the
+        !> list's complement of ghosts below, list%below): EAM's ray pass, node-face contact always
+        procedure :: needs_full_neighbourhood => potential_needs_full
         procedure :: contact_distance => potential_contact_distance
         procedure :: time_scale => potential_time_scale
         procedure :: preferred_skin => potential_preferred_skin
@@ -113,6 +112,12 @@ contains
         class(potential_t), intent(in) :: self
         potential_needs_pair_list = .true.
     end function potential_needs_pair_list
+
+    pure logical function potential_needs_full(self, energy_stepping)
+        class(potential_t), intent(in) :: self
+        logical, intent(in) :: energy_stepping
+        potential_needs_full = .false.
+    end function potential_needs_full
 
     pure logical function potential_false(self)
         class(potential_t), intent(in) :: self

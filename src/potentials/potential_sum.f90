@@ -25,8 +25,7 @@ module terrace_potential_sum
         procedure :: halo_reach => sum_halo_reach
         procedure :: needs_pair_list => sum_needs_pair_list
         procedure :: supports_all_pairs => sum_supports_all_pairs
-        procedure :: ray_needs_full_neighbourhood => sum_ray_needs_full
-        procedure :: forces_need_full_neighbourhood => sum_forces_need_full
+        procedure :: needs_full_neighbourhood => sum_needs_full
         procedure :: contact_distance => sum_contact_distance
         procedure :: time_scale => sum_time_scale
         procedure :: on_rebuild => sum_on_rebuild
@@ -118,17 +117,12 @@ contains
         sum_supports_all_pairs = all([(self%terms(k)%p%supports_all_pairs(), k = 1, size(self%terms))])
     end function sum_supports_all_pairs
 
-    pure logical function sum_ray_needs_full(self)
+    pure logical function sum_needs_full(self, energy_stepping)
         class(potential_sum_t), intent(in) :: self
+        logical, intent(in) :: energy_stepping
         integer :: k
-        sum_ray_needs_full = any([(self%terms(k)%p%ray_needs_full_neighbourhood(), k = 1, size(self%terms))])
-    end function sum_ray_needs_full
-
-    pure logical function sum_forces_need_full(self)
-        class(potential_sum_t), intent(in) :: self
-        integer :: k
-        sum_forces_need_full = any([(self%terms(k)%p%forces_need_full_neighbourhood(), k = 1, size(self%terms))])
-    end function sum_forces_need_full
+        sum_needs_full = any([(self%terms(k)%p%needs_full_neighbourhood(energy_stepping), k = 1, size(self%terms))])
+    end function sum_needs_full
 
     pure real(dp) function sum_contact_distance(self, ti, tj)
         class(potential_sum_t), intent(in) :: self

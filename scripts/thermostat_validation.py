@@ -19,7 +19,7 @@ and the script reports, after dropping the first 20 ps:
      positive sequence), and T from the mean (2<K>/(Nf k_B)) and from the width (sqrt(2 var K /
      Nf)/k_B), each with a 20-block standard error, against the target;
   2. configurational agreement: <V>, <P> and the first peak of g(r) (position and height, by
-     terrace-analyze over ten blocks of frames) with block standard errors, and their largest
+     terrace-analyze over ten blocks of frames, --rdf-blocks) with block standard errors, and their largest
      difference between cases in combined standard errors;
   3. the drift of econserve (etotal - ecouple; e_terraced - ecouple for energy stepping) per atom
      per ns, a least-squares slope.
@@ -140,7 +140,7 @@ def block_stat(x, fn, nb=20):
     return fn(x), v.std(ddof=1) / math.sqrt(nb)
 
 
-def rdf_peak(args, d, nframes, nblocks=10):
+def rdf_peak(args, d, nframes, nblocks):
     """First peak of g(r) (position, height) over blocks of frames: mean and standard error."""
     per = nframes // nblocks
     pos, hei = [], []
@@ -185,7 +185,7 @@ def analyse(args, name, d):
     slope = np.polyfit(th["time"], ec, 1)[0]              # eV/ps
     res["drift"] = slope / N_ATOMS * 1000.0                 # eV/atom/ns
     nframes = int(round((t[-1] - 20.0) / 1.0))
-    res["rdf_pos"], res["rdf_height"] = rdf_peak(args, d, nframes)
+    res["rdf_pos"], res["rdf_height"] = rdf_peak(args, d, nframes, args.rdf_blocks)
     return res
 
 
@@ -267,6 +267,9 @@ def main():
     p.add_argument("--terrace", default=os.path.join(repo, "build", "terrace"))
     p.add_argument("--analyze", default=os.path.join(repo, "build", "terrace-analyze"))
     p.add_argument("--markdown", default=None, help="also write the tables to this file")
+    p.add_argument("--rdf-blocks", type=int, default=10,
+                   help="blocks of frames for the g(r) peak's standard error (default 10: at 1000 ps, 98-frame "
+                        "blocks; the error of a 10-block error is itself about 24 %%)")
     p.add_argument("--phase", type=float, default=0.0,
                    help="also tabulate T, V and P by phase of this period (ps), e.g. a scheduled thermostat's interval")
     args = p.parse_args()

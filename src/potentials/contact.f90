@@ -60,10 +60,9 @@ module terrace_contact
         integer, allocatable :: id_map(:)           !< scratch: node id -> local index (0: not here)
         integer(i8), allocatable :: keys(:)         !< scratch: candidate keys (node id - 1) nface + face
         integer, allocatable :: order(:)            !< scratch: the keys' sorted order
-        ! node_face candidates (after the first pass past a build): node, face vertices (local), weight
+        ! node_face candidates (after the first pass past a build): node, face vertices (local)
         integer :: ncand = 0
         integer, allocatable :: cand(:, :)          !< (4, ncand): p, a, b, c local indices
-        real(dp), allocatable :: cwgt(:)            !< 1: the pair's energy counts here (p owned), else 0
         integer :: nbodies = 0
         integer :: nboundary = 0                    !< boundary nodes (all bodies)
         integer, allocatable :: tag_of_id(:)        !< body of a boundary node, 0 for an interior node
@@ -558,9 +557,9 @@ contains
         self%order(1:n) = [(m, m = 1, n)]
         call sort_by_id(self%keys(1:n), self%order(1:n))
         if (allocated(self%cand)) then
-            if (size(self%cand, 2) < n) deallocate (self%cand, self%cwgt)
+            if (size(self%cand, 2) < n) deallocate (self%cand)
         end if
-        if (.not. allocated(self%cand)) allocate (self%cand(4, max(n, 64)), self%cwgt(max(n, 64)))
+        if (.not. allocated(self%cand)) allocate (self%cand(4, max(n, 64)))
         c = 0
         do m = 1, n
             if (m > 1) then          ! repeats (a pair found through several vertices) once
@@ -576,7 +575,6 @@ contains
                 c = c - 1
                 cycle
             end if
-            self%cwgt(c) = merge(1.0_dp, 0.0_dp, self%cand(1, c) <= nlocal)
         end do
         self%ncand = c
     contains
@@ -657,8 +655,9 @@ contains
             do a = 1, 3
                 if (self%cand(a + 1, c) <= nlocal) atoms%f(:, self%cand(a + 1, c)) = atoms%f(:, self%cand(a + 1, c)) - w(a)*fr
             end do
-            energy = energy + self%cwgt(c)*0.5_dp*self%k*gap*gap
-            virial = virial + self%cwgt(c)*self%k*gap*d
+            if (ip > nlocal) cycle                          ! the pair's energy counts on its node's rank
+            energy = energy + 0.5_dp*self%k*gap*gap
+            virial = virial + self%k*gap*d
         end do
     end subroutine face_forces
 
@@ -673,6 +672,7 @@ contains
         out = 0
         d0sq = self%d0**2
         do c = 1, self%ncand
+            if (self%cand(1, c) > atoms%nlocal) cycle       ! V counts each pair on its node's rank
             do a = 1, 4
                 v(:, a) = atoms%v(:, self%cand(a, c))
                 y(:, a) = atoms%x(:, self%cand(a, c)) + s*v(:, a)
@@ -683,10 +683,10 @@ contains
             if (d2 >= d0sq .or. .not. (d2 > 0)) cycle
             call distance_derivatives(y, v, region, d, d1, dd)
             gap = self%d0 - d
-            out(1) = out(1) + self%cwgt(c)*0.5_dp*self%k*gap*gap
-            out(2) = out(2) - self%cwgt(c)*self%k*gap*d1
-            out(3) = out(3) + self%cwgt(c)*self%k*(d1*d1 - gap*dd)
-            out(4) = out(4) + self%cwgt(c)*self%k*gap*d
+            out(1) = out(1) + 0.5_dp*self%k*gap*gap
+            out(2) = out(2) - self%k*gap*d1
+            out(3) = out(3) + self%k*(d1*d1 - gap*dd)
+            out(4) = out(4) + self%k*gap*d
         end do
     end subroutine face_ray
 

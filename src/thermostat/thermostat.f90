@@ -33,7 +33,7 @@
 module terrace_thermostat
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t, clock_unset
-    use terrace_velocities, only: momentum_and_mass, local_mv2
+    use terrace_velocities, only: momentum_and_mass, local_mv2, atom_mass
     use terrace_mpi_env, only: sum_all
     use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, unit_from_word, box_muller, &
                                    normals4_many, rng_batch
@@ -335,8 +335,7 @@ contains
         else
             temp = self%target(t)
             do i = 1, atoms%nlocal
-                m = atoms%mass(atoms%type(i))
-                if (atoms%per_atom_mass) m = atoms%rmass(i)
+                m = atom_mass(atoms, i)
                 vnew = maxwell_velocity(self, atoms%id(i), self%n_rescale, 0, temp, m, stream_andersen_global)
                 self%ecouple_local = self%ecouple_local + 0.5_dp*self%mvv2e*m*(sum(vnew**2) - sum(atoms%v(:, i)**2))
                 atoms%v(:, i) = vnew
@@ -488,8 +487,7 @@ contains
                 call andersen_next_collision(self%seed, self%damping, atoms%id(i), t_prev, atoms%clock(i), slot, index)
                 if (atoms%clock(i) > t_now) cycle
             end if
-            m = atoms%mass(atoms%type(i))
-            if (atoms%per_atom_mass) m = atoms%rmass(i)
+            m = atom_mass(atoms, i)
             vnew = maxwell_velocity(self, atoms%id(i), step, 0, temp, m)
             de = de + 0.5_dp*self%mvv2e*m*(sum(vnew**2) - sum(atoms%v(:, i)**2))
             atoms%v(:, i) = vnew
@@ -606,8 +604,7 @@ contains
         temp = self%target(t)
         do i = 1, atoms%nlocal
             if (self%next_collision(i) > t) cycle
-            m = atoms%mass(atoms%type(i))
-            if (atoms%per_atom_mass) m = atoms%rmass(i)
+            m = atom_mass(atoms, i)
             vnew = maxwell_velocity(self, atoms%id(i), self%collision_slot(i), self%collision_index(i), temp, m)
             self%ecouple_local = self%ecouple_local + 0.5_dp*self%mvv2e*m*(sum(vnew**2) - sum(atoms%v(:, i)**2))
             atoms%v(:, i) = vnew

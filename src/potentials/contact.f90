@@ -483,12 +483,17 @@ contains
             b = dx(1)*dv(1) + dx(2)*dv(2) + dx(3)*dv(3)
             r1 = b/r
             rr = (a - r1*r1)/r
-            out(1) = out(1) + 0.5_dp*self%k*gap*gap
-            out(2) = out(2) - self%k*gap*r1
-            out(3) = out(3) + self%k*(r1*r1 - gap*rr)
-            out(4) = out(4) + self%k*gap*r
+            out = out + barrier_ray(self%k, gap, r, r1, rr)
         end do
     end subroutine ct_ray
+
+    !> One pair's barrier k/2 gap^2 (gap = d0 - d) along the ray, from the distance d and its
+    !> derivatives d1, d2 along it: V, V' = -k gap d1, V'' = k (d1^2 - gap d2), and the virial k gap d.
+    pure function barrier_ray(k, gap, d, d1, d2) result(o)
+        real(dp), intent(in) :: k, gap, d, d1, d2
+        real(dp) :: o(4)
+        o = [0.5_dp*k*gap*gap, -k*gap*d1, k*(d1*d1 - gap*d2), k*gap*d]
+    end function barrier_ray
 
     !> node_node: d0. node_face: d0 + 5/4 of the longest boundary edge, so that a node within d0 of a
     !> face is within the cutoff of all three of its vertices (module header).
@@ -515,7 +520,7 @@ contains
         class(contact_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
         type(neighbor_list_t), intent(in) :: list
-        integer :: i, j, m, n, nlocal, nall, pass, c, q
+        integer :: i, m, n, nlocal, nall, pass, c, q
         integer(i8) :: key, pid
         logical :: have_below
         nlocal = atoms%nlocal
@@ -668,7 +673,7 @@ contains
         real(dp), intent(in) :: s
         real(dp), intent(out) :: out(4)
         integer :: c, a, region
-        real(dp) :: y(3, 4), v(3, 4), w(3), dx(3), d2, d0sq, d, d1, dd, gap
+        real(dp) :: y(3, 4), v(3, 4), w(3), dx(3), d2, d0sq, d, d1, dd
         out = 0
         d0sq = self%d0**2
         do c = 1, self%ncand
@@ -682,11 +687,7 @@ contains
             d2 = dx(1)*dx(1) + dx(2)*dx(2) + dx(3)*dx(3)
             if (d2 >= d0sq .or. .not. (d2 > 0)) cycle
             call distance_derivatives(y, v, region, d, d1, dd)
-            gap = self%d0 - d
-            out(1) = out(1) + 0.5_dp*self%k*gap*gap
-            out(2) = out(2) - self%k*gap*d1
-            out(3) = out(3) + self%k*(d1*d1 - gap*dd)
-            out(4) = out(4) + self%k*gap*d
+            out = out + barrier_ray(self%k, self%d0 - d, d, d1, dd)
         end do
     end subroutine face_ray
 

@@ -12,8 +12,9 @@
 !> fp = F'(rho) of owned atoms (the caller forwards fp to ghosts), `force` adds the pair forces.
 !> For energy stepping, `ray` returns V, V', V'' and the virial along x + s v with no communication
 !> (it needs the neighbour list's complement of ghost partners, list%want_below; see eam_ray).
-!> The one-type (funcfl) kernels are staged for vectorisation (see density_one); the multi-type
-!> kernels are plain loops.
+!> The density and force kernels are staged for vectorisation (see density_one); with several
+!> types each pair reads one record of its type pair's table (see build_pair_tables). The
+!> multi-type ray pass is a plain loop.
 !>
 !> Tables and interpolation as LAMMPS (so that energies and forces agree to round-off):
 !> - Grids: rho_k = (k-1) drho, k = 1..nrho, for F; r_k = (k-1) dr, k = 1..nr, for rho(r) and
@@ -63,6 +64,9 @@ module terrace_eam
         real(dp), allocatable :: work(:, :)         !< one-type kernels: per-neighbour rows of the current atom
         integer, allocatable :: iwork(:, :)         !< one-type kernels: compacted neighbour indices and knots
         real(dp), allocatable :: ztab(:, :)         !< one type: (rho' c0..c2, z' c0..c2, z c3..c6) per r knot
+        real(dp), allocatable :: dtab(:, :)         !< several types: density records per (knot, pair table)
+        real(dp), allocatable :: ftab(:, :)         !< several types: force records per (knot, pair table)
+        integer, allocatable :: pair_off(:, :)      !< several types: (tj, ti) -> column offset of that pair's table
         character(len=16) :: style = ''
         integer :: nrho = 0, nr = 0                 !< knots of the F tables and of the r tables
         real(dp) :: drho = 0, dr = 0, rdrho = 0, rdr = 0
@@ -329,6 +333,8 @@ contains
         if (allocated(self%fspl)) deallocate (self%fspl, self%rspl, self%zspl)
         if (allocated(self%t2f)) deallocate (self%t2f, self%t2rho, self%t2z)
         if (allocated(self%mass)) deallocate (self%mass)
+        if (allocated(self%ztab)) deallocate (self%ztab)
+        if (allocated(self%dtab)) deallocate (self%dtab, self%ftab, self%pair_off)
         allocate (self%t2f(ntypes), self%t2rho(ntypes, ntypes), self%t2z(ntypes, ntypes), self%mass(ntypes))
         self%rho_outside = .false.
         self%rho_low = huge(1.0_dp); self%rho_high = -huge(1.0_dp)
@@ -561,7 +567,12 @@ contains
                              self%rspl(:, :, self%t2rho(1, 1)), self%rho, self%work(:, 1), self%work(:, 2), &
                              self%work(:, 3), self%work(:, 4), self%work(:, 5), self%iwork(:, 1), self%iwork(:, 2))
         else
-            call density_types(self, atoms%nlocal, atoms%x, atoms%type, list%first, list%neigh, self%rho)
+            call reserve_work(self, atoms%nlocal, list%first)
+            if (.not. allocated(self%dtab)) call build_pair_tables(self)
+            call density_types(atoms%nlocal, atoms%x, atoms%type, list%first, list%neigh, self%cutsq, self%rdr, &
+                               self%nr, self%pair_off, self%dtab, self%rho, self%work(:, 1), self%work(:, 2), &
+                               self%work(:, 3), self%work(:, 4), self%work(:, 5), self%iwork(:, 1), self%iwork(:, 2), &
+                               self%iwork(:, 3))
         end if
     end subroutine eam_density
 
@@ -603,8 +614,12 @@ contains
                            self%work(:, 3), self%work(:, 4), self%work(:, 5), self%work(:, 6), self%work(:, 7), &
                            self%work(:, 8), self%iwork(:, 1), self%iwork(:, 2))
         else
-            call force_types(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, self%fp, &
-                             want_energy, energy, virial)
+            call reserve_work(self, atoms%nlocal, list%first)
+            if (.not. allocated(self%dtab)) call build_pair_tables(self)
+            call force_types(atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, self%cutsq, self%rdr, &
+                             self%nr, self%pair_off, self%ftab, self%fp, want_energy, energy, virial, self%work(:, 1), &
+                             self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), self%work(:, 6), &
+                             self%work(:, 7), self%work(:, 8), self%iwork(:, 1), self%iwork(:, 2), self%iwork(:, 3))
         end if
     end subroutine eam_force
 
@@ -905,7 +920,7 @@ contains
         if (allocated(self%work)) then
             if (size(self%work, 1) < nb) deallocate (self%work, self%iwork)
         end if
-        if (.not. allocated(self%work)) allocate (self%work(nb + nb/4, 12), self%iwork(nb + nb/4, 2))
+        if (.not. allocated(self%work)) allocate (self%work(nb + nb/4, 12), self%iwork(nb + nb/4, 3))
     end subroutine reserve_work
 
     !> One type: the force pass's three lookups (rho', z', z) side by side per knot, so that a pair
@@ -920,6 +935,63 @@ contains
         self%ztab(4:6, :) = self%zspl(1:3, :, c)
         self%ztab(7:10, :) = self%zspl(4:7, :, c)
     end subroutine build_ztab
+
+    !> Several types: one table per distinct (rho_ba, rho_ab, phi_ab) of an ordered type pair (a, b)
+    !> (types mapped to the same element share it), knots contiguous per table, so that a pair's
+    !> lookups read one record at column m + pair_off(b, a) (m = the knot):
+    !>   dtab(1:4) = rho_ba c3..c6 (density at the type-a atom), dtab(5:8) = rho_ab c3..c6,
+    !>   ftab(1:3) = rho_ba' c0..c2, ftab(4:6) = rho_ab' c0..c2, ftab(7:9) = z' c0..c2, ftab(10:13) = z c3..c6.
+    subroutine build_pair_tables(self)
+        type(eam_t), intent(inout) :: self
+        integer :: ta, tb, u, n, nt, nr, key(3, self%ntypes**2), id(self%ntypes, self%ntypes)
+        nt = self%ntypes; nr = self%nr
+        n = 0
+        do ta = 1, nt
+            do tb = 1, nt
+                id(tb, ta) = 0
+                do u = 1, n
+                    if (all(key(:, u) == [self%t2rho(tb, ta), self%t2rho(ta, tb), self%t2z(ta, tb)])) id(tb, ta) = u
+                end do
+                if (id(tb, ta) > 0) cycle
+                n = n + 1
+                key(:, n) = [self%t2rho(tb, ta), self%t2rho(ta, tb), self%t2z(ta, tb)]
+                id(tb, ta) = n
+            end do
+        end do
+        allocate (self%dtab(8, nr*n), self%ftab(13, nr*n), self%pair_off(nt, nt))
+        self%pair_off = (id - 1)*nr
+        do u = 1, n
+            associate (d => self%dtab(:, (u - 1)*nr + 1:u*nr), t => self%ftab(:, (u - 1)*nr + 1:u*nr), &
+                       ra => self%rspl(:, :, key(1, u)), rb => self%rspl(:, :, key(2, u)), z => self%zspl(:, :, key(3, u)))
+            d(1:4, :) = ra(4:7, :)
+            d(5:8, :) = rb(4:7, :)
+            t(1:3, :) = ra(1:3, :)
+            t(4:6, :) = rb(1:3, :)
+            t(7:9, :) = z(1:3, :)
+            t(10:13, :) = z(4:7, :)
+            end associate
+        end do
+    end subroutine build_pair_tables
+
+    !> separations, and besides each neighbour's table offset tt(k) = off(type j) (several types).
+    subroutine separations_types(xi, yi, zi, x, type, off, neigh, k0, nn, dx, dy, dz, rr, tt)
+        real(dp), intent(in) :: xi, yi, zi
+        real(dp), intent(in), contiguous :: x(:, :)
+        integer, intent(in), contiguous :: type(:), off(:), neigh(:)
+        integer, intent(in) :: k0, nn
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:)
+        integer, intent(inout), contiguous :: tt(:)
+        integer :: k, j
+        !GCC$ novector
+        do k = 1, nn
+            j = neigh(k0 + k)
+            dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
+            tt(k) = off(type(j))
+        end do
+        do k = 1, nn
+            rr(k) = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
+        end do
+    end subroutine separations_types
 
     !> Separations (dx, dy, dz)(k) = x_i - x_j and their squares rr(k) for the nn neighbours
     !> j = neigh(k0 + k) of an atom at (xi, yi, zi): a scalar gather into contiguous rows, then a
@@ -985,37 +1057,49 @@ contains
         end do
     end subroutine density_one
 
-    !> Several types: rho_i from the table of (type j -> type i), rho_j from (type i -> type j).
-    subroutine density_types(self, nlocal, x, type, first, neigh, rho)
-        type(eam_t), intent(in) :: self
-        integer, intent(in) :: nlocal
-        real(dp), intent(in), contiguous :: x(:, :)
-        integer, intent(in), contiguous :: type(:), first(:), neigh(:)
+    !> Several types: rho_i += rho_ba(r), rho_j += rho_ab(r) (a = type i, b = type j), staged as
+    !> density_one. The scalar gather stage also fetches each neighbour's table offset,
+    !> off(type j, type i) (see build_pair_tables); the knot of a pair becomes a column of d, whose
+    !> record (d(1:4) for i, d(5:8) for j) is the pair's only table read.
+    subroutine density_types(nlocal, x, type, first, neigh, cutsq, rdr, nr, off, d, rho, dx, dy, dz, rr, pp, &
+                             kk, mm, tt)
+        integer, intent(in) :: nlocal, nr
+        real(dp), intent(in), contiguous :: x(:, :), d(:, :)
+        integer, intent(in), contiguous :: type(:), first(:), neigh(:), off(:, :)
+        real(dp), intent(in) :: cutsq, rdr
         real(dp), intent(inout), contiguous :: rho(:)
-        integer :: i, j, k, m, ti, tj, a, b
-        real(dp) :: xi, yi, zi, dx, dy, dz, rsq, p, acc, top, cutsq, rdr
-        top = self%nr - 1; cutsq = self%cutsq; rdr = self%rdr
-        associate (s => self%rspl)
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:)
+        integer, intent(inout), contiguous :: kk(:), mm(:), tt(:)
+        integer :: i, j, k, m, k0, nn, nin
+        real(dp) :: xi, yi, zi, p, acc, top
+        top = nr - 1
         do i = 1, nlocal
-            xi = x(1, i); yi = x(2, i); zi = x(3, i); ti = type(i)
+            xi = x(1, i); yi = x(2, i); zi = x(3, i)
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            call separations_types(xi, yi, zi, x, type, off(:, type(i)), neigh, k0, nn, dx, dy, dz, rr, tt)
+            nin = 0
+            do k = 1, nn
+                kk(nin + 1) = k
+                pp(nin + 1) = rr(k)
+                tt(nin + 1) = tt(k)
+                nin = nin + merge(1, 0, rr(k) < cutsq)
+            end do
+            do k = 1, nin
+                p = sqrt(pp(k))*rdr + 1
+                m = int(min(p, top))
+                mm(k) = m + tt(k)
+                pp(k) = min(p - m, 1.0_dp)
+            end do
             acc = 0
-            do k = first(i), first(i + 1) - 1
-                j = neigh(k)
-                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
-                rsq = dx*dx + dy*dy + dz*dz
-                if (rsq < cutsq) then
-                    tj = type(j)
-                    p = sqrt(rsq)*rdr + 1
-                    m = int(min(p, top))
-                    p = min(p - m, 1.0_dp)
-                    a = self%t2rho(tj, ti); b = self%t2rho(ti, tj)
-                    acc = acc + (((s(4, m, a)*p + s(5, m, a))*p + s(6, m, a))*p + s(7, m, a))
-                    rho(j) = rho(j) + (((s(4, m, b)*p + s(5, m, b))*p + s(6, m, b))*p + s(7, m, b))
-                end if
+            do k = 1, nin
+                m = mm(k); p = pp(k)
+                acc = acc + (((d(1, m)*p + d(2, m))*p + d(3, m))*p + d(4, m))
+                j = neigh(k0 + kk(k))
+                rho(j) = rho(j) + (((d(5, m)*p + d(6, m))*p + d(7, m))*p + d(8, m))
             end do
             rho(i) = rho(i) + acc
         end do
-        end associate
     end subroutine density_types
 
     !> F'(rho) (and F) of owned atoms; lo, hi: extremes of rho.
@@ -1132,53 +1216,84 @@ contains
         energy = energy + e; virial = virial + w
     end subroutine force_one
 
-    !> Several types: psi'(r) = fp_i rho_ji'(r) + fp_j rho_ij'(r) + phi_ij'(r).
-    subroutine force_types(self, nlocal, x, f, type, first, neigh, fp, want_energy, energy, virial)
-        type(eam_t), intent(in) :: self
-        integer, intent(in) :: nlocal
-        real(dp), intent(in), contiguous :: x(:, :), fp(:)
+    !> Several types: psi'(r) = fp_i rho_ba'(r) + fp_j rho_ab'(r) + phi_ab'(r) (a = type i, b = type
+    !> j), staged as force_one; the pair's table is found as in density_types, its record t(:, m) =
+    !> (rho_ba' c0..c2, rho_ab' c0..c2, z' c0..c2, z c3..c6).
+    subroutine force_types(nlocal, x, f, type, first, neigh, cutsq, rdr, nr, off, t, fp, want_energy, energy, virial, &
+                           dx, dy, dz, rr, pp, rinv, fj, ph, kk, mm, tt)
+        integer, intent(in) :: nlocal, nr
+        real(dp), intent(in), contiguous :: x(:, :), t(:, :), fp(:)
         real(dp), intent(inout), contiguous :: f(:, :)
-        integer, intent(in), contiguous :: type(:), first(:), neigh(:)
+        integer, intent(in), contiguous :: type(:), first(:), neigh(:), off(:, :)
+        real(dp), intent(in) :: cutsq, rdr
         logical, intent(in) :: want_energy
         real(dp), intent(inout) :: energy, virial
-        integer :: i, j, k, m, ti, tj, a, b, c
-        real(dp) :: xi, yi, zi, fpi, dx, dy, dz, rsq, r, p, rip, rjp, z, zp, recip, phi, fpair, fxi, fyi, fzi, e, w, &
-                    top, cutsq, rdr
-        top = self%nr - 1; cutsq = self%cutsq; rdr = self%rdr
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:)
+        integer, intent(inout), contiguous :: kk(:), mm(:), tt(:)
+        integer :: i, j, k, m, k0, nn, nin
+        real(dp) :: xi, yi, zi, fpi, p, r, rjp, rip, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top, ddx, ddy, ddz
+        top = nr - 1
         e = 0; w = 0
-        associate (sr => self%rspl, sz => self%zspl)
         do i = 1, nlocal
-            xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i); ti = type(i)
+            xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i)
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            call separations_types(xi, yi, zi, x, type, off(:, type(i)), neigh, k0, nn, dx, dy, dz, rr, tt)
+            nin = 0
+            do k = 1, nn
+                ddx = dx(k); ddy = dy(k); ddz = dz(k)
+                dx(nin + 1) = ddx; dy(nin + 1) = ddy; dz(nin + 1) = ddz
+                pp(nin + 1) = rr(k)
+                kk(nin + 1) = k
+                tt(nin + 1) = tt(k)
+                nin = nin + merge(1, 0, rr(k) < cutsq)
+            end do
+            !GCC$ novector
+            do k = 1, nin
+                fj(k) = fp(neigh(k0 + kk(k)))
+            end do
+            do k = 1, nin
+                r = sqrt(pp(k))
+                rinv(k) = 1/r
+                rr(k) = pp(k)
+                p = r*rdr + 1
+                m = int(min(p, top))
+                mm(k) = m + tt(k)
+                pp(k) = min(p - m, 1.0_dp)
+            end do
+            ! lookups: fp_i rho_ba' + fp_j rho_ab' -> fj, z' -> pp, z -> ph
+            do k = 1, nin
+                m = mm(k); p = pp(k)
+                rjp = (t(1, m)*p + t(2, m))*p + t(3, m)
+                rip = (t(4, m)*p + t(5, m))*p + t(6, m)
+                zp = (t(7, m)*p + t(8, m))*p + t(9, m)
+                z = ((t(10, m)*p + t(11, m))*p + t(12, m))*p + t(13, m)
+                fj(k) = fpi*rjp + fj(k)*rip
+                pp(k) = zp
+                ph(k) = z
+            end do
             fxi = 0; fyi = 0; fzi = 0
-            do k = first(i), first(i + 1) - 1
-                j = neigh(k)
-                dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
-                rsq = dx*dx + dy*dy + dz*dz
-                if (rsq < cutsq) then
-                    tj = type(j)
-                    r = sqrt(rsq)
-                    p = r*rdr + 1
-                    m = int(min(p, top))
-                    p = min(p - m, 1.0_dp)
-                    a = self%t2rho(tj, ti); b = self%t2rho(ti, tj); c = self%t2z(ti, tj)
-                    rjp = (sr(1, m, a)*p + sr(2, m, a))*p + sr(3, m, a)     ! density at i from j
-                    rip = (sr(1, m, b)*p + sr(2, m, b))*p + sr(3, m, b)     ! density at j from i
-                    zp = (sz(1, m, c)*p + sz(2, m, c))*p + sz(3, m, c)
-                    z = ((sz(4, m, c)*p + sz(5, m, c))*p + sz(6, m, c))*p + sz(7, m, c)
-                    recip = 1/r
-                    phi = z*recip
-                    fpair = -(fpi*rjp + fp(j)*rip + (zp*recip - phi*recip))*recip
-                    fxi = fxi + dx*fpair; fyi = fyi + dy*fpair; fzi = fzi + dz*fpair
-                    f(1, j) = f(1, j) - dx*fpair; f(2, j) = f(2, j) - dy*fpair; f(3, j) = f(3, j) - dz*fpair
-                    if (want_energy) then
-                        e = e + phi
-                        w = w + rsq*fpair
-                    end if
-                end if
+            do k = 1, nin
+                phi = ph(k)*rinv(k)
+                ph(k) = phi
+                fpair = -(fj(k) + (pp(k)*rinv(k) - phi*rinv(k)))*rinv(k)
+                rinv(k) = fpair
+                dx(k) = dx(k)*fpair; dy(k) = dy(k)*fpair; dz(k) = dz(k)*fpair
+                fxi = fxi + dx(k); fyi = fyi + dy(k); fzi = fzi + dz(k)
+            end do
+            if (want_energy) then
+                do k = 1, nin
+                    e = e + ph(k)
+                    w = w + rr(k)*rinv(k)
+                end do
+            end if
+            !GCC$ novector
+            do k = 1, nin
+                j = neigh(k0 + kk(k))
+                f(1, j) = f(1, j) - dx(k); f(2, j) = f(2, j) - dy(k); f(3, j) = f(3, j) - dz(k)
             end do
             f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
         end do
-        end associate
         energy = energy + e; virial = virial + w
     end subroutine force_types
 

@@ -40,6 +40,7 @@
 !>   `rho_outside` records that this happened (see `warning`).
 !> - Pairs count when r^2 < cutmax^2.
 module terrace_eam
+    use, intrinsic :: iso_c_binding, only: c_loc, c_intptr_t
     use terrace_kinds, only: dp
     use terrace_atoms, only: atoms_t
     use terrace_grow, only: reserve
@@ -64,8 +65,12 @@ module terrace_eam
         real(dp), allocatable :: work(:, :)         !< one-type kernels: per-neighbour rows of the current atom
         integer, allocatable :: iwork(:, :)         !< one-type kernels: compacted neighbour indices and knots
         real(dp), allocatable :: ztab(:, :)         !< one type: (rho' c0..c2, z' c0..c2, z c3..c6) per r knot
-        real(dp), allocatable :: dtab(:, :)         !< several types: density records per (knot, pair table)
-        real(dp), allocatable :: ftab(:, :)         !< several types: force records per (knot, pair table)
+        real(dp), allocatable :: dtab(:)            !< several types: density records (8 per knot and pair table)
+        real(dp), allocatable :: ftab(:)            !< several types: force records (16 per knot and pair table)
+        integer :: dtab0 = 0, ftab0 = 0             !< where their first record starts (64-byte aligned)
+        integer, allocatable :: cj(:), cfirst(:)    !< pairs inside the cutoff: partners cj(cfirst(i):cfirst(i+1)-1) of i
+        logical :: kept = .false.                   !< cj is the density pass's, for the force pass that follows
+        integer :: kept_n = -1, kept_len = -1       !< nlocal and list%first(nlocal+1) it was made with
         integer, allocatable :: pair_off(:, :)      !< several types: (tj, ti) -> column offset of that pair's table
         character(len=16) :: style = ''
         integer :: nrho = 0, nr = 0                 !< knots of the F tables and of the r tables
@@ -560,20 +565,25 @@ contains
         call reserve(self%rho, nall, minimum=64, zero=.true.)
         call reserve(self%fp, nall, minimum=64, zero=.true.)
         self%rho(1:nall) = 0
+        self%kept = .false.
         if (atoms%nlocal == 0) return
+        call reserve_work(self, atoms%nlocal, list%first)
+        call reserve_pairs(self, atoms%nlocal, list%first)
         if (self%ntypes == 1) then
-            call reserve_work(self, atoms%nlocal, list%first)
             call density_one(atoms%nlocal, atoms%x, list%first, list%neigh, self%cutsq, self%rdr, self%nr, &
-                             self%rspl(:, :, self%t2rho(1, 1)), self%rho, self%work(:, 1), self%work(:, 2), &
-                             self%work(:, 3), self%work(:, 4), self%work(:, 5), self%iwork(:, 1), self%iwork(:, 2))
+                             self%rspl(:, :, self%t2rho(1, 1)), self%rho, self%cj, self%cfirst, self%work(:, 1), &
+                             self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), self%iwork(:, 1), &
+                             self%iwork(:, 2))
         else
-            call reserve_work(self, atoms%nlocal, list%first)
             if (.not. allocated(self%dtab)) call build_pair_tables(self)
             call density_types(atoms%nlocal, atoms%x, atoms%type, list%first, list%neigh, self%cutsq, self%rdr, &
-                               self%nr, self%pair_off, self%dtab, self%rho, self%work(:, 1), self%work(:, 2), &
-                               self%work(:, 3), self%work(:, 4), self%work(:, 5), self%iwork(:, 1), self%iwork(:, 2), &
-                               self%iwork(:, 3))
+                               self%nr, self%pair_off, self%dtab(self%dtab0 + 1:), self%rho, self%cj, self%cfirst, &
+                               self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
+                               self%iwork(:, 1), self%iwork(:, 2), self%iwork(:, 3))
         end if
+        self%kept = .true.
+        self%kept_n = atoms%nlocal
+        self%kept_len = list%first(atoms%nlocal + 1)
     end subroutine eam_density
 
     !> fp(1:nlocal) = F'(rho); energy = sum of F(rho_i) over owned atoms when want_energy (else 0).
@@ -597,7 +607,9 @@ contains
 
     !> Pair and embedding forces added to atoms%f (owned and ghost) over the half list, with fp of
     !> owned and ghost atoms (the caller has forwarded fp to the ghosts). When want_energy: energy =
-    !> sum of phi over the pairs held, virial = sum over them of d.F_i (else both 0).
+    !> sum of phi over the pairs held, virial = sum over them of d.F_i (else both 0). Right after
+    !> `density` (same positions and list, as in `forces`) it takes the pairs inside the cutoff
+    !> that the density pass found; otherwise it finds them first.
     subroutine eam_force(self, atoms, list, want_energy, energy, virial)
         class(eam_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
@@ -605,21 +617,29 @@ contains
         logical, intent(in) :: want_energy
         real(dp), intent(out) :: energy, virial
         energy = 0; virial = 0
-        if (atoms%nlocal == 0) return
+        if (atoms%nlocal == 0) then
+            self%kept = .false.
+            return
+        end if
+        call reserve_work(self, atoms%nlocal, list%first)
+        if (.not. (self%kept .and. self%kept_n == atoms%nlocal .and. self%kept_len == list%first(atoms%nlocal + 1))) then
+            call reserve_pairs(self, atoms%nlocal, list%first)
+            call inside_pairs(atoms%nlocal, atoms%x, list%first, list%neigh, self%cutsq, self%cj, self%cfirst, &
+                              self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4))
+        end if
+        self%kept = .false.
         if (self%ntypes == 1) then
-            call reserve_work(self, atoms%nlocal, list%first)
             if (.not. allocated(self%ztab)) call build_ztab(self)
-            call force_one(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%cutsq, self%rdr, self%nr, &
+            call force_one(atoms%nlocal, atoms%x, atoms%f, self%cj, self%cfirst, self%rdr, self%nr, &
                            self%ztab, self%fp, want_energy, energy, virial, self%work(:, 1), self%work(:, 2), &
                            self%work(:, 3), self%work(:, 4), self%work(:, 5), self%work(:, 6), self%work(:, 7), &
-                           self%work(:, 8), self%iwork(:, 1), self%iwork(:, 2))
+                           self%work(:, 8), self%iwork(:, 2))
         else
-            call reserve_work(self, atoms%nlocal, list%first)
             if (.not. allocated(self%dtab)) call build_pair_tables(self)
-            call force_types(atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, self%cutsq, self%rdr, &
-                             self%nr, self%pair_off, self%ftab, self%fp, want_energy, energy, virial, self%work(:, 1), &
-                             self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), self%work(:, 6), &
-                             self%work(:, 7), self%work(:, 8), self%iwork(:, 1), self%iwork(:, 2), self%iwork(:, 3))
+            call force_types(atoms%nlocal, atoms%x, atoms%f, atoms%type, self%cj, self%cfirst, self%rdr, self%nr, &
+                             self%pair_off, self%ftab(self%ftab0 + 1:), self%fp, want_energy, energy, virial, &
+                             self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
+                             self%work(:, 6), self%work(:, 7), self%work(:, 8), self%iwork(:, 2), self%iwork(:, 3))
         end if
     end subroutine eam_force
 
@@ -939,11 +959,13 @@ contains
     !> Several types: one table per distinct (rho_ba, rho_ab, phi_ab) of an ordered type pair (a, b)
     !> (types mapped to the same element share it), knots contiguous per table, so that a pair's
     !> lookups read one record at column m + pair_off(b, a) (m = the knot):
-    !>   dtab(1:4) = rho_ba c3..c6 (density at the type-a atom), dtab(5:8) = rho_ab c3..c6,
-    !>   ftab(1:3) = rho_ba' c0..c2, ftab(4:6) = rho_ab' c0..c2, ftab(7:9) = z' c0..c2, ftab(10:13) = z c3..c6.
+    !>   density (8 values) = rho_ba c3..c6 (density at the type-a atom), rho_ab c3..c6;
+    !>   force (16) = rho_ba' c0..c2, rho_ab' c0..c2, z' c0..c2, z c3..c6, 3 zeros (a record is
+    !>   two cache lines, the density record one: both tables start on a 64-byte boundary).
     subroutine build_pair_tables(self)
         type(eam_t), intent(inout) :: self
-        integer :: ta, tb, u, n, nt, nr, key(3, self%ntypes**2), id(self%ntypes, self%ntypes)
+        integer :: ta, tb, u, n, k, nt, nr, key(3, self%ntypes**2), id(self%ntypes, self%ntypes)
+        real(dp), allocatable :: d(:, :), t(:, :)
         nt = self%ntypes; nr = self%nr
         n = 0
         do ta = 1, nt
@@ -958,20 +980,33 @@ contains
                 id(tb, ta) = n
             end do
         end do
-        allocate (self%dtab(8, nr*n), self%ftab(13, nr*n), self%pair_off(nt, nt))
+        allocate (d(8, nr*n), t(16, nr*n), self%pair_off(nt, nt))
         self%pair_off = (id - 1)*nr
+        t = 0
         do u = 1, n
-            associate (d => self%dtab(:, (u - 1)*nr + 1:u*nr), t => self%ftab(:, (u - 1)*nr + 1:u*nr), &
-                       ra => self%rspl(:, :, key(1, u)), rb => self%rspl(:, :, key(2, u)), z => self%zspl(:, :, key(3, u)))
-            d(1:4, :) = ra(4:7, :)
-            d(5:8, :) = rb(4:7, :)
-            t(1:3, :) = ra(1:3, :)
-            t(4:6, :) = rb(1:3, :)
-            t(7:9, :) = z(1:3, :)
-            t(10:13, :) = z(4:7, :)
-            end associate
+            k = (u - 1)*nr
+            d(1:4, k + 1:k + nr) = self%rspl(4:7, :, key(1, u))
+            d(5:8, k + 1:k + nr) = self%rspl(4:7, :, key(2, u))
+            t(1:3, k + 1:k + nr) = self%rspl(1:3, :, key(1, u))
+            t(4:6, k + 1:k + nr) = self%rspl(1:3, :, key(2, u))
+            t(7:9, k + 1:k + nr) = self%zspl(1:3, :, key(3, u))
+            t(10:13, k + 1:k + nr) = self%zspl(4:7, :, key(3, u))
         end do
+        ! records on cache lines: the copies start at the first 64-byte boundary of their arrays
+        allocate (self%dtab(size(d) + 8), self%ftab(size(t) + 8))
+        self%dtab0 = align_shift(self%dtab)
+        self%ftab0 = align_shift(self%ftab)
+        self%dtab(self%dtab0 + 1:self%dtab0 + size(d)) = reshape(d, [size(d)])
+        self%ftab(self%ftab0 + 1:self%ftab0 + size(t)) = reshape(t, [size(t)])
     end subroutine build_pair_tables
+
+    !> Elements to skip from the start of a so that the rest starts on a 64-byte boundary (0..7).
+    integer function align_shift(a) result(k)
+        real(dp), intent(in), target :: a(:)
+        integer(c_intptr_t) :: addr
+        addr = transfer(c_loc(a(1)), addr)
+        k = int(modulo(-addr, 64_c_intptr_t)/8)
+    end function align_shift
 
     !> separations, and besides each neighbour's table offset tt(k) = off(type j) (several types).
     subroutine separations_types(xi, yi, zi, x, type, off, neigh, k0, nn, dx, dy, dz, rr, tt)
@@ -1017,17 +1052,21 @@ contains
     !> distances in a vectorised pass, the pairs inside the cutoff compacted without branches (the
     !> list holds the skin shell too: a branch there is mispredicted about half the time), their
     !> knots and offsets in a vectorised pass, then the table lookups and the scatter to rho(j).
-    subroutine density_one(nlocal, x, first, neigh, cutsq, rdr, nr, s, rho, dx, dy, dz, rr, pp, kk, mm)
+    !> The partners inside the cutoff are kept for the force pass: cj(cfirst(i):cfirst(i+1)-1).
+    subroutine density_one(nlocal, x, first, neigh, cutsq, rdr, nr, s, rho, cj, cfirst, dx, dy, dz, rr, pp, kk, mm)
         integer, intent(in) :: nlocal, nr
         real(dp), intent(in), contiguous :: x(:, :), s(:, :)
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in) :: cutsq, rdr
         real(dp), intent(inout), contiguous :: rho(:)
+        integer, intent(inout), contiguous :: cj(:), cfirst(:)
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:)
         integer, intent(inout), contiguous :: kk(:), mm(:)
-        integer :: i, j, k, m, k0, nn, nin
+        integer :: i, j, k, m, k0, nn, nin, c
         real(dp) :: xi, yi, zi, p, v, acc, top
         top = nr - 1
+        c = 0
+        cfirst(1) = 1
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
             k0 = first(i) - 1
@@ -1051,9 +1090,12 @@ contains
                 v = ((s(4, m)*p + s(5, m))*p + s(6, m))*p + s(7, m)
                 acc = acc + v
                 j = neigh(k0 + kk(k))
+                cj(c + k) = j
                 rho(j) = rho(j) + v
             end do
             rho(i) = rho(i) + acc
+            c = c + nin
+            cfirst(i + 1) = c + 1
         end do
     end subroutine density_one
 
@@ -1061,18 +1103,22 @@ contains
     !> density_one. The scalar gather stage also fetches each neighbour's table offset,
     !> off(type j, type i) (see build_pair_tables); the knot of a pair becomes a column of d, whose
     !> record (d(1:4) for i, d(5:8) for j) is the pair's only table read.
-    subroutine density_types(nlocal, x, type, first, neigh, cutsq, rdr, nr, off, d, rho, dx, dy, dz, rr, pp, &
-                             kk, mm, tt)
+    subroutine density_types(nlocal, x, type, first, neigh, cutsq, rdr, nr, off, d, rho, cj, cfirst, dx, dy, dz, rr, &
+                             pp, kk, mm, tt)
         integer, intent(in) :: nlocal, nr
-        real(dp), intent(in), contiguous :: x(:, :), d(:, :)
+        real(dp), intent(in), contiguous :: x(:, :)
+        real(dp), intent(in) :: d(8, *)
         integer, intent(in), contiguous :: type(:), first(:), neigh(:), off(:, :)
         real(dp), intent(in) :: cutsq, rdr
         real(dp), intent(inout), contiguous :: rho(:)
+        integer, intent(inout), contiguous :: cj(:), cfirst(:)
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:)
         integer, intent(inout), contiguous :: kk(:), mm(:), tt(:)
-        integer :: i, j, k, m, k0, nn, nin
+        integer :: i, j, k, m, k0, nn, nin, c
         real(dp) :: xi, yi, zi, p, acc, top
         top = nr - 1
+        c = 0
+        cfirst(1) = 1
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
             k0 = first(i) - 1
@@ -1096,11 +1142,53 @@ contains
                 m = mm(k); p = pp(k)
                 acc = acc + (((d(1, m)*p + d(2, m))*p + d(3, m))*p + d(4, m))
                 j = neigh(k0 + kk(k))
+                cj(c + k) = j
                 rho(j) = rho(j) + (((d(5, m)*p + d(6, m))*p + d(7, m))*p + d(8, m))
             end do
             rho(i) = rho(i) + acc
+            c = c + nin
+            cfirst(i + 1) = c + 1
         end do
     end subroutine density_types
+
+    !> The pairs inside the cutoff, cj(cfirst(i):cfirst(i+1)-1) for atom i, as the density passes
+    !> find them (for a force pass not preceded by one).
+    subroutine inside_pairs(nlocal, x, first, neigh, cutsq, cj, cfirst, dx, dy, dz, rr)
+        integer, intent(in) :: nlocal
+        real(dp), intent(in), contiguous :: x(:, :)
+        integer, intent(in), contiguous :: first(:), neigh(:)
+        real(dp), intent(in) :: cutsq
+        integer, intent(inout), contiguous :: cj(:), cfirst(:)
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:)
+        integer :: i, k, k0, nn, c
+        c = 0
+        cfirst(1) = 1
+        do i = 1, nlocal
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            call separations(x(1, i), x(2, i), x(3, i), x, neigh, k0, nn, dx, dy, dz, rr)
+            do k = 1, nn
+                if (rr(k) < cutsq) then
+                    c = c + 1
+                    cj(c) = neigh(k0 + k)
+                end if
+            end do
+            cfirst(i + 1) = c + 1
+        end do
+    end subroutine inside_pairs
+
+    !> Room for the pairs inside the cutoff: at most the list's length.
+    subroutine reserve_pairs(self, nlocal, first)
+        type(eam_t), intent(inout) :: self
+        integer, intent(in) :: nlocal
+        integer, intent(in), contiguous :: first(:)
+        integer :: n
+        n = first(nlocal + 1)
+        if (allocated(self%cj)) then
+            if (size(self%cj) < n .or. size(self%cfirst) < nlocal + 1) deallocate (self%cj, self%cfirst)
+        end if
+        if (.not. allocated(self%cj)) allocate (self%cj(n + n/4 + 16), self%cfirst(nlocal + nlocal/4 + 16))
+    end subroutine reserve_pairs
 
     !> F'(rho) (and F) of owned atoms; lo, hi: extremes of rho.
     subroutine embed_kernel(n, type, t2f, fspl, rdrho, nrho, rhomax, rho, want_energy, fp, energy, lo, hi)
@@ -1134,48 +1222,40 @@ contains
         energy = energy + e
     end subroutine embed_kernel
 
-    !> One type: psi'(r) = (fp_i + fp_j) rho'(r) + phi'(r), phi = z/r, phi' = (z' - phi)/r. Staged as
-    !> density_one: gathered separations, vectorised squared distances, branch-free compaction of
-    !> the pairs inside the cutoff (separations and fp(j) packed with them), a vectorised pass for
-    !> r, 1/r, the knot and the offset, the table lookups (one record per pair, t = ztab), then a
-    !> vectorised pass for the pair forces and the scatter (Newton's third law).
-    subroutine force_one(nlocal, x, f, first, neigh, cutsq, rdr, nr, t, fp, want_energy, energy, virial, &
-                         dx, dy, dz, rr, pp, rinv, fj, ph, kk, mm)
+    !> One type: psi'(r) = (fp_i + fp_j) rho'(r) + phi'(r), phi = z/r, phi' = (z' - phi)/r, over the
+    !> pairs inside the cutoff (cj, cfirst). Staged as density_one: gathered separations and fp(j),
+    !> a vectorised pass for r^2, r, 1/r, the knot and the offset, the table lookups (one record per
+    !> pair, t = ztab), then a vectorised pass for the pair forces and the scatter (Newton's third
+    !> law).
+    subroutine force_one(nlocal, x, f, cj, cfirst, rdr, nr, t, fp, want_energy, energy, virial, &
+                         dx, dy, dz, rr, pp, rinv, fj, ph, mm)
         integer, intent(in) :: nlocal, nr
         real(dp), intent(in), contiguous :: x(:, :), t(:, :), fp(:)
         real(dp), intent(inout), contiguous :: f(:, :)
-        integer, intent(in), contiguous :: first(:), neigh(:)
-        real(dp), intent(in) :: cutsq, rdr
+        integer, intent(in), contiguous :: cj(:), cfirst(:)
+        real(dp), intent(in) :: rdr
         logical, intent(in) :: want_energy
         real(dp), intent(inout) :: energy, virial
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:)
-        integer, intent(inout), contiguous :: kk(:), mm(:)
-        integer :: i, j, k, m, k0, nn, nin
-        real(dp) :: xi, yi, zi, fpi, p, r, rp, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top, ddx, ddy, ddz
+        integer, intent(inout), contiguous :: mm(:)
+        integer :: i, j, k, m, c0, nin
+        real(dp) :: xi, yi, zi, fpi, p, r, rp, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top
         top = nr - 1
         e = 0; w = 0
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i)
-            k0 = first(i) - 1
-            nn = first(i + 1) - first(i)
-            call separations(xi, yi, zi, x, neigh, k0, nn, dx, dy, dz, rr)
-            ! compaction in place (nin <= k): separations, squared distance, list position
-            nin = 0
-            do k = 1, nn
-                ddx = dx(k); ddy = dy(k); ddz = dz(k)
-                dx(nin + 1) = ddx; dy(nin + 1) = ddy; dz(nin + 1) = ddz
-                pp(nin + 1) = rr(k)
-                kk(nin + 1) = k
-                nin = nin + merge(1, 0, rr(k) < cutsq)
-            end do
+            c0 = cfirst(i) - 1
+            nin = cfirst(i + 1) - cfirst(i)
             !GCC$ novector
             do k = 1, nin
-                fj(k) = fp(neigh(k0 + kk(k)))
+                j = cj(c0 + k)
+                dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
+                fj(k) = fp(j)
             end do
             do k = 1, nin
-                r = sqrt(pp(k))
+                rr(k) = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
+                r = sqrt(rr(k))
                 rinv(k) = 1/r
-                rr(k) = pp(k)
                 p = r*rdr + 1
                 m = int(min(p, top))
                 mm(k) = m
@@ -1208,7 +1288,7 @@ contains
             end if
             !GCC$ novector
             do k = 1, nin
-                j = neigh(k0 + kk(k))
+                j = cj(c0 + k)
                 f(1, j) = f(1, j) - dx(k); f(2, j) = f(2, j) - dy(k); f(3, j) = f(3, j) - dz(k)
             end do
             f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
@@ -1219,43 +1299,37 @@ contains
     !> Several types: psi'(r) = fp_i rho_ba'(r) + fp_j rho_ab'(r) + phi_ab'(r) (a = type i, b = type
     !> j), staged as force_one; the pair's table is found as in density_types, its record t(:, m) =
     !> (rho_ba' c0..c2, rho_ab' c0..c2, z' c0..c2, z c3..c6).
-    subroutine force_types(nlocal, x, f, type, first, neigh, cutsq, rdr, nr, off, t, fp, want_energy, energy, virial, &
-                           dx, dy, dz, rr, pp, rinv, fj, ph, kk, mm, tt)
+    subroutine force_types(nlocal, x, f, type, cj, cfirst, rdr, nr, off, t, fp, want_energy, energy, virial, &
+                           dx, dy, dz, rr, pp, rinv, fj, ph, mm, tt)
         integer, intent(in) :: nlocal, nr
-        real(dp), intent(in), contiguous :: x(:, :), t(:, :), fp(:)
+        real(dp), intent(in), contiguous :: x(:, :), fp(:)
+        real(dp), intent(in) :: t(16, *)
         real(dp), intent(inout), contiguous :: f(:, :)
-        integer, intent(in), contiguous :: type(:), first(:), neigh(:), off(:, :)
-        real(dp), intent(in) :: cutsq, rdr
+        integer, intent(in), contiguous :: type(:), cj(:), cfirst(:), off(:, :)
+        real(dp), intent(in) :: rdr
         logical, intent(in) :: want_energy
         real(dp), intent(inout) :: energy, virial
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:)
-        integer, intent(inout), contiguous :: kk(:), mm(:), tt(:)
-        integer :: i, j, k, m, k0, nn, nin
-        real(dp) :: xi, yi, zi, fpi, p, r, rjp, rip, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top, ddx, ddy, ddz
+        integer, intent(inout), contiguous :: mm(:), tt(:)
+        integer :: i, j, k, m, c0, nin, ti
+        real(dp) :: xi, yi, zi, fpi, p, r, rjp, rip, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top
         top = nr - 1
         e = 0; w = 0
         do i = 1, nlocal
-            xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i)
-            k0 = first(i) - 1
-            nn = first(i + 1) - first(i)
-            call separations_types(xi, yi, zi, x, type, off(:, type(i)), neigh, k0, nn, dx, dy, dz, rr, tt)
-            nin = 0
-            do k = 1, nn
-                ddx = dx(k); ddy = dy(k); ddz = dz(k)
-                dx(nin + 1) = ddx; dy(nin + 1) = ddy; dz(nin + 1) = ddz
-                pp(nin + 1) = rr(k)
-                kk(nin + 1) = k
-                tt(nin + 1) = tt(k)
-                nin = nin + merge(1, 0, rr(k) < cutsq)
-            end do
+            xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i); ti = type(i)
+            c0 = cfirst(i) - 1
+            nin = cfirst(i + 1) - cfirst(i)
             !GCC$ novector
             do k = 1, nin
-                fj(k) = fp(neigh(k0 + kk(k)))
+                j = cj(c0 + k)
+                dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
+                fj(k) = fp(j)
+                tt(k) = off(type(j), ti)
             end do
             do k = 1, nin
-                r = sqrt(pp(k))
+                rr(k) = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
+                r = sqrt(rr(k))
                 rinv(k) = 1/r
-                rr(k) = pp(k)
                 p = r*rdr + 1
                 m = int(min(p, top))
                 mm(k) = m + tt(k)
@@ -1289,7 +1363,7 @@ contains
             end if
             !GCC$ novector
             do k = 1, nin
-                j = neigh(k0 + kk(k))
+                j = cj(c0 + k)
                 f(1, j) = f(1, j) - dx(k); f(2, j) = f(2, j) - dy(k); f(3, j) = f(3, j) - dz(k)
             end do
             f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi

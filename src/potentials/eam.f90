@@ -50,6 +50,9 @@ module terrace_eam
     implicit none
     private
 
+    !> Pairs per block of the force passes (rows of about this length, several atoms each).
+    integer, parameter :: block_pairs = 256
+
     !> Hartree * Bohr (eV Angstrom) as LAMMPS writes it: phi = 27.2 * 0.529 Z_a Z_b / r for funcfl.
     real(dp), parameter, public :: funcfl_z2r_factor = 27.2_dp*0.529_dp
 
@@ -572,14 +575,12 @@ contains
         if (self%ntypes == 1) then
             call density_one(atoms%nlocal, atoms%x, list%first, list%neigh, self%cutsq, self%rdr, self%nr, &
                              self%rspl(:, :, self%t2rho(1, 1)), self%rho, self%cj, self%cfirst, self%work(:, 1), &
-                             self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), self%iwork(:, 1), &
-                             self%iwork(:, 2))
+                             self%iwork(:, 1))
         else
             if (.not. allocated(self%dtab)) call build_pair_tables(self)
             call density_types(atoms%nlocal, atoms%x, atoms%type, list%first, list%neigh, self%cutsq, self%rdr, &
                                self%nr, self%pair_off, self%dtab(self%dtab0 + 1:), self%rho, self%cj, self%cfirst, &
-                               self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
-                               self%iwork(:, 1), self%iwork(:, 2), self%iwork(:, 3))
+                               self%work(:, 1), self%iwork(:, 1), self%iwork(:, 2))
         end if
         self%kept = .true.
         self%kept_n = atoms%nlocal
@@ -639,7 +640,8 @@ contains
             call force_types(atoms%nlocal, atoms%x, atoms%f, atoms%type, self%cj, self%cfirst, self%rdr, self%nr, &
                              self%pair_off, self%ftab(self%ftab0 + 1:), self%fp, want_energy, energy, virial, &
                              self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
-                             self%work(:, 6), self%work(:, 7), self%work(:, 8), self%iwork(:, 2), self%iwork(:, 3))
+                             self%work(:, 6), self%work(:, 7), self%work(:, 8), self%work(:, 9), self%iwork(:, 2), &
+                             self%iwork(:, 3))
         end if
     end subroutine eam_force
 
@@ -936,7 +938,7 @@ contains
         do i = 1, nlocal
             nb = max(nb, first(i + 1) - first(i))
         end do
-        nb = nb + 16
+        nb = max(nb + 16, block_pairs)
         if (allocated(self%work)) then
             if (size(self%work, 1) < nb) deallocate (self%work, self%iwork)
         end if
@@ -1008,29 +1010,10 @@ contains
         k = int(modulo(-addr, 64_c_intptr_t)/8)
     end function align_shift
 
-    !> separations, and besides each neighbour's table offset tt(k) = off(type j) (several types).
-    subroutine separations_types(xi, yi, zi, x, type, off, neigh, k0, nn, dx, dy, dz, rr, tt)
-        real(dp), intent(in) :: xi, yi, zi
-        real(dp), intent(in), contiguous :: x(:, :)
-        integer, intent(in), contiguous :: type(:), off(:), neigh(:)
-        integer, intent(in) :: k0, nn
-        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:)
-        integer, intent(inout), contiguous :: tt(:)
-        integer :: k, j
-        !GCC$ novector
-        do k = 1, nn
-            j = neigh(k0 + k)
-            dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
-            tt(k) = off(type(j))
-        end do
-        do k = 1, nn
-            rr(k) = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
-        end do
-    end subroutine separations_types
 
     !> Separations (dx, dy, dz)(k) = x_i - x_j and their squares rr(k) for the nn neighbours
     !> j = neigh(k0 + k) of an atom at (xi, yi, zi): a scalar gather into contiguous rows, then a
-    !> vectorised pass (the first two stages of the one-type kernels).
+    !> vectorised pass (for inside_pairs).
     subroutine separations(xi, yi, zi, x, neigh, k0, nn, dx, dy, dz, rr)
         real(dp), intent(in) :: xi, yi, zi
         real(dp), intent(in), contiguous :: x(:, :)
@@ -1048,22 +1031,22 @@ contains
         end do
     end subroutine separations
 
-    !> One type: one density table. Per atom: separations gathered into contiguous rows, squared
-    !> distances in a vectorised pass, the pairs inside the cutoff compacted without branches (the
-    !> list holds the skin shell too: a branch there is mispredicted about half the time), their
-    !> knots and offsets in a vectorised pass, then the table lookups and the scatter to rho(j).
-    !> The partners inside the cutoff are kept for the force pass: cj(cfirst(i):cfirst(i+1)-1).
-    subroutine density_one(nlocal, x, first, neigh, cutsq, rdr, nr, s, rho, cj, cfirst, dx, dy, dz, rr, pp, kk, mm)
+    !> One type: one density table. Per atom: one scalar pass gathers the separations, forms the
+    !> squared distances and compacts the pairs inside the cutoff without branches (the list holds
+    !> the skin shell too: a branch there is mispredicted about half the time), then their knots
+    !> and offsets in a vectorised pass, then the table lookups and the scatter to rho(j). The
+    !> partners inside the cutoff are kept for the force pass: cj(cfirst(i):cfirst(i+1)-1).
+    subroutine density_one(nlocal, x, first, neigh, cutsq, rdr, nr, s, rho, cj, cfirst, pp, mm)
         integer, intent(in) :: nlocal, nr
         real(dp), intent(in), contiguous :: x(:, :), s(:, :)
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in) :: cutsq, rdr
         real(dp), intent(inout), contiguous :: rho(:)
         integer, intent(inout), contiguous :: cj(:), cfirst(:)
-        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:)
-        integer, intent(inout), contiguous :: kk(:), mm(:)
+        real(dp), intent(inout), contiguous :: pp(:)
+        integer, intent(inout), contiguous :: mm(:)
         integer :: i, j, k, m, k0, nn, nin, c
-        real(dp) :: xi, yi, zi, p, v, acc, top
+        real(dp) :: xi, yi, zi, p, v, acc, top, ddx, ddy, ddz, rsq
         top = nr - 1
         c = 0
         cfirst(1) = 1
@@ -1071,12 +1054,16 @@ contains
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
             k0 = first(i) - 1
             nn = first(i + 1) - first(i)
-            call separations(xi, yi, zi, x, neigh, k0, nn, dx, dy, dz, rr)
+            ! gather, squared distance and compaction in one scalar pass (partners straight into cj)
             nin = 0
+            !GCC$ novector
             do k = 1, nn
-                kk(nin + 1) = k
-                pp(nin + 1) = rr(k)
-                nin = nin + merge(1, 0, rr(k) < cutsq)
+                j = neigh(k0 + k)
+                ddx = xi - x(1, j); ddy = yi - x(2, j); ddz = zi - x(3, j)
+                rsq = ddx*ddx + ddy*ddy + ddz*ddz
+                cj(c + nin + 1) = j
+                pp(nin + 1) = rsq
+                nin = nin + merge(1, 0, rsq < cutsq)
             end do
             do k = 1, nin
                 p = sqrt(pp(k))*rdr + 1
@@ -1089,8 +1076,7 @@ contains
                 m = mm(k); p = pp(k)
                 v = ((s(4, m)*p + s(5, m))*p + s(6, m))*p + s(7, m)
                 acc = acc + v
-                j = neigh(k0 + kk(k))
-                cj(c + k) = j
+                j = cj(c + k)
                 rho(j) = rho(j) + v
             end do
             rho(i) = rho(i) + acc
@@ -1100,11 +1086,10 @@ contains
     end subroutine density_one
 
     !> Several types: rho_i += rho_ba(r), rho_j += rho_ab(r) (a = type i, b = type j), staged as
-    !> density_one. The scalar gather stage also fetches each neighbour's table offset,
-    !> off(type j, type i) (see build_pair_tables); the knot of a pair becomes a column of d, whose
-    !> record (d(1:4) for i, d(5:8) for j) is the pair's only table read.
-    subroutine density_types(nlocal, x, type, first, neigh, cutsq, rdr, nr, off, d, rho, cj, cfirst, dx, dy, dz, rr, &
-                             pp, kk, mm, tt)
+    !> density_one. The scalar gather pass also fetches each neighbour's table offset,
+    !> off(type j, type i) (see build_pair_tables); knot + offset is a column of d, whose record
+    !> (d(1:4) for i, d(5:8) for j) is the pair's only table read.
+    subroutine density_types(nlocal, x, type, first, neigh, cutsq, rdr, nr, off, d, rho, cj, cfirst, pp, mm, tt)
         integer, intent(in) :: nlocal, nr
         real(dp), intent(in), contiguous :: x(:, :)
         real(dp), intent(in) :: d(8, *)
@@ -1112,10 +1097,10 @@ contains
         real(dp), intent(in) :: cutsq, rdr
         real(dp), intent(inout), contiguous :: rho(:)
         integer, intent(inout), contiguous :: cj(:), cfirst(:)
-        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:)
-        integer, intent(inout), contiguous :: kk(:), mm(:), tt(:)
-        integer :: i, j, k, m, k0, nn, nin, c
-        real(dp) :: xi, yi, zi, p, acc, top
+        real(dp), intent(inout), contiguous :: pp(:)
+        integer, intent(inout), contiguous :: mm(:), tt(:)
+        integer :: i, j, k, m, k0, nn, nin, c, ti
+        real(dp) :: xi, yi, zi, p, acc, top, ddx, ddy, ddz, rsq
         top = nr - 1
         c = 0
         cfirst(1) = 1
@@ -1123,13 +1108,18 @@ contains
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
             k0 = first(i) - 1
             nn = first(i + 1) - first(i)
-            call separations_types(xi, yi, zi, x, type, off(:, type(i)), neigh, k0, nn, dx, dy, dz, rr, tt)
+            ! gather, squared distance, table offset and compaction in one scalar pass (partners into cj)
+            ti = type(i)
             nin = 0
+            !GCC$ novector
             do k = 1, nn
-                kk(nin + 1) = k
-                pp(nin + 1) = rr(k)
-                tt(nin + 1) = tt(k)
-                nin = nin + merge(1, 0, rr(k) < cutsq)
+                j = neigh(k0 + k)
+                ddx = xi - x(1, j); ddy = yi - x(2, j); ddz = zi - x(3, j)
+                rsq = ddx*ddx + ddy*ddy + ddz*ddz
+                cj(c + nin + 1) = j
+                pp(nin + 1) = rsq
+                tt(nin + 1) = off(type(j), ti)
+                nin = nin + merge(1, 0, rsq < cutsq)
             end do
             do k = 1, nin
                 p = sqrt(pp(k))*rdr + 1
@@ -1141,8 +1131,7 @@ contains
             do k = 1, nin
                 m = mm(k); p = pp(k)
                 acc = acc + (((d(1, m)*p + d(2, m))*p + d(3, m))*p + d(4, m))
-                j = neigh(k0 + kk(k))
-                cj(c + k) = j
+                j = cj(c + k)
                 rho(j) = rho(j) + (((d(5, m)*p + d(6, m))*p + d(7, m))*p + d(8, m))
             end do
             rho(i) = rho(i) + acc
@@ -1223,10 +1212,11 @@ contains
     end subroutine embed_kernel
 
     !> One type: psi'(r) = (fp_i + fp_j) rho'(r) + phi'(r), phi = z/r, phi' = (z' - phi)/r, over the
-    !> pairs inside the cutoff (cj, cfirst). Staged as density_one: gathered separations and fp(j),
-    !> a vectorised pass for r^2, r, 1/r, the knot and the offset, the table lookups (one record per
-    !> pair, t = ztab), then a vectorised pass for the pair forces and the scatter (Newton's third
-    !> law).
+    !> pairs inside the cutoff (cj, cfirst). The pairs of consecutive atoms are taken in blocks of
+    !> about block_pairs (whole atoms; long rows keep the vector loops busy): gathered separations
+    !> and fp_i + fp_j, a vectorised pass for r^2, r, 1/r, the knot and the offset, the table
+    !> lookups (one record per pair, t = ztab), a vectorised pass for the pair forces, then the
+    !> scatter (Newton's third law) with the sums for the atoms i.
     subroutine force_one(nlocal, x, f, cj, cfirst, rdr, nr, t, fp, want_energy, energy, virial, &
                          dx, dy, dz, rr, pp, rinv, fj, ph, mm)
         integer, intent(in) :: nlocal, nr
@@ -1238,21 +1228,31 @@ contains
         real(dp), intent(inout) :: energy, virial
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:)
         integer, intent(inout), contiguous :: mm(:)
-        integer :: i, j, k, m, c0, nin
+        integer :: i, i0, i1, j, k, m, c, c0, n
         real(dp) :: xi, yi, zi, fpi, p, r, rp, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top
         top = nr - 1
         e = 0; w = 0
-        do i = 1, nlocal
-            xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i)
-            c0 = cfirst(i) - 1
-            nin = cfirst(i + 1) - cfirst(i)
-            !GCC$ novector
-            do k = 1, nin
-                j = cj(c0 + k)
-                dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
-                fj(k) = fp(j)
+        i0 = 1
+        do while (i0 <= nlocal)
+            ! the block: atoms i0..i1, pairs c0+1..c0+n (at least one atom; the rows fit: reserve_work)
+            c0 = cfirst(i0) - 1
+            i1 = i0
+            do while (i1 < nlocal)
+                if (cfirst(i1 + 2) - 1 - c0 > block_pairs) exit
+                i1 = i1 + 1
             end do
-            do k = 1, nin
+            n = cfirst(i1 + 1) - 1 - c0
+            do i = i0, i1
+                xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i)
+                !GCC$ novector
+                do c = cfirst(i), cfirst(i + 1) - 1
+                    k = c - c0
+                    j = cj(c)
+                    dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
+                    fj(k) = fpi + fp(j)
+                end do
+            end do
+            do k = 1, n
                 rr(k) = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
                 r = sqrt(rr(k))
                 rinv(k) = 1/r
@@ -1261,46 +1261,52 @@ contains
                 mm(k) = m
                 pp(k) = min(p - m, 1.0_dp)
             end do
-            ! lookups: rp -> fj (times fp_i + fp_j), z' -> pp, z -> ph; rr keeps r^2, rinv becomes fpair
-            do k = 1, nin
+            ! lookups (scalar: a vectorised gather of the record costs more): rp -> fj (times fp_i + fp_j),
+            ! z' -> pp, z -> ph; rr keeps r^2, rinv becomes fpair
+            !GCC$ novector
+            do k = 1, n
                 m = mm(k); p = pp(k)
                 rp = (t(1, m)*p + t(2, m))*p + t(3, m)
                 zp = (t(4, m)*p + t(5, m))*p + t(6, m)
                 z = ((t(7, m)*p + t(8, m))*p + t(9, m))*p + t(10, m)
-                fj(k) = (fpi + fj(k))*rp
+                fj(k) = fj(k)*rp
                 pp(k) = zp
                 ph(k) = z
             end do
-            fxi = 0; fyi = 0; fzi = 0
-            do k = 1, nin
+            do k = 1, n
                 phi = ph(k)*rinv(k)
                 ph(k) = phi
                 fpair = -(fj(k) + (pp(k)*rinv(k) - phi*rinv(k)))*rinv(k)
                 rinv(k) = fpair
                 dx(k) = dx(k)*fpair; dy(k) = dy(k)*fpair; dz(k) = dz(k)*fpair
-                fxi = fxi + dx(k); fyi = fyi + dy(k); fzi = fzi + dz(k)
             end do
             if (want_energy) then
-                do k = 1, nin
+                do k = 1, n
                     e = e + ph(k)
                     w = w + rr(k)*rinv(k)
                 end do
             end if
-            !GCC$ novector
-            do k = 1, nin
-                j = cj(c0 + k)
-                f(1, j) = f(1, j) - dx(k); f(2, j) = f(2, j) - dy(k); f(3, j) = f(3, j) - dz(k)
+            do i = i0, i1
+                fxi = 0; fyi = 0; fzi = 0
+                !GCC$ novector
+                do c = cfirst(i), cfirst(i + 1) - 1
+                    k = c - c0
+                    j = cj(c)
+                    f(1, j) = f(1, j) - dx(k); f(2, j) = f(2, j) - dy(k); f(3, j) = f(3, j) - dz(k)
+                    fxi = fxi + dx(k); fyi = fyi + dy(k); fzi = fzi + dz(k)
+                end do
+                f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
             end do
-            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
+            i0 = i1 + 1
         end do
         energy = energy + e; virial = virial + w
     end subroutine force_one
 
     !> Several types: psi'(r) = fp_i rho_ba'(r) + fp_j rho_ab'(r) + phi_ab'(r) (a = type i, b = type
-    !> j), staged as force_one; the pair's table is found as in density_types, its record t(:, m) =
-    !> (rho_ba' c0..c2, rho_ab' c0..c2, z' c0..c2, z c3..c6).
+    !> j), staged and blocked as force_one; the pair's table is found as in density_types, its
+    !> record t(:, m) = (rho_ba' c0..c2, rho_ab' c0..c2, z' c0..c2, z c3..c6).
     subroutine force_types(nlocal, x, f, type, cj, cfirst, rdr, nr, off, t, fp, want_energy, energy, virial, &
-                           dx, dy, dz, rr, pp, rinv, fj, ph, mm, tt)
+                           dx, dy, dz, rr, pp, rinv, fj, ph, fi, mm, tt)
         integer, intent(in) :: nlocal, nr
         real(dp), intent(in), contiguous :: x(:, :), fp(:)
         real(dp), intent(in) :: t(16, *)
@@ -1309,24 +1315,34 @@ contains
         real(dp), intent(in) :: rdr
         logical, intent(in) :: want_energy
         real(dp), intent(inout) :: energy, virial
-        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:)
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:), fi(:)
         integer, intent(inout), contiguous :: mm(:), tt(:)
-        integer :: i, j, k, m, c0, nin, ti
+        integer :: i, i0, i1, j, k, m, c, c0, n, ti
         real(dp) :: xi, yi, zi, fpi, p, r, rjp, rip, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top
         top = nr - 1
         e = 0; w = 0
-        do i = 1, nlocal
-            xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i); ti = type(i)
-            c0 = cfirst(i) - 1
-            nin = cfirst(i + 1) - cfirst(i)
-            !GCC$ novector
-            do k = 1, nin
-                j = cj(c0 + k)
-                dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
-                fj(k) = fp(j)
-                tt(k) = off(type(j), ti)
+        i0 = 1
+        do while (i0 <= nlocal)
+            c0 = cfirst(i0) - 1
+            i1 = i0
+            do while (i1 < nlocal)
+                if (cfirst(i1 + 2) - 1 - c0 > block_pairs) exit
+                i1 = i1 + 1
             end do
-            do k = 1, nin
+            n = cfirst(i1 + 1) - 1 - c0
+            do i = i0, i1
+                xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i); ti = type(i)
+                !GCC$ novector
+                do c = cfirst(i), cfirst(i + 1) - 1
+                    k = c - c0
+                    j = cj(c)
+                    dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
+                    fi(k) = fpi
+                    fj(k) = fp(j)
+                    tt(k) = off(type(j), ti)
+                end do
+            end do
+            do k = 1, n
                 rr(k) = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
                 r = sqrt(rr(k))
                 rinv(k) = 1/r
@@ -1335,38 +1351,44 @@ contains
                 mm(k) = m + tt(k)
                 pp(k) = min(p - m, 1.0_dp)
             end do
-            ! lookups: fp_i rho_ba' + fp_j rho_ab' -> fj, z' -> pp, z -> ph
-            do k = 1, nin
+            ! lookups (scalar: see force_one): rho_ba', rho_ab' -> fi, fj (times fp_i, fp_j); z' -> pp, z -> ph
+            !GCC$ novector
+            do k = 1, n
                 m = mm(k); p = pp(k)
                 rjp = (t(1, m)*p + t(2, m))*p + t(3, m)
                 rip = (t(4, m)*p + t(5, m))*p + t(6, m)
                 zp = (t(7, m)*p + t(8, m))*p + t(9, m)
                 z = ((t(10, m)*p + t(11, m))*p + t(12, m))*p + t(13, m)
-                fj(k) = fpi*rjp + fj(k)*rip
+                fi(k) = fi(k)*rjp
+                fj(k) = fj(k)*rip
                 pp(k) = zp
                 ph(k) = z
             end do
-            fxi = 0; fyi = 0; fzi = 0
-            do k = 1, nin
+            do k = 1, n
                 phi = ph(k)*rinv(k)
                 ph(k) = phi
-                fpair = -(fj(k) + (pp(k)*rinv(k) - phi*rinv(k)))*rinv(k)
+                fpair = -((fi(k) + fj(k)) + (pp(k)*rinv(k) - phi*rinv(k)))*rinv(k)
                 rinv(k) = fpair
                 dx(k) = dx(k)*fpair; dy(k) = dy(k)*fpair; dz(k) = dz(k)*fpair
-                fxi = fxi + dx(k); fyi = fyi + dy(k); fzi = fzi + dz(k)
             end do
             if (want_energy) then
-                do k = 1, nin
+                do k = 1, n
                     e = e + ph(k)
                     w = w + rr(k)*rinv(k)
                 end do
             end if
-            !GCC$ novector
-            do k = 1, nin
-                j = cj(c0 + k)
-                f(1, j) = f(1, j) - dx(k); f(2, j) = f(2, j) - dy(k); f(3, j) = f(3, j) - dz(k)
+            do i = i0, i1
+                fxi = 0; fyi = 0; fzi = 0
+                !GCC$ novector
+                do c = cfirst(i), cfirst(i + 1) - 1
+                    k = c - c0
+                    j = cj(c)
+                    f(1, j) = f(1, j) - dx(k); f(2, j) = f(2, j) - dy(k); f(3, j) = f(3, j) - dz(k)
+                    fxi = fxi + dx(k); fyi = fyi + dy(k); fzi = fzi + dz(k)
+                end do
+                f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
             end do
-            f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
+            i0 = i1 + 1
         end do
         energy = energy + e; virial = virial + w
     end subroutine force_types

@@ -343,6 +343,7 @@ contains
         if (allocated(self%mass)) deallocate (self%mass)
         if (allocated(self%ztab)) deallocate (self%ztab)
         if (allocated(self%dtab)) deallocate (self%dtab, self%ftab, self%pair_off)
+        self%kept = .false.
         allocate (self%t2f(ntypes), self%t2rho(ntypes, ntypes), self%t2z(ntypes, ntypes), self%mass(ntypes))
         self%rho_outside = .false.
         self%rho_low = huge(1.0_dp); self%rho_high = -huge(1.0_dp)

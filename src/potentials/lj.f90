@@ -12,9 +12,13 @@
 !> rho = |d|^2 (rho' = 2 d.w, rho'' = 2 |w|^2), each pair adds psi(rho), psi' rho' and
 !> psi'' rho'^2 + psi' rho'' to f, f', f'', where psi'(rho) = -fpair/2 and
 !> psi''(rho) = (7 lj1 rho^-8 - 4 lj2 rho^-5)/2 (+ the smooth term (r - rc) fc: fc/(2r), -fc/(4r^3)).
+!> V (and V', V'') is summed per atom and the per-atom sums are totalled by a compensated sum,
+!> in the force pass as in the ray pass: the event solver decides on V to a few tens of eps |V|,
+!> finer than the noise of a plain running sum over all pairs (terrace_compensated_sum).
 module terrace_lj
     use, intrinsic :: iso_fortran_env, only: int64
     use terrace_kinds, only: dp
+    use terrace_compensated_sum, only: compensated_total
     use terrace_atoms, only: atoms_t
     use terrace_neighbor_list, only: neighbor_list_t
     use terrace_potential, only: potential_t, halo_ops_t
@@ -40,6 +44,9 @@ module terrace_lj
         real(dp), allocatable :: rc(:, :)
         real(dp) :: cutmax = 0
         real(dp), allocatable :: work(:, :)      !< per-atom rows of pair forces (grown at rebuilds)
+        !> per owned atom, the sum of its pairs' energy (and, in the ray pass, V' and V'' terms):
+        !> totalled by a compensated sum (see terrace_compensated_sum: why V needs it)
+        real(dp), allocatable :: atom_sums(:, :)
     contains
         procedure :: setup => lj_setup
         procedure :: forces => lj_forces
@@ -126,13 +133,15 @@ contains
         if (list%all_pairs) then
             call self%ray_all_pairs(atoms, s, out)
         else if (self%ntypes == 1 .and. .not. self%smooth) then
-            call reserve_work(self, list)
+            call reserve_work(self, list, atoms%nlocal)
             call ray_one_type(atoms%nlocal, atoms%x, atoms%v, list%first, list%neigh, s, self%lj1(1, 1), self%lj2(1, 1), &
                               self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1), infinity, one, zero, &
                               self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
-                              self%work(:, 6), self%work(:, 7), self%work(:, 8), self%work(:, 9), self%work(:, 10), out)
+                              self%work(:, 6), self%work(:, 7), self%work(:, 8), self%work(:, 9), self%work(:, 10), &
+                              self%atom_sums, out)
         else
-            call ray_general(self, atoms, list%first, list%neigh, s, out)
+            call reserve_work(self, list, atoms%nlocal)
+            call ray_general(self, atoms, list%first, list%neigh, s, self%atom_sums, out)
         end if
     end subroutine lj_ray_any
 
@@ -199,23 +208,28 @@ contains
         logical, intent(in) :: want_energy
         real(dp), intent(out) :: energy, virial
         energy = 0; virial = 0
-        call reserve_work(self, list)
+        call reserve_work(self, list, atoms%nlocal)
         call kernel(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, want_energy, infinity, &
-                    one, zero, self%work, energy, virial)
+                    one, zero, self%work, self%atom_sums(:, 1), energy, virial)
     end subroutine lj_compute
 
     !> Work rows, one entry per neighbour of the current atom (the longest row of the list, plus a
     !> margin): separations / pair forces (3), per-pair coefficients (up to 8), pair energies and
-    !> virials (2).
-    subroutine reserve_work(self, list)
+    !> virials (2); and the per-atom sums of the nlocal owned atoms (3 columns).
+    subroutine reserve_work(self, list, nlocal)
         class(lj_t), intent(inout) :: self
         type(neighbor_list_t), intent(in) :: list
+        integer, intent(in) :: nlocal
         integer :: nb
         nb = list%max_neighbors + 16
         if (allocated(self%work)) then
             if (size(self%work, 1) < nb .or. size(self%work, 2) < 13) deallocate (self%work)
         end if
         if (.not. allocated(self%work)) allocate (self%work(nb, 13))
+        if (allocated(self%atom_sums)) then
+            if (size(self%atom_sums, 1) < nlocal) deallocate (self%atom_sums)
+        end if
+        if (.not. allocated(self%atom_sums)) allocate (self%atom_sums(max(nlocal + nlocal/4, 1), 3))
     end subroutine reserve_work
 
     !> The half-list kernel. Three passes per atom: the separations to all its neighbours (with
@@ -228,7 +242,7 @@ contains
     !> Columns of work: separations / pair forces 1-3, lj1, lj2, cutsq, lj3, lj4, offset, pair
     !> energy, pair virial; for lj/smooth/linear also 12, 13: rc and fc (fpair - fc/r and the
     !> energy term (r - rc) fc).
-    subroutine kernel(self, nlocal, x, f, type, first, neigh, want_energy, inf, one_, zero_, work, energy, virial)
+    subroutine kernel(self, nlocal, x, f, type, first, neigh, want_energy, inf, one_, zero_, work, atom_e, energy, virial)
         type(lj_t), intent(in) :: self
         integer, intent(in) :: nlocal
         integer, intent(in), contiguous :: type(:), first(:), neigh(:)
@@ -238,8 +252,9 @@ contains
         real(dp), intent(inout) :: energy, virial
         logical, intent(in) :: want_energy
         real(dp), intent(inout), contiguous, target :: work(:, :)
+        real(dp), intent(inout) :: atom_e(:)
         integer :: i, k, j, k0, nn, ti, tj
-        real(dp) :: xi, yi, zi, fxi, fyi, fzi, e, w, far, one, zero, lj1, lj2, lj3, lj4, cutsq, offset
+        real(dp) :: xi, yi, zi, fxi, fyi, fzi, w, far, one, zero, lj1, lj2, lj3, lj4, cutsq, offset, s2(2)
         logical :: one_type, smooth
         real(dp), pointer, contiguous :: fx(:), fy(:), fz(:), c1(:), c2(:), cs(:), c3(:), c4(:), co(:), ep(:), wp(:), &
                                          crc(:), cfc(:)
@@ -251,7 +266,7 @@ contains
         one_type = self%ntypes == 1 .and. .not. smooth
         lj1 = self%lj1(1, 1); lj2 = self%lj2(1, 1); lj3 = self%lj3(1, 1); lj4 = self%lj4(1, 1)
         cutsq = self%cutsq(1, 1); offset = self%offset(1, 1)
-        e = 0; w = 0
+        w = 0
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
             k0 = first(i) - 1
@@ -295,12 +310,12 @@ contains
             end do
             f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
             if (want_energy) then
-                do k = 1, nn
-                    e = e + ep(k); w = w + wp(k)
-                end do
+                call lane_sums2(nn, ep, wp, s2)
+                atom_e(i) = s2(1); w = w + s2(2)
             end if
         end do
-        energy = energy + e; virial = virial + w
+        if (want_energy) energy = energy + compensated_total(atom_e, nlocal)
+        virial = virial + w
     end subroutine kernel
 
     !> One type: pair forces fpair*(dx, dy, dz) in place of the separations, with scalar
@@ -430,19 +445,20 @@ contains
     !> velocities w at s, a branch-free vectorised pass for the four per-pair terms (the cutoff is a
     !> mask: 1/rsq of an "infinite" separation), and a scalar sum.
     subroutine ray_one_type(nlocal, x, v, first, neigh, s, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_, &
-                            dx, dy, dz, wx, wy, wz, pe, pe1, pe2, pv, out)
+                            dx, dy, dz, wx, wy, wz, pe, pe1, pe2, pv, atom_sums, out)
         integer, intent(in) :: nlocal
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in), contiguous :: x(:, :), v(:, :)
         real(dp), intent(in) :: s, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), wx(:), wy(:), wz(:), pe(:), pe1(:), pe2(:), pv(:)
+        real(dp), intent(inout) :: atom_sums(:, :)
         real(dp), intent(out) :: out(4)
         integer :: i, k, j, k0, nn
         real(dp) :: xi, yi, zi, vxi, vyi, vzi, rsq, r2inv, r6inv, fpair, dpsi, d2psi, rho1, inside, &
-                    e, e1, e2, vir, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero
+                    vir, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero, s4(4)
         lj1 = lj1_; lj2 = lj2_; lj3 = lj3_; lj4 = lj4_; cutsq = cutsq_; offset = offset_
         far = inf; one = one_; zero = zero_
-        e = 0; e1 = 0; e2 = 0; vir = 0
+        vir = 0
         do i = 1, nlocal
             vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
             xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
@@ -466,28 +482,78 @@ contains
                 pe2(k) = d2psi*rho1*rho1 + dpsi*2*(wx(k)*wx(k) + wy(k)*wy(k) + wz(k)*wz(k))
                 pv(k) = fpair*rsq
             end do
-            do k = 1, nn
-                e = e + pe(k); e1 = e1 + pe1(k); e2 = e2 + pe2(k); vir = vir + pv(k)
-            end do
+            call lane_sums4(nn, pe, pe1, pe2, pv, s4)
+            atom_sums(i, 1:3) = s4(1:3); vir = vir + s4(4)
         end do
-        out = [e, e1, e2, vir]
+        out = [compensated_total(atom_sums(:, 1), nlocal), compensated_total(atom_sums(:, 2), nlocal), &
+               compensated_total(atom_sums(:, 3), nlocal), vir]
     end subroutine ray_one_type
 
-    subroutine ray_general(self, atoms, first, neigh, s, out)
+    !> s2 = (sum a(1:nn), sum b(1:nn)) over lanes of 8 (vectorised; a fixed order, no reassociation
+    !> left to the compiler), the lanes then added in order, the tail last.
+    pure subroutine lane_sums2(nn, a, b, s2)
+        integer, intent(in) :: nn
+        real(dp), intent(in) :: a(*), b(*)
+        real(dp), intent(out) :: s2(2)
+        real(dp) :: la(8), lb(8)
+        integer :: k, l, nb
+        la = 0; lb = 0
+        nb = (nn/8)*8
+        do k = 1, nb, 8
+            do l = 1, 8
+                la(l) = la(l) + a(k + l - 1); lb(l) = lb(l) + b(k + l - 1)
+            end do
+        end do
+        s2 = [sum(la), sum(lb)]
+        do k = nb + 1, nn
+            s2(1) = s2(1) + a(k); s2(2) = s2(2) + b(k)
+        end do
+    end subroutine lane_sums2
+
+    !> lane_sums2 for four rows.
+    pure subroutine lane_sums4(nn, a, b, c, d, s4)
+        integer, intent(in) :: nn
+        real(dp), intent(in) :: a(*), b(*), c(*), d(*)
+        real(dp), intent(out) :: s4(4)
+        real(dp) :: la(8), lb(8), lc(8), ld(8)
+        integer :: k, l, nb
+        la = 0; lb = 0; lc = 0; ld = 0
+        nb = (nn/8)*8
+        do k = 1, nb, 8
+            do l = 1, 8
+                la(l) = la(l) + a(k + l - 1); lb(l) = lb(l) + b(k + l - 1)
+                lc(l) = lc(l) + c(k + l - 1); ld(l) = ld(l) + d(k + l - 1)
+            end do
+        end do
+        s4 = [sum(la), sum(lb), sum(lc), sum(ld)]
+        do k = nb + 1, nn
+            s4(1) = s4(1) + a(k); s4(2) = s4(2) + b(k); s4(3) = s4(3) + c(k); s4(4) = s4(4) + d(k)
+        end do
+    end subroutine lane_sums4
+
+    !> Ray pass, several types or lj/smooth/linear: pair by pair, summed per atom, the per-atom
+    !> sums of V, V', V'' totalled by a compensated sum.
+    subroutine ray_general(self, atoms, first, neigh, s, atom_sums, out)
         type(lj_t), intent(in) :: self
         type(atoms_t), intent(in) :: atoms
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in) :: s
+        real(dp), intent(inout) :: atom_sums(:, :)
         real(dp), intent(out) :: out(4)
         integer :: i, k, j
-        real(dp) :: acc(4)
+        real(dp) :: acc(4), ai(4)
         out = 0
         do i = 1, atoms%nlocal
+            ai = 0
             do k = first(i), first(i + 1) - 1
                 j = neigh(k)
                 call ray_pair(self, atoms, i, j, s, acc)
-                out = out + acc
+                ai = ai + acc
             end do
+            atom_sums(i, 1:3) = ai(1:3); out(4) = out(4) + ai(4)
+        end do
+        do k = 1, 3
+            out(k) = compensated_total(atom_sums(:, k), atoms%nlocal)
         end do
     end subroutine ray_general
 

@@ -453,9 +453,10 @@ contains
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), wx(:), wy(:), wz(:), pe(:), pe1(:), pe2(:), pv(:)
         real(dp), intent(inout) :: atom_sums(:, :)
         real(dp), intent(out) :: out(4)
-        integer :: i, k, j, k0, nn
+        integer :: i, k, j, k0, nn, nnp
         real(dp) :: xi, yi, zi, vxi, vyi, vzi, rsq, r2inv, r6inv, fpair, dpsi, d2psi, rho1, inside, &
                     vir, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero, s4(4)
+        real(dp), parameter :: pad_far = 1.0e100_dp      ! a separation beyond any cutoff (its square finite)
         lj1 = lj1_; lj2 = lj2_; lj3 = lj3_; lj4 = lj4_; cutsq = cutsq_; offset = offset_
         far = inf; one = one_; zero = zero_
         vir = 0
@@ -470,7 +471,13 @@ contains
                 wx(k) = vxi - v(1, j); wy(k) = vyi - v(2, j); wz(k) = vzi - v(3, j)
                 dx(k) = xi - (x(1, j) + s*v(1, j)); dy(k) = yi - (x(2, j) + s*v(2, j)); dz(k) = zi - (x(3, j) + s*v(3, j))
             end do
-            do k = 1, nn
+            ! the rows padded to a multiple of 8 with far, motionless pairs (all four terms exactly 0):
+            ! the vectorised loops below then have no remainder
+            nnp = ((nn + 7)/8)*8
+            do k = nn + 1, nnp
+                dx(k) = pad_far; dy(k) = 0; dz(k) = 0; wx(k) = 0; wy(k) = 0; wz(k) = 0
+            end do
+            do k = 1, nnp
                 rsq = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
                 inside = merge(one, zero, rsq < cutsq)
                 call lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
@@ -482,7 +489,7 @@ contains
                 pe2(k) = d2psi*rho1*rho1 + dpsi*2*(wx(k)*wx(k) + wy(k)*wy(k) + wz(k)*wz(k))
                 pv(k) = fpair*rsq
             end do
-            call lane_sums4(nn, pe, pe1, pe2, pv, s4)
+            call lane_sums4(nnp, pe, pe1, pe2, pv, s4)
             atom_sums(i, 1:3) = s4(1:3); vir = vir + s4(4)
         end do
         out = [compensated_total(atom_sums(:, 1), nlocal), compensated_total(atom_sums(:, 2), nlocal), &

@@ -47,6 +47,8 @@ module terrace_lj
         !> per owned atom, the sum of its pairs' energy (and, in the ray pass, V' and V'' terms):
         !> totalled by a compensated sum (see terrace_compensated_sum: why V needs it)
         real(dp), allocatable :: atom_sums(:, :)
+        !> ray pass: (x + s v, v) of every atom, owned and ghost, side by side (one gather per neighbour)
+        real(dp), allocatable :: xv(:, :)
     contains
         procedure :: setup => lj_setup
         procedure :: forces => lj_forces
@@ -134,7 +136,8 @@ contains
             call self%ray_all_pairs(atoms, s, out)
         else if (self%ntypes == 1 .and. .not. self%smooth) then
             call reserve_work(self, list, atoms%nlocal)
-            call ray_one_type(atoms%nlocal, atoms%x, atoms%v, list%first, list%neigh, s, self%lj1(1, 1), self%lj2(1, 1), &
+            call ray_positions(self, atoms, s)
+            call ray_one_type(atoms%nlocal, self%xv, list%first, list%neigh, self%lj1(1, 1), self%lj2(1, 1), &
                               self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1), infinity, one, zero, &
                               self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
                               self%work(:, 6), self%work(:, 7), self%work(:, 8), self%work(:, 9), self%work(:, 10), &
@@ -444,12 +447,12 @@ contains
     !> Ray pass, one type: per atom a scalar gather of the pair separations d and relative
     !> velocities w at s, a branch-free vectorised pass for the four per-pair terms (the cutoff is a
     !> mask: 1/rsq of an "infinite" separation), and a scalar sum.
-    subroutine ray_one_type(nlocal, x, v, first, neigh, s, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_, &
+    subroutine ray_one_type(nlocal, xv, first, neigh, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_, &
                             dx, dy, dz, wx, wy, wz, pe, pe1, pe2, pv, atom_sums, out)
         integer, intent(in) :: nlocal
         integer, intent(in), contiguous :: first(:), neigh(:)
-        real(dp), intent(in), contiguous :: x(:, :), v(:, :)
-        real(dp), intent(in) :: s, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_
+        real(dp), intent(in), contiguous :: xv(:, :)
+        real(dp), intent(in) :: lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), wx(:), wy(:), wz(:), pe(:), pe1(:), pe2(:), pv(:)
         real(dp), intent(inout) :: atom_sums(:, :)
         real(dp), intent(out) :: out(4)
@@ -461,15 +464,14 @@ contains
         far = inf; one = one_; zero = zero_
         vir = 0
         do i = 1, nlocal
-            vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
-            xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
+            xi = xv(1, i); yi = xv(2, i); zi = xv(3, i); vxi = xv(4, i); vyi = xv(5, i); vzi = xv(6, i)
             k0 = first(i) - 1
             nn = first(i + 1) - first(i)
             !GCC$ novector
             do k = 1, nn
                 j = neigh(k0 + k)
-                wx(k) = vxi - v(1, j); wy(k) = vyi - v(2, j); wz(k) = vzi - v(3, j)
-                dx(k) = xi - (x(1, j) + s*v(1, j)); dy(k) = yi - (x(2, j) + s*v(2, j)); dz(k) = zi - (x(3, j) + s*v(3, j))
+                dx(k) = xi - xv(1, j); dy(k) = yi - xv(2, j); dz(k) = zi - xv(3, j)
+                wx(k) = vxi - xv(4, j); wy(k) = vyi - xv(5, j); wz(k) = vzi - xv(6, j)
             end do
             ! the rows padded to a multiple of 8 with far, motionless pairs (all four terms exactly 0):
             ! the vectorised loops below then have no remainder
@@ -495,6 +497,23 @@ contains
         out = [compensated_total(atom_sums(:, 1), nlocal), compensated_total(atom_sums(:, 2), nlocal), &
                compensated_total(atom_sums(:, 3), nlocal), vir]
     end subroutine ray_one_type
+
+    !> self%xv(:, i) = (x_i + s v_i, v_i) for every atom, owned and ghost (grown as needed).
+    subroutine ray_positions(self, atoms, s)
+        class(lj_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        real(dp), intent(in) :: s
+        integer :: n, i
+        n = atoms%nall()
+        if (allocated(self%xv)) then
+            if (size(self%xv, 2) < n) deallocate (self%xv)
+        end if
+        if (.not. allocated(self%xv)) allocate (self%xv(6, max(n + n/4, 1)))
+        do i = 1, n
+            self%xv(1:3, i) = atoms%x(:, i) + s*atoms%v(:, i)
+            self%xv(4:6, i) = atoms%v(:, i)
+        end do
+    end subroutine ray_positions
 
     !> s2 = (sum a(1:nn), sum b(1:nn)) over lanes of 8 (vectorised; a fixed order, no reassociation
     !> left to the compiler), the lanes then added in order, the tail last.

@@ -482,13 +482,12 @@ contains
         namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements, lambda, mu, &
             contact_stiffness, contact_distance, contact_model, precision
         character(len=*), parameter :: keys(14) = [character(len=60) :: 'style:a quoted string', &
-            'precision:a quoted string', &
             'lambda:a real number (Pa)', 'mu:a real number (Pa)', &
             'contact_stiffness:a real number (N/m)', 'contact_distance:a real number (m)', &
             'contact_model:a quoted string', &
             'epsilon:a real number (or epsilon(i,j) = ...)', 'sigma:a real number (or sigma(i,j) = ...)', &
             'cutoff:a real number', 'pair_cutoff:pair_cutoff(i,j) = a real number', 'shift:a logical', &
-            'file:a quoted file name', 'elements:quoted element names, one per atom type']
+            'precision:a quoted string', 'file:a quoted file name', 'elements:quoted element names, one per atom type']
         type(item_reader_t) :: it
         style = 'lj'; epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
         file = ''; elements = ''; lambda = unset; mu = unset; contact_stiffness = unset; contact_distance = unset

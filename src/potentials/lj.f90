@@ -15,8 +15,14 @@
 !> V (and V', V'') is summed per atom and the per-atom sums are totalled by a compensated sum,
 !> in the force pass as in the ray pass: the event solver decides on V to a few tens of eps |V|,
 !> finer than the noise of a plain running sum over all pairs (terrace_compensated_sum).
+!>
+!> Mixed precision (&potential precision = 'mixed', one atom type, style 'lj', half list): the
+!> separations are formed in double from the double positions and then rounded to single; the pair
+!> terms (rsq, r^-2, r^-6, fpair, the pair force, energy and virial) are single precision, twice as
+!> many per SIMD vector; the force on each atom, the energy and the virial are summed in double,
+!> and the integrator stays double. The ray pass (energy stepping) is always double.
 module terrace_lj
-    use, intrinsic :: iso_fortran_env, only: int64
+    use, intrinsic :: iso_fortran_env, only: int64, sp => real32
     use terrace_kinds, only: dp
     use terrace_compensated_sum, only: compensated_total
     use terrace_atoms, only: atoms_t
@@ -32,6 +38,8 @@ module terrace_lj
     !> 1 and 0 read through volatiles for the 0/1 factor "inside the cutoff" (GCC would otherwise
     !> split x * merge(1, 0, c) into a branch around x * 0, which it may not if-convert either).
     real(dp), volatile, save :: one = 1, zero = 0
+    !> Pairs per block of the mixed kernel's single-precision pass (16 singles: one AVX-512 vector).
+    integer, parameter :: block = 16
 
     type, extends(potential_t), public :: lj_t
         integer :: ntypes = 1
@@ -49,6 +57,10 @@ module terrace_lj
         real(dp), allocatable :: atom_sums(:, :)
         !> ray pass: (x + s v, v) of every atom, owned and ghost, side by side (one gather per neighbour)
         real(dp), allocatable :: xv(:, :)
+        logical :: mixed = .false.               !< single-precision pair arithmetic (one type, 'lj', half list)
+        real(sp), allocatable :: xs(:, :)        !< mixed: positions as (hi, 0, lo, 0) singles, 8 per atom
+        real(dp), allocatable :: fd(:, :)        !< mixed: per-atom force records (x, y, z, 0)
+        real(sp), allocatable :: rows_sp(:, :), fp_sp(:), ep_sp(:), wp_sp(:)  !< mixed: per-atom rows
     contains
         procedure :: setup => lj_setup
         procedure :: forces => lj_forces
@@ -67,15 +79,20 @@ module terrace_lj
 contains
 
     !> Tables from per-pair epsilon, sigma, cutoff (full symmetric ntypes x ntypes arrays).
-    !> A cutoff of 0 means no cutoff (all pairs).
-    subroutine lj_setup(self, ntypes, eps, sig, cut, shift, smooth)
+    !> A cutoff of 0 means no cutoff (all pairs). mixed (default .false.): the mixed-precision
+    !> half-list kernel; only for one type and style 'lj' (the caller checks; here it is ignored
+    !> otherwise, see mixed_supported).
+    subroutine lj_setup(self, ntypes, eps, sig, cut, shift, smooth, mixed)
         class(lj_t), intent(inout) :: self
         integer, intent(in) :: ntypes
         real(dp), intent(in) :: eps(:, :), sig(:, :), cut(:, :)
         logical, intent(in) :: shift, smooth
+        logical, intent(in), optional :: mixed
         integer :: i, j
         real(dp) :: sr6, rc
         self%ntypes = ntypes
+        self%mixed = .false.
+        if (present(mixed)) self%mixed = mixed .and. mixed_supported(ntypes, smooth)
         self%smooth = smooth
         self%shift = shift
         self%eps11 = eps(1, 1); self%sig11 = sig(1, 1)
@@ -108,6 +125,31 @@ contains
         end do
         self%cutmax = maxval(cut(1:ntypes, 1:ntypes))
     end subroutine lj_setup
+
+    !> The mixed kernel's arrays: staged positions and force records for nall atoms (grown by half
+    !> when they grow), rows for the longest list row rounded up to whole blocks.
+    subroutine reserve_mixed(self, list, nall)
+        class(lj_t), intent(inout) :: self
+        type(neighbor_list_t), intent(in) :: list
+        integer, intent(in) :: nall
+        integer :: nb
+        nb = (list%max_neighbors/block + 1)*block + 1
+        if (allocated(self%xs)) then
+            if (size(self%xs, 2) < nall) deallocate (self%xs, self%fd)
+        end if
+        if (.not. allocated(self%xs)) allocate (self%xs(8, nall + nall/2 + 16), self%fd(4, nall + nall/2 + 16))
+        if (allocated(self%rows_sp)) then
+            if (size(self%rows_sp, 2) < nb) deallocate (self%rows_sp, self%fp_sp, self%ep_sp, self%wp_sp)
+        end if
+        if (.not. allocated(self%rows_sp)) allocate (self%rows_sp(4, nb), self%fp_sp(nb), self%ep_sp(nb), self%wp_sp(nb))
+    end subroutine reserve_mixed
+
+    !> The mixed-precision kernel exists for one atom type and style 'lj' (shifted or not).
+    pure logical function mixed_supported(ntypes, smooth) result(ok)
+        integer, intent(in) :: ntypes
+        logical, intent(in) :: smooth
+        ok = ntypes == 1 .and. .not. smooth
+    end function mixed_supported
 
     !> The potential interface: the half list, or all pairs when the plan chose no list.
     subroutine lj_forces(self, atoms, list, halo, want_energy, energy, virial)
@@ -162,6 +204,7 @@ contains
             trim(merge(' (shifted)', '          ', self%shift .and. .not. self%smooth)), ', epsilon(1,1) = ', self%eps11, &
             ', sigma(1,1) = ', self%sig11
         text = trim(s)//'; no density pass (pair potential)'
+        if (self%mixed) text = text//'; mixed precision (single-precision pairs, double sums)'
     end function lj_describe
 
     pure logical function lj_supports_all_pairs(self)
@@ -211,6 +254,15 @@ contains
         logical, intent(in) :: want_energy
         real(dp), intent(out) :: energy, virial
         energy = 0; virial = 0
+        if (self%mixed) then
+            call reserve_mixed(self, list, atoms%nlocal + atoms%nghost)
+            call kernel_mixed(atoms%nlocal, atoms%nlocal + atoms%nghost, atoms%x, atoms%f, list%first, list%neigh, &
+                              want_energy, real(self%lj1(1, 1), sp), real(self%lj2(1, 1), sp), &
+                              real(self%lj3(1, 1), sp), real(self%lj4(1, 1), sp), real(self%cutsq(1, 1), sp), &
+                              real(self%offset(1, 1), sp), size(self%ep_sp), self%xs, self%fd, &
+                              self%rows_sp, self%fp_sp, self%ep_sp, self%wp_sp, energy, virial)
+            return
+        end if
         call reserve_work(self, list, atoms%nlocal)
         call kernel(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, want_energy, infinity, &
                     one, zero, self%work, self%atom_sums(:, 1), energy, virial)
@@ -320,6 +372,130 @@ contains
         if (want_energy) energy = energy + compensated_total(atom_e, nlocal)
         virial = virial + w
     end subroutine kernel
+
+    !> The mixed-precision half-list kernel (one type). Each call first stages every position
+    !> (owned and ghost) as two singles, hi = x rounded to single and lo = x - hi rounded to single,
+    !> in one 8-single record (hi x, y, z, 0, lo x, y, z, 0). A separation is then
+    !> (hi_i - hi_j) + (lo_i - lo_j): the first difference is exact or off by half an ulp of the
+    !> separation itself, the second carries the bits that single positions lose, so the separation
+    !> is the double one to about 1e-7 relative, whatever the atoms' distance from the origin. Per
+    !> atom i: the separations to its neighbours are gathered as 4-single rows (two 16-byte loads per
+    !> neighbour); the pair terms are computed in single precision over blocks of 16 pairs (one
+    !> AVX-512 vector; the rows are padded with separations beyond the cutoff); the pair forces are
+    !> converted to double and subtracted from j's 4-double force record (one 32-byte vector) and
+    !> summed into i's, and the pair energies and virials are summed in double. The records are added
+    !> to f at the end.
+    subroutine kernel_mixed(nlocal, nall, x, f, first, neigh, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, nrow, &
+                            xs, fd, rows, fp, ep, wp, energy, virial)
+        integer, intent(in) :: nlocal, nall, nrow
+        integer, intent(in), contiguous :: first(:), neigh(:)
+        real(dp), intent(in), contiguous :: x(:, :)
+        real(dp), intent(inout), contiguous :: f(:, :)
+        logical, intent(in) :: want_energy
+        real(sp), intent(in) :: lj1, lj2, lj3, lj4, cutsq, offset
+        real(sp), intent(inout) :: xs(8, nall), rows(4, nrow), fp(nrow), ep(nrow), wp(nrow)
+        real(dp), intent(inout) :: fd(4, nall)
+        real(dp), intent(inout) :: energy, virial
+        integer :: i, k, j, k0, nn, nblocks, c
+        real(dp) :: e, w, fi(4)
+        real(sp) :: hi(4), lo(4), beyond
+        beyond = 2*sqrt(cutsq) + 1
+        do i = 1, nall
+            do c = 1, 3
+                xs(c, i) = real(x(c, i), sp)
+                xs(4 + c, i) = real(x(c, i) - real(xs(c, i), dp), sp)
+            end do
+            xs(4, i) = 0; xs(8, i) = 0
+            fd(:, i) = 0
+        end do
+        e = 0; w = 0
+        do i = 1, nlocal
+            hi = xs(1:4, i); lo = xs(5:8, i)
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            !GCC$ novector
+            do k = 1, nn
+                j = neigh(k0 + k)
+                rows(:, k) = (hi - xs(1:4, j)) + (lo - xs(5:8, j))
+            end do
+            nblocks = (nn + block - 1)/block
+            do k = nn + 1, nblocks*block + 1
+                rows(1, k) = beyond; rows(2, k) = 0; rows(3, k) = 0; rows(4, k) = 0
+            end do
+            call pairs_mixed(nblocks*block + 1, rows, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, fp, ep, wp)
+            call scatter_mixed(nn, neigh(k0 + 1:k0 + nn), rows, fp, fd, fi)
+            fd(:, i) = fd(:, i) + fi
+            if (want_energy) then
+                do k = 1, nn
+                    e = e + real(ep(k), dp); w = w + real(wp(k), dp)
+                end do
+            end if
+        end do
+        do i = 1, nall
+            f(1, i) = f(1, i) + fd(1, i); f(2, i) = f(2, i) + fd(2, i); f(3, i) = f(3, i) + fd(3, i)
+        end do
+        energy = energy + e; virial = virial + w
+    end subroutine kernel_mixed
+
+    !> The mixed kernel's scatter: pair force k = rows(:, k) fp(k), converted to double, is subtracted
+    !> from the force record of neighbour nbrs(k) and summed into fi (one 32-byte vector each).
+    pure subroutine scatter_mixed(nn, nbrs, rows, fp, fd, fi)
+        integer, intent(in) :: nn, nbrs(nn)
+        real(sp), intent(in) :: rows(4, *), fp(*)
+        real(dp), intent(inout) :: fd(4, *)
+        real(dp), intent(out) :: fi(4)
+        integer :: k, j
+        real(dp) :: fk(4), acc(4), fj(4)
+        acc = 0
+        !GCC$ novector
+        do k = 1, nn
+            j = nbrs(k)
+            fk = real(rows(:, k)*fp(k), dp)
+            fj = fd(:, j)             ! through a local: GCC then vectorises the update
+            fd(:, j) = fj - fk
+            acc = acc + fk
+        end do
+        fi = acc
+    end subroutine scatter_mixed
+
+    !> one_type_pairs in single precision over n pairs (16 m + 1: GCC keeps the last pair of these
+    !> stride-4 rows for a scalar remainder, so one padding pair more makes the 16-wide loop cover all
+    !> the real ones; without it up to 16 pairs per atom ran in the 8-wide and scalar remainders
+    !> and the mixed kernel was slower than the double one): the separations in rows
+    !> (x, y, z, 0 per pair) are replaced by the pair forces (x, y, z, 0); with want_energy also the
+    !> pair energies ep and virials wp. The cutoff is the factor inside = 1/2 + sign(1/2, rc^2 - r^2)
+    !> (1 inside, 0 beyond; GCC vectorises these stride-4 rows with sign, not with merge).
+    pure subroutine pairs_mixed(n, rows, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, fp, ep, wp)
+        integer, intent(in) :: n
+        real(sp), intent(in) :: rows(4, n)
+        real(sp), intent(out) :: fp(n), ep(n), wp(n)
+        logical, intent(in) :: want_energy
+        real(sp), intent(in) :: lj1, lj2, lj3, lj4, cutsq, offset
+        integer :: k
+        real(sp) :: dx, dy, dz, rsq, r2inv, r6inv, fpair, inside
+        if (want_energy) then
+            do k = 1, n
+                dx = rows(1, k); dy = rows(2, k); dz = rows(3, k)
+                rsq = dx*dx + dy*dy + dz*dz
+                inside = 0.5_sp + sign(0.5_sp, cutsq - rsq)
+                r2inv = inside/rsq
+                r6inv = r2inv*r2inv*r2inv
+                fpair = r6inv*(lj1*r6inv - lj2)*r2inv
+                ep(k) = r6inv*(lj3*r6inv - lj4) - offset*inside
+                wp(k) = rsq*fpair
+                fp(k) = fpair
+            end do
+        else
+            do k = 1, n
+                dx = rows(1, k); dy = rows(2, k); dz = rows(3, k)
+                rsq = dx*dx + dy*dy + dz*dz
+                r2inv = (0.5_sp + sign(0.5_sp, cutsq - rsq))/rsq
+                r6inv = r2inv*r2inv*r2inv
+                fpair = r6inv*(lj1*r6inv - lj2)*r2inv
+                fp(k) = fpair
+            end do
+        end if
+    end subroutine pairs_mixed
 
     !> One type: pair forces fpair*(dx, dy, dz) in place of the separations, with scalar
     !> coefficients; when want_energy, also the pair energies ep and virials wp.

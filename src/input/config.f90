@@ -4,7 +4,7 @@
 !>   &run        units, dimension, n_steps, run_time, seed
 !>   &system     read_data | lattice (+ lattice_constant or density, cells) | atoms_file (+ box_lo,
 !>               box_hi), periodic, mass, temperature
-!>   &potential  style, epsilon, sigma, cutoff, pair_cutoff, shift
+!>   &potential  style, epsilon, sigma, cutoff, pair_cutoff, shift, precision
 !>   &integrator style, dt
 !>   &neighbor   skin, list
 !>   &output     thermo_every, thermo_interval, thermo_file, forces_file
@@ -68,6 +68,7 @@ module terrace_config
         real(dp) :: cutoff = -1.0_dp                !< 0: no cutoff (non-periodic scenes only)
         real(dp) :: pair_cutoff(max_types, max_types) = unset
         logical :: shift = .false.
+        character(len=8) :: precision = 'double'    !< LJ pair arithmetic: 'double' or 'mixed' (single pairs, double sums)
         ! &integrator
         character(len=24) :: integrator = 'velocity_verlet'
         real(dp) :: dt = -1.0_dp
@@ -477,19 +478,20 @@ contains
         logical :: shift
         real(dp) :: lambda, mu, contact_stiffness, contact_distance
         character(len=16) :: contact_model
+        character(len=8) :: precision
         namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements, lambda, mu, &
-            contact_stiffness, contact_distance, contact_model
-        character(len=*), parameter :: keys(13) = [character(len=60) :: 'style:a quoted string', &
+            contact_stiffness, contact_distance, contact_model, precision
+        character(len=*), parameter :: keys(14) = [character(len=60) :: 'style:a quoted string', &
             'lambda:a real number (Pa)', 'mu:a real number (Pa)', &
             'contact_stiffness:a real number (N/m)', 'contact_distance:a real number (m)', &
             'contact_model:a quoted string', &
             'epsilon:a real number (or epsilon(i,j) = ...)', 'sigma:a real number (or sigma(i,j) = ...)', &
             'cutoff:a real number', 'pair_cutoff:pair_cutoff(i,j) = a real number', 'shift:a logical', &
-            'file:a quoted file name', 'elements:quoted element names, one per atom type']
+            'precision:a quoted string', 'file:a quoted file name', 'elements:quoted element names, one per atom type']
         type(item_reader_t) :: it
         style = 'lj'; epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
         file = ''; elements = ''; lambda = unset; mu = unset; contact_stiffness = unset; contact_distance = unset
-        contact_model = 'node_face'
+        contact_model = 'node_face'; precision = 'double'
         do while (it%next(cfg, 'potential', keys))
             read (it%buf, nml=potential, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
@@ -500,6 +502,7 @@ contains
         cfg%lambda = lambda; cfg%mu = mu
         cfg%contact_stiffness = contact_stiffness; cfg%contact_distance = contact_distance
         cfg%contact_model = lower(contact_model)
+        cfg%precision = lower(precision)
     end subroutine read_potential
 
     subroutine read_integrator(cfg)
@@ -730,6 +733,19 @@ contains
             if (cfg%nml%find('potential', 'contact_model') > 0) call stop_all(cfg%where('potential', &
                 'contact_model')//": contact is between the bodies of a mesh (style = 'neohookean')")
         end if
+        select case (cfg%precision)
+        case ('double')
+        case ('mixed')
+            if (cfg%integrator == 'energy_stepping') call stop_all(cfg%where('potential', 'precision')// &
+                " = 'mixed': not available with energy stepping, whose root finding needs double-precision "// &
+                "energies and forces (allowed with energy stepping: 'double')")
+            if (cfg%potential /= 'lj') call stop_all(cfg%where('potential', 'precision')//" = 'mixed': only for "// &
+                "style = 'lj' (the one-type Lennard-Jones kernel; allowed for style = '"//trim(cfg%potential)// &
+                "': 'double')")
+        case default
+            call stop_all(cfg%where('potential', 'precision')//" = '"//trim(cfg%precision)// &
+                          "': unknown precision (allowed: 'double', 'mixed')")
+        end select
         select case (cfg%potential)
         case ('lj', 'lj/smooth/linear')
         case ('eam', 'eam/alloy', 'eam/fs')

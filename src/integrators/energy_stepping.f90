@@ -35,6 +35,7 @@ module terrace_energy_stepping
     use terrace_kinds, only: dp, i8, pi
     use terrace_text, only: fixed
     use terrace_engine, only: engine_t
+    use terrace_atoms, only: atoms_t
     use terrace_schedule, only: schedule_t
     use terrace_event_solver, only: ray_t, event_solver_t, crossing_t, level_upper, level_lower
     use terrace_thermo, only: thermo_writer_t
@@ -131,41 +132,71 @@ contains
         real(dp) :: acc(3), g2, m
         real(dp), allocatable, save :: part(:, :)   ! per-atom terms for the exact sums, kept between events
         integer :: i
-        logical :: exact
         ! a potential that sums exactly (a mesh): these sums too, so that the kicks are the same
         ! bits on any number of ranks
-        exact = eng%pot%sums_global()
-        if (exact) then
+        if (eng%pot%sums_global()) then
             if (allocated(part)) then
                 if (size(part, 1) < eng%atoms%nlocal) deallocate (part)
             end if
             if (.not. allocated(part)) allocate (part(max(eng%atoms%nlocal + eng%atoms%nlocal/4, 1), 3))
-        end if
-        acc = 0
-        do i = 1, eng%atoms%nlocal
-            if (eng%atoms%per_atom_mass) then
-                m = eng%atoms%rmass(i)
-            else
-                m = eng%atoms%mass(eng%atoms%type(i))
-            end if
-            g2 = sum(eng%atoms%f(:, i)**2)
-            if (exact) then
+            do i = 1, eng%atoms%nlocal
+                if (eng%atoms%per_atom_mass) then
+                    m = eng%atoms%rmass(i)
+                else
+                    m = eng%atoms%mass(eng%atoms%type(i))
+                end if
+                g2 = sum(eng%atoms%f(:, i)**2)
                 part(i, :) = [g2*sum(eng%atoms%v(:, i)**2), g2/m, -sum(eng%atoms%f(:, i)*eng%atoms%v(:, i))]
-            else
-                acc(1) = acc(1) + g2*sum(eng%atoms%v(:, i)**2)
-                acc(2) = acc(2) + g2/m
-                acc(3) = acc(3) - sum(eng%atoms%f(:, i)*eng%atoms%v(:, i))
-            end if
-        end do
-        if (exact) then
+            end do
             call exact_sum_all(part, eng%atoms%nlocal, eng%natoms, acc, .true.)
         else
+            call plain_gradient_sums(eng%atoms, acc)
             call sum_all(acc)
         end if
         sigma2 = acc(1)/eng%box%dimension
         a = eng%cfg%units%mvv2e*acc(2)
         b = eng%cfg%units%mvv2e*acc(3)
     end subroutine gradient_sums
+
+    !> This rank's (sum |g_i|^2 |v_i|^2, sum |g_i|^2/m_i, sum g_i.v_i), g = -f, over the owned atoms:
+    !> eight interleaved partial sums (vectorised), added in a fixed order.
+    pure subroutine plain_gradient_sums(atoms, acc)
+        type(atoms_t), intent(in) :: atoms
+        real(dp), intent(out) :: acc(3)
+        real(dp) :: s1(8), s2(8), s3(8), m(8), g2
+        integer :: i, l, nb, n
+        n = atoms%nlocal
+        s1 = 0; s2 = 0; s3 = 0
+        nb = (n/8)*8
+        associate (f => atoms%f, v => atoms%v)
+            do i = 1, nb, 8
+                if (atoms%per_atom_mass) then
+                    m = atoms%rmass(i:i + 7)
+                else
+                    m = atoms%mass(atoms%type(i:i + 7))
+                end if
+                do l = 1, 8
+                    g2 = f(1, i + l - 1)**2 + f(2, i + l - 1)**2 + f(3, i + l - 1)**2
+                    s1(l) = s1(l) + g2*(v(1, i + l - 1)**2 + v(2, i + l - 1)**2 + v(3, i + l - 1)**2)
+                    s2(l) = s2(l) + g2/m(l)
+                    s3(l) = s3(l) - (f(1, i + l - 1)*v(1, i + l - 1) + f(2, i + l - 1)*v(2, i + l - 1) + &
+                                     f(3, i + l - 1)*v(3, i + l - 1))
+                end do
+            end do
+            acc = [sum(s1), sum(s2), sum(s3)]
+            do i = nb + 1, n
+                if (atoms%per_atom_mass) then
+                    m(1) = atoms%rmass(i)
+                else
+                    m(1) = atoms%mass(atoms%type(i))
+                end if
+                g2 = f(1, i)**2 + f(2, i)**2 + f(3, i)**2
+                acc(1) = acc(1) + g2*(v(1, i)**2 + v(2, i)**2 + v(3, i)**2)
+                acc(2) = acc(2) + g2/m(1)
+                acc(3) = acc(3) - (f(1, i)*v(1, i) + f(2, i)*v(2, i) + f(3, i)*v(3, i))
+            end do
+        end associate
+    end subroutine plain_gradient_sums
 
     !> The variance of dV/dt used to predict the level-crossing rate: that of the initial state,
     !> sum |g_i|^2 |v_i|^2 / d, or, when larger, the equilibrium estimate k_B T v.H.v / 4 from the

@@ -457,29 +457,39 @@ contains
     real(dp) function nl_expiry(self, atoms) result(t)
         class(neighbor_list_t), intent(in) :: self
         type(atoms_t), intent(in) :: atoms
-        integer :: i
-        real(dp) :: r2, a, b, c, d(3), disc
-        t = huge(1.0_dp)
+        integer :: i, l, nb
+        real(dp) :: r2, tl(8)
         r2 = (0.5_dp*self%skin)**2
-        do i = 1, atoms%nlocal
-            d = atoms%x(:, i) - self%xhold(:, i)
-            a = sum(atoms%v(:, i)**2)
-            if (a <= 0) cycle
-            b = sum(d*atoms%v(:, i))
-            c = sum(d*d) - r2
-            if (c >= 0) then
-                t = 0
-                return
-            end if
-            disc = b*b - a*c
-            ! positive root of a s^2 + 2 b s + c = 0 (c < 0), without cancellation
-            if (b >= 0) then
-                t = min(t, -c/(b + sqrt(disc)))
-            else
-                t = min(t, (-b + sqrt(disc))/a)
-            end if
+        ! eight interleaved minima (vectorised, branch-free), then the tail
+        tl = huge(1.0_dp)
+        nb = (atoms%nlocal/8)*8
+        do i = 1, nb, 8
+            do l = 1, 8
+                tl(l) = min(tl(l), exit_time(atoms%x(:, i + l - 1), self%xhold(:, i + l - 1), atoms%v(:, i + l - 1), r2))
+            end do
+        end do
+        t = minval(tl)
+        do i = nb + 1, atoms%nlocal
+            t = min(t, exit_time(atoms%x(:, i), self%xhold(:, i), atoms%v(:, i), r2))
         end do
     end function nl_expiry
+
+    !> The time at which an atom at x moving with v reaches the distance sqrt(r2) from xhold: the
+    !> positive root of a s^2 + 2 b s + c = 0 (a = |v|^2, b = d.v, c = |d|^2 - r2, d = x - xhold),
+    !> without cancellation; 0 when it is there already, huge when it does not move. Branch-free.
+    pure real(dp) function exit_time(x, xhold, v, r2) result(t)
+        real(dp), intent(in) :: x(3), xhold(3), v(3), r2
+        real(dp) :: d(3), a, b, c, sq, num, den
+        d = x - xhold
+        a = v(1)*v(1) + v(2)*v(2) + v(3)*v(3)
+        b = d(1)*v(1) + d(2)*v(2) + d(3)*v(3)
+        c = d(1)*d(1) + d(2)*d(2) + d(3)*d(3) - r2
+        sq = sqrt(max(b*b - a*c, 0.0_dp))
+        num = merge(-c, sq - b, b >= 0)
+        den = merge(b + sq, a, b >= 0)
+        t = merge(num/merge(den, 1.0_dp, den > 0), 0.0_dp, c < 0)
+        t = merge(t, huge(1.0_dp), a > 0)       ! (an atom at rest never expires the list)
+    end function exit_time
 
     !> Any of the n atoms displaced by more than sqrt(limit) from xhold: counted over all atoms
     !> in blocks (branch-free, vectorised), stopping after the first block that has one.

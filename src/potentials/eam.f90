@@ -39,9 +39,13 @@
 !>   continued linearly, F(rhomax) + F'(rhomax) (rho - rhomax) (the force uses the held slope);
 !>   `rho_outside` records that this happened (see `warning`).
 !> - Pairs count when r^2 < cutmax^2.
+!> - V is summed per atom (pair energies of its pairs; its embedding energy) and the per-atom sums
+!>   are added with a compensated sum, in the force and in the ray pass: the energy-stepping
+!>   solver decides on V to a few tens of eps |V| (terrace_compensated_sum says why).
 module terrace_eam
     use, intrinsic :: iso_c_binding, only: c_loc, c_intptr_t
     use terrace_kinds, only: dp
+    use terrace_compensated_sum, only: comp_add
     use terrace_atoms, only: atoms_t
     use terrace_grow, only: reserve
     use terrace_neighbor_list, only: neighbor_list_t
@@ -707,16 +711,16 @@ contains
         real(dp), intent(inout) :: out(4)
         integer :: i, j, k, m, ti, tj, a, b, c
         real(dp) :: xi, yi, zi, vxi, vyi, vzi, dx, dy, dz, wx, wy, wz, rsq, r, recip, rp, rpp, p, top, cutsq, rdr, &
-                    z, zp, zpp, phi, phip, phipp, f0, f1, f2, e, e1, e2, w, a1, a2, a3, a4
+                    z, zp, zpp, phi, phip, phipp, f0, f1, f2, e, e1, e2, w, a1, a2, a3, a4, ei, ce
         top = self%nr - 1; cutsq = self%cutsq; rdr = self%rdr
-        e = 0; e1 = 0; e2 = 0; w = 0
+        e = 0; e1 = 0; e2 = 0; w = 0; ce = 0
         acc(:, 1:nlocal) = 0
         associate (sr => self%rspl, sz => self%zspl)
         do i = 1, nlocal
             ti = type(i)
             vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
             xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
-            a1 = 0; a2 = 0; a3 = 0; a4 = 0
+            a1 = 0; a2 = 0; a3 = 0; a4 = 0; ei = 0
             do k = first(i), first(i + 1) - 1
                 j = neigh(k)
                 dx = xi - (x(1, j) + s*v(1, j)); dy = yi - (x(2, j) + s*v(2, j)); dz = zi - (x(3, j) + s*v(3, j))
@@ -737,7 +741,7 @@ contains
                 phi = z*recip
                 phip = (zp - phi)*recip
                 phipp = (zpp - 2*phip)*recip
-                e = e + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rpp; w = w - r*phip
+                ei = ei + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rpp; w = w - r*phip
                 a = self%t2rho(tj, ti)      ! density at i from j
                 f0 = ((sr(4, m, a)*p + sr(5, m, a))*p + sr(6, m, a))*p + sr(7, m, a)
                 f1 = (sr(1, m, a)*p + sr(2, m, a))*p + sr(3, m, a)
@@ -774,9 +778,10 @@ contains
             end do
             acc(1, i) = acc(1, i) + a1; acc(2, i) = acc(2, i) + a2
             acc(3, i) = acc(3, i) + a3; acc(4, i) = acc(4, i) + a4
+            call comp_add(e, ce, ei)
         end do
         end associate
-        out = out + [e, e1, e2, w]
+        out = out + [e + ce, e1, e2, w]
     end subroutine ray_pairs
 
     !> ray_pairs for one type, staged like force_one: per atom, the separations and relative
@@ -792,10 +797,10 @@ contains
         real(dp), intent(inout) :: out(4)
         integer :: i, j, k, m, nin, a, c
         real(dp) :: xi, yi, zi, vxi, vyi, vzi, p, top, cutsq, rdr, r, rinv, rp, z, zp, zpp, phi, phip, phipp, &
-                    f0, f1, f2, e, e1, e2, w, a1, a2, a3, a4, q1, q2
+                    f0, f1, f2, e, e1, e2, w, a1, a2, a3, a4, q1, q2, ei, ce
         top = self%nr - 1; cutsq = self%cutsq; rdr = self%rdr
         a = self%t2rho(1, 1); c = self%t2z(1, 1)
-        e = 0; e1 = 0; e2 = 0; w = 0
+        e = 0; e1 = 0; e2 = 0; w = 0; ce = 0
         acc(:, 1:nlocal) = 0
         associate (sr => self%rspl(:, :, a), sz => self%zspl(:, :, c), dx => self%work(:, 1), dy => self%work(:, 2), &
                    dz => self%work(:, 3), wx => self%work(:, 4), wy => self%work(:, 5), wz => self%work(:, 6), &
@@ -804,7 +809,7 @@ contains
         do i = 1, nlocal
             vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
             xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
-            a1 = 0; a2 = 0; a3 = 0; a4 = 0
+            a1 = 0; a2 = 0; a3 = 0; a4 = 0; ei = 0
             ! the half list (pair terms; densities of i and of owned j), then the complement (density of i)
             call stage(neigh, first(i) - 1, first(i + 1) - first(i))
             do k = 1, nin
@@ -815,7 +820,7 @@ contains
                 phi = z*rinv
                 phip = (zp - phi)*rinv
                 phipp = (zpp - 2*phip)*rinv
-                e = e + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rppv(k); w = w - r*phip
+                ei = ei + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rppv(k); w = w - r*phip
                 f0 = ((sr(4, m)*p + sr(5, m))*p + sr(6, m))*p + sr(7, m)
                 f1 = (sr(1, m)*p + sr(2, m))*p + sr(3, m)
                 f2 = (2*sr(1, m)*p + sr(2, m))*rdr
@@ -838,9 +843,10 @@ contains
             end do
             acc(1, i) = acc(1, i) + a1; acc(2, i) = acc(2, i) + a2
             acc(3, i) = acc(3, i) + a3; acc(4, i) = acc(4, i) + a4
+            call comp_add(e, ce, ei)
         end do
         end associate
-        out = out + [e, e1, e2, w]
+        out = out + [e + ce, e1, e2, w]
     contains
         !> Rows for the nn neighbours list(k0+1 : k0+nn) of atom i: the nin inside the cutoff, with
         !> r (rv), 1/r (rr), r' (rpv), r'' (rppv), knot (mm), offset (pp) and list position (kk).
@@ -899,9 +905,9 @@ contains
         real(dp), intent(inout) :: out(4)
         real(dp), intent(out) :: lo, hi
         integer :: i, m, k
-        real(dp) :: p, top, rho, f0, f1, f2, e, e1, e2, w
+        real(dp) :: p, top, rho, f0, f1, f2, e, e1, e2, w, ce
         top = nrho - 1
-        e = 0; e1 = 0; e2 = 0; w = 0
+        e = 0; e1 = 0; e2 = 0; w = 0; ce = 0
         lo = huge(1.0_dp); hi = -huge(1.0_dp)
         do i = 1, n
             k = t2f(type(i))
@@ -919,13 +925,13 @@ contains
             f1 = (fspl(1, m, k)*p + fspl(2, m, k))*p + fspl(3, m, k)
             f0 = ((fspl(4, m, k)*p + fspl(5, m, k))*p + fspl(6, m, k))*p + fspl(7, m, k)
             if (rho > rhomax) f0 = f0 + f1*(rho - rhomax)
-            e = e + f0
+            call comp_add(e, ce, f0)
             e1 = e1 + f1*acc(2, i)
             e2 = e2 + f2*acc(2, i)**2 + f1*acc(3, i)
             w = w - f1*acc(4, i)
             lo = min(lo, rho); hi = max(hi, rho)
         end do
-        out = out + [e, e1, e2, w]
+        out = out + [e + ce, e1, e2, w]
     end subroutine ray_embed
 
     !> Work rows for the one-type kernels: as long as the longest row of the list (counted here from
@@ -1191,9 +1197,9 @@ contains
         real(dp), intent(inout) :: energy
         real(dp), intent(out) :: lo, hi
         integer :: i, m, k
-        real(dp) :: p, top, r, e, phi
+        real(dp) :: p, top, r, e, phi, ce
         top = nrho - 1
-        e = 0
+        e = 0; ce = 0
         lo = huge(1.0_dp); hi = -huge(1.0_dp)
         do i = 1, n
             k = t2f(type(i))
@@ -1205,11 +1211,11 @@ contains
             if (want_energy) then
                 phi = ((fspl(4, m, k)*p + fspl(5, m, k))*p + fspl(6, m, k))*p + fspl(7, m, k)
                 if (r > rhomax) phi = phi + fp(i)*(r - rhomax)
-                e = e + phi
+                call comp_add(e, ce, phi)
             end if
             lo = min(lo, r); hi = max(hi, r)
         end do
-        energy = energy + e
+        energy = energy + (e + ce)
     end subroutine embed_kernel
 
     !> One type: psi'(r) = (fp_i + fp_j) rho'(r) + phi'(r), phi = z/r, phi' = (z' - phi)/r, over the
@@ -1230,9 +1236,9 @@ contains
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:)
         integer, intent(inout), contiguous :: mm(:)
         integer :: i, i0, i1, j, k, m, c, c0, n
-        real(dp) :: xi, yi, zi, fpi, p, r, rp, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top
+        real(dp) :: xi, yi, zi, fpi, p, r, rp, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top, ei, ce
         top = nr - 1
-        e = 0; w = 0
+        e = 0; w = 0; ce = 0
         i0 = 1
         do while (i0 <= nlocal)
             ! the block: atoms i0..i1, pairs c0+1..c0+n (at least one atom; the rows fit: reserve_work)
@@ -1282,9 +1288,15 @@ contains
                 dx(k) = dx(k)*fpair; dy(k) = dy(k)*fpair; dz(k) = dz(k)*fpair
             end do
             if (want_energy) then
-                do k = 1, n
-                    e = e + ph(k)
-                    w = w + rr(k)*rinv(k)
+                ! pair energies summed per atom, the atoms' sums compensated (see the top)
+                do i = i0, i1
+                    ei = 0
+                    do c = cfirst(i), cfirst(i + 1) - 1
+                        k = c - c0
+                        ei = ei + ph(k)
+                        w = w + rr(k)*rinv(k)
+                    end do
+                    call comp_add(e, ce, ei)
                 end do
             end if
             do i = i0, i1
@@ -1300,7 +1312,7 @@ contains
             end do
             i0 = i1 + 1
         end do
-        energy = energy + e; virial = virial + w
+        energy = energy + (e + ce); virial = virial + w
     end subroutine force_one
 
     !> Several types: psi'(r) = fp_i rho_ba'(r) + fp_j rho_ab'(r) + phi_ab'(r) (a = type i, b = type
@@ -1319,9 +1331,9 @@ contains
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:), fi(:)
         integer, intent(inout), contiguous :: mm(:), tt(:)
         integer :: i, i0, i1, j, k, m, c, c0, n, ti
-        real(dp) :: xi, yi, zi, fpi, p, r, rjp, rip, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top
+        real(dp) :: xi, yi, zi, fpi, p, r, rjp, rip, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top, ei, ce
         top = nr - 1
-        e = 0; w = 0
+        e = 0; w = 0; ce = 0
         i0 = 1
         do while (i0 <= nlocal)
             c0 = cfirst(i0) - 1
@@ -1373,9 +1385,15 @@ contains
                 dx(k) = dx(k)*fpair; dy(k) = dy(k)*fpair; dz(k) = dz(k)*fpair
             end do
             if (want_energy) then
-                do k = 1, n
-                    e = e + ph(k)
-                    w = w + rr(k)*rinv(k)
+                ! pair energies summed per atom, the atoms' sums compensated (see the top)
+                do i = i0, i1
+                    ei = 0
+                    do c = cfirst(i), cfirst(i + 1) - 1
+                        k = c - c0
+                        ei = ei + ph(k)
+                        w = w + rr(k)*rinv(k)
+                    end do
+                    call comp_add(e, ce, ei)
                 end do
             end if
             do i = i0, i1
@@ -1391,7 +1409,7 @@ contains
             end do
             i0 = i1 + 1
         end do
-        energy = energy + e; virial = virial + w
+        energy = energy + (e + ce); virial = virial + w
     end subroutine force_types
 
 end module terrace_eam

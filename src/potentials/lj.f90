@@ -12,9 +12,19 @@
 !> rho = |d|^2 (rho' = 2 d.w, rho'' = 2 |w|^2), each pair adds psi(rho), psi' rho' and
 !> psi'' rho'^2 + psi' rho'' to f, f', f'', where psi'(rho) = -fpair/2 and
 !> psi''(rho) = (7 lj1 rho^-8 - 4 lj2 rho^-5)/2 (+ the smooth term (r - rc) fc: fc/(2r), -fc/(4r^3)).
+!> V (and V', V'') is summed per atom and the per-atom sums are totalled by a compensated sum,
+!> in the force pass as in the ray pass: the event solver decides on V to a few tens of eps |V|,
+!> finer than the noise of a plain running sum over all pairs (terrace_compensated_sum).
+!>
+!> Mixed precision (&potential precision = 'mixed', one atom type, style 'lj', half list): the
+!> separations are formed in double from the double positions and then rounded to single; the pair
+!> terms (rsq, r^-2, r^-6, fpair, the pair force, energy and virial) are single precision, twice as
+!> many per SIMD vector; the force on each atom, the energy and the virial are summed in double,
+!> and the integrator stays double. The ray pass (energy stepping) is always double.
 module terrace_lj
-    use, intrinsic :: iso_fortran_env, only: int64
+    use, intrinsic :: iso_fortran_env, only: int64, sp => real32
     use terrace_kinds, only: dp
+    use terrace_compensated_sum, only: compensated_total
     use terrace_atoms, only: atoms_t
     use terrace_neighbor_list, only: neighbor_list_t
     use terrace_potential, only: potential_t, halo_ops_t
@@ -28,6 +38,8 @@ module terrace_lj
     !> 1 and 0 read through volatiles for the 0/1 factor "inside the cutoff" (GCC would otherwise
     !> split x * merge(1, 0, c) into a branch around x * 0, which it may not if-convert either).
     real(dp), volatile, save :: one = 1, zero = 0
+    !> Pairs per block of the mixed kernel's single-precision pass (16 singles: one AVX-512 vector).
+    integer, parameter :: block = 16
 
     type, extends(potential_t), public :: lj_t
         integer :: ntypes = 1
@@ -40,6 +52,15 @@ module terrace_lj
         real(dp), allocatable :: rc(:, :)
         real(dp) :: cutmax = 0
         real(dp), allocatable :: work(:, :)      !< per-atom rows of pair forces (grown at rebuilds)
+        !> per owned atom, the sum of its pairs' energy (and, in the ray pass, V' and V'' terms):
+        !> totalled by a compensated sum (see terrace_compensated_sum: why V needs it)
+        real(dp), allocatable :: atom_sums(:, :)
+        !> ray pass: (x + s v, v) of every atom, owned and ghost, side by side (one gather per neighbour)
+        real(dp), allocatable :: xv(:, :)
+        logical :: mixed = .false.               !< single-precision pair arithmetic (one type, 'lj', half list)
+        real(sp), allocatable :: xs(:, :)        !< mixed: positions as (hi, 0, lo, 0) singles, 8 per atom
+        real(dp), allocatable :: fd(:, :)        !< mixed: per-atom force records (x, y, z, 0)
+        real(sp), allocatable :: rows_sp(:, :), fp_sp(:), ep_sp(:), wp_sp(:)  !< mixed: per-atom rows
     contains
         procedure :: setup => lj_setup
         procedure :: forces => lj_forces
@@ -58,15 +79,20 @@ module terrace_lj
 contains
 
     !> Tables from per-pair epsilon, sigma, cutoff (full symmetric ntypes x ntypes arrays).
-    !> A cutoff of 0 means no cutoff (all pairs).
-    subroutine lj_setup(self, ntypes, eps, sig, cut, shift, smooth)
+    !> A cutoff of 0 means no cutoff (all pairs). mixed (default .false.): the mixed-precision
+    !> half-list kernel; only for one type and style 'lj' (the caller checks; here it is ignored
+    !> otherwise, see mixed_supported).
+    subroutine lj_setup(self, ntypes, eps, sig, cut, shift, smooth, mixed)
         class(lj_t), intent(inout) :: self
         integer, intent(in) :: ntypes
         real(dp), intent(in) :: eps(:, :), sig(:, :), cut(:, :)
         logical, intent(in) :: shift, smooth
+        logical, intent(in), optional :: mixed
         integer :: i, j
         real(dp) :: sr6, rc
         self%ntypes = ntypes
+        self%mixed = .false.
+        if (present(mixed)) self%mixed = mixed .and. mixed_supported(ntypes, smooth)
         self%smooth = smooth
         self%shift = shift
         self%eps11 = eps(1, 1); self%sig11 = sig(1, 1)
@@ -100,6 +126,31 @@ contains
         self%cutmax = maxval(cut(1:ntypes, 1:ntypes))
     end subroutine lj_setup
 
+    !> The mixed kernel's arrays: staged positions and force records for nall atoms (grown by half
+    !> when they grow), rows for the longest list row rounded up to whole blocks.
+    subroutine reserve_mixed(self, list, nall)
+        class(lj_t), intent(inout) :: self
+        type(neighbor_list_t), intent(in) :: list
+        integer, intent(in) :: nall
+        integer :: nb
+        nb = (list%max_neighbors/block + 1)*block + 1
+        if (allocated(self%xs)) then
+            if (size(self%xs, 2) < nall) deallocate (self%xs, self%fd)
+        end if
+        if (.not. allocated(self%xs)) allocate (self%xs(8, nall + nall/2 + 16), self%fd(4, nall + nall/2 + 16))
+        if (allocated(self%rows_sp)) then
+            if (size(self%rows_sp, 2) < nb) deallocate (self%rows_sp, self%fp_sp, self%ep_sp, self%wp_sp)
+        end if
+        if (.not. allocated(self%rows_sp)) allocate (self%rows_sp(4, nb), self%fp_sp(nb), self%ep_sp(nb), self%wp_sp(nb))
+    end subroutine reserve_mixed
+
+    !> The mixed-precision kernel exists for one atom type and style 'lj' (shifted or not).
+    pure logical function mixed_supported(ntypes, smooth) result(ok)
+        integer, intent(in) :: ntypes
+        logical, intent(in) :: smooth
+        ok = ntypes == 1 .and. .not. smooth
+    end function mixed_supported
+
     !> The potential interface: the half list, or all pairs when the plan chose no list.
     subroutine lj_forces(self, atoms, list, halo, want_energy, energy, virial)
         class(lj_t), intent(inout) :: self
@@ -126,13 +177,16 @@ contains
         if (list%all_pairs) then
             call self%ray_all_pairs(atoms, s, out)
         else if (self%ntypes == 1 .and. .not. self%smooth) then
-            call reserve_work(self, list)
-            call ray_one_type(atoms%nlocal, atoms%x, atoms%v, list%first, list%neigh, s, self%lj1(1, 1), self%lj2(1, 1), &
+            call reserve_work(self, list, atoms%nlocal)
+            call ray_positions(self, atoms, s)
+            call ray_one_type(atoms%nlocal, self%xv, list%first, list%neigh, self%lj1(1, 1), self%lj2(1, 1), &
                               self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1), infinity, one, zero, &
                               self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
-                              self%work(:, 6), self%work(:, 7), self%work(:, 8), self%work(:, 9), self%work(:, 10), out)
+                              self%work(:, 6), self%work(:, 7), self%work(:, 8), self%work(:, 9), self%work(:, 10), &
+                              self%atom_sums, out)
         else
-            call ray_general(self, atoms, list%first, list%neigh, s, out)
+            call reserve_work(self, list, atoms%nlocal)
+            call ray_general(self, atoms, list%first, list%neigh, s, self%atom_sums, out)
         end if
     end subroutine lj_ray_any
 
@@ -150,6 +204,7 @@ contains
             trim(merge(' (shifted)', '          ', self%shift .and. .not. self%smooth)), ', epsilon(1,1) = ', self%eps11, &
             ', sigma(1,1) = ', self%sig11
         text = trim(s)//'; no density pass (pair potential)'
+        if (self%mixed) text = text//'; mixed precision (single-precision pairs, double sums)'
     end function lj_describe
 
     pure logical function lj_supports_all_pairs(self)
@@ -199,23 +254,37 @@ contains
         logical, intent(in) :: want_energy
         real(dp), intent(out) :: energy, virial
         energy = 0; virial = 0
-        call reserve_work(self, list)
+        if (self%mixed) then
+            call reserve_mixed(self, list, atoms%nlocal + atoms%nghost)
+            call kernel_mixed(atoms%nlocal, atoms%nlocal + atoms%nghost, atoms%x, atoms%f, list%first, list%neigh, &
+                              want_energy, real(self%lj1(1, 1), sp), real(self%lj2(1, 1), sp), &
+                              real(self%lj3(1, 1), sp), real(self%lj4(1, 1), sp), real(self%cutsq(1, 1), sp), &
+                              real(self%offset(1, 1), sp), size(self%ep_sp), self%xs, self%fd, &
+                              self%rows_sp, self%fp_sp, self%ep_sp, self%wp_sp, energy, virial)
+            return
+        end if
+        call reserve_work(self, list, atoms%nlocal)
         call kernel(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, want_energy, infinity, &
-                    one, zero, self%work, energy, virial)
+                    one, zero, self%work, self%atom_sums(:, 1), energy, virial)
     end subroutine lj_compute
 
     !> Work rows, one entry per neighbour of the current atom (the longest row of the list, plus a
     !> margin): separations / pair forces (3), per-pair coefficients (up to 8), pair energies and
-    !> virials (2).
-    subroutine reserve_work(self, list)
+    !> virials (2); and the per-atom sums of the nlocal owned atoms (3 columns).
+    subroutine reserve_work(self, list, nlocal)
         class(lj_t), intent(inout) :: self
         type(neighbor_list_t), intent(in) :: list
+        integer, intent(in) :: nlocal
         integer :: nb
         nb = list%max_neighbors + 16
         if (allocated(self%work)) then
             if (size(self%work, 1) < nb .or. size(self%work, 2) < 13) deallocate (self%work)
         end if
         if (.not. allocated(self%work)) allocate (self%work(nb, 13))
+        if (allocated(self%atom_sums)) then
+            if (size(self%atom_sums, 1) < nlocal) deallocate (self%atom_sums)
+        end if
+        if (.not. allocated(self%atom_sums)) allocate (self%atom_sums(max(nlocal + nlocal/4, 1), 3))
     end subroutine reserve_work
 
     !> The half-list kernel. Three passes per atom: the separations to all its neighbours (with
@@ -228,7 +297,7 @@ contains
     !> Columns of work: separations / pair forces 1-3, lj1, lj2, cutsq, lj3, lj4, offset, pair
     !> energy, pair virial; for lj/smooth/linear also 12, 13: rc and fc (fpair - fc/r and the
     !> energy term (r - rc) fc).
-    subroutine kernel(self, nlocal, x, f, type, first, neigh, want_energy, inf, one_, zero_, work, energy, virial)
+    subroutine kernel(self, nlocal, x, f, type, first, neigh, want_energy, inf, one_, zero_, work, atom_e, energy, virial)
         type(lj_t), intent(in) :: self
         integer, intent(in) :: nlocal
         integer, intent(in), contiguous :: type(:), first(:), neigh(:)
@@ -238,8 +307,9 @@ contains
         real(dp), intent(inout) :: energy, virial
         logical, intent(in) :: want_energy
         real(dp), intent(inout), contiguous, target :: work(:, :)
+        real(dp), intent(inout) :: atom_e(:)
         integer :: i, k, j, k0, nn, ti, tj
-        real(dp) :: xi, yi, zi, fxi, fyi, fzi, e, w, far, one, zero, lj1, lj2, lj3, lj4, cutsq, offset
+        real(dp) :: xi, yi, zi, fxi, fyi, fzi, w, far, one, zero, lj1, lj2, lj3, lj4, cutsq, offset, s2(2)
         logical :: one_type, smooth
         real(dp), pointer, contiguous :: fx(:), fy(:), fz(:), c1(:), c2(:), cs(:), c3(:), c4(:), co(:), ep(:), wp(:), &
                                          crc(:), cfc(:)
@@ -251,7 +321,7 @@ contains
         one_type = self%ntypes == 1 .and. .not. smooth
         lj1 = self%lj1(1, 1); lj2 = self%lj2(1, 1); lj3 = self%lj3(1, 1); lj4 = self%lj4(1, 1)
         cutsq = self%cutsq(1, 1); offset = self%offset(1, 1)
-        e = 0; w = 0
+        w = 0
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
             k0 = first(i) - 1
@@ -295,13 +365,137 @@ contains
             end do
             f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
             if (want_energy) then
+                call lane_sums2(nn, ep, wp, s2)
+                atom_e(i) = s2(1); w = w + s2(2)
+            end if
+        end do
+        if (want_energy) energy = energy + compensated_total(atom_e, nlocal)
+        virial = virial + w
+    end subroutine kernel
+
+    !> The mixed-precision half-list kernel (one type). Each call first stages every position
+    !> (owned and ghost) as two singles, hi = x rounded to single and lo = x - hi rounded to single,
+    !> in one 8-single record (hi x, y, z, 0, lo x, y, z, 0). A separation is then
+    !> (hi_i - hi_j) + (lo_i - lo_j): the first difference is exact or off by half an ulp of the
+    !> separation itself, the second carries the bits that single positions lose, so the separation
+    !> is the double one to about 1e-7 relative, whatever the atoms' distance from the origin. Per
+    !> atom i: the separations to its neighbours are gathered as 4-single rows (two 16-byte loads per
+    !> neighbour); the pair terms are computed in single precision over blocks of 16 pairs (one
+    !> AVX-512 vector; the rows are padded with separations beyond the cutoff); the pair forces are
+    !> converted to double and subtracted from j's 4-double force record (one 32-byte vector) and
+    !> summed into i's, and the pair energies and virials are summed in double. The records are added
+    !> to f at the end.
+    subroutine kernel_mixed(nlocal, nall, x, f, first, neigh, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, nrow, &
+                            xs, fd, rows, fp, ep, wp, energy, virial)
+        integer, intent(in) :: nlocal, nall, nrow
+        integer, intent(in), contiguous :: first(:), neigh(:)
+        real(dp), intent(in), contiguous :: x(:, :)
+        real(dp), intent(inout), contiguous :: f(:, :)
+        logical, intent(in) :: want_energy
+        real(sp), intent(in) :: lj1, lj2, lj3, lj4, cutsq, offset
+        real(sp), intent(inout) :: xs(8, nall), rows(4, nrow), fp(nrow), ep(nrow), wp(nrow)
+        real(dp), intent(inout) :: fd(4, nall)
+        real(dp), intent(inout) :: energy, virial
+        integer :: i, k, j, k0, nn, nblocks, c
+        real(dp) :: e, w, fi(4)
+        real(sp) :: hi(4), lo(4), beyond
+        beyond = 2*sqrt(cutsq) + 1
+        do i = 1, nall
+            do c = 1, 3
+                xs(c, i) = real(x(c, i), sp)
+                xs(4 + c, i) = real(x(c, i) - real(xs(c, i), dp), sp)
+            end do
+            xs(4, i) = 0; xs(8, i) = 0
+            fd(:, i) = 0
+        end do
+        e = 0; w = 0
+        do i = 1, nlocal
+            hi = xs(1:4, i); lo = xs(5:8, i)
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            !GCC$ novector
+            do k = 1, nn
+                j = neigh(k0 + k)
+                rows(:, k) = (hi - xs(1:4, j)) + (lo - xs(5:8, j))
+            end do
+            nblocks = (nn + block - 1)/block
+            do k = nn + 1, nblocks*block + 1
+                rows(1, k) = beyond; rows(2, k) = 0; rows(3, k) = 0; rows(4, k) = 0
+            end do
+            call pairs_mixed(nblocks*block + 1, rows, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, fp, ep, wp)
+            call scatter_mixed(nn, neigh(k0 + 1:k0 + nn), rows, fp, fd, fi)
+            fd(:, i) = fd(:, i) + fi
+            if (want_energy) then
                 do k = 1, nn
-                    e = e + ep(k); w = w + wp(k)
+                    e = e + real(ep(k), dp); w = w + real(wp(k), dp)
                 end do
             end if
         end do
+        do i = 1, nall
+            f(1, i) = f(1, i) + fd(1, i); f(2, i) = f(2, i) + fd(2, i); f(3, i) = f(3, i) + fd(3, i)
+        end do
         energy = energy + e; virial = virial + w
-    end subroutine kernel
+    end subroutine kernel_mixed
+
+    !> The mixed kernel's scatter: pair force k = rows(:, k) fp(k), converted to double, is subtracted
+    !> from the force record of neighbour nbrs(k) and summed into fi (one 32-byte vector each).
+    pure subroutine scatter_mixed(nn, nbrs, rows, fp, fd, fi)
+        integer, intent(in) :: nn, nbrs(nn)
+        real(sp), intent(in) :: rows(4, *), fp(*)
+        real(dp), intent(inout) :: fd(4, *)
+        real(dp), intent(out) :: fi(4)
+        integer :: k, j
+        real(dp) :: fk(4), acc(4), fj(4)
+        acc = 0
+        !GCC$ novector
+        do k = 1, nn
+            j = nbrs(k)
+            fk = real(rows(:, k)*fp(k), dp)
+            fj = fd(:, j)             ! through a local: GCC then vectorises the update
+            fd(:, j) = fj - fk
+            acc = acc + fk
+        end do
+        fi = acc
+    end subroutine scatter_mixed
+
+    !> one_type_pairs in single precision over n pairs (16 m + 1: GCC keeps the last pair of these
+    !> stride-4 rows for a scalar remainder, so one padding pair more makes the 16-wide loop cover all
+    !> the real ones; without it up to 16 pairs per atom ran in the 8-wide and scalar remainders
+    !> and the mixed kernel was slower than the double one): the separations in rows
+    !> (x, y, z, 0 per pair) are replaced by the pair forces (x, y, z, 0); with want_energy also the
+    !> pair energies ep and virials wp. The cutoff is the factor inside = 1/2 + sign(1/2, rc^2 - r^2)
+    !> (1 inside, 0 beyond; GCC vectorises these stride-4 rows with sign, not with merge).
+    pure subroutine pairs_mixed(n, rows, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, fp, ep, wp)
+        integer, intent(in) :: n
+        real(sp), intent(in) :: rows(4, n)
+        real(sp), intent(out) :: fp(n), ep(n), wp(n)
+        logical, intent(in) :: want_energy
+        real(sp), intent(in) :: lj1, lj2, lj3, lj4, cutsq, offset
+        integer :: k
+        real(sp) :: dx, dy, dz, rsq, r2inv, r6inv, fpair, inside
+        if (want_energy) then
+            do k = 1, n
+                dx = rows(1, k); dy = rows(2, k); dz = rows(3, k)
+                rsq = dx*dx + dy*dy + dz*dz
+                inside = 0.5_sp + sign(0.5_sp, cutsq - rsq)
+                r2inv = inside/rsq
+                r6inv = r2inv*r2inv*r2inv
+                fpair = r6inv*(lj1*r6inv - lj2)*r2inv
+                ep(k) = r6inv*(lj3*r6inv - lj4) - offset*inside
+                wp(k) = rsq*fpair
+                fp(k) = fpair
+            end do
+        else
+            do k = 1, n
+                dx = rows(1, k); dy = rows(2, k); dz = rows(3, k)
+                rsq = dx*dx + dy*dy + dz*dz
+                r2inv = (0.5_sp + sign(0.5_sp, cutsq - rsq))/rsq
+                r6inv = r2inv*r2inv*r2inv
+                fpair = r6inv*(lj1*r6inv - lj2)*r2inv
+                fp(k) = fpair
+            end do
+        end if
+    end subroutine pairs_mixed
 
     !> One type: pair forces fpair*(dx, dy, dz) in place of the separations, with scalar
     !> coefficients; when want_energy, also the pair energies ep and virials wp.
@@ -429,32 +623,39 @@ contains
     !> Ray pass, one type: per atom a scalar gather of the pair separations d and relative
     !> velocities w at s, a branch-free vectorised pass for the four per-pair terms (the cutoff is a
     !> mask: 1/rsq of an "infinite" separation), and a scalar sum.
-    subroutine ray_one_type(nlocal, x, v, first, neigh, s, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_, &
-                            dx, dy, dz, wx, wy, wz, pe, pe1, pe2, pv, out)
+    subroutine ray_one_type(nlocal, xv, first, neigh, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_, &
+                            dx, dy, dz, wx, wy, wz, pe, pe1, pe2, pv, atom_sums, out)
         integer, intent(in) :: nlocal
         integer, intent(in), contiguous :: first(:), neigh(:)
-        real(dp), intent(in), contiguous :: x(:, :), v(:, :)
-        real(dp), intent(in) :: s, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_
+        real(dp), intent(in), contiguous :: xv(:, :)
+        real(dp), intent(in) :: lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), wx(:), wy(:), wz(:), pe(:), pe1(:), pe2(:), pv(:)
+        real(dp), intent(inout) :: atom_sums(:, :)
         real(dp), intent(out) :: out(4)
-        integer :: i, k, j, k0, nn
+        integer :: i, k, j, k0, nn, nnp
         real(dp) :: xi, yi, zi, vxi, vyi, vzi, rsq, r2inv, r6inv, fpair, dpsi, d2psi, rho1, inside, &
-                    e, e1, e2, vir, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero
+                    vir, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero, s4(4)
+        real(dp), parameter :: pad_far = 1.0e100_dp      ! a separation beyond any cutoff (its square finite)
         lj1 = lj1_; lj2 = lj2_; lj3 = lj3_; lj4 = lj4_; cutsq = cutsq_; offset = offset_
         far = inf; one = one_; zero = zero_
-        e = 0; e1 = 0; e2 = 0; vir = 0
+        vir = 0
         do i = 1, nlocal
-            vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
-            xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
+            xi = xv(1, i); yi = xv(2, i); zi = xv(3, i); vxi = xv(4, i); vyi = xv(5, i); vzi = xv(6, i)
             k0 = first(i) - 1
             nn = first(i + 1) - first(i)
             !GCC$ novector
             do k = 1, nn
                 j = neigh(k0 + k)
-                wx(k) = vxi - v(1, j); wy(k) = vyi - v(2, j); wz(k) = vzi - v(3, j)
-                dx(k) = xi - (x(1, j) + s*v(1, j)); dy(k) = yi - (x(2, j) + s*v(2, j)); dz(k) = zi - (x(3, j) + s*v(3, j))
+                dx(k) = xi - xv(1, j); dy(k) = yi - xv(2, j); dz(k) = zi - xv(3, j)
+                wx(k) = vxi - xv(4, j); wy(k) = vyi - xv(5, j); wz(k) = vzi - xv(6, j)
             end do
-            do k = 1, nn
+            ! the rows padded to a multiple of 8 with far, motionless pairs (all four terms exactly 0):
+            ! the vectorised loops below then have no remainder
+            nnp = ((nn + 7)/8)*8
+            do k = nn + 1, nnp
+                dx(k) = pad_far; dy(k) = 0; dz(k) = 0; wx(k) = 0; wy(k) = 0; wz(k) = 0
+            end do
+            do k = 1, nnp
                 rsq = dx(k)*dx(k) + dy(k)*dy(k) + dz(k)*dz(k)
                 inside = merge(one, zero, rsq < cutsq)
                 call lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
@@ -466,28 +667,95 @@ contains
                 pe2(k) = d2psi*rho1*rho1 + dpsi*2*(wx(k)*wx(k) + wy(k)*wy(k) + wz(k)*wz(k))
                 pv(k) = fpair*rsq
             end do
-            do k = 1, nn
-                e = e + pe(k); e1 = e1 + pe1(k); e2 = e2 + pe2(k); vir = vir + pv(k)
-            end do
+            call lane_sums4(nnp, pe, pe1, pe2, pv, s4)
+            atom_sums(i, 1:3) = s4(1:3); vir = vir + s4(4)
         end do
-        out = [e, e1, e2, vir]
+        out = [compensated_total(atom_sums(:, 1), nlocal), compensated_total(atom_sums(:, 2), nlocal), &
+               compensated_total(atom_sums(:, 3), nlocal), vir]
     end subroutine ray_one_type
 
-    subroutine ray_general(self, atoms, first, neigh, s, out)
+    !> self%xv(:, i) = (x_i + s v_i, v_i) for every atom, owned and ghost (grown as needed).
+    subroutine ray_positions(self, atoms, s)
+        class(lj_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        real(dp), intent(in) :: s
+        integer :: n, i
+        n = atoms%nall()
+        if (allocated(self%xv)) then
+            if (size(self%xv, 2) < n) deallocate (self%xv)
+        end if
+        if (.not. allocated(self%xv)) allocate (self%xv(6, max(n + n/4, 1)))
+        do i = 1, n
+            self%xv(1:3, i) = atoms%x(:, i) + s*atoms%v(:, i)
+            self%xv(4:6, i) = atoms%v(:, i)
+        end do
+    end subroutine ray_positions
+
+    !> s2 = (sum a(1:nn), sum b(1:nn)) over lanes of 8 (vectorised; a fixed order, no reassociation
+    !> left to the compiler), the lanes then added in order, the tail last.
+    pure subroutine lane_sums2(nn, a, b, s2)
+        integer, intent(in) :: nn
+        real(dp), intent(in) :: a(*), b(*)
+        real(dp), intent(out) :: s2(2)
+        real(dp) :: la(8), lb(8)
+        integer :: k, l, nb
+        la = 0; lb = 0
+        nb = (nn/8)*8
+        do k = 1, nb, 8
+            do l = 1, 8
+                la(l) = la(l) + a(k + l - 1); lb(l) = lb(l) + b(k + l - 1)
+            end do
+        end do
+        s2 = [sum(la), sum(lb)]
+        do k = nb + 1, nn
+            s2(1) = s2(1) + a(k); s2(2) = s2(2) + b(k)
+        end do
+    end subroutine lane_sums2
+
+    !> lane_sums2 for four rows.
+    pure subroutine lane_sums4(nn, a, b, c, d, s4)
+        integer, intent(in) :: nn
+        real(dp), intent(in) :: a(*), b(*), c(*), d(*)
+        real(dp), intent(out) :: s4(4)
+        real(dp) :: la(8), lb(8), lc(8), ld(8)
+        integer :: k, l, nb
+        la = 0; lb = 0; lc = 0; ld = 0
+        nb = (nn/8)*8
+        do k = 1, nb, 8
+            do l = 1, 8
+                la(l) = la(l) + a(k + l - 1); lb(l) = lb(l) + b(k + l - 1)
+                lc(l) = lc(l) + c(k + l - 1); ld(l) = ld(l) + d(k + l - 1)
+            end do
+        end do
+        s4 = [sum(la), sum(lb), sum(lc), sum(ld)]
+        do k = nb + 1, nn
+            s4(1) = s4(1) + a(k); s4(2) = s4(2) + b(k); s4(3) = s4(3) + c(k); s4(4) = s4(4) + d(k)
+        end do
+    end subroutine lane_sums4
+
+    !> Ray pass, several types or lj/smooth/linear: pair by pair, summed per atom, the per-atom
+    !> sums of V, V', V'' totalled by a compensated sum.
+    subroutine ray_general(self, atoms, first, neigh, s, atom_sums, out)
         type(lj_t), intent(in) :: self
         type(atoms_t), intent(in) :: atoms
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in) :: s
+        real(dp), intent(inout) :: atom_sums(:, :)
         real(dp), intent(out) :: out(4)
         integer :: i, k, j
-        real(dp) :: acc(4)
+        real(dp) :: acc(4), ai(4)
         out = 0
         do i = 1, atoms%nlocal
+            ai = 0
             do k = first(i), first(i + 1) - 1
                 j = neigh(k)
                 call ray_pair(self, atoms, i, j, s, acc)
-                out = out + acc
+                ai = ai + acc
             end do
+            atom_sums(i, 1:3) = ai(1:3); out(4) = out(4) + ai(4)
+        end do
+        do k = 1, 3
+            out(k) = compensated_total(atom_sums(:, k), atoms%nlocal)
         end do
     end subroutine ray_general
 

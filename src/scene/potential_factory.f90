@@ -166,7 +166,13 @@ contains
                 cut(i, t) = pick(cfg%pair_cutoff, i, t, cfg%cutoff)
             end do
         end do
-        call lj%setup(ntypes, eps, sig, cut, cfg%shift, cfg%potential == 'lj/smooth/linear')
+        if (cfg%precision == 'mixed' .and. ntypes > 1) then
+            write (s1, '(i0)') ntypes
+            call stop_all(cfg%where('potential', 'precision')//" = 'mixed': only for one atom type (this scene has "// &
+                          trim(s1)//"; allowed with several types: 'double')")
+        end if
+        call lj%setup(ntypes, eps, sig, cut, cfg%shift, cfg%potential == 'lj/smooth/linear', &
+                      mixed=cfg%precision == 'mixed')
     end subroutine setup_lj
 
     pure real(dp) function pick(table, i, j, fallback) result(v)

@@ -36,7 +36,7 @@ module terrace_thermostat
     use terrace_velocities, only: momentum_and_mass, local_mv2, atom_mass
     use terrace_mpi_env, only: sum_all
     use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, unit_from_word, box_muller, &
-                                   normals4_many, rng_batch
+                                   normals3_many, rng_batch
     use terrace_config, only: config_t
     use terrace_checkpoint, only: ckpt_values_t
     implicit none
@@ -215,7 +215,7 @@ contains
         type(atoms_t), intent(inout) :: atoms
         real(dp), intent(in) :: dtfm(:), dt, time
         integer(i8), intent(in) :: step
-        real(dp) :: c1, c2, kt, half, sig(atoms%ntypes), z(rng_batch, 4), de, m2(atoms%ntypes)
+        real(dp) :: c1, c2, kt, half, sig(atoms%ntypes), z(rng_batch, 3), de, m2(atoms%ntypes)
         integer :: t, i0, i1, nb
         c1 = exp(-dt/self%damping)
         c2 = sqrt(max(0.0_dp, 1 - c1*c1))
@@ -226,12 +226,12 @@ contains
         end do
         half = 0.5_dp*dt
         de = 0
-        ! batches of atoms: the counter-based draws vectorise across atoms (normals4_many), and so
+        ! batches of atoms: the counter-based draws vectorise across atoms (normals3_many), and so
         ! does the B A O A update of the batch (baoab_batch)
         do i0 = 1, atoms%nlocal, rng_batch
             nb = min(rng_batch, atoms%nlocal - i0 + 1)
             i1 = i0 + nb - 1
-            call normals4_many(nb, self%seed, stream_langevin, atoms%id(i0:i1), step, z(1:nb, :))
+            call normals3_many(nb, self%seed, stream_langevin, atoms%id(i0:i1), step, z(1:nb, :))
             if (self%dimension == 2) z(1:nb, 3) = 0
             call baoab_batch(nb, atoms%x(:, i0:i1), atoms%v(:, i0:i1), atoms%f(:, i0:i1), atoms%type(i0:i1), &
                              z(1:nb, 1), z(1:nb, 2), z(1:nb, 3), dtfm, sig, m2, c1, half, de)

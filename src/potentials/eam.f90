@@ -1045,7 +1045,8 @@ contains
     !> partners inside the cutoff are kept for the force pass: cj(cfirst(i):cfirst(i+1)-1).
     subroutine density_one(nlocal, x, first, neigh, cutsq, rdr, nr, s, rho, cj, cfirst, pp, mm)
         integer, intent(in) :: nlocal, nr
-        real(dp), intent(in), contiguous :: x(:, :), s(:, :)
+        real(dp), intent(in) :: x(3, *)     ! explicit shape: constant stride in the gathers
+        real(dp), intent(in), contiguous :: s(:, :)
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in) :: cutsq, rdr
         real(dp), intent(inout), contiguous :: rho(:)
@@ -1098,7 +1099,7 @@ contains
     !> (d(1:4) for i, d(5:8) for j) is the pair's only table read.
     subroutine density_types(nlocal, x, type, first, neigh, cutsq, rdr, nr, off, d, rho, cj, cfirst, pp, mm, tt)
         integer, intent(in) :: nlocal, nr
-        real(dp), intent(in), contiguous :: x(:, :)
+        real(dp), intent(in) :: x(3, *)
         real(dp), intent(in) :: d(8, *)
         integer, intent(in), contiguous :: type(:), first(:), neigh(:), off(:, :)
         real(dp), intent(in) :: cutsq, rdr
@@ -1227,8 +1228,9 @@ contains
     subroutine force_one(nlocal, x, f, cj, cfirst, rdr, nr, t, fp, want_energy, energy, virial, &
                          dx, dy, dz, rr, pp, rinv, fj, ph, mm)
         integer, intent(in) :: nlocal, nr
-        real(dp), intent(in), contiguous :: x(:, :), t(:, :), fp(:)
-        real(dp), intent(inout), contiguous :: f(:, :)
+        real(dp), intent(in) :: x(3, *)     ! explicit shape: constant stride in the gathers and scatters
+        real(dp), intent(in), contiguous :: t(:, :), fp(:)
+        real(dp), intent(inout) :: f(3, *)
         integer, intent(in), contiguous :: cj(:), cfirst(:)
         real(dp), intent(in) :: rdr
         logical, intent(in) :: want_energy
@@ -1321,9 +1323,10 @@ contains
     subroutine force_types(nlocal, x, f, type, cj, cfirst, rdr, nr, off, t, fp, want_energy, energy, virial, &
                            dx, dy, dz, rr, pp, rinv, fj, ph, fi, mm, tt)
         integer, intent(in) :: nlocal, nr
-        real(dp), intent(in), contiguous :: x(:, :), fp(:)
+        real(dp), intent(in) :: x(3, *)
+        real(dp), intent(in), contiguous :: fp(:)
         real(dp), intent(in) :: t(16, *)
-        real(dp), intent(inout), contiguous :: f(:, :)
+        real(dp), intent(inout) :: f(3, *)
         integer, intent(in), contiguous :: type(:), cj(:), cfirst(:), off(:, :)
         real(dp), intent(in) :: rdr
         logical, intent(in) :: want_energy

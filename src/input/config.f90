@@ -6,7 +6,7 @@
 !>               box_hi), periodic, mass, temperature
 !>   &potential  style, epsilon, sigma, cutoff, pair_cutoff, shift, precision
 !>   &integrator style, dt
-!>   &neighbor   skin, list
+!>   &neighbor   skin, list, every, check
 !>   &output     thermo_every, thermo_interval, thermo_file, forces_file
 !>   &thermostat style, temperature, temperature_end, damping, chain_length, seed, zero_momentum, interval
 !> Every key is read on its own, so that an error names file, line, group and key.
@@ -78,6 +78,8 @@ module terrace_config
         ! &neighbor
         real(dp) :: skin = -1.0_dp
         character(len=16) :: list = 'auto'
+        integer :: list_every = 1                   !< steps between list checks (check) or rebuilds (no check)
+        logical :: list_check = .true.              !< rebuild only when an atom has moved skin/2
         ! &output
         integer(i8) :: thermo_every = -1
         real(dp) :: thermo_interval = -1.0_dp
@@ -526,15 +528,18 @@ contains
         type(config_t), intent(inout) :: cfg
         real(dp) :: skin
         character(len=16) :: list
-        namelist /neighbor/ skin, list
-        character(len=*), parameter :: keys(2) = [character(len=40) :: 'skin:a real number', 'list:a quoted string']
+        integer :: every
+        logical :: check
+        namelist /neighbor/ skin, list, every, check
+        character(len=*), parameter :: keys(4) = [character(len=40) :: 'skin:a real number', 'list:a quoted string', &
+                                                  'every:an integer', 'check:a logical']
         type(item_reader_t) :: it
-        skin = -1; list = 'auto'
+        skin = -1; list = 'auto'; every = 1; check = .true.
         do while (it%next(cfg, 'neighbor', keys))
             read (it%buf, nml=neighbor, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
         end do
-        cfg%skin = skin; cfg%list = lower(list)
+        cfg%skin = skin; cfg%list = lower(list); cfg%list_every = every; cfg%list_check = check
     end subroutine read_neighbor
 
     subroutine read_output(cfg)
@@ -852,6 +857,7 @@ contains
     !> Integrator, neighbour and output settings (any potential).
     subroutine validate_run_settings(cfg)
         type(config_t), intent(inout) :: cfg
+        character(len=8) :: key
 
         select case (cfg%integrator)
         case ('velocity_verlet')
@@ -891,6 +897,16 @@ contains
         if (cfg%nml%find('neighbor', 'skin') > 0 .and. cfg%skin < 0) &
             call stop_all(cfg%where('neighbor', 'skin')//': must be >= 0 (a length in '//trim(cfg%units%length)//')')
         if (cfg%skin < 0) cfg%skin = merge(0.3_dp, 2.0_dp, cfg%units%name == 'lj')
+        if (cfg%list_every < 1) call stop_all(cfg%where('neighbor', 'every')// &
+                                              ': must be >= 1 (steps between list checks, or rebuilds with check = .false.)')
+        if (cfg%list_every > 1 .or. .not. cfg%list_check) then
+            key = merge('every', 'check', cfg%list_every > 1)
+            if (cfg%integrator == 'energy_stepping') call stop_all(cfg%where('neighbor', trim(key))// &
+                ': energy stepping needs the exact list (its events are timed by the list''s expiry; allowed with '// &
+                'energy stepping: every = 1, check = .true.)')
+            if (len_trim(cfg%mesh_file) > 0) call stop_all(cfg%where('neighbor', trim(key))// &
+                ': a mesh scene needs the exact list (contact and the element halo; allowed: every = 1, check = .true.)')
+        end if
         if (cfg%integrator == 'velocity_verlet') then
             call check_steps('run', 'run_time', cfg%run_time)
             call check_steps('output', 'thermo_interval', cfg%thermo_interval)

@@ -93,6 +93,8 @@ contains
         self%list%dimension = cfg%dimension
         self%list%all_pairs = self%plan%pair_mode == pair_all
         if (self%plan%pair_mode == pair_cells) call self%list%init(self%cutmax, cfg%skin, cfg%dimension)
+        self%list%every = cfg%list_every
+        self%list%check = cfg%list_check
         ! no pair list: bins (for the spatial sort) sized by the halo, and the displacement reference
         if (self%plan%pair_mode == pair_none) call self%list%init(self%pot%halo_reach(), cfg%skin, cfg%dimension)
         self%validity_checks = self%pot%may_become_invalid()

@@ -39,7 +39,7 @@ contains
         type(run_control_t), intent(inout) :: ctl
         integer(i8), parameter :: poll_all_pairs = 10   !< all-pairs path: steps between stop polls
         integer(i8) :: step, step0
-        integer :: i, t
+        integer :: t
         real(dp) :: dt, dtfm(size(eng%atoms%mass)), dtf
         logical :: sample, frame, scheduled, safe, ok, stop_now
         type(thermo_sample_t) :: first, last
@@ -90,21 +90,14 @@ contains
             if (ts%style == thermostat_langevin) then
                 call ts%langevin_kick_drift(eng%atoms, dtfm, dt, step, t_mid)
             else if (eng%atoms%per_atom_mass) then
-                do i = 1, eng%atoms%nlocal
-                    eng%atoms%v(:, i) = eng%atoms%v(:, i) + (dtf/eng%atoms%rmass(i))*eng%atoms%f(:, i)
-                    eng%atoms%x(:, i) = eng%atoms%x(:, i) + dt*eng%atoms%v(:, i)
-                end do
+                call kick_masses(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, eng%atoms%f, eng%atoms%rmass, dtf, dt, .true.)
             else
-                do i = 1, eng%atoms%nlocal
-                    eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
-                    eng%atoms%x(:, i) = eng%atoms%x(:, i) + dt*eng%atoms%v(:, i)
-                end do
+                call kick_types(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, eng%atoms%f, eng%atoms%type, dtfm, dt, .true.)
             end if
             scheduled = .false.
             if (ctl%every > 0) scheduled = mod(step, ctl%every) == 0
             if (eng%plan%pair_mode /= pair_all) then
-                safe = scheduled
-                if (.not. safe) safe = eng%list%needs_rebuild(eng%atoms)
+                safe = eng%list%rebuild_due(eng%atoms, step, scheduled)
                 if (safe) then
                     call eng%rebuild()
                 else
@@ -119,13 +112,9 @@ contains
             call eng%compute_forces(sample .or. frame)
             if (eng%validity_checks) call eng%check_valid(step, step*dt)
             if (eng%atoms%per_atom_mass) then
-                do i = 1, eng%atoms%nlocal
-                    eng%atoms%v(:, i) = eng%atoms%v(:, i) + (dtf/eng%atoms%rmass(i))*eng%atoms%f(:, i)
-                end do
+                call kick_masses(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, eng%atoms%f, eng%atoms%rmass, dtf, dt, .false.)
             else
-                do i = 1, eng%atoms%nlocal
-                    eng%atoms%v(:, i) = eng%atoms%v(:, i) + dtfm(eng%atoms%type(i))*eng%atoms%f(:, i)
-                end do
+                call kick_types(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, eng%atoms%f, eng%atoms%type, dtfm, dt, .false.)
             end if
             select case (ts%style)
             case (thermostat_csvr)
@@ -203,6 +192,46 @@ contains
         end subroutine write_frame
 
     end subroutine run_velocity_verlet
+
+    !> Half kick v += dtfm(type) f of the n owned atoms and, when drift, the drift x += dt v.
+    !> Explicit shapes: the compiler sees contiguous, unaliased columns and vectorises (through the
+    !> engine's components it kept the loops scalar: 5 % of an in.lj step).
+    subroutine kick_types(n, x, v, f, type, dtfm, dt, drift)
+        integer, intent(in) :: n, type(n)
+        real(dp), intent(inout) :: x(3, n), v(3, n)
+        real(dp), intent(in) :: f(3, n), dtfm(:), dt
+        logical, intent(in) :: drift
+        integer :: i
+        if (drift) then
+            do i = 1, n
+                v(:, i) = v(:, i) + dtfm(type(i))*f(:, i)
+                x(:, i) = x(:, i) + dt*v(:, i)
+            end do
+        else
+            do i = 1, n
+                v(:, i) = v(:, i) + dtfm(type(i))*f(:, i)
+            end do
+        end if
+    end subroutine kick_types
+
+    !> kick_types with per-atom masses: v += (dtf/rmass) f.
+    subroutine kick_masses(n, x, v, f, rmass, dtf, dt, drift)
+        integer, intent(in) :: n
+        real(dp), intent(inout) :: x(3, n), v(3, n)
+        real(dp), intent(in) :: f(3, n), rmass(n), dtf, dt
+        logical, intent(in) :: drift
+        integer :: i
+        if (drift) then
+            do i = 1, n
+                v(:, i) = v(:, i) + (dtf/rmass(i))*f(:, i)
+                x(:, i) = x(:, i) + dt*v(:, i)
+            end do
+        else
+            do i = 1, n
+                v(:, i) = v(:, i) + (dtf/rmass(i))*f(:, i)
+            end do
+        end if
+    end subroutine kick_masses
 
     !> Energy drift per atom per time unit (of econserve = etotal - ecouple with a thermostat) and
     !> the change of total momentum over the run.

@@ -8,7 +8,7 @@
 !> the pair, so each pair is counted exactly once across ranks and periodic images.
 !> The list is valid until some atom has moved skin/2 since the build.
 module terrace_neighbor_list
-    use terrace_kinds, only: dp
+    use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: any_all
     use terrace_grow, only: reserve, grow_keep
@@ -37,6 +37,13 @@ module terrace_neighbor_list
         real(dp), allocatable :: cx(:), cy(:), cz(:)    !< build scratch: candidates shared by a bin's atoms
         integer, allocatable :: cj(:), keep(:)
         integer :: builds = 0
+        !> Rebuild schedule (&neighbor every, check): exact (every = 1, check) tests the skin/2
+        !> displacement at every step; otherwise the list is checked (or, without check, rebuilt)
+        !> every `every` steps only, and `late` counts the builds at which some atom had already moved
+        !> more than skin/2 (the list was no longer sure to hold every pair within the cutoff).
+        integer :: every = 1
+        logical :: check = .true.
+        integer :: late = 0
         integer :: max_neighbors = 0                    !< longest row of the list
         !> Optional complement (want_below): for each owned atom i, the ghosts within the list
         !> cutoff that the half list leaves to their owners (those "below" i in (z, y, x) order);
@@ -52,6 +59,8 @@ module terrace_neighbor_list
         procedure :: build => nl_build
         procedure :: hold => nl_hold
         procedure :: needs_rebuild => nl_needs_rebuild
+        procedure :: rebuild_due => nl_rebuild_due
+        procedure :: exact => nl_exact
         procedure :: expiry => nl_expiry
     end type neighbor_list_t
 
@@ -451,6 +460,34 @@ contains
         flag = moved_too_far(atoms%nlocal, atoms%x, self%xhold, (0.5_dp*self%skin)**2)
         call any_all(flag)
     end function nl_needs_rebuild
+
+    !> Whether the list is rebuilt at this step (collective: the same answer on every rank). forced:
+    !> a rebuild the caller needs anyway (a checkpoint). Exact schedule: when an atom has moved skin/2.
+    !> Otherwise only at multiples of `every` (with check: when an atom has moved skin/2; without:
+    !> always), and a rebuild at which an atom had moved skin/2 is counted in `late`.
+    logical function nl_rebuild_due(self, atoms, step, forced) result(flag)
+        class(neighbor_list_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer(i8), intent(in) :: step
+        logical, intent(in) :: forced
+        logical :: moved
+        if (self%every == 1 .and. self%check) then
+            flag = forced
+            if (.not. flag) flag = self%needs_rebuild(atoms)
+            return
+        end if
+        flag = forced .or. mod(step, int(self%every, i8)) == 0
+        if (.not. flag) return
+        moved = self%needs_rebuild(atoms)
+        if (moved) self%late = self%late + 1
+        if (self%check .and. .not. forced) flag = moved
+    end function nl_rebuild_due
+
+    !> True for the exact schedule (displacement test at every step).
+    pure logical function nl_exact(self)
+        class(neighbor_list_t), intent(in) :: self
+        nl_exact = self%every == 1 .and. self%check
+    end function nl_exact
 
     !> Earliest time (from now, this rank's atoms) at which an owned atom's displacement since the
     !> last build reaches skin/2, moving in a straight line: the root of |d + s v|^2 = (skin/2)^2.

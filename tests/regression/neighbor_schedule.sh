@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# The neighbour-list schedule (&neighbor every, check) on the 2048-atom LJ liquid deck (fcc 8x8x8
+# melting at T* = 1.44, 100 steps, rc 2.5, skin 0.3):
+#   1. a rebuild at every step (every = 1, check = .false.) gives the thermo of the exact default
+#      (skin/2 test at every step) to 1e-10: both lists hold every pair within the cutoff, only
+#      the order of the sums differs;
+#   2. a fixed schedule (every = 20, check = .false., the LAMMPS bench's `neigh_modify every 20
+#      check no`) rebuilds at steps 0, 20, ..., 100 (6 builds) on any rank count: 1 and 4 ranks
+#      agree to 1e-10, and the run log counts the builds at which an atom had already moved more
+#      than skin/2 (this hot start moves atoms ~0.5 sigma in 20 steps: 5 of the 5 rebuilds);
+#   3. checked every 5 steps (every = 5): at most as many builds as the exact schedule, every one
+#      of them at a multiple of 5 steps, the late ones counted.
+# Usage: tests/regression/neighbor_schedule.sh TERRACE_BINARY OUTPUT_DIR
+set -euo pipefail
+[[ $# -eq 2 ]] || { echo "usage: $0 TERRACE_BINARY OUTPUT_DIR" >&2; exit 2; }
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
+terrace="$(realpath "$1")"; out="$2"
+PYTHON="${PYTHON:-/usr/bin/python3}"; [[ -x "$PYTHON" ]] || PYTHON=python3
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+rm -rf "$out"; mkdir -p "$out"; cd "$out"
+deck() {   # name neighbor-keys
+    sed "s|^&neighbor skin=0.3 /|\&neighbor skin=0.3$2 /|; s|thermo_file='thermo.csv'|thermo_file='$1.csv'|" \
+        "$here/decks/liquid_2048.nml" > "$1.nml"
+    grep -q "skin=0.3$2 /" "$1.nml" || { echo "FAIL: could not set '$2' in the deck"; exit 1; }
+}
+run() {    # name np
+    if [[ $2 == 1 ]]; then timeout 300 "$terrace" "$1.nml" > "$1.log" 2>&1
+    else timeout 300 mpirun --oversubscribe -np "$2" "$terrace" "$1.nml" > "$1.log" 2>&1; fi || {
+        echo "FAIL: terrace failed on $1 ($2 ranks)"; tail -5 "$1.log"; exit 1; }
+}
+compare() {  # a b what
+    if "$PYTHON" "$repo/scripts/compare_lammps.py" terrace "$1.csv" "$2.csv" --tol 1e-10 --atol 1e-9 > "cmp_$1_$2.txt" 2>&1; then
+        echo "ok   $3"
+    else
+        echo "FAIL $3:"; cat "cmp_$1_$2.txt"; exit 1
+    fi
+}
+builds() { sed -n 's/^Neighbour list builds: \([0-9]*\).*/\1/p' "$1.log"; }
+late() { sed -n 's/^Neighbour list schedule: .*more than skin\/2: \([0-9]*\) of \([0-9]*\)$/\1 \2/p' "$1.log"; }
+
+deck exact ""
+deck every1 ", every=1, check=.false."
+deck fixed20 ", every=20, check=.false."
+cp fixed20.nml fixed20_np4.nml; sed -i "s|fixed20.csv|fixed20_np4.csv|" fixed20_np4.nml
+deck checked5 ", every=5"
+run exact 1; run every1 1; run fixed20 1; run fixed20_np4 4; run checked5 1
+
+# 1. rebuilding at every step changes nothing but the order of the sums
+compare exact every1 "rebuild at every step = exact schedule (1e-10)"
+[[ "$(builds every1)" == 101 ]] || { echo "FAIL: every = 1, check = .false. built $(builds every1) times, expected 101"; exit 1; }
+grep -q '^Neighbour list schedule' exact.log && { echo "FAIL: the exact schedule printed a schedule line"; exit 1; }
+
+# 2. fixed schedule: 6 builds, rank-count invariant, late builds counted
+[[ "$(builds fixed20)" == 6 && "$(builds fixed20_np4)" == 6 ]] || {
+    echo "FAIL: every = 20 built $(builds fixed20) (1 rank) and $(builds fixed20_np4) (4 ranks) times, expected 6"; exit 1; }
+compare fixed20 fixed20_np4 "every = 20, check = .false.: 1 and 4 ranks agree (1e-10)"
+read -r nlate nb <<< "$(late fixed20)"
+[[ "$nb" == 6 && "$nlate" == 5 ]] || { echo "FAIL: every = 20 reported '$(late fixed20)' late of builds, expected '5 6'"; exit 1; }
+echo "ok   every = 20, check = .false.: 6 builds, 5 late (atoms moved more than skin/2 within 20 steps)"
+
+# 3. checked every 5 steps: no more builds than the exact schedule, and late ones counted
+ne="$(builds exact)"; n5="$(builds checked5)"; read -r l5 b5 <<< "$(late checked5)"
+[[ "$n5" -le "$ne" && "$b5" == "$n5" && "$l5" -ge 1 && "$l5" -le $((n5 - 1)) ]] || {
+    echo "FAIL: checked every 5: $n5 builds ($l5 late) against $ne exact"; exit 1; }
+echo "ok   checked every 5 steps: $n5 builds ($l5 late) against $ne for the exact schedule"
+grep -h "Energy drift" exact.log fixed20.log | sed 's/^/     /'

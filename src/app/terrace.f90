@@ -96,16 +96,23 @@ contains
         call start_clock()
         call run_velocity_verlet(eng, thermo, traj, sched, ctl)
         call close_run(sched%end_time(cfg))
-        call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps')
-        if (.not. eng%list%exact() .and. world%rank == 0) then
-            write (output_unit, '(a,i0,a,a,a,i0,a,i0)') 'Neighbour list schedule: every ', eng%list%every, ' steps, ', &
-                trim(merge('checked ', 'no check', eng%list%check)), &
-                '; builds at which an atom had moved more than skin/2: ', eng%list%late, ' of ', eng%list%builds
-            if (eng%list%late > 0) write (output_unit, '(a)') '  (the list had passed its skin/2 guarantee before '// &
-                'each of those: pairs within the cutoff may have been missed)'
-        end if
+        call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note())
         call eng%report_warnings()
     end subroutine verlet_run
+
+    !> The run log's line on a neighbour-list schedule that is not the exact one (empty otherwise).
+    function schedule_note() result(note)
+        character(len=:), allocatable :: note
+        character(len=256) :: line
+        note = ''
+        if (eng%list%exact()) return
+        write (line, '(a,i0,a,a,a,i0,a,i0)') 'Neighbour list schedule: every ', eng%list%every, ' steps, ', &
+            trim(merge('checked ', 'no check', eng%list%check)), '; builds at which an atom had moved more than skin/2: ', &
+            eng%list%late, ' of ', eng%list%builds
+        note = trim(line)
+        if (eng%list%late > 0) note = note//new_line('a')//'  (the list had passed its skin/2 guarantee before each '// &
+                                      'of those: pairs within the cutoff may have been missed)'
+    end function schedule_note
 
     subroutine energy_stepping_run()
         real(dp) :: ke

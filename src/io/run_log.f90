@@ -15,12 +15,13 @@ module terrace_run_log
 
 contains
 
-    subroutine print_run_log(timers, loop_time, natoms, steps, builds, label)
+    subroutine print_run_log(timers, loop_time, natoms, steps, builds, label, list_note)
         type(timers_t), intent(in) :: timers
         real(dp), intent(in) :: loop_time
         integer(i8), intent(in) :: natoms, steps
         integer, intent(in) :: builds
         character(len=*), intent(in) :: label
+        character(len=*), intent(in), optional :: list_note   !< lines after the build count (a schedule)
         real(dp) :: avg(n_timers), mx(n_timers), mem, memsum, other
         integer :: k
         call MPI_Reduce(timers%total, avg, n_timers, MPI_DOUBLE_PRECISION, MPI_SUM, 0, world%comm)
@@ -42,6 +43,9 @@ contains
                 100*avg(k)/max(loop_time, tiny(1.0_dp))
         end do
         write (output_unit, '(a,i0)') 'Neighbour list builds: ', builds
+        if (present(list_note)) then
+            if (len(list_note) > 0) write (output_unit, '(a)') list_note
+        end if
         ! per atom only where the atoms dominate the memory (a 7-atom cluster measures the libraries)
         if (natoms >= 10000) then
             write (output_unit, '(a)') 'Peak memory: '//fixed(memsum/1024, 1)//' MiB in all ranks, '// &

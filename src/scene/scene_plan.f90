@@ -59,7 +59,7 @@ contains
         type(config_t), intent(in) :: cfg
         type(box_t), intent(in) :: box
         class(potential_t), intent(in) :: pot
-        character(len=512) :: s
+        character(len=512) :: s, rule
         integer :: d
         if (self%pair_mode == pair_all) then
             self%pairs = 'all pairs, no neighbour list (small or cutoff-free scene)'
@@ -78,8 +78,17 @@ contains
                 self%halo = trim(s)
             end if
         else
+            if (cfg%list_every == 1 .and. cfg%list_check) then
+                rule = 'rebuilt when an atom has moved skin/2'
+            else if (cfg%list_check) then
+                write (rule, '(a,i0,a)') 'checked every ', cfg%list_every, &
+                    ' steps and rebuilt when an atom has moved skin/2 (not exact: pairs may be missed)'
+            else
+                write (rule, '(a,i0,a)') 'rebuilt every ', cfg%list_every, ' steps without a check (not exact: '// &
+                    'pairs may be missed)'
+            end if
             write (s, '(a,g0.6,a,g0.6,a)') 'cell lists + half Verlet list, cutoff ', pot%cutoff(), ' + skin ', cfg%skin, &
-                ', rebuilt when an atom has moved skin/2, atoms sorted by cell at each rebuild'
+                ', '//trim(rule)//', atoms sorted by cell at each rebuild'
             self%pairs = trim(s)
             if (self%nprocs == 1) then
                 if (any(box%periodic(1:box%dimension))) then

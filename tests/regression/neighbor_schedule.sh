@@ -57,6 +57,11 @@ compare fixed20 fixed20_np4 "every = 20, check = .false.: 1 and 4 ranks agree (1
 read -r nlate nb <<< "$(late fixed20)"
 [[ "$nb" == 6 && "$nlate" == 5 ]] || { echo "FAIL: every = 20 reported '$(late fixed20)' late of builds, expected '5 6'"; exit 1; }
 echo "ok   every = 20, check = .false.: 6 builds, 5 late (atoms moved more than skin/2 within 20 steps)"
+grep -q 'pairs .*rebuilt every 20 steps without a check (not exact' fixed20.log &&
+    grep -q 'pairs .*checked every 5 steps and rebuilt when an atom has moved skin/2 (not exact' checked5.log &&
+    grep -q 'pairs .*, rebuilt when an atom has moved skin/2, atoms sorted' exact.log ||
+    { echo "FAIL: the scene plan does not state the list schedule"; grep -h 'pairs ' ./*.log; exit 1; }
+echo "ok   the scene plan states each schedule"
 
 # 3. checked every 5 steps: no more builds than the exact schedule, and late ones counted
 ne="$(builds exact)"; n5="$(builds checked5)"; read -r l5 b5 <<< "$(late checked5)"

@@ -100,6 +100,17 @@ contains
         call eng%report_warnings()
     end subroutine verlet_run
 
+    !> The run log's line on energy stepping's pruned list (empty without one).
+    function prune_note() result(note)
+        character(len=:), allocatable :: note
+        character(len=256) :: line
+        note = ''
+        if (.not. eng%use_inner) return
+        write (line, '(a,es9.3,a,i0,a)') 'Pruned list (pairs within rc + skin/4 = rc + ', eng%inner%skin, &
+            ', used by the force and ray passes): ', eng%prunes, ' prunes'
+        note = trim(line)
+    end function prune_note
+
     !> The run log's line on a neighbour-list schedule that is not the exact one (empty otherwise).
     function schedule_note() result(note)
         character(len=:), allocatable :: note
@@ -148,7 +159,7 @@ contains
         call start_clock()
         call run_energy_stepping(eng, thermo, traj, h, sched, es, ctl)
         call close_run(es%time)
-        call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events')
+        call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events', prune_note())
         if (world%rank == 0) then
             write (output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'Events: ', es%events, ' (', es%ups, ' up, ', es%downs, &
                 ' down, ', es%reflections, ' reflections)'

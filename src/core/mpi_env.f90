@@ -22,6 +22,9 @@ module terrace_mpi_env
     interface sum_all
         module procedure sum_all_scalar, sum_all_array
     end interface sum_all
+    interface min_all
+        module procedure min_all_scalar, min_all_array
+    end interface min_all
 
 contains
 
@@ -72,10 +75,15 @@ contains
         call reduce_in_place(x, 1, MPI_DOUBLE_PRECISION, MPI_MAX)
     end subroutine max_all
 
-    subroutine min_all(x)
+    subroutine min_all_scalar(x)
         real(dp), intent(inout) :: x
         call reduce_in_place(x, 1, MPI_DOUBLE_PRECISION, MPI_MIN)
-    end subroutine min_all
+    end subroutine min_all_scalar
+
+    subroutine min_all_array(x)
+        real(dp), intent(inout) :: x(:)
+        call reduce_in_place(x, size(x), MPI_DOUBLE_PRECISION, MPI_MIN)
+    end subroutine min_all_array
 
     subroutine any_all(flag)
         logical, intent(inout) :: flag

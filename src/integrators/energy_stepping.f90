@@ -88,6 +88,9 @@ module terrace_energy_stepping
         logical :: have_guess = .false.            !< c_guess holds the last event's curvature
         real(dp) :: c_guess = 0, trust = huge(1.0_dp)
         real(dp) :: t_exp = 0                      !< the neighbour list's exact expiry time
+        !> the built list's own expiry (t_exp is also the pruned list's: a prune, not a build, at
+        !> t_exp < t_exp_built); not in checkpoints: recomputed after the build a restart makes
+        real(dp) :: t_exp_built = 0
         integer(i8) :: n_sample = 1, n_frame = 1   !< next sample / frame by time: n * interval
         real(dp) :: t_next_sample = huge(1.0_dp), t_next_frame = huge(1.0_dp)
         integer(i8) :: last_events = 0, last_evals = 0   !< at the last sample (means per sample)
@@ -363,7 +366,12 @@ contains
                     lower = k*h; upper = (k + 1)*h
                 end if
                 eng%pe = ray%last_out(1); eng%virial = ray%last_out(4)
-                rebuilt = t >= t_exp .or. (ckpt_due .and. eng%plan%pair_mode /= pair_all)
+                rebuilt = t >= st%t_exp_built .or. (ckpt_due .and. eng%plan%pair_mode /= pair_all)
+                if (.not. rebuilt .and. t >= t_exp) then
+                    ! only the pruned list expired: prune it again (no build, no safe point)
+                    call eng%prune()
+                    if (.not. (collide .or. rescale)) t_exp = expiry_after(t)
+                end if
                 if (rebuilt) then
                     call eng%rebuild()
                     stats%rebuilds = stats%rebuilds + 1
@@ -469,9 +477,11 @@ contains
         !> The neighbour list's expiry time after time t0 (global minimum over ranks).
         real(dp) function expiry_after(t0) result(te)
             real(dp), intent(in) :: t0
-            te = eng%list_expiry()
-            call min_all(te)
-            te = t0 + te
+            real(dp) :: both(2)
+            both(1) = eng%list_expiry(both(2))
+            call min_all(both)
+            te = t0 + both(1)
+            st%t_exp_built = t0 + both(2)
         end function expiry_after
 
         !> Next Andersen collision of every owned atom after t, and the global first one.
@@ -512,12 +522,15 @@ contains
         !> The event loop's state as the interrupted run had it at its checkpoint.
         subroutine restore_state()
             logical :: ok
+            real(dp) :: te
             ok = .true.
             st%t = eng%restart_values%get_r('time', ok)
             call st%exchange(eng%restart_values, .false., stats, ok)
             solver%tol = st%tol
             eng%pe = st%pe; eng%virial = st%virial
             ray%last_s = st%ray_last_s; ray%last_out = st%ray_last_out
+            ! the built list's expiry, as the run computed it after the build it checkpointed at
+            te = expiry_after(st%t)
             if (ts%active()) call ts%restore(eng%restart_values, ok)
             call check_all(ok, trim(eng%cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint '// &
                            '(energy-stepping state missing)')

@@ -33,6 +33,12 @@ module terrace_engine
         type(domain_t) :: dom
         type(replicate_t) :: rep
         type(neighbor_list_t) :: list
+        !> Energy stepping with a pair potential: the pairs of `list` within rc + skin/4, pruned
+        !> again whenever an atom has moved skin/8 (events are short: many per prune), and used
+        !> by the force and ray passes instead of `list` (a quarter of its pairs lie beyond that).
+        type(neighbor_list_t) :: inner
+        logical :: use_inner = .false.
+        integer :: prunes = 0
         class(potential_t), allocatable :: pot
         real(dp) :: cutmax = 0                   !< the potential's largest cutoff (0: none)
         type(plan_t) :: plan
@@ -57,6 +63,7 @@ module terrace_engine
         procedure :: drift => engine_drift
         procedure :: sync_ghosts => engine_sync_ghosts
         procedure :: list_expiry => engine_list_expiry
+        procedure :: prune => engine_prune
         procedure :: report_warnings => engine_report_warnings
         procedure :: check_valid => engine_check_valid
     end type engine_t
@@ -101,6 +108,7 @@ contains
         ! ray passes of some many-body terms (and the force pass of node-to-face contact) need each
         ! owned atom's whole neighbourhood
         self%list%want_below = self%pot%needs_full_neighbourhood(cfg%integrator == 'energy_stepping')
+        self%use_inner = self%plan%inner_list .and. self%plan%pair_mode == pair_cells .and. .not. self%list%want_below
         call self%rebuild()
         call check_overlaps(self%atoms, self%list, self%pot, self%plan%pair_mode, self%source)
         call self%compute_forces(.true.)
@@ -155,6 +163,7 @@ contains
         call self%timers%start(t_neigh)
         if (self%plan%pair_mode == pair_cells) then
             call self%list%build(self%atoms)
+            if (self%use_inner) call self%inner%prune(self%list, self%atoms, self%cutmax + 0.25_dp*self%list%skin)
         else
             call self%list%hold(self%atoms)           ! no pair list: only the displacement reference
         end if
@@ -182,7 +191,11 @@ contains
         call self%timers%start(t_pair)
         nall = self%atoms%nall()
         self%atoms%f(:, 1:nall) = 0
-        call self%pot%forces(self%atoms, self%list, halo, want_energy, ew(1), ew(2))
+        if (self%use_inner) then
+            call self%pot%forces(self%atoms, self%inner, halo, want_energy, ew(1), ew(2))
+        else
+            call self%pot%forces(self%atoms, self%list, halo, want_energy, ew(1), ew(2))
+        end if
         call self%timers%stop(t_pair)
         if (self%plan%pair_mode /= pair_all) then
             call self%timers%start(t_comm)
@@ -263,7 +276,11 @@ contains
         real(dp), intent(in) :: s
         real(dp), intent(out) :: out(4)
         call self%timers%start(t_search)
-        call self%pot%ray(self%atoms, self%list, s, out)
+        if (self%use_inner) then
+            call self%pot%ray(self%atoms, self%inner, s, out)
+        else
+            call self%pot%ray(self%atoms, self%list, s, out)
+        end if
         call self%timers%stop(t_search)
         if (self%pot%sums_global()) return
         call self%timers%start(t_comm)
@@ -301,14 +318,26 @@ contains
     end subroutine ghosts_from_owners
 
     !> Earliest time (from now, this rank's atoms) at which the neighbour list expires (an owned
-    !> atom moving in a straight line reaches skin/2 from where the list was built). Huge when there
-    !> is no list.
-    real(dp) function engine_list_expiry(self) result(t)
+    !> atom moving in a straight line reaches skin/2 from where the list was built), or the pruned
+    !> list (use_inner) does. Huge when there is no list.
+    real(dp) function engine_list_expiry(self, built) result(t)
         class(engine_t), intent(in) :: self
+        real(dp), intent(out), optional :: built   !< the built list's own expiry (t: also the pruned one's)
         t = huge(1.0_dp)
-        if (self%plan%pair_mode == pair_all) return
-        t = self%list%expiry(self%atoms)
+        if (self%plan%pair_mode /= pair_all) t = self%list%expiry(self%atoms)
+        if (present(built)) built = t
+        if (self%use_inner) t = min(t, self%inner%expiry(self%atoms))
     end function engine_list_expiry
+
+    !> The pruned list again from the built one (use_inner), at the present positions.
+    subroutine engine_prune(self)
+        class(engine_t), intent(inout) :: self
+        if (.not. self%use_inner) return
+        call self%timers%start(t_neigh)
+        call self%inner%prune(self%list, self%atoms, self%cutmax + 0.25_dp*self%list%skin)
+        self%prunes = self%prunes + 1
+        call self%timers%stop(t_neigh)
+    end subroutine engine_prune
 
     !> Warnings gathered during the run, printed once by rank 0 (collective).
     subroutine engine_report_warnings(self)

@@ -60,6 +60,7 @@ module terrace_neighbor_list
         procedure :: hold => nl_hold
         procedure :: needs_rebuild => nl_needs_rebuild
         procedure :: rebuild_due => nl_rebuild_due
+        procedure :: prune => nl_prune
         procedure :: exact => nl_exact
         procedure :: expiry => nl_expiry
     end type neighbor_list_t
@@ -460,6 +461,42 @@ contains
         flag = moved_too_far(atoms%nlocal, atoms%x, self%xhold, (0.5_dp*self%skin)**2)
         call any_all(flag)
     end function nl_needs_rebuild
+
+    !> This list as the pairs of `outer` (a built list) within `cut` of each other now: each row of
+    !> outer filtered in order. The pruned list (skin = cut - the outer list's cutoff without skin)
+    !> holds every pair within that cutoff until an atom has moved skin/2 from here (expiry), as a
+    !> list built with that skin would; energy stepping prunes far more often than it builds.
+    subroutine nl_prune(self, outer, atoms, cut)
+        class(neighbor_list_t), intent(inout) :: self
+        type(neighbor_list_t), intent(in) :: outer
+        type(atoms_t), intent(in) :: atoms
+        real(dp), intent(in) :: cut
+        integer :: i, k, j, n, nlocal
+        real(dp) :: cutsq, xi, yi, zi, dx, dy, dz
+        nlocal = atoms%nlocal
+        self%cut = cut
+        self%cutsq = cut*cut
+        self%skin = cut - (outer%cut - outer%skin)
+        self%dimension = outer%dimension
+        cutsq = self%cutsq
+        call reserve(self%first, nlocal + 1)
+        call reserve(self%neigh, max(outer%first(nlocal + 1) - 1, 1))
+        n = 0
+        self%first(1) = 1
+        do i = 1, nlocal
+            xi = atoms%x(1, i); yi = atoms%x(2, i); zi = atoms%x(3, i)
+            do k = outer%first(i), outer%first(i + 1) - 1
+                j = outer%neigh(k)
+                dx = xi - atoms%x(1, j); dy = yi - atoms%x(2, j); dz = zi - atoms%x(3, j)
+                self%neigh(n + 1) = j
+                n = n + merge(1, 0, dx*dx + dy*dy + dz*dz < cutsq)
+            end do
+            self%first(i + 1) = n + 1
+        end do
+        self%max_neighbors = longest_row(self%first, nlocal)
+        call self%hold(atoms)
+        self%builds = self%builds + 1
+    end subroutine nl_prune
 
     !> Whether the list is rebuilt at this step (collective: the same answer on every rank). forced:
     !> a rebuild the caller needs anyway (a checkpoint). Exact schedule: when an atom has moved skin/2.

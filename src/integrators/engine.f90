@@ -108,7 +108,7 @@ contains
         ! ray passes of some many-body terms (and the force pass of node-to-face contact) need each
         ! owned atom's whole neighbourhood
         self%list%want_below = self%pot%needs_full_neighbourhood(cfg%integrator == 'energy_stepping')
-        self%use_inner = self%plan%inner_list .and. self%plan%pair_mode == pair_cells .and. .not. self%list%want_below
+        self%use_inner = self%plan%inner_list
         call self%rebuild()
         call check_overlaps(self%atoms, self%list, self%pot, self%plan%pair_mode, self%source)
         call self%compute_forces(.true.)
@@ -163,7 +163,7 @@ contains
         call self%timers%start(t_neigh)
         if (self%plan%pair_mode == pair_cells) then
             call self%list%build(self%atoms)
-            if (self%use_inner) call self%inner%prune(self%list, self%atoms, self%cutmax + 0.25_dp*self%list%skin)
+            if (self%use_inner) call self%inner%prune(self%list, self%atoms, inner_cut(self))
         else
             call self%list%hold(self%atoms)           ! no pair list: only the displacement reference
         end if
@@ -334,10 +334,16 @@ contains
         class(engine_t), intent(inout) :: self
         if (.not. self%use_inner) return
         call self%timers%start(t_neigh)
-        call self%inner%prune(self%list, self%atoms, self%cutmax + 0.25_dp*self%list%skin)
+        call self%inner%prune(self%list, self%atoms, inner_cut(self))
         self%prunes = self%prunes + 1
         call self%timers%stop(t_neigh)
     end subroutine engine_prune
+
+    !> The pruned list's cutoff: rc + skin/4 (its skin/2 is then skin/8).
+    pure real(dp) function inner_cut(self)
+        class(engine_t), intent(in) :: self
+        inner_cut = self%cutmax + 0.25_dp*self%list%skin
+    end function inner_cut
 
     !> Warnings gathered during the run, printed once by rank 0 (collective).
     subroutine engine_report_warnings(self)

@@ -20,7 +20,8 @@ module terrace_scene_plan
         integer :: pair_mode = pair_cells
         integer(i8) :: all_pairs_max = 64    !< 'auto' picks all pairs up to this many atoms (free scenes)
         !> energy stepping with a Lennard-Jones list: force and ray passes over a pruned copy of the
-        !> list (pairs within rc + skin/4, pruned again when an atom has moved skin/8)
+        !> list (pairs within rc + skin/4, pruned again when an atom has moved skin/8). Only with
+        !> cell lists, and not where the passes need the complement list (want_below: EAM).
         logical :: inner_list = .false.
         character(len=:), allocatable :: halo, pairs, potential, integrator, outputs, box
     contains

@@ -76,6 +76,7 @@ module terrace_eam
         real(dp), allocatable :: ftab(:)            !< several types: force records (16 per knot and pair table)
         integer :: dtab0 = 0, ftab0 = 0             !< where their first record starts (64-byte aligned)
         integer, allocatable :: cj(:), cfirst(:)    !< pairs inside the cutoff: partners cj(cfirst(i):cfirst(i+1)-1) of i
+        integer, allocatable :: ct(:)               !< several types: the table offset of pair cj(c), pair_off(type j, type i)
         logical :: kept = .false.                   !< cj is the density pass's, for the force pass that follows
         integer :: kept_n = -1, kept_len = -1       !< nlocal and list%first(nlocal+1) it was made with
         integer, allocatable :: pair_off(:, :)      !< several types: (tj, ti) -> column offset of that pair's table
@@ -585,7 +586,7 @@ contains
             if (.not. allocated(self%dtab)) call build_pair_tables(self)
             call density_types(atoms%nlocal, atoms%x, atoms%type, list%first, list%neigh, self%cutsq, self%rdr, &
                                self%nr, self%pair_off, self%dtab(self%dtab0 + 1:), self%rho, self%cj, self%cfirst, &
-                               self%work(:, 1), self%iwork(:, 1), self%iwork(:, 2))
+                               self%ct, self%work(:, 1), self%iwork(:, 1))
         end if
         self%kept = .true.
         self%kept_n = atoms%nlocal
@@ -632,6 +633,10 @@ contains
             call reserve_pairs(self, atoms%nlocal, list%first)
             call inside_pairs(atoms%nlocal, atoms%x, list%first, list%neigh, self%cutsq, self%cj, self%cfirst, &
                               self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4))
+            if (self%ntypes > 1) then
+                if (.not. allocated(self%dtab)) call build_pair_tables(self)
+                call pair_offsets(atoms%nlocal, atoms%type, self%cj, self%cfirst, self%pair_off, self%ct)
+            end if
         end if
         self%kept = .false.
         if (self%ntypes == 1) then
@@ -642,11 +647,10 @@ contains
                            self%work(:, 8), self%iwork(:, 2))
         else
             if (.not. allocated(self%dtab)) call build_pair_tables(self)
-            call force_types(atoms%nlocal, atoms%x, atoms%f, atoms%type, self%cj, self%cfirst, self%rdr, self%nr, &
-                             self%pair_off, self%ftab(self%ftab0 + 1:), self%fp, want_energy, energy, virial, &
+            call force_types(atoms%nlocal, atoms%x, atoms%f, self%cj, self%ct, self%cfirst, self%rdr, self%nr, &
+                             self%ftab(self%ftab0 + 1:), self%fp, want_energy, energy, virial, &
                              self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
-                             self%work(:, 6), self%work(:, 7), self%work(:, 8), self%work(:, 9), self%iwork(:, 2), &
-                             self%iwork(:, 3))
+                             self%work(:, 6), self%work(:, 7), self%work(:, 8), self%work(:, 9), self%iwork(:, 2))
         end if
     end subroutine eam_force
 
@@ -1095,18 +1099,19 @@ contains
 
     !> Several types: rho_i += rho_ba(r), rho_j += rho_ab(r) (a = type i, b = type j), staged as
     !> density_one. The scalar gather pass also fetches each neighbour's table offset,
-    !> off(type j, type i) (see build_pair_tables); knot + offset is a column of d, whose record
-    !> (d(1:4) for i, d(5:8) for j) is the pair's only table read.
-    subroutine density_types(nlocal, x, type, first, neigh, cutsq, rdr, nr, off, d, rho, cj, cfirst, pp, mm, tt)
+    !> off(type j, type i) (see build_pair_tables), kept with the partner for the force pass
+    !> (ct(c) beside cj(c)); knot + offset is a column of d, whose record (d(1:4) for i, d(5:8)
+    !> for j) is the pair's only table read.
+    subroutine density_types(nlocal, x, type, first, neigh, cutsq, rdr, nr, off, d, rho, cj, cfirst, ct, pp, mm)
         integer, intent(in) :: nlocal, nr
         real(dp), intent(in) :: x(3, *)
         real(dp), intent(in) :: d(8, *)
         integer, intent(in), contiguous :: type(:), first(:), neigh(:), off(:, :)
         real(dp), intent(in) :: cutsq, rdr
         real(dp), intent(inout), contiguous :: rho(:)
-        integer, intent(inout), contiguous :: cj(:), cfirst(:)
+        integer, intent(inout), contiguous :: cj(:), cfirst(:), ct(:)
         real(dp), intent(inout), contiguous :: pp(:)
-        integer, intent(inout), contiguous :: mm(:), tt(:)
+        integer, intent(inout), contiguous :: mm(:)
         integer :: i, j, k, m, k0, nn, nin, c, ti
         real(dp) :: xi, yi, zi, p, acc, top, ddx, ddy, ddz, rsq
         top = nr - 1
@@ -1125,14 +1130,14 @@ contains
                 ddx = xi - x(1, j); ddy = yi - x(2, j); ddz = zi - x(3, j)
                 rsq = ddx*ddx + ddy*ddy + ddz*ddz
                 cj(c + nin + 1) = j
+                ct(c + nin + 1) = off(type(j), ti)
                 pp(nin + 1) = rsq
-                tt(nin + 1) = off(type(j), ti)
                 nin = nin + merge(1, 0, rsq < cutsq)
             end do
             do k = 1, nin
                 p = sqrt(pp(k))*rdr + 1
                 m = int(min(p, top))
-                mm(k) = m + tt(k)
+                mm(k) = m + ct(c + k)
                 pp(k) = min(p - m, 1.0_dp)
             end do
             acc = 0
@@ -1174,6 +1179,21 @@ contains
         end do
     end subroutine inside_pairs
 
+    !> The table offsets ct(c) = off(type cj(c), type i) of the pairs inside the cutoff, as the
+    !> multi-type density pass keeps them (for a force pass not preceded by one).
+    subroutine pair_offsets(nlocal, type, cj, cfirst, off, ct)
+        integer, intent(in) :: nlocal
+        integer, intent(in), contiguous :: type(:), cj(:), cfirst(:), off(:, :)
+        integer, intent(inout), contiguous :: ct(:)
+        integer :: i, c, ti
+        do i = 1, nlocal
+            ti = type(i)
+            do c = cfirst(i), cfirst(i + 1) - 1
+                ct(c) = off(type(cj(c)), ti)
+            end do
+        end do
+    end subroutine pair_offsets
+
     !> Room for the pairs inside the cutoff: at most the list's length.
     subroutine reserve_pairs(self, nlocal, first)
         type(eam_t), intent(inout) :: self
@@ -1185,6 +1205,10 @@ contains
             if (size(self%cj) < n .or. size(self%cfirst) < nlocal + 1) deallocate (self%cj, self%cfirst)
         end if
         if (.not. allocated(self%cj)) allocate (self%cj(n + n/4 + 16), self%cfirst(nlocal + nlocal/4 + 16))
+        if (allocated(self%ct)) then
+            if (self%ntypes == 1 .or. size(self%ct) < size(self%cj)) deallocate (self%ct)
+        end if
+        if (self%ntypes > 1 .and. .not. allocated(self%ct)) allocate (self%ct(size(self%cj)))
     end subroutine reserve_pairs
 
     !> F'(rho) (and F) of owned atoms; lo, hi: extremes of rho.
@@ -1318,22 +1342,23 @@ contains
     end subroutine force_one
 
     !> Several types: psi'(r) = fp_i rho_ba'(r) + fp_j rho_ab'(r) + phi_ab'(r) (a = type i, b = type
-    !> j), staged and blocked as force_one; the pair's table is found as in density_types, its
-    !> record t(:, m) = (rho_ba' c0..c2, rho_ab' c0..c2, z' c0..c2, z c3..c6).
-    subroutine force_types(nlocal, x, f, type, cj, cfirst, rdr, nr, off, t, fp, want_energy, energy, virial, &
-                           dx, dy, dz, rr, pp, rinv, fj, ph, fi, mm, tt)
+    !> j), staged and blocked as force_one; the pair's table offset is the density pass's, ct(c)
+    !> (a contiguous read, not a gather of type j), its record t(:, m) = (rho_ba' c0..c2,
+    !> rho_ab' c0..c2, z' c0..c2, z c3..c6).
+    subroutine force_types(nlocal, x, f, cj, ct, cfirst, rdr, nr, t, fp, want_energy, energy, virial, &
+                           dx, dy, dz, rr, pp, rinv, fj, ph, fi, mm)
         integer, intent(in) :: nlocal, nr
         real(dp), intent(in) :: x(3, *)
         real(dp), intent(in), contiguous :: fp(:)
         real(dp), intent(in) :: t(16, *)
         real(dp), intent(inout) :: f(3, *)
-        integer, intent(in), contiguous :: type(:), cj(:), cfirst(:), off(:, :)
+        integer, intent(in), contiguous :: cj(:), ct(:), cfirst(:)
         real(dp), intent(in) :: rdr
         logical, intent(in) :: want_energy
         real(dp), intent(inout) :: energy, virial
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:), fi(:)
-        integer, intent(inout), contiguous :: mm(:), tt(:)
-        integer :: i, i0, i1, j, k, m, c, c0, n, ti
+        integer, intent(inout), contiguous :: mm(:)
+        integer :: i, i0, i1, j, k, m, c, c0, n
         real(dp) :: xi, yi, zi, fpi, p, r, rjp, rip, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top, ei, ce
         top = nr - 1
         e = 0; w = 0; ce = 0
@@ -1347,7 +1372,7 @@ contains
             end do
             n = cfirst(i1 + 1) - 1 - c0
             do i = i0, i1
-                xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i); ti = type(i)
+                xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i)
                 !GCC$ novector
                 do c = cfirst(i), cfirst(i + 1) - 1
                     k = c - c0
@@ -1355,7 +1380,6 @@ contains
                     dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
                     fi(k) = fpi
                     fj(k) = fp(j)
-                    tt(k) = off(type(j), ti)
                 end do
             end do
             do k = 1, n
@@ -1364,10 +1388,10 @@ contains
                 rinv(k) = 1/r
                 p = r*rdr + 1
                 m = int(min(p, top))
-                mm(k) = m + tt(k)
+                mm(k) = m + ct(c0 + k)
                 pp(k) = min(p - m, 1.0_dp)
             end do
-            ! lookups (scalar: see force_one): rho_ba', rho_ab' -> fi, fj (times fp_i, fp_j); z' -> pp, z -> ph
+            ! lookups (scalar: see force_one): fp_i rho_ba' + fp_j rho_ab' -> fj; z' -> pp, z -> ph
             !GCC$ novector
             do k = 1, n
                 m = mm(k); p = pp(k)
@@ -1375,15 +1399,14 @@ contains
                 rip = (t(4, m)*p + t(5, m))*p + t(6, m)
                 zp = (t(7, m)*p + t(8, m))*p + t(9, m)
                 z = ((t(10, m)*p + t(11, m))*p + t(12, m))*p + t(13, m)
-                fi(k) = fi(k)*rjp
-                fj(k) = fj(k)*rip
+                fj(k) = fi(k)*rjp + fj(k)*rip
                 pp(k) = zp
                 ph(k) = z
             end do
             do k = 1, n
                 phi = ph(k)*rinv(k)
                 ph(k) = phi
-                fpair = -((fi(k) + fj(k)) + (pp(k)*rinv(k) - phi*rinv(k)))*rinv(k)
+                fpair = -(fj(k) + (pp(k)*rinv(k) - phi*rinv(k)))*rinv(k)
                 rinv(k) = fpair
                 dx(k) = dx(k)*fpair; dy(k) = dy(k)*fpair; dz(k) = dz(k)*fpair
             end do

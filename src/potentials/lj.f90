@@ -328,7 +328,12 @@ contains
             nn = first(i + 1) - first(i)
             if (one_type) then
                 call separations(xi, yi, zi, x, neigh(k0 + 1:k0 + nn), fx, fy, fz)
-                call one_type_pairs(nn, fx, fy, fz, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero, ep, wp)
+                if (want_energy) then
+                    call one_type_pairs_energy(nn, fx, fy, fz, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero, ea, wa)
+                    atom_e(i) = ea; w = w + wa
+                else
+                    call one_type_pairs(nn, fx, fy, fz, lj1, lj2, cutsq, far)
+                end if
             else
                 ti = type(i)
                 !GCC$ novector
@@ -364,7 +369,7 @@ contains
                 fxi = fxi + fx(k); fyi = fyi + fy(k); fzi = fzi + fz(k)
             end do
             f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
-            if (want_energy) then
+            if (want_energy .and. .not. one_type) then
                 ! per-atom sums, totalled by the caller (compensated): with the total formed here,
                 ! every force pass, with energy or not, ran 5-8 % slower (Verlet, in.lj scene)
                 ea = 0; wa = 0
@@ -502,31 +507,51 @@ contains
     end subroutine pairs_mixed
 
     !> One type: pair forces fpair*(dx, dy, dz) in place of the separations, with scalar
-    !> coefficients; when want_energy, also the pair energies ep and virials wp.
-    pure subroutine one_type_pairs(nn, fx, fy, fz, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero, ep, wp)
+    !> coefficients.
+    pure subroutine one_type_pairs(nn, fx, fy, fz, lj1, lj2, cutsq, far)
         integer, intent(in) :: nn
-        real(dp), intent(inout) :: fx(nn), fy(nn), fz(nn), ep(nn), wp(nn)
-        logical, intent(in) :: want_energy
-        real(dp), intent(in) :: lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero
+        real(dp), intent(inout) :: fx(nn), fy(nn), fz(nn)
+        real(dp), intent(in) :: lj1, lj2, cutsq, far
         integer :: k
-        real(dp) :: rsq, r2inv, r6inv, fpair, inside
-        if (want_energy) then
-            do k = 1, nn
-                rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
+        real(dp) :: rsq, r2inv, r6inv, fpair
+        do k = 1, nn
+            rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
+            call lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
+            fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+        end do
+    end subroutine one_type_pairs
+
+    !> one_type_pairs plus the atom's pair-energy sum ea and virial sum wa, added into eight lanes
+    !> as the pairs are computed (as ray_one_type does: storing per-pair rows and summing them in a
+    !> second pass made the energy-stepping force pass dearer per pair than Verlet's). The rows
+    !> are padded to a multiple of 8 with far pairs (force, energy and virial exactly 0): the rows
+    !> must have room for nn + 8 entries.
+    pure subroutine one_type_pairs_energy(nn, fx, fy, fz, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero, ea, wa)
+        integer, intent(in) :: nn
+        real(dp), intent(inout) :: fx(*), fy(*), fz(*)
+        real(dp), intent(in) :: lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero
+        real(dp), intent(out) :: ea, wa
+        real(dp), parameter :: pad_far = 1.0e100_dp      ! a separation beyond any cutoff (its square finite)
+        integer :: k, l, kk, nnp
+        real(dp) :: rsq, r2inv, r6inv, fpair, inside, le(8), lw(8)
+        nnp = ((nn + 7)/8)*8
+        do k = nn + 1, nn + 8        ! eight entries whatever the remainder (a variable count became memset calls)
+            fx(k) = pad_far; fy(k) = 0; fz(k) = 0
+        end do
+        le = 0; lw = 0
+        do k = 1, nnp, 8
+            do l = 1, 8
+                kk = k + l - 1
+                rsq = fx(kk)*fx(kk) + fy(kk)*fy(kk) + fz(kk)*fz(kk)
                 inside = merge(one, zero, rsq < cutsq)
                 call lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
-                ep(k) = r6inv*(lj3*r6inv - lj4) - offset*inside
-                wp(k) = rsq*fpair
-                fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+                le(l) = le(l) + (r6inv*(lj3*r6inv - lj4) - offset*inside)
+                lw(l) = lw(l) + rsq*fpair
+                fx(kk) = fx(kk)*fpair; fy(kk) = fy(kk)*fpair; fz(kk) = fz(kk)*fpair
             end do
-        else
-            do k = 1, nn
-                rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
-                call lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
-                fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
-            end do
-        end if
-    end subroutine one_type_pairs
+        end do
+        ea = sum(le); wa = sum(lw)
+    end subroutine one_type_pairs_energy
 
     !> Pair forces fpair*(dx, dy, dz) in place of the separations, per-pair coefficients.
     pure subroutine pair_forces(nn, fx, fy, fz, c1, c2, cs, far)
@@ -658,8 +683,9 @@ contains
             end do
             ! the rows padded to a multiple of 8 with far, motionless pairs (all four terms exactly 0):
             ! the vectorised loops below then have no remainder
+            ! (eight entries whatever the remainder: a loop of 0-7 became five memset calls per atom)
             nnp = ((nn + 7)/8)*8
-            do k = nn + 1, nnp
+            do k = nn + 1, nn + 8
                 dx(k) = pad_far; dy(k) = 0; dz(k) = 0; wx(k) = 0; wy(k) = 0; wz(k) = 0
             end do
             ! the four terms summed in eight lanes as they are computed (no rows stored and re-read):

@@ -76,6 +76,10 @@ module terrace_lj
         procedure :: ray_all_pairs => lj_ray_all_pairs
     end type lj_t
 
+    !> A separation beyond any cutoff whose square is still finite: the pad of the rows that the
+    !> eight-lane loops run over (its pair terms are exactly 0).
+    real(dp), parameter :: pad_far = 1.0e100_dp
+
 contains
 
     !> Tables from per-pair epsilon, sigma, cutoff (full symmetric ntypes x ntypes arrays).
@@ -293,7 +297,8 @@ contains
     !> the pair energies and virials) are computed branch-free over the contiguous rows
     !> (vectorised: GCC does not emit gathers for this CPU); then they are scattered (Newton's third
     !> law) while the force on i is summed in list order, and the pair energies and virials are
-    !> summed in list order. One type (lj/cut): scalar coefficients, only the separations gathered.
+    !> summed in list order. One type (lj/cut): scalar coefficients, only the separations gathered,
+    !> and the energies and virials summed in eight lanes as they are computed (one_type_pairs_energy).
     !> Columns of work: separations / pair forces 1-3, lj1, lj2, cutsq, lj3, lj4, offset, pair
     !> energy, pair virial; for lj/smooth/linear also 12, 13: rc and fc (fpair - fc/r and the
     !> energy term (r - rc) fc).
@@ -531,7 +536,6 @@ contains
         real(dp), intent(inout) :: fx(*), fy(*), fz(*)
         real(dp), intent(in) :: lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero
         real(dp), intent(out) :: ea, wa
-        real(dp), parameter :: pad_far = 1.0e100_dp      ! a separation beyond any cutoff (its square finite)
         integer :: k, l, kk, nnp
         real(dp) :: rsq, r2inv, r6inv, fpair, inside, le(8), lw(8)
         nnp = ((nn + 7)/8)*8
@@ -666,7 +670,6 @@ contains
         integer :: i, k, j, k0, nn, nnp, l, kk
         real(dp) :: xi, yi, zi, vxi, vyi, vzi, rsq, r2inv, r6inv, fpair, d2psi, rho1, inside, &
                     vir, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero, c7h, c2, la(8), lb(8), lc(8), ld(8)
-        real(dp), parameter :: pad_far = 1.0e100_dp      ! a separation beyond any cutoff (its square finite)
         lj1 = lj1_; lj2 = lj2_; lj3 = lj3_; lj4 = lj4_; cutsq = cutsq_; offset = offset_
         c7h = 3.5_dp*lj1; c2 = 2*lj2
         far = inf; one = one_; zero = zero_

@@ -67,7 +67,8 @@ module terrace_lj
         procedure :: ray => lj_ray_any
         procedure :: cutoff => lj_cutoff
         procedure :: describe => lj_describe
-        procedure :: supports_all_pairs => lj_supports_all_pairs
+        procedure :: supports_all_pairs => lj_true
+        procedure :: runs_on_pruned_list => lj_true
         procedure :: contact_distance => lj_contact_distance
         procedure :: time_scale => lj_time_scale
         procedure :: compute => lj_compute
@@ -210,10 +211,12 @@ contains
         if (self%mixed) text = text//'; mixed precision (single-precision pairs, double sums)'
     end function lj_describe
 
-    pure logical function lj_supports_all_pairs(self)
+    !> Lennard-Jones runs on all pairs (no list) and over a pruned list (its passes use the pairs
+    !> within the cutoff only).
+    pure logical function lj_true(self)
         class(lj_t), intent(in) :: self
-        lj_supports_all_pairs = .true.
-    end function lj_supports_all_pairs
+        lj_true = .true.
+    end function lj_true
 
     !> sigma_ij = (lj3/lj4)^(1/6).
     pure real(dp) function lj_contact_distance(self, ti, tj)

@@ -42,6 +42,10 @@ module terrace_potential
         !> .true.: the passes of this integrator need each owned atom's whole neighbourhood (the
         !> list's complement of ghosts below, list%below): EAM's ray pass, node-face contact always
         procedure :: needs_full_neighbourhood => potential_needs_full
+        !> .true.: the force and ray passes are exact over any pair list that holds every pair
+        !> within the cutoff (they use neither the list's skin nor its complement), so that energy
+        !> stepping may run them over a pruned copy of the list (scene plan: inner_list)
+        procedure :: runs_on_pruned_list => potential_false
         procedure :: contact_distance => potential_contact_distance
         procedure :: time_scale => potential_time_scale
         procedure :: preferred_skin => potential_preferred_skin

@@ -26,6 +26,7 @@ module terrace_potential_sum
         procedure :: needs_pair_list => sum_needs_pair_list
         procedure :: supports_all_pairs => sum_supports_all_pairs
         procedure :: needs_full_neighbourhood => sum_needs_full
+        procedure :: runs_on_pruned_list => sum_runs_on_pruned_list
         procedure :: contact_distance => sum_contact_distance
         procedure :: time_scale => sum_time_scale
         procedure :: on_rebuild => sum_on_rebuild
@@ -123,6 +124,12 @@ contains
         integer :: k
         sum_needs_full = any([(self%terms(k)%p%needs_full_neighbourhood(energy_stepping), k = 1, size(self%terms))])
     end function sum_needs_full
+
+    pure logical function sum_runs_on_pruned_list(self)
+        class(potential_sum_t), intent(in) :: self
+        integer :: k
+        sum_runs_on_pruned_list = all([(self%terms(k)%p%runs_on_pruned_list(), k = 1, size(self%terms))])
+    end function sum_runs_on_pruned_list
 
     pure real(dp) function sum_contact_distance(self, ti, tj)
         class(potential_sum_t), intent(in) :: self

@@ -19,9 +19,10 @@ module terrace_scene_plan
         integer :: dims(3) = 1
         integer :: pair_mode = pair_cells
         integer(i8) :: all_pairs_max = 64    !< 'auto' picks all pairs up to this many atoms (free scenes)
-        !> energy stepping with a Lennard-Jones list: force and ray passes over a pruned copy of the
-        !> list (pairs within rc + skin/4, pruned again when an atom has moved skin/8). Only with
-        !> cell lists, and not where the passes need the complement list (want_below: EAM).
+        !> energy stepping: force and ray passes over a pruned copy of the list (pairs within
+        !> rc + skin/4, pruned again when an atom has moved skin/8), for potentials whose passes
+        !> allow it (runs_on_pruned_list: Lennard-Jones). Only with cell lists, and not where the
+        !> passes need the complement list (want_below: EAM).
         logical :: inner_list = .false.
         character(len=:), allocatable :: halo, pairs, potential, integrator, outputs, box
     contains
@@ -94,8 +95,7 @@ contains
             write (s, '(a,g0.6,a,g0.6,a)') 'cell lists + half Verlet list, cutoff ', pot%cutoff(), ' + skin ', cfg%skin, &
                 ', '//trim(rule)//', atoms sorted by cell at each rebuild'
             self%inner_list = cfg%integrator == 'energy_stepping' .and. cfg%skin > 0 .and. &
-                              (cfg%potential == 'lj' .or. cfg%potential == 'lj/smooth/linear') .and. &
-                              .not. pot%needs_full_neighbourhood(.true.)
+                              pot%runs_on_pruned_list() .and. .not. pot%needs_full_neighbourhood(.true.)
             if (self%inner_list) s = trim(s)//'; force and ray passes over the pairs within cutoff + skin/4, '// &
                                      'pruned from it when an atom has moved skin/8'
             self%pairs = trim(s)

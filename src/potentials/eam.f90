@@ -650,7 +650,7 @@ contains
             call force_types(atoms%nlocal, atoms%x, atoms%f, self%cj, self%ct, self%cfirst, self%rdr, self%nr, &
                              self%ftab(self%ftab0 + 1:), self%fp, want_energy, energy, virial, &
                              self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
-                             self%work(:, 6), self%work(:, 7), self%work(:, 8), self%work(:, 9), self%iwork(:, 2))
+                             self%work(:, 6), self%work(:, 7), self%work(:, 8), self%iwork(:, 2))
         end if
     end subroutine eam_force
 
@@ -1346,7 +1346,7 @@ contains
     !> (a contiguous read, not a gather of type j), its record t(:, m) = (rho_ba' c0..c2,
     !> rho_ab' c0..c2, z' c0..c2, z c3..c6).
     subroutine force_types(nlocal, x, f, cj, ct, cfirst, rdr, nr, t, fp, want_energy, energy, virial, &
-                           dx, dy, dz, rr, pp, rinv, fj, ph, fi, mm)
+                           dx, dy, dz, rr, pp, rinv, fj, ph, mm)
         integer, intent(in) :: nlocal, nr
         real(dp), intent(in) :: x(3, *)
         real(dp), intent(in), contiguous :: fp(:)
@@ -1356,7 +1356,7 @@ contains
         real(dp), intent(in) :: rdr
         logical, intent(in) :: want_energy
         real(dp), intent(inout) :: energy, virial
-        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:), fi(:)
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:)
         integer, intent(inout), contiguous :: mm(:)
         integer :: i, i0, i1, j, k, m, c, c0, n
         real(dp) :: xi, yi, zi, fpi, p, r, rjp, rip, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top, ei, ce
@@ -1372,13 +1372,12 @@ contains
             end do
             n = cfirst(i1 + 1) - 1 - c0
             do i = i0, i1
-                xi = x(1, i); yi = x(2, i); zi = x(3, i); fpi = fp(i)
+                xi = x(1, i); yi = x(2, i); zi = x(3, i)
                 !GCC$ novector
                 do c = cfirst(i), cfirst(i + 1) - 1
                     k = c - c0
                     j = cj(c)
                     dx(k) = xi - x(1, j); dy(k) = yi - x(2, j); dz(k) = zi - x(3, j)
-                    fi(k) = fpi
                     fj(k) = fp(j)
                 end do
             end do
@@ -1391,17 +1390,21 @@ contains
                 mm(k) = m + ct(c0 + k)
                 pp(k) = min(p - m, 1.0_dp)
             end do
-            ! lookups (scalar: see force_one): fp_i rho_ba' + fp_j rho_ab' -> fj; z' -> pp, z -> ph
-            !GCC$ novector
-            do k = 1, n
-                m = mm(k); p = pp(k)
-                rjp = (t(1, m)*p + t(2, m))*p + t(3, m)
-                rip = (t(4, m)*p + t(5, m))*p + t(6, m)
-                zp = (t(7, m)*p + t(8, m))*p + t(9, m)
-                z = ((t(10, m)*p + t(11, m))*p + t(12, m))*p + t(13, m)
-                fj(k) = fi(k)*rjp + fj(k)*rip
-                pp(k) = zp
-                ph(k) = z
+            ! lookups (scalar: see force_one), atom by atom: fp_i rho_ba' + fp_j rho_ab' -> fj; z' -> pp,
+            ! z -> ph
+            do i = i0, i1
+                fpi = fp(i)
+                !GCC$ novector
+                do k = cfirst(i) - c0, cfirst(i + 1) - 1 - c0
+                    m = mm(k); p = pp(k)
+                    rjp = (t(1, m)*p + t(2, m))*p + t(3, m)
+                    rip = (t(4, m)*p + t(5, m))*p + t(6, m)
+                    zp = (t(7, m)*p + t(8, m))*p + t(9, m)
+                    z = ((t(10, m)*p + t(11, m))*p + t(12, m))*p + t(13, m)
+                    fj(k) = fpi*rjp + fj(k)*rip
+                    pp(k) = zp
+                    ph(k) = z
+                end do
             end do
             do k = 1, n
                 phi = ph(k)*rinv(k)

@@ -541,10 +541,7 @@ contains
         real(dp), intent(out) :: ea, wa
         integer :: k, l, kk, nnp
         real(dp) :: rsq, r2inv, r6inv, fpair, inside, le(8), lw(8)
-        nnp = ((nn + 7)/8)*8
-        do k = nn + 1, nn + 8        ! eight entries whatever the remainder (a variable count became memset calls)
-            fx(k) = pad_far; fy(k) = 0; fz(k) = 0
-        end do
+        call pad_rows(nn, fx, fy, fz, pad_far, nnp)
         le = 0; lw = 0
         do k = 1, nnp, 8
             do l = 1, 8
@@ -641,6 +638,21 @@ contains
         fpair = r6inv*(lj1*r6inv - lj2)*r2inv
     end subroutine lj_terms
 
+    !> Pads three rows of nn entries for the eight-lane loops: entries nn+1 .. nn+8 of a set to
+    !> lead, of b and c to 0 (eight entries whatever the remainder: a loop of 0-7 iterations became
+    !> memset calls per atom); nnp = nn rounded up to a multiple of 8. The rows need nn + 8 entries.
+    pure subroutine pad_rows(nn, a, b, c, lead, nnp)
+        integer, intent(in) :: nn
+        real(dp), intent(inout) :: a(*), b(*), c(*)
+        real(dp), intent(in) :: lead
+        integer, intent(out) :: nnp
+        integer :: k
+        do k = nn + 1, nn + 8
+            a(k) = lead; b(k) = 0; c(k) = 0
+        end do
+        nnp = ((nn + 7)/8)*8
+    end subroutine pad_rows
+
     !> Separations (xi, yi, zi) - x(:, j) of atom i from its neighbours j = nbrs(1:nn) into fx, fy,
     !> fz (scalar loads, contiguous stores).
     pure subroutine separations(xi, yi, zi, x, nbrs, fx, fy, fz)
@@ -689,11 +701,8 @@ contains
             end do
             ! the rows padded to a multiple of 8 with far, motionless pairs (all four terms exactly 0):
             ! the vectorised loops below then have no remainder
-            ! (eight entries whatever the remainder: a loop of 0-7 became five memset calls per atom)
-            nnp = ((nn + 7)/8)*8
-            do k = nn + 1, nn + 8
-                dx(k) = pad_far; dy(k) = 0; dz(k) = 0; wx(k) = 0; wy(k) = 0; wz(k) = 0
-            end do
+            call pad_rows(nn, dx, dy, dz, pad_far, nnp)
+            call pad_rows(nn, wx, wy, wz, 0.0_dp, nnp)
             ! the four terms summed in eight lanes as they are computed (no rows stored and re-read):
             ! V, dV/ds = -fpair (d.w), d2V/ds2 = psi'' rho1^2 - fpair w^2 (psi = E(rsq), rho1 = 2 d.w,
             ! psi' = -fpair/2, psi'' = (7 lj1 r^-6 - 4 lj2) r^-6 r^-4 / 2) and the virial fpair rsq

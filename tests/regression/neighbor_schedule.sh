@@ -9,7 +9,10 @@
 #      agree to 1e-10, and the run log counts the builds at which an atom had already moved more
 #      than skin/2 (this hot start moves atoms ~0.5 sigma in 20 steps: 5 of the 5 rebuilds);
 #   3. checked every 5 steps (every = 5): at most as many builds as the exact schedule, every one
-#      of them at a multiple of 5 steps, the late ones counted.
+#      of them at a multiple of 5 steps, the late ones counted;
+#   4. energy stepping's pruned list follows the potential's runs_on_pruned_list (scene plan of
+#      `terrace --check`): on for lj and lj/smooth/linear on this deck, off for EAM (its passes need
+#      the list's complement) and for Verlet.
 # Usage: tests/regression/neighbor_schedule.sh TERRACE_BINARY OUTPUT_DIR
 set -euo pipefail
 [[ $# -eq 2 ]] || { echo "usage: $0 TERRACE_BINARY OUTPUT_DIR" >&2; exit 2; }
@@ -69,3 +72,17 @@ ne="$(builds exact)"; n5="$(builds checked5)"; read -r l5 b5 <<< "$(late checked
     echo "FAIL: checked every 5: $n5 builds ($l5 late) against $ne exact"; exit 1; }
 echo "ok   checked every 5 steps: $n5 builds ($l5 late) against $ne for the exact schedule"
 grep -h "Energy drift" exact.log fixed20.log | sed 's/^/     /'
+
+# 4. the pruned list: which potentials and integrators get it (the scene plan's pairs line)
+es_deck() {   # name potential-line
+    sed "s|^&potential .*|$2|; s|^&integrator .*|\&integrator style='energy_stepping', terrace_height=0.5 /|" \
+        "$here/decks/liquid_2048.nml" > "$1.nml"
+}
+es_deck es_lj "\&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, shift=.true. /"
+es_deck es_ljs "\&potential style='lj/smooth/linear', epsilon=1.0, sigma=1.0, cutoff=2.5 /"
+pruned() { timeout 120 "$terrace" --check "$1" 2>&1 | grep '^ *pairs ' | grep -c 'pruned from it' || true; }
+[[ "$(pruned es_lj.nml)" == 1 && "$(pruned es_ljs.nml)" == 1 ]] ||
+    { echo "FAIL: energy stepping with lj / lj/smooth/linear does not run on the pruned list"; exit 1; }
+[[ "$(pruned "$here/decks/es_cu_eam_short.nml")" == 0 && "$(pruned exact.nml)" == 0 ]] ||
+    { echo "FAIL: the pruned list is planned for EAM or for Verlet"; exit 1; }
+echo "ok   pruned list planned for energy stepping with lj and lj/smooth/linear, not for EAM or Verlet"

@@ -17,6 +17,11 @@
 #          "Pair" phase time / (steps x pairs within rc + skin), the pair count from LAMMPS's neighbour
 #          list of the same scene ("Total # of neighbors", half list, start and end averaged); LAMMPS
 #          runs each scene once (first round), Terrace every round.
+#   ljtypes LJ cost per pair of the multi-type path against the one-type path: the LJ scene's lattice
+#          (32,000 atoms, rc 2.5, skin 0.3) with one type, with two identical types (50/50 at random: the
+#          same physics, so the same per-pair work), and the Kob-Andersen mixture (80:20, rho* 1.2,
+#          eps/sigma AB 1.5/0.8, BB 0.5/0.88, rc 2.5 sigma_ab), velocities from LAMMPS's data file; per
+#          pair as for types (pairs within rc + skin from LAMMPS's list).
 #   es     energy stepping: mean cost of one event in Verlet steps (scripts/bench/es_cost.py on the
 #          864-atom liquid, the 32,000-atom LJ liquid and the seven-atom cluster).
 # Every timed code runs once per round, in the same order, REPEAT rounds (alternating); the script
@@ -35,13 +40,13 @@
 #   - energies every 100 steps like the thermo output of the other two, no trajectory output.
 #
 # Usage: scripts/bench/anchors.sh [NSTEPS_LJ [NSTEPS_EAM [TERRACE_BINARY]]]   (defaults 1000 200 build/terrace)
-# Environment: REPEAT (rounds, default 3), PARTS (comma list, default lj,eam,types,es), INSTALL=0 to
+# Environment: REPEAT (rounds, default 3), PARTS (comma list, default lj,eam,types,ljtypes,es), INSTALL=0 to
 # skip installing missing Debian packages (lammps, lammps-data, gromacs; as root with apt-get,
 # otherwise the command is printed and the missing anchor skipped), ES_REPEAT (default 1), KEEP=1.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
 nlj="${1:-1000}"; neam="${2:-200}"; terrace="$(realpath "${3:-$repo/build/terrace}")"
-repeat="${REPEAT:-3}"; parts=",${PARTS:-lj,eam,types,es},"
+repeat="${REPEAT:-3}"; parts=",${PARTS:-lj,eam,types,ljtypes,es},"
 for v in "$nlj" "$neam" "$repeat"; do
     [[ "$v" =~ ^[1-9][0-9]*$ ]] || { echo "usage: $0 [NSTEPS_LJ [NSTEPS_EAM [TERRACE]]] (positive integers; REPEAT too)" >&2; exit 2; }
 done
@@ -77,6 +82,7 @@ echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1) ($(n
 echo "date    : $(date -u '+%Y-%m-%d %H:%M UTC')"
 echo "commit  : $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)$(git -C "$repo" status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo ' (+ uncommitted changes)')"
 echo "load    : $(cut -d' ' -f1-3 /proc/loadavg) (load average at start)"
+echo "terrace : $terrace"
 echo "compiler: $(gfortran --version | head -1)"
 if have lmp; then echo "LAMMPS  : $(lmp -h | sed -n 's/^Large-scale Atomic.* - \(.* 20[0-9][0-9].*\)$/\1/p' | head -1)"; fi
 for g in gmx gmx_d; do
@@ -314,6 +320,38 @@ NML
     echo
 fi
 
+# per_pair_table NSTEPS LIST REF WORD WHAT: the per-pair table of the scenes in LIST (name style file), each
+# against REF (listed first), from runs.txt (t_NAME: Terrace, every round; l_NAME: LAMMPS, once).
+per_pair_table() {
+    python3 - "$@" <<'PY'
+import sys, re, statistics as st
+nsteps, listfile, refname, refword, what = int(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5]
+runs = {}
+for line in open('runs.txt'):
+    f = line.split()
+    runs.setdefault(f[0], []).append([float(x) for x in f[1:]])
+print('%-11s %-9s %-20s %7s %9s %11s %11s %9s %9s %11s %9s' % ('scene', 'style', 'file', 'atoms', 'pairs/at',
+      'T pair s', 'T ns/pair', 'T vs ' + refword, 'T med', 'L ns/pair', 'L vs ' + refword))
+ref = None
+for line in open(listfile):
+    name, style, fname = line.split()
+    log = open('l_%s.best.log' % name).read()
+    nb = [int(x) for x in re.findall(r'^Total # of neighbors = (\d+)', log, re.M)]
+    natoms = int(re.findall(r'^Loop time of .* with (\d+) atoms', log, re.M)[-1])
+    pairs = 0.5 * (nb[-2] + nb[-1])          # start (run 0) and end of the timed run
+    tp = min(r[2] for r in runs['t_' + name]); tm = st.median(r[2] for r in runs['t_' + name])
+    lp = min(r[2] for r in runs['l_' + name])
+    tns, tms, lns = (1e9 * t / (nsteps * pairs) for t in (tp, tm, lp))
+    if name == refname:
+        ref = (tns, tms, lns)
+    print('%-11s %-9s %-20s %7d %9.2f %11.3f %11.3f %9.2f %9.2f %11.3f %9.2f' % (name, style, fname, natoms,
+          pairs / natoms, tp, tns, tns / ref[0], tms / ref[1], lns, lns / ref[2]))
+print('T = Terrace ("Pair" phase time: the best of the rounds; vs %s from the best and from the median), L = LAMMPS (one '
+      'run, its "Pair" time), per step and per pair within rc + skin (LAMMPS half list); vs %s = per-pair cost / that of '
+      '%s (goal for Terrace\'s %s: <= 1.20).' % (refword, refword, refname, what))
+PY
+}
+
 # ---- EAM: cost per pair, one type against eam/alloy and eam/fs --------------------------------
 if [[ "$parts" == *,types,* ]] && have lmp; then
     # name lattice a cells style file elements(LAMMPS order) data?
@@ -374,33 +412,75 @@ NML
             fi
         done < types.txt
     done
-    python3 - "$neam" <<'PY'
-import sys, re, statistics as st
-nsteps = int(sys.argv[1])
-runs = {}
-for line in open('runs.txt'):
-    f = line.split()
-    runs.setdefault(f[0], []).append([float(x) for x in f[1:]])
-print('%-11s %-9s %-20s %7s %9s %11s %11s %9s %9s %11s %9s' % ('scene', 'style', 'file', 'atoms', 'pairs/at',
-      'T pair s', 'T ns/pair', 'T vs Cu', 'T med', 'L ns/pair', 'L vs Cu'))
-ref = None
-for line in open('types.txt'):
-    name, style, fname = line.split()
-    log = open('l_%s.best.log' % name).read()
-    nb = [int(x) for x in re.findall(r'^Total # of neighbors = (\d+)', log, re.M)]
-    natoms = int(re.findall(r'^Loop time of .* with (\d+) atoms', log, re.M)[-1])
-    pairs = 0.5 * (nb[-2] + nb[-1])          # start (run 0) and end of the timed run
-    tp = min(r[2] for r in runs['t_' + name]); tm = st.median(r[2] for r in runs['t_' + name])
-    lp = min(r[2] for r in runs['l_' + name])
-    tns, tms, lns = (1e9 * t / (nsteps * pairs) for t in (tp, tm, lp))
-    if ref is None:
-        ref = (tns, tms, lns)
-    print('%-11s %-9s %-20s %7d %9.2f %11.3f %11.3f %9.2f %9.2f %11.3f %9.2f' % (name, style, fname, natoms,
-          pairs / natoms, tp, tns, tns / ref[0], tms / ref[1], lns, lns / ref[2]))
-print('T = Terrace ("Pair" phase time: the best of the rounds; vs Cu from the best and from the median), L = LAMMPS (one '
-      'run, its "Pair" time), per step and per pair within rc + skin (LAMMPS half list); vs Cu = per-pair cost / that of '
-      'cu_u3 (goal for Terrace: <= 1.20).')
-PY
+    per_pair_table "$neam" types.txt cu_u3 'Cu' 'eam/alloy, eam/fs'
+    echo
+fi
+
+# ---- LJ: cost per pair, one type against mixtures -----------------------------------------------
+if [[ "$parts" == *,ljtypes,* ]] && have lmp; then
+    # name density type-2-fraction T pair_coeffs(LAMMPS) terrace_keys
+    scenes=("lj_one 0.8442 0 1.44"
+            "lj_two_same 0.8442 0.5 1.44"
+            "lj_ka 1.2 0.2 2.0")
+    echo "== LJ cost per pair: one type against two (identical types; Kob-Andersen 80:20), $nlj steps, skin 0.3"
+    : > ljtypes.txt
+    for s in "${scenes[@]}"; do
+        read -r name rho frac temp <<< "$s"
+        ntypes=1; [[ $frac != 0 ]] && ntypes=2
+        case $name in
+            lj_one)      lcoeff="pair_coeff 1 1 1.0 1.0 2.5"; tkeys="epsilon=1.0, sigma=1.0" ;;
+            lj_two_same) lcoeff="pair_coeff * * 1.0 1.0 2.5"; tkeys="epsilon(1,1)=1.0, sigma(1,1)=1.0, epsilon(2,2)=1.0, sigma(2,2)=1.0" ;;
+            lj_ka)       lcoeff=$'pair_coeff 1 1 1.0 1.0 2.5\npair_coeff 1 2 1.5 0.8 2.0\npair_coeff 2 2 0.5 0.88 2.2'
+                         tkeys="epsilon(1,1)=1.0, sigma(1,1)=1.0, epsilon(2,2)=0.5, sigma(2,2)=0.88, epsilon(1,2)=1.5, sigma(1,2)=0.8, pair_cutoff(1,2)=2.0, pair_cutoff(2,2)=2.2" ;;
+        esac
+        cat > $name.in <<LMP
+variable nrun index $nlj
+units lj
+atom_style atomic
+lattice fcc $rho
+region box block 0 20 0 20 0 20
+create_box $ntypes box
+create_atoms 1 box
+$( [[ $ntypes == 2 ]] && echo "set type 1 type/fraction 2 $frac 8675309" )
+mass * 1.0
+velocity all create $temp 87287 loop geom
+pair_style lj/cut 2.5
+$lcoeff
+neighbor 0.3 bin
+neigh_modify every 1 delay 0 check yes
+fix 1 all nve
+timestep 0.005
+thermo 100
+write_data $name.data nocoeff
+run 0
+run \${nrun}
+LMP
+        lmp -screen none -log $name.make.log -var nrun 0 -in $name.in > /dev/null   # the data file, velocities included
+        cat > $name.nml <<NML
+&run units='lj', dimension=3, n_steps=$nlj /
+&system read_data='$name.data', periodic=.true.,.true.,.true. /
+&potential style='lj', $tkeys, cutoff=2.5, shift=.false. /
+&integrator style='velocity_verlet', dt=0.005 /
+&neighbor skin=0.3 /
+&output thermo_every=100, thermo_file='' /
+NML
+        echo "$name lj/cut -" >> ljtypes.txt
+    done
+    for ((rep = 1; rep <= repeat; rep++)); do
+        while read -r name style file; do
+            run "t_$name" terrace "t_$name.out" ./terrace $name.nml
+            if [[ $rep == 1 ]]; then
+                run "l_$name" lammps lammps.log lmp -screen none -log lammps.log -in $name.in
+            fi
+        done < ljtypes.txt
+    done
+    per_pair_table "$nlj" ljtypes.txt lj_one 'one' 'mixtures'
+    echo "Thermo at step $nlj, one type and two identical types (same data, velocities by position):"
+    for name in lj_one lj_two_same; do
+        printf '    %-12s Terrace pe, etotal: %s   LAMMPS pe, etotal per atom: %s\n' $name \
+            "$(awk -v n="$nlj" '$1 == n && NF >= 7 {print $4, $6; exit}' t_$name.out)" \
+            "$(awk -v n="$nlj" '$1 == n && NF == 6 {print $3, $5; exit}' l_$name.best.log)"
+    done
     echo
 fi
 

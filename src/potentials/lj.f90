@@ -25,6 +25,7 @@ module terrace_lj
     use, intrinsic :: iso_fortran_env, only: int64, sp => real32
     use terrace_kinds, only: dp
     use terrace_compensated_sum, only: compensated_total
+    use terrace_grow, only: reserve
     use terrace_atoms, only: atoms_t
     use terrace_neighbor_list, only: neighbor_list_t
     use terrace_potential, only: potential_t, halo_ops_t
@@ -52,6 +53,7 @@ module terrace_lj
         real(dp), allocatable :: rc(:, :)
         real(dp) :: cutmax = 0
         real(dp), allocatable :: work(:, :)      !< per-atom rows of pair forces (grown at rebuilds)
+        integer, allocatable :: type_row(:)      !< several types: the neighbours' types, a row as long as work's
         !> per owned atom, the sum of its pairs' energy (and, in the ray pass, V' and V'' terms):
         !> totalled by a compensated sum (see terrace_compensated_sum: why V needs it)
         real(dp), allocatable :: atom_sums(:, :)
@@ -271,7 +273,7 @@ contains
         end if
         call reserve_work(self, list, atoms%nlocal)
         call kernel(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, want_energy, infinity, &
-                    one, zero, self%work, self%atom_sums(:, 1), energy, virial)
+                    one, zero, self%work, self%type_row, self%atom_sums(:, 1), energy, virial)
         if (want_energy) energy = energy + compensated_total(self%atom_sums(:, 1), atoms%nlocal)
     end subroutine lj_compute
 
@@ -288,6 +290,7 @@ contains
             if (size(self%work, 1) < nb .or. size(self%work, 2) < 13) deallocate (self%work)
         end if
         if (.not. allocated(self%work)) allocate (self%work(nb, 13))
+        call reserve(self%type_row, nb)
         if (allocated(self%atom_sums)) then
             if (size(self%atom_sums, 1) < nlocal) deallocate (self%atom_sums)
         end if
@@ -305,10 +308,12 @@ contains
     !> Columns of work: separations / pair forces 1-3, lj1, lj2, cutsq, lj3, lj4, offset, pair
     !> energy, pair virial; for lj/smooth/linear also 12, 13: rc and fc (fpair - fc/r and the
     !> energy term (r - rc) fc).
-    subroutine kernel(self, nlocal, x, f, type, first, neigh, want_energy, inf, one_, zero_, work, atom_e, energy, virial)
+    subroutine kernel(self, nlocal, x, f, type, first, neigh, want_energy, inf, one_, zero_, work, tr, atom_e, energy, &
+                      virial)
         type(lj_t), intent(in) :: self
         integer, intent(in) :: nlocal
         integer, intent(in), contiguous :: type(:), first(:), neigh(:)
+        integer, intent(inout), contiguous :: tr(:)
         real(dp), intent(in), contiguous :: x(:, :)
         real(dp), intent(in) :: inf, one_, zero_
         real(dp), intent(inout), contiguous :: f(:, :)
@@ -316,7 +321,7 @@ contains
         logical, intent(in) :: want_energy
         real(dp), intent(inout), contiguous, target :: work(:, :)
         real(dp), intent(inout) :: atom_e(:)
-        integer :: i, k, j, k0, nn, ti, tj
+        integer :: i, k, j, k0, nn, ti, ntypes
         real(dp) :: xi, yi, zi, fxi, fyi, fzi, w, ea, wa, far, one, zero, lj1, lj2, lj3, lj4, cutsq, offset
         logical :: one_type, smooth
         real(dp), pointer, contiguous :: fx(:), fy(:), fz(:), c1(:), c2(:), cs(:), c3(:), c4(:), co(:), ep(:), wp(:), &
@@ -327,6 +332,7 @@ contains
         far = inf; one = one_; zero = zero_
         smooth = self%smooth
         one_type = self%ntypes == 1 .and. .not. smooth
+        ntypes = self%ntypes
         lj1 = self%lj1(1, 1); lj2 = self%lj2(1, 1); lj3 = self%lj3(1, 1); lj4 = self%lj4(1, 1)
         cutsq = self%cutsq(1, 1); offset = self%offset(1, 1)
         w = 0
@@ -346,28 +352,31 @@ contains
                 ti = type(i)
                 !GCC$ novector
                 do k = 1, nn
-                    j = neigh(k0 + k); tj = type(j)
+                    j = neigh(k0 + k)
                     fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)
-                    c1(k) = self%lj1(tj, ti); c2(k) = self%lj2(tj, ti); cs(k) = self%cutsq(tj, ti)
-                    if (smooth) cfc(k) = self%fc(tj, ti)
+                    tr(k) = type(j)
                 end do
-                if (want_energy) then
-                    !GCC$ novector
-                    do k = 1, nn
-                        tj = type(neigh(k0 + k))
-                        c3(k) = self%lj3(tj, ti); c4(k) = self%lj4(tj, ti); co(k) = self%offset(tj, ti)
-                        if (smooth) crc(k) = self%rc(tj, ti)
-                    end do
-                    if (smooth) then
-                        call pair_forces_smooth_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, crc, cfc, far, one, zero, &
-                                                       ep, wp)
-                    else
-                        call pair_forces_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, far, one, zero, ep, wp)
-                    end if
-                else if (smooth) then
-                    call pair_forces_smooth(nn, fx, fy, fz, c1, c2, cs, cfc, far)
+                if (ntypes == 2 .and. .not. (smooth .or. want_energy)) then
+                    ! the common mixture: coefficients selected in the pair loop, no per-pair rows
+                    call pair_forces_two_types(nn, fx, fy, fz, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), far)
                 else
-                    call pair_forces(nn, fx, fy, fz, c1, c2, cs, far)
+                    call select_by_type(nn, ntypes, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), c1, c2, cs)
+                    if (smooth) call select_by_type(nn, ntypes, tr, self%fc(:, ti), self%rc(:, ti), self%fc(:, ti), &
+                                                    cfc, crc, cfc)
+                    if (want_energy) then
+                        call select_by_type(nn, ntypes, tr, self%lj3(:, ti), self%lj4(:, ti), self%offset(:, ti), c3, c4, &
+                                            co)
+                        if (smooth) then
+                            call pair_forces_smooth_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, crc, cfc, far, one, &
+                                                           zero, ep, wp)
+                        else
+                            call pair_forces_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, far, one, zero, ep, wp)
+                        end if
+                    else if (smooth) then
+                        call pair_forces_smooth(nn, fx, fy, fz, c1, c2, cs, cfc, far)
+                    else
+                        call pair_forces(nn, fx, fy, fz, c1, c2, cs, far)
+                    end if
                 end if
             end if
             fxi = 0; fyi = 0; fzi = 0
@@ -556,6 +565,48 @@ contains
         end do
         ea = sum(le); wa = sum(lw)
     end subroutine one_type_pairs_energy
+
+    !> Per-pair coefficients of atom i's row from its column of the type-pair tables, by the
+    !> neighbours' types tr: oa(k) = a(tr(k)) and so on. One vectorised pass per type (a select
+    !> where the type matches) instead of a scalar gather per pair and coefficient.
+    pure subroutine select_by_type(nn, ntypes, tr, a, b, c, oa, ob, oc)
+        integer, intent(in) :: nn, ntypes
+        integer, intent(in) :: tr(*)
+        real(dp), intent(in) :: a(:), b(:), c(:)
+        real(dp), intent(inout) :: oa(*), ob(*), oc(*)
+        integer :: k, t
+        real(dp) :: at, bt, ct
+        at = a(1); bt = b(1); ct = c(1)
+        do k = 1, nn
+            oa(k) = at; ob(k) = bt; oc(k) = ct
+        end do
+        do t = 2, ntypes
+            at = a(t); bt = b(t); ct = c(t)
+            do k = 1, nn
+                oa(k) = merge(at, oa(k), tr(k) == t)
+                ob(k) = merge(bt, ob(k), tr(k) == t)
+                oc(k) = merge(ct, oc(k), tr(k) == t)
+            end do
+        end do
+    end subroutine select_by_type
+
+    !> pair_forces for two atom types: the coefficients of the pair selected in the loop from atom
+    !> i's two (a1, a2, as: its column of the tables) by the neighbour's type tr(k).
+    pure subroutine pair_forces_two_types(nn, fx, fy, fz, tr, a1, a2, as, far)
+        integer, intent(in) :: nn
+        real(dp), intent(inout) :: fx(*), fy(*), fz(*)
+        integer, intent(in) :: tr(*)
+        real(dp), intent(in) :: a1(:), a2(:), as(:), far
+        integer :: k
+        real(dp) :: rsq, r2inv, r6inv, fpair, c1, c2, cs, a11, a12, a21, a22, as1, as2
+        a11 = a1(1); a12 = a1(2); a21 = a2(1); a22 = a2(2); as1 = as(1); as2 = as(2)
+        do k = 1, nn
+            c1 = merge(a12, a11, tr(k) == 2); c2 = merge(a22, a21, tr(k) == 2); cs = merge(as2, as1, tr(k) == 2)
+            rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
+            call lj_terms(rsq, cs, far, c1, c2, r2inv, r6inv, fpair)
+            fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+        end do
+    end subroutine pair_forces_two_types
 
     !> Pair forces fpair*(dx, dy, dz) in place of the separations, per-pair coefficients.
     pure subroutine pair_forces(nn, fx, fy, fz, c1, c2, cs, far)

@@ -18,7 +18,12 @@ Scenes:
             T* = 1.44 start) with the energy shifted at rc = 2.5: 500 Verlet steps (dt 0.005) melt the
             crystal (T* ~ 0.73) and write eq.atoms (a crystal start would keep energy stepping
             pathologically busy); from it 200 Verlet steps and 600 energy-stepping events at
-            h = 0.3 eps (~0.4 k_B T; n_steps caps the events).
+            h = 0.3 eps (~0.4 k_B T; n_steps caps the events);
+  ka        the Kob-Andersen binary LJ mixture (80:20, eps/sigma AB 1.5/0.8, BB 0.5/0.88, cutoffs
+            2.5 sigma_ab, energy shifted), 4,000 atoms at rho* = 1.2: an fcc start with the types at
+            random (written here, seed 8675309) melted by 1000 Verlet steps from T* = 2.0 (eq_ka.atoms);
+            from it 400 Verlet steps (dt 0.005) and 1000 energy-stepping events at h = 0.1 eps: the
+            multi-type path (per-pair coefficients) of the force and ray passes.
 
 Usage:  python3 scripts/bench/es_cost.py [--terrace PATH] [--scenes cluster7,rahman,lj32k] [--repeat N]
 Run time on a 2-vCPU AMD EPYC: about 40 s (80 s with --repeat 2). The binary is copied first.
@@ -75,6 +80,47 @@ LJ32K = """\
 &output thermo_file='' /
 """
 
+KA_POT = ("&potential style='lj', epsilon(1,1)=1.0, sigma(1,1)=1.0, epsilon(2,2)=0.5, sigma(2,2)=0.88,\n"
+          "           epsilon(1,2)=1.5, sigma(1,2)=0.8, cutoff=2.5, pair_cutoff(1,2)=2.0, pair_cutoff(2,2)=2.2,\n"
+          "           shift=.true. /")
+KA_CELLS, KA_RHO = 10, 1.2
+KA_L = KA_CELLS * (4.0 / KA_RHO) ** (1.0 / 3.0)
+KA_EQ = """\
+&run units='lj', dimension=3, n_steps=1000, seed=20260 /
+&system atoms_file='ka_start.atoms', box_lo=0.0,0.0,0.0, box_hi={L!r},{L!r},{L!r},
+        periodic=.true.,.true.,.true., mass=1.0,1.0, temperature=2.0 /
+""" + KA_POT + """
+&integrator style='velocity_verlet', dt=0.005 /
+&neighbor skin=0.3 /
+&output thermo_every=100, thermo_file='', final_atoms_file='eq_ka.atoms' /
+"""
+KA = """\
+&run units='lj', dimension=3, {length}, seed=1 /
+&system atoms_file='eq_ka.atoms', box_lo=0.0,0.0,0.0, box_hi={L!r},{L!r},{L!r},
+        periodic=.true.,.true.,.true., mass=1.0,1.0 /
+""" + KA_POT + """
+&neighbor skin=0.3 /
+{integrator}
+&output thermo_file='' /
+"""
+
+
+def write_ka_start(path):
+    """fcc lattice of KA_CELLS^3 cells at KA_RHO, 20 % of the sites type 2 (fixed random choice)."""
+    import random
+    a = (4.0 / KA_RHO) ** (1.0 / 3.0)
+    basis = [(0, 0, 0), (0.5, 0.5, 0), (0.5, 0, 0.5), (0, 0.5, 0.5)]
+    sites = [((i + bx) * a, (j + by) * a, (k + bz) * a) for k in range(KA_CELLS) for j in range(KA_CELLS)
+             for i in range(KA_CELLS) for (bx, by, bz) in basis]
+    order = list(range(len(sites)))
+    random.Random(8675309).shuffle(order)
+    btype = set(order[:len(sites) // 5])
+    with open(path, 'w') as f:
+        f.write('# type x y z (Kob-Andersen start: fcc, 20 %% type 2 at random)\n')
+        for n, (x, y, z) in enumerate(sites):
+            f.write('%d %.12f %.12f %.12f\n' % (2 if n in btype else 1, x, y, z))
+
+
 # name: description, template, Verlet length, Verlet dt, ES length, ES h, time unit, atoms
 SCENES = {
     'cluster7': ('7-atom 2-D argon cluster', CLUSTER, 'run_time=10000.0', 0.01, 'run_time=10000.0',
@@ -82,6 +128,7 @@ SCENES = {
     'rahman': ('Rahman liquid argon, 864 atoms', RAHMAN, 'run_time=10.0', 0.01, 'run_time=2.0',
                2.0e-3, 'ps', 864),
     'lj32k': ('LJ liquid, 32,000 atoms', LJ32K, 'n_steps=200', 0.005, 'n_steps=600', 0.3, 'tau', 32000),
+    'ka': ('Kob-Andersen mixture, 4,000 atoms', KA, 'n_steps=400', 0.005, 'n_steps=1000', 0.1, 'tau', 4000),
 }
 
 
@@ -189,6 +236,12 @@ def main():
             print('  lj32k   : equilibration (500 Verlet steps from fcc, T* = 1.44): loop %.2f s, T* at the end %.3f'
                   % (e['loop'], e['temp_end']))
             fmt['L'] = 20 * (4.0 / 0.8442) ** (1.0 / 3.0)
+        elif key == 'ka':
+            write_ka_start(os.path.join(work, 'ka_start.atoms'))
+            e = run(terrace, work, 'ka_eq', KA_EQ.format(L=KA_L))
+            print('  ka      : equilibration (1000 Verlet steps from fcc, T* = 2.0): loop %.2f s, T* at the end %.3f'
+                  % (e['loop'], e['temp_end']))
+            fmt['L'] = KA_L
         # Verlet and energy stepping alternate (VV ES VV ES ...), so that a change of the machine's load
         # hits both; the fastest run of each is kept
         vv = es = None

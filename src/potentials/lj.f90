@@ -190,6 +190,11 @@ contains
                               self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1), infinity, one, zero, &
                               self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
                               self%work(:, 6), self%atom_sums, out)
+        else if (.not. self%smooth) then
+            call reserve_work(self, list, atoms%nlocal)
+            call ray_positions(self, atoms, s)
+            call ray_types(self, atoms%nlocal, self%xv, atoms%type, list%first, list%neigh, infinity, one, zero, &
+                           self%work, self%type_row, self%atom_sums, out)
         else
             call reserve_work(self, list, atoms%nlocal)
             call ray_general(self, atoms, list%first, list%neigh, s, self%atom_sums, out)
@@ -298,13 +303,16 @@ contains
     end subroutine reserve_work
 
     !> The half-list kernel. Three passes per atom: the separations to all its neighbours (with
-    !> several types or lj/smooth/linear, also the per-pair coefficients) are gathered into the
-    !> columns of work (scalar loads, contiguous stores); the pair forces (and, when want_energy,
-    !> the pair energies and virials) are computed branch-free over the contiguous rows
-    !> (vectorised: GCC does not emit gathers for this CPU); then they are scattered (Newton's third
-    !> law) while the force on i is summed in list order, and the pair energies and virials are
-    !> summed in list order. One type (lj/cut): scalar coefficients, only the separations gathered,
-    !> and the energies and virials summed in eight lanes as they are computed (one_type_pairs_energy).
+    !> several types, also the neighbours' types) are gathered into the columns of work (scalar
+    !> loads, contiguous stores); the pair forces (and, when want_energy, the pair energies and
+    !> virials) are computed branch-free over the contiguous rows (vectorised: GCC does not emit
+    !> gathers for this CPU); then they are scattered (Newton's third law) while the force on i is
+    !> summed in list order. One type (lj/cut): scalar coefficients, and the energies and virials
+    !> summed in eight lanes as they are computed (one_type_pairs_energy). Two types, forces only:
+    !> each pair's coefficients selected in the pair loop from i's two (pair_forces_two_types).
+    !> Otherwise per-pair coefficient rows, selected per type (select_by_type), and for 'lj' the
+    !> energies and virials summed in lanes (pairs_energy_rows); lj/smooth/linear stores them in
+    !> rows, summed in list order after the scatter.
     !> Columns of work: separations / pair forces 1-3, lj1, lj2, cutsq, lj3, lj4, offset, pair
     !> energy, pair virial; for lj/smooth/linear also 12, 13: rc and fc (fpair - fc/r and the
     !> energy term (r - rc) fc).
@@ -370,7 +378,9 @@ contains
                             call pair_forces_smooth_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, crc, cfc, far, one, &
                                                            zero, ep, wp)
                         else
-                            call pair_forces_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, far, one, zero, ep, wp)
+                            ! the energies and virials summed in lanes as they are computed
+                            call pairs_energy_rows(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, far, one, zero, ea, wa)
+                            atom_e(i) = ea; w = w + wa
                         end if
                     else if (smooth) then
                         call pair_forces_smooth(nn, fx, fy, fz, c1, c2, cs, cfc, far)
@@ -386,7 +396,7 @@ contains
                 fxi = fxi + fx(k); fyi = fyi + fy(k); fzi = fzi + fz(k)
             end do
             f(1, i) = f(1, i) + fxi; f(2, i) = f(2, i) + fyi; f(3, i) = f(3, i) + fzi
-            if (want_energy .and. .not. one_type) then
+            if (want_energy .and. smooth) then
                 ! per-atom sums, totalled by the caller (compensated): with the total formed here,
                 ! every force pass, with energy or not, ran 5-8 % slower (Verlet, in.lj scene)
                 ea = 0; wa = 0
@@ -608,6 +618,35 @@ contains
         end do
     end subroutine pair_forces_two_types
 
+    !> pair_forces_energy with the atom's pair-energy sum ea and virial sum wa added into eight lanes
+    !> as they are computed (as one_type_pairs_energy), instead of rows summed afterwards. The rows
+    !> (separations and coefficients) are padded to a multiple of 8 with far pairs whose
+    !> coefficients are 0: they must have room for nn + 8 entries.
+    pure subroutine pairs_energy_rows(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, far, one, zero, ea, wa)
+        integer, intent(in) :: nn
+        real(dp), intent(inout) :: fx(*), fy(*), fz(*), c1(*), c2(*), cs(*), c3(*), c4(*), co(*)
+        real(dp), intent(in) :: far, one, zero
+        real(dp), intent(out) :: ea, wa
+        integer :: k, l, kk, nnp
+        real(dp) :: rsq, r2inv, r6inv, fpair, inside, le(8), lw(8)
+        call pad_rows(nn, fx, fy, fz, pad_far, nnp)
+        call pad_rows(nn, c1, c2, cs, 0.0_dp, nnp)
+        call pad_rows(nn, c3, c4, co, 0.0_dp, nnp)
+        le = 0; lw = 0
+        do k = 1, nnp, 8
+            do l = 1, 8
+                kk = k + l - 1
+                rsq = fx(kk)*fx(kk) + fy(kk)*fy(kk) + fz(kk)*fz(kk)
+                inside = merge(one, zero, rsq < cs(kk))
+                call lj_terms(rsq, cs(kk), far, c1(kk), c2(kk), r2inv, r6inv, fpair)
+                le(l) = le(l) + (r6inv*(c3(kk)*r6inv - c4(kk)) - co(kk)*inside)
+                lw(l) = lw(l) + rsq*fpair
+                fx(kk) = fx(kk)*fpair; fy(kk) = fy(kk)*fpair; fz(kk) = fz(kk)*fpair
+            end do
+        end do
+        ea = sum(le); wa = sum(lw)
+    end subroutine pairs_energy_rows
+
     !> Pair forces fpair*(dx, dy, dz) in place of the separations, per-pair coefficients.
     pure subroutine pair_forces(nn, fx, fy, fz, c1, c2, cs, far)
         integer, intent(in) :: nn
@@ -621,24 +660,6 @@ contains
             fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
         end do
     end subroutine pair_forces
-
-    !> pair_forces plus pair energies ep and virials wp.
-    pure subroutine pair_forces_energy(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, far, one, zero, ep, wp)
-        integer, intent(in) :: nn
-        real(dp), intent(inout) :: fx(nn), fy(nn), fz(nn)
-        real(dp), intent(in) :: c1(nn), c2(nn), cs(nn), c3(nn), c4(nn), co(nn), far, one, zero
-        real(dp), intent(out) :: ep(nn), wp(nn)
-        integer :: k
-        real(dp) :: rsq, r2inv, r6inv, fpair, inside
-        do k = 1, nn
-            rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
-            inside = merge(one, zero, rsq < cs(k))
-            call lj_terms(rsq, cs(k), far, c1(k), c2(k), r2inv, r6inv, fpair)
-            ep(k) = r6inv*(c3(k)*r6inv - c4(k)) - co(k)*inside
-            wp(k) = rsq*fpair
-            fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
-        end do
-    end subroutine pair_forces_energy
 
     !> lj/smooth/linear pair forces: fpair - fc/r.
     pure subroutine pair_forces_smooth(nn, fx, fy, fz, c1, c2, cs, cfc, far)
@@ -777,6 +798,68 @@ contains
         out = [compensated_total(atom_sums(:, 1), nlocal), compensated_total(atom_sums(:, 2), nlocal), &
                compensated_total(atom_sums(:, 3), nlocal), vir]
     end subroutine ray_one_type
+
+    !> Ray pass, several types (style 'lj'): ray_one_type with per-pair coefficients, selected per
+    !> atom row from atom i's column of the tables by the neighbours' types (select_by_type). The
+    !> rows are padded to a multiple of 8 with far, motionless pairs whose coefficients are 0 (all
+    !> four terms exactly 0). Columns of work: d 1-3, w 4-6, lj1, lj2, cutsq, lj3, lj4, offset 7-12.
+    subroutine ray_types(self, nlocal, xv, type, first, neigh, inf, one_, zero_, work, tr, atom_sums, out)
+        type(lj_t), intent(in) :: self
+        integer, intent(in) :: nlocal
+        integer, intent(in), contiguous :: type(:), first(:), neigh(:)
+        real(dp), intent(in), contiguous :: xv(:, :)
+        real(dp), intent(in) :: inf, one_, zero_
+        real(dp), intent(inout), contiguous, target :: work(:, :)
+        integer, intent(inout), contiguous :: tr(:)
+        real(dp), intent(inout) :: atom_sums(:, :)
+        real(dp), intent(out) :: out(4)
+        integer :: i, k, j, k0, nn, nnp, l, kk, ti
+        real(dp) :: xi, yi, zi, vxi, vyi, vzi, rsq, r2inv, r6inv, fpair, d2psi, rho1, inside, vir, far, one, zero, &
+                    la(8), lb(8), lc(8), ld(8)
+        real(dp), pointer, contiguous :: dx(:), dy(:), dz(:), wx(:), wy(:), wz(:), c1(:), c2(:), cs(:), c3(:), &
+                                         c4(:), co(:)
+        dx => work(:, 1); dy => work(:, 2); dz => work(:, 3); wx => work(:, 4); wy => work(:, 5); wz => work(:, 6)
+        c1 => work(:, 7); c2 => work(:, 8); cs => work(:, 9); c3 => work(:, 10); c4 => work(:, 11); co => work(:, 12)
+        far = inf; one = one_; zero = zero_
+        vir = 0
+        do i = 1, nlocal
+            xi = xv(1, i); yi = xv(2, i); zi = xv(3, i); vxi = xv(4, i); vyi = xv(5, i); vzi = xv(6, i)
+            k0 = first(i) - 1
+            nn = first(i + 1) - first(i)
+            ti = type(i)
+            !GCC$ novector
+            do k = 1, nn
+                j = neigh(k0 + k)
+                dx(k) = xi - xv(1, j); dy(k) = yi - xv(2, j); dz(k) = zi - xv(3, j)
+                wx(k) = vxi - xv(4, j); wy(k) = vyi - xv(5, j); wz(k) = vzi - xv(6, j)
+                tr(k) = type(j)
+            end do
+            call select_by_type(nn, self%ntypes, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), c1, c2, cs)
+            call select_by_type(nn, self%ntypes, tr, self%lj3(:, ti), self%lj4(:, ti), self%offset(:, ti), c3, c4, co)
+            call pad_rows(nn, dx, dy, dz, pad_far, nnp)
+            call pad_rows(nn, wx, wy, wz, 0.0_dp, nnp)
+            call pad_rows(nn, c1, c2, cs, 0.0_dp, nnp)
+            call pad_rows(nn, c3, c4, co, 0.0_dp, nnp)
+            la = 0; lb = 0; lc = 0; ld = 0
+            do k = 1, nnp, 8
+                do l = 1, 8
+                    kk = k + l - 1
+                    rsq = dx(kk)*dx(kk) + dy(kk)*dy(kk) + dz(kk)*dz(kk)
+                    inside = merge(one, zero, rsq < cs(kk))
+                    call lj_terms(rsq, cs(kk), far, c1(kk), c2(kk), r2inv, r6inv, fpair)
+                    d2psi = (3.5_dp*c1(kk)*r6inv - 2*c2(kk))*r6inv*r2inv*r2inv
+                    rho1 = 2*(dx(kk)*wx(kk) + dy(kk)*wy(kk) + dz(kk)*wz(kk))
+                    la(l) = la(l) + (r6inv*(c3(kk)*r6inv - c4(kk)) - inside*co(kk))
+                    lb(l) = lb(l) - 0.5_dp*fpair*rho1
+                    lc(l) = lc(l) + (d2psi*rho1*rho1 - fpair*(wx(kk)*wx(kk) + wy(kk)*wy(kk) + wz(kk)*wz(kk)))
+                    ld(l) = ld(l) + fpair*rsq
+                end do
+            end do
+            atom_sums(i, 1) = sum(la); atom_sums(i, 2) = sum(lb); atom_sums(i, 3) = sum(lc); vir = vir + sum(ld)
+        end do
+        out = [compensated_total(atom_sums(:, 1), nlocal), compensated_total(atom_sums(:, 2), nlocal), &
+               compensated_total(atom_sums(:, 3), nlocal), vir]
+    end subroutine ray_types
 
     !> self%xv(:, i) = (x_i + s v_i, v_i) for every atom, owned and ghost (grown as needed).
     subroutine ray_positions(self, atoms, s)

@@ -369,8 +369,9 @@ contains
                     call pair_forces_two_types(nn, fx, fy, fz, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), far)
                 else
                     call select_by_type(nn, ntypes, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), c1, c2, cs)
+                    ! (a third row is filled and not used: ep, written later by the energy pass)
                     if (smooth) call select_by_type(nn, ntypes, tr, self%fc(:, ti), self%rc(:, ti), self%fc(:, ti), &
-                                                    cfc, crc, cfc)
+                                                    cfc, crc, ep)
                     if (want_energy) then
                         call select_by_type(nn, ntypes, tr, self%lj3(:, ti), self%lj4(:, ti), self%offset(:, ti), c3, c4, &
                                             co)

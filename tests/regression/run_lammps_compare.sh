@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Terrace vs LAMMPS regression: 4000-atom LJ liquid (lj/cut 2.5, unshifted).
+# Terrace vs LAMMPS regression: 4000-atom LJ liquid (lj/cut 2.5, unshifted), or (LJ_SCENE=lj_ka)
+# the 4000-atom Kob-Andersen mixture (two types, a cutoff per type pair).
 #
 # Usage: tests/regression/run_lammps_compare.sh TERRACE_BINARY OUTPUT_DIR
 #
@@ -16,6 +17,8 @@
 #   PYTHON            Python interpreter (default: /usr/bin/python3 or python3)
 #   TERRACE_LAUNCHER  prefix for the Terrace command, e.g. "mpirun -np 4"
 #   COMPARE_ARGS      extra arguments for compare_lammps.py (e.g. tolerances)
+#   LJ_SCENE          lj_liquid (default: the one-type liquid) or lj_ka (the 4000-atom Kob-Andersen
+#                     mixture of lammps/in.lj_ka_make: two types, a cutoff per type pair)
 #
 # Exit status: 0 pass, 77 skipped (LAMMPS unavailable), anything else failure.
 set -euo pipefail
@@ -32,6 +35,14 @@ compare="$repo/scripts/compare_lammps.py"
 
 terrace="$1"
 outdir="$2"
+scene="${LJ_SCENE:-lj_liquid}"
+case "$scene" in
+    lj_liquid) data=liquid.data
+               potential="&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, shift=.false. /" ;;
+    lj_ka)     data=ka.data
+               potential="&potential style='lj', epsilon(1,1)=1.0, sigma(1,1)=1.0, epsilon(2,2)=0.5, sigma(2,2)=0.88, epsilon(1,2)=1.5, sigma(1,2)=0.8, cutoff=2.5, pair_cutoff(1,2)=2.0, pair_cutoff(2,2)=2.2, shift=.false. /" ;;
+    *) echo "run_lammps_compare: unknown LJ_SCENE '$scene' (allowed: lj_liquid, lj_ka)" >&2; exit 2 ;;
+esac
 
 LMP="${LMP:-lmp}"
 if [[ -z "${PYTHON:-}" ]]; then
@@ -72,33 +83,33 @@ terrace="$(cd "$(dirname "$terrace")" && pwd)/$(basename "$terrace")"
 mkdir -p "$outdir"
 outdir="$(cd "$outdir" && pwd)"
 cd "$outdir"
-rm -f liquid.data lammps_make.log lammps_ref.log lammps_forces0.dump \
+rm -f "$data" lammps_make.log lammps_ref.log lammps_forces0.dump \
       thermo.csv forces0.txt terrace.log terrace_lj_liquid.nml
 
 export OMP_NUM_THREADS=1
 
 # ---- (b) LAMMPS: build the liquid, then the reference ------------------------
-echo "== LAMMPS: building liquid.data"
-if ! "$LMP" -screen none -log lammps_make.log -var data liquid.data \
-        -in "$lmpdir/in.lj_liquid_make"; then
-    echo "FAIL: LAMMPS in.lj_liquid_make failed; see $outdir/lammps_make.log" >&2
+echo "== LAMMPS: building $data"
+if ! "$LMP" -screen none -log lammps_make.log -var data "$data" \
+        -in "$lmpdir/in.${scene}_make"; then
+    echo "FAIL: LAMMPS in.${scene}_make failed; see $outdir/lammps_make.log" >&2
     tail -n 20 lammps_make.log >&2 || true
     exit 1
 fi
 echo "== LAMMPS: reference run"
-if ! "$LMP" -screen none -log lammps_ref.log -var data liquid.data \
+if ! "$LMP" -screen none -log lammps_ref.log -var data "$data" \
         -var forces lammps_forces0.dump -var nsteps 100 \
-        -in "$lmpdir/in.lj_liquid_ref"; then
-    echo "FAIL: LAMMPS in.lj_liquid_ref failed; see $outdir/lammps_ref.log" >&2
+        -in "$lmpdir/in.${scene}_ref"; then
+    echo "FAIL: LAMMPS in.${scene}_ref failed; see $outdir/lammps_ref.log" >&2
     tail -n 20 lammps_ref.log >&2 || true
     exit 1
 fi
 
 # ---- (c) Terrace on the same scene ------------------------------------------
-cat > terrace_lj_liquid.nml <<'EOF'
+cat > terrace_lj_liquid.nml <<EOF
 &run units='lj', dimension=3, n_steps=100, seed=1 /
-&system read_data='liquid.data' /
-&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, shift=.false. /
+&system read_data='$data' /
+$potential
 &integrator style='velocity_verlet', dt=0.005 /
 &neighbor skin=0.3 /
 &output thermo_every=100, thermo_file='thermo.csv', forces_file='forces0.txt' /

@@ -320,6 +320,19 @@ NML
     echo
 fi
 
+# per_pair_rounds LIST: REPEAT rounds of Terrace on each scene of LIST (NAME.nml), in order; LAMMPS
+# (NAME.in) in the first round only: its pair counts and its own per-pair costs.
+per_pair_rounds() {
+    local rep name style file
+    for ((rep = 1; rep <= repeat; rep++)); do
+        while read -r name style file; do
+            run "t_$name" terrace "t_$name.out" ./terrace "$name.nml"
+            if [[ $rep == 1 ]]; then
+                run "l_$name" lammps lammps.log lmp -screen none -log lammps.log -in "$name.in"
+            fi
+        done < "$1"
+    done
+}
 # per_pair_table NSTEPS LIST REF WORD WHAT: the per-pair table of the scenes in LIST (name style file), each
 # against REF (listed first), from runs.txt (t_NAME: Terrace, every round; l_NAME: LAMMPS, once).
 per_pair_table() {
@@ -404,14 +417,7 @@ LMP
 NML
         echo "$name $style $file" >> types.txt
     done
-    for ((rep = 1; rep <= repeat; rep++)); do
-        while read -r name style file; do
-            run "t_$name" terrace "t_$name.out" ./terrace $name.nml
-            if [[ $rep == 1 ]]; then   # LAMMPS once: the pair counts and its own per-pair costs
-                run "l_$name" lammps lammps.log lmp -screen none -log lammps.log -in $name.in
-            fi
-        done < types.txt
-    done
+    per_pair_rounds types.txt
     per_pair_table "$neam" types.txt cu_u3 'Cu' 'eam/alloy, eam/fs'
     echo
 fi
@@ -466,14 +472,7 @@ LMP
 NML
         echo "$name lj/cut -" >> ljtypes.txt
     done
-    for ((rep = 1; rep <= repeat; rep++)); do
-        while read -r name style file; do
-            run "t_$name" terrace "t_$name.out" ./terrace $name.nml
-            if [[ $rep == 1 ]]; then
-                run "l_$name" lammps lammps.log lmp -screen none -log lammps.log -in $name.in
-            fi
-        done < ljtypes.txt
-    done
+    per_pair_rounds ljtypes.txt
     per_pair_table "$nlj" ljtypes.txt lj_one 'one' 'mixtures'
     echo "Thermo at step $nlj, one type and two identical types (same data, velocities by position):"
     for name in lj_one lj_two_same; do

@@ -757,9 +757,10 @@ contains
         real(dp), intent(out) :: out(4)
         integer :: i, k, j, k0, nn, nnp, l, kk
         real(dp) :: xi, yi, zi, vxi, vyi, vzi, rsq, r2inv, r6inv, fpair, d2psi, rho1, inside, &
-                    vir, lj1, lj2, lj3, lj4, cutsq, offset, far, one, zero, c7h, c2, la(8), lb(8), lc(8), ld(8)
-        lj1 = lj1_; lj2 = lj2_; lj3 = lj3_; lj4 = lj4_; cutsq = cutsq_; offset = offset_
-        c7h = 3.5_dp*lj1; c2 = 2*lj2
+                    vir, far, one, zero, la(8), lb(8), lc(8), ld(8)
+        real(dp) :: p_lj1, p_lj2, p_lj3, p_lj4, p_cs, p_off, p_c7h, p_2lj2   !< the pair's coefficients (lj_ray_lanes.inc)
+        p_lj1 = lj1_; p_lj2 = lj2_; p_lj3 = lj3_; p_lj4 = lj4_; p_cs = cutsq_; p_off = offset_
+        p_c7h = 3.5_dp*p_lj1; p_2lj2 = 2*p_lj2
         far = inf; one = one_; zero = zero_
         vir = 0
         do i = 1, nlocal
@@ -783,15 +784,7 @@ contains
             do k = 1, nnp, 8
                 do l = 1, 8
                     kk = k + l - 1
-                    rsq = dx(kk)*dx(kk) + dy(kk)*dy(kk) + dz(kk)*dz(kk)
-                    inside = merge(one, zero, rsq < cutsq)
-                    call lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
-                    d2psi = (c7h*r6inv - c2)*r6inv*r2inv*r2inv
-                    rho1 = 2*(dx(kk)*wx(kk) + dy(kk)*wy(kk) + dz(kk)*wz(kk))
-                    la(l) = la(l) + (r6inv*(lj3*r6inv - lj4) - inside*offset)
-                    lb(l) = lb(l) - 0.5_dp*fpair*rho1
-                    lc(l) = lc(l) + (d2psi*rho1*rho1 - fpair*(wx(kk)*wx(kk) + wy(kk)*wy(kk) + wz(kk)*wz(kk)))
-                    ld(l) = ld(l) + fpair*rsq
+                    include 'lj_ray_lanes.inc'
                 end do
             end do
             atom_sums(i, 1) = sum(la); atom_sums(i, 2) = sum(lb); atom_sums(i, 3) = sum(lc); vir = vir + sum(ld)
@@ -817,6 +810,7 @@ contains
         integer :: i, k, j, k0, nn, nnp, l, kk, ti
         real(dp) :: xi, yi, zi, vxi, vyi, vzi, rsq, r2inv, r6inv, fpair, d2psi, rho1, inside, vir, far, one, zero, &
                     la(8), lb(8), lc(8), ld(8)
+        real(dp) :: p_lj1, p_lj2, p_lj3, p_lj4, p_cs, p_off, p_c7h, p_2lj2   !< the pair's coefficients (lj_ray_lanes.inc)
         real(dp), pointer, contiguous :: dx(:), dy(:), dz(:), wx(:), wy(:), wz(:), c1(:), c2(:), cs(:), c3(:), &
                                          c4(:), co(:)
         dx => work(:, 1); dy => work(:, 2); dz => work(:, 3); wx => work(:, 4); wy => work(:, 5); wz => work(:, 6)
@@ -845,15 +839,9 @@ contains
             do k = 1, nnp, 8
                 do l = 1, 8
                     kk = k + l - 1
-                    rsq = dx(kk)*dx(kk) + dy(kk)*dy(kk) + dz(kk)*dz(kk)
-                    inside = merge(one, zero, rsq < cs(kk))
-                    call lj_terms(rsq, cs(kk), far, c1(kk), c2(kk), r2inv, r6inv, fpair)
-                    d2psi = (3.5_dp*c1(kk)*r6inv - 2*c2(kk))*r6inv*r2inv*r2inv
-                    rho1 = 2*(dx(kk)*wx(kk) + dy(kk)*wy(kk) + dz(kk)*wz(kk))
-                    la(l) = la(l) + (r6inv*(c3(kk)*r6inv - c4(kk)) - inside*co(kk))
-                    lb(l) = lb(l) - 0.5_dp*fpair*rho1
-                    lc(l) = lc(l) + (d2psi*rho1*rho1 - fpair*(wx(kk)*wx(kk) + wy(kk)*wy(kk) + wz(kk)*wz(kk)))
-                    ld(l) = ld(l) + fpair*rsq
+                    p_cs = cs(kk); p_lj1 = c1(kk); p_lj2 = c2(kk); p_lj3 = c3(kk); p_lj4 = c4(kk); p_off = co(kk)
+                    p_c7h = 3.5_dp*c1(kk); p_2lj2 = 2*c2(kk)
+                    include 'lj_ray_lanes.inc'
                 end do
             end do
             atom_sums(i, 1) = sum(la); atom_sums(i, 2) = sum(lb); atom_sums(i, 3) = sum(lc); vir = vir + sum(ld)

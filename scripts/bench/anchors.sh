@@ -18,8 +18,8 @@
 #          list of the same scene ("Total # of neighbors", half list, start and end averaged); LAMMPS
 #          runs each scene once (first round), Terrace every round.
 #   ljtypes LJ cost per pair of the multi-type path against the one-type path: the LJ scene's lattice
-#          (32,000 atoms, rc 2.5, skin 0.3) with one type, with two identical types (50/50 at random: the
-#          same physics, so the same per-pair work), and the Kob-Andersen mixture (80:20, rho* 1.2,
+#          (32,000 atoms, rc 2.5, skin 0.3) with one type, with two and with three identical types (at
+#          random: the same physics, so the same per-pair work), and the Kob-Andersen mixture (80:20, rho* 1.2,
 #          eps/sigma AB 1.5/0.8, BB 0.5/0.88, rc 2.5 sigma_ab), velocities from LAMMPS's data file; per
 #          pair as for types (pairs within rc + skin from LAMMPS's list).
 #   es     energy stepping: mean cost of one event in Verlet steps (scripts/bench/es_cost.py on the
@@ -425,17 +425,21 @@ fi
 # ---- LJ: cost per pair, one type against mixtures -----------------------------------------------
 if [[ "$parts" == *,ljtypes,* ]] && have lmp; then
     # name density type-2-fraction T pair_coeffs(LAMMPS) terrace_keys
+    # name density type-2-fraction T (lj_three_same: then half of the type-1 atoms become type 3)
     scenes=("lj_one 0.8442 0 1.44"
             "lj_two_same 0.8442 0.5 1.44"
+            "lj_three_same 0.8442 0.333333 1.44"
             "lj_ka 1.2 0.2 2.0")
-    echo "== LJ cost per pair: one type against two (identical types; Kob-Andersen 80:20), $nlj steps, skin 0.3"
+    echo "== LJ cost per pair: one type against two and three (identical types; Kob-Andersen 80:20), $nlj steps, skin 0.3"
     : > ljtypes.txt
     for s in "${scenes[@]}"; do
         read -r name rho frac temp <<< "$s"
-        ntypes=1; [[ $frac != 0 ]] && ntypes=2
+        ntypes=1; [[ $frac != 0 ]] && ntypes=2; [[ $name == lj_three_same ]] && ntypes=3
         case $name in
             lj_one)      lcoeff="pair_coeff 1 1 1.0 1.0 2.5"; tkeys="epsilon=1.0, sigma=1.0" ;;
             lj_two_same) lcoeff="pair_coeff * * 1.0 1.0 2.5"; tkeys="epsilon(1,1)=1.0, sigma(1,1)=1.0, epsilon(2,2)=1.0, sigma(2,2)=1.0" ;;
+            lj_three_same) lcoeff="pair_coeff * * 1.0 1.0 2.5"
+                           tkeys="epsilon(1,1)=1.0, sigma(1,1)=1.0, epsilon(2,2)=1.0, sigma(2,2)=1.0, epsilon(3,3)=1.0, sigma(3,3)=1.0" ;;
             lj_ka)       lcoeff=$'pair_coeff 1 1 1.0 1.0 2.5\npair_coeff 1 2 1.5 0.8 2.0\npair_coeff 2 2 0.5 0.88 2.2'
                          tkeys="epsilon(1,1)=1.0, sigma(1,1)=1.0, epsilon(2,2)=0.5, sigma(2,2)=0.88, epsilon(1,2)=1.5, sigma(1,2)=0.8, pair_cutoff(1,2)=2.0, pair_cutoff(2,2)=2.2" ;;
         esac
@@ -447,7 +451,8 @@ lattice fcc $rho
 region box block 0 20 0 20 0 20
 create_box $ntypes box
 create_atoms 1 box
-$( [[ $ntypes == 2 ]] && echo "set type 1 type/fraction 2 $frac 8675309" )
+$( [[ $ntypes -ge 2 ]] && echo "set type 1 type/fraction 2 $frac 8675309" )
+$( [[ $ntypes == 3 ]] && echo "set type 1 type/fraction 3 0.5 5551212" )
 mass * 1.0
 velocity all create $temp 87287 loop geom
 pair_style lj/cut 2.5
@@ -474,8 +479,8 @@ NML
     done
     per_pair_rounds ljtypes.txt
     per_pair_table "$nlj" ljtypes.txt lj_one 'one' 'mixtures'
-    echo "Thermo at step $nlj, one type and two identical types (same data, velocities by position):"
-    for name in lj_one lj_two_same; do
+    echo "Thermo at step $nlj, one type and two or three identical types (same data, velocities by position):"
+    for name in lj_one lj_two_same lj_three_same; do
         printf '    %-12s Terrace pe, etotal: %s   LAMMPS pe, etotal per atom: %s\n' $name \
             "$(awk -v n="$nlj" '$1 == n && NF >= 7 {print $4, $6; exit}' t_$name.out)" \
             "$(awk -v n="$nlj" '$1 == n && NF == 6 {print $3, $5; exit}' l_$name.best.log)"

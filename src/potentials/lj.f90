@@ -308,8 +308,9 @@ contains
     !> virials) are computed branch-free over the contiguous rows (vectorised: GCC does not emit
     !> gathers for this CPU); then they are scattered (Newton's third law) while the force on i is
     !> summed in list order. One type (lj/cut): scalar coefficients, and the energies and virials
-    !> summed in eight lanes as they are computed (one_type_pairs_energy). Two types, forces only:
-    !> each pair's coefficients selected in the pair loop from i's two (pair_forces_two_types).
+    !> summed in eight lanes as they are computed (one_type_pairs_energy). Two to four types, forces
+    !> only: each pair's coefficients selected in the pair loop from i's (pair_forces_two_types,
+    !> pair_forces_few_types).
     !> Otherwise per-pair coefficient rows, selected per type (select_by_type), and for 'lj' the
     !> energies and virials summed in lanes (pairs_energy_rows); lj/smooth/linear stores them in
     !> rows, summed in list order after the scatter.
@@ -367,6 +368,9 @@ contains
                 if (ntypes == 2 .and. .not. (smooth .or. want_energy)) then
                     ! the common mixture: coefficients selected in the pair loop, no per-pair rows
                     call pair_forces_two_types(nn, fx, fy, fz, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), far)
+                else if (ntypes <= 4 .and. .not. (smooth .or. want_energy)) then
+                    call pair_forces_few_types(nn, fx, fy, fz, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), &
+                                               far)
                 else
                     call select_by_type(nn, ntypes, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), c1, c2, cs)
                     ! (a third row is filled and not used: ep, written later by the energy pass)
@@ -618,6 +622,32 @@ contains
             fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
         end do
     end subroutine pair_forces_two_types
+
+    !> pair_forces for three or four atom types: the coefficients of the pair selected in the loop
+    !> from atom i's (a1, a2, as: its column of the tables, padded to four) by the neighbour's type
+    !> tr(k), with a two-level select (three per coefficient). For two types the one select of
+    !> pair_forces_two_types is faster; for more than four, rows (select_by_type).
+    pure subroutine pair_forces_few_types(nn, fx, fy, fz, tr, a1, a2, as, far)
+        integer, intent(in) :: nn
+        real(dp), intent(inout) :: fx(*), fy(*), fz(*)
+        integer, intent(in) :: tr(*)
+        real(dp), intent(in) :: a1(:), a2(:), as(:), far
+        integer :: k, t
+        real(dp) :: rsq, r2inv, r6inv, fpair, c1, c2, cs, p1(4), p2(4), ps(4)
+        logical :: odd, high
+        p1 = a1(1); p2 = a2(1); ps = as(1)
+        p1(1:size(a1)) = a1; p2(1:size(a2)) = a2; ps(1:size(as)) = as
+        do k = 1, nn
+            t = tr(k)
+            odd = iand(t, 1) == 1; high = t > 2
+            c1 = merge(merge(p1(3), p1(4), odd), merge(p1(1), p1(2), odd), high)
+            c2 = merge(merge(p2(3), p2(4), odd), merge(p2(1), p2(2), odd), high)
+            cs = merge(merge(ps(3), ps(4), odd), merge(ps(1), ps(2), odd), high)
+            rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
+            call lj_terms(rsq, cs, far, c1, c2, r2inv, r6inv, fpair)
+            fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+        end do
+    end subroutine pair_forces_few_types
 
     !> pair_forces_energy with the atom's pair-energy sum ea and virial sum wa added into eight lanes
     !> as they are computed (as one_type_pairs_energy), instead of rows summed afterwards. The rows

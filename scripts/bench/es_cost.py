@@ -36,6 +36,7 @@ import argparse
 import datetime
 import os
 import platform
+import random
 import re
 import shutil
 import subprocess
@@ -107,7 +108,6 @@ KA = """\
 
 def write_ka_start(path):
     """fcc lattice of KA_CELLS^3 cells at KA_RHO, 20 % of the sites type 2 (fixed random choice)."""
-    import random
     a = (4.0 / KA_RHO) ** (1.0 / 3.0)
     basis = [(0, 0, 0), (0.5, 0.5, 0), (0.5, 0, 0.5), (0, 0.5, 0.5)]
     sites = [((i + bx) * a, (j + by) * a, (k + bz) * a) for k in range(KA_CELLS) for j in range(KA_CELLS)

@@ -629,14 +629,12 @@ contains
             return
         end if
         call reserve_work(self, atoms%nlocal, list%first)
+        if (self%ntypes > 1 .and. .not. allocated(self%dtab)) call build_pair_tables(self)
         if (.not. (self%kept .and. self%kept_n == atoms%nlocal .and. self%kept_len == list%first(atoms%nlocal + 1))) then
             call reserve_pairs(self, atoms%nlocal, list%first)
             call inside_pairs(atoms%nlocal, atoms%x, list%first, list%neigh, self%cutsq, self%cj, self%cfirst, &
                               self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4))
-            if (self%ntypes > 1) then
-                if (.not. allocated(self%dtab)) call build_pair_tables(self)
-                call pair_offsets(atoms%nlocal, atoms%type, self%cj, self%cfirst, self%pair_off, self%ct)
-            end if
+            if (self%ntypes > 1) call pair_offsets(atoms%nlocal, atoms%type, self%cj, self%cfirst, self%pair_off, self%ct)
         end if
         self%kept = .false.
         if (self%ntypes == 1) then
@@ -646,7 +644,6 @@ contains
                            self%work(:, 3), self%work(:, 4), self%work(:, 5), self%work(:, 6), self%work(:, 7), &
                            self%work(:, 8), self%iwork(:, 2))
         else
-            if (.not. allocated(self%dtab)) call build_pair_tables(self)
             call force_types(atoms%nlocal, atoms%x, atoms%f, self%cj, self%ct, self%cfirst, self%rdr, self%nr, &
                              self%ftab(self%ftab0 + 1:), self%fp, want_energy, energy, virial, &
                              self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &

@@ -565,17 +565,14 @@ contains
         real(dp), intent(out) :: ea, wa
         integer :: k, l, kk, nnp
         real(dp) :: rsq, r2inv, r6inv, fpair, inside, le(8), lw(8)
+        real(dp) :: p_lj1, p_lj2, p_lj3, p_lj4, p_cs, p_off   !< the pair's coefficients (lj_force_lanes.inc)
+        p_lj1 = lj1; p_lj2 = lj2; p_lj3 = lj3; p_lj4 = lj4; p_cs = cutsq; p_off = offset
         call pad_rows(nn, fx, fy, fz, pad_far, nnp)
         le = 0; lw = 0
         do k = 1, nnp, 8
             do l = 1, 8
                 kk = k + l - 1
-                rsq = fx(kk)*fx(kk) + fy(kk)*fy(kk) + fz(kk)*fz(kk)
-                inside = merge(one, zero, rsq < cutsq)
-                call lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
-                le(l) = le(l) + (r6inv*(lj3*r6inv - lj4) - offset*inside)
-                lw(l) = lw(l) + rsq*fpair
-                fx(kk) = fx(kk)*fpair; fy(kk) = fy(kk)*fpair; fz(kk) = fz(kk)*fpair
+                include 'lj_force_lanes.inc'
             end do
         end do
         ea = sum(le); wa = sum(lw)
@@ -649,8 +646,8 @@ contains
         end do
     end subroutine pair_forces_few_types
 
-    !> pair_forces_energy with the atom's pair-energy sum ea and virial sum wa added into eight lanes
-    !> as they are computed (as one_type_pairs_energy), instead of rows summed afterwards. The rows
+    !> pair_forces with per-pair coefficient rows, plus the atom's pair-energy sum ea and virial sum
+    !> wa added into eight lanes as they are computed (one_type_pairs_energy's loop). The rows
     !> (separations and coefficients) are padded to a multiple of 8 with far pairs whose
     !> coefficients are 0: they must have room for nn + 8 entries.
     pure subroutine pairs_energy_rows(nn, fx, fy, fz, c1, c2, cs, c3, c4, co, far, one, zero, ea, wa)
@@ -660,6 +657,7 @@ contains
         real(dp), intent(out) :: ea, wa
         integer :: k, l, kk, nnp
         real(dp) :: rsq, r2inv, r6inv, fpair, inside, le(8), lw(8)
+        real(dp) :: p_lj1, p_lj2, p_lj3, p_lj4, p_cs, p_off   !< the pair's coefficients (lj_force_lanes.inc)
         call pad_rows(nn, fx, fy, fz, pad_far, nnp)
         call pad_rows(nn, c1, c2, cs, 0.0_dp, nnp)
         call pad_rows(nn, c3, c4, co, 0.0_dp, nnp)
@@ -667,12 +665,8 @@ contains
         do k = 1, nnp, 8
             do l = 1, 8
                 kk = k + l - 1
-                rsq = fx(kk)*fx(kk) + fy(kk)*fy(kk) + fz(kk)*fz(kk)
-                inside = merge(one, zero, rsq < cs(kk))
-                call lj_terms(rsq, cs(kk), far, c1(kk), c2(kk), r2inv, r6inv, fpair)
-                le(l) = le(l) + (r6inv*(c3(kk)*r6inv - c4(kk)) - co(kk)*inside)
-                lw(l) = lw(l) + rsq*fpair
-                fx(kk) = fx(kk)*fpair; fy(kk) = fy(kk)*fpair; fz(kk) = fz(kk)*fpair
+                p_cs = cs(kk); p_lj1 = c1(kk); p_lj2 = c2(kk); p_lj3 = c3(kk); p_lj4 = c4(kk); p_off = co(kk)
+                include 'lj_force_lanes.inc'
             end do
         end do
         ea = sum(le); wa = sum(lw)
@@ -785,24 +779,17 @@ contains
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), wx(:), wy(:), wz(:)
         real(dp), intent(inout) :: atom_sums(:, :)
         real(dp), intent(out) :: out(4)
-        integer :: i, k, j, k0, nn, nnp, l, kk
-        real(dp) :: xi, yi, zi, vxi, vyi, vzi, rsq, r2inv, r6inv, fpair, d2psi, rho1, inside, &
-                    vir, far, one, zero, la(8), lb(8), lc(8), ld(8)
+        integer :: i, k, k0, nn, nnp, l, kk
+        real(dp) :: rsq, r2inv, r6inv, fpair, d2psi, rho1, inside, vir, far, one, zero, la(8), lb(8), lc(8), ld(8)
         real(dp) :: p_lj1, p_lj2, p_lj3, p_lj4, p_cs, p_off, p_c7h, p_2lj2   !< the pair's coefficients (lj_ray_lanes.inc)
         p_lj1 = lj1_; p_lj2 = lj2_; p_lj3 = lj3_; p_lj4 = lj4_; p_cs = cutsq_; p_off = offset_
         p_c7h = 3.5_dp*p_lj1; p_2lj2 = 2*p_lj2
         far = inf; one = one_; zero = zero_
         vir = 0
         do i = 1, nlocal
-            xi = xv(1, i); yi = xv(2, i); zi = xv(3, i); vxi = xv(4, i); vyi = xv(5, i); vzi = xv(6, i)
             k0 = first(i) - 1
             nn = first(i + 1) - first(i)
-            !GCC$ novector
-            do k = 1, nn
-                j = neigh(k0 + k)
-                dx(k) = xi - xv(1, j); dy(k) = yi - xv(2, j); dz(k) = zi - xv(3, j)
-                wx(k) = vxi - xv(4, j); wy(k) = vyi - xv(5, j); wz(k) = vzi - xv(6, j)
-            end do
+            call ray_rows(i, xv, neigh(k0 + 1:k0 + nn), dx, dy, dz, wx, wy, wz)
             ! the rows padded to a multiple of 8 with far, motionless pairs (all four terms exactly 0):
             ! the vectorised loops below then have no remainder
             call pad_rows(nn, dx, dy, dz, pad_far, nnp)
@@ -837,9 +824,8 @@ contains
         integer, intent(inout), contiguous :: tr(:)
         real(dp), intent(inout) :: atom_sums(:, :)
         real(dp), intent(out) :: out(4)
-        integer :: i, k, j, k0, nn, nnp, l, kk, ti
-        real(dp) :: xi, yi, zi, vxi, vyi, vzi, rsq, r2inv, r6inv, fpair, d2psi, rho1, inside, vir, far, one, zero, &
-                    la(8), lb(8), lc(8), ld(8)
+        integer :: i, k, k0, nn, nnp, l, kk, ti
+        real(dp) :: rsq, r2inv, r6inv, fpair, d2psi, rho1, inside, vir, far, one, zero, la(8), lb(8), lc(8), ld(8)
         real(dp) :: p_lj1, p_lj2, p_lj3, p_lj4, p_cs, p_off, p_c7h, p_2lj2   !< the pair's coefficients (lj_ray_lanes.inc)
         real(dp), pointer, contiguous :: dx(:), dy(:), dz(:), wx(:), wy(:), wz(:), c1(:), c2(:), cs(:), c3(:), &
                                          c4(:), co(:)
@@ -848,16 +834,13 @@ contains
         far = inf; one = one_; zero = zero_
         vir = 0
         do i = 1, nlocal
-            xi = xv(1, i); yi = xv(2, i); zi = xv(3, i); vxi = xv(4, i); vyi = xv(5, i); vzi = xv(6, i)
             k0 = first(i) - 1
             nn = first(i + 1) - first(i)
             ti = type(i)
+            call ray_rows(i, xv, neigh(k0 + 1:k0 + nn), dx, dy, dz, wx, wy, wz)
             !GCC$ novector
             do k = 1, nn
-                j = neigh(k0 + k)
-                dx(k) = xi - xv(1, j); dy(k) = yi - xv(2, j); dz(k) = zi - xv(3, j)
-                wx(k) = vxi - xv(4, j); wy(k) = vyi - xv(5, j); wz(k) = vzi - xv(6, j)
-                tr(k) = type(j)
+                tr(k) = type(neigh(k0 + k))
             end do
             call select_by_type(nn, self%ntypes, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), c1, c2, cs)
             call select_by_type(nn, self%ntypes, tr, self%lj3(:, ti), self%lj4(:, ti), self%offset(:, ti), c3, c4, co)
@@ -879,6 +862,25 @@ contains
         out = [compensated_total(atom_sums(:, 1), nlocal), compensated_total(atom_sums(:, 2), nlocal), &
                compensated_total(atom_sums(:, 3), nlocal), vir]
     end subroutine ray_types
+
+    !> The ray passes' rows of atom i: separations d = (x_i - x_j) and relative velocities
+    !> w = v_i - v_j at the ray's s, for its neighbours j = nbrs(:), from xv = (x + s v, v)
+    !> (scalar loads, contiguous stores).
+    pure subroutine ray_rows(i, xv, nbrs, dx, dy, dz, wx, wy, wz)
+        integer, intent(in) :: i
+        real(dp), intent(in), contiguous :: xv(:, :)
+        integer, intent(in), contiguous :: nbrs(:)
+        real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), wx(:), wy(:), wz(:)
+        integer :: k, j
+        real(dp) :: xi, yi, zi, vxi, vyi, vzi
+        xi = xv(1, i); yi = xv(2, i); zi = xv(3, i); vxi = xv(4, i); vyi = xv(5, i); vzi = xv(6, i)
+        !GCC$ novector
+        do k = 1, size(nbrs)
+            j = nbrs(k)
+            dx(k) = xi - xv(1, j); dy(k) = yi - xv(2, j); dz(k) = zi - xv(3, j)
+            wx(k) = vxi - xv(4, j); wy(k) = vyi - xv(5, j); wz(k) = vzi - xv(6, j)
+        end do
+    end subroutine ray_rows
 
     !> self%xv(:, i) = (x_i + s v_i, v_i) for every atom, owned and ghost (grown as needed).
     subroutine ray_positions(self, atoms, s)

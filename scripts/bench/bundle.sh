@@ -1,0 +1,86 @@
+#!/usr/bin/env bash
+# Carry Terrace, LAMMPS and Open MPI to a machine that has none of them (the 16-core machine that the
+# workplace's device tool lends, which cannot install packages), to run scripts/bench/scaling.sh there.
+#
+#   scripts/bench/bundle.sh pack DIR    (here, after scripts/install_deps.sh) builds Terrace twice, for
+#       x86-64-v3 (AVX2) and x86-64-v4 (AVX-512), into DIR/build-v3 and DIR/build-v4, and packs into
+#       DIR/bundle.tar.xz: both binaries, /usr/bin/lmp, Open MPI's mpirun with its plugins, help files
+#       and settings, every shared library these load except the C library's own, and Cu_u3.eam.
+#   scripts/bench/bundle.sh run DIR COMMAND...   (there) unpacks DIR/bundle.tar.xz to /tmp/terrace-bundle,
+#       sets PATH, LD_LIBRARY_PATH, OPAL_PREFIX (Open MPI relocated), TERRACE (the x86-64-v4 binary where
+#       the CPU has AVX-512, else x86-64-v3), LMP and EAM_FILE, and runs COMMAND.
+#   scripts/bench/bundle.sh check DIR   (here) runs a small scaling.sh pass from the bundle with the
+#       system's Open MPI, LAMMPS and libraries hidden (a private mount namespace; needs root), to show
+#       that nothing outside the bundle is used.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
+cmd="${1:-}"; dir="${2:-}"
+[[ -n "$cmd" && -n "$dir" ]] || { sed -n '2,16p' "${BASH_SOURCE[0]}" >&2; exit 2; }
+mkdir -p "$dir"; dir="$(cd "$dir" && pwd)"
+arch=x86_64-linux-gnu
+ompi_plugins=/usr/lib/$arch/openmpi/lib/openmpi3
+skip_plugins='ucx|ofi|openib|psm|uct|verbs|pmix_flux|schizo_flux|schizo_jsm'
+eam=/usr/share/lammps/potentials/Cu_u3.eam
+glibc='^(linux-vdso|ld-linux|libc|libm|libmvec|libpthread|libdl|librt|libresolv|libutil)\.so'
+
+case "$cmd" in
+pack)
+    for v in v3 v4; do
+        cmake -S "$repo" -B "$dir/build-$v" -DCMAKE_BUILD_TYPE=Release -DTERRACE_TESTS=OFF \
+              -DTERRACE_MARCH=x86-64-$v > "$dir/build-$v.log" 2>&1
+        cmake --build "$dir/build-$v" -j "$(nproc)" --target terrace >> "$dir/build-$v.log" 2>&1 \
+            || { tail -20 "$dir/build-$v.log" >&2; exit 1; }
+    done
+    stage="$dir/stage"; rm -rf "$stage"; mkdir -p "$stage"/{bin,lib,pot}
+    b="$stage/ompi"   # Open MPI's tree under its relocated prefix, as Debian lays it out under /usr
+    mkdir -p "$b/bin" "$b/lib/$arch/openmpi/lib/openmpi3" "$b/share" "$b/etc"
+    cp "$dir/build-v3/terrace" "$stage/bin/terrace-v3"; cp "$dir/build-v4/terrace" "$stage/bin/terrace-v4"
+    cp /usr/bin/lmp "$stage/bin/lmp"; cp "$eam" "$stage/pot/"
+    cp "$(readlink -f /usr/bin/orterun)" "$b/bin/orterun"; ln -s orterun "$b/bin/mpirun"
+    cp "$(readlink -f /usr/bin/orted)" "$b/bin/orted"
+    cp -r /usr/share/openmpi "$b/share/openmpi"; cp /etc/openmpi/openmpi-mca-params.conf "$b/etc/"
+    [[ -d /usr/lib/$arch/pmix2/share/pmix ]] && mkdir -p "$b/share/pmix" && cp -r /usr/lib/$arch/pmix2/share/pmix/. "$b/share/pmix/"
+    objs=("$stage/bin/terrace-v3" "$stage/bin/terrace-v4" "$stage/bin/lmp" "$b/bin/orterun" "$b/bin/orted")
+    for f in "$ompi_plugins"/*.so; do
+        [[ "$(basename "$f")" =~ $skip_plugins ]] && continue
+        cp "$f" "$b/lib/$arch/openmpi/lib/openmpi3/"; objs+=("$b/lib/$arch/openmpi/lib/openmpi3/$(basename "$f")")
+    done
+    for f in "${objs[@]}"; do
+        ldd "$f" | awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}'
+    done | sort -u | while read -r name path; do
+        [[ "$name" =~ $glibc ]] && continue
+        cp -L "$path" "$stage/lib/$name"
+    done
+    git -C "$repo" rev-parse --short HEAD > "$stage/commit" 2>/dev/null || echo unknown > "$stage/commit"
+    tar -C "$stage" -cJf "$dir/bundle.tar.xz" .
+    echo "bundle: $dir/bundle.tar.xz ($(du -h "$dir/bundle.tar.xz" | cut -f1); $(ls "$stage/lib" | wc -l) libraries)"
+    ;;
+run|env)
+    shift 2
+    t=/tmp/terrace-bundle
+    if [[ ! -x $t/bin/lmp ]]; then mkdir -p $t; tar -C $t -xJf "$dir/bundle.tar.xz"; fi
+    export PATH="$t/ompi/bin:$t/bin:$PATH" LD_LIBRARY_PATH="$t/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+    export OPAL_PREFIX="$t/ompi" PMIX_PREFIX="$t/ompi" OMPI_MCA_mca_base_param_files="$t/ompi/etc/openmpi-mca-params.conf"
+    export OMPI_MCA_mca_base_component_show_load_errors=0
+    if grep -q -w avx512f /proc/cpuinfo && grep -q -w avx512bw /proc/cpuinfo && grep -q -w avx512vl /proc/cpuinfo \
+       && grep -q -w avx512dq /proc/cpuinfo && grep -q -w avx512cd /proc/cpuinfo; then
+        export TERRACE="$t/bin/terrace-v4"; else export TERRACE="$t/bin/terrace-v3"; fi
+    export LMP="$t/bin/lmp" MPIRUN="$t/ompi/bin/mpirun" EAM_FILE="$t/pot/Cu_u3.eam" BUNDLE_COMMIT="$(cat $t/commit)"
+    "$@"
+    ;;
+check)
+    [[ $(id -u) == 0 ]] || { echo "bundle.sh check: needs root (mount namespace)" >&2; exit 1; }
+    rm -rf /tmp/terrace-bundle
+    exec unshare -m bash -c '
+        set -e; mkdir -p /tmp/bundle-empty; touch /tmp/bundle-empty.file
+        for d in /usr/lib/'$arch'/openmpi /usr/lib/'$arch'/pmix2 /usr/share/openmpi /etc/openmpi /usr/share/lammps \
+                 /usr/lib/'$arch'/hwloc; do [[ -d $d ]] && mount --bind /tmp/bundle-empty $d; done
+        for f in /usr/bin/mpirun /usr/bin/orterun /usr/bin/orted /usr/bin/lmp; do mount --bind /tmp/bundle-empty.file $f; done
+        mkdir -p /tmp/terrace-bundle && tar -C /tmp/terrace-bundle -xJf "'"$dir"'/bundle.tar.xz"
+        for l in /tmp/terrace-bundle/lib/*; do n=/usr/lib/'$arch'/$(basename $l); [[ -e $n ]] && mount --bind /tmp/bundle-empty.file $n; done
+        echo "hidden: the system'"'"'s Open MPI, PMIx, LAMMPS and every library the bundle carries"
+        LJ_STEPS=20 LJ_EVENTS=10 EAM_STEPS=10 EAM_EVENTS=5 KINDS=strong MPI_FLAGS="--oversubscribe" \
+            bash "'"$here"'/bundle.sh" run "'"$dir"'" bash "'"$here"'/scaling.sh" 1,2 /tmp/bundle-check'
+    ;;
+*) echo "bundle.sh: unknown command '$cmd' (pack, run, check)" >&2; exit 2 ;;
+esac

@@ -1,0 +1,205 @@
+#!/usr/bin/env bash
+# Parallel scaling, 1 to P ranks: Terrace (velocity Verlet and energy stepping) next to LAMMPS on the
+# same cores, for the LJ benchmark scene and LAMMPS's in.eam scene. Strong scaling: 32,000 atoms on
+# 1..P ranks. Weak scaling: 32,000 atoms per rank (20 x 20 x 20 fcc cells per rank, the box doubled
+# along its shortest side for each doubling of the ranks). One run per point (the loop time each code
+# prints); LAMMPS rebuilds its list as Terrace does (every step when an atom has moved skin/2:
+# neigh_modify every 1 delay 0 check yes), so both build about as often.
+#
+# Usage: scripts/bench/scaling.sh [RANKS [OUTDIR]]     RANKS default 1,2,4,8,16; OUTDIR default a temp dir
+# Environment: TERRACE (binary, default build/terrace), LMP (default lmp), MPIRUN (default mpirun),
+#   EAM_FILE (default /usr/share/lammps/potentials/Cu_u3.eam), MPI_FLAGS (extra mpirun flags; default
+#   binds each rank to a core), LJ_STEPS (300), LJ_EVENTS (150), EAM_STEPS (100), EAM_EVENTS (50),
+#   PARTS ("lj eam"), KINDS ("strong weak").
+# Prints one table per scene and kind: loop seconds, speed-up (strong) or efficiency (weak) against
+# one rank, and Terrace's slowest rank's Comm and Search times. Raw rows go to OUTDIR/scaling.csv.
+# Only meaningful on a machine with at least as many free cores as the largest rank count.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
+ranks="${1:-1,2,4,8,16}"; out="${2:-$(mktemp -d)}"; mkdir -p "$out"; out="$(cd "$out" && pwd)"
+terrace="$(realpath "${TERRACE:-$repo/build/terrace}")"; lmp="${LMP:-lmp}"; mpirun="${MPIRUN:-mpirun}"
+eam_file="${EAM_FILE:-/usr/share/lammps/potentials/Cu_u3.eam}"
+lj_steps="${LJ_STEPS:-300}"; lj_events="${LJ_EVENTS:-150}"; eam_steps="${EAM_STEPS:-100}"; eam_events="${EAM_EVENTS:-50}"
+parts="${PARTS:-lj eam}"; kinds="${KINDS:-strong weak}"
+export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+IFS=, read -r -a plist <<< "$ranks"
+pmax=0; for p in "${plist[@]}"; do (( p > pmax )) && pmax=$p; done
+ncores=$(nproc)
+# Physical cores (lscpu's sockets x cores per socket) decide the binding: a rank per core where there are
+# enough cores, else hardware threads.
+phys=$(lscpu 2>/dev/null | awk -F: '/^Socket\(s\)/{s=$2} /^Core\(s\) per socket/{c=$2} END{if (s*c > 0) print s*c; else print 0}')
+if [[ -z "${MPI_FLAGS+x}" ]]; then
+    if (( phys >= pmax )); then MPI_FLAGS="--map-by core --bind-to core"
+    elif (( ncores >= pmax )); then MPI_FLAGS="--use-hwthread-cpus --map-by hwthread --bind-to hwthread"
+    else MPI_FLAGS="--oversubscribe --bind-to none"; fi
+fi
+[[ -x "$terrace" ]] || { echo "scaling.sh: no Terrace binary at $terrace (build it: bash scripts/build.sh)" >&2; exit 1; }
+command -v "$lmp" > /dev/null || { echo "scaling.sh: no LAMMPS binary '$lmp' (Debian: lammps)" >&2; exit 1; }
+[[ -r "$eam_file" ]] || { echo "scaling.sh: cannot read EAM_FILE $eam_file (Debian: lammps-data)" >&2; exit 1; }
+
+echo "Parallel scaling: Terrace (velocity Verlet, energy stepping) and LAMMPS, ranks $ranks"
+echo "machine : $(lscpu | sed -n 's/^Model name: *//p' | head -1); $ncores logical CPUs, $phys physical cores"
+echo "date    : $(date -u '+%Y-%m-%d %H:%M:%S UTC')"
+echo "commit  : ${BUNDLE_COMMIT:-$(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)}"
+echo "terrace : $terrace"
+echo "lammps  : $("$lmp" -h 2>/dev/null | sed -n 's/^Large-scale Atomic\/Molecular Massively Parallel Simulator - //p' | head -1)"
+echo "mpirun  : $("$mpirun" --version 2>&1 | head -1); flags: $MPI_FLAGS"
+echo "runs    : LJ $lj_steps Verlet steps, $lj_events events; EAM $eam_steps steps, $eam_events events; one run per point"
+echo
+
+# Weak scaling's box: 20 cells per rank and axis, doubled along the shortest axis while P has a factor 2
+# left, then along x by what remains (odd P).
+weak_cells() {
+    local p=$1 a=1 b=1 c=1
+    while (( p % 2 == 0 )); do
+        if (( a <= b && a <= c )); then a=$((a * 2)); elif (( b <= c )); then b=$((b * 2)); else c=$((c * 2)); fi
+        p=$((p / 2))
+    done
+    a=$((a * p)); echo "$((20 * a)) $((20 * b)) $((20 * c))"
+}
+
+terrace_deck() {  # scene nx ny nz integrator n
+    local scene=$1 nx=$2 ny=$3 nz=$4 integ=$5 n=$6
+    if [[ $scene == lj ]]; then
+        cat <<NML
+&run units='lj', dimension=3, n_steps=$n, seed=87287 /
+&system lattice='fcc', density=0.8442, cells=$nx,$ny,$nz, periodic=.true.,.true.,.true., mass=1.0, temperature=1.44 /
+&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, shift=.true. /
+$integ
+&neighbor skin=0.3 /
+&output thermo_every=$n, thermo_file='' /
+NML
+    else
+        cat <<NML
+&run units='metal', dimension=3, n_steps=$n, seed=376847 /
+&system lattice='fcc', lattice_constant=3.615, cells=$nx,$ny,$nz, periodic=.true.,.true.,.true., temperature=1600.0 /
+&potential style='eam', file='$eam_file' /
+$integ
+&neighbor skin=1.0 /
+&output thermo_every=$n, thermo_file='' /
+NML
+    fi
+}
+
+lammps_input() {  # scene nx ny nz n
+    local scene=$1 nx=$2 ny=$3 nz=$4 n=$5
+    if [[ $scene == lj ]]; then
+        cat <<LMP
+units lj
+atom_style atomic
+lattice fcc 0.8442
+region box block 0 $nx 0 $ny 0 $nz
+create_box 1 box
+create_atoms 1 box
+mass 1 1.0
+velocity all create 1.44 87287 loop geom
+pair_style lj/cut 2.5
+pair_modify shift yes
+pair_coeff 1 1 1.0 1.0 2.5
+neighbor 0.3 bin
+neigh_modify every 1 delay 0 check yes
+fix 1 all nve
+timestep 0.005
+thermo $n
+run $n
+LMP
+    else
+        cat <<LMP
+units metal
+atom_style atomic
+lattice fcc 3.615
+region box block 0 $nx 0 $ny 0 $nz
+create_box 1 box
+create_atoms 1 box
+pair_style eam
+pair_coeff 1 1 $eam_file
+velocity all create 1600.0 376847 loop geom
+neighbor 1.0 bin
+neigh_modify every 1 delay 0 check yes
+fix 1 all nve
+timestep 0.005
+thermo $n
+run $n
+LMP
+    fi
+}
+
+csv="$out/scaling.csv"
+echo "scene,kind,ranks,atoms,code,n,loop_s,comm_max_s,search_max_s" > "$csv"
+phase_max() { awk -v p="$1" '$1 == p {print $3}' "$2" | tail -1; }
+
+for scene in $parts; do
+    if [[ $scene == lj ]]; then vv="&integrator style='velocity_verlet', dt=0.005 /"; nvv=$lj_steps; nes=$lj_events
+        es="&integrator style='energy_stepping', terrace_height=0.3 /"
+    else vv="&integrator style='velocity_verlet', dt=0.005 /"; nvv=$eam_steps; nes=$eam_events
+        es="&integrator style='energy_stepping', terrace_height=0.03 /"; fi
+    for kind in $kinds; do
+        for p in "${plist[@]}"; do
+            if [[ $kind == strong ]]; then read -r nx ny nz <<< "20 20 20"; else read -r nx ny nz <<< "$(weak_cells "$p")"; fi
+            natoms=$((4 * nx * ny * nz))
+            d="$out/${scene}_${kind}_np$p"; mkdir -p "$d"; cd "$d"
+            for code in terrace-vv terrace-es lammps; do
+                comm=""; search=""
+                case $code in
+                terrace-vv|terrace-es)
+                    if [[ $code == terrace-vv ]]; then terrace_deck "$scene" "$nx" "$ny" "$nz" "$vv" "$nvv" > "$code.nml"; n=$nvv
+                    else terrace_deck "$scene" "$nx" "$ny" "$nz" "$es" "$nes" > "$code.nml"; n=$nes; fi
+                    # shellcheck disable=SC2086
+                    if ! "$mpirun" $MPI_FLAGS -np "$p" "$terrace" "$code.nml" > "$code.log" 2>&1; then
+                        echo "FAILED: $scene $kind $code np $p (log $d/$code.log):"; tail -5 "$code.log"; continue; fi
+                    loop=$(sed -n 's/^Loop time: *\([0-9.eE+-]*\) s.*/\1/p' "$code.log" | tail -1)
+                    comm=$(phase_max Comm "$code.log"); search=$(phase_max Search "$code.log") ;;
+                lammps)
+                    lammps_input "$scene" "$nx" "$ny" "$nz" "$nvv" > in.lmp; n=$nvv
+                    # shellcheck disable=SC2086
+                    if ! "$mpirun" $MPI_FLAGS -np "$p" "$lmp" -in in.lmp -log lammps.log -screen none > lammps.out 2>&1; then
+                        echo "FAILED: $scene $kind lammps np $p (log $d/lammps.log):"; tail -5 lammps.log; continue; fi
+                    loop=$(sed -n 's/^Loop time of \([0-9.eE+-]*\) on.*/\1/p' lammps.log | tail -1) ;;
+                esac
+                echo "$scene,$kind,$p,$natoms,$code,$n,$loop,$comm,$search" >> "$csv"
+                printf '  %-4s %-6s np %2d  %7d atoms  %-10s %4d  loop %9.3f s\n' "$scene" "$kind" "$p" "$natoms" "$code" "$n" "$loop"
+            done
+            cd "$out"
+        done
+    done
+done
+
+echo
+python3 - "$csv" <<'PY'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+def key(r): return (r['scene'], r['kind'], r['code'])
+base = {}
+for r in rows:
+    if r['ranks'] == '1':
+        base[key(r)] = float(r['loop_s'])
+codes = ['terrace-vv', 'terrace-es', 'lammps']
+for scene in ('lj', 'eam'):
+    for kind in ('strong', 'weak'):
+        sel = [r for r in rows if r['scene'] == scene and r['kind'] == kind]
+        if not sel:
+            continue
+        what = 'speed-up' if kind == 'strong' else 'efficiency'
+        print(f"{scene.upper()} {kind} scaling ({'32,000 atoms' if kind == 'strong' else '32,000 atoms per rank'}): "
+              f"loop s ({what} against 1 rank); Terrace's Comm and Search: slowest rank, s")
+        print(f"{'ranks':>5} {'atoms':>8} | {'Terrace VV':>18} | {'Terrace ES':>18} | {'LAMMPS':>18} | "
+              f"{'VV/LAMMPS':>9} | {'VV comm':>8} {'ES comm':>8} {'ES search':>9}")
+        for p in sorted({int(r['ranks']) for r in sel}):
+            cells, loops, extra = [], {}, {}
+            natoms = next(r['atoms'] for r in sel if int(r['ranks']) == p)
+            for c in codes:
+                r = next((r for r in sel if int(r['ranks']) == p and r['code'] == c), None)
+                if r is None:
+                    cells.append(f"{'failed':>18}")
+                    continue
+                t = float(r['loop_s']); loops[c] = t; extra[c] = r
+                b = base.get((scene, kind, c))
+                s = '' if b is None else (b / t if kind == 'strong' else b / t)
+                cells.append(f"{t:9.3f} ({s:6.2f})" if s != '' else f"{t:9.3f}         ")
+            ratio = f"{loops['lammps'] / loops['terrace-vv']:9.2f}" if 'lammps' in loops and 'terrace-vv' in loops else f"{'':>9}"
+            g = lambda c, k: f"{float(extra[c][k]):.3f}" if c in extra and extra[c][k] else '-'
+            print(f"{p:5d} {natoms:>8} | {cells[0]} | {cells[1]} | {cells[2]} | {ratio} | "
+                  f"{g('terrace-vv', 'comm_max_s'):>8} {g('terrace-es', 'comm_max_s'):>8} {g('terrace-es', 'search_max_s'):>9}")
+        print()
+print("VV/LAMMPS: LAMMPS loop time over Terrace Verlet's (above 1: Terrace faster), same steps, same ranks.")
+PY

@@ -15,8 +15,10 @@
 #   EAM_FILE (default /usr/share/lammps/potentials/Cu_u3.eam), MPI_FLAGS (extra mpirun flags; default
 #   binds each rank to a core), LJ_STEPS (300), LJ_EVENTS (150), EAM_STEPS (100), EAM_EVENTS (50),
 #   LJ_PREP (300), EAM_PREP (150), PARTS ("lj eam"), KINDS ("strong weak").
-# Prints one table per scene and kind: loop seconds, speed-up (strong) or efficiency (weak) against
-# one rank, and Terrace's slowest rank's Comm and Search times. Raw rows go to OUTDIR/scaling.csv.
+# Prints one table per scene and kind (scripts/bench/scaling_report.py: loop seconds, speed-up (strong)
+# or efficiency (weak) against one rank, Terrace's slowest rank's Comm and Search times). Raw rows go
+# to OUTDIR/scaling.csv, each run's log to OUTDIR/SCENE_KIND_npP/; scaling_report.py OUTDIR --phases
+# --figure F.png gives the per-phase tables and the figure.
 # Only meaningful on a machine with at least as many free cores as the largest rank count.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
@@ -188,43 +190,4 @@ for scene in $parts; do
 done
 
 echo
-python3 - "$csv" <<'PY'
-import csv, sys
-rows = list(csv.DictReader(open(sys.argv[1])))
-def key(r): return (r['scene'], r['kind'], r['code'])
-base = {}
-for r in rows:
-    if r['ranks'] == '1':
-        base[key(r)] = float(r['loop_s'])
-codes = ['terrace-vv', 'terrace-es', 'lammps']
-for scene in ('lj', 'eam'):
-    for kind in ('strong', 'weak'):
-        sel = [r for r in rows if r['scene'] == scene and r['kind'] == kind]
-        if not sel:
-            continue
-        what = 'speed-up' if kind == 'strong' else 'efficiency'
-        print(f"{scene.upper()} {kind} scaling ({'32,000 atoms' if kind == 'strong' else '32,000 atoms per rank'}): "
-              f"loop s ({what} against 1 rank); Terrace's Comm and Search: slowest rank, s")
-        print(f"{'ranks':>5} {'atoms':>8} | {'Terrace VV':>18} | {'Terrace ES':>18} | {'LAMMPS':>18} | "
-              f"{'VV/LAMMPS':>9} | {'VV comm':>8} {'ES comm':>8} {'ES search':>9} {'ES rays':>7}")
-        for p in sorted({int(r['ranks']) for r in sel}):
-            cells, loops, extra = [], {}, {}
-            natoms = next(r['atoms'] for r in sel if int(r['ranks']) == p)
-            for c in codes:
-                r = next((r for r in sel if int(r['ranks']) == p and r['code'] == c), None)
-                if r is None:
-                    cells.append(f"{'failed':>18}")
-                    continue
-                t = float(r['loop_s']); loops[c] = t; extra[c] = r
-                b = base.get((scene, kind, c))
-                s = '' if b is None else (b / t if kind == 'strong' else b / t)
-                cells.append(f"{t:9.3f} ({s:6.2f})" if s != '' else f"{t:9.3f}         ")
-            ratio = f"{loops['lammps'] / loops['terrace-vv']:9.2f}" if 'lammps' in loops and 'terrace-vv' in loops else f"{'':>9}"
-            g = lambda c, k: f"{float(extra[c][k]):.3f}" if c in extra and extra[c][k] else '-'
-            print(f"{p:5d} {natoms:>8} | {cells[0]} | {cells[1]} | {cells[2]} | {ratio} | "
-                  f"{g('terrace-vv', 'comm_max_s'):>8} {g('terrace-es', 'comm_max_s'):>8} {g('terrace-es', 'search_max_s'):>9} "
-                  f"{g('terrace-es', 'rays_per_event'):>7}")
-        print()
-print("VV/LAMMPS: LAMMPS loop time over Terrace Verlet's (above 1: Terrace faster), same steps, same ranks.")
-print("ES rays: ray evaluations per event (one ray pass each; an event also costs one force pass).")
-PY
+python3 "$here/scaling_report.py" "$out"

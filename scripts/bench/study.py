@@ -15,18 +15,15 @@ doc/figures/bench_*.png and the tables behind them (CSV, doc/bench_data/):
      Verlet reference, Verlet's largest stable dt by bisection, energy stepping's event intervals;
   2. stability stress tests (dt and h raised until each method fails, a hot collision to 0.8 sigma,
      more ranks than atoms, an evaporating cluster);
-  3. parallel scaling (strong and weak, both integrators, with the Search and Comm phases), only
-     with --scaling (this 2-vCPU machine cannot measure speed-up).
+  Parallel scaling is not part of the study: scripts/bench/scaling.sh (doc/performance.md).
 
 Usage:
   /usr/bin/python3 scripts/bench/study.py --quick            # minutes (9 min 50 s with --repeat 3 on the 2-vCPU box, load 3-4)
   /usr/bin/python3 scripts/bench/study.py --full             # hours: 100 ns cluster, 32,000-atom LJ, ...
   /usr/bin/python3 scripts/bench/study.py --quick --scenes cube,balls
                            # the mesh scenes only (4 min on the 2-vCPU box), spliced into the page
-  /usr/bin/python3 scripts/bench/study.py --quick --scaling 1,2,4,8,16 --scaling-only
-                           # scaling runs only, added to the page made before in the same mode
   options: --build DIR (default build/), --scenes a,b, --skip-sweep, --skip-stress, --no-lammps,
-           --scaling 1,2,4,8 [--scaling-only], --work DIR, --keep, --doc DIR, --no-report
+           --work DIR, --keep, --doc DIR, --no-report
 Timings: each sweep point is run twice, once with thermo samples and trajectory frames for the error
 measures and observables, and once (or --repeat N times, the fastest kept) with output only at the
 end for its wall time: the loop time minus the output time (Terrace's and LAMMPS's own timers).
@@ -41,7 +38,7 @@ import tempfile
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from study import common, scenes as S, sweep, stress, scaling, report, analysis, solids  # noqa: E402
+from study import common, scenes as S, sweep, stress, report, analysis, solids  # noqa: E402
 
 
 class Ctx:
@@ -60,8 +57,6 @@ def main():
     ap.add_argument('--skip-sweep', action='store_true')
     ap.add_argument('--skip-stress', action='store_true')
     ap.add_argument('--no-lammps', action='store_true')
-    ap.add_argument('--scaling', default='', help='rank counts, e.g. 1,2,4,8 (strong and weak scaling)')
-    ap.add_argument('--scaling-only', action='store_true')
     ap.add_argument('--work', default='', help='work dir (default: a new temporary dir)')
     ap.add_argument('--keep', action='store_true', help='keep trajectories and dumps')
     ap.add_argument('--doc', default=os.path.join(common.REPO, 'doc'), help='where benchmarks.md goes')
@@ -123,12 +118,8 @@ def main():
         solids.splice(page, solids.write_report(ctx, {}, e))      # the mesh scenes' saved results
         return
     sw = common.Stopwatch()
-    results = {'env': e, 'sweeps': {}, 'curves': {}, 'stress': None, 'scaling': None}
-    if a.scaling_only:        # keep the page's sweeps and stress tests (read back from DOC/bench_data)
-        kept = report.load(ctx, keys)
-        results.update(sweeps=kept['sweeps'], stress=kept['stress'])
-        e = results['env'] = dict(kept['env'], command=e['command'])
-    if not a.skip_sweep and not a.scaling_only:
+    results = {'env': e, 'sweeps': {}, 'curves': {}, 'stress': None}
+    if not a.skip_sweep:
         for k in keys:
             with sw.part('sweep %s' % k):
                 try:
@@ -139,21 +130,17 @@ def main():
             results['sweeps'][k] = rows
             results['curves'][k] = curves
     results['solids'] = {}
-    if not a.skip_sweep and not a.scaling_only:
+    if not a.skip_sweep:
         for k in solid_keys:
             with sw.part('mesh scene %s' % k):
                 try:
                     results['solids'][k] = solids.run_scene(k, ctx)
                 except RuntimeError as err:
                     print('    %s: FAILED: %s' % (k, err), flush=True)
-    if not a.skip_stress and not a.scaling_only and keys:
+    if not a.skip_stress and keys:
         with sw.part('stress tests'):
             results['stress'] = stress.run_all(ctx)
-    if a.scaling:
-        ranks = [int(x) for x in a.scaling.split(',') if x.strip()]
-        with sw.part('scaling %s' % ranks):
-            results['scaling'] = scaling.run(ctx, ranks)
-    results['timing'] = sw.parts if not a.scaling_only else kept.get('timing', []) + sw.parts
+    results['timing'] = sw.parts
     if not a.no_report:
         with sw.part('figures and doc/benchmarks.md'):
             if keys:

@@ -1,5 +1,5 @@
 """Figures (doc/figures/bench_*.png) and doc/benchmarks.md from the study's results. Every number
-in the page is computed here from the rows that the sweeps, stress tests and scaling runs wrote to
+in the page is computed here from the rows that the sweeps and stress tests wrote to
 doc/bench_data/*.csv; the conclusions are derived from the same rows (equal-error comparisons by
 log-log interpolation of the Verlet curve), not written by hand."""
 import textwrap
@@ -197,38 +197,6 @@ def fig_curves(scene, curves, path):
     plt.close(fig)
 
 
-def fig_scaling(rows, path):
-    """Per step (Verlet) or per event (energy stepping): the phase split (max over ranks) against
-    the rank count, strong and weak scaling side by side."""
-    fig, axs = plt.subplots(1, 2, figsize=(12, 4.5))
-    phases = ['pair', 'neigh', 'comm', 'search', 'other']
-    colors = ['tab:blue', 'tab:orange', 'tab:green', 'tab:red', 'tab:gray']
-    for ax, kind in zip(axs, ('strong', 'weak')):
-        sel = [r for r in rows if r['kind'] == kind]
-        ticks, labels, x = [], [], 0.0
-        for m in ('terrace-vv', 'terrace-es'):
-            for r in sorted([r for r in sel if r['method'] == m], key=lambda r: r['ranks']):
-                bottom = 0.0
-                n = max(1, int(r['n']))
-                for p, c in zip(phases, colors):
-                    v = 1e3 * (r.get(p + '_max') or 0.0) / n
-                    ax.bar(x, v, bottom=bottom, color=c, width=0.8, label=p.capitalize() if not ticks else None)
-                    bottom += v
-                ticks.append(x)
-                labels.append('%s\n%d' % ('VV' if m == 'terrace-vv' else 'ES', int(r['ranks'])))
-                x += 1
-            x += 0.7
-        ax.set_xticks(ticks)
-        ax.set_xticklabels(labels, fontsize=7)
-        ax.set_xlabel('integrator / ranks')
-        ax.set_ylabel('ms per step (VV) or per event (ES), max over ranks')
-        ax.set_title('%s scaling, LJ scene%s' % (kind, ' (atoms per rank fixed)' if kind == 'weak' else ''), fontsize=9)
-        ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
 # ----------------------------------------------------------------------------------- analysis
 def interp_wall(vv, e):
     """Wall time of Verlet at error e by log-log interpolation of its (error, wall) points.
@@ -347,7 +315,7 @@ def load(ctx, keys):
     """The results of the last run, read back from DOC/bench_data (for --report-only)."""
     import csv
     import json
-    res = {'sweeps': {}, 'curves': {}, 'stress': None, 'scaling': None}
+    res = {'sweeps': {}, 'curves': {}, 'stress': None}
     tj = os.path.join(ctx.data, 'timing_%s.json' % ctx.mode)
     if os.path.exists(tj):
         j = json.load(open(tj))
@@ -368,10 +336,6 @@ def load(ctx, keys):
     p = os.path.join(ctx.data, 'stress.csv')
     if os.path.exists(p):
         res['stress'] = [dict(r, wall=_num(r['wall'])) for r in csv.DictReader(open(p))]
-    p = os.path.join(ctx.data, 'scaling_%s.csv' % ctx.mode)
-    if os.path.exists(p):
-        res['scaling'] = [{k: (_num(v) if k not in ('kind', 'method') else v) for k, v in r.items()}
-                          for r in csv.DictReader(open(p))]
     return res
 
 
@@ -588,39 +552,10 @@ def write(ctx, results):
     w('- **Evaporation from a free cluster:** free dimensions have no box to leave; the cell grid '
       'follows the atoms, so evaporated atoms are kept and the energy stays conserved (table above).\n')
 
-    # scaling
+    # scaling: not part of the study
     w('## Parallel scaling\n')
-    sc_rows = results.get('scaling')
-    if sc_rows:
-        fig_scaling(sc_rows, os.path.join(ctx.figs, 'bench_scaling.png'))
-        w('![scaling](figures/bench_scaling.png)\n')
-        w(table(['kind', 'ranks', 'atoms', 'method', 'steps/events', 'loop (s)', 'Pair', 'Neigh', 'Comm',
-                 'Search', 'Other'],
-                [(r['kind'], r['ranks'], r['natoms'], r['method'], r['n'], '%.3f' % r['loop'],
-                  '%.3f' % r['pair_max'], '%.3f' % r['neigh_max'], '%.3f' % r['comm_max'], '%.3f' % r['search_max'],
-                  '%.3f' % r['other_max']) for r in sc_rows]))
-        w('')
-        nproc = int(env['nproc'] or 1)
-        if nproc < max(r['ranks'] for r in sc_rows):
-            w('**These scaling numbers were taken on a machine with only %s CPUs visible, fewer than the '
-              'largest rank count (ranks were oversubscribed): they show the machinery, not a speed-up.**\n'
-              % env['nproc'])
-        elif nproc <= 2:
-            w('**These scaling numbers were taken on a machine with %s vCPUs that share about one physical '
-              'core: they cover 1 to %s ranks only and say little about scaling on a cluster node.**\n'
-              % (env['nproc'], env['nproc']))
-    else:
-        w('**Not measured here.** This page was generated on a machine with %s vCPUs that share about one '
-          'physical core, so no meaningful speed-up can be measured on it. The study supports it:\n' % env['nproc'])
-    w('    /usr/bin/python3 scripts/bench/study.py --quick --scaling 1,2,4,8,16 --scaling-only   # on a machine with >= 16 free cores\n')
-    w('runs the LJ benchmark scene (shifted LJ, melted start; 32,000 atoms in full mode, 4,000 in quick '
-      'mode) with both integrators on each rank count: **strong** scaling at fixed size and **weak** '
-      'scaling with cells = c0·P^(1/3) (atoms per rank fixed). It keeps the phase table of every run '
-      '(max over ranks) so that the event search (`Search`: the ray evaluations and the global MIN '
-      'that picks the next event) and the halo traffic (`Comm`) show separately from the force pass '
-      '(`Pair`), and writes bench_data/scaling_<mode>.csv and figures/bench_scaling.png. Add '
-      '`--scaling ...` to a normal run to get everything in one page; `--scaling-only` keeps the sweeps and '
-      'stress tests already on the page (made before in the same mode) and adds the scaling section.\n')
+    w('Not part of this study: `scripts/bench/scaling.sh` measures strong and weak scaling of both '
+      'integrators next to LAMMPS (LJ and EAM); the figures are in doc/performance.md, "Parallel runs".\n')
 
     # pending / full mode
     w('## Full mode and what is pending\n')

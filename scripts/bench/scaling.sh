@@ -30,7 +30,7 @@ lj_prep="${LJ_PREP:-300}"; eam_prep="${EAM_PREP:-150}"; parts="${PARTS:-lj eam}"
 export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 IFS=, read -r -a plist <<< "$ranks"
 pmax=0; for p in "${plist[@]}"; do (( p > pmax )) && pmax=$p; done
-ncores=$(nproc)
+ncores=$(getconf _NPROCESSORS_ONLN)   # not nproc: it honours OMP_NUM_THREADS, set to 1 above
 # Physical cores (lscpu's sockets x cores per socket) decide the binding: a rank per core where there are
 # enough cores, else hardware threads.
 phys=$(lscpu 2>/dev/null | awk -F: '/^Socket\(s\)/{s=$2} /^Core\(s\) per socket/{c=$2} END{if (s*c > 0) print s*c; else print 0}')

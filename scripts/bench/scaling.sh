@@ -98,46 +98,36 @@ NML
 }
 
 lammps_input() {  # scene nx ny nz n
-    local scene=$1 nx=$2 ny=$3 nz=$4 n=$5
+    local scene=$1 nx=$2 ny=$3 nz=$4 n=$5 units lattice model
     if [[ $scene == lj ]]; then
-        cat <<LMP
-units lj
-atom_style atomic
-lattice fcc 0.8442
-region box block 0 $nx 0 $ny 0 $nz
-create_box 1 box
-create_atoms 1 box
-mass 1 1.0
+        units=lj; lattice=0.8442
+        model="mass 1 1.0
 velocity all create 1.44 87287 loop geom
 pair_style lj/cut 2.5
 pair_modify shift yes
 pair_coeff 1 1 1.0 1.0 2.5
-neighbor 0.3 bin
-neigh_modify every 1 delay 0 check yes
-fix 1 all nve
-timestep 0.005
-thermo $n
-run $n
-LMP
+neighbor 0.3 bin"
     else
-        cat <<LMP
-units metal
+        units=metal; lattice=3.615
+        model="pair_style eam
+pair_coeff 1 1 $eam_file
+velocity all create 1600.0 376847 loop geom
+neighbor 1.0 bin"
+    fi
+    cat <<LMP
+units $units
 atom_style atomic
-lattice fcc 3.615
+lattice fcc $lattice
 region box block 0 $nx 0 $ny 0 $nz
 create_box 1 box
 create_atoms 1 box
-pair_style eam
-pair_coeff 1 1 $eam_file
-velocity all create 1600.0 376847 loop geom
-neighbor 1.0 bin
+$model
 neigh_modify every 1 delay 0 check yes
 fix 1 all nve
 timestep 0.005
 thermo $n
 run $n
 LMP
-    fi
 }
 
 csv="$out/scaling.csv"

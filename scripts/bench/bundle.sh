@@ -58,7 +58,7 @@ pack)
 run|env)
     shift 2
     t=/tmp/terrace-bundle
-    if [[ ! -x $t/bin/lmp ]]; then mkdir -p $t; tar -C $t -xJf "$dir/bundle.tar.xz"; fi
+    rm -rf $t; mkdir -p $t; tar -C $t -xJf "$dir/bundle.tar.xz"   # afresh: a warm machine may hold an older one
     export PATH="$t/ompi/bin:$t/bin:$PATH" LD_LIBRARY_PATH="$t/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
     export OPAL_PREFIX="$t/ompi" PMIX_PREFIX="$t/ompi" OMPI_MCA_mca_base_param_files="$t/ompi/etc/openmpi-mca-params.conf"
     export OMPI_MCA_mca_base_component_show_load_errors=0
@@ -70,14 +70,13 @@ run|env)
     ;;
 check)
     [[ $(id -u) == 0 ]] || { echo "bundle.sh check: needs root (mount namespace)" >&2; exit 1; }
-    rm -rf /tmp/terrace-bundle
     exec unshare -m bash -c '
         set -e; mkdir -p /tmp/bundle-empty; touch /tmp/bundle-empty.file
         for d in /usr/lib/'$arch'/openmpi /usr/lib/'$arch'/pmix2 /usr/share/openmpi /etc/openmpi /usr/share/lammps \
                  /usr/lib/'$arch'/hwloc; do [[ -d $d ]] && mount --bind /tmp/bundle-empty $d; done
         for f in /usr/bin/mpirun /usr/bin/orterun /usr/bin/orted /usr/bin/lmp; do mount --bind /tmp/bundle-empty.file $f; done
-        mkdir -p /tmp/terrace-bundle && tar -C /tmp/terrace-bundle -xJf "'"$dir"'/bundle.tar.xz"
-        for l in /tmp/terrace-bundle/lib/*; do n=/usr/lib/'$arch'/$(basename $l); [[ -e $n ]] && mount --bind /tmp/bundle-empty.file $n; done
+        tar -tJf "'"$dir"'/bundle.tar.xz" | sed -n "s|^\./lib/\(..*\)|\1|p" | while read -r l; do
+            n=/usr/lib/'$arch'/$l; if [[ -e $n ]]; then mount --bind /tmp/bundle-empty.file $n; fi; done
         echo "hidden: the system'"'"'s Open MPI, PMIx, LAMMPS and every library the bundle carries"
         LJ_STEPS=20 LJ_EVENTS=10 EAM_STEPS=10 EAM_EVENTS=5 KINDS=strong MPI_FLAGS="--oversubscribe" \
             bash "'"$here"'/bundle.sh" run "'"$dir"'" bash "'"$here"'/scaling.sh" 1,2 /tmp/bundle-check'

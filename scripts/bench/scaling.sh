@@ -4,17 +4,15 @@
 # 1..P ranks. Weak scaling: 32,000 atoms per rank (20 x 20 x 20 fcc cells per rank, the box doubled
 # along its shortest side for each doubling of the ranks). One run per point (the loop time each code
 # prints); LAMMPS rebuilds its list as Terrace does (every step when an atom has moved skin/2:
-# neigh_modify every 1 delay 0 check yes), so both build about as often. Verlet (both codes) starts
-# from the lattice, as the benchmarks do; energy stepping starts from the state after PREP Verlet
-# steps of the same box (LJ 300, EAM 150), as scripts/bench/es_cost.py does: on the perfect lattice
-# the first events cost several ray evaluations each (about 5 at 32,000 LJ atoms), and a run of a
-# few hundred events never leaves that start.
+# neigh_modify every 1 delay 0 check yes), so both build about as often. Every run starts from the
+# lattice, as the benchmarks do. (Before commit 06b035c energy stepping took about 5 ray evaluations
+# per event there, at 32,000 LJ atoms; now about 1.)
 #
 # Usage: scripts/bench/scaling.sh [RANKS [OUTDIR]]     RANKS default 1,2,4,8,16; OUTDIR default a temp dir
 # Environment: TERRACE (binary, default build/terrace), LMP (default lmp), MPIRUN (default mpirun),
 #   EAM_FILE (default /usr/share/lammps/potentials/Cu_u3.eam), MPI_FLAGS (extra mpirun flags; default
 #   binds each rank to a core), LJ_STEPS (300), LJ_EVENTS (150), EAM_STEPS (100), EAM_EVENTS (50),
-#   LJ_PREP (300), EAM_PREP (150), PARTS ("lj eam"), KINDS ("strong weak").
+#   PARTS ("lj eam"), KINDS ("strong weak").
 # Prints one table per scene and kind (scripts/bench/scaling_report.py: loop seconds, speed-up (strong)
 # or efficiency (weak) against one rank, Terrace's slowest rank's Comm and Search times). Raw rows go
 # to OUTDIR/scaling.csv, each run's log to OUTDIR/SCENE_KIND_npP/; scaling_report.py OUTDIR --phases
@@ -26,7 +24,7 @@ ranks="${1:-1,2,4,8,16}"; out="${2:-$(mktemp -d)}"; mkdir -p "$out"; out="$(cd "
 terrace="$(realpath "${TERRACE:-$repo/build/terrace}")"; lmp="${LMP:-lmp}"; mpirun="${MPIRUN:-mpirun}"
 eam_file="${EAM_FILE:-/usr/share/lammps/potentials/Cu_u3.eam}"
 lj_steps="${LJ_STEPS:-300}"; lj_events="${LJ_EVENTS:-150}"; eam_steps="${EAM_STEPS:-100}"; eam_events="${EAM_EVENTS:-50}"
-lj_prep="${LJ_PREP:-300}"; eam_prep="${EAM_PREP:-150}"; parts="${PARTS:-lj eam}"; kinds="${KINDS:-strong weak}"
+parts="${PARTS:-lj eam}"; kinds="${KINDS:-strong weak}"
 export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 IFS=, read -r -a plist <<< "$ranks"
 pmax=0; for p in "${plist[@]}"; do (( p > pmax )) && pmax=$p; done
@@ -50,7 +48,7 @@ echo "commit  : ${BUNDLE_COMMIT:-$(git -C "$repo" rev-parse --short HEAD 2>/dev/
 echo "terrace : $terrace"
 echo "lammps  : $("$lmp" -h 2>/dev/null | sed -n 's/^Large-scale Atomic\/Molecular Massively Parallel Simulator - //p' | head -1)"
 echo "mpirun  : $("$mpirun" --version 2>&1 | head -1); flags: $MPI_FLAGS"
-echo "runs    : LJ $lj_steps Verlet steps, $lj_events events (after $lj_prep Verlet steps); EAM $eam_steps steps, $eam_events events (after $eam_prep); one run per point"
+echo "runs    : LJ $lj_steps Verlet steps, $lj_events events; EAM $eam_steps steps, $eam_events events; one run per point"
 echo
 
 # Weak scaling's box: 20 cells per rank and axis, doubled along the shortest axis while P has a factor 2
@@ -64,35 +62,25 @@ weak_cells() {
     a=$((a * p)); echo "$((20 * a)) $((20 * b)) $((20 * c))"
 }
 
-terrace_deck() {  # scene nx ny nz integrator n [start.atoms | "final=FILE"]
-    local scene=$1 nx=$2 ny=$3 nz=$4 integ=$5 n=$6 start=${7:-} sys final=""
-    if [[ $start == final=* ]]; then final=", final_atoms_file='${start#final=}'"; start=""; fi
+terrace_deck() {  # scene nx ny nz integrator n
+    local scene=$1 nx=$2 ny=$3 nz=$4 integ=$5 n=$6
     if [[ $scene == lj ]]; then
-        local a; a=$(awk 'BEGIN{printf "%.15g", (4.0/0.8442)^(1.0/3.0)}')
-        if [[ -n $start ]]; then
-            sys="atoms_file='$start', box_lo=0,0,0, box_hi=$(awk -v a="$a" -v x="$nx" -v y="$ny" -v z="$nz" \
-                 'BEGIN{printf "%.15g,%.15g,%.15g", a*x, a*y, a*z}'), mass=1.0"
-        else sys="lattice='fcc', density=0.8442, cells=$nx,$ny,$nz, mass=1.0, temperature=1.44"; fi
         cat <<NML
 &run units='lj', dimension=3, n_steps=$n, seed=87287 /
-&system $sys, periodic=.true.,.true.,.true. /
+&system lattice='fcc', density=0.8442, cells=$nx,$ny,$nz, periodic=.true.,.true.,.true., mass=1.0, temperature=1.44 /
 &potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, shift=.true. /
 $integ
 &neighbor skin=0.3 /
-&output thermo_every=$n, thermo_file=''$final /
+&output thermo_every=$n, thermo_file='' /
 NML
     else
-        if [[ -n $start ]]; then
-            sys="atoms_file='$start', box_lo=0,0,0, box_hi=$(awk -v x="$nx" -v y="$ny" -v z="$nz" \
-                 'BEGIN{printf "%.15g,%.15g,%.15g", 3.615*x, 3.615*y, 3.615*z}')"
-        else sys="lattice='fcc', lattice_constant=3.615, cells=$nx,$ny,$nz, temperature=1600.0"; fi
         cat <<NML
 &run units='metal', dimension=3, n_steps=$n, seed=376847 /
-&system $sys, periodic=.true.,.true.,.true. /
+&system lattice='fcc', lattice_constant=3.615, cells=$nx,$ny,$nz, periodic=.true.,.true.,.true., temperature=1600.0 /
 &potential style='eam', file='$eam_file' /
 $integ
 &neighbor skin=1.0 /
-&output thermo_every=$n, thermo_file=''$final /
+&output thermo_every=$n, thermo_file='' /
 NML
     fi
 }
@@ -135,9 +123,9 @@ echo "scene,kind,ranks,atoms,code,n,loop_s,comm_max_s,search_max_s,rays_per_even
 phase_max() { awk -v p="$1" '$1 == p {print $3}' "$2" | tail -1; }
 
 for scene in $parts; do
-    if [[ $scene == lj ]]; then vv="&integrator style='velocity_verlet', dt=0.005 /"; nvv=$lj_steps; nes=$lj_events; nprep=$lj_prep
+    if [[ $scene == lj ]]; then vv="&integrator style='velocity_verlet', dt=0.005 /"; nvv=$lj_steps; nes=$lj_events
         es="&integrator style='energy_stepping', terrace_height=0.3 /"
-    else vv="&integrator style='velocity_verlet', dt=0.005 /"; nvv=$eam_steps; nes=$eam_events; nprep=$eam_prep
+    else vv="&integrator style='velocity_verlet', dt=0.005 /"; nvv=$eam_steps; nes=$eam_events
         es="&integrator style='energy_stepping', terrace_height=0.03 /"; fi
     for kind in $kinds; do
         for p in "${plist[@]}"; do
@@ -149,15 +137,7 @@ for scene in $parts; do
                 case $code in
                 terrace-vv|terrace-es)
                     if [[ $code == terrace-vv ]]; then terrace_deck "$scene" "$nx" "$ny" "$nz" "$vv" "$nvv" > "$code.nml"; n=$nvv
-                    else
-                        start="$out/${scene}_start_${nx}x${ny}x${nz}.atoms"
-                        if [[ ! -s $start ]]; then  # the energy-stepping start: PREP Verlet steps of this box
-                            terrace_deck "$scene" "$nx" "$ny" "$nz" "$vv" "$nprep" "final=$start" > prep.nml
-                            # shellcheck disable=SC2086
-                            "$mpirun" $MPI_FLAGS -np "$p" "$terrace" prep.nml > prep.log 2>&1 \
-                                || { echo "FAILED: $scene $kind preparation np $p (log $d/prep.log):"; tail -5 prep.log; continue; }
-                        fi
-                        terrace_deck "$scene" "$nx" "$ny" "$nz" "$es" "$nes" "$start" > "$code.nml"; n=$nes; fi
+                    else terrace_deck "$scene" "$nx" "$ny" "$nz" "$es" "$nes" > "$code.nml"; n=$nes; fi
                     # shellcheck disable=SC2086
                     if ! "$mpirun" $MPI_FLAGS -np "$p" "$terrace" "$code.nml" > "$code.log" 2>&1; then
                         echo "FAILED: $scene $kind $code np $p (log $d/$code.log):"; tail -5 "$code.log"; continue; fi

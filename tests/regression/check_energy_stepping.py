@@ -5,13 +5,18 @@
   * the true energy stays in the band the method guarantees: |K + V - E0| <= h (1 + --band-slack),
     E0 the initial K + V;
   * total linear momentum stays at its initial value within --p-tol (absolute);
-  * with --angular, the angular momentum (lx, ly, lz) too, within --l-tol (absolute).
+  * with --angular, the angular momentum (lx, ly, lz) too, within --l-tol (absolute);
+  * with --max-rays-per-event X, the event solver's cost: the ray evaluations per event that the run
+    log beside the CSV (terrace.log) reports are at most X.
 Prints the measured figures and the number of events.
 
 usage: check_energy_stepping.py THERMO.csv [--eh-tol 1e-12] [--p-tol 1e-10] [--angular --l-tol 1e-10]
+                                [--max-rays-per-event X]
 """
 import argparse
 import csv
+import os
+import re
 import sys
 
 
@@ -24,6 +29,7 @@ def main():
     ap.add_argument("--angular", action="store_true")
     ap.add_argument("--l-tol", type=float, default=1e-10)
     ap.add_argument("--min-events", type=int, default=1)
+    ap.add_argument("--max-rays-per-event", type=float, default=None)
     a = ap.parse_args()
     rows = list(csv.DictReader(open(a.csv)))
     val = lambda r, k: float(r[k].replace("D", "E"))
@@ -47,6 +53,12 @@ def main():
     print(f"max |L(t) - L(0)|           {dl:.3e}   " + (f"(bound {a.l_tol:.1e})" if a.angular else "(not checked)"))
     ok = (eh_dev <= a.eh_tol and band <= h * (1 + a.band_slack) and dp <= a.p_tol
           and (not a.angular or dl <= a.l_tol) and events >= a.min_events)
+    if a.max_rays_per_event is not None:
+        log = os.path.join(os.path.dirname(os.path.abspath(a.csv)), "terrace.log")
+        m = re.search(r"ray evaluations per event: *([0-9.]+);", open(log).read()) if os.path.exists(log) else None
+        rays = float(m.group(1)) if m else float("inf")
+        print(f"ray evaluations per event   {rays:.3f}   (bound {a.max_rays_per_event})")
+        ok = ok and rays <= a.max_rays_per_event
     print("PASS" if ok else "FAIL")
     return 0 if ok else 1
 

@@ -306,7 +306,7 @@ contains
         real(dp) :: sa, pa(3), sb, pb(3), sn, pn(3), lv, third, ua, ub, err, xa, xb, a2(3), b2(3), width, margin, &
                     last_width
         integer :: it, lvl, status
-        logical :: slow
+        logical :: slow, from_b
         sa = sa_in; pa = pa_in; sb = sb_in; pb = pb_in
         last_width = huge(1.0_dp)
         slow = .false.
@@ -321,35 +321,39 @@ contains
             ub = taylor_step(pb(1), -pb(2), pb(3), lv)             ! backward from sb
             width = sb - sa
             margin = 1.0e-6_dp*width
-            sn = -huge(1.0_dp); err = huge(1.0_dp)
+            sn = -huge(1.0_dp); err = huge(1.0_dp); from_b = .false.
             if (.not. slow) then
                 if (ua > margin .and. ua < width - margin) then
                     sn = sa + ua; err = third*ua**3/6
                 end if
                 if (ub > margin .and. ub < width - margin) then      ! (nested: ub may be huge)
                     if (third*ub**3/6 < err) then
-                        sn = sb - ub; err = third*ub**3/6
+                        sn = sb - ub; err = third*ub**3/6; from_b = .true.
                     end if
                 end if
+                ! A root predicted back from the beyond end says nothing of [sa, sb - ub]: before
+                ! it is returned unevaluated, that interval, with the values predicted at the root,
+                ! must be clear of any other crossing (the check scan_interval makes after an
+                ! evaluation; classify of the bracket itself, certain of the crossing at sb, does not
+                ! look for an excursion of the same level before it). Within the margin of sb (sb
+                ! overshot the level by little: a nearly harmonic ray, e.g. a crystal near its
+                ! lattice, whose Taylor step lands within ~1e-7 of its length of the root) the root
+                ! is too close to sb to shrink the bracket as a Halley step: returned when clear,
+                ! else the bracket is bisected. (Bisecting until ub exceeded the margin cost ~4 ray
+                ! evaluations per event on the 32,000-atom fcc start.)
                 if (sn < sa .and. ub > 0 .and. ub <= margin) then
-                    ! the root lies within the margin of the beyond end: sb overshot the level by
-                    ! little (a nearly harmonic ray, e.g. a crystal near its lattice, whose Taylor
-                    ! step lands within ~1e-7 of its length of the root). Too close to sb to shrink
-                    ! the bracket as a Halley step, but its predicted error is tiny: return it
-                    ! unevaluated if [sa, sb - ub], with the values predicted there, is clear of
-                    ! any other crossing (the check scan_interval makes after evaluating a point);
-                    ! else bisect as before. (Bisecting until ub exceeded the margin cost ~4 ray
-                    ! evaluations per event on the 32,000-atom fcc start.)
-                    sn = sb - ub
-                    err = third*ub**3/6
-                    if (err < 0.1_dp*self%tol .and. sn > sa .and. sn < sb) then
+                    sn = sb - ub; err = third*ub**3/6; from_b = .true.
+                end if
+                if (from_b .and. err < 0.1_dp*self%tol) then
+                    if (sn > sa .and. sn < sb) then
                         pn = [lv, pb(2) - pb(3)*ub, pb(3) - (pb(3) - pa(3))/width*ub]
                         call classify(self, sa, pa, sn, pn, lower, upper, status, xa)
                         if (status == 0) then
                             res = crossing_t(.true., sn, lvl, .false., [0.0_dp, 0.0_dp, 0.0_dp], pb(3)); return
                         end if
                     end if
-                    sn = -huge(1.0_dp); err = huge(1.0_dp)
+                    err = huge(1.0_dp)                      ! not clear: evaluate there, or bisect
+                    if (ub <= margin) sn = -huge(1.0_dp)
                 end if
                 if (sn < sa) then
                     sn = hermite_root(sa, pa, sb, pb, lv)
@@ -358,7 +362,7 @@ contains
             else
                 sn = sa + 0.5_dp*width        ! the bracket stopped shrinking: bisect
             end if
-            if (err < 0.1_dp*self%tol) then
+            if (err < 0.1_dp*self%tol) then   ! a root forward from the inside end
                 res = crossing_t(.true., sn, lvl, .false., [0.0_dp, 0.0_dp, 0.0_dp], &
                                  merge(pa(3), pb(3), sn - sa < sb - sn)); return
             end if

@@ -48,7 +48,7 @@ module terrace_event_solver
 
     type, public :: event_solver_t
         real(dp) :: tol = 1.0e-9_dp        !< absolute tolerance on |f(s) - level| (root_tolerance * h)
-        real(dp) :: band_safety = 4        !< widening of the Hermite error band
+        real(dp) :: band_safety = 16       !< widening of the Hermite error band (4 until 2026-11-27: scripts/bench/solver_random_rays.sh stepped over twice as many excursions)
         integer :: samples = 16            !< points at which the band is checked per interval
         integer :: max_evals = 400
     contains

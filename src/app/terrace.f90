@@ -96,9 +96,18 @@ contains
         call start_clock()
         call run_velocity_verlet(eng, thermo, traj, sched, ctl)
         call close_run(sched%end_time(cfg))
-        call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note())
+        call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note(), &
+                           list_pairs())
         call eng%report_warnings()
     end subroutine verlet_run
+
+    !> This rank's pairs in the built list (within rc + skin) at its last build; 0 without a list.
+    integer(i8) function list_pairs()
+        list_pairs = 0
+        if (eng%list%builds == 0 .or. eng%list%all_pairs .or. .not. allocated(eng%list%first)) return
+        if (size(eng%list%first) < eng%atoms%nlocal + 1) return
+        list_pairs = eng%list%first(eng%atoms%nlocal + 1) - 1
+    end function list_pairs
 
     !> The run log's line on energy stepping's pruned list (empty without one).
     function prune_note() result(note)
@@ -159,7 +168,8 @@ contains
         call start_clock()
         call run_energy_stepping(eng, thermo, traj, h, sched, es, ctl)
         call close_run(es%time)
-        call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events', prune_note())
+        call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events', prune_note(), &
+                           list_pairs())
         if (world%rank == 0) then
             write (output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'Events: ', es%events, ' (', es%ups, ' up, ', es%downs, &
                 ' down, ', es%reflections, ' reflections)'

@@ -1,12 +1,13 @@
 !> End-of-run log: loop time, atom-steps per second, the per-phase timing table (average and
-!> maximum over ranks, share of the loop), neighbour-list builds, and peak memory per atom.
+!> maximum over ranks, share of the loop), neighbour-list builds, the list's pairs per rank (the
+!> work of the pair passes: its spread over the ranks is their load balance), and peak memory per atom.
 module terrace_run_log
     use terrace_kinds, only: dp, i8
     use terrace_text, only: fixed
     use terrace_timers, only: timers_t, n_timers, timer_names
     use terrace_mpi_env, only: world
     use terrace_files, only: peak_memory_kib
-    use mpi_f08, only: MPI_Reduce, MPI_DOUBLE_PRECISION, MPI_SUM, MPI_MAX
+    use mpi_f08, only: MPI_Reduce, MPI_DOUBLE_PRECISION, MPI_INTEGER8, MPI_SUM, MPI_MAX, MPI_MIN
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
     private
@@ -15,19 +16,26 @@ module terrace_run_log
 
 contains
 
-    subroutine print_run_log(timers, loop_time, natoms, steps, builds, label, list_note)
+    subroutine print_run_log(timers, loop_time, natoms, steps, builds, label, list_note, pairs)
         type(timers_t), intent(in) :: timers
         real(dp), intent(in) :: loop_time
         integer(i8), intent(in) :: natoms, steps
         integer, intent(in) :: builds
         character(len=*), intent(in) :: label
         character(len=*), intent(in), optional :: list_note   !< lines after the build count (a schedule)
+        integer(i8), intent(in), optional :: pairs            !< this rank's list length (0: no list)
         real(dp) :: avg(n_timers), mx(n_timers), mem, memsum, other
+        integer(i8) :: p(1), psum(1), pmin(1), pmax(1)
         integer :: k
         call MPI_Reduce(timers%total, avg, n_timers, MPI_DOUBLE_PRECISION, MPI_SUM, 0, world%comm)
         call MPI_Reduce(timers%total, mx, n_timers, MPI_DOUBLE_PRECISION, MPI_MAX, 0, world%comm)
         mem = real(peak_memory_kib(), dp)
         call MPI_Reduce(mem, memsum, 1, MPI_DOUBLE_PRECISION, MPI_SUM, 0, world%comm)
+        p = 0
+        if (present(pairs)) p = pairs
+        call MPI_Reduce(p, psum, 1, MPI_INTEGER8, MPI_SUM, 0, world%comm)
+        call MPI_Reduce(p, pmin, 1, MPI_INTEGER8, MPI_MIN, 0, world%comm)
+        call MPI_Reduce(p, pmax, 1, MPI_INTEGER8, MPI_MAX, 0, world%comm)
         if (world%rank /= 0) return
         avg = avg/world%nprocs
         write (output_unit, '(a,a,a,i0,a,i0,a,i0,a)') 'Loop time: ', fixed(loop_time, 4), ' s on ', world%nprocs, &
@@ -45,6 +53,15 @@ contains
         write (output_unit, '(a,i0)') 'Neighbour list builds: ', builds
         if (present(list_note)) then
             if (len(list_note) > 0) write (output_unit, '(a)') list_note
+        end if
+        if (psum(1) > 0) then
+            if (world%nprocs > 1) then
+                write (output_unit, '(a,i0,a,i0,a,i0,a,a)') 'List pairs (within rc + skin, last build): ', psum(1), &
+                    ' in all ranks; per rank min ', pmin(1), ', max ', pmax(1), ', max/average ', &
+                    fixed(real(pmax(1), dp)*world%nprocs/real(psum(1), dp), 3)
+            else
+                write (output_unit, '(a,i0)') 'List pairs (within rc + skin, last build): ', psum(1)
+            end if
         end if
         ! per atom only where the atoms dominate the memory (a 7-atom cluster measures the libraries)
         if (natoms >= 10000) then

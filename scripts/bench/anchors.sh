@@ -424,7 +424,6 @@ fi
 
 # ---- LJ: cost per pair, one type against mixtures -----------------------------------------------
 if [[ "$parts" == *,ljtypes,* ]] && have lmp; then
-    # name density type-2-fraction T pair_coeffs(LAMMPS) terrace_keys
     # name density type-2-fraction T (lj_three_same: then half of the type-1 atoms become type 3)
     scenes=("lj_one 0.8442 0 1.44"
             "lj_two_same 0.8442 0.5 1.44"

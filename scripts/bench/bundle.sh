@@ -55,7 +55,7 @@ pack)
     tar -C "$stage" -cJf "$dir/bundle.tar.xz" .
     echo "bundle: $dir/bundle.tar.xz ($(du -h "$dir/bundle.tar.xz" | cut -f1); $(ls "$stage/lib" | wc -l) libraries)"
     ;;
-run|env)
+run)
     shift 2
     t=/tmp/terrace-bundle
     rm -rf $t; mkdir -p $t; tar -C $t -xJf "$dir/bundle.tar.xz"   # afresh: a warm machine may hold an older one

@@ -65,15 +65,19 @@ RAHMAN = """\
 {integrator}
 &output thermo_file='' /
 """
-LJ32K_EQ = """\
-&run units='lj', dimension=3, n_steps=500, seed=87287 /
+LJ32K_LATTICE = """\
+&run units='lj', dimension=3, {length}, seed=87287 /
 &system lattice='fcc', density=0.8442, cells=20,20,20, periodic=.true.,.true.,.true., mass=1.0,
         temperature=1.44 /
 &potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, shift=.true. /
-&integrator style='velocity_verlet', dt=0.005 /
 &neighbor skin=0.3 /
-&output thermo_every=100, thermo_file='', final_atoms_file='eq.atoms' /
+{integrator}
+&output thermo_file='' /
 """
+# the melting run of lj32k: the lattice scene, 500 Verlet steps, writing eq.atoms
+LJ32K_EQ = LJ32K_LATTICE.format(length='n_steps=500', integrator="&integrator style='velocity_verlet', dt=0.005 /") \
+    .replace("&output thermo_file='' /", "&output thermo_every=100, thermo_file='', final_atoms_file='eq.atoms' /")
+assert 'final_atoms_file' in LJ32K_EQ, 'LJ32K_LATTICE no longer ends with the output group LJ32K_EQ replaces'
 LJ32K = """\
 &run units='lj', dimension=3, {length}, seed=1 /
 &system atoms_file='eq.atoms', box_lo=0.0,0.0,0.0, box_hi={L!r},{L!r},{L!r},
@@ -84,15 +88,6 @@ LJ32K = """\
 &output thermo_file='' /
 """
 
-LJ32K_LATTICE = """\
-&run units='lj', dimension=3, {length}, seed=87287 /
-&system lattice='fcc', density=0.8442, cells=20,20,20, periodic=.true.,.true.,.true., mass=1.0,
-        temperature=1.44 /
-&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, shift=.true. /
-&neighbor skin=0.3 /
-{integrator}
-&output thermo_file='' /
-"""
 
 KA_POT = ("&potential style='lj', epsilon(1,1)=1.0, sigma(1,1)=1.0, epsilon(2,2)=0.5, sigma(2,2)=0.88,\n"
           "           epsilon(1,2)=1.5, sigma(1,2)=0.8, cutoff=2.5, pair_cutoff(1,2)=2.0, pair_cutoff(2,2)=2.2,\n"

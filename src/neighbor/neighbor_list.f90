@@ -52,6 +52,12 @@ module terrace_neighbor_list
         logical :: want_below = .false.
         integer, allocatable :: below_first(:), below(:)
         integer :: max_below = 0
+        !> Optional (want_types): the type of each neighbour, ntype(k) = type(neigh(k)), filled at each
+        !> build (and carried by a pruned copy), so that multi-type pair passes read the types as a
+        !> contiguous row instead of gathering them at every step. Eight entries past the last row
+        !> are valid types too (the pad of eight-lane loops).
+        logical :: want_types = .false.
+        integer, allocatable :: ntype(:)
     contains
         procedure :: init => nl_init
         procedure :: setup_bins => nl_setup_bins
@@ -293,8 +299,22 @@ contains
         self%max_neighbors = longest_row(self%first, nlocal)
         call self%hold(atoms)
         if (self%want_below) call build_below(self, atoms)
+        if (self%want_types) call neighbour_types(self, atoms%type, n)
         self%builds = self%builds + 1
     end subroutine nl_build
+
+    !> ntype(1:n) = type(neigh(1:n)), and eight pad entries of type 1 after them.
+    subroutine neighbour_types(self, type, n)
+        type(neighbor_list_t), intent(inout) :: self
+        integer, intent(in) :: type(:), n
+        integer :: k
+        call reserve(self%ntype, n + 8)
+        !GCC$ novector
+        do k = 1, n
+            self%ntype(k) = type(self%neigh(k))
+        end do
+        self%ntype(n + 1:n + 8) = 1
+    end subroutine neighbour_types
 
     !> The positions the displacement checks measure from (at every build; alone when the scene
     !> needs the rebuild schedule but no pair list).
@@ -479,6 +499,7 @@ contains
         self%skin = cut - (outer%cut - outer%skin)
         self%dimension = outer%dimension
         cutsq = self%cutsq
+        self%want_types = outer%want_types
         call reserve(self%first, nlocal + 1)
         call reserve(self%neigh, max(outer%first(nlocal + 1) - 1, 1))
         n = 0
@@ -493,6 +514,7 @@ contains
             end do
             self%first(i + 1) = n + 1
         end do
+        if (self%want_types) call neighbour_types(self, atoms%type, n)
         self%max_neighbors = longest_row(self%first, nlocal)
         call self%hold(atoms)
         self%builds = self%builds + 1

@@ -53,7 +53,7 @@ module terrace_lj
         real(dp), allocatable :: rc(:, :)
         real(dp) :: cutmax = 0
         real(dp), allocatable :: work(:, :)      !< per-atom rows of pair forces (grown at rebuilds)
-        integer, allocatable :: type_row(:)      !< several types: the neighbours' types, a row as long as work's
+        integer, allocatable :: type_row(:)      !< several types, a list without types: its neighbours' types
         !> per owned atom, the sum of its pairs' energy (and, in the ray pass, V' and V'' terms):
         !> totalled by a compensated sum (see terrace_compensated_sum: why V needs it)
         real(dp), allocatable :: atom_sums(:, :)
@@ -71,6 +71,7 @@ module terrace_lj
         procedure :: describe => lj_describe
         procedure :: supports_all_pairs => lj_true
         procedure :: runs_on_pruned_list => lj_true
+        procedure :: wants_neighbour_types => lj_several_types
         procedure :: contact_distance => lj_contact_distance
         procedure :: time_scale => lj_time_scale
         procedure :: compute => lj_compute
@@ -193,8 +194,14 @@ contains
         else if (.not. self%smooth) then
             call reserve_work(self, list, atoms%nlocal)
             call ray_positions(self, atoms, s)
-            call ray_types(self, atoms%nlocal, self%xv, atoms%type, list%first, list%neigh, infinity, one, zero, &
-                           self%work, self%type_row, self%atom_sums, out)
+            if (list%want_types) then
+                call ray_types(self, atoms%nlocal, self%xv, atoms%type, list%first, list%neigh, list%ntype, infinity, &
+                               one, zero, self%work, self%atom_sums, out)
+            else
+                call gather_types(self, list, atoms%type, atoms%nlocal)
+                call ray_types(self, atoms%nlocal, self%xv, atoms%type, list%first, list%neigh, self%type_row, infinity, &
+                               one, zero, self%work, self%atom_sums, out)
+            end if
         else
             call reserve_work(self, list, atoms%nlocal)
             call ray_general(self, atoms, list%first, list%neigh, s, self%atom_sums, out)
@@ -224,6 +231,12 @@ contains
         class(lj_t), intent(in) :: self
         lj_true = .true.
     end function lj_true
+
+    !> Several types: the passes read the neighbours' types from the list (list%want_types).
+    pure logical function lj_several_types(self)
+        class(lj_t), intent(in) :: self
+        lj_several_types = self%ntypes > 1
+    end function lj_several_types
 
     !> sigma_ij = (lj3/lj4)^(1/6).
     pure real(dp) function lj_contact_distance(self, ti, tj)
@@ -277,8 +290,14 @@ contains
             return
         end if
         call reserve_work(self, list, atoms%nlocal)
-        call kernel(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, want_energy, infinity, &
-                    one, zero, self%work, self%type_row, self%atom_sums(:, 1), energy, virial)
+        if (self%ntypes > 1 .and. list%want_types) then
+            call kernel(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, list%ntype, want_energy, &
+                        infinity, one, zero, self%work, self%atom_sums(:, 1), energy, virial)
+        else
+            if (self%ntypes > 1) call gather_types(self, list, atoms%type, atoms%nlocal)
+            call kernel(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, self%type_row, &
+                        want_energy, infinity, one, zero, self%work, self%atom_sums(:, 1), energy, virial)
+        end if
         if (want_energy) energy = energy + compensated_total(self%atom_sums(:, 1), atoms%nlocal)
     end subroutine lj_compute
 
@@ -295,19 +314,35 @@ contains
             if (size(self%work, 1) < nb .or. size(self%work, 2) < 13) deallocate (self%work)
         end if
         if (.not. allocated(self%work)) allocate (self%work(nb, 13))
-        call reserve(self%type_row, nb)
+        call reserve(self%type_row, 8)
         if (allocated(self%atom_sums)) then
             if (size(self%atom_sums, 1) < nlocal) deallocate (self%atom_sums)
         end if
         if (.not. allocated(self%atom_sums)) allocate (self%atom_sums(max(nlocal + nlocal/4, 1), 3))
     end subroutine reserve_work
 
-    !> The half-list kernel. Three passes per atom: the separations to all its neighbours (with
-    !> several types, also the neighbours' types) are gathered into the columns of work (scalar
-    !> loads, contiguous stores); the pair forces (and, when want_energy, the pair energies and
-    !> virials) are computed branch-free over the contiguous rows (vectorised: GCC does not emit
-    !> gathers for this CPU); then they are scattered (Newton's third law) while the force on i is
-    !> summed in list order. One type (lj/cut): scalar coefficients, and the energies and virials
+    !> For a list built without its neighbours' types (want_types; lists made by hand in tests):
+    !> type_row(k) = type(neigh(k)) for the whole list, and eight pad entries, at each pass.
+    subroutine gather_types(self, list, type, nlocal)
+        class(lj_t), intent(inout) :: self
+        type(neighbor_list_t), intent(in) :: list
+        integer, intent(in) :: type(:), nlocal
+        integer :: k, n
+        n = list%first(nlocal + 1) - 1
+        call reserve(self%type_row, n + 8)
+        do k = 1, n
+            self%type_row(k) = type(list%neigh(k))
+        end do
+        self%type_row(n + 1:n + 8) = 1
+    end subroutine gather_types
+
+    !> The half-list kernel. Three passes per atom: the separations to all its neighbours are
+    !> gathered into the columns of work (scalar loads, contiguous stores; with several types the
+    !> neighbours' types are a row of the list, ntr, filled at its builds); the pair forces (and,
+    !> when want_energy, the pair energies and virials) are computed branch-free over the
+    !> contiguous rows, padded to a multiple of 8 with far pairs (vectorised, eight lanes, no
+    !> scalar remainder; GCC does not emit gathers for this CPU); then they are scattered
+    !> (Newton's third law) while the force on i is summed in list order. One type (lj/cut): scalar coefficients, and the energies and virials
     !> summed in eight lanes as they are computed (one_type_pairs_energy). Two to four types, forces
     !> only: each pair's coefficients selected in the pair loop from i's (pair_forces_two_types,
     !> pair_forces_few_types).
@@ -317,12 +352,11 @@ contains
     !> Columns of work: separations / pair forces 1-3, lj1, lj2, cutsq, lj3, lj4, offset, pair
     !> energy, pair virial; for lj/smooth/linear also 12, 13: rc and fc (fpair - fc/r and the
     !> energy term (r - rc) fc).
-    subroutine kernel(self, nlocal, x, f, type, first, neigh, want_energy, inf, one_, zero_, work, tr, atom_e, energy, &
+    subroutine kernel(self, nlocal, x, f, type, first, neigh, ntr, want_energy, inf, one_, zero_, work, atom_e, energy, &
                       virial)
         type(lj_t), intent(in) :: self
         integer, intent(in) :: nlocal
-        integer, intent(in), contiguous :: type(:), first(:), neigh(:)
-        integer, intent(inout), contiguous :: tr(:)
+        integer, intent(in), contiguous :: type(:), first(:), neigh(:), ntr(:)
         real(dp), intent(in), contiguous :: x(:, :)
         real(dp), intent(in) :: inf, one_, zero_
         real(dp), intent(inout), contiguous :: f(:, :)
@@ -359,12 +393,8 @@ contains
                 end if
             else
                 ti = type(i)
-                !GCC$ novector
-                do k = 1, nn
-                    j = neigh(k0 + k)
-                    fx(k) = xi - x(1, j); fy(k) = yi - x(2, j); fz(k) = zi - x(3, j)
-                    tr(k) = type(j)
-                end do
+                call separations(xi, yi, zi, x, neigh(k0 + 1:k0 + nn), fx, fy, fz)
+                associate (tr => ntr(k0 + 1:))
                 if (ntypes == 2 .and. .not. (smooth .or. want_energy)) then
                     ! the common mixture: coefficients selected in the pair loop, no per-pair rows
                     call pair_forces_two_types(nn, fx, fy, fz, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), far)
@@ -393,6 +423,7 @@ contains
                         call pair_forces(nn, fx, fy, fz, c1, c2, cs, far)
                     end if
                 end if
+                end associate
             end if
             fxi = 0; fyi = 0; fzi = 0
             do k = 1, nn
@@ -539,17 +570,22 @@ contains
     end subroutine pairs_mixed
 
     !> One type: pair forces fpair*(dx, dy, dz) in place of the separations, with scalar
-    !> coefficients.
+    !> coefficients. The rows are padded to a multiple of 8 with far pairs (force exactly 0), so
+    !> the loop runs in whole eight-lane blocks: they must have room for nn + 8 entries.
     pure subroutine one_type_pairs(nn, fx, fy, fz, lj1, lj2, cutsq, far)
         integer, intent(in) :: nn
-        real(dp), intent(inout) :: fx(nn), fy(nn), fz(nn)
+        real(dp), intent(inout) :: fx(*), fy(*), fz(*)
         real(dp), intent(in) :: lj1, lj2, cutsq, far
-        integer :: k
+        integer :: k, l, kk, nnp
         real(dp) :: rsq, r2inv, r6inv, fpair
-        do k = 1, nn
-            rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
-            call lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
-            fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+        call pad_rows(nn, fx, fy, fz, pad_far, nnp)
+        do k = 1, nnp, 8
+            do l = 1, 8
+                kk = k + l - 1
+                rsq = fx(kk)*fx(kk) + fy(kk)*fy(kk) + fz(kk)*fz(kk)
+                call lj_terms(rsq, cutsq, far, lj1, lj2, r2inv, r6inv, fpair)
+                fx(kk) = fx(kk)*fpair; fy(kk) = fy(kk)*fpair; fz(kk) = fz(kk)*fpair
+            end do
         end do
     end subroutine one_type_pairs
 
@@ -603,20 +639,25 @@ contains
     end subroutine select_by_type
 
     !> pair_forces for two atom types: the coefficients of the pair selected in the loop from atom
-    !> i's two (a1, a2, as: its column of the tables) by the neighbour's type tr(k).
+    !> i's two (a1, a2, as: its column of the tables) by the neighbour's type tr(k). Eight-lane
+    !> blocks over padded rows as one_type_pairs (tr(nn+1 : nn+8) must be readable).
     pure subroutine pair_forces_two_types(nn, fx, fy, fz, tr, a1, a2, as, far)
         integer, intent(in) :: nn
         real(dp), intent(inout) :: fx(*), fy(*), fz(*)
         integer, intent(in) :: tr(*)
         real(dp), intent(in) :: a1(:), a2(:), as(:), far
-        integer :: k
+        integer :: k, l, kk, nnp
         real(dp) :: rsq, r2inv, r6inv, fpair, c1, c2, cs, a11, a12, a21, a22, as1, as2
         a11 = a1(1); a12 = a1(2); a21 = a2(1); a22 = a2(2); as1 = as(1); as2 = as(2)
-        do k = 1, nn
-            c1 = merge(a12, a11, tr(k) == 2); c2 = merge(a22, a21, tr(k) == 2); cs = merge(as2, as1, tr(k) == 2)
-            rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
-            call lj_terms(rsq, cs, far, c1, c2, r2inv, r6inv, fpair)
-            fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+        call pad_rows(nn, fx, fy, fz, pad_far, nnp)
+        do k = 1, nnp, 8
+            do l = 1, 8
+                kk = k + l - 1
+                c1 = merge(a12, a11, tr(kk) == 2); c2 = merge(a22, a21, tr(kk) == 2); cs = merge(as2, as1, tr(kk) == 2)
+                rsq = fx(kk)*fx(kk) + fy(kk)*fy(kk) + fz(kk)*fz(kk)
+                call lj_terms(rsq, cs, far, c1, c2, r2inv, r6inv, fpair)
+                fx(kk) = fx(kk)*fpair; fy(kk) = fy(kk)*fpair; fz(kk) = fz(kk)*fpair
+            end do
         end do
     end subroutine pair_forces_two_types
 
@@ -629,20 +670,24 @@ contains
         real(dp), intent(inout) :: fx(*), fy(*), fz(*)
         integer, intent(in) :: tr(*)
         real(dp), intent(in) :: a1(:), a2(:), as(:), far
-        integer :: k, t
+        integer :: k, l, kk, nnp, t
         real(dp) :: rsq, r2inv, r6inv, fpair, c1, c2, cs, p1(4), p2(4), ps(4)
         logical :: odd, high
         p1 = a1(1); p2 = a2(1); ps = as(1)
         p1(1:size(a1)) = a1; p2(1:size(a2)) = a2; ps(1:size(as)) = as
-        do k = 1, nn
-            t = tr(k)
-            odd = iand(t, 1) == 1; high = t > 2
-            c1 = merge(merge(p1(3), p1(4), odd), merge(p1(1), p1(2), odd), high)
-            c2 = merge(merge(p2(3), p2(4), odd), merge(p2(1), p2(2), odd), high)
-            cs = merge(merge(ps(3), ps(4), odd), merge(ps(1), ps(2), odd), high)
-            rsq = fx(k)*fx(k) + fy(k)*fy(k) + fz(k)*fz(k)
-            call lj_terms(rsq, cs, far, c1, c2, r2inv, r6inv, fpair)
-            fx(k) = fx(k)*fpair; fy(k) = fy(k)*fpair; fz(k) = fz(k)*fpair
+        call pad_rows(nn, fx, fy, fz, pad_far, nnp)
+        do k = 1, nnp, 8
+            do l = 1, 8
+                kk = k + l - 1
+                t = tr(kk)
+                odd = iand(t, 1) == 1; high = t > 2
+                c1 = merge(merge(p1(3), p1(4), odd), merge(p1(1), p1(2), odd), high)
+                c2 = merge(merge(p2(3), p2(4), odd), merge(p2(1), p2(2), odd), high)
+                cs = merge(merge(ps(3), ps(4), odd), merge(ps(1), ps(2), odd), high)
+                rsq = fx(kk)*fx(kk) + fy(kk)*fy(kk) + fz(kk)*fz(kk)
+                call lj_terms(rsq, cs, far, c1, c2, r2inv, r6inv, fpair)
+                fx(kk) = fx(kk)*fpair; fy(kk) = fy(kk)*fpair; fz(kk) = fz(kk)*fpair
+            end do
         end do
     end subroutine pair_forces_few_types
 
@@ -811,17 +856,17 @@ contains
     end subroutine ray_one_type
 
     !> Ray pass, several types (style 'lj'): ray_one_type with per-pair coefficients, selected per
-    !> atom row from atom i's column of the tables by the neighbours' types (select_by_type). The
-    !> rows are padded to a multiple of 8 with far, motionless pairs whose coefficients are 0 (all
-    !> four terms exactly 0). Columns of work: d 1-3, w 4-6, lj1, lj2, cutsq, lj3, lj4, offset 7-12.
-    subroutine ray_types(self, nlocal, xv, type, first, neigh, inf, one_, zero_, work, tr, atom_sums, out)
+    !> atom row from atom i's column of the tables by the neighbours' types (select_by_type; ntr,
+    !> the list's row of them). The rows are padded to a multiple of 8 with far, motionless pairs
+    !> whose coefficients are 0 (all four terms exactly 0). Columns of work: d 1-3, w 4-6, lj1, lj2,
+    !> cutsq, lj3, lj4, offset 7-12.
+    subroutine ray_types(self, nlocal, xv, type, first, neigh, ntr, inf, one_, zero_, work, atom_sums, out)
         type(lj_t), intent(in) :: self
         integer, intent(in) :: nlocal
-        integer, intent(in), contiguous :: type(:), first(:), neigh(:)
+        integer, intent(in), contiguous :: type(:), first(:), neigh(:), ntr(:)
         real(dp), intent(in), contiguous :: xv(:, :)
         real(dp), intent(in) :: inf, one_, zero_
         real(dp), intent(inout), contiguous, target :: work(:, :)
-        integer, intent(inout), contiguous :: tr(:)
         real(dp), intent(inout) :: atom_sums(:, :)
         real(dp), intent(out) :: out(4)
         integer :: i, k, k0, nn, nnp, l, kk, ti
@@ -838,12 +883,10 @@ contains
             nn = first(i + 1) - first(i)
             ti = type(i)
             call ray_rows(i, xv, neigh(k0 + 1:k0 + nn), dx, dy, dz, wx, wy, wz)
-            !GCC$ novector
-            do k = 1, nn
-                tr(k) = type(neigh(k0 + k))
-            end do
-            call select_by_type(nn, self%ntypes, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), c1, c2, cs)
-            call select_by_type(nn, self%ntypes, tr, self%lj3(:, ti), self%lj4(:, ti), self%offset(:, ti), c3, c4, co)
+            call select_by_type(nn, self%ntypes, ntr(k0 + 1:), self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), c1, c2, &
+                                cs)
+            call select_by_type(nn, self%ntypes, ntr(k0 + 1:), self%lj3(:, ti), self%lj4(:, ti), self%offset(:, ti), c3, &
+                                c4, co)
             call pad_rows(nn, dx, dy, dz, pad_far, nnp)
             call pad_rows(nn, wx, wy, wz, 0.0_dp, nnp)
             call pad_rows(nn, c1, c2, cs, 0.0_dp, nnp)

@@ -46,6 +46,9 @@ module terrace_potential
         !> within the cutoff (they use neither the list's skin nor its complement), so that energy
         !> stepping may run them over a pruned copy of the list (scene plan: inner_list)
         procedure :: runs_on_pruned_list => potential_false
+        !> .true.: the passes read each neighbour's type from the list (list%want_types: a row
+        !> filled at each build instead of a gather at every pass); multi-type Lennard-Jones
+        procedure :: wants_neighbour_types => potential_false
         procedure :: contact_distance => potential_contact_distance
         procedure :: time_scale => potential_time_scale
         procedure :: preferred_skin => potential_preferred_skin

@@ -27,6 +27,7 @@ module terrace_potential_sum
         procedure :: supports_all_pairs => sum_supports_all_pairs
         procedure :: needs_full_neighbourhood => sum_needs_full
         procedure :: runs_on_pruned_list => sum_runs_on_pruned_list
+        procedure :: wants_neighbour_types => sum_wants_types
         procedure :: contact_distance => sum_contact_distance
         procedure :: time_scale => sum_time_scale
         procedure :: on_rebuild => sum_on_rebuild
@@ -124,6 +125,12 @@ contains
         integer :: k
         sum_needs_full = any([(self%terms(k)%p%needs_full_neighbourhood(energy_stepping), k = 1, size(self%terms))])
     end function sum_needs_full
+
+    pure logical function sum_wants_types(self)
+        class(potential_sum_t), intent(in) :: self
+        integer :: k
+        sum_wants_types = any([(self%terms(k)%p%wants_neighbour_types(), k = 1, size(self%terms))])
+    end function sum_wants_types
 
     pure logical function sum_runs_on_pruned_list(self)
         class(potential_sum_t), intent(in) :: self

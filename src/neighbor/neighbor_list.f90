@@ -14,6 +14,7 @@ module terrace_neighbor_list
     use terrace_grow, only: reserve, grow_keep
     implicit none
     private
+    public :: gather_neighbour_types
 
     type, public :: neighbor_list_t
         real(dp) :: cut = 0, cutsq = 0, skin = 0
@@ -307,14 +308,34 @@ contains
     subroutine neighbour_types(self, type, n)
         type(neighbor_list_t), intent(inout) :: self
         integer, intent(in) :: type(:), n
-        integer :: k
         call reserve(self%ntype, n + 8)
+        call type_row(self%neigh, type, n, self%ntype)
+    end subroutine neighbour_types
+
+    !> The neighbours' types of a list built without them (want_types not set: lists made by hand
+    !> in tests) into row, as ntype holds them: row(k) = type(neigh(k)) over the list of nlocal
+    !> atoms, and eight pad entries of type 1. For passes that read list%ntype when want_types.
+    subroutine gather_neighbour_types(list, type, nlocal, row)
+        type(neighbor_list_t), intent(in) :: list
+        integer, intent(in) :: type(:), nlocal
+        integer, allocatable, intent(inout) :: row(:)
+        integer :: n
+        n = list%first(nlocal + 1) - 1
+        call reserve(row, n + 8)
+        call type_row(list%neigh, type, n, row)
+    end subroutine gather_neighbour_types
+
+    !> row(1:n) = type(neigh(1:n)), row(n+1 : n+8) = 1.
+    pure subroutine type_row(neigh, type, n, row)
+        integer, intent(in) :: neigh(:), type(:), n
+        integer, intent(inout) :: row(:)
+        integer :: k
         !GCC$ novector
         do k = 1, n
-            self%ntype(k) = type(self%neigh(k))
+            row(k) = type(neigh(k))
         end do
-        self%ntype(n + 1:n + 8) = 1
-    end subroutine neighbour_types
+        row(n + 1:n + 8) = 1
+    end subroutine type_row
 
     !> The positions the displacement checks measure from (at every build; alone when the scene
     !> needs the rebuild schedule but no pair list).

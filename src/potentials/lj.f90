@@ -27,7 +27,7 @@ module terrace_lj
     use terrace_compensated_sum, only: compensated_total
     use terrace_grow, only: reserve
     use terrace_atoms, only: atoms_t
-    use terrace_neighbor_list, only: neighbor_list_t
+    use terrace_neighbor_list, only: neighbor_list_t, gather_neighbour_types
     use terrace_potential, only: potential_t, halo_ops_t
     implicit none
     private
@@ -198,7 +198,7 @@ contains
                 call ray_types(self, atoms%nlocal, self%xv, atoms%type, list%first, list%neigh, list%ntype, infinity, &
                                one, zero, self%work, self%atom_sums, out)
             else
-                call gather_types(self, list, atoms%type, atoms%nlocal)
+                call gather_neighbour_types(list, atoms%type, atoms%nlocal, self%type_row)
                 call ray_types(self, atoms%nlocal, self%xv, atoms%type, list%first, list%neigh, self%type_row, infinity, &
                                one, zero, self%work, self%atom_sums, out)
             end if
@@ -294,7 +294,7 @@ contains
             call kernel(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, list%ntype, want_energy, &
                         infinity, one, zero, self%work, self%atom_sums(:, 1), energy, virial)
         else
-            if (self%ntypes > 1) call gather_types(self, list, atoms%type, atoms%nlocal)
+            if (self%ntypes > 1) call gather_neighbour_types(list, atoms%type, atoms%nlocal, self%type_row)
             call kernel(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, self%type_row, &
                         want_energy, infinity, one, zero, self%work, self%atom_sums(:, 1), energy, virial)
         end if
@@ -320,21 +320,6 @@ contains
         end if
         if (.not. allocated(self%atom_sums)) allocate (self%atom_sums(max(nlocal + nlocal/4, 1), 3))
     end subroutine reserve_work
-
-    !> For a list built without its neighbours' types (want_types; lists made by hand in tests):
-    !> type_row(k) = type(neigh(k)) for the whole list, and eight pad entries, at each pass.
-    subroutine gather_types(self, list, type, nlocal)
-        class(lj_t), intent(inout) :: self
-        type(neighbor_list_t), intent(in) :: list
-        integer, intent(in) :: type(:), nlocal
-        integer :: k, n
-        n = list%first(nlocal + 1) - 1
-        call reserve(self%type_row, n + 8)
-        do k = 1, n
-            self%type_row(k) = type(list%neigh(k))
-        end do
-        self%type_row(n + 1:n + 8) = 1
-    end subroutine gather_types
 
     !> The half-list kernel. Three passes per atom: the separations to all its neighbours are
     !> gathered into the columns of work (scalar loads, contiguous stores; with several types the

@@ -596,7 +596,7 @@ contains
                 include 'lj_force_lanes.inc'
             end do
         end do
-        ea = lane_sum(le); wa = lane_sum(lw)
+        ea = sum(le); wa = sum(lw)
     end subroutine one_type_pairs_energy
 
     !> Per-pair coefficients of atom i's row from its column of the type-pair tables, by the
@@ -699,7 +699,7 @@ contains
                 include 'lj_force_lanes.inc'
             end do
         end do
-        ea = lane_sum(le); wa = lane_sum(lw)
+        ea = sum(le); wa = sum(lw)
     end subroutine pairs_energy_rows
 
     !> Pair forces fpair*(dx, dy, dz) in place of the separations, per-pair coefficients.
@@ -764,18 +764,6 @@ contains
         r6inv = r2inv*r2inv*r2inv
         fpair = r6inv*(lj1*r6inv - lj2)*r2inv
     end subroutine lj_terms
-
-    !> The sum of eight lanes as a tree, ((l1 + l5) + (l3 + l7)) + ((l2 + l6) + (l4 + l8)): halves
-    !> of a vector register added three times. sum(l), left to right, is a chain of seven dependent
-    !> scalar adds, and the eight-lane loops reduce once per atom, after a few dozen pairs: that
-    !> chain was a visible part of energy stepping's force and ray passes (perf annotate).
-    pure real(dp) function lane_sum(l) result(total)
-        real(dp), intent(in) :: l(8)
-        real(dp) :: h(4), q(2)
-        h = l(1:4) + l(5:8)
-        q = h(1:2) + h(3:4)
-        total = q(1) + q(2)
-    end function lane_sum
 
     !> Pads three rows of nn entries for the eight-lane loops: entries nn+1 .. nn+8 of a set to
     !> lead, of b and c to 0 (eight entries whatever the remainder: a loop of 0-7 iterations became
@@ -846,8 +834,7 @@ contains
                     include 'lj_ray_lanes.inc'
                 end do
             end do
-            atom_sums(i, 1) = lane_sum(la); atom_sums(i, 2) = lane_sum(lb); atom_sums(i, 3) = lane_sum(lc)
-            vir = vir + lane_sum(ld)
+            atom_sums(i, 1) = sum(la); atom_sums(i, 2) = sum(lb); atom_sums(i, 3) = sum(lc); vir = vir + sum(ld)
         end do
         out = [compensated_total(atom_sums(:, 1), nlocal), compensated_total(atom_sums(:, 2), nlocal), &
                compensated_total(atom_sums(:, 3), nlocal), vir]
@@ -898,8 +885,7 @@ contains
                     include 'lj_ray_lanes.inc'
                 end do
             end do
-            atom_sums(i, 1) = lane_sum(la); atom_sums(i, 2) = lane_sum(lb); atom_sums(i, 3) = lane_sum(lc)
-            vir = vir + lane_sum(ld)
+            atom_sums(i, 1) = sum(la); atom_sums(i, 2) = sum(lb); atom_sums(i, 3) = sum(lc); vir = vir + sum(ld)
         end do
         out = [compensated_total(atom_sums(:, 1), nlocal), compensated_total(atom_sums(:, 2), nlocal), &
                compensated_total(atom_sums(:, 3), nlocal), vir]

@@ -327,10 +327,10 @@ contains
     !> when want_energy, the pair energies and virials) are computed branch-free over the
     !> contiguous rows, padded to a multiple of 8 with far pairs (vectorised, eight lanes, no
     !> scalar remainder; GCC does not emit gathers for this CPU); then they are scattered
-    !> (Newton's third law) while the force on i is summed in list order. One type (lj/cut): scalar coefficients, and the energies and virials
-    !> summed in eight lanes as they are computed (one_type_pairs_energy). Two to four types, forces
-    !> only: each pair's coefficients selected in the pair loop from i's (pair_forces_two_types,
-    !> pair_forces_few_types).
+    !> (Newton's third law) while the force on i is summed in list order. One type (lj/cut): scalar
+    !> coefficients, and the energies and virials summed in eight lanes as they are computed
+    !> (one_type_pairs_energy). Two to four types, forces only: each pair's coefficients selected
+    !> in the pair loop from i's (pair_forces_two_types, pair_forces_few_types).
     !> Otherwise per-pair coefficient rows, selected per type (select_by_type), and for 'lj' the
     !> energies and virials summed in lanes (pairs_energy_rows); lj/smooth/linear stores them in
     !> rows, summed in list order after the scatter.

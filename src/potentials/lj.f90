@@ -383,6 +383,9 @@ contains
                 if (ntypes == 2 .and. .not. (smooth .or. want_energy)) then
                     ! the common mixture: coefficients selected in the pair loop, no per-pair rows
                     call pair_forces_two_types(nn, fx, fy, fz, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), far)
+                else if (ntypes == 3 .and. .not. (smooth .or. want_energy)) then
+                    call pair_forces_three_types(nn, fx, fy, fz, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), &
+                                                 far)
                 else if (ntypes <= 4 .and. .not. (smooth .or. want_energy)) then
                     call pair_forces_few_types(nn, fx, fy, fz, tr, self%lj1(:, ti), self%lj2(:, ti), self%cutsq(:, ti), &
                                                far)
@@ -645,6 +648,33 @@ contains
             end do
         end do
     end subroutine pair_forces_two_types
+
+    !> pair_forces for three atom types: pair_forces_two_types with a chain of two selects per
+    !> coefficient (type 2, then type 3).
+    pure subroutine pair_forces_three_types(nn, fx, fy, fz, tr, a1, a2, as, far)
+        integer, intent(in) :: nn
+        real(dp), intent(inout) :: fx(*), fy(*), fz(*)
+        integer, intent(in) :: tr(*)
+        real(dp), intent(in) :: a1(:), a2(:), as(:), far
+        integer :: k, l, kk, nnp
+        real(dp) :: rsq, r2inv, r6inv, fpair, c1, c2, cs, a11, a12, a13, a21, a22, a23, as1, as2, as3
+        logical :: is2, is3
+        a11 = a1(1); a12 = a1(2); a13 = a1(3); a21 = a2(1); a22 = a2(2); a23 = a2(3)
+        as1 = as(1); as2 = as(2); as3 = as(3)
+        call pad_rows(nn, fx, fy, fz, pad_far, nnp)
+        do k = 1, nnp, 8
+            do l = 1, 8
+                kk = k + l - 1
+                is2 = tr(kk) == 2; is3 = tr(kk) == 3
+                c1 = merge(a13, merge(a12, a11, is2), is3)
+                c2 = merge(a23, merge(a22, a21, is2), is3)
+                cs = merge(as3, merge(as2, as1, is2), is3)
+                rsq = fx(kk)*fx(kk) + fy(kk)*fy(kk) + fz(kk)*fz(kk)
+                call lj_terms(rsq, cs, far, c1, c2, r2inv, r6inv, fpair)
+                fx(kk) = fx(kk)*fpair; fy(kk) = fy(kk)*fpair; fz(kk) = fz(kk)*fpair
+            end do
+        end do
+    end subroutine pair_forces_three_types
 
     !> pair_forces for three or four atom types: the coefficients of the pair selected in the loop
     !> from atom i's (a1, a2, as: its column of the tables, padded to four) by the neighbour's type

@@ -314,6 +314,7 @@ contains
             if (size(self%work, 1) < nb .or. size(self%work, 2) < 13) deallocate (self%work)
         end if
         if (.not. allocated(self%work)) allocate (self%work(nb, 13))
+        ! (allocated for one type too: the kernel takes a type row whether or not it reads it)
         call reserve(self%type_row, 8)
         if (allocated(self%atom_sums)) then
             if (size(self%atom_sums, 1) < nlocal) deallocate (self%atom_sums)

@@ -420,9 +420,7 @@ contains
             associate (sw => self%swaps(s))
                 sh = 0
                 if (shifted) sh = sw%shift(1:nc)
-                if (sw%self_copy .and. nc == 3) then
-                    call copy_images3(sw%nsend, sw%list, sw%first_recv, sh, a)
-                else if (sw%self_copy) then
+                if (sw%self_copy) then
                     do j = 1, sw%nsend
                         a(:, sw%first_recv + j - 1) = a(:, sw%list(j)) + sh
                     end do
@@ -455,9 +453,7 @@ contains
         nc = size(a, 1)
         do s = self%nswap, 1, -1
             associate (sw => self%swaps(s))
-                if (sw%self_copy .and. nc == 3) then
-                    call add_images3(sw%nsend, sw%list, sw%first_recv, a)
-                else if (sw%self_copy) then
+                if (sw%self_copy) then
                     do j = 1, sw%nsend
                         i = sw%list(j)
                         a(:, i) = a(:, i) + a(:, sw%first_recv + j - 1)
@@ -480,30 +476,5 @@ contains
             end associate
         end do
     end subroutine domain_reverse
-
-    !> A periodic swap on this rank, three components (positions, velocities, forces): the images
-    !> a(:, first + j - 1) = a(:, list(j)) + sh. Explicit shape: constant stride and a loop the
-    !> compiler unrolls, where the generic copy runs a loop of size(a, 1) per atom.
-    subroutine copy_images3(n, list, first, sh, a)
-        integer, intent(in) :: n, list(n), first
-        real(dp), intent(in) :: sh(3)
-        real(dp), intent(inout) :: a(3, *)
-        integer :: j, i, k
-        do j = 1, n
-            i = list(j); k = first + j - 1
-            a(1, k) = a(1, i) + sh(1); a(2, k) = a(2, i) + sh(2); a(3, k) = a(3, i) + sh(3)
-        end do
-    end subroutine copy_images3
-
-    !> The reverse of copy_images3: each image's three components added to its atom.
-    subroutine add_images3(n, list, first, a)
-        integer, intent(in) :: n, list(n), first
-        real(dp), intent(inout) :: a(3, *)
-        integer :: j, i, k
-        do j = 1, n
-            i = list(j); k = first + j - 1
-            a(1, i) = a(1, i) + a(1, k); a(2, i) = a(2, i) + a(2, k); a(3, i) = a(3, i) + a(3, k)
-        end do
-    end subroutine add_images3
 
 end module terrace_domain

@@ -173,6 +173,16 @@ if ref in best:
         if l != ref:
             print('  %-14s %.3f (best)  %.3f (median)  %.3f (user)' % (l, best[l] / best[ref], med[l] / med[ref],
                                                                     user[l] / user[ref]))
+    # paired: round by round (each round runs every code once, one after the other, so a load that
+    # changes slowly weighs on both runs of a pair); their median and range
+    n = min(len(rs) for _, rs in rows)
+    if n > 1:
+        print('paired ratios anchor/Terrace, round by round (loop times of the same round): median [lowest, highest] of %d'
+              % n)
+        for l, rs in rows:
+            if l != ref:
+                q = sorted(rs[k][0] / runs[ref][k][0] for k in range(n))
+                print('  %-14s %.3f  [%.3f, %.3f]' % (l, st.median(q), q[0], q[-1]))
 PY
 }
 

@@ -37,6 +37,11 @@ module terrace_neighbor_list
         integer, allocatable :: perm(:), counts(:)
         real(dp), allocatable :: cx(:), cy(:), cz(:)    !< build scratch: candidates shared by a bin's atoms
         integer, allocatable :: cj(:), keep(:)
+        !> Build scratch: the positions in bin order, columns of contiguous rows (owned slot k is atom
+        !> k, sorted by bin; ghost slot nlocal + s is atom ghost_atoms(s)), so that the candidates of a
+        !> stencil row are copied as contiguous blocks; sj(slot) is the atom.
+        real(dp), allocatable :: sx(:), sy(:), sz(:)
+        integer, allocatable :: sj(:)
         integer :: builds = 0
         !> Rebuild schedule (&neighbor every, check): exact (every = 1, check) tests the skin/2
         !> displacement at every step; otherwise the list is checked (or, without check, rebuilt)
@@ -208,7 +213,8 @@ contains
     !> Bin by bin: the candidates that all atoms of bin b share (owned atoms in the rest of the
     !> centre row and in the upper rows; ghosts in the rows above in z, which are all above every
     !> atom of b in (z, y, x) order since bins are monotone in z) are copied once into contiguous
-    !> scratch rows, then each atom of b scans them with a vectorised distance pass and a scalar
+    !> scratch rows (block copies from the positions in bin order, bin_order_columns: a stencil row
+    !> of bins is one contiguous run of slots), then each atom of b scans them with a vectorised distance pass and a scalar
     !> branch-free compaction. Per atom remain the owned atoms after it in its own bin and the ghosts
     !> of the rows at the same z (the (z, y, x) test); ghost rows below in z hold no neighbour.
     !> The order of each atom's neighbours is the order of the row-by-row scan.
@@ -249,6 +255,7 @@ contains
         call reserve(self%cz, bound)
         call reserve(self%keep, bound)
         call reserve(self%cj, bound)
+        call bin_order_columns(self, atoms%x, nlocal, nghost)
         call reserve(self%first, nlocal + 1)
         need = int(min(1.15_dp*expect + bound + 1024, real(huge(1), dp)/2))
         call reserve(self%neigh, need, exact=.true.)
@@ -260,27 +267,28 @@ contains
             if (owned_start(b + 1) == owned_start(b)) cycle
             ! shared candidates: owned atoms of the rest of the centre row and of the upper rows ...
             m1 = 0
-            call take_owned(owned_start(b + 1), owned_start(b + cr + 1) - 1, x, self%cx, self%cy, self%cz, self%cj, m1)
+            call take_slots(owned_start(b + 1), owned_start(b + cr + 1) - 1, self%sx, self%sy, self%sz, self%sj, &
+                            self%cx, self%cy, self%cz, self%cj, m1)
             do r = self%first_upper_row, self%nrows
-                call take_owned(owned_start(b + row_lo(r)), owned_start(b + row_hi(r) + 1) - 1, x, self%cx, self%cy, &
-                                self%cz, self%cj, m1)
+                call take_slots(owned_start(b + row_lo(r)), owned_start(b + row_hi(r) + 1) - 1, self%sx, self%sy, &
+                                self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m1)
             end do
             ! ... and ghosts: those of the rows at the same z (centre row first), tested per atom in
             ! (z, y, x) order, then those of the rows above in z, all above
             m2 = m1
             if (ghost_start(b + cr + 1) > ghost_start(b - cr)) &
-                call take_ghosts(ghost_start(b - cr), ghost_start(b + cr + 1) - 1, x, self%ghost_atoms, self%cx, &
-                                 self%cy, self%cz, self%cj, m2)
+                call take_slots(nlocal + ghost_start(b - cr), nlocal + ghost_start(b + cr + 1) - 1, self%sx, self%sy, &
+                                self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m2)
             do r = 1, self%nrows
                 if (row_dz(r) /= 0 .or. ghost_start(b + row_hi(r) + 1) == ghost_start(b + row_lo(r))) cycle
-                call take_ghosts(ghost_start(b + row_lo(r)), ghost_start(b + row_hi(r) + 1) - 1, x, self%ghost_atoms, &
-                                 self%cx, self%cy, self%cz, self%cj, m2)
+                call take_slots(nlocal + ghost_start(b + row_lo(r)), nlocal + ghost_start(b + row_hi(r) + 1) - 1, &
+                                self%sx, self%sy, self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m2)
             end do
             m3 = m2
             do r = self%first_upper_row, self%nrows
                 if (row_dz(r) <= 0 .or. ghost_start(b + row_hi(r) + 1) == ghost_start(b + row_lo(r))) cycle
-                call take_ghosts(ghost_start(b + row_lo(r)), ghost_start(b + row_hi(r) + 1) - 1, x, self%ghost_atoms, &
-                                 self%cx, self%cy, self%cz, self%cj, m3)
+                call take_slots(nlocal + ghost_start(b + row_lo(r)), nlocal + ghost_start(b + row_hi(r) + 1) - 1, &
+                                self%sx, self%sy, self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m3)
             end do
             do i = owned_start(b), owned_start(b + 1) - 1
                 if (n + bound > size(self%neigh)) &
@@ -464,36 +472,44 @@ contains
         end do
     end subroutine scan
 
-    !> Append owned atoms first..last to the shared candidate rows.
-    subroutine take_owned(first, last, x, cx, cy, cz, cj, m)
-        integer, intent(in) :: first, last
-        real(dp), intent(in) :: x(3, *)
-        real(dp), intent(inout), contiguous :: cx(:), cy(:), cz(:)
-        integer, intent(inout), contiguous :: cj(:)
-        integer, intent(inout) :: m
-        integer :: k
-        do k = first, last
-            cx(m + 1) = x(1, k); cy(m + 1) = x(2, k); cz(m + 1) = x(3, k); cj(m + 1) = k
-            m = m + 1
+    !> The bin-order columns sx, sy, sz, sj of the nlocal owned atoms (sorted by bin) and the nghost
+    !> ghosts (in the order of ghost_atoms): once per build.
+    subroutine bin_order_columns(self, x, nlocal, nghost)
+        type(neighbor_list_t), intent(inout) :: self
+        real(dp), intent(in) :: x(:, :)
+        integer, intent(in) :: nlocal, nghost
+        integer :: k, j, n
+        n = max(nlocal + nghost, 1)
+        call reserve(self%sx, n)
+        call reserve(self%sy, n)
+        call reserve(self%sz, n)
+        call reserve(self%sj, n)
+        do k = 1, nlocal
+            self%sx(k) = x(1, k); self%sy(k) = x(2, k); self%sz(k) = x(3, k); self%sj(k) = k
         end do
-    end subroutine take_owned
+        do k = 1, nghost
+            j = self%ghost_atoms(k)
+            self%sx(nlocal + k) = x(1, j); self%sy(nlocal + k) = x(2, j); self%sz(nlocal + k) = x(3, j)
+            self%sj(nlocal + k) = j
+        end do
+    end subroutine bin_order_columns
 
-    !> Append the ghosts of bin slots first..last (atoms ghost_atoms(first:last)).
-    subroutine take_ghosts(first, last, x, ghost_atoms, cx, cy, cz, cj, m)
+    !> Append the slots first..last of the bin-order columns to the shared candidate rows (block
+    !> copies).
+    subroutine take_slots(first, last, sx, sy, sz, sj, cx, cy, cz, cj, m)
         integer, intent(in) :: first, last
-        real(dp), intent(in) :: x(3, *)
-        integer, intent(in), contiguous :: ghost_atoms(:)
+        real(dp), intent(in), contiguous :: sx(:), sy(:), sz(:)
+        integer, intent(in), contiguous :: sj(:)
         real(dp), intent(inout), contiguous :: cx(:), cy(:), cz(:)
         integer, intent(inout), contiguous :: cj(:)
         integer, intent(inout) :: m
-        integer :: k, j
-        !GCC$ novector
-        do k = first, last
-            j = ghost_atoms(k)
-            cx(m + 1) = x(1, j); cy(m + 1) = x(2, j); cz(m + 1) = x(3, j); cj(m + 1) = j
-            m = m + 1
-        end do
-    end subroutine take_ghosts
+        integer :: n
+        n = last - first + 1
+        if (n <= 0) return
+        cx(m + 1:m + n) = sx(first:last); cy(m + 1:m + n) = sy(first:last); cz(m + 1:m + n) = sz(first:last)
+        cj(m + 1:m + n) = sj(first:last)
+        m = m + n
+    end subroutine take_slots
 
     !> True on every rank if any owned atom anywhere moved more than skin/2 since the build.
     logical function nl_needs_rebuild(self, atoms) result(flag)

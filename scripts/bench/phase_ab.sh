@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Phase-by-phase A/B of Terrace binaries on one deck: each round runs every binary once, one after
+# the other (alternating, so that a load that drifts weighs on all of them), ROUNDS rounds; then,
+# per binary, the lowest and the median of each phase of the run log (Pair, Neigh, Comm, Other,
+# Search) and of the loop time, and the ratio of each binary's median to the first one's. For a
+# change that moves one phase by a few per cent, which the loop time of a shared machine hides.
+#
+# Usage: scripts/bench/phase_ab.sh ROUNDS DECK.nml BINARY_A BINARY_B [BINARY...]
+#        e.g. scripts/bench/phase_ab.sh 7 input/lj_bench.nml /tmp/terrace_before build/terrace
+# The deck runs in a temporary directory (its relative paths: from the deck's directory).
+set -euo pipefail
+[[ $# -ge 4 && "$1" =~ ^[1-9][0-9]*$ ]] || { echo "usage: $0 ROUNDS DECK.nml BINARY_A BINARY_B [BINARY...]" >&2; exit 2; }
+rounds=$1; deck="$(realpath "$2")"; shift 2
+bins=(); for b in "$@"; do [[ -x "$b" ]] || { echo "phase_ab: $b is not an executable" >&2; exit 2; }; bins+=("$(realpath "$b")"); done
+work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
+cp -r "$(dirname "$deck")"/. "$work"/ 2> /dev/null || true
+cd "$work"
+echo "deck    : $deck"
+echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(nproc) cores visible"
+echo "date    : $(date -u '+%Y-%m-%d %H:%M UTC'); load $(cut -d' ' -f1-3 /proc/loadavg) at start"
+for k in "${!bins[@]}"; do echo "binary $k: ${bins[$k]}"; done
+: > phases.txt
+for ((r = 1; r <= rounds; r++)); do
+    for k in "${!bins[@]}"; do
+        "${bins[$k]}" "$(basename "$deck")" > run.log 2>&1 || { echo "phase_ab: binary $k failed:" >&2; tail -5 run.log >&2; exit 1; }
+        awk -v k="$k" '/^(Pair|Neigh|Comm|Other|Search) +[0-9]/ {print k, $1, $2}
+                       /^Loop time:/ {print k, "Loop", $3}' run.log >> phases.txt
+    done
+done
+python3 - "$rounds" <<'PY'
+import sys, statistics as st
+rounds = int(sys.argv[1])
+t = {}
+for line in open('phases.txt'):
+    k, phase, v = line.split()
+    t.setdefault(phase, {}).setdefault(int(k), []).append(float(v))
+print('%d rounds; seconds, lowest / median; "vs 0": median over binary 0\'s' % rounds)
+print('%-7s %s' % ('phase', '  '.join('%-26s' % ('binary %d' % k) for k in sorted(t['Loop']))))
+for phase in ('Pair', 'Neigh', 'Comm', 'Search', 'Other', 'Loop'):
+    if phase not in t:
+        continue
+    cells = []
+    for k in sorted(t[phase]):
+        v = t[phase][k]
+        ratio = st.median(v) / st.median(t[phase][0]) if k and st.median(t[phase][0]) > 0 else None
+        cells.append('%8.4f / %8.4f%s' % (min(v), st.median(v), ('  vs 0 %.3f' % ratio) if ratio else ''))
+    print('%-7s %s' % (phase, '  '.join('%-26s' % c for c in cells)))
+PY

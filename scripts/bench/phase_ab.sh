@@ -7,13 +7,14 @@
 #
 # Usage: scripts/bench/phase_ab.sh ROUNDS DECK.nml BINARY_A BINARY_B [BINARY...]
 #        e.g. scripts/bench/phase_ab.sh 7 input/lj_bench.nml /tmp/terrace_before build/terrace
-# The deck runs in a temporary directory (its relative paths: from the deck's directory).
+# The deck runs in a temporary directory holding a copy of the files of the deck's directory (not
+# its subdirectories), so that its relative paths work and its outputs land in the copy.
 set -euo pipefail
 [[ $# -ge 4 && "$1" =~ ^[1-9][0-9]*$ ]] || { echo "usage: $0 ROUNDS DECK.nml BINARY_A BINARY_B [BINARY...]" >&2; exit 2; }
 rounds=$1; deck="$(realpath "$2")"; shift 2
 bins=(); for b in "$@"; do [[ -x "$b" ]] || { echo "phase_ab: $b is not an executable" >&2; exit 2; }; bins+=("$(realpath "$b")"); done
 work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
-cp -r "$(dirname "$deck")"/. "$work"/ 2> /dev/null || true
+find "$(dirname "$deck")" -maxdepth 1 -type f -exec cp {} "$work"/ \;
 cd "$work"
 echo "deck    : $deck"
 echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(nproc) cores visible"

@@ -104,7 +104,8 @@ contains
         ! bins at least rc + skin wide across the stencil's rows (x, and y in 3-D: reach 1, rows of
         ! three bins) and half that along the last dimension (reach 2): fewer, fuller bins than half
         ! the cutoff everywhere, so that a bin's shared candidates serve about 9 atoms instead of 2.6
-        ! (LJ benchmark scene: the build 15-20 % cheaper, scripts/bench/phase_ab.sh, doc/performance.md)
+        ! (scripts/bench/phase_ab.sh, 7 rounds: the build about 13 % cheaper on the LJ benchmark scene,
+        ! 28 % on Cu EAM; doc/performance.md)
         do
             nb = 1
             do d = 1, self%dimension
@@ -219,8 +220,8 @@ contains
     !> centre row and in the upper rows; ghosts in the rows above in z, which are all above every
     !> atom of b in (z, y, x) order since bins are monotone in z) are copied once into contiguous
     !> scratch rows (block copies from the positions in bin order, bin_order_columns: a stencil row
-    !> of bins is one contiguous run of slots), then each atom of b scans them with a vectorised distance pass and a scalar
-    !> branch-free compaction. Per atom remain the owned atoms after it in its own bin and the ghosts
+    !> of bins is one contiguous run of slots), then each atom of b scans them with a vectorised
+    !> distance pass and a scalar branch-free compaction. Per atom remain the owned atoms after it in its own bin and the ghosts
     !> of the rows at the same z (the (z, y, x) test); ghost rows below in z hold no neighbour.
     !> The order of each atom's neighbours is the order of the row-by-row scan.
     subroutine nl_build(self, atoms)

@@ -50,7 +50,7 @@ def load(src):
         sys.exit('scaling_report.py: no scaling.csv in the given folder or archive')
     rows = list(csv.DictReader(io.StringIO(text)))
     for r in rows:
-        r['ranks'] = int(r['ranks'])
+        r['ranks'], r['n'] = int(r['ranks']), int(r['n'])
         r['loop_s'] = float(r['loop_s'])
     return rows
 
@@ -80,7 +80,7 @@ def summary(src, rows):
         print(f"{scene.upper()} {kind} scaling ({size}): loop s ({what} against 1 rank); "
               "Terrace's Comm and Search: slowest rank, s")
         print(f"{'ranks':>5} {'atoms':>8} | {'Terrace VV':>18} | {'Terrace ES':>18} | {'LAMMPS':>18} | "
-              f"{'VV/LAMMPS':>9} | {'VV comm':>8} {'ES comm':>8} {'ES search':>9} {'ES rays':>7}")
+              f"{'VV/LAMMPS':>9} | {'VV comm':>8} {'ES comm':>8} {'ES search':>9} {'ES rays':>7} {'event/step':>10}")
         for p in sorted({r['ranks'] for r in sel}):
             cells = []
             for c in CODES:
@@ -92,16 +92,19 @@ def summary(src, rows):
                 cells.append(f"{r['loop_s']:9.3f} ({s:6.2f})" if s is not None else f"{r['loop_s']:9.3f}         ")
             vv, lm, es = pick(sel, p, 'terrace-vv'), pick(sel, p, 'lammps'), pick(sel, p, 'terrace-es')
             ratio = f"{lm['loop_s'] / vv['loop_s']:9.2f}" if vv and lm else f"{'':>9}"
+            cost = (f"{(es['loop_s'] / es['n']) / (vv['loop_s'] / vv['n']):10.2f}" if vv and es
+                    else f"{'-':>10}")
 
             def g(r, k, fmt='.3f'):
                 return format(float(r[k]), fmt) if r is not None and r.get(k) else '-'
             natoms = next(r['atoms'] for r in sel if r['ranks'] == p)
             print(f"{p:5d} {natoms:>8} | {cells[0]} | {cells[1]} | {cells[2]} | {ratio} | "
                   f"{g(vv, 'comm_max_s'):>8} {g(es, 'comm_max_s'):>8} {g(es, 'search_max_s'):>9} "
-                  f"{'-' if es is None or rays_per_event(src, es) is None else format(rays_per_event(src, es), '.3f'):>7}")
+                  f"{'-' if es is None or rays_per_event(src, es) is None else format(rays_per_event(src, es), '.3f'):>7} {cost}")
         print()
     print("VV/LAMMPS: LAMMPS loop time over Terrace Verlet's (above 1: Terrace faster), same steps, same ranks.")
     print("ES rays: ray evaluations per event (one ray pass each; an event also costs one force pass).")
+    print("event/step: energy stepping's loop time per event over Verlet's per step, same ranks.")
 
 
 def terrace_phases(text):

@@ -5,7 +5,7 @@
 program terrace
     use terrace_kinds, only: dp, i8
     use terrace_text, only: fixed
-    use terrace_mpi_env, only: world, start_mpi, end_mpi, any_all
+    use terrace_mpi_env, only: world, start_mpi, end_mpi, any_all, sum_all_i8
     use terrace_config, only: config_t, read_config
     use terrace_engine, only: engine_t
     use terrace_scene_builder, only: scene_t, build_scene
@@ -28,6 +28,7 @@ program terrace
     use terrace_checkpoint, only: probe_checkpoint_path
     use terrace_output_files, only: check_outputs, check_output_ids, commit_small_outputs
     use terrace_memory_guard, only: check_memory
+    use terrace_files, only: part_path
     use mpi_f08, only: MPI_Wtime, MPI_Barrier
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -247,21 +248,7 @@ contains
             call open_outputs_append(extra_header, end_time)
             return
         end if
-        call traj%open(trim(cfg%trajectory_file), trim(cfg%trajectory_fields), world%comm, eng%natoms, eng%box, &
-                       eng%atoms%mass, cfg%units, ok, msg)
-        call check_all(ok, trim(cfg%trajectory_file)//': cannot create the trajectory (&output trajectory_file): '// &
-                       trim(msg))
-        if (allocated(eng%mesh_tet)) then        ! a mesh: its tetrahedra and the XDMF sidecar
-            call traj%add_mesh(eng%mesh_tet, eng%natoms, ok, msg)
-            if (.not. ok) call traj%discard()
-            call check_all(ok, trim(cfg%trajectory_file)//': cannot create the trajectory (&output trajectory_file): '// &
-                           trim(msg))
-        end if
-        ! a failure after the trajectory was created removes what was written: no partial outputs
-        call thermo%open(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, ok, msg, units=cfg%units)
-        call any_failed(ok)
-        if (.not. ok) call traj%discard()
-        call check_all(ok, trim(cfg%thermo_file)//': cannot write the thermo file (&output thermo_file): '//trim(msg))
+        call create_outputs(trim(cfg%trajectory_file), trim(cfg%thermo_file), extra_header, end_time)
         if (len_trim(cfg%forces_file) > 0) then
             call write_forces_file(trim(cfg%forces_file), eng%atoms, 0_i8, ok, msg)
             call any_failed(ok)
@@ -273,30 +260,102 @@ contains
         end if
     end subroutine open_outputs
 
-    !> A restart continues the outputs of the interrupted run: the thermo CSV and the trajectory
-    !> keep what was written up to the checkpoint (anything later is dropped) and are appended to.
+    !> A new thermo CSV and trajectory (and a mesh's XDMF sidecar) under these names. A failure
+    !> after the trajectory was created removes what was written: no partial outputs.
+    subroutine create_outputs(traj_path, thermo_path, extra_header, end_time)
+        character(len=*), intent(in) :: traj_path, thermo_path, extra_header
+        real(dp), intent(in) :: end_time
+        call traj%open(traj_path, trim(cfg%trajectory_fields), world%comm, eng%natoms, eng%box, eng%atoms%mass, &
+                       cfg%units, ok, msg)
+        call check_all(ok, traj_path//': cannot create the trajectory (&output trajectory_file): '//trim(msg))
+        if (allocated(eng%mesh_tet)) then        ! a mesh: its tetrahedra and the XDMF sidecar
+            call traj%add_mesh(eng%mesh_tet, eng%natoms, ok, msg)
+            if (.not. ok) call traj%discard()
+            call check_all(ok, traj_path//': cannot create the trajectory (&output trajectory_file): '//trim(msg))
+        end if
+        call thermo%open(thermo_path, end_time, trim(cfg%units%time), extra_header, ok, msg, units=cfg%units)
+        call any_failed(ok)
+        if (.not. ok) call traj%discard()
+        call check_all(ok, thermo_path//': cannot write the thermo file (&output thermo_file): '//trim(msg))
+    end subroutine create_outputs
+
+    !> A restart continues the outputs of the interrupted run (the deck's files, or the parts that
+    !> run wrote, its checkpoint's output_part): the thermo CSV and the trajectory keep what was
+    !> written up to the checkpoint (anything later is dropped) and are appended to. With &system
+    !> restart_outputs = 'new' it writes the next free part instead (<stem>.partN<ext>, N from 2,
+    !> past the checkpoint's part and any existing file) and leaves the earlier files as they are:
+    !> for a trajectory that a kill inside an HDF5 flush left unreadable, or a lost one.
     subroutine open_outputs_append(extra_header, end_time)
         character(len=*), intent(in) :: extra_header
         real(dp), intent(in) :: end_time
-        integer(i8) :: lines, frames
+        integer(i8) :: lines, frames, part
+        character(len=:), allocatable :: traj_path, thermo_path
+        character(len=*), parameter :: hint = " (to go on in new files and leave this one as it is: &system "// &
+                                             "restart_outputs = 'new')"
         ok = .true.
         lines = eng%restart_values%get_i('thermo_lines', ok)
         frames = eng%restart_values%get_i('trajectory_frames', ok)
-        call check_all(ok, trim(cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint (output counters)')
-        call traj%open_append(trim(cfg%trajectory_file), world%comm, frames, ok, msg)
-        call check_all(ok, trim(cfg%trajectory_file)//': cannot continue the trajectory (&output trajectory_file) '// &
-                       'from the checkpoint: '//trim(msg))
+        part = 1
+        if (eng%restart_values%has('output_part')) part = eng%restart_values%get_i('output_part', ok)
+        call check_all(ok .and. part >= 1, trim(cfg%read_checkpoint)//': &system: read_checkpoint: damaged '// &
+                       'checkpoint (output counters)')
+        if (cfg%restart_outputs == 'new') then
+            part = next_free_part(part + 1)
+            ctl%output_part = part
+            call create_outputs(part_path(trim(cfg%trajectory_file), part), part_path(trim(cfg%thermo_file), part), &
+                                extra_header, end_time)
+            if (world%rank == 0 .and. len_trim(cfg%trajectory_file) + len_trim(cfg%thermo_file) > 0) &
+                write (output_unit, '(a)') "restart_outputs = 'new': the run goes on in "// &
+                    trim(list_parts())//'; the earlier files are left as they are'
+            return
+        end if
+        ctl%output_part = part
+        traj_path = part_path(trim(cfg%trajectory_file), part)
+        thermo_path = part_path(trim(cfg%thermo_file), part)
+        call traj%open_append(traj_path, world%comm, frames, ok, msg)
+        call check_all(ok, traj_path//': cannot continue the trajectory (&output trajectory_file) from the '// &
+                       'checkpoint: '//trim(msg)//hint)
         if (allocated(eng%mesh_tet)) then
             call traj%add_mesh(eng%mesh_tet, eng%natoms, ok, msg)
-            call check_all(ok, trim(cfg%trajectory_file)//': cannot continue the trajectory (&output trajectory_file) '// &
-                           'from the checkpoint: '//trim(msg))
+            call check_all(ok, traj_path//': cannot continue the trajectory (&output trajectory_file) from the '// &
+                           'checkpoint: '//trim(msg))
         end if
-        call thermo%open_append(trim(cfg%thermo_file), end_time, trim(cfg%units%time), extra_header, lines, ok, msg, &
+        call thermo%open_append(thermo_path, end_time, trim(cfg%units%time), extra_header, lines, ok, msg, &
                                  units=cfg%units)
         call any_failed(ok)
-        call check_all(ok, trim(cfg%thermo_file)//': cannot continue the thermo file (&output thermo_file) from the '// &
-                       'checkpoint: '//trim(msg))
+        call check_all(ok, thermo_path//': cannot continue the thermo file (&output thermo_file) from the '// &
+                       'checkpoint: '//trim(msg)//hint)
     end subroutine open_outputs_append
+
+    !> The first part from n on whose thermo CSV and trajectory both do not exist (rank 0 looks).
+    integer(i8) function next_free_part(n) result(k)
+        integer(i8), intent(in) :: n
+        logical :: taken, t2
+        k = 0
+        if (world%rank == 0) then
+            k = n
+            do
+                taken = .false.; t2 = .false.
+                if (len_trim(cfg%trajectory_file) > 0) inquire (file=part_path(trim(cfg%trajectory_file), k), &
+                                                               exist=taken)
+                if (len_trim(cfg%thermo_file) > 0) inquire (file=part_path(trim(cfg%thermo_file), k), exist=t2)
+                if (.not. (taken .or. t2)) exit
+                k = k + 1
+            end do
+        end if
+        call sum_all_i8(k)
+    end function next_free_part
+
+    !> The part files this run writes, for the screen ("thermo.part2.csv and traj.part2.h5").
+    function list_parts() result(t)
+        character(len=:), allocatable :: t
+        t = ''
+        if (len_trim(cfg%thermo_file) > 0) t = part_path(trim(cfg%thermo_file), ctl%output_part)
+        if (len_trim(cfg%trajectory_file) > 0) then
+            if (len(t) > 0) t = t//' and '
+            t = t//part_path(trim(cfg%trajectory_file), ctl%output_part)
+        end if
+    end function list_parts
 
     !> ok becomes .false. on every rank when it is .false. on any (outputs are opened by rank 0).
     subroutine any_failed(ok)

@@ -1,5 +1,6 @@
 !> What the operating system gives the program: the whole contents of a text file (read_input_text:
-!> read by rank 0 and broadcast, for the input decks), and this process's peak resident memory.
+!> read by rank 0 and broadcast, for the input decks), this process's peak resident memory, and the
+!> name of an output file's part (a restart that writes new files).
 !>
 !> peak_memory_kib reads VmHWM ("high water mark" of the resident set, in KiB) from
 !> /proc/self/status; it is 0 where /proc is not available.
@@ -10,7 +11,7 @@ module terrace_files
     implicit none
     private
 
-    public :: slurp, read_input_text, peak_memory_kib
+    public :: slurp, read_input_text, peak_memory_kib, part_path
 
 contains
 
@@ -49,6 +50,28 @@ contains
     end subroutine read_input_text
 
     !> VmHWM of this process in KiB (0 when /proc is not available).
+    !> Part n of an output file (n >= 2): '.part<n>' before the extension of the file name
+    !> (traj.h5 -> traj.part2.h5; out/thermo -> out/thermo.part2); n <= 1 or an empty path: path.
+    pure function part_path(path, n) result(p)
+        character(len=*), intent(in) :: path
+        integer(i8), intent(in) :: n
+        character(len=:), allocatable :: p
+        character(len=24) :: tag
+        integer :: slash, dot
+        if (n <= 1 .or. len_trim(path) == 0) then
+            p = trim(path)
+            return
+        end if
+        write (tag, '(a,i0)') '.part', n
+        slash = index(trim(path), '/', back=.true.)
+        dot = index(trim(path), '.', back=.true.)
+        if (dot > slash + 1) then
+            p = path(1:dot - 1)//trim(tag)//trim(path(dot:))
+        else
+            p = trim(path)//trim(tag)
+        end if
+    end function part_path
+
     integer(i8) function peak_memory_kib() result(kib)
         integer :: unit, ios
         character(len=256) :: line

@@ -44,6 +44,9 @@ module terrace_config
         character(len=path_max) :: read_h5md = ''
         integer(i8) :: h5md_frame = -1              !< frame of read_h5md (1 = first, -1 = last)
         character(len=path_max) :: read_checkpoint = ''  !< continue the run from this checkpoint
+        !> a restart's thermo CSV and trajectory: 'append' (cut back to the checkpoint and continued)
+        !> or 'new' (new files <stem>.partN<ext>, the earlier ones left as they are)
+        character(len=16) :: restart_outputs = 'append'
         character(len=8) :: lattice = ''
         real(dp) :: lattice_constant = -1.0_dp
         real(dp) :: density = -1.0_dp
@@ -429,6 +432,7 @@ contains
     subroutine read_system(cfg)
         type(config_t), intent(inout) :: cfg
         character(len=path_max) :: read_data, atoms_file, read_h5md, read_checkpoint
+        character(len=16) :: restart_outputs
         integer(i8) :: h5md_frame
         character(len=8) :: lattice
         real(dp) :: lattice_constant, density, box_lo(3), box_hi(3), mass(max_types), temperature
@@ -438,12 +442,13 @@ contains
         real(dp) :: mass_density, velocity(3, max_bodies), angular_velocity(3, max_bodies)
         namelist /system/ read_data, atoms_file, lattice, lattice_constant, density, cells, periodic, &
             box_lo, box_hi, mass, temperature, reverse_velocities, read_h5md, h5md_frame, read_checkpoint, &
-            mesh_file, mass_density, velocity, angular_velocity
-        character(len=*), parameter :: keys(19) = [character(len=60) :: 'read_data:a quoted file name', &
+            restart_outputs, mesh_file, mass_density, velocity, angular_velocity
+        character(len=*), parameter :: keys(20) = [character(len=60) :: 'read_data:a quoted file name', &
             'mesh_file:a quoted file name', 'mass_density:a real number', &
             'velocity:three reals per body (velocity(:,2) = ...)', &
             'angular_velocity:three reals per body', &
             'read_checkpoint:a quoted file name', &
+            "restart_outputs:a quoted string ('append' or 'new')", &
             'read_h5md:a quoted file name', 'h5md_frame:an integer (1 = first, -1 = last)', &
             'reverse_velocities:a logical', &
             'atoms_file:a quoted file name', 'lattice:a quoted string', 'lattice_constant:a real number', &
@@ -452,7 +457,7 @@ contains
             'temperature:a real number']
         type(item_reader_t) :: it
         read_data = ''; atoms_file = ''; lattice = ''; lattice_constant = -1; density = -1
-        read_h5md = ''; h5md_frame = -1; read_checkpoint = ''
+        read_h5md = ''; h5md_frame = -1; read_checkpoint = ''; restart_outputs = 'append'
         cells = 0; periodic = .true.; box_lo = unset; box_hi = unset; mass = -1; temperature = -1
         reverse_velocities = .false.
         mesh_file = ''; mass_density = -1; velocity = 0; angular_velocity = 0
@@ -462,6 +467,7 @@ contains
         end do
         cfg%read_data = read_data; cfg%atoms_file = atoms_file; cfg%lattice = lower(lattice)
         cfg%read_h5md = read_h5md; cfg%h5md_frame = h5md_frame; cfg%read_checkpoint = read_checkpoint
+        cfg%restart_outputs = lower(restart_outputs)
         cfg%lattice_constant = lattice_constant; cfg%density = density; cfg%cells = cells
         cfg%periodic = periodic; cfg%box_lo = box_lo; cfg%box_hi = box_hi; cfg%mass = mass
         cfg%temperature = temperature
@@ -1019,6 +1025,14 @@ contains
                           'with a checkpoint)')
         if (cfg%nml%find('system', 'read_checkpoint') > 0 .and. len_trim(cfg%read_checkpoint) == 0) &
             call stop_all(cfg%where('system', 'read_checkpoint')//': must not be empty')
+        if (cfg%nml%find('system', 'restart_outputs') > 0) then
+            if (cfg%restart_outputs /= 'append' .and. cfg%restart_outputs /= 'new') &
+                call stop_all(cfg%where('system', 'restart_outputs')//" = '"//trim(cfg%restart_outputs)// &
+                              "': unknown (allowed: 'append', 'new')")
+            if (len_trim(cfg%read_checkpoint) == 0) &
+                call stop_all(cfg%where('system', 'restart_outputs')//': needs &system read_checkpoint (it says '// &
+                              'where a restart writes its outputs)')
+        end if
     end subroutine validate_checkpoints
 
 end module terrace_config

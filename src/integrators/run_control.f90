@@ -34,6 +34,10 @@ module terrace_run_control
         integer(i8) :: every = 0                 !< velocity Verlet: steps between checkpoints (0: none)
         real(dp) :: interval = 0                 !< energy stepping: time between checkpoints (0: none)
         integer(i8) :: written = 0               !< scheduled checkpoints so far (this run and those before)
+        !> the thermo CSV and trajectory this run writes: the deck's files (1) or their .partN copies
+        !> (&system restart_outputs = 'new'); in the checkpoint, so that an appending restart goes on
+        !> with the same files
+        integer(i8) :: output_part = 1
         real(dp) :: walltime_limit = 0           !< seconds (0: none)
         real(dp) :: wall_start = 0               !< MPI_Wtime at program start
         real(dp) :: last_safe = -1, max_gap = 0, write_seconds = 0
@@ -134,6 +138,7 @@ contains
         call values%put('checkpoints', self%written)
         call values%put('thermo_lines', thermo_lines)
         call values%put('trajectory_frames', traj_frames)
+        call values%put('output_part', self%output_part)
         call values%put('seed', eng%cfg%seed)
         do d = 1, 3
             write (tag, '(i0)') d

@@ -194,6 +194,7 @@ contains
             associate (it => nml%items(k))
                 if (it%group == 'system' .and. it%key == 'read_checkpoint') cycle
                 if (it%group == 'run' .and. it%key == 'walltime_limit') cycle
+                if (it%group == 'system' .and. it%key == 'restart_outputs') cycle
                 call mix(trim(it%group)//'&'//trim(it%target)//'='//trim(adjustl(it%value))//';')
             end associate
         end do

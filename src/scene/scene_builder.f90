@@ -231,7 +231,8 @@ contains
         call read_checkpoint(trim(cfg%read_checkpoint), ckpt, ok, msg)
         call check_all(ok, where//': '//trim(msg))
         if (ckpt%deck_hash /= deck_hash(cfg%nml)) call stop_all(where//': the checkpoint was written by a different '// &
-            'deck (only &system read_checkpoint and &run walltime_limit may differ from the deck that wrote it)')
+            'deck (only &system read_checkpoint, &system restart_outputs and &run walltime_limit may differ from the '// &
+            'deck that wrote it)')
         ok = .true.
         do d = 1, 3
             write (tag, '(i0)') d

@@ -8,14 +8,15 @@
 #       and settings, every shared library these load except the C library's own, and Cu_u3.eam.
 #   scripts/bench/bundle.sh run DIR COMMAND...   (there) unpacks DIR/bundle.tar.xz to /tmp/terrace-bundle,
 #       sets PATH, LD_LIBRARY_PATH, OPAL_PREFIX (Open MPI relocated), TERRACE (the x86-64-v4 binary where
-#       the CPU has AVX-512, else x86-64-v3), LMP and EAM_FILE, and runs COMMAND.
+#       the CPU has AVX-512, else x86-64-v3), LMP and EAM_FILE, and runs COMMAND: scaling.sh, or any
+#       script that takes the binary from $TERRACE (es_cost.py --terrace "$TERRACE", where python3 is).
 #   scripts/bench/bundle.sh check DIR   (here) runs a small scaling.sh pass from the bundle with the
 #       system's Open MPI, LAMMPS and libraries hidden (a private mount namespace; needs root), to show
 #       that nothing outside the bundle is used.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
 cmd="${1:-}"; dir="${2:-}"
-[[ -n "$cmd" && -n "$dir" ]] || { sed -n '2,16p' "${BASH_SOURCE[0]}" >&2; exit 2; }
+[[ -n "$cmd" && -n "$dir" ]] || { sed -n '2,15p' "${BASH_SOURCE[0]}" >&2; exit 2; }
 mkdir -p "$dir"; dir="$(cd "$dir" && pwd)"
 arch=x86_64-linux-gnu
 ompi_plugins=/usr/lib/$arch/openmpi/lib/openmpi3

@@ -49,7 +49,6 @@ contains
         call bcast_text(text)
     end subroutine read_input_text
 
-    !> VmHWM of this process in KiB (0 when /proc is not available).
     !> Part n of an output file (n >= 2): '.part<n>' before the extension of the file name
     !> (traj.h5 -> traj.part2.h5; out/thermo -> out/thermo.part2); n <= 1 or an empty path: path.
     pure function part_path(path, n) result(p)
@@ -72,6 +71,7 @@ contains
         end if
     end function part_path
 
+    !> VmHWM of this process in KiB (0 when /proc is not available).
     integer(i8) function peak_memory_kib() result(kib)
         integer :: unit, ios
         character(len=256) :: line

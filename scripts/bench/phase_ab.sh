@@ -4,6 +4,9 @@
 # per binary, the lowest and the median of each phase of the run log (Pair, Neigh, Comm, Other,
 # Search) and of the loop time, and the ratio of each binary's median to the first one's. For a
 # change that moves one phase by a few per cent, which the loop time of a shared machine hides.
+# Where the runs differ in their step or event count (energy stepping: a change of round-off gives
+# another trajectory, with other events in the same simulated time), the times are per step or
+# event (microseconds) instead of per run.
 #
 # Usage: scripts/bench/phase_ab.sh ROUNDS DECK.nml BINARY_A BINARY_B [BINARY...]
 #        e.g. scripts/bench/phase_ab.sh 7 input/lj_bench.nml /tmp/terrace_before build/terrace
@@ -25,17 +28,31 @@ for ((r = 1; r <= rounds; r++)); do
     for k in "${!bins[@]}"; do
         "${bins[$k]}" "$(basename "$deck")" > run.log 2>&1 || { echo "phase_ab: binary $k failed:" >&2; tail -5 run.log >&2; exit 1; }
         awk -v k="$k" '/^(Pair|Neigh|Comm|Other|Search) +[0-9]/ {print k, $1, $2}
-                       /^Loop time:/ {print k, "Loop", $3}' run.log >> phases.txt
+                       /^Loop time:/ {print k, "Loop", $3; print k, "Count", $9; print k, "Unit", $10}' run.log >> phases.txt
     done
 done
 python3 - "$rounds" <<'PY'
 import sys, statistics as st
 rounds = int(sys.argv[1])
 t = {}
+unit = 'step'
 for line in open('phases.txt'):
     k, phase, v = line.split()
+    if phase == 'Unit':
+        unit = v.rstrip('s')
+        continue
     t.setdefault(phase, {}).setdefault(int(k), []).append(float(v))
-print('%d rounds; seconds, lowest / median; "vs 0": median over binary 0\'s' % rounds)
+counts = t.pop('Count')
+what = 'seconds'
+if len({c for v in counts.values() for c in v}) > 1:
+    # energy stepping: a change of round-off gives another trajectory, with another number of events
+    # in the same simulated time: compare per event (per step) instead of per run
+    for phase in t:
+        for k in t[phase]:
+            t[phase][k] = [1e6 * x / n for x, n in zip(t[phase][k], counts[k])]
+    what = 'microseconds per %s (the runs differ in %ss: %s)' % (
+        unit, unit, ', '.join('binary %d %d-%d' % (k, min(v), max(v)) for k, v in sorted(counts.items())))
+print('%d rounds; %s, lowest / median; "vs 0": median over binary 0\'s' % (rounds, what))
 print('%-7s %s' % ('phase', '  '.join('%-26s' % ('binary %d' % k) for k in sorted(t['Loop']))))
 for phase in ('Pair', 'Neigh', 'Comm', 'Search', 'Other', 'Loop'):
     if phase not in t:

@@ -244,6 +244,7 @@ contains
             call check_all(ok, cfg%where('output', 'checkpoint_file')//" = '"//trim(cfg%checkpoint_file)//"': "// &
                            trim(msg))
         end if
+        thermo%mesh = allocated(eng%mesh_tet)
         if (eng%restarted) then
             call open_outputs_append(extra_header, end_time)
             return

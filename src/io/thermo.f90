@@ -29,6 +29,9 @@ module terrace_thermo
         logical :: failed = .false.          !< a write failed (full disk): reported by close, collectively
         integer(i8) :: bytes = 0             !< bytes written to the file (checked against its size at close)
         character(len=256) :: why = ''
+        !> the atoms are a mesh's nodes: the screen says that its temp column is no temperature of
+        !> the solid (set before open)
+        logical :: mesh = .false.
     contains
         procedure :: open => thermo_open
         procedure :: open_append => thermo_open_append
@@ -74,17 +77,21 @@ contains
                 return
             end if
         end if
-        call screen_header(units)
+        call screen_header(units, self%mesh)
     end subroutine thermo_open
 
-    !> The screen's column names, with the units on a second line.
-    subroutine screen_header(units)
+    !> The screen's column names, with the units on a second line (and, for a mesh, what its temp
+    !> column is: the nodes' kinetic energy per degree of freedom over k_B, whatever the units).
+    subroutine screen_header(units, mesh)
         type(units_t), intent(in), optional :: units
+        logical, intent(in) :: mesh
         write (output_unit, '(a10,1x,a12,1x,a12,1x,a16,1x,a16,1x,a16,1x,a13,a)') 'step', 'time', 'temp', 'pe', 'ke', &
             'etotal', 'press', '  progress'
         if (present(units)) write (output_unit, '(a)') '      (units: time '//trim(units%time)//', temp '// &
             trim(units%temperature)//', pe ke etotal '//trim(units%energy)//', press '//trim(units%pressure)// &
             '; progress: % of the run and wall seconds left)'
+        if (mesh) write (output_unit, '(a)') "      (a mesh: temp is the nodes' kinetic energy per degree of "// &
+            'freedom over k_B, not a temperature of the solid)'
     end subroutine screen_header
 
     !> Continue the CSV of an interrupted run (restart from a checkpoint): keep its header and its
@@ -155,7 +162,7 @@ contains
             end if
             self%to_file = .true.
         end if
-        call screen_header(units)
+        call screen_header(units, self%mesh)
     end subroutine thermo_open_append
 
     subroutine thermo_write(self, s, extra)

@@ -24,6 +24,7 @@ module terrace_scene_plan
         !> allow it (runs_on_pruned_list: Lennard-Jones). Only with cell lists, and not where the
         !> passes need the complement list (want_below: EAM).
         logical :: inner_list = .false.
+        logical :: mesh = .false.            !< the atoms are a mesh's nodes (&system mesh_file)
         character(len=:), allocatable :: halo, pairs, potential, integrator, outputs, box
     contains
         procedure :: decide => plan_decide
@@ -45,6 +46,7 @@ contains
         self%natoms = natoms
         self%nprocs = nprocs
         self%dims = dims
+        self%mesh = len_trim(cfg%mesh_file) > 0
         self%pair_mode = pair_cells
         if (pot%supports_all_pairs()) then
             if (cfg%list == 'all_pairs' .or. pot%cutoff() == 0) then
@@ -141,7 +143,10 @@ contains
     subroutine plan_print(self, unit)
         class(plan_t), intent(in) :: self
         integer, intent(in) :: unit
-        write (unit, '(a,i0,a,i0,a,i0,a,i0,a,i0,a)') 'scene plan: ', self%natoms, ' atoms on ', self%nprocs, &
+        character(len=:), allocatable :: what
+        what = ' atoms on '
+        if (self%mesh) what = ' mesh nodes on '
+        write (unit, '(a,i0,a,i0,a,i0,a,i0,a,i0,a)') 'scene plan: ', self%natoms, what, self%nprocs, &
             ' rank(s), grid ', self%dims(1), ' x ', self%dims(2), ' x ', self%dims(3)
         write (unit, '(a)') '  box        : '//self%box
         write (unit, '(a)') '  pairs      : '//self%pairs

@@ -27,6 +27,7 @@ signal modes time to act.
 """
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -162,7 +163,7 @@ def interrupted_run(terrace, deck, out, np_, mode, length, t_ref, ref):
     cut = os.path.join(out, mode)
 
     def prepare():
-        subprocess.run(["rm", "-rf", cut], check=True)
+        shutil.rmtree(cut, ignore_errors=True)
         os.makedirs(cut)
         make_deck(deck, os.path.join(cut, "run.nml"), length, walltime="1e-6" if mode == "stop" else None)
         make_deck(deck, os.path.join(cut, "restart.nml"), length, restart="restart.h5")

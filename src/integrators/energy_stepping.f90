@@ -41,7 +41,7 @@ module terrace_energy_stepping
     use terrace_thermo, only: thermo_writer_t
     use terrace_observables, only: thermo_sample_t
     use terrace_trajectory, only: trajectory_t
-    use terrace_timers, only: t_output
+    use terrace_timers, only: t_output, t_comm
     use terrace_mpi_env, only: world, sum_all, min_all
     use terrace_exact_sum, only: exact_sum_all
     use terrace_errors, only: stop_all, check_all
@@ -129,10 +129,13 @@ contains
 
     !> Global sums over owned atoms: sigma2 = sum |g_i|^2 |v_i|^2 / d (variance of dV/dt for
     !> isotropic velocities), a = mvv2e sum |g_i|^2/m_i, b = mvv2e sum g_i.v_i (g = -f).
-    subroutine gradient_sums(eng, sigma2, a, b)
+    !> with_energy: eng%pe and eng%virial are this rank's parts (compute_forces with partial) and
+    !> are summed over ranks in the same reduction (where the potential does not sum them itself).
+    subroutine gradient_sums(eng, sigma2, a, b, with_energy)
         type(engine_t), intent(inout) :: eng
         real(dp), intent(out) :: sigma2, a, b
-        real(dp) :: acc(3), g2, m
+        logical, intent(in), optional :: with_energy
+        real(dp) :: acc(5), g2, m
         real(dp), allocatable, save :: part(:, :)   ! per-atom terms for the exact sums, kept between events
         integer :: i
         ! a potential that sums exactly (a mesh): these sums too, so that the kicks are the same
@@ -151,10 +154,22 @@ contains
                 g2 = sum(eng%atoms%f(:, i)**2)
                 part(i, :) = [g2*sum(eng%atoms%v(:, i)**2), g2/m, -sum(eng%atoms%f(:, i)*eng%atoms%v(:, i))]
             end do
-            call exact_sum_all(part, eng%atoms%nlocal, eng%natoms, acc, .true.)
+            call exact_sum_all(part, eng%atoms%nlocal, eng%natoms, acc(1:3), .true.)
         else
-            call plain_gradient_sums(eng%atoms, acc)
-            call sum_all(acc)
+            call plain_gradient_sums(eng%atoms, acc(1:3))
+            acc(4:5) = [eng%pe, eng%virial]
+            call eng%timers%start(t_comm)
+            if (present(with_energy)) then
+                if (with_energy) then
+                    call sum_all(acc)
+                    eng%pe = acc(4); eng%virial = acc(5)
+                else
+                    call sum_all(acc(1:3))
+                end if
+            else
+                call sum_all(acc(1:3))
+            end if
+            call eng%timers%stop(t_comm)
         end if
         sigma2 = acc(1)/eng%box%dimension
         a = eng%cfg%units%mvv2e*acc(2)
@@ -416,10 +431,11 @@ contains
             have_guess = .true.
             call eng%drift(res%s)
             t = t + res%s
-            call eng%compute_forces(.true.)
+            ! (V and the virial summed over ranks with the gradient sums: one reduction)
+            call eng%compute_forces(.true., partial=.true.)
             stats%force_passes = stats%force_passes + 1
+            call gradient_sums(eng, sigma2, a, b, with_energy=.true.)
             vstar = eng%pe
-            call gradient_sums(eng, sigma2, a, b)
             call terrace_jump_lambda(a, b, h, res%level == level_upper, lam, outcome)
             if (outcome == jump_none .or. (res%level == level_upper .and. vstar < upper - solver%tol) .or. &
                 (res%level == level_lower .and. vstar > lower + solver%tol)) then

@@ -182,9 +182,12 @@ contains
     !> Forces on owned atoms (ghost contributions summed back); with want_energy also the global
     !> potential energy and virial. Halo calls made by the potential between its passes are timed as
     !> communication.
-    subroutine engine_compute_forces(self, want_energy)
+    subroutine engine_compute_forces(self, want_energy, partial)
         class(engine_t), intent(inout), target :: self
         logical, intent(in) :: want_energy
+        !> .true.: pe and virial are left as this rank's parts where the potential does not sum them
+        !> over ranks itself (the caller sums them with its own sums: one reduction instead of two)
+        logical, intent(in), optional :: partial
         real(dp) :: ew(2)
         integer :: nall
         type(engine_halo_t) :: halo
@@ -204,6 +207,13 @@ contains
             call self%timers%stop(t_comm)
         end if
         if (want_energy) then
+            if (present(partial)) then
+                if (partial) then
+                    self%pe = ew(1); self%virial = ew(2)
+                    self%force_evaluations = self%force_evaluations + 1
+                    return
+                end if
+            end if
             if (.not. self%pot%sums_global()) then
                 call self%timers%start(t_comm)
                 call sum_all(ew)
@@ -312,8 +322,11 @@ contains
             if (world%nprocs > 1) call self%rep%gather(self%atoms, self%atoms%x)
             if (world%nprocs > 1 .and. velocities) call self%rep%gather(self%atoms, self%atoms%v)
         else
-            call self%dom%forward(self%atoms%x, .true.)
-            if (velocities) call self%dom%forward(self%atoms%v, .false.)
+            if (velocities) then
+                call self%dom%forward_xv(self%atoms%x, self%atoms%v)
+            else
+                call self%dom%forward(self%atoms%x, .true.)
+            end if
         end if
         call self%timers%stop(t_comm)
     end subroutine ghosts_from_owners

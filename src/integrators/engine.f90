@@ -38,6 +38,10 @@ module terrace_engine
         !> by the force and ray passes instead of `list` (a quarter of its pairs lie beyond that).
         type(neighbor_list_t) :: inner
         logical :: use_inner = .false.
+        !> use_inner: no atom had moved more than (skin - skin of the pruned list)/2 from the build
+        !> at the last prune, so the built list cannot expire before the pruned one (its expiry is
+        !> not computed until the next prune)
+        logical :: built_covered = .false.
         integer :: prunes = 0
         class(potential_t), allocatable :: pot
         real(dp) :: cutmax = 0                   !< the potential's largest cutoff (0: none)
@@ -165,6 +169,7 @@ contains
         if (self%plan%pair_mode == pair_cells) then
             call self%list%build(self%atoms)
             if (self%use_inner) call self%inner%prune(self%list, self%atoms, inner_cut(self))
+            self%built_covered = self%use_inner
         else
             call self%list%hold(self%atoms)           ! no pair list: only the displacement reference
         end if
@@ -333,12 +338,13 @@ contains
 
     !> Earliest time (from now, this rank's atoms) at which the neighbour list expires (an owned
     !> atom moving in a straight line reaches skin/2 from where the list was built), or the pruned
-    !> list (use_inner) does. Huge when there is no list.
+    !> list (use_inner) does. Huge when there is no list. While built_covered the built list is not
+    !> looked at (built = huge: it outlives the pruned one).
     real(dp) function engine_list_expiry(self, built) result(t)
         class(engine_t), intent(in) :: self
         real(dp), intent(out), optional :: built   !< the built list's own expiry (t: also the pruned one's)
         t = huge(1.0_dp)
-        if (self%plan%pair_mode /= pair_all) t = self%list%expiry(self%atoms)
+        if (self%plan%pair_mode /= pair_all .and. .not. self%built_covered) t = self%list%expiry(self%atoms)
         if (present(built)) built = t
         if (self%use_inner) t = min(t, self%inner%expiry(self%atoms))
     end function engine_list_expiry
@@ -349,6 +355,11 @@ contains
         if (.not. self%use_inner) return
         call self%timers%start(t_neigh)
         call self%inner%prune(self%list, self%atoms, inner_cut(self))
+        ! an atom within (skin - inner skin)/2 of its place at the build stays within skin/2 of it
+        ! until it has moved the pruned list's skin/2 (the triangle inequality): the built list then
+        ! outlives the pruned one (a margin of 1e-9 of the skin for round-off)
+        self%built_covered = sqrt(self%list%max_shift2(self%atoms)) <= &
+                             0.5_dp*(self%list%skin - self%inner%skin) - 1.0e-9_dp*self%list%skin
         self%prunes = self%prunes + 1
         call self%timers%stop(t_neigh)
     end subroutine engine_prune

@@ -71,7 +71,9 @@ module terrace_eam
         real(dp), allocatable :: ray_acc(:, :)      !< ray pass: (rho, rho', rho'', sum r f') per owned atom
         real(dp), allocatable :: work(:, :)         !< one-type kernels: per-neighbour rows of the current atom
         integer, allocatable :: iwork(:, :)         !< one-type kernels: compacted neighbour indices and knots
-        real(dp), allocatable :: ztab(:, :)         !< one type: (rho' c0..c2, z' c0..c2, z c3..c6) per r knot
+        real(dp), allocatable :: ztab(:, :)         !< one type: (rho' c0..c2, z c3..c6) per r knot
+        real(dp), allocatable :: rtab(:)            !< one type: density records (rho c3..c6) per r knot
+        integer :: rtab0 = 0                        !< where its first record starts (64-byte aligned)
         real(dp), allocatable :: dtab(:)            !< several types: density records (8 per knot and pair table)
         real(dp), allocatable :: ftab(:)            !< several types: force records (16 per knot and pair table)
         integer :: dtab0 = 0, ftab0 = 0             !< where their first record starts (64-byte aligned)
@@ -347,6 +349,7 @@ contains
         if (allocated(self%t2f)) deallocate (self%t2f, self%t2rho, self%t2z)
         if (allocated(self%mass)) deallocate (self%mass)
         if (allocated(self%ztab)) deallocate (self%ztab)
+        if (allocated(self%rtab)) deallocate (self%rtab)
         if (allocated(self%dtab)) deallocate (self%dtab, self%ftab, self%pair_off)
         self%kept = .false.
         allocate (self%t2f(ntypes), self%t2rho(ntypes, ntypes), self%t2z(ntypes, ntypes), self%mass(ntypes))
@@ -579,8 +582,9 @@ contains
         call reserve_work(self, atoms%nlocal, list%first)
         call reserve_pairs(self, atoms%nlocal, list%first)
         if (self%ntypes == 1) then
+            if (.not. allocated(self%rtab)) call build_rtab(self)
             call density_one(atoms%nlocal, atoms%x, list%first, list%neigh, self%cutsq, self%rdr, self%nr, &
-                             self%rspl(:, :, self%t2rho(1, 1)), self%rho, self%cj, self%cfirst, self%work(:, 1), &
+                             self%rtab(self%rtab0 + 1:), self%rho, self%cj, self%cfirst, self%work(:, 1), &
                              self%iwork(:, 1))
         else
             if (.not. allocated(self%dtab)) call build_pair_tables(self)
@@ -956,14 +960,22 @@ contains
     !> One type: the force pass's three lookups (rho', z', z) side by side per knot, so that a pair
     !> reads one record: t(1:3, m) = rho' coefficients, t(4:6, m) = z' coefficients, t(7:10, m) = z
     !> coefficients (c3, c4, c5, y), as in rspl / zspl.
+    subroutine build_rtab(self)
+        type(eam_t), intent(inout) :: self
+        integer :: n
+        n = 4*self%nr
+        allocate (self%rtab(n + 8))
+        self%rtab0 = align_shift(self%rtab)
+        self%rtab(self%rtab0 + 1:self%rtab0 + n) = reshape(self%rspl(4:7, :, self%t2rho(1, 1)), [n])
+    end subroutine build_rtab
+
     subroutine build_ztab(self)
         type(eam_t), intent(inout) :: self
         integer :: a, c
         a = self%t2rho(1, 1); c = self%t2z(1, 1)
-        allocate (self%ztab(10, self%nr))
+        allocate (self%ztab(7, self%nr))
         self%ztab(1:3, :) = self%rspl(1:3, :, a)
-        self%ztab(4:6, :) = self%zspl(1:3, :, c)
-        self%ztab(7:10, :) = self%zspl(4:7, :, c)
+        self%ztab(4:7, :) = self%zspl(4:7, :, c)
     end subroutine build_ztab
 
     !> Several types: one table per distinct (rho_ba, rho_ab, phi_ab) of an ordered type pair (a, b)
@@ -990,7 +1002,7 @@ contains
                 id(tb, ta) = n
             end do
         end do
-        allocate (d(8, nr*n), t(16, nr*n), self%pair_off(nt, nt))
+        allocate (d(8, nr*n), t(10, nr*n), self%pair_off(nt, nt))
         self%pair_off = (id - 1)*nr
         t = 0
         do u = 1, n
@@ -999,8 +1011,7 @@ contains
             d(5:8, k + 1:k + nr) = self%rspl(4:7, :, key(2, u))
             t(1:3, k + 1:k + nr) = self%rspl(1:3, :, key(1, u))
             t(4:6, k + 1:k + nr) = self%rspl(1:3, :, key(2, u))
-            t(7:9, k + 1:k + nr) = self%zspl(1:3, :, key(3, u))
-            t(10:13, k + 1:k + nr) = self%zspl(4:7, :, key(3, u))
+            t(7:10, k + 1:k + nr) = self%zspl(4:7, :, key(3, u))
         end do
         ! records on cache lines: the copies start at the first 64-byte boundary of their arrays
         allocate (self%dtab(size(d) + 8), self%ftab(size(t) + 8))
@@ -1047,7 +1058,7 @@ contains
     subroutine density_one(nlocal, x, first, neigh, cutsq, rdr, nr, s, rho, cj, cfirst, pp, mm)
         integer, intent(in) :: nlocal, nr
         real(dp), intent(in) :: x(3, *)     ! explicit shape: constant stride in the gathers
-        real(dp), intent(in), contiguous :: s(:, :)
+        real(dp), intent(in) :: s(4, *)     ! density records (rho c3..c6) per knot
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in) :: cutsq, rdr
         real(dp), intent(inout), contiguous :: rho(:)
@@ -1083,7 +1094,7 @@ contains
             acc = 0
             do k = 1, nin
                 m = mm(k); p = pp(k)
-                v = ((s(4, m)*p + s(5, m))*p + s(6, m))*p + s(7, m)
+                v = ((s(1, m)*p + s(2, m))*p + s(3, m))*p + s(4, m)
                 acc = acc + v
                 j = cj(c + k)
                 rho(j) = rho(j) + v
@@ -1297,8 +1308,8 @@ contains
             do k = 1, n
                 m = mm(k); p = pp(k)
                 rp = (t(1, m)*p + t(2, m))*p + t(3, m)
-                zp = (t(4, m)*p + t(5, m))*p + t(6, m)
-                z = ((t(7, m)*p + t(8, m))*p + t(9, m))*p + t(10, m)
+                zp = ((3*t(4, m)*p + 2*t(5, m))*p + t(6, m))*rdr
+                z = ((t(4, m)*p + t(5, m))*p + t(6, m))*p + t(7, m)
                 fj(k) = fj(k)*rp
                 pp(k) = zp
                 ph(k) = z
@@ -1347,7 +1358,7 @@ contains
         integer, intent(in) :: nlocal, nr
         real(dp), intent(in) :: x(3, *)
         real(dp), intent(in), contiguous :: fp(:)
-        real(dp), intent(in) :: t(16, *)
+        real(dp), intent(in) :: t(10, *)
         real(dp), intent(inout) :: f(3, *)
         integer, intent(in), contiguous :: cj(:), ct(:), cfirst(:)
         real(dp), intent(in) :: rdr
@@ -1396,8 +1407,8 @@ contains
                     m = mm(k); p = pp(k)
                     rjp = (t(1, m)*p + t(2, m))*p + t(3, m)
                     rip = (t(4, m)*p + t(5, m))*p + t(6, m)
-                    zp = (t(7, m)*p + t(8, m))*p + t(9, m)
-                    z = ((t(10, m)*p + t(11, m))*p + t(12, m))*p + t(13, m)
+                    zp = ((3*t(7, m)*p + 2*t(8, m))*p + t(9, m))*rdr
+                    z = ((t(7, m)*p + t(8, m))*p + t(9, m))*p + t(10, m)
                     fj(k) = fpi*rjp + fj(k)*rip
                     pp(k) = zp
                     ph(k) = z

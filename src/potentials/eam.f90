@@ -75,7 +75,7 @@ module terrace_eam
         real(dp), allocatable :: rtab(:)            !< one type: density records (rho c3..c6) per r knot
         integer :: rtab0 = 0                        !< where its first record starts (64-byte aligned)
         real(dp), allocatable :: dtab(:)            !< several types: density records (8 per knot and pair table)
-        real(dp), allocatable :: ftab(:)            !< several types: force records (16 per knot and pair table)
+        real(dp), allocatable :: ftab(:)            !< several types: force records (10 per knot and pair table)
         integer :: dtab0 = 0, ftab0 = 0             !< where their first record starts (64-byte aligned)
         integer, allocatable :: cj(:), cfirst(:)    !< pairs inside the cutoff: partners cj(cfirst(i):cfirst(i+1)-1) of i
         integer, allocatable :: ct(:)               !< several types: the table offset of pair cj(c), pair_off(type j, type i)
@@ -957,9 +957,8 @@ contains
         if (.not. allocated(self%work)) allocate (self%work(nb + nb/4, 12), self%iwork(nb + nb/4, 3))
     end subroutine reserve_work
 
-    !> One type: the force pass's three lookups (rho', z', z) side by side per knot, so that a pair
-    !> reads one record: t(1:3, m) = rho' coefficients, t(4:6, m) = z' coefficients, t(7:10, m) = z
-    !> coefficients (c3, c4, c5, y), as in rspl / zspl.
+    !> One type: the density pass's records, rho c3..c6 per knot (32 bytes, the table 64-byte
+    !> aligned: a record never straddles a cache line; the rows of rspl are 56 bytes).
     subroutine build_rtab(self)
         type(eam_t), intent(inout) :: self
         integer :: n
@@ -969,6 +968,10 @@ contains
         self%rtab(self%rtab0 + 1:self%rtab0 + n) = reshape(self%rspl(4:7, :, self%t2rho(1, 1)), [n])
     end subroutine build_rtab
 
+    !> One type: the force pass's lookups side by side per knot, so that a pair reads one record:
+    !> t(1:3, m) = rho' coefficients (c0, c1, c2), t(4:7, m) = z coefficients (c3, c4, c5, y), as in
+    !> rspl / zspl. z' is formed from z's own coefficients, ((3 c3 p + 2 c4) p + c5)/dr (what its
+    !> stored c0..c2 are): 56-byte records instead of 80.
     subroutine build_ztab(self)
         type(eam_t), intent(inout) :: self
         integer :: a, c
@@ -982,8 +985,8 @@ contains
     !> (types mapped to the same element share it), knots contiguous per table, so that a pair's
     !> lookups read one record at column m + pair_off(b, a) (m = the knot):
     !>   density (8 values) = rho_ba c3..c6 (density at the type-a atom), rho_ab c3..c6;
-    !>   force (16) = rho_ba' c0..c2, rho_ab' c0..c2, z' c0..c2, z c3..c6, 3 zeros (a record is
-    !>   two cache lines, the density record one: both tables start on a 64-byte boundary).
+    !>   force (10) = rho_ba' c0..c2, rho_ab' c0..c2, z c3..c6 (z' from z's coefficients, as in
+    !>   build_ztab; 80 bytes instead of 128); both tables start on a 64-byte boundary.
     subroutine build_pair_tables(self)
         type(eam_t), intent(inout) :: self
         integer :: ta, tb, u, n, k, nt, nr, key(3, self%ntypes**2), id(self%ntypes, self%ntypes)
@@ -1352,7 +1355,7 @@ contains
     !> Several types: psi'(r) = fp_i rho_ba'(r) + fp_j rho_ab'(r) + phi_ab'(r) (a = type i, b = type
     !> j), staged and blocked as force_one; the pair's table offset is the density pass's, ct(c)
     !> (a contiguous read, not a gather of type j), its record t(:, m) = (rho_ba' c0..c2,
-    !> rho_ab' c0..c2, z' c0..c2, z c3..c6).
+    !> rho_ab' c0..c2, z c3..c6); z' = ((3 c3 p + 2 c4) p + c5)/dr.
     subroutine force_types(nlocal, x, f, cj, ct, cfirst, rdr, nr, t, fp, want_energy, energy, virial, &
                            dx, dy, dz, rr, pp, rinv, fj, ph, mm)
         integer, intent(in) :: nlocal, nr

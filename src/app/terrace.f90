@@ -244,7 +244,6 @@ contains
             call check_all(ok, cfg%where('output', 'checkpoint_file')//" = '"//trim(cfg%checkpoint_file)//"': "// &
                            trim(msg))
         end if
-        thermo%mesh = allocated(eng%mesh_tet)
         if (eng%restarted) then
             call open_outputs_append(extra_header, end_time)
             return
@@ -274,7 +273,8 @@ contains
             if (.not. ok) call traj%discard()
             call check_all(ok, traj_path//': cannot create the trajectory (&output trajectory_file): '//trim(msg))
         end if
-        call thermo%open(thermo_path, end_time, trim(cfg%units%time), extra_header, ok, msg, units=cfg%units)
+        call thermo%open(thermo_path, end_time, trim(cfg%units%time), extra_header, ok, msg, units=cfg%units, &
+                         mesh=allocated(eng%mesh_tet))
         call any_failed(ok)
         if (.not. ok) call traj%discard()
         call check_all(ok, thermo_path//': cannot write the thermo file (&output thermo_file): '//trim(msg))
@@ -322,7 +322,7 @@ contains
                            'checkpoint: '//trim(msg))
         end if
         call thermo%open_append(thermo_path, end_time, trim(cfg%units%time), extra_header, lines, ok, msg, &
-                                 units=cfg%units)
+                                 units=cfg%units, mesh=allocated(eng%mesh_tet))
         call any_failed(ok)
         call check_all(ok, thermo_path//': cannot continue the thermo file (&output thermo_file) from the '// &
                        'checkpoint: '//trim(msg)//hint)

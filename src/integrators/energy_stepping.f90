@@ -137,7 +137,11 @@ contains
         logical, intent(in), optional :: with_energy
         real(dp) :: acc(5), g2, m
         real(dp), allocatable, save :: part(:, :)   ! per-atom terms for the exact sums, kept between events
-        integer :: i
+        integer :: i, n
+        n = 3
+        if (present(with_energy)) then
+            if (with_energy) n = 5
+        end if
         ! a potential that sums exactly (a mesh): these sums too, so that the kicks are the same
         ! bits on any number of ranks
         if (eng%pot%sums_global()) then
@@ -159,17 +163,11 @@ contains
             call plain_gradient_sums(eng%atoms, acc(1:3))
             acc(4:5) = [eng%pe, eng%virial]
             call eng%timers%start(t_comm)
-            if (present(with_energy)) then
-                if (with_energy) then
-                    call sum_all(acc)
-                    eng%pe = acc(4); eng%virial = acc(5)
-                else
-                    call sum_all(acc(1:3))
-                end if
-            else
-                call sum_all(acc(1:3))
-            end if
+            call sum_all(acc(1:n))
             call eng%timers%stop(t_comm)
+            if (n == 5) then
+                eng%pe = acc(4); eng%virial = acc(5)
+            end if
         end if
         sigma2 = acc(1)/eng%box%dimension
         a = eng%cfg%units%mvv2e*acc(2)

@@ -195,6 +195,7 @@ contains
         logical, intent(in), optional :: partial
         real(dp) :: ew(2)
         integer :: nall
+        logical :: sum_here
         type(engine_halo_t) :: halo
         halo%eng => self
         call self%timers%start(t_pair)
@@ -211,15 +212,10 @@ contains
             call self%dom%reverse(self%atoms%f)
             call self%timers%stop(t_comm)
         end if
+        sum_here = .not. self%pot%sums_global()
+        if (present(partial)) sum_here = sum_here .and. .not. partial
         if (want_energy) then
-            if (present(partial)) then
-                if (partial) then
-                    self%pe = ew(1); self%virial = ew(2)
-                    self%force_evaluations = self%force_evaluations + 1
-                    return
-                end if
-            end if
-            if (.not. self%pot%sums_global()) then
+            if (sum_here) then
                 call self%timers%start(t_comm)
                 call sum_all(ew)
                 call self%timers%stop(t_comm)
@@ -358,8 +354,8 @@ contains
         ! an atom within (skin - inner skin)/2 of its place at the build stays within skin/2 of it
         ! until it has moved the pruned list's skin/2 (the triangle inequality): the built list then
         ! outlives the pruned one (a margin of 1e-9 of the skin for round-off)
-        self%built_covered = sqrt(self%list%max_shift2(self%atoms)) <= &
-                             0.5_dp*(self%list%skin - self%inner%skin) - 1.0e-9_dp*self%list%skin
+        self%built_covered = .not. self%list%moved_beyond(self%atoms, &
+                                 0.5_dp*(self%list%skin - self%inner%skin) - 1.0e-9_dp*self%list%skin)
         self%prunes = self%prunes + 1
         call self%timers%stop(t_neigh)
     end subroutine engine_prune

@@ -29,9 +29,6 @@ module terrace_thermo
         logical :: failed = .false.          !< a write failed (full disk): reported by close, collectively
         integer(i8) :: bytes = 0             !< bytes written to the file (checked against its size at close)
         character(len=256) :: why = ''
-        !> the atoms are a mesh's nodes: the screen says that its temp column is no temperature of
-        !> the solid (set before open)
-        logical :: mesh = .false.
     contains
         procedure :: open => thermo_open
         procedure :: open_append => thermo_open_append
@@ -43,13 +40,15 @@ module terrace_thermo
 contains
 
     !> Open the CSV (when a file name is given) and print the screen header.
-    subroutine thermo_open(self, path, end_time, time_unit, extra_header, ok, msg, units)
+    subroutine thermo_open(self, path, end_time, time_unit, extra_header, ok, msg, units, mesh)
         class(thermo_writer_t), intent(inout) :: self
         character(len=*), intent(in) :: path, time_unit, extra_header
         real(dp), intent(in) :: end_time
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
         type(units_t), intent(in), optional :: units
+        !> the atoms are a mesh's nodes: the screen says its temp column is no temperature of the solid
+        logical, intent(in), optional :: mesh
         integer :: ios
         ok = .true.; msg = ''
         self%end_time = end_time
@@ -77,33 +76,36 @@ contains
                 return
             end if
         end if
-        call screen_header(units, self%mesh)
+        call screen_header(units, mesh)
     end subroutine thermo_open
 
     !> The screen's column names, with the units on a second line (and, for a mesh, what its temp
     !> column is: the nodes' kinetic energy per degree of freedom over k_B, whatever the units).
     subroutine screen_header(units, mesh)
         type(units_t), intent(in), optional :: units
-        logical, intent(in) :: mesh
+        logical, intent(in), optional :: mesh
         write (output_unit, '(a10,1x,a12,1x,a12,1x,a16,1x,a16,1x,a16,1x,a13,a)') 'step', 'time', 'temp', 'pe', 'ke', &
             'etotal', 'press', '  progress'
         if (present(units)) write (output_unit, '(a)') '      (units: time '//trim(units%time)//', temp '// &
             trim(units%temperature)//', pe ke etotal '//trim(units%energy)//', press '//trim(units%pressure)// &
             '; progress: % of the run and wall seconds left)'
-        if (mesh) write (output_unit, '(a)') "      (a mesh: temp is the nodes' kinetic energy per degree of "// &
-            'freedom over k_B, not a temperature of the solid)'
+        if (present(mesh)) then
+            if (mesh) write (output_unit, '(a)') "      (a mesh: temp is the nodes' kinetic energy per degree of "// &
+                'freedom over k_B, not a temperature of the solid)'
+        end if
     end subroutine screen_header
 
     !> Continue the CSV of an interrupted run (restart from a checkpoint): keep its header and its
     !> first `keep` data lines, drop any later ones (written after the checkpoint by a run that was
     !> then killed), and append. Fails when the file is missing or holds fewer lines.
-    subroutine thermo_open_append(self, path, end_time, time_unit, extra_header, keep, ok, msg, units)
+    subroutine thermo_open_append(self, path, end_time, time_unit, extra_header, keep, ok, msg, units, mesh)
         class(thermo_writer_t), intent(inout) :: self
         character(len=*), intent(in) :: path, time_unit, extra_header
         real(dp), intent(in) :: end_time
         integer(i8), intent(in) :: keep
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
+        logical, intent(in), optional :: mesh     !< as in thermo_open
         type(units_t), intent(in), optional :: units
         character(len=:), allocatable :: source
         character(len=:), allocatable :: text
@@ -162,7 +164,7 @@ contains
             end if
             self%to_file = .true.
         end if
-        call screen_header(units, self%mesh)
+        call screen_header(units, mesh)
     end subroutine thermo_open_append
 
     subroutine thermo_write(self, s, extra)

@@ -76,7 +76,7 @@ module terrace_neighbor_list
         procedure :: prune => nl_prune
         procedure :: exact => nl_exact
         procedure :: expiry => nl_expiry
-        procedure :: max_shift2 => nl_max_shift2
+        procedure :: moved_beyond => nl_moved_beyond
     end type neighbor_list_t
 
 contains
@@ -614,19 +614,13 @@ contains
         end do
     end function nl_expiry
 
-    !> The largest squared displacement of an owned atom since the last build (or prune).
-    real(dp) function nl_max_shift2(self, atoms) result(d2)
+    !> Whether an owned atom has moved more than dist since the last build (or prune) (this rank).
+    logical function nl_moved_beyond(self, atoms, dist) result(flag)
         class(neighbor_list_t), intent(in) :: self
         type(atoms_t), intent(in) :: atoms
-        integer :: i
-        real(dp) :: dx, dy, dz
-        d2 = 0
-        do i = 1, atoms%nlocal
-            dx = atoms%x(1, i) - self%xhold(1, i); dy = atoms%x(2, i) - self%xhold(2, i)
-            dz = atoms%x(3, i) - self%xhold(3, i)
-            d2 = max(d2, dx*dx + dy*dy + dz*dz)
-        end do
-    end function nl_max_shift2
+        real(dp), intent(in) :: dist
+        flag = moved_too_far(atoms%nlocal, atoms%x, self%xhold, dist*dist)
+    end function nl_moved_beyond
 
     !> The time at which an atom at x moving with v reaches the distance sqrt(r2) from xhold: the
     !> positive root of a s^2 + 2 b s + c = 0 (a = |v|^2, b = d.v, c = |d|^2 - r2, d = x - xhold),

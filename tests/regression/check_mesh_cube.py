@@ -14,6 +14,7 @@
 usage: check_mesh_cube.py TERRACE OUTDIR
 """
 import os
+import re
 import sys
 
 import numpy as np
@@ -44,6 +45,10 @@ for np_ in (1, 2, 4):
     deck(f"es_np{np_}", f"style='energy_stepping', terrace_height={h}", "n_steps=1000", "thermo_every=50")
     r = run(f"es_np{np_}", np_)
     check(r.returncode == 0, f"energy stepping on {np_} rank(s) ran (exit {r.returncode}) {r.stderr.strip()[:200]}")
+    if np_ == 1:
+        # the screen says what a mesh's temp column is, and the plan counts mesh nodes
+        check("not a temperature of the solid" in r.stdout, "the screen explains the mesh's temp column")
+        check(re.search(r"scene plan: \d+ mesh nodes on 1 rank", r.stdout) is not None, "the plan counts mesh nodes")
 if failed:
     sys.exit(1)
 t = {n: np.genfromtxt(os.path.join(out, f"es_np{n}.csv"), delimiter=",", names=True) for n in (1, 2, 4)}

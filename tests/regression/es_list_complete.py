@@ -116,20 +116,18 @@ def main():
                 failures.append(f'{scene}, {np_} rank(s): the last thermo row is at time {row["time"]}, not {end}')
             builds = int(re.search(r'Neighbour list builds: (\d+)', out).group(1))
             prunes = re.search(r': (\d+) prunes', out)
+            x = np.loadtxt(os.path.join(work, 'final.atoms'), comments='#')[:, 1:4]
             if scene == 'lj':
-                x = np.loadtxt(os.path.join(work, 'final.atoms'), comments='#')[:, 1:4]
                 pe_ref = all_pairs_energy(x, length)
                 ref = 'all pairs (numpy)'
-                natoms = len(x)
             else:
                 open(os.path.join(work, 'zero.nml'), 'w').write(EAM_ZERO)
                 subprocess.run([os.path.abspath(a.terrace), 'zero.nml'], cwd=work, capture_output=True,
                                text=True, env=env, timeout=600, check=True)
                 pe_ref = float(last_row(os.path.join(work, 'zero.csv'))['pe'])
                 ref = 'a list built for the final positions'
-                natoms = 108
             rel = abs(pe_run - pe_ref)/abs(pe_ref)
-            print(f'{scene}, {np_} rank(s): {natoms} atoms, {builds} list builds'
+            print(f'{scene}, {np_} rank(s): {len(x)} atoms, {builds} list builds'
                   f'{", " + prunes.group(1) + " prunes" if prunes else ""}; pe from the run {pe_run:.12e}, '
                   f'from {ref} {pe_ref:.12e}, relative difference {rel:.2e}')
             if builds < a.min_builds:

@@ -789,8 +789,8 @@ contains
         out = out + [e + ce, e1, e2, w]
     end subroutine ray_pairs
 
-    !> ray_pairs for one type, staged like force_one: per atom, the separations and relative
-    !> velocities at s gathered into rows, squared distances vectorised, the pairs inside the cutoff
+    !> ray_pairs for one type, staged like force_one: per atom, each pair's |d|^2, d.w and |w|^2
+    !> (separation d, relative velocity w at s) gathered into rows, the pairs inside the cutoff
     !> compacted without branches, r, 1/r, r', r'', knot and offset vectorised, then the lookups.
     subroutine ray_one(self, nlocal, x, v, first, neigh, bfirst, below, s, acc, out)
         type(eam_t), intent(inout) :: self
@@ -807,10 +807,9 @@ contains
         a = self%t2rho(1, 1); c = self%t2z(1, 1)
         e = 0; e1 = 0; e2 = 0; w = 0; ce = 0
         acc(:, 1:nlocal) = 0
-        associate (sr => self%rspl(:, :, a), sz => self%zspl(:, :, c), dx => self%work(:, 1), dy => self%work(:, 2), &
-                   dz => self%work(:, 3), wx => self%work(:, 4), wy => self%work(:, 5), wz => self%work(:, 6), &
-                   rr => self%work(:, 7), pp => self%work(:, 8), rpv => self%work(:, 9), rppv => self%work(:, 10), &
-                   rv => self%work(:, 11), kk => self%iwork(:, 1), mm => self%iwork(:, 2))
+        associate (sr => self%rspl(:, :, a), sz => self%zspl(:, :, c), rr => self%work(:, 7), pp => self%work(:, 8), &
+                   rpv => self%work(:, 9), rppv => self%work(:, 10), rv => self%work(:, 11), kk => self%iwork(:, 1), &
+                   mm => self%iwork(:, 2))
         do i = 1, nlocal
             vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
             xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
@@ -855,42 +854,42 @@ contains
     contains
         !> Rows for the nn neighbours list(k0+1 : k0+nn) of atom i: the nin inside the cutoff, with
         !> r (rv), 1/r (rr), r' (rpv), r'' (rppv), knot (mm), offset (pp) and list position (kk).
+        !> The gather forms each pair's |d|^2, d.w and |w|^2 (three rows, not d and w: six rows
+        !> stored, compacted and read again cost a fifth more per ray evaluation in the LJ pass).
         subroutine stage(list, k0_, nn_)
             integer, intent(in), contiguous :: list(:)
             integer, intent(in) :: k0_, nn_
             integer :: q, jj, mq
-            real(dp) :: ddx, ddy, ddz, dwx, dwy, dwz, rq, rinvq, rpq, pq
-            associate (dx => self%work(:, 1), dy => self%work(:, 2), dz => self%work(:, 3), wx => self%work(:, 4), &
-                       wy => self%work(:, 5), wz => self%work(:, 6), rr => self%work(:, 7), pp => self%work(:, 8), &
+            real(dp) :: ddx, ddy, ddz, dwx, dwy, dwz, rq, rinvq, rpq, pq, rsq_q, dw_q, ww_q
+            associate (dw => self%work(:, 1), ww => self%work(:, 2), rr => self%work(:, 7), pp => self%work(:, 8), &
                        rpv => self%work(:, 9), rppv => self%work(:, 10), rv => self%work(:, 11), kk => self%iwork(:, 1), &
                        mm => self%iwork(:, 2))
             !GCC$ novector
             do q = 1, nn_
                 jj = list(k0_ + q)
-                wx(q) = vxi - v(1, jj); wy(q) = vyi - v(2, jj); wz(q) = vzi - v(3, jj)
-                dx(q) = xi - (x(1, jj) + s*v(1, jj)); dy(q) = yi - (x(2, jj) + s*v(2, jj))
-                dz(q) = zi - (x(3, jj) + s*v(3, jj))
-            end do
-            do q = 1, nn_
-                rr(q) = dx(q)*dx(q) + dy(q)*dy(q) + dz(q)*dz(q)
+                dwx = vxi - v(1, jj); dwy = vyi - v(2, jj); dwz = vzi - v(3, jj)
+                ddx = xi - (x(1, jj) + s*v(1, jj)); ddy = yi - (x(2, jj) + s*v(2, jj))
+                ddz = zi - (x(3, jj) + s*v(3, jj))
+                rr(q) = ddx*ddx + ddy*ddy + ddz*ddz
+                dw(q) = ddx*dwx + ddy*dwy + ddz*dwz
+                ww(q) = dwx*dwx + dwy*dwy + dwz*dwz
             end do
             nin = 0
             do q = 1, nn_
-                ddx = dx(q); ddy = dy(q); ddz = dz(q); dwx = wx(q); dwy = wy(q); dwz = wz(q)
-                dx(nin + 1) = ddx; dy(nin + 1) = ddy; dz(nin + 1) = ddz
-                wx(nin + 1) = dwx; wy(nin + 1) = dwy; wz(nin + 1) = dwz
-                pp(nin + 1) = rr(q)
+                rsq_q = rr(q); dw_q = dw(q); ww_q = ww(q)
+                dw(nin + 1) = dw_q; ww(nin + 1) = ww_q
+                pp(nin + 1) = rsq_q
                 kk(nin + 1) = q
-                nin = nin + merge(1, 0, rr(q) < cutsq)
+                nin = nin + merge(1, 0, rsq_q < cutsq)
             end do
             do q = 1, nin
                 rq = sqrt(pp(q))
                 rinvq = 1/rq
-                rpq = (dx(q)*wx(q) + dy(q)*wy(q) + dz(q)*wz(q))*rinvq
+                rpq = dw(q)*rinvq
                 rv(q) = rq
                 rr(q) = rinvq
                 rpv(q) = rpq
-                rppv(q) = (wx(q)*wx(q) + wy(q)*wy(q) + wz(q)*wz(q) - rpq*rpq)*rinvq
+                rppv(q) = (ww(q) - rpq*rpq)*rinvq
                 pq = rq*rdr + 1
                 mq = int(min(pq, top))
                 mm(q) = mq

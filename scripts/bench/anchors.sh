@@ -11,7 +11,9 @@
 #          1 A): Terrace against LAMMPS plain and -sf opt.
 #   types  EAM cost per pair of the multi-type paths against the one-type path: fcc Cu with Cu_u3.eam
 #          (eam, funcfl), a random 50/50 Cu-Ni alloy with CuNi.eam.alloy (eam/alloy), the same lattice
-#          all Cu with CuNi.eam.alloy (setfl path, one element), bcc Fe with Fe_mm.eam.fs (eam/fs) and
+#          all Cu with CuNi.eam.alloy (setfl path, one element), the same all-Cu lattice with both
+#          elements declared (cu_two_types: the multi-type path on a single type, which separates that
+#          path's own cost from the random mixture's), bcc Fe with Fe_mm.eam.fs (eam/fs) and
 #          fcc Cu with Cu_mishin1.eam.alloy (one element, but 10,001 table knots like Fe_mm against 500);
 #          32,000 atoms (Fe 31,250), 1600 K start, skin 1 A, Terrace and LAMMPS. Cost per pair = the
 #          "Pair" phase time / (steps x pairs within rc + skin), the pair count from LAMMPS's neighbour
@@ -377,17 +379,19 @@ PY
 
 # ---- EAM: cost per pair, one type against eam/alloy and eam/fs --------------------------------
 if [[ "$parts" == *,types,* ]] && have lmp; then
-    # name lattice a cells style file elements(LAMMPS order) data?
+    # name lattice a cells style file elements(LAMMPS order) data? (0: lattice deck; 1: a data file with
+    # half the atoms of type 2 at random; 2: a data file with two types, every atom of type 1)
     scenes=("cu_u3 fcc 3.615 20 eam Cu_u3.eam - 0"
             "cuni_alloy fcc 3.56 20 eam/alloy CuNi.eam.alloy Cu,Ni 1"
             "cu_alloy fcc 3.56 20 eam/alloy CuNi.eam.alloy Cu 0"
+            "cu_two_types fcc 3.56 20 eam/alloy CuNi.eam.alloy Cu,Ni 2"
             "fe_fs bcc 2.8553 25 eam/fs Fe_mm.eam.fs Fe 0"
             "cu_mishin fcc 3.615 20 eam/alloy Cu_mishin1.eam.alloy Cu 0")
     echo "== EAM cost per pair: one type (eam) against eam/alloy and eam/fs, $neam steps, 1600 K start, skin 1 A"
     : > types.txt
     for s in "${scenes[@]}"; do
         read -r name lat a n style file elems data <<< "$s"
-        ntypes=1; [[ $data == 1 ]] && ntypes=2
+        ntypes=1; [[ $data != 0 ]] && ntypes=2
         coeff="* * $pot/$file ${elems//,/ }"; [[ $style == eam ]] && coeff="1 1 $pot/$file"
         cat > $name.in <<LMP
 variable nrun index $neam
@@ -406,12 +410,12 @@ neigh_modify every 1 delay 0 check yes
 fix 1 all nve
 timestep 0.005
 thermo 50
-$( [[ $data == 1 ]] && echo "write_data $name.data nocoeff" )
+$( [[ $data != 0 ]] && echo "write_data $name.data nocoeff" )
 run 0
 run \${nrun}
 LMP
         tel=""; [[ $style != eam ]] && tel=", elements=$(sed "s/\([A-Za-z]*\)/'\1'/g" <<< "$elems")"
-        if [[ $data == 1 ]]; then
+        if [[ $data != 0 ]]; then
             sys="read_data='$name.data'"
             lmp -screen none -log $name.make.log -var nrun 0 -in $name.in > /dev/null   # writes the data file
         else

@@ -689,15 +689,10 @@ contains
             if (size(self%ray_acc, 2) < n) deallocate (self%ray_acc)
         end if
         if (.not. allocated(self%ray_acc)) allocate (self%ray_acc(4, n + n/4 + 16))
-        if (self%ntypes == 1) then
-            call reserve_work(self, n, list%first)
-            call reserve_work(self, n, list%below_first)
-            call ray_one(self, n, atoms%x, atoms%v, list%first, list%neigh, list%below_first, list%below, s, &
-                         self%ray_acc, out)
-        else
-            call ray_pairs(self, n, atoms%x, atoms%v, atoms%type, list%first, list%neigh, list%below_first, list%below, &
-                           s, self%ray_acc, out)
-        end if
+        call reserve_work(self, n, list%first)
+        call reserve_work(self, n, list%below_first)
+        call ray_staged(self, n, atoms%x, atoms%v, atoms%type, list%first, list%neigh, list%below_first, list%below, s, &
+                        self%ray_acc, out)
         call ray_embed(n, atoms%type, self%t2f, self%fspl, self%rdrho, self%nrho, self%rhomax, self%ray_acc, out, lo, hi)
         self%rho_low = min(self%rho_low, lo)
         self%rho_high = max(self%rho_high, hi)
@@ -705,146 +700,108 @@ contains
     end subroutine eam_ray
 
     !> Pair terms of the ray (half list) and the per-atom density sums acc(1:4, i) = (rho, rho',
-    !> rho'', sum_j r f') of owned atoms (half list + below list).
-    subroutine ray_pairs(self, nlocal, x, v, type, first, neigh, bfirst, below, s, acc, out)
-        type(eam_t), intent(in) :: self
+    !> rho'', sum_j r f') of owned atoms (half list + below list), staged like force_one: per atom,
+    !> each pair's |d|^2, d.w and |w|^2 (separation d, relative velocity w at s) gathered into rows,
+    !> the pairs inside the cutoff compacted without branches, r, 1/r, r', r'', knot and offset
+    !> vectorised, then the lookups. One type: the tables are fixed for the pass. Several types: each
+    !> pair's tables from its types (t2z, t2rho; the neighbour's type read in the lookup loop, where
+    !> its index is at hand), instead of a pair-by-pair loop with a branch at the cutoff.
+    subroutine ray_staged(self, nlocal, x, v, type, first, neigh, bfirst, below, s, acc, out)
+        type(eam_t), intent(inout) :: self
         integer, intent(in) :: nlocal
         real(dp), intent(in), contiguous :: x(:, :), v(:, :)
         integer, intent(in), contiguous :: type(:), first(:), neigh(:), bfirst(:), below(:)
         real(dp), intent(in) :: s
         real(dp), intent(inout), contiguous :: acc(:, :)
         real(dp), intent(inout) :: out(4)
-        integer :: i, j, k, m, ti, tj, a, b, c
-        real(dp) :: xi, yi, zi, vxi, vyi, vzi, dx, dy, dz, wx, wy, wz, rsq, r, recip, rp, rpp, p, top, cutsq, rdr, &
-                    z, zp, zpp, phi, phip, phipp, f0, f1, f2, e, e1, e2, w, a1, a2, a3, a4, ei, ce
-        top = self%nr - 1; cutsq = self%cutsq; rdr = self%rdr
-        e = 0; e1 = 0; e2 = 0; w = 0; ce = 0
-        acc(:, 1:nlocal) = 0
-        associate (sr => self%rspl, sz => self%zspl)
-        do i = 1, nlocal
-            ti = type(i)
-            vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
-            xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
-            a1 = 0; a2 = 0; a3 = 0; a4 = 0; ei = 0
-            do k = first(i), first(i + 1) - 1
-                j = neigh(k)
-                dx = xi - (x(1, j) + s*v(1, j)); dy = yi - (x(2, j) + s*v(2, j)); dz = zi - (x(3, j) + s*v(3, j))
-                rsq = dx*dx + dy*dy + dz*dz
-                if (rsq >= cutsq) cycle
-                wx = vxi - v(1, j); wy = vyi - v(2, j); wz = vzi - v(3, j)
-                tj = type(j)
-                r = sqrt(rsq); recip = 1/r
-                rp = (dx*wx + dy*wy + dz*wz)*recip
-                rpp = (wx*wx + wy*wy + wz*wz - rp*rp)*recip
-                p = r*rdr + 1
-                m = int(min(p, top))
-                p = min(p - m, 1.0_dp)
-                c = self%t2z(ti, tj)
-                z = ((sz(4, m, c)*p + sz(5, m, c))*p + sz(6, m, c))*p + sz(7, m, c)
-                zp = (sz(1, m, c)*p + sz(2, m, c))*p + sz(3, m, c)
-                zpp = (2*sz(1, m, c)*p + sz(2, m, c))*rdr
-                phi = z*recip
-                phip = (zp - phi)*recip
-                phipp = (zpp - 2*phip)*recip
-                ei = ei + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rpp; w = w - r*phip
-                a = self%t2rho(tj, ti)      ! density at i from j
-                f0 = ((sr(4, m, a)*p + sr(5, m, a))*p + sr(6, m, a))*p + sr(7, m, a)
-                f1 = (sr(1, m, a)*p + sr(2, m, a))*p + sr(3, m, a)
-                f2 = (2*sr(1, m, a)*p + sr(2, m, a))*rdr
-                a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + f2*rp*rp + f1*rpp; a4 = a4 + r*f1
-                if (j <= nlocal) then
-                    b = self%t2rho(ti, tj)  ! density at j from i
-                    f0 = ((sr(4, m, b)*p + sr(5, m, b))*p + sr(6, m, b))*p + sr(7, m, b)
-                    f1 = (sr(1, m, b)*p + sr(2, m, b))*p + sr(3, m, b)
-                    f2 = (2*sr(1, m, b)*p + sr(2, m, b))*rdr
-                    acc(1, j) = acc(1, j) + f0
-                    acc(2, j) = acc(2, j) + f1*rp
-                    acc(3, j) = acc(3, j) + f2*rp*rp + f1*rpp
-                    acc(4, j) = acc(4, j) + r*f1
-                end if
-            end do
-            do k = bfirst(i), bfirst(i + 1) - 1
-                j = below(k)
-                dx = xi - (x(1, j) + s*v(1, j)); dy = yi - (x(2, j) + s*v(2, j)); dz = zi - (x(3, j) + s*v(3, j))
-                rsq = dx*dx + dy*dy + dz*dz
-                if (rsq >= cutsq) cycle
-                wx = vxi - v(1, j); wy = vyi - v(2, j); wz = vzi - v(3, j)
-                r = sqrt(rsq); recip = 1/r
-                rp = (dx*wx + dy*wy + dz*wz)*recip
-                rpp = (wx*wx + wy*wy + wz*wz - rp*rp)*recip
-                p = r*rdr + 1
-                m = int(min(p, top))
-                p = min(p - m, 1.0_dp)
-                a = self%t2rho(type(j), ti)
-                f0 = ((sr(4, m, a)*p + sr(5, m, a))*p + sr(6, m, a))*p + sr(7, m, a)
-                f1 = (sr(1, m, a)*p + sr(2, m, a))*p + sr(3, m, a)
-                f2 = (2*sr(1, m, a)*p + sr(2, m, a))*rdr
-                a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + f2*rp*rp + f1*rpp; a4 = a4 + r*f1
-            end do
-            acc(1, i) = acc(1, i) + a1; acc(2, i) = acc(2, i) + a2
-            acc(3, i) = acc(3, i) + a3; acc(4, i) = acc(4, i) + a4
-            call comp_add(e, ce, ei)
-        end do
-        end associate
-        out = out + [e + ce, e1, e2, w]
-    end subroutine ray_pairs
-
-    !> ray_pairs for one type, staged like force_one: per atom, each pair's |d|^2, d.w and |w|^2
-    !> (separation d, relative velocity w at s) gathered into rows, the pairs inside the cutoff
-    !> compacted without branches, r, 1/r, r', r'', knot and offset vectorised, then the lookups.
-    subroutine ray_one(self, nlocal, x, v, first, neigh, bfirst, below, s, acc, out)
-        type(eam_t), intent(inout) :: self
-        integer, intent(in) :: nlocal
-        real(dp), intent(in), contiguous :: x(:, :), v(:, :)
-        integer, intent(in), contiguous :: first(:), neigh(:), bfirst(:), below(:)
-        real(dp), intent(in) :: s
-        real(dp), intent(inout), contiguous :: acc(:, :)
-        real(dp), intent(inout) :: out(4)
-        integer :: i, j, k, m, nin, a, c
+        integer :: i, j, k, m, nin, a, b, c, ti, tj
         real(dp) :: xi, yi, zi, vxi, vyi, vzi, p, top, cutsq, rdr, r, rinv, rp, z, zp, zpp, phi, phip, phipp, &
                     f0, f1, f2, e, e1, e2, w, a1, a2, a3, a4, q1, q2, ei, ce
+        logical :: one
         top = self%nr - 1; cutsq = self%cutsq; rdr = self%rdr
+        one = self%ntypes == 1
         a = self%t2rho(1, 1); c = self%t2z(1, 1)
         e = 0; e1 = 0; e2 = 0; w = 0; ce = 0
         acc(:, 1:nlocal) = 0
-        associate (sr => self%rspl(:, :, a), sz => self%zspl(:, :, c), rr => self%work(:, 7), pp => self%work(:, 8), &
-                   rpv => self%work(:, 9), rppv => self%work(:, 10), rv => self%work(:, 11), kk => self%iwork(:, 1), &
-                   mm => self%iwork(:, 2))
+        associate (sr => self%rspl(:, :, a), sz => self%zspl(:, :, c), rs => self%rspl, zs => self%zspl, &
+                   rr => self%work(:, 7), pp => self%work(:, 8), rpv => self%work(:, 9), rppv => self%work(:, 10), &
+                   rv => self%work(:, 11), kk => self%iwork(:, 1), mm => self%iwork(:, 2))
         do i = 1, nlocal
             vxi = v(1, i); vyi = v(2, i); vzi = v(3, i)
             xi = x(1, i) + s*vxi; yi = x(2, i) + s*vyi; zi = x(3, i) + s*vzi
+            ti = type(i)
             a1 = 0; a2 = 0; a3 = 0; a4 = 0; ei = 0
             ! the half list (pair terms; densities of i and of owned j), then the complement (density of i)
             call stage(neigh, first(i) - 1, first(i + 1) - first(i))
-            do k = 1, nin
-                m = mm(k); p = pp(k); r = rv(k); rinv = rr(k); rp = rpv(k)
-                z = ((sz(4, m)*p + sz(5, m))*p + sz(6, m))*p + sz(7, m)
-                zp = (sz(1, m)*p + sz(2, m))*p + sz(3, m)
-                zpp = (2*sz(1, m)*p + sz(2, m))*rdr
-                phi = z*rinv
-                phip = (zp - phi)*rinv
-                phipp = (zpp - 2*phip)*rinv
-                ei = ei + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rppv(k); w = w - r*phip
-                f0 = ((sr(4, m)*p + sr(5, m))*p + sr(6, m))*p + sr(7, m)
-                f1 = (sr(1, m)*p + sr(2, m))*p + sr(3, m)
-                f2 = (2*sr(1, m)*p + sr(2, m))*rdr
-                q1 = f1*rp
-                q2 = f2*rp*rp + f1*rppv(k)
-                a1 = a1 + f0; a2 = a2 + q1; a3 = a3 + q2; a4 = a4 + r*f1
-                j = neigh(first(i) - 1 + kk(k))
-                if (j <= nlocal) then
-                    acc(1, j) = acc(1, j) + f0; acc(2, j) = acc(2, j) + q1
-                    acc(3, j) = acc(3, j) + q2; acc(4, j) = acc(4, j) + r*f1
-                end if
-            end do
+            if (one) then
+                do k = 1, nin
+                    m = mm(k); p = pp(k); r = rv(k); rinv = rr(k); rp = rpv(k)
+                    z = ((sz(4, m)*p + sz(5, m))*p + sz(6, m))*p + sz(7, m)
+                    zp = (sz(1, m)*p + sz(2, m))*p + sz(3, m)
+                    zpp = (2*sz(1, m)*p + sz(2, m))*rdr
+                    phi = z*rinv
+                    phip = (zp - phi)*rinv
+                    phipp = (zpp - 2*phip)*rinv
+                    ei = ei + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rppv(k); w = w - r*phip
+                    f0 = ((sr(4, m)*p + sr(5, m))*p + sr(6, m))*p + sr(7, m)
+                    f1 = (sr(1, m)*p + sr(2, m))*p + sr(3, m)
+                    f2 = (2*sr(1, m)*p + sr(2, m))*rdr
+                    q1 = f1*rp
+                    q2 = f2*rp*rp + f1*rppv(k)
+                    a1 = a1 + f0; a2 = a2 + q1; a3 = a3 + q2; a4 = a4 + r*f1
+                    j = neigh(first(i) - 1 + kk(k))
+                    if (j <= nlocal) then
+                        acc(1, j) = acc(1, j) + f0; acc(2, j) = acc(2, j) + q1
+                        acc(3, j) = acc(3, j) + q2; acc(4, j) = acc(4, j) + r*f1
+                    end if
+                end do
+            else
+                do k = 1, nin
+                    j = neigh(first(i) - 1 + kk(k))
+                    tj = type(j)
+                    m = mm(k); p = pp(k); r = rv(k); rinv = rr(k); rp = rpv(k)
+                    c = self%t2z(ti, tj)
+                    z = ((zs(4, m, c)*p + zs(5, m, c))*p + zs(6, m, c))*p + zs(7, m, c)
+                    zp = (zs(1, m, c)*p + zs(2, m, c))*p + zs(3, m, c)
+                    zpp = (2*zs(1, m, c)*p + zs(2, m, c))*rdr
+                    phi = z*rinv
+                    phip = (zp - phi)*rinv
+                    phipp = (zpp - 2*phip)*rinv
+                    ei = ei + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rppv(k); w = w - r*phip
+                    b = self%t2rho(tj, ti)      ! density at i from j
+                    f0 = ((rs(4, m, b)*p + rs(5, m, b))*p + rs(6, m, b))*p + rs(7, m, b)
+                    f1 = (rs(1, m, b)*p + rs(2, m, b))*p + rs(3, m, b)
+                    f2 = (2*rs(1, m, b)*p + rs(2, m, b))*rdr
+                    a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + (f2*rp*rp + f1*rppv(k)); a4 = a4 + r*f1
+                    if (j <= nlocal) then
+                        b = self%t2rho(ti, tj)  ! density at j from i
+                        f0 = ((rs(4, m, b)*p + rs(5, m, b))*p + rs(6, m, b))*p + rs(7, m, b)
+                        f1 = (rs(1, m, b)*p + rs(2, m, b))*p + rs(3, m, b)
+                        f2 = (2*rs(1, m, b)*p + rs(2, m, b))*rdr
+                        acc(1, j) = acc(1, j) + f0; acc(2, j) = acc(2, j) + f1*rp
+                        acc(3, j) = acc(3, j) + (f2*rp*rp + f1*rppv(k)); acc(4, j) = acc(4, j) + r*f1
+                    end if
+                end do
+            end if
             call stage(below, bfirst(i) - 1, bfirst(i + 1) - bfirst(i))
-            do k = 1, nin
-                m = mm(k); p = pp(k); r = rv(k); rp = rpv(k)
-                f0 = ((sr(4, m)*p + sr(5, m))*p + sr(6, m))*p + sr(7, m)
-                f1 = (sr(1, m)*p + sr(2, m))*p + sr(3, m)
-                f2 = (2*sr(1, m)*p + sr(2, m))*rdr
-                a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + f2*rp*rp + f1*rppv(k); a4 = a4 + r*f1
-            end do
+            if (one) then
+                do k = 1, nin
+                    m = mm(k); p = pp(k); r = rv(k); rp = rpv(k)
+                    f0 = ((sr(4, m)*p + sr(5, m))*p + sr(6, m))*p + sr(7, m)
+                    f1 = (sr(1, m)*p + sr(2, m))*p + sr(3, m)
+                    f2 = (2*sr(1, m)*p + sr(2, m))*rdr
+                    a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + f2*rp*rp + f1*rppv(k); a4 = a4 + r*f1
+                end do
+            else
+                do k = 1, nin
+                    b = self%t2rho(type(below(bfirst(i) - 1 + kk(k))), ti)
+                    m = mm(k); p = pp(k); r = rv(k); rp = rpv(k)
+                    f0 = ((rs(4, m, b)*p + rs(5, m, b))*p + rs(6, m, b))*p + rs(7, m, b)
+                    f1 = (rs(1, m, b)*p + rs(2, m, b))*p + rs(3, m, b)
+                    f2 = (2*rs(1, m, b)*p + rs(2, m, b))*rdr
+                    a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + (f2*rp*rp + f1*rppv(k)); a4 = a4 + r*f1
+                end do
+            end if
             acc(1, i) = acc(1, i) + a1; acc(2, i) = acc(2, i) + a2
             acc(3, i) = acc(3, i) + a3; acc(4, i) = acc(4, i) + a4
             call comp_add(e, ce, ei)
@@ -897,7 +854,7 @@ contains
             end do
             end associate
         end subroutine stage
-    end subroutine ray_one
+    end subroutine ray_staged
 
     !> Embedding terms of the ray from acc(1:4, i) = (rho, rho', rho'', sum_j r f'): F(rho_i),
     !> F' rho', F'' rho'^2 + F' rho'', and the virial share -F' sum_j r f'; lo, hi: extremes of rho.

@@ -13,7 +13,8 @@
 #          (eam, funcfl), a random 50/50 Cu-Ni alloy with CuNi.eam.alloy (eam/alloy), the same lattice
 #          all Cu with CuNi.eam.alloy (setfl path, one element), the same all-Cu lattice with both
 #          elements declared (cu_two_types: the multi-type path on a single type, which separates that
-#          path's own cost from the random mixture's), bcc Fe with Fe_mm.eam.fs (eam/fs) and
+#          path's own cost from the random mixture's), the dilute alloy (cuni_dilute: 5 % Ni at
+#          random), bcc Fe with Fe_mm.eam.fs (eam/fs) and
 #          fcc Cu with Cu_mishin1.eam.alloy (one element, but 10,001 table knots like Fe_mm against 500);
 #          32,000 atoms (Fe 31,250), 1600 K start, skin 1 A, Terrace and LAMMPS. Cost per pair = the
 #          "Pair" phase time / (steps x pairs within rc + skin), the pair count from LAMMPS's neighbour
@@ -380,11 +381,13 @@ PY
 # ---- EAM: cost per pair, one type against eam/alloy and eam/fs --------------------------------
 if [[ "$parts" == *,types,* ]] && have lmp; then
     # name lattice a cells style file elements(LAMMPS order) data? (0: lattice deck; 1: a data file with
-    # half the atoms of type 2 at random; 2: a data file with two types, every atom of type 1)
+    # half the atoms of type 2 at random; 2: a data file with two types, every atom of type 1; 3: as 1
+    # with 5 % of type 2, a dilute alloy)
     scenes=("cu_u3 fcc 3.615 20 eam Cu_u3.eam - 0"
             "cuni_alloy fcc 3.56 20 eam/alloy CuNi.eam.alloy Cu,Ni 1"
             "cu_alloy fcc 3.56 20 eam/alloy CuNi.eam.alloy Cu 0"
             "cu_two_types fcc 3.56 20 eam/alloy CuNi.eam.alloy Cu,Ni 2"
+            "cuni_dilute fcc 3.56 20 eam/alloy CuNi.eam.alloy Cu,Ni 3"
             "fe_fs bcc 2.8553 25 eam/fs Fe_mm.eam.fs Fe 0"
             "cu_mishin fcc 3.615 20 eam/alloy Cu_mishin1.eam.alloy Cu 0")
     echo "== EAM cost per pair: one type (eam) against eam/alloy and eam/fs, $neam steps, 1600 K start, skin 1 A"
@@ -402,6 +405,7 @@ region box block 0 $n 0 $n 0 $n
 create_box $ntypes box
 create_atoms 1 box
 $( [[ $data == 1 ]] && echo "set type 1 type/fraction 2 0.5 8675309" )
+$( [[ $data == 3 ]] && echo "set type 1 type/fraction 2 0.05 8675309" )
 pair_style $style
 pair_coeff $coeff
 velocity all create 1600.0 376847 loop geom

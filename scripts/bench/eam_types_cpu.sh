@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # EAM cost per pair of the multi-type paths against the one-type path, in CPU time (issue 16): the
 # scenes of anchors.sh part "types" (fcc Cu with Cu_u3.eam; random 50/50 Cu-Ni, all-Cu fcc with
-# CuNi.eam.alloy, with one element and with both declared; bcc Fe with Fe_mm.eam.fs; fcc Cu with
+# CuNi.eam.alloy, with one element and with both declared; 5 % Ni at random; bcc Fe with Fe_mm.eam.fs; fcc Cu with
 # Cu_mishin1.eam.alloy), each Terrace binary
 # given, alternating, REPEAT rounds. The cost is the CPU time that `perf record -e cpu-clock` samples
 # (1 kHz) in the EAM kernels (symbols __terrace_eam_MOD_*: density, embedding, force passes) per step

@@ -113,6 +113,7 @@ contains
         ! owned atom's whole neighbourhood
         self%list%want_below = self%pot%needs_full_neighbourhood(cfg%integrator == 'energy_stepping')
         self%list%want_types = self%pot%wants_neighbour_types()
+        self%list%type_order = self%pot%neighbour_type_order()
         self%use_inner = self%plan%inner_list
         call self%rebuild()
         call check_overlaps(self%atoms, self%list, self%pot, self%plan%pair_mode, self%source)

@@ -15,7 +15,7 @@ module terrace_neighbor_list
     use terrace_grow, only: reserve, grow_keep
     implicit none
     private
-    public :: gather_neighbour_types
+    public :: gather_neighbour_types, order_rows_by_type
 
     type, public :: neighbor_list_t
         real(dp) :: cut = 0, cutsq = 0, skin = 0
@@ -65,6 +65,13 @@ module terrace_neighbor_list
         !> are valid types too (the pad of eight-lane loops).
         logical :: want_types = .false.
         integer, allocatable :: ntype(:)
+        !> Optional (type_order = the number of types, > 1): each row ordered by the neighbours'
+        !> types (the scan's order kept within a type), the type-b neighbours of owned atom i at
+        !> neigh(tfirst(g) : tfirst(g+1)-1), g = (i-1)*type_order + b, set at each build and carried
+        !> by a pruned copy; so that multi-type passes pick a pair's tables once per segment instead
+        !> of per neighbour (EAM). 0: rows in scan order, tfirst unset.
+        integer :: type_order = 0
+        integer, allocatable :: tfirst(:), tscratch(:, :)
     contains
         procedure :: init => nl_init
         procedure :: setup_bins => nl_setup_bins
@@ -228,7 +235,7 @@ contains
     subroutine nl_build(self, atoms)
         class(neighbor_list_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
-        integer :: i, b, n, ntot, nall, nlocal, nghost, maxbin, bound, r, m1, m2, m3, cr, c, need, occupied
+        integer :: i, b, n, ntot, nall, nlocal, nghost, maxbin, bound, r, m1, m2, m3, cr, c, need, occupied, nt
         real(dp) :: cutsq, sphere, expect
         real(dp), parameter :: pi = 3.14159265358979324_dp
         nlocal = atoms%nlocal
@@ -264,6 +271,15 @@ contains
         call reserve(self%cj, bound)
         call bin_order_columns(self, atoms%x, nlocal, nghost)
         call reserve(self%first, nlocal + 1)
+        nt = self%type_order
+        if (nt > 1) then
+            ! rows ordered by type: segments, and scratch as long as any row can be (bound)
+            call reserve(self%tfirst, nt*nlocal + 1)
+            if (allocated(self%tscratch)) then
+                if (size(self%tscratch, 1) < bound + 1) deallocate (self%tscratch)
+            end if
+            if (.not. allocated(self%tscratch)) allocate (self%tscratch(bound + bound/4 + 16, 3))
+        end if
         need = int(min(1.15_dp*expect + bound + 1024, real(huge(1), dp)/2))
         call reserve(self%neigh, need, exact=.true.)
         n = 0
@@ -309,9 +325,13 @@ contains
                 if (m3 > m2) call scan(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, m2 + 1, &
                                        m3, cutsq, .false., self%neigh, n)
                 self%first(i + 1) = n + 1
+                ! ordered by type while the row is in cache
+                if (nt > 1) call order_row(self%neigh, self%first(i) - 1, n + 1 - self%first(i), atoms%type, nt, &
+                                           self%tfirst((i - 1)*nt + 1:), self%tscratch)
             end do
         end do
         end associate
+        if (nt > 1) self%tfirst(nt*nlocal + 1) = n + 1
         self%max_neighbors = longest_row(self%first, nlocal)
         call self%hold(atoms)
         if (self%want_below) call build_below(self, atoms)
@@ -339,6 +359,47 @@ contains
         call reserve(row, n + 8)
         call type_row(list%neigh, type, n, row)
     end subroutine gather_neighbour_types
+
+    !> Order each row neigh(first(i) : first(i+1)-1) of the nlocal atoms by the neighbours' types
+    !> 1..nt and set the segments tfirst(1 : nt*nlocal+1) as list%tfirst holds them (see
+    !> order_row), for passes that need ordered rows of a list built without (type_order not set:
+    !> lists made by hand in tests), on a copy of its neigh. scratch: at least the longest row + 1
+    !> long, three columns.
+    subroutine order_rows_by_type(first, neigh, type, nlocal, nt, tfirst, scratch)
+        integer, intent(in) :: first(:), type(:), nlocal, nt
+        integer, intent(inout) :: neigh(:), tfirst(:), scratch(:, :)
+        integer :: i
+        do i = 1, nlocal
+            call order_row(neigh, first(i) - 1, first(i + 1) - first(i), type, nt, tfirst((i - 1)*nt + 1:), scratch)
+        end do
+        tfirst(nt*nlocal + 1) = first(nlocal + 1)
+    end subroutine order_rows_by_type
+
+    !> The row neigh(k0+1 : k0+nn) ordered by the neighbours' types 1..nt, the scan's order kept
+    !> within a type; tfirst(b) = where the type-b neighbours start. The partners and their types
+    !> into scratch(:, 1:2) (one gather of the types), then one branch-free compaction per type into
+    !> scratch(:, 3), copied back. Placing each partner at its segment's next slot in one pass (a
+    !> counting sort, or two types filled from both ends or after a count) was slower on the CuNi
+    !> scene: neighbour builds 1.6 to 1.8 times those of the plain list, against 1.4 with this.
+    subroutine order_row(neigh, k0, nn, type, nt, tfirst, scratch)
+        integer, intent(in) :: k0, nn, type(:), nt
+        integer, intent(inout) :: neigh(:), tfirst(:), scratch(:, :)
+        integer :: k, j, t, n
+        do k = 1, nn
+            j = neigh(k0 + k)
+            scratch(k, 1) = j
+            scratch(k, 2) = type(j)
+        end do
+        n = 0
+        do t = 1, nt
+            tfirst(t) = k0 + n + 1
+            do k = 1, nn
+                scratch(n + 1, 3) = scratch(k, 1)
+                n = n + merge(1, 0, scratch(k, 2) == t)
+            end do
+        end do
+        neigh(k0 + 1:k0 + nn) = scratch(1:nn, 3)
+    end subroutine order_row
 
     !> row(1:n) = type(neigh(1:n)), row(n+1 : n+8) = 1.
     pure subroutine type_row(neigh, type, n, row)
@@ -535,8 +596,8 @@ contains
         type(neighbor_list_t), intent(in) :: outer
         type(atoms_t), intent(in) :: atoms
         real(dp), intent(in) :: cut
-        integer :: i, k, j, n, nlocal
-        real(dp) :: cutsq, xi, yi, zi, dx, dy, dz
+        integer :: i, n, nlocal, nt, g
+        real(dp) :: cutsq
         nlocal = atoms%nlocal
         self%cut = cut
         self%cutsq = cut*cut
@@ -544,25 +605,54 @@ contains
         self%dimension = outer%dimension
         cutsq = self%cutsq
         self%want_types = outer%want_types
+        self%type_order = outer%type_order
         call reserve(self%first, nlocal + 1)
         call reserve(self%neigh, max(outer%first(nlocal + 1) - 1, 1))
         n = 0
         self%first(1) = 1
-        do i = 1, nlocal
-            xi = atoms%x(1, i); yi = atoms%x(2, i); zi = atoms%x(3, i)
-            do k = outer%first(i), outer%first(i + 1) - 1
-                j = outer%neigh(k)
-                dx = xi - atoms%x(1, j); dy = yi - atoms%x(2, j); dz = zi - atoms%x(3, j)
-                self%neigh(n + 1) = j
-                n = n + merge(1, 0, dx*dx + dy*dy + dz*dz < cutsq)
+        if (self%type_order > 1) then
+            ! segment by segment: the rows stay ordered by type
+            nt = self%type_order
+            call reserve(self%tfirst, nt*nlocal + 1)
+            do i = 1, nlocal
+                do g = (i - 1)*nt + 1, i*nt
+                    self%tfirst(g) = n + 1
+                    call keep_within(atoms%x, i, outer%neigh, outer%tfirst(g), outer%tfirst(g + 1) - 1, cutsq, &
+                                     self%neigh, n)
+                end do
+                self%first(i + 1) = n + 1
             end do
-            self%first(i + 1) = n + 1
-        end do
+            self%tfirst(nt*nlocal + 1) = n + 1
+        else
+            do i = 1, nlocal
+                call keep_within(atoms%x, i, outer%neigh, outer%first(i), outer%first(i + 1) - 1, cutsq, self%neigh, n)
+                self%first(i + 1) = n + 1
+            end do
+        end if
         if (self%want_types) call neighbour_types(self, atoms%type, n)
         self%max_neighbors = longest_row(self%first, nlocal)
         call self%hold(atoms)
         self%builds = self%builds + 1
     end subroutine nl_prune
+
+    !> Append to neigh(n+1:) the partners neighbours(k1:k2) of atom i within cutsq, in order.
+    subroutine keep_within(x, i, neighbours, k1, k2, cutsq, neigh, n)
+        real(dp), intent(in) :: x(3, *)
+        integer, intent(in) :: i, k1, k2
+        integer, intent(in), contiguous :: neighbours(:)
+        real(dp), intent(in) :: cutsq
+        integer, intent(inout), contiguous :: neigh(:)
+        integer, intent(inout) :: n
+        integer :: k, j
+        real(dp) :: xi, yi, zi, dx, dy, dz
+        xi = x(1, i); yi = x(2, i); zi = x(3, i)
+        do k = k1, k2
+            j = neighbours(k)
+            dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)
+            neigh(n + 1) = j
+            n = n + merge(1, 0, dx*dx + dy*dy + dz*dz < cutsq)
+        end do
+    end subroutine keep_within
 
     !> Whether the list is rebuilt at this step (collective: the same answer on every rank). forced:
     !> a rebuild the caller needs anyway (a checkpoint). Exact schedule: when an atom has moved skin/2.

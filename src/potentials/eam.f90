@@ -48,7 +48,7 @@ module terrace_eam
     use terrace_compensated_sum, only: comp_add
     use terrace_atoms, only: atoms_t
     use terrace_grow, only: reserve
-    use terrace_neighbor_list, only: neighbor_list_t
+    use terrace_neighbor_list, only: neighbor_list_t, order_rows_by_type
     use terrace_eam_files, only: eam_file_t, read_funcfl_file, read_setfl_file
     use terrace_potential, only: potential_t, halo_ops_t, max_warning_flags
     implicit none
@@ -74,14 +74,25 @@ module terrace_eam
         real(dp), allocatable :: ztab(:, :)         !< one type: (rho' c0..c2, z c3..c6) per r knot
         real(dp), allocatable :: rtab(:)            !< one type: density records (rho c3..c6) per r knot
         integer :: rtab0 = 0                        !< where its first record starts (64-byte aligned)
-        real(dp), allocatable :: dtab(:)            !< several types: density records (8 per knot and pair table)
-        real(dp), allocatable :: ftab(:)            !< several types: force records (10 per knot and pair table)
-        integer :: dtab0 = 0, ftab0 = 0             !< where their first record starts (64-byte aligned)
+        real(dp), allocatable :: dfun(:)            !< several types: density records (rho c3..c6) per knot of each density function
+        integer :: dfun0 = 0                        !< where its first record starts (64-byte aligned)
+        !> several types, (b, a): column offsets in dfun of the density at a type-a atom from a type-b
+        !> atom (doi) and at the type-b atom from the type-a one (doj)
+        integer, allocatable :: doi(:, :), doj(:, :)
+        !> several types, pairs of two types in the force pass: rho' c0..c2 per knot of each density
+        !> function (columns as dfun), z c3..c6 per knot of each r phi function (64-byte aligned),
+        !> (b, a): zoff = the column offset of z_ab
+        real(dp), allocatable :: ffun(:, :), zfun(:)
+        integer :: zfun0 = 0
+        integer, allocatable :: zoff(:, :)
         integer, allocatable :: cj(:), cfirst(:)    !< pairs inside the cutoff: partners cj(cfirst(i):cfirst(i+1)-1) of i
-        integer, allocatable :: ct(:)               !< several types: the table offset of pair cj(c), pair_off(type j, type i)
+        !> several types: the same pairs by segment, those of owned atom i with type-b partners at
+        !> cj(cseg(g) : cseg(g+1)-1), g = (i-1)*ntypes + b (the list's rows are ordered by type)
+        integer, allocatable :: cseg(:)
+        !> several types, lists whose rows are not ordered by type (made by hand): an ordered copy
+        integer, allocatable :: oneigh(:), otfirst(:), oscratch(:, :)
         logical :: kept = .false.                   !< cj is the density pass's, for the force pass that follows
         integer :: kept_n = -1, kept_len = -1       !< nlocal and list%first(nlocal+1) it was made with
-        integer, allocatable :: pair_off(:, :)      !< several types: (tj, ti) -> column offset of that pair's table
         character(len=16) :: style = ''
         integer :: nrho = 0, nr = 0                 !< knots of the F tables and of the r tables
         real(dp) :: drho = 0, dr = 0, rdrho = 0, rdr = 0
@@ -109,6 +120,7 @@ module terrace_eam
         procedure :: cutoff => eam_cutoff
         procedure :: describe => eam_describe
         procedure :: needs_full_neighbourhood => eam_needs_full
+        procedure :: neighbour_type_order => eam_type_order
         procedure :: contact_distance => eam_contact_distance
         procedure :: warning_flags => eam_warning_flags
         procedure :: embedding => eam_embedding
@@ -350,7 +362,7 @@ contains
         if (allocated(self%mass)) deallocate (self%mass)
         if (allocated(self%ztab)) deallocate (self%ztab)
         if (allocated(self%rtab)) deallocate (self%rtab)
-        if (allocated(self%dtab)) deallocate (self%dtab, self%ftab, self%pair_off)
+        if (allocated(self%dfun)) deallocate (self%dfun, self%ffun, self%zfun, self%doi, self%doj, self%zoff)
         self%kept = .false.
         allocate (self%t2f(ntypes), self%t2rho(ntypes, ntypes), self%t2z(ntypes, ntypes), self%mass(ntypes))
         self%rho_outside = .false.
@@ -536,6 +548,13 @@ contains
         eam_needs_full = energy_stepping
     end function eam_needs_full
 
+    !> Several types: the passes take the list's rows ordered by type (one table choice per segment
+    !> of an atom's row instead of a type lookup per neighbour).
+    pure integer function eam_type_order(self)
+        class(eam_t), intent(in) :: self
+        eam_type_order = merge(self%ntypes, 0, self%ntypes > 1)
+    end function eam_type_order
+
     !> A contact distance for the overlap check: about the nearest-neighbour distance.
     pure real(dp) function eam_contact_distance(self, ti, tj)
         class(eam_t), intent(in) :: self
@@ -587,15 +606,65 @@ contains
                              self%rtab(self%rtab0 + 1:), self%rho, self%cj, self%cfirst, self%work(:, 1), &
                              self%iwork(:, 1))
         else
-            if (.not. allocated(self%dtab)) call build_pair_tables(self)
-            call density_types(atoms%nlocal, atoms%x, atoms%type, list%first, list%neigh, self%cutsq, self%rdr, &
-                               self%nr, self%pair_off, self%dtab(self%dtab0 + 1:), self%rho, self%cj, self%cfirst, &
-                               self%ct, self%work(:, 1), self%iwork(:, 1))
+            if (.not. allocated(self%dfun)) call build_pair_tables(self)
+            if (list%type_order == self%ntypes) then
+                call density_several(self, atoms, list%neigh, list%tfirst)
+            else
+                call ordered_copy(self, list, atoms%type, atoms%nlocal)
+                call density_several(self, atoms, self%oneigh, self%otfirst)
+            end if
         end if
         self%kept = .true.
         self%kept_n = atoms%nlocal
         self%kept_len = list%first(atoms%nlocal + 1)
     end subroutine eam_density
+
+    !> The several-types density pass over rows ordered by type: neigh, tfirst as list%neigh,
+    !> list%tfirst (the list's or ordered_copy's).
+    subroutine density_several(self, atoms, neigh, tfirst)
+        type(eam_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer, intent(in), contiguous :: neigh(:), tfirst(:)
+        call density_types(atoms%nlocal, self%ntypes, atoms%x, atoms%type, tfirst, neigh, self%cutsq, self%rdr, &
+                           self%nr, self%doi, self%doj, self%dfun(self%dfun0 + 1:), &
+                           self%rho, self%cj, self%cfirst, self%cseg, self%work(:, 1), self%iwork(:, 1))
+    end subroutine density_several
+
+    !> The several-types pairs inside the cutoff by segment (cj, cseg), and cfirst from them, for a
+    !> force pass not preceded by a density pass; neigh, tfirst as in density_several.
+    subroutine segments_several(self, atoms, neigh, tfirst)
+        type(eam_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer, intent(in), contiguous :: neigh(:), tfirst(:)
+        integer :: i
+        call inside_pairs(atoms%nlocal, self%ntypes, atoms%x, tfirst, neigh, self%cutsq, self%cj, self%cseg, &
+                          self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4))
+        do i = 1, atoms%nlocal + 1
+            self%cfirst(i) = self%cseg((i - 1)*self%ntypes + 1)
+        end do
+    end subroutine segments_several
+
+    !> A copy of the list's rows ordered by type (oneigh, otfirst as list%neigh, list%tfirst), for
+    !> lists built without type_order.
+    subroutine ordered_copy(self, list, type, nlocal)
+        type(eam_t), intent(inout) :: self
+        type(neighbor_list_t), intent(in) :: list
+        integer, intent(in) :: type(:), nlocal
+        integer :: n, i, nb
+        n = list%first(nlocal + 1) - 1
+        nb = 1
+        do i = 1, nlocal
+            nb = max(nb, list%first(i + 1) - list%first(i))
+        end do
+        call reserve(self%oneigh, max(n, 1))
+        call reserve(self%otfirst, self%ntypes*nlocal + 1)
+        if (allocated(self%oscratch)) then
+            if (size(self%oscratch, 1) < nb + 1) deallocate (self%oscratch)
+        end if
+        if (.not. allocated(self%oscratch)) allocate (self%oscratch(nb + 1, 3))
+        self%oneigh(1:n) = list%neigh(1:n)
+        call order_rows_by_type(list%first, self%oneigh, type, nlocal, self%ntypes, self%otfirst, self%oscratch)
+    end subroutine ordered_copy
 
     !> fp(1:nlocal) = F'(rho); energy = sum of F(rho_i) over owned atoms when want_energy (else 0).
     subroutine eam_embed(self, atoms, want_energy, energy)
@@ -633,12 +702,18 @@ contains
             return
         end if
         call reserve_work(self, atoms%nlocal, list%first)
-        if (self%ntypes > 1 .and. .not. allocated(self%dtab)) call build_pair_tables(self)
+        if (self%ntypes > 1 .and. .not. allocated(self%dfun)) call build_pair_tables(self)
         if (.not. (self%kept .and. self%kept_n == atoms%nlocal .and. self%kept_len == list%first(atoms%nlocal + 1))) then
             call reserve_pairs(self, atoms%nlocal, list%first)
-            call inside_pairs(atoms%nlocal, atoms%x, list%first, list%neigh, self%cutsq, self%cj, self%cfirst, &
-                              self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4))
-            if (self%ntypes > 1) call pair_offsets(atoms%nlocal, atoms%type, self%cj, self%cfirst, self%pair_off, self%ct)
+            if (self%ntypes == 1) then
+                call inside_pairs(atoms%nlocal, 1, atoms%x, list%first, list%neigh, self%cutsq, self%cj, self%cfirst, &
+                                  self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4))
+            else if (list%type_order == self%ntypes) then
+                call segments_several(self, atoms, list%neigh, list%tfirst)
+            else
+                call ordered_copy(self, list, atoms%type, atoms%nlocal)
+                call segments_several(self, atoms, self%oneigh, self%otfirst)
+            end if
         end if
         self%kept = .false.
         if (self%ntypes == 1) then
@@ -648,8 +723,9 @@ contains
                            self%work(:, 3), self%work(:, 4), self%work(:, 5), self%work(:, 6), self%work(:, 7), &
                            self%work(:, 8), self%iwork(:, 2))
         else
-            call force_types(atoms%nlocal, atoms%x, atoms%f, self%cj, self%ct, self%cfirst, self%rdr, self%nr, &
-                             self%ftab(self%ftab0 + 1:), self%fp, want_energy, energy, virial, &
+            call force_types(atoms%nlocal, self%ntypes, atoms%x, atoms%f, atoms%type, self%cj, self%cfirst, &
+                             self%cseg, self%rdr, self%nr, self%doi, self%doj, self%zoff, self%ffun, &
+                             self%zfun(self%zfun0 + 1:), self%fp, want_energy, energy, virial, &
                              self%work(:, 1), self%work(:, 2), self%work(:, 3), self%work(:, 4), self%work(:, 5), &
                              self%work(:, 6), self%work(:, 7), self%work(:, 8), self%iwork(:, 2))
         end if
@@ -691,8 +767,17 @@ contains
         if (.not. allocated(self%ray_acc)) allocate (self%ray_acc(4, n + n/4 + 16))
         call reserve_work(self, n, list%first)
         call reserve_work(self, n, list%below_first)
-        call ray_staged(self, n, atoms%x, atoms%v, atoms%type, list%first, list%neigh, list%below_first, list%below, s, &
-                        self%ray_acc, out)
+        if (self%ntypes == 1) then    ! (tfirst not read: the rows' first stands in)
+            call ray_staged(self, n, atoms%x, atoms%v, atoms%type, list%first, list%neigh, list%first, &
+                            list%below_first, list%below, s, self%ray_acc, out)
+        else if (list%type_order == self%ntypes) then
+            call ray_staged(self, n, atoms%x, atoms%v, atoms%type, list%first, list%neigh, list%tfirst, &
+                            list%below_first, list%below, s, self%ray_acc, out)
+        else
+            call ordered_copy(self, list, atoms%type, n)
+            call ray_staged(self, n, atoms%x, atoms%v, atoms%type, list%first, self%oneigh, self%otfirst, &
+                            list%below_first, list%below, s, self%ray_acc, out)
+        end if
         call ray_embed(n, atoms%type, self%t2f, self%fspl, self%rdrho, self%nrho, self%rhomax, self%ray_acc, out, lo, hi)
         self%rho_low = min(self%rho_low, lo)
         self%rho_high = max(self%rho_high, hi)
@@ -706,15 +791,16 @@ contains
     !> vectorised, then the lookups. One type: the tables are fixed for the pass. Several types: each
     !> pair's tables from its types (t2z, t2rho; the neighbour's type read in the lookup loop, where
     !> its index is at hand), instead of a pair-by-pair loop with a branch at the cutoff.
-    subroutine ray_staged(self, nlocal, x, v, type, first, neigh, bfirst, below, s, acc, out)
+    subroutine ray_staged(self, nlocal, x, v, type, first, neigh, tfirst, bfirst, below, s, acc, out)
         type(eam_t), intent(inout) :: self
         integer, intent(in) :: nlocal
         real(dp), intent(in), contiguous :: x(:, :), v(:, :)
         integer, intent(in), contiguous :: type(:), first(:), neigh(:), bfirst(:), below(:)
+        integer, intent(in) :: tfirst(*)   ! several types: the rows' segments by type (list%tfirst)
         real(dp), intent(in) :: s
         real(dp), intent(inout), contiguous :: acc(:, :)
         real(dp), intent(inout) :: out(4)
-        integer :: i, j, k, m, nin, a, b, c, ti, tj
+        integer :: i, j, k, m, nin, a, b, c, ti, tj, bi, bj, g, k1, k2, lim
         real(dp) :: xi, yi, zi, vxi, vyi, vzi, p, top, cutsq, rdr, r, rinv, rp, z, zp, zpp, phi, phip, phipp, &
                     f0, f1, f2, e, e1, e2, w, a1, a2, a3, a4, q1, q2, ei, ce
         logical :: one
@@ -759,31 +845,41 @@ contains
                     end if
                 end do
             else
-                do k = 1, nin
-                    j = neigh(first(i) - 1 + kk(k))
-                    tj = type(j)
-                    m = mm(k); p = pp(k); r = rv(k); rinv = rr(k); rp = rpv(k)
+                ! segment by segment of the row ordered by type (the staged pairs keep the list's
+                ! order: those of segment tj are the next ones up to its end): tables fixed per segment
+                g = (i - 1)*self%ntypes
+                k2 = 0
+                do tj = 1, self%ntypes
+                    k1 = k2 + 1
+                    lim = tfirst(g + tj + 1) - first(i)
+                    do k = k1, nin
+                        k2 = k2 + merge(1, 0, kk(k) <= lim)
+                    end do
                     c = self%t2z(ti, tj)
-                    z = ((zs(4, m, c)*p + zs(5, m, c))*p + zs(6, m, c))*p + zs(7, m, c)
-                    zp = (zs(1, m, c)*p + zs(2, m, c))*p + zs(3, m, c)
-                    zpp = (2*zs(1, m, c)*p + zs(2, m, c))*rdr
-                    phi = z*rinv
-                    phip = (zp - phi)*rinv
-                    phipp = (zpp - 2*phip)*rinv
-                    ei = ei + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rppv(k); w = w - r*phip
-                    b = self%t2rho(tj, ti)      ! density at i from j
-                    f0 = ((rs(4, m, b)*p + rs(5, m, b))*p + rs(6, m, b))*p + rs(7, m, b)
-                    f1 = (rs(1, m, b)*p + rs(2, m, b))*p + rs(3, m, b)
-                    f2 = (2*rs(1, m, b)*p + rs(2, m, b))*rdr
-                    a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + (f2*rp*rp + f1*rppv(k)); a4 = a4 + r*f1
-                    if (j <= nlocal) then
-                        b = self%t2rho(ti, tj)  ! density at j from i
-                        f0 = ((rs(4, m, b)*p + rs(5, m, b))*p + rs(6, m, b))*p + rs(7, m, b)
-                        f1 = (rs(1, m, b)*p + rs(2, m, b))*p + rs(3, m, b)
-                        f2 = (2*rs(1, m, b)*p + rs(2, m, b))*rdr
-                        acc(1, j) = acc(1, j) + f0; acc(2, j) = acc(2, j) + f1*rp
-                        acc(3, j) = acc(3, j) + (f2*rp*rp + f1*rppv(k)); acc(4, j) = acc(4, j) + r*f1
-                    end if
+                    bi = self%t2rho(tj, ti)     ! density at i from j
+                    bj = self%t2rho(ti, tj)     ! density at j from i
+                    do k = k1, k2
+                        j = neigh(first(i) - 1 + kk(k))
+                        m = mm(k); p = pp(k); r = rv(k); rinv = rr(k); rp = rpv(k)
+                        z = ((zs(4, m, c)*p + zs(5, m, c))*p + zs(6, m, c))*p + zs(7, m, c)
+                        zp = (zs(1, m, c)*p + zs(2, m, c))*p + zs(3, m, c)
+                        zpp = (2*zs(1, m, c)*p + zs(2, m, c))*rdr
+                        phi = z*rinv
+                        phip = (zp - phi)*rinv
+                        phipp = (zpp - 2*phip)*rinv
+                        ei = ei + phi; e1 = e1 + phip*rp; e2 = e2 + phipp*rp*rp + phip*rppv(k); w = w - r*phip
+                        f0 = ((rs(4, m, bi)*p + rs(5, m, bi))*p + rs(6, m, bi))*p + rs(7, m, bi)
+                        f1 = (rs(1, m, bi)*p + rs(2, m, bi))*p + rs(3, m, bi)
+                        f2 = (2*rs(1, m, bi)*p + rs(2, m, bi))*rdr
+                        a1 = a1 + f0; a2 = a2 + f1*rp; a3 = a3 + (f2*rp*rp + f1*rppv(k)); a4 = a4 + r*f1
+                        if (j <= nlocal) then
+                            f0 = ((rs(4, m, bj)*p + rs(5, m, bj))*p + rs(6, m, bj))*p + rs(7, m, bj)
+                            f1 = (rs(1, m, bj)*p + rs(2, m, bj))*p + rs(3, m, bj)
+                            f2 = (2*rs(1, m, bj)*p + rs(2, m, bj))*rdr
+                            acc(1, j) = acc(1, j) + f0; acc(2, j) = acc(2, j) + f1*rp
+                            acc(3, j) = acc(3, j) + (f2*rp*rp + f1*rppv(k)); acc(4, j) = acc(4, j) + r*f1
+                        end if
+                    end do
                 end do
             end if
             call stage(below, bfirst(i) - 1, bfirst(i + 1) - bfirst(i))
@@ -940,46 +1036,33 @@ contains
         self%ztab(4:7, :) = self%zspl(4:7, :, c)
     end subroutine build_ztab
 
-    !> Several types: one table per distinct (rho_ba, rho_ab, phi_ab) of an ordered type pair (a, b)
-    !> (types mapped to the same element share it), knots contiguous per table, so that a pair's
-    !> lookups read one record at column m + pair_off(b, a) (m = the knot):
-    !>   density (8 values) = rho_ba c3..c6 (density at the type-a atom), rho_ab c3..c6;
-    !>   force (10) = rho_ba' c0..c2, rho_ab' c0..c2, z c3..c6 (z' from z's coefficients, as in
-    !>   build_ztab; 80 bytes instead of 128); both tables start on a 64-byte boundary.
+    !> Several types: the tables of the density and force passes, one per function of the file (the
+    !> passes pick them once per segment of a row ordered by type, so a pair type needs no record of
+    !> its own), knots contiguous per function, function f's knot m at column (f-1) nr + m:
+    !>   dfun: rho c3..c6 (the one-type density record), 64-byte aligned;
+    !>   ffun: rho' c0..c2;
+    !>   zfun: z = r phi c3..c6 (z' from them, as in build_ztab), 64-byte aligned;
+    !> and per type pair (b, a) the column offsets of the density at the type-a atom from the type-b
+    !> one (doi), at the type-b atom from the type-a one (doj), and of z_ab (zoff).
     subroutine build_pair_tables(self)
         type(eam_t), intent(inout) :: self
-        integer :: ta, tb, u, n, k, nt, nr, key(3, self%ntypes**2), id(self%ntypes, self%ntypes)
-        real(dp), allocatable :: d(:, :), t(:, :)
+        integer :: ta, tb, nt, nr, nf, nz
         nt = self%ntypes; nr = self%nr
-        n = 0
+        nf = size(self%rspl, 3); nz = size(self%zspl, 3)
+        allocate (self%dfun(4*nr*nf + 8), self%ffun(3, nr*nf), self%zfun(4*nr*nz + 8))
+        allocate (self%doi(nt, nt), self%doj(nt, nt), self%zoff(nt, nt))
+        self%dfun0 = align_shift(self%dfun)
+        self%zfun0 = align_shift(self%zfun)
+        self%dfun(self%dfun0 + 1:self%dfun0 + 4*nr*nf) = reshape(self%rspl(4:7, :, :), [4*nr*nf])
+        self%ffun = reshape(self%rspl(1:3, :, :), [3, nr*nf])
+        self%zfun(self%zfun0 + 1:self%zfun0 + 4*nr*nz) = reshape(self%zspl(4:7, :, :), [4*nr*nz])
         do ta = 1, nt
             do tb = 1, nt
-                id(tb, ta) = 0
-                do u = 1, n
-                    if (all(key(:, u) == [self%t2rho(tb, ta), self%t2rho(ta, tb), self%t2z(ta, tb)])) id(tb, ta) = u
-                end do
-                if (id(tb, ta) > 0) cycle
-                n = n + 1
-                key(:, n) = [self%t2rho(tb, ta), self%t2rho(ta, tb), self%t2z(ta, tb)]
-                id(tb, ta) = n
+                self%doi(tb, ta) = (self%t2rho(tb, ta) - 1)*nr
+                self%doj(tb, ta) = (self%t2rho(ta, tb) - 1)*nr
+                self%zoff(tb, ta) = (self%t2z(ta, tb) - 1)*nr
             end do
         end do
-        allocate (d(8, nr*n), t(10, nr*n), self%pair_off(nt, nt))
-        self%pair_off = (id - 1)*nr
-        do u = 1, n
-            k = (u - 1)*nr
-            d(1:4, k + 1:k + nr) = self%rspl(4:7, :, key(1, u))
-            d(5:8, k + 1:k + nr) = self%rspl(4:7, :, key(2, u))
-            t(1:3, k + 1:k + nr) = self%rspl(1:3, :, key(1, u))
-            t(4:6, k + 1:k + nr) = self%rspl(1:3, :, key(2, u))
-            t(7:10, k + 1:k + nr) = self%zspl(4:7, :, key(3, u))
-        end do
-        ! records on cache lines: the copies start at the first 64-byte boundary of their arrays
-        allocate (self%dtab(size(d) + 8), self%ftab(size(t) + 8))
-        self%dtab0 = align_shift(self%dtab)
-        self%ftab0 = align_shift(self%ftab)
-        self%dtab(self%dtab0 + 1:self%dtab0 + size(d)) = reshape(d, [size(d)])
-        self%ftab(self%ftab0 + 1:self%ftab0 + size(t)) = reshape(t, [size(t)])
     end subroutine build_pair_tables
 
     !> Elements to skip from the start of a so that the rest starts on a 64-byte boundary (0..7).
@@ -1067,54 +1150,79 @@ contains
     end subroutine density_one
 
     !> Several types: rho_i += rho_ba(r), rho_j += rho_ab(r) (a = type i, b = type j), staged as
-    !> density_one. The scalar gather pass also fetches each neighbour's table offset,
-    !> off(type j, type i) (see build_pair_tables), kept with the partner for the force pass
-    !> (ct(c) beside cj(c)); knot + offset is a column of d, whose record (d(1:4) for i, d(5:8)
-    !> for j) is the pair's only table read.
-    subroutine density_types(nlocal, x, type, first, neigh, cutsq, rdr, nr, off, d, rho, cj, cfirst, ct, pp, mm)
-        integer, intent(in) :: nlocal, nr
+    !> density_one, segment by segment of each row ordered by type (tfirst: the list's type_order),
+    !> so that the tables are chosen once per segment: s holds one table per density function (the
+    !> one-type records), rho_ba at column oi(b, a) + knot, rho_ab at oj(b, a) + knot; a pair whose
+    !> two densities are one function (within a type, and eam/alloy's types of one element) reads
+    !> one record and adds its value to both atoms, others read two (for CuNi.eam.alloy the table is
+    !> 32 KB, where one 64-byte record per pair type and knot took 128 KB).
+    !> The partners inside the cutoff are kept by segment for the force pass (cj, cseg, and cfirst).
+    subroutine density_types(nlocal, nt, x, type, tfirst, neigh, cutsq, rdr, nr, oi, oj, s, rho, cj, cfirst, cseg, &
+                             pp, mm)
+        integer, intent(in) :: nlocal, nt, nr
         real(dp), intent(in) :: x(3, *)
-        real(dp), intent(in) :: d(8, *)
-        integer, intent(in), contiguous :: type(:), first(:), neigh(:), off(:, :)
+        real(dp), intent(in) :: s(4, *)
+        integer, intent(in), contiguous :: type(:), tfirst(:), neigh(:), oi(:, :), oj(:, :)
         real(dp), intent(in) :: cutsq, rdr
         real(dp), intent(inout), contiguous :: rho(:)
-        integer, intent(inout), contiguous :: cj(:), cfirst(:), ct(:)
+        integer, intent(inout), contiguous :: cj(:), cfirst(:), cseg(:)
         real(dp), intent(inout), contiguous :: pp(:)
         integer, intent(inout), contiguous :: mm(:)
-        integer :: i, j, k, m, k0, nn, nin, c, ti
-        real(dp) :: xi, yi, zi, p, acc, top, ddx, ddy, ddz, rsq
+        integer :: i, j, k, m, k0, nn, nin, c, ti, b, g, o, o2
+        real(dp) :: xi, yi, zi, p, v, acc, top, ddx, ddy, ddz, rsq
         top = nr - 1
         c = 0
         cfirst(1) = 1
+        cseg(1) = 1
         do i = 1, nlocal
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
-            k0 = first(i) - 1
-            nn = first(i + 1) - first(i)
-            ! gather, squared distance, table offset and compaction in one scalar pass (partners into cj)
             ti = type(i)
+            g = (i - 1)*nt
+            ! gather, squared distance and compaction in one scalar pass per segment (partners
+            ! straight into cj, the atom's segments end to end)
             nin = 0
-            !GCC$ novector
-            do k = 1, nn
-                j = neigh(k0 + k)
-                ddx = xi - x(1, j); ddy = yi - x(2, j); ddz = zi - x(3, j)
-                rsq = ddx*ddx + ddy*ddy + ddz*ddz
-                cj(c + nin + 1) = j
-                ct(c + nin + 1) = off(type(j), ti)
-                pp(nin + 1) = rsq
-                nin = nin + merge(1, 0, rsq < cutsq)
+            do b = 1, nt
+                k0 = tfirst(g + b) - 1
+                nn = tfirst(g + b + 1) - tfirst(g + b)
+                !GCC$ novector
+                do k = 1, nn
+                    j = neigh(k0 + k)
+                    ddx = xi - x(1, j); ddy = yi - x(2, j); ddz = zi - x(3, j)
+                    rsq = ddx*ddx + ddy*ddy + ddz*ddz
+                    cj(c + nin + 1) = j
+                    pp(nin + 1) = rsq
+                    nin = nin + merge(1, 0, rsq < cutsq)
+                end do
+                cseg(g + b + 1) = c + nin + 1
             end do
+            ! knots and offsets of the whole row in one vectorised pass
             do k = 1, nin
                 p = sqrt(pp(k))*rdr + 1
                 m = int(min(p, top))
-                mm(k) = m + ct(c + k)
+                mm(k) = m
                 pp(k) = min(p - m, 1.0_dp)
             end do
             acc = 0
-            do k = 1, nin
-                m = mm(k); p = pp(k)
-                acc = acc + (((d(1, m)*p + d(2, m))*p + d(3, m))*p + d(4, m))
-                j = cj(c + k)
-                rho(j) = rho(j) + (((d(5, m)*p + d(6, m))*p + d(7, m))*p + d(8, m))
+            do b = 1, nt
+                o = oi(b, ti)
+                o2 = oj(b, ti)
+                if (o == o2) then
+                    do k = cseg(g + b) - c, cseg(g + b + 1) - 1 - c
+                        m = mm(k) + o; p = pp(k)
+                        v = ((s(1, m)*p + s(2, m))*p + s(3, m))*p + s(4, m)
+                        acc = acc + v
+                        j = cj(c + k)
+                        rho(j) = rho(j) + v
+                    end do
+                else
+                    do k = cseg(g + b) - c, cseg(g + b + 1) - 1 - c
+                        m = mm(k) + o; p = pp(k)
+                        acc = acc + (((s(1, m)*p + s(2, m))*p + s(3, m))*p + s(4, m))
+                        m = mm(k) + o2
+                        j = cj(c + k)
+                        rho(j) = rho(j) + (((s(1, m)*p + s(2, m))*p + s(3, m))*p + s(4, m))
+                    end do
+                end if
             end do
             rho(i) = rho(i) + acc
             c = c + nin
@@ -1122,46 +1230,34 @@ contains
         end do
     end subroutine density_types
 
-    !> The pairs inside the cutoff, cj(cfirst(i):cfirst(i+1)-1) for atom i, as the density passes
-    !> find them (for a force pass not preceded by one).
-    subroutine inside_pairs(nlocal, x, first, neigh, cutsq, cj, cfirst, dx, dy, dz, rr)
-        integer, intent(in) :: nlocal
+    !> The pairs inside the cutoff as the density passes keep them (for a force pass not preceded by
+    !> one), by segment: the nt segments of each atom's row, neigh(first(g) : first(g+1)-1) (g =
+    !> (i-1) nt + b; nt = 1: the rows, first = the list's), to cj(cfirst(g) : cfirst(g+1)-1).
+    subroutine inside_pairs(nlocal, nt, x, first, neigh, cutsq, cj, cfirst, dx, dy, dz, rr)
+        integer, intent(in) :: nlocal, nt
         real(dp), intent(in), contiguous :: x(:, :)
         integer, intent(in), contiguous :: first(:), neigh(:)
         real(dp), intent(in) :: cutsq
         integer, intent(inout), contiguous :: cj(:), cfirst(:)
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:)
-        integer :: i, k, k0, nn, c
+        integer :: i, k, k0, nn, c, g
         c = 0
         cfirst(1) = 1
         do i = 1, nlocal
-            k0 = first(i) - 1
-            nn = first(i + 1) - first(i)
-            call separations(x(1, i), x(2, i), x(3, i), x, neigh, k0, nn, dx, dy, dz, rr)
-            do k = 1, nn
-                if (rr(k) < cutsq) then
-                    c = c + 1
-                    cj(c) = neigh(k0 + k)
-                end if
+            do g = (i - 1)*nt + 1, i*nt
+                k0 = first(g) - 1
+                nn = first(g + 1) - first(g)
+                call separations(x(1, i), x(2, i), x(3, i), x, neigh, k0, nn, dx, dy, dz, rr)
+                do k = 1, nn
+                    if (rr(k) < cutsq) then
+                        c = c + 1
+                        cj(c) = neigh(k0 + k)
+                    end if
+                end do
+                cfirst(g + 1) = c + 1
             end do
-            cfirst(i + 1) = c + 1
         end do
     end subroutine inside_pairs
-
-    !> The table offsets ct(c) = off(type cj(c), type i) of the pairs inside the cutoff, as the
-    !> multi-type density pass keeps them (for a force pass not preceded by one).
-    subroutine pair_offsets(nlocal, type, cj, cfirst, off, ct)
-        integer, intent(in) :: nlocal
-        integer, intent(in), contiguous :: type(:), cj(:), cfirst(:), off(:, :)
-        integer, intent(inout), contiguous :: ct(:)
-        integer :: i, c, ti
-        do i = 1, nlocal
-            ti = type(i)
-            do c = cfirst(i), cfirst(i + 1) - 1
-                ct(c) = off(type(cj(c)), ti)
-            end do
-        end do
-    end subroutine pair_offsets
 
     !> Room for the pairs inside the cutoff: at most the list's length.
     subroutine reserve_pairs(self, nlocal, first)
@@ -1174,10 +1270,7 @@ contains
             if (size(self%cj) < n .or. size(self%cfirst) < nlocal + 1) deallocate (self%cj, self%cfirst)
         end if
         if (.not. allocated(self%cj)) allocate (self%cj(n + n/4 + 16), self%cfirst(nlocal + nlocal/4 + 16))
-        if (allocated(self%ct)) then
-            if (self%ntypes == 1 .or. size(self%ct) < size(self%cj)) deallocate (self%ct)
-        end if
-        if (self%ntypes > 1 .and. .not. allocated(self%ct)) allocate (self%ct(size(self%cj)))
+        if (self%ntypes > 1) call reserve(self%cseg, self%ntypes*nlocal + 1)
     end subroutine reserve_pairs
 
     !> F'(rho) (and F) of owned atoms; lo, hi: extremes of rho.
@@ -1311,24 +1404,26 @@ contains
     end subroutine force_one
 
     !> Several types: psi'(r) = fp_i rho_ba'(r) + fp_j rho_ab'(r) + phi_ab'(r) (a = type i, b = type
-    !> j), staged and blocked as force_one; the pair's table offset is the density pass's, ct(c)
-    !> (a contiguous read, not a gather of type j), its record t(:, m) = (rho_ba' c0..c2,
-    !> rho_ab' c0..c2, z c3..c6); z' = ((3 c3 p + 2 c4) p + c5)/dr.
-    subroutine force_types(nlocal, x, f, cj, ct, cfirst, rdr, nr, t, fp, want_energy, energy, virial, &
-                           dx, dy, dz, rr, pp, rinv, fj, ph, mm)
-        integer, intent(in) :: nlocal, nr
+    !> j), staged and blocked as force_one, the lookups segment by segment of the density pass's
+    !> pairs (cseg), from the tables of build_pair_tables: rd (rho' c0..c2 per density function;
+    !> rho_ba' at column oi(b, a) + knot, rho_ab' at oj(b, a) + knot) and zt (z c3..c6 per r phi
+    !> function, z_ab at oz(b, a) + knot); z' = ((3 c3 p + 2 c4) p + c5)/dr. A pair whose two
+    !> densities are one function (within a type) reads rho' once and multiplies it by fp_i + fp_j.
+    subroutine force_types(nlocal, nt, x, f, type, cj, cfirst, cseg, rdr, nr, oi, oj, oz, rd, zt, fp, want_energy, &
+                           energy, virial, dx, dy, dz, rr, pp, rinv, fj, ph, mm)
+        integer, intent(in) :: nlocal, nt, nr
         real(dp), intent(in) :: x(3, *)
         real(dp), intent(in), contiguous :: fp(:)
-        real(dp), intent(in) :: t(10, *)
+        real(dp), intent(in) :: rd(3, *), zt(4, *)
         real(dp), intent(inout) :: f(3, *)
-        integer, intent(in), contiguous :: cj(:), ct(:), cfirst(:)
+        integer, intent(in), contiguous :: type(:), cj(:), cfirst(:), cseg(:), oi(:, :), oj(:, :), oz(:, :)
         real(dp), intent(in) :: rdr
         logical, intent(in) :: want_energy
         real(dp), intent(inout) :: energy, virial
         real(dp), intent(inout), contiguous :: dx(:), dy(:), dz(:), rr(:), pp(:), rinv(:), fj(:), ph(:)
         integer, intent(inout), contiguous :: mm(:)
-        integer :: i, i0, i1, j, k, m, c, c0, n
-        real(dp) :: xi, yi, zi, fpi, p, r, rjp, rip, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top, ei, ce
+        integer :: i, i0, i1, j, k, m, c, c0, n, ti, b, g, o, o2, o3
+        real(dp) :: xi, yi, zi, fpi, p, r, rp, rpi, rpj, z, zp, phi, fpair, fxi, fyi, fzi, e, w, top, ei, ce
         top = nr - 1
         e = 0; w = 0; ce = 0
         i0 = 1
@@ -1356,23 +1451,41 @@ contains
                 rinv(k) = 1/r
                 p = r*rdr + 1
                 m = int(min(p, top))
-                mm(k) = m + ct(c0 + k)
+                mm(k) = m
                 pp(k) = min(p - m, 1.0_dp)
             end do
-            ! lookups (scalar: see force_one), atom by atom: fp_i rho_ba' + fp_j rho_ab' -> fj; z' -> pp,
-            ! z -> ph
+            ! lookups (scalar: see force_one), segment by segment: (fp_i + fp_j) rho_aa' or
+            ! fp_i rho_ba' + fp_j rho_ab' -> fj; z' -> pp, z -> ph
             do i = i0, i1
                 fpi = fp(i)
-                !GCC$ novector
-                do k = cfirst(i) - c0, cfirst(i + 1) - 1 - c0
-                    m = mm(k); p = pp(k)
-                    rjp = (t(1, m)*p + t(2, m))*p + t(3, m)
-                    rip = (t(4, m)*p + t(5, m))*p + t(6, m)
-                    zp = ((3*t(7, m)*p + 2*t(8, m))*p + t(9, m))*rdr
-                    z = ((t(7, m)*p + t(8, m))*p + t(9, m))*p + t(10, m)
-                    fj(k) = fpi*rjp + fj(k)*rip
-                    pp(k) = zp
-                    ph(k) = z
+                ti = type(i)
+                do b = 1, nt
+                    g = (i - 1)*nt + b
+                    o = oi(b, ti); o2 = oj(b, ti); o3 = oz(b, ti)
+                    if (o == o2) then
+                        !GCC$ novector
+                        do k = cseg(g) - c0, cseg(g + 1) - 1 - c0
+                            m = mm(k); p = pp(k)
+                            rp = (rd(1, m + o)*p + rd(2, m + o))*p + rd(3, m + o)
+                            zp = ((3*zt(1, m + o3)*p + 2*zt(2, m + o3))*p + zt(3, m + o3))*rdr
+                            z = ((zt(1, m + o3)*p + zt(2, m + o3))*p + zt(3, m + o3))*p + zt(4, m + o3)
+                            fj(k) = (fpi + fj(k))*rp
+                            pp(k) = zp
+                            ph(k) = z
+                        end do
+                    else
+                        !GCC$ novector
+                        do k = cseg(g) - c0, cseg(g + 1) - 1 - c0
+                            m = mm(k); p = pp(k)
+                            rpi = (rd(1, m + o)*p + rd(2, m + o))*p + rd(3, m + o)
+                            rpj = (rd(1, m + o2)*p + rd(2, m + o2))*p + rd(3, m + o2)
+                            zp = ((3*zt(1, m + o3)*p + 2*zt(2, m + o3))*p + zt(3, m + o3))*rdr
+                            z = ((zt(1, m + o3)*p + zt(2, m + o3))*p + zt(3, m + o3))*p + zt(4, m + o3)
+                            fj(k) = fpi*rpi + fj(k)*rpj
+                            pp(k) = zp
+                            ph(k) = z
+                        end do
+                    end if
                 end do
             end do
             do k = 1, n

@@ -49,6 +49,9 @@ module terrace_potential
         !> .true.: the passes read each neighbour's type from the list (list%want_types: a row
         !> filled at each build instead of a gather at every pass); multi-type Lennard-Jones
         procedure :: wants_neighbour_types => potential_false
+        !> > 1: the passes want each list row ordered by the neighbours' types 1..this
+        !> (list%type_order: segments per type); 0: any order (multi-type EAM)
+        procedure :: neighbour_type_order => potential_type_order
         procedure :: contact_distance => potential_contact_distance
         procedure :: time_scale => potential_time_scale
         procedure :: preferred_skin => potential_preferred_skin
@@ -130,6 +133,11 @@ contains
         class(potential_t), intent(in) :: self
         potential_false = .false.
     end function potential_false
+
+    pure integer function potential_type_order(self)
+        class(potential_t), intent(in) :: self
+        potential_type_order = 0
+    end function potential_type_order
 
     !> Distance below which two atoms of types ti and tj count as overlapping at the start (the
     !> run is refused below a quarter of it); 0: no overlap check for this pair.

@@ -28,6 +28,7 @@ module terrace_potential_sum
         procedure :: needs_full_neighbourhood => sum_needs_full
         procedure :: runs_on_pruned_list => sum_runs_on_pruned_list
         procedure :: wants_neighbour_types => sum_wants_types
+        procedure :: neighbour_type_order => sum_type_order
         procedure :: contact_distance => sum_contact_distance
         procedure :: time_scale => sum_time_scale
         procedure :: on_rebuild => sum_on_rebuild
@@ -131,6 +132,12 @@ contains
         integer :: k
         sum_wants_types = any([(self%terms(k)%p%wants_neighbour_types(), k = 1, size(self%terms))])
     end function sum_wants_types
+
+    pure integer function sum_type_order(self)
+        class(potential_sum_t), intent(in) :: self
+        integer :: k
+        sum_type_order = maxval([(self%terms(k)%p%neighbour_type_order(), k = 1, size(self%terms))])
+    end function sum_type_order
 
     pure logical function sum_runs_on_pruned_list(self)
         class(potential_sum_t), intent(in) :: self

@@ -1110,7 +1110,7 @@ contains
         real(dp), intent(inout), contiguous :: pp(:)
         integer, intent(inout), contiguous :: mm(:)
         integer :: i, j, k, m, k0, nn, nin, c
-        real(dp) :: xi, yi, zi, p, v, acc, top, ddx, ddy, ddz, rsq
+        real(dp) :: xi, yi, zi, p, v, acc, top
         top = nr - 1
         c = 0
         cfirst(1) = 1
@@ -1118,17 +1118,8 @@ contains
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
             k0 = first(i) - 1
             nn = first(i + 1) - first(i)
-            ! gather, squared distance and compaction in one scalar pass (partners straight into cj)
             nin = 0
-            !GCC$ novector
-            do k = 1, nn
-                j = neigh(k0 + k)
-                ddx = xi - x(1, j); ddy = yi - x(2, j); ddz = zi - x(3, j)
-                rsq = ddx*ddx + ddy*ddy + ddz*ddz
-                cj(c + nin + 1) = j
-                pp(nin + 1) = rsq
-                nin = nin + merge(1, 0, rsq < cutsq)
-            end do
+            call gather_inside(xi, yi, zi, x, neigh, k0, nn, cutsq, cj, c, pp, nin)
             do k = 1, nin
                 p = sqrt(pp(k))*rdr + 1
                 m = int(min(p, top))
@@ -1148,6 +1139,31 @@ contains
             cfirst(i + 1) = c + 1
         end do
     end subroutine density_one
+
+    !> The density passes' gather: of the nn partners j = neigh(k0 + k) of the atom at (xi, yi, zi),
+    !> those inside the cutoff appended to cj(c + nin + 1 :) and their squared distances to
+    !> pp(nin + 1 :), nin counting them; one scalar pass without branches (the list holds the skin
+    !> shell too: a branch there is mispredicted about half the time).
+    subroutine gather_inside(xi, yi, zi, x, neigh, k0, nn, cutsq, cj, c, pp, nin)
+        real(dp), intent(in) :: xi, yi, zi, cutsq
+        real(dp), intent(in) :: x(3, *)
+        integer, intent(in), contiguous :: neigh(:)
+        integer, intent(in) :: k0, nn, c
+        integer, intent(inout), contiguous :: cj(:)
+        real(dp), intent(inout), contiguous :: pp(:)
+        integer, intent(inout) :: nin
+        integer :: k, j
+        real(dp) :: ddx, ddy, ddz, rsq
+        !GCC$ novector
+        do k = 1, nn
+            j = neigh(k0 + k)
+            ddx = xi - x(1, j); ddy = yi - x(2, j); ddz = zi - x(3, j)
+            rsq = ddx*ddx + ddy*ddy + ddz*ddz
+            cj(c + nin + 1) = j
+            pp(nin + 1) = rsq
+            nin = nin + merge(1, 0, rsq < cutsq)
+        end do
+    end subroutine gather_inside
 
     !> Several types: rho_i += rho_ba(r), rho_j += rho_ab(r) (a = type i, b = type j), staged as
     !> density_one, segment by segment of each row ordered by type (tfirst: the list's type_order),
@@ -1169,7 +1185,7 @@ contains
         real(dp), intent(inout), contiguous :: pp(:)
         integer, intent(inout), contiguous :: mm(:)
         integer :: i, j, k, m, k0, nn, nin, c, ti, b, g, o, o2
-        real(dp) :: xi, yi, zi, p, v, acc, top, ddx, ddy, ddz, rsq
+        real(dp) :: xi, yi, zi, p, v, acc, top
         top = nr - 1
         c = 0
         cfirst(1) = 1
@@ -1178,21 +1194,12 @@ contains
             xi = x(1, i); yi = x(2, i); zi = x(3, i)
             ti = type(i)
             g = (i - 1)*nt
-            ! gather, squared distance and compaction in one scalar pass per segment (partners
-            ! straight into cj, the atom's segments end to end)
+            ! the atom's segments end to end
             nin = 0
             do b = 1, nt
                 k0 = tfirst(g + b) - 1
                 nn = tfirst(g + b + 1) - tfirst(g + b)
-                !GCC$ novector
-                do k = 1, nn
-                    j = neigh(k0 + k)
-                    ddx = xi - x(1, j); ddy = yi - x(2, j); ddz = zi - x(3, j)
-                    rsq = ddx*ddx + ddy*ddy + ddz*ddz
-                    cj(c + nin + 1) = j
-                    pp(nin + 1) = rsq
-                    nin = nin + merge(1, 0, rsq < cutsq)
-                end do
+                call gather_inside(xi, yi, zi, x, neigh, k0, nn, cutsq, cj, c, pp, nin)
                 cseg(g + b + 1) = c + nin + 1
             end do
             ! knots and offsets of the whole row in one vectorised pass

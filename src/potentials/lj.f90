@@ -873,7 +873,7 @@ contains
     !> atom row from atom i's column of the tables by the neighbours' types (select_by_type; ntr,
     !> the list's row of them). The rows are padded to a multiple of 8 with far, motionless pairs
     !> whose coefficients are 0 (all four terms exactly 0). Columns of work: |d|^2, d.w, |w|^2 1-3,
-    !> lj1, lj2, cutsq, lj3, lj4, offset 7-12.
+    !> lj1, lj2, cutsq, lj3, lj4, offset 4-9 (as in the force pass).
     subroutine ray_types(self, nlocal, xv, type, first, neigh, ntr, inf, one_, zero_, work, atom_sums, out)
         type(lj_t), intent(in) :: self
         integer, intent(in) :: nlocal
@@ -888,7 +888,7 @@ contains
         real(dp) :: p_lj1, p_lj2, p_lj3, p_lj4, p_cs, p_off, p_c7h, p_2lj2   !< the pair's coefficients (lj_ray_lanes.inc)
         real(dp), pointer, contiguous :: rr(:), dw(:), ww(:), c1(:), c2(:), cs(:), c3(:), c4(:), co(:)
         rr => work(:, 1); dw => work(:, 2); ww => work(:, 3)
-        c1 => work(:, 7); c2 => work(:, 8); cs => work(:, 9); c3 => work(:, 10); c4 => work(:, 11); co => work(:, 12)
+        c1 => work(:, 4); c2 => work(:, 5); cs => work(:, 6); c3 => work(:, 7); c4 => work(:, 8); co => work(:, 9)
         far = inf; one = one_; zero = zero_
         vir = 0
         do i = 1, nlocal

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Issue 16, the mixed-precision kernel's goal (1.5x GROMACS mixed): would a cluster-pair force pass
+# (GROMACS's nbnxm idea: 4 x 4 atom pairs of two clusters of four, 16 singles per AVX-512 vector)
+# beat Terrace's atom-pair kernels on LAMMPS's LJ bench scene? Compiles the standalone probe
+# cluster_pair_probe.f90 (not part of the engine; see its header) with the engine's flags, runs it
+# with the cluster list built at rc + skin (2.8 sigma: what every pass reads without pruning) and at
+# rc (2.5: the fewest cluster pairs a pruned list could keep), then runs Terrace's double and mixed
+# kernels on input/lj_bench.nml (200 steps, best of 3) and prints their force pass per step from the
+# run log's Pair phase, per pair within rc + skin. The probe times CPU seconds, Terrace's log wall
+# seconds: run it on a quiet machine.
+# Usage: scripts/bench/cluster_pair_probe.sh [TERRACE_BINARY]   (default build/terrace)
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
+terrace="$(realpath "${1:-$repo/build/terrace}")"
+[[ -x "$terrace" ]] || { echo "cluster_pair_probe: no Terrace binary at $terrace (bash scripts/build.sh first)" >&2; exit 2; }
+work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
+gfortran -std=f2018 -ffree-line-length-none -O3 -march=native -funroll-loops \
+    "$here/cluster_pair_probe.f90" -J "$work" -o "$work/probe"
+echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(nproc) cores visible"
+echo "date    : $(date -u '+%Y-%m-%d %H:%M UTC'); load $(cut -d' ' -f1-3 /proc/loadavg) at start"
+echo "commit  : $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
+echo "compiler: $(gfortran --version | head -1); -O3 -march=native -funroll-loops"
+echo
+echo "== cluster-pair probe (single-precision pairs)"
+"$work/probe" 2.8
+echo
+"$work/probe" 2.5
+echo
+echo "== Terrace's atom-pair kernels, input/lj_bench.nml, 200 steps (best of 3): force pass per step"
+cd "$work"
+sed -E "s/n_steps=[0-9]+/n_steps=200/" "$repo/input/lj_bench.nml" > double.nml
+sed -E "s#shift=.false. /#shift=.false., precision='mixed' /#" double.nml > mixed.nml
+grep -q "precision='mixed'" mixed.nml || { echo "cluster_pair_probe: could not set precision='mixed'" >&2; exit 1; }
+for k in double mixed; do
+    best=""
+    for r in 1 2 3; do
+        "$terrace" $k.nml > $k.log 2>&1 || { echo "cluster_pair_probe: Terrace failed:" >&2; tail -5 $k.log >&2; exit 1; }
+        pair=$(awk '/^Pair +[0-9]/ {print $2; exit}' $k.log)
+        if [[ -z "$best" ]] || awk -v a="$pair" -v b="$best" 'BEGIN {exit !(a < b)}'; then best=$pair; fi
+    done
+    pairs=$(sed -n 's/^List pairs (within rc + skin, last build): *//p' $k.log)
+    awk -v k="$k" -v t="$best" -v n="$pairs" 'BEGIN {printf "%-7s %7.3f ms per step; %6.3f ns per pair within rc + skin (%d pairs)\n", k, 1e3*t/200, 1e9*t/200/n, n}'
+done

@@ -226,8 +226,7 @@ contains
         real(dp), intent(out) :: f4(4, 3, ncl)
         logical, intent(in) :: skip_pairs
         real(sp) :: xs(jmax), ys(jmax), zs(jmax), fxs(jmax), fys(jmax), fzs(jmax)
-        real(sp) :: a1x(16), a1y(16), a1z(16), a2x(16), a2y(16), a2z(16), a3x(16), a3y(16), a3z(16)
-        real(sp) :: a4x(16), a4y(16), a4z(16), xi(4), yi(4), zi(4)
+        real(sp) :: ax(16, 4), ay(16, 4), az(16, 4), xi(4), yi(4), zi(4)
         real(sp) :: dx, dy, dz, r2, r2i, r6, fp, gx, gy, gz, cut
         real(dp) :: t4(4)
         integer :: ci, cj, p, n, m, k, kb, l, ii, jj
@@ -246,38 +245,23 @@ contains
             end do
             m = (n + 15)/16*16
             xs(n + 1:m) = 300; ys(n + 1:m) = 0; zs(n + 1:m) = 0
-            a1x = 0; a1y = 0; a1z = 0; a2x = 0; a2y = 0; a2z = 0
-            a3x = 0; a3y = 0; a3z = 0; a4x = 0; a4y = 0; a4z = 0
+            ax = 0; ay = 0; az = 0
             if (skip_pairs) then
                 fxs(1:n) = xs(1:n); fys(1:n) = ys(1:n); fzs(1:n) = zs(1:n)
             else
                 do kb = 0, m - 16, 16
                     do l = 1, 16
                         k = kb + l
-                        dx = xi(1) - xs(k); dy = yi(1) - ys(k); dz = zi(1) - zs(k)
-                        r2 = dx*dx + dy*dy + dz*dz
-                        r2i = (0.5_sp + sign(0.5_sp, cut - r2))/r2
-                        r6 = r2i*r2i*r2i; fp = r6*(48*r6 - 24)*r2i
-                        a1x(l) = a1x(l) + fp*dx; a1y(l) = a1y(l) + fp*dy; a1z(l) = a1z(l) + fp*dz
-                        gx = -fp*dx; gy = -fp*dy; gz = -fp*dz
-                        dx = xi(2) - xs(k); dy = yi(2) - ys(k); dz = zi(2) - zs(k)
-                        r2 = dx*dx + dy*dy + dz*dz
-                        r2i = (0.5_sp + sign(0.5_sp, cut - r2))/r2
-                        r6 = r2i*r2i*r2i; fp = r6*(48*r6 - 24)*r2i
-                        a2x(l) = a2x(l) + fp*dx; a2y(l) = a2y(l) + fp*dy; a2z(l) = a2z(l) + fp*dz
-                        gx = gx - fp*dx; gy = gy - fp*dy; gz = gz - fp*dz
-                        dx = xi(3) - xs(k); dy = yi(3) - ys(k); dz = zi(3) - zs(k)
-                        r2 = dx*dx + dy*dy + dz*dz
-                        r2i = (0.5_sp + sign(0.5_sp, cut - r2))/r2
-                        r6 = r2i*r2i*r2i; fp = r6*(48*r6 - 24)*r2i
-                        a3x(l) = a3x(l) + fp*dx; a3y(l) = a3y(l) + fp*dy; a3z(l) = a3z(l) + fp*dz
-                        gx = gx - fp*dx; gy = gy - fp*dy; gz = gz - fp*dz
-                        dx = xi(4) - xs(k); dy = yi(4) - ys(k); dz = zi(4) - zs(k)
-                        r2 = dx*dx + dy*dy + dz*dz
-                        r2i = (0.5_sp + sign(0.5_sp, cut - r2))/r2
-                        r6 = r2i*r2i*r2i; fp = r6*(48*r6 - 24)*r2i
-                        a4x(l) = a4x(l) + fp*dx; a4y(l) = a4y(l) + fp*dy; a4z(l) = a4z(l) + fp*dz
-                        fxs(k) = gx - fp*dx; fys(k) = gy - fp*dy; fzs(k) = gz - fp*dz
+                        gx = 0; gy = 0; gz = 0
+                        do ii = 1, 4        ! (unrolled by GCC: four lanes of i accumulators)
+                            dx = xi(ii) - xs(k); dy = yi(ii) - ys(k); dz = zi(ii) - zs(k)
+                            r2 = dx*dx + dy*dy + dz*dz
+                            r2i = (0.5_sp + sign(0.5_sp, cut - r2))/r2
+                            r6 = r2i*r2i*r2i; fp = r6*(48*r6 - 24)*r2i
+                            ax(l, ii) = ax(l, ii) + fp*dx; ay(l, ii) = ay(l, ii) + fp*dy; az(l, ii) = az(l, ii) + fp*dz
+                            gx = gx - fp*dx; gy = gy - fp*dy; gz = gz - fp*dz
+                        end do
+                        fxs(k) = gx; fys(k) = gy; fzs(k) = gz
                     end do
                 end do
             end if
@@ -290,10 +274,9 @@ contains
                 t4 = real(fzs(n + 1:n + 4), dp); f4(:, 3, cj) = f4(:, 3, cj) + t4
                 n = n + 4
             end do
-            f4(1, :, ci) = f4(1, :, ci) + [sum(real(a1x, dp)), sum(real(a1y, dp)), sum(real(a1z, dp))]
-            f4(2, :, ci) = f4(2, :, ci) + [sum(real(a2x, dp)), sum(real(a2y, dp)), sum(real(a2z, dp))]
-            f4(3, :, ci) = f4(3, :, ci) + [sum(real(a3x, dp)), sum(real(a3y, dp)), sum(real(a3z, dp))]
-            f4(4, :, ci) = f4(4, :, ci) + [sum(real(a4x, dp)), sum(real(a4y, dp)), sum(real(a4z, dp))]
+            do ii = 1, 4
+                f4(ii, :, ci) = f4(ii, :, ci) + [sum(real(ax(:, ii), dp)), sum(real(ay(:, ii), dp)), sum(real(az(:, ii), dp))]
+            end do
             do ii = 1, 3            ! pairs within the cluster
                 do jj = ii + 1, 4
                     dx = xi(ii) - xi(jj); dy = yi(ii) - yi(jj); dz = zi(ii) - zi(jj)

@@ -21,7 +21,7 @@
 !> Output: pair counts, the pass's CPU time, and that time without the pair loop (staging and
 !> write-back alone), best of several repetitions; forces checked against a double reference.
 program cluster_pair_probe
-    use, intrinsic :: iso_fortran_env, only: dp => real64, sp => real32
+    use, intrinsic :: iso_fortran_env, only: dp => real64, sp => real32, error_unit
     implicit none
     integer, parameter :: nc = 20, natoms = 4*nc**3, jmax = 4096
     real(dp), parameter :: rho = 0.8442_dp, rc = 2.5_dp
@@ -36,6 +36,11 @@ program cluster_pair_probe
     radius = 2.8_dp
     if (command_argument_count() > 0) then
         call get_command_argument(1, arg); read (arg, *) radius
+    end if
+    ! the search covers two columns either side (2 x 1.68 sigma) and at most 100 clusters per list
+    if (.not. (radius >= rc .and. radius <= 3.0_dp)) then
+        write (error_unit, '(a)') 'cluster_pair_probe: the list radius must be in [2.5, 3.0] sigma'
+        stop 2
     end if
     a = (4/rho)**(1.0_dp/3); L = nc*a
     call lattice(x)

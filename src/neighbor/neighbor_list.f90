@@ -15,7 +15,7 @@ module terrace_neighbor_list
     use terrace_grow, only: reserve, grow_keep
     implicit none
     private
-    public :: gather_neighbour_types, order_rows_by_type
+    public :: gather_neighbour_types, order_rows_by_type, longest_row
 
     type, public :: neighbor_list_t
         real(dp) :: cut = 0, cutsq = 0, skin = 0

@@ -48,7 +48,7 @@ module terrace_eam
     use terrace_compensated_sum, only: comp_add
     use terrace_atoms, only: atoms_t
     use terrace_grow, only: reserve
-    use terrace_neighbor_list, only: neighbor_list_t, order_rows_by_type
+    use terrace_neighbor_list, only: neighbor_list_t, order_rows_by_type, longest_row
     use terrace_eam_files, only: eam_file_t, read_funcfl_file, read_setfl_file
     use terrace_potential, only: potential_t, halo_ops_t, max_warning_flags
     implicit none
@@ -650,12 +650,9 @@ contains
         type(eam_t), intent(inout) :: self
         type(neighbor_list_t), intent(in) :: list
         integer, intent(in) :: type(:), nlocal
-        integer :: n, i, nb
+        integer :: n, nb
         n = list%first(nlocal + 1) - 1
-        nb = 1
-        do i = 1, nlocal
-            nb = max(nb, list%first(i + 1) - list%first(i))
-        end do
+        nb = max(longest_row(list%first, nlocal), 1)
         call reserve(self%oneigh, max(n, 1))
         call reserve(self%otfirst, self%ntypes*nlocal + 1)
         if (allocated(self%oscratch)) then
@@ -1204,7 +1201,7 @@ contains
                 call gather_inside(xi, yi, zi, x, neigh, k0, nn, cutsq, cj, c, pp, nin)
                 cseg(g + b + 1) = c + nin + 1
             end do
-            ! knots and offsets of the whole row in one vectorised pass
+            ! knots of the whole row in one vectorised pass (the offsets are the segments')
             do k = 1, nin
                 p = sqrt(pp(k))*rdr + 1
                 m = int(min(p, top))

@@ -50,7 +50,7 @@ module terrace_potential
         !> filled at each build instead of a gather at every pass); multi-type Lennard-Jones
         procedure :: wants_neighbour_types => potential_false
         !> > 1: the passes want each list row ordered by the neighbours' types 1..this
-        !> (list%type_order: segments per type); 0: any order (multi-type EAM)
+        !> (list%type_order: segments per type; multi-type EAM); 0: any order
         procedure :: neighbour_type_order => potential_type_order
         procedure :: contact_distance => potential_contact_distance
         procedure :: time_scale => potential_time_scale

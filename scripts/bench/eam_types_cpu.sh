@@ -21,12 +21,12 @@ nsteps=$1; shift
 bins=(); for b in "$@"; do bins+=("$(realpath "$b")"); done
 repeat="${REPEAT:-3}"
 case "${KIND:-eam}" in
-    eam) part=types; sym=__terrace_eam_MOD_; steps=(1 "$nsteps"); what='EAM kernels' ;;
-    lj)  part=ljtypes; sym=__terrace_lj_MOD_; steps=("$nsteps" 1); what='LJ kernels' ;;
+    eam) part=types; sym=__terrace_eam_MOD_; steps=(1 "$nsteps"); what='EAM kernels'; label=Cu ;;
+    lj)  part=ljtypes; sym=__terrace_lj_MOD_; steps=("$nsteps" 1); what='LJ kernels'; label=one ;;
     *)   echo "eam_types_cpu: KIND must be eam or lj, not '$KIND'" >&2; exit 2 ;;
 esac
 command -v perf > /dev/null || { echo "eam_types_cpu: perf not found" >&2; exit 2; }
-# the scenes and pair counts: one round of anchors.sh part types (kept work directory)
+# the scenes and pair counts: one round of anchors.sh part $part (kept work directory)
 log="$(mktemp)"
 KEEP=1 REPEAT=1 PARTS=$part bash "$here/anchors.sh" "${steps[@]}" "${bins[0]}" > "$log"
 work="$(sed -n 's/^work dir: //p' "$log")"
@@ -47,9 +47,9 @@ for ((rep = 1; rep <= repeat; rep++)); do
         done < $part.txt
     done
 done
-python3 - "$nsteps" "$part.txt" "$what" "${bins[@]}" <<'PY'
+python3 - "$nsteps" "$part.txt" "$what" "$label" "${bins[@]}" <<'PY'
 import sys, re, statistics as st
-nsteps, listfile, what, bins = int(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4:]
+nsteps, listfile, what, label, bins = int(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5:]
 ms = {}
 for line in open('cpu.txt'):
     k, name, v = line.split()
@@ -60,7 +60,6 @@ for name in names:
     log = open('l_%s.best.log' % name).read()
     nb = [int(x) for x in re.findall(r'^Total # of neighbors = (\d+)', log, re.M)]
     pairs[name] = 0.5 * (nb[-2] + nb[-1])
-label = 'Cu' if names[0] == 'cu_u3' else 'one'
 print('%s, CPU ns per step per pair within rc + skin (best / median of %d rounds); vs %s = / %s'
       % (what, len(ms[(0, names[0])]), label, names[0]))
 for k, b in enumerate(bins):

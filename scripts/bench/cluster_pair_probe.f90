@@ -5,21 +5,31 @@
 !> cluster_pair_probe.sh with the engine's optimisation flags.
 !>
 !> Scene: fcc, 20^3 cells, rho* 0.8442 (32,000 atoms), each coordinate displaced by a uniform
-!> random amount in [-0.2, 0.2] sigma; rc 2.5 sigma; cluster lists built at a radius R (argument:
-!> 2.8 = rc + LAMMPS's skin, the list every pass would read without pruning; 2.5 = rc, the fewest
-!> cluster pairs that a pruned list could keep).
+!> random amount in [-0.2, 0.2] sigma; rc 2.5 sigma. Arguments: the list radius R (2.8 = rc +
+!> LAMMPS's skin, the list every pass would read without pruning; 2.5 = rc, the fewest cluster
+!> pairs that a pruned list could keep), and 'atoms' to list a cluster pair only when one of its
+!> 16 atom pairs lies within R (GROMACS's check after the bounding boxes), else bounding boxes only.
 !> Clusters: the box cut into square columns of side (4/rho)^(1/3) (four atoms per cube of that
 !> side), the atoms of each column sorted by z and taken four at a time (the last padded with far
-!> away dummies). A cluster pair (ci < cj) is listed when the bounding boxes lie closer than R.
-!> Positions are stored per cluster as singles relative to the cluster's box centre; a listed pair
-!> carries the single-precision offset between the two centres (minimum image), so a separation
-!> is formed from small numbers (about 1e-7 sigma round-off, as the mixed kernel's hi/lo pairs).
-!> Force pass, per cluster ci: its neighbours' positions are staged end to end (offset added),
-!> the pair loop runs 16 j atoms per vector against ci's four atoms (their forces summed in 16
-!> lanes each), the j forces are summed into singles per staged atom and added to the double
-!> per-cluster force records. Pairs within the same cluster: a scalar loop.
-!> Output: pair counts, the pass's CPU time, and that time without the pair loop (staging and
-!> write-back alone), best of several repetitions; forces checked against a double reference.
+!> away dummies). A cluster pair (ci < cj) is a candidate when cj's z extent meets ci's widened by
+!> R (the columns are z-sorted, so a bisection finds them), and listed when the bounding boxes lie
+!> closer than R (and, with 'atoms', an atom pair does). Positions are stored per cluster as singles
+!> relative to the cluster's box centre; a listed pair carries the single-precision offset between
+!> the two centres (minimum image), so a separation is formed from small numbers (about 1e-7 sigma
+!> round-off, as the mixed kernel's hi/lo pairs).
+!> Three force passes, timed (CPU, best of 5 x 20), forces checked against a double reference:
+!> - staged: per cluster ci, its neighbours' positions copied end to end (offset added), the pair
+!>   loop over 16 j atoms per vector against ci's four atoms, the j forces summed into singles per
+!>   staged atom and added to double per-cluster records; timed also without its pair loop.
+!> - replicated, j forces in singles: no staging. Every cluster's positions are kept replicated,
+!>   lane l of 16 holding atom mod(l - 1, 4) + 1 (j0 j1 j2 j3 j0 ...), ci's atoms spread as
+!>   (i0 i0 i0 i0 i1 ...), so one listed cluster pair is one 16-lane loop over contiguous records;
+!>   j forces added to the j cluster's replicated single-precision force record, reduced over the
+!>   four replicas into doubles at the end of the pass. Forming the replicas and the reduction are
+!>   inside the timed pass (an engine would do both every step).
+!> - replicated, j forces in doubles: the same with double j records (16 doubles per component).
+!> The list build (columns, clusters, list) is timed too (best of 3). Pairs within one cluster: a
+!> scalar loop in each pass.
 program cluster_pair_probe
     use, intrinsic :: iso_fortran_env, only: dp => real64, sp => real32, error_unit
     implicit none
@@ -30,23 +40,66 @@ program cluster_pair_probe
     real(sp), allocatable :: xr(:, :, :), offs(:, :)
     real(dp), allocatable :: f4(:, :, :), centre(:, :), half(:, :)
     integer, allocatable :: member(:, :), cfirst(:), clist(:)
-    real(dp) :: t0, t1, best_full, best_skip
+    real(dp) :: t0, t1, best_full, best_skip, best_rep(2), err_rep(2), best_build
+    logical :: atom_check
+    real(dp) :: rin, best_prune
+    integer :: nouter
+    integer, allocatable :: cfirst_in(:), clist_in(:)
+    real(sp), allocatable :: offs_in(:, :)
+    real(sp), allocatable :: xrep(:, :, :), frep_s(:, :, :)
+    real(dp), allocatable :: frep_d(:, :, :)
+    integer :: v
     character(len=32) :: arg
 
     radius = 2.8_dp
     if (command_argument_count() > 0) then
         call get_command_argument(1, arg); read (arg, *) radius
     end if
-    ! the search covers two columns either side (2 x 1.68 sigma) and at most 100 clusters per list
-    if (.not. (radius >= rc .and. radius <= 3.0_dp)) then
-        write (error_unit, '(a)') 'cluster_pair_probe: the list radius must be in [2.5, 3.0] sigma'
+    atom_check = .false.
+    if (command_argument_count() > 1) then
+        call get_command_argument(2, arg); atom_check = trim(arg) == 'atoms'
+    end if
+    rin = 0
+    if (command_argument_count() > 2) then
+        call get_command_argument(3, arg); read (arg, *) rin
+    end if
+    ! the search covers two columns either side (2 x 1.68 sigma: any radius below 3.36)
+    if (.not. (radius >= rc .and. radius <= 3.3_dp)) then
+        write (error_unit, '(a)') 'cluster_pair_probe: the list radius must be in [2.5, 3.3] sigma'
+        stop 2
+    end if
+    if (rin /= 0 .and. .not. (rin >= rc .and. rin < radius)) then
+        write (error_unit, '(a)') 'cluster_pair_probe: the pruning radius must be in [2.5, list radius)'
         stop 2
     end if
     a = (4/rho)**(1.0_dp/3); L = nc*a
     call lattice(x)
     call reference(x, fref, npair_rc, npair_list)
     frms = sqrt(sum(fref**2)/natoms)
-    call build(x, radius, ncl, xr, member, centre, half, cfirst, clist, offs, nlisted)
+    best_build = huge(1.0_dp)
+    do rep = 1, 3
+        call cpu_time(t0)
+        call build(x, radius, ncl, xr, member, centre, half, cfirst, clist, offs, nlisted)
+        call cpu_time(t1); best_build = min(best_build, t1 - t0)
+    end do
+    print '(a, f5.2, a, i0, a, i0)', 'cluster list radius ', radius, ' sigma; clusters ', ncl, '; atoms ', natoms
+    print '(a, l1, a, f7.3, a)', 'cluster pairs checked atom by atom: ', atom_check, '; build (columns, clusters, list; best of 3): ', &
+        1e3*best_build, ' ms CPU'
+    if (rin > 0) then
+        ! dynamic pruning (GROMACS's inner list): the pairs of the list just built, kept when one
+        ! of their 16 atom pairs lies within rin; the passes below then run over the pruned list
+        best_prune = huge(1.0_dp)
+        nouter = nlisted
+        do rep = 1, 5
+            call cpu_time(t0)
+            call prune(ncl, xr, cfirst, clist, offs, rin, cfirst_in, clist_in, offs_in, nlisted)
+            call cpu_time(t1); best_prune = min(best_prune, t1 - t0)
+        end do
+        print '(a, f5.2, a, f5.2, a, i0, a, i0, a, f7.3, a)', 'pruned from ', radius, ' to ', rin, ' sigma: ', nouter, &
+            ' cluster pairs to ', nlisted, '; prune pass (best of 5) ', 1e3*best_prune, ' ms CPU'
+        call move_alloc(cfirst_in, cfirst); call move_alloc(clist_in, clist); call move_alloc(offs_in, offs)
+        radius = rin
+    end if
     allocate (f4(4, 3, ncl))
     npass = 20
     best_full = huge(1.0_dp); best_skip = huge(1.0_dp)
@@ -69,10 +122,31 @@ program cluster_pair_probe
             if (member(k, i) > 0) err = max(err, maxval(abs(f4(k, :, i) - fref(:, member(k, i)))))
         end do
     end do
-    print '(a, f5.2, a, i0, a, i0)', 'cluster list radius ', radius, ' sigma; clusters ', ncl, '; atoms ', natoms
+    allocate (xrep(16, 3, ncl), frep_s(16, 3, ncl), frep_d(16, 3, ncl))
+    best_rep = huge(1.0_dp)
+    do rep = 1, 5
+        do v = 1, 2
+            call cpu_time(t0)
+            do pass = 1, npass
+                if (v == 1) call force_pass_rep_s(ncl, xr, cfirst, clist, offs, f4, xrep, frep_s)
+                if (v == 2) call force_pass_rep_d(ncl, xr, cfirst, clist, offs, f4, xrep, frep_d)
+            end do
+            call cpu_time(t1); best_rep(v) = min(best_rep(v), (t1 - t0)/npass)
+        end do
+    end do
+    do v = 1, 2
+        if (v == 1) call force_pass_rep_s(ncl, xr, cfirst, clist, offs, f4, xrep, frep_s)
+        if (v == 2) call force_pass_rep_d(ncl, xr, cfirst, clist, offs, f4, xrep, frep_d)
+        err_rep(v) = 0
+        do i = 1, ncl
+            do k = 1, 4
+                if (member(k, i) > 0) err_rep(v) = max(err_rep(v), maxval(abs(f4(k, :, i) - fref(:, member(k, i)))))
+            end do
+        end do
+    end do
     print '(a, i0, a, f6.2, a)', 'atom pairs within rc + skin (2.8): ', npair_list, ' (', real(npair_list, dp)/natoms, ' per atom)'
     print '(a, i0, a, f6.2, a)', 'atom pairs within rc (2.5):        ', npair_rc, ' (', real(npair_rc, dp)/natoms, ' per atom)'
-    print '(a, i0, a, f6.2, a, f5.2, a, f5.2, a)', 'cluster pairs listed: ', nlisted, ' (', real(nlisted, dp)/ncl, &
+    print '(a, i0, a, f6.2, a, f5.2, a, f5.2, a)', 'cluster pairs in the passes'' list: ', nlisted, ' (', real(nlisted, dp)/ncl, &
         ' per cluster); pairs computed per pair within rc + skin ', 16*real(nlisted, dp)/npair_list, ', within rc ', &
         16*real(nlisted, dp)/npair_rc
     print '(a, f7.3, a, f6.3, a)', 'force pass (best of 5 x 20): ', 1e3*best_full, ' ms CPU; ', &
@@ -81,6 +155,12 @@ program cluster_pair_probe
         1e3*(best_full - best_skip), ' ms, ', 1e9*(best_full - best_skip)/(16*real(nlisted, dp)), ' ns per computed pair'
     print '(a, f7.3, a)', '  per listed cluster pair: staging and write-back ', 1e9*best_skip/nlisted, ' ns'
     print '(a, es9.2, a)', 'max |F - F_double| / F_rms: ', err/frms, ' (double reference, minimum image, all pairs)'
+    print '(a, f7.3, a, f6.3, a, f6.3, a, es9.2)', 'replicated j layout, j forces in singles: ', 1e3*best_rep(1), ' ms CPU; ', &
+        1e9*best_rep(1)/npair_list, ' ns per pair within rc + skin; ', 1e9*best_rep(1)/nlisted, &
+        ' ns per cluster pair; max |F - F_double| / F_rms ', err_rep(1)/frms
+    print '(a, f7.3, a, f6.3, a, f6.3, a, es9.2)', 'replicated j layout, j forces in doubles: ', 1e3*best_rep(2), ' ms CPU; ', &
+        1e9*best_rep(2)/npair_list, ' ns per pair within rc + skin; ', 1e9*best_rep(2)/nlisted, &
+        ' ns per cluster pair; max |F - F_double| / F_rms ', err_rep(2)/frms
 
 contains
 
@@ -135,7 +215,8 @@ contains
         end do
     end subroutine reference
 
-    !> Clusters and the half list of cluster pairs whose bounding boxes lie within radius
+    !> Clusters and the half list of cluster pairs whose bounding boxes lie within radius (with
+    !> atom_check: and one of whose 16 atom pairs does, formed in singles as the passes form them)
     subroutine build(x, radius, ncl, xr, member, centre, half, cfirst, clist, offs, nlisted)
         real(dp), intent(in) :: x(:, :), radius
         integer, intent(out) :: ncl, nlisted
@@ -144,7 +225,15 @@ contains
         real(dp), allocatable, intent(out) :: centre(:, :), half(:, :)
         integer :: ncx, c, i, k, m, kk, ci, cj, dx, dy, cx, cy, p
         integer, allocatable :: count(:), start(:), idx(:), col(:), c0(:)
-        real(dp) :: w, d(3), s(3), lo(3), hi(3)
+        real(dp) :: w, d(3), s(3), lo(3), hi(3), sxy(2), zz
+        real(dp), allocatable :: cc(:, :), hc(:, :)
+        real(sp) :: o(3), q(16), xi16(16, 3)
+        real(sp), allocatable :: xq(:, :, :)
+        integer :: j0, j1, lane, wz, mid, t, ptr(13), near
+        real(sp) :: r2list
+        integer, parameter :: sten(2, 13) = reshape([0, 0, 1, 0, 2, 0, -2, 1, -1, 1, 0, 1, 1, 1, 2, 1, &
+                                                      -2, 2, -1, 2, 0, 2, 1, 2, 2, 2], [2, 13])
+        real(dp) :: za, zb
         ncx = int(L/(4/rho)**(1.0_dp/3)); w = L/ncx
         allocate (count(ncx*ncx), start(ncx*ncx + 1), idx(natoms), col(natoms), c0(ncx*ncx + 1))
         count = 0
@@ -196,25 +285,85 @@ contains
             end do
         end do
         allocate (cfirst(ncl + 1), clist(ncl*100), offs(4, ncl*100))
+        allocate (cc(ncl, 3), hc(ncl, 3), xq(16, 3, ncl))
+        cc = transpose(centre); hc = transpose(half)
+        do ci = 1, ncl
+            do lane = 1, 16
+                xq(lane, :, ci) = xr(mod(lane - 1, 4) + 1, :, ci)
+            end do
+        end do
+        r2list = real(radius*radius, sp)
         nlisted = 0
         do c = 1, ncx*ncx
             cx = mod(c - 1, ncx); cy = (c - 1)/ncx
+            ! the half stencil: this column (cj > ci) and the 12 columns ahead of it in y, then x
+            do t = 1, 13
+                m = 1 + modulo(cx + sten(1, t), ncx) + ncx*modulo(cy + sten(2, t), ncx)
+                ptr(t) = c0(m)
+            end do
             do ci = c0(c), c0(c + 1) - 1
                 cfirst(ci) = nlisted + 1
-                do dy = -2, 2
-                    do dx = -2, 2
-                        m = 1 + modulo(cx + dx, ncx) + ncx*modulo(cy + dy, ncx)
-                        do cj = c0(m), c0(m + 1) - 1
-                            if (cj <= ci) cycle
-                            d = centre(:, cj) - centre(:, ci)
-                            s = -L*anint(d/L)
-                            d = max(abs(d + s) - half(:, ci) - half(:, cj), 0.0_dp)
-                            if (d(1)*d(1) + d(2)*d(2) + d(3)*d(3) < radius*radius) then
-                                nlisted = nlisted + 1
-                                clist(nlisted) = cj
-                                offs(1:3, nlisted) = real(centre(:, cj) + s - centre(:, ci), sp)
-                                offs(4, nlisted) = 0
+                do lane = 1, 16
+                    xi16(lane, :) = xr((lane - 1)/4 + 1, :, ci)
+                end do
+                do t = 1, 13
+                    dx = sten(1, t); dy = sten(2, t)
+                    m = 1 + modulo(cx + dx, ncx) + ncx*modulo(cy + dy, ncx)
+                    ! the column's image shift in x and y is the same for all its clusters
+                    sxy(1) = -L*((cx + dx - modulo(cx + dx, ncx))/ncx)
+                    sxy(2) = -L*((cy + dy - modulo(cy + dy, ncx))/ncx)
+                    ! the column's clusters are z-sorted (their lowest and highest z both ascend):
+                    ! only those overlapping ci's z extent widened by the radius are candidates.
+                    ! In the box's own image the first of them only moves up as ci does (ptr);
+                    ! the images above and below (ci near the top or bottom) by bisection.
+                    za = cc(ci, 3) - hc(ci, 3) - radius
+                    do while (ptr(t) < c0(m + 1) - 1)
+                        if (cc(ptr(t), 3) + hc(ptr(t), 3) > za) exit
+                        ptr(t) = ptr(t) + 1
+                    end do
+                    do wz = -1, 1
+                        za = cc(ci, 3) - hc(ci, 3) - radius + wz*L
+                        zb = cc(ci, 3) + hc(ci, 3) + radius + wz*L
+                        if (zb < 0 .or. za > L) cycle
+                        j0 = ptr(t)
+                        if (wz /= 0) then
+                            j0 = c0(m); j1 = c0(m + 1) - 1
+                            do while (j0 < j1)                   ! first cluster whose top is above za
+                                mid = (j0 + j1)/2
+                                if (cc(mid, 3) + hc(mid, 3) > za) then
+                                    j1 = mid
+                                else
+                                    j0 = mid + 1
+                                end if
+                            end do
+                        end if
+                        do cj = j0, c0(m + 1) - 1
+                            if (cc(cj, 3) - hc(cj, 3) >= zb) exit
+                            if (t == 1 .and. cj <= ci) cycle
+                            d(1) = max(abs(cc(cj, 1) - sxy(1) - cc(ci, 1)) - hc(ci, 1) - hc(cj, 1), 0.0_dp)
+                            d(2) = max(abs(cc(cj, 2) - sxy(2) - cc(ci, 2)) - hc(ci, 2) - hc(cj, 2), 0.0_dp)
+                            zz = cc(cj, 3) - cc(ci, 3) - wz*L
+                            d(3) = max(abs(zz) - hc(ci, 3) - hc(cj, 3), 0.0_dp)
+                            if (d(1)*d(1) + d(2)*d(2) + d(3)*d(3) >= radius*radius) cycle
+                            s = [-sxy(1), -sxy(2), -wz*L]
+                            o = real(centre(:, cj) + s - centre(:, ci), sp)
+                            if (atom_check) then
+                                ! any of the 16 pairs within radius (singles, as the force pass forms them)
+                                ! (counted, not minval: GCC vectorises an integer sum, not a minval)
+                                near = 0
+                                do lane = 1, 16
+                                    q(lane) = ((xi16(lane, 1) - o(1)) - xq(lane, 1, cj))**2 &
+                                              + ((xi16(lane, 2) - o(2)) - xq(lane, 2, cj))**2 &
+                                              + ((xi16(lane, 3) - o(3)) - xq(lane, 3, cj))**2
+                                    near = near + merge(1, 0, q(lane) < r2list)
+                                end do
+                                if (near == 0) cycle
                             end if
+                            if (nlisted == size(clist)) error stop 'cluster_pair_probe: more than 100 clusters per list'
+                            nlisted = nlisted + 1
+                            clist(nlisted) = cj
+                            offs(1:3, nlisted) = o
+                            offs(4, nlisted) = 0
                         end do
                     end do
                 end do
@@ -222,6 +371,48 @@ contains
         end do
         cfirst(ncl + 1) = nlisted + 1
     end subroutine build
+
+    !> The listed cluster pairs of which one atom pair lies within rin (separations formed in singles
+    !> as the passes form them, 16 lanes per cluster pair over replicated positions)
+    subroutine prune(ncl, xr, cfirst, clist, offs, rin, cfirst_in, clist_in, offs_in, nkept)
+        integer, intent(in) :: ncl, cfirst(ncl + 1), clist(:)
+        real(sp), intent(in) :: xr(4, 3, ncl), offs(:, :)
+        real(dp), intent(in) :: rin
+        integer, allocatable, intent(inout) :: cfirst_in(:), clist_in(:)
+        real(sp), allocatable, intent(inout) :: offs_in(:, :)
+        integer, intent(out) :: nkept
+        real(sp), allocatable, save :: xq(:, :, :)
+        real(sp) :: xi16(16, 3), o(3), q, r2in
+        integer :: ci, cj, p, lane, near
+        if (.not. allocated(cfirst_in)) allocate (cfirst_in(ncl + 1), clist_in(size(clist)), offs_in(4, size(clist)))
+        if (.not. allocated(xq)) allocate (xq(16, 3, ncl))
+        do ci = 1, ncl                  ! (every step in an engine: the force pass forms the same replicas)
+            do lane = 1, 16
+                xq(lane, :, ci) = xr(mod(lane - 1, 4) + 1, :, ci)
+            end do
+        end do
+        r2in = real(rin*rin, sp)
+        nkept = 0
+        do ci = 1, ncl
+            cfirst_in(ci) = nkept + 1
+            do lane = 1, 16
+                xi16(lane, :) = xr((lane - 1)/4 + 1, :, ci)
+            end do
+            do p = cfirst(ci), cfirst(ci + 1) - 1
+                cj = clist(p); o = offs(1:3, p)
+                near = 0
+                do lane = 1, 16
+                    q = ((xi16(lane, 1) - o(1)) - xq(lane, 1, cj))**2 + ((xi16(lane, 2) - o(2)) - xq(lane, 2, cj))**2 &
+                        + ((xi16(lane, 3) - o(3)) - xq(lane, 3, cj))**2
+                    near = near + merge(1, 0, q < r2in)
+                end do
+                if (near == 0) cycle
+                nkept = nkept + 1
+                clist_in(nkept) = cj; offs_in(:, nkept) = offs(:, p)
+            end do
+        end do
+        cfirst_in(ncl + 1) = nkept + 1
+    end subroutine prune
 
     !> One force pass (forces only) into f4(atom in cluster, component, cluster); skip_pairs: the
     !> staging and write-back alone
@@ -295,5 +486,138 @@ contains
             end do
         end do
     end subroutine force_pass
+
+    !> The force pass without staging: every cluster's positions are kept replicated, lane l of the
+    !> 16 holding atom mod(l - 1, 4) + 1 (j0 j1 j2 j3 j0 ...), and cluster ci's atoms spread as
+    !> (i0 i0 i0 i0 i1 ...), so one listed cluster pair is one 16-lane loop over contiguous
+    !> records: its 16 pairs, i forces summed in 16 lanes, j forces added to the j cluster's
+    !> replicated force record (16 lanes per component, reduced over the four replicas at the end).
+    !> The replicated positions are formed at the start of the pass and the forces reduced at its end
+    !> (both timed: an engine would do them every step). j forces in singles.
+    subroutine force_pass_rep_s(ncl, xr, cfirst, clist, offs, f4, xrep, frep)
+        integer, intent(in) :: ncl, cfirst(ncl + 1), clist(*)
+        real(sp), intent(in) :: xr(4, 3, ncl), offs(4, *)
+        real(dp), intent(out) :: f4(4, 3, ncl)
+        real(sp), intent(inout) :: xrep(16, 3, ncl), frep(16, 3, ncl)
+        real(sp) :: xi(16), yi(16), zi(16), ax(16), ay(16), az(16)
+        real(sp) :: dx, dy, dz, r2, r2i, r6, fp, cut, ox, oy, oz
+        integer :: ci, cj, p, l, ii, jj, c
+        cut = real(rc*rc, sp)
+        do ci = 1, ncl
+            do c = 1, 3
+                do l = 1, 16
+                    xrep(l, c, ci) = xr(mod(l - 1, 4) + 1, c, ci)
+                    frep(l, c, ci) = 0
+                end do
+            end do
+        end do
+        f4 = 0
+        do ci = 1, ncl
+            do l = 1, 16
+                xi(l) = xr((l - 1)/4 + 1, 1, ci); yi(l) = xr((l - 1)/4 + 1, 2, ci); zi(l) = xr((l - 1)/4 + 1, 3, ci)
+            end do
+            ax = 0; ay = 0; az = 0
+            do p = cfirst(ci), cfirst(ci + 1) - 1
+                cj = clist(p); ox = offs(1, p); oy = offs(2, p); oz = offs(3, p)
+                do l = 1, 16
+                    dx = (xi(l) - ox) - xrep(l, 1, cj); dy = (yi(l) - oy) - xrep(l, 2, cj); dz = (zi(l) - oz) - xrep(l, 3, cj)
+                    r2 = dx*dx + dy*dy + dz*dz
+                    r2i = (0.5_sp + sign(0.5_sp, cut - r2))/r2
+                    r6 = r2i*r2i*r2i; fp = r6*(48*r6 - 24)*r2i
+                    ax(l) = ax(l) + fp*dx; ay(l) = ay(l) + fp*dy; az(l) = az(l) + fp*dz
+                    frep(l, 1, cj) = frep(l, 1, cj) - fp*dx
+                    frep(l, 2, cj) = frep(l, 2, cj) - fp*dy
+                    frep(l, 3, cj) = frep(l, 3, cj) - fp*dz
+                end do
+            end do
+            do ii = 1, 4
+                f4(ii, :, ci) = f4(ii, :, ci) + [sum(real(ax(4*ii - 3:4*ii), dp)), sum(real(ay(4*ii - 3:4*ii), dp)), &
+                                                 sum(real(az(4*ii - 3:4*ii), dp))]
+            end do
+            do ii = 1, 3            ! pairs within the cluster
+                do jj = ii + 1, 4
+                    dx = xr(ii, 1, ci) - xr(jj, 1, ci); dy = xr(ii, 2, ci) - xr(jj, 2, ci); dz = xr(ii, 3, ci) - xr(jj, 3, ci)
+                    r2 = dx*dx + dy*dy + dz*dz
+                    if (r2 < cut) then
+                        r6 = 1/(r2*r2*r2); fp = r6*(48*r6 - 24)/r2
+                        f4(ii, :, ci) = f4(ii, :, ci) + fp*[dx, dy, dz]
+                        f4(jj, :, ci) = f4(jj, :, ci) - fp*[dx, dy, dz]
+                    end if
+                end do
+            end do
+        end do
+        do ci = 1, ncl
+            do c = 1, 3
+                do jj = 1, 4
+                    f4(jj, c, ci) = f4(jj, c, ci) + real(frep(jj, c, ci), dp) + real(frep(jj + 4, c, ci), dp) &
+                                    + real(frep(jj + 8, c, ci), dp) + real(frep(jj + 12, c, ci), dp)
+                end do
+            end do
+        end do
+    end subroutine force_pass_rep_s
+
+    !> force_pass_rep_s with the j forces converted to double and summed in doubles
+    subroutine force_pass_rep_d(ncl, xr, cfirst, clist, offs, f4, xrep, frep)
+        integer, intent(in) :: ncl, cfirst(ncl + 1), clist(*)
+        real(sp), intent(in) :: xr(4, 3, ncl), offs(4, *)
+        real(dp), intent(out) :: f4(4, 3, ncl)
+        real(sp), intent(inout) :: xrep(16, 3, ncl)
+        real(dp), intent(inout) :: frep(16, 3, ncl)
+        real(sp) :: xi(16), yi(16), zi(16), ax(16), ay(16), az(16)
+        real(sp) :: dx, dy, dz, r2, r2i, r6, fp, cut, ox, oy, oz
+        integer :: ci, cj, p, l, ii, jj, c
+        cut = real(rc*rc, sp)
+        do ci = 1, ncl
+            do c = 1, 3
+                do l = 1, 16
+                    xrep(l, c, ci) = xr(mod(l - 1, 4) + 1, c, ci)
+                    frep(l, c, ci) = 0
+                end do
+            end do
+        end do
+        f4 = 0
+        do ci = 1, ncl
+            do l = 1, 16
+                xi(l) = xr((l - 1)/4 + 1, 1, ci); yi(l) = xr((l - 1)/4 + 1, 2, ci); zi(l) = xr((l - 1)/4 + 1, 3, ci)
+            end do
+            ax = 0; ay = 0; az = 0
+            do p = cfirst(ci), cfirst(ci + 1) - 1
+                cj = clist(p); ox = offs(1, p); oy = offs(2, p); oz = offs(3, p)
+                do l = 1, 16
+                    dx = (xi(l) - ox) - xrep(l, 1, cj); dy = (yi(l) - oy) - xrep(l, 2, cj); dz = (zi(l) - oz) - xrep(l, 3, cj)
+                    r2 = dx*dx + dy*dy + dz*dz
+                    r2i = (0.5_sp + sign(0.5_sp, cut - r2))/r2
+                    r6 = r2i*r2i*r2i; fp = r6*(48*r6 - 24)*r2i
+                    ax(l) = ax(l) + fp*dx; ay(l) = ay(l) + fp*dy; az(l) = az(l) + fp*dz
+                    frep(l, 1, cj) = frep(l, 1, cj) - real(fp*dx, dp)
+                    frep(l, 2, cj) = frep(l, 2, cj) - real(fp*dy, dp)
+                    frep(l, 3, cj) = frep(l, 3, cj) - real(fp*dz, dp)
+                end do
+            end do
+            do ii = 1, 4
+                f4(ii, :, ci) = f4(ii, :, ci) + [sum(real(ax(4*ii - 3:4*ii), dp)), sum(real(ay(4*ii - 3:4*ii), dp)), &
+                                                 sum(real(az(4*ii - 3:4*ii), dp))]
+            end do
+            do ii = 1, 3            ! pairs within the cluster
+                do jj = ii + 1, 4
+                    dx = xr(ii, 1, ci) - xr(jj, 1, ci); dy = xr(ii, 2, ci) - xr(jj, 2, ci); dz = xr(ii, 3, ci) - xr(jj, 3, ci)
+                    r2 = dx*dx + dy*dy + dz*dz
+                    if (r2 < cut) then
+                        r6 = 1/(r2*r2*r2); fp = r6*(48*r6 - 24)/r2
+                        f4(ii, :, ci) = f4(ii, :, ci) + fp*[dx, dy, dz]
+                        f4(jj, :, ci) = f4(jj, :, ci) - fp*[dx, dy, dz]
+                    end if
+                end do
+            end do
+        end do
+        do ci = 1, ncl
+            do c = 1, 3
+                do jj = 1, 4
+                    f4(jj, c, ci) = f4(jj, c, ci) + frep(jj, c, ci) + frep(jj + 4, c, ci) + frep(jj + 8, c, ci) &
+                                    + frep(jj + 12, c, ci)
+                end do
+            end do
+        end do
+    end subroutine force_pass_rep_d
 
 end program cluster_pair_probe

@@ -8,13 +8,17 @@
 !> random amount in [-0.2, 0.2] sigma; rc 2.5 sigma. Arguments: the list radius R (2.8 = rc +
 !> LAMMPS's skin, the list every pass would read without pruning; 2.5 = rc, the fewest cluster
 !> pairs that a pruned list could keep), and 'atoms' to list a cluster pair only when one of its
-!> 16 atom pairs lies within R (GROMACS's check after the bounding boxes), else bounding boxes only.
+!> 16 atom pairs lies within R (GROMACS's check after the bounding boxes), else bounding boxes only;
+!> a third, rin < R, prunes the list built at R to the cluster pairs with an atom pair within rin
+!> (GROMACS's dynamic pruning: an outer list that lives longer, an inner one re-pruned from it;
+!> the prune is timed and the passes run over the inner list).
 !> Clusters: the box cut into square columns of side (4/rho)^(1/3) (four atoms per cube of that
 !> side), the atoms of each column sorted by z and taken four at a time (the last padded with far
-!> away dummies). A cluster pair (ci < cj) is a candidate when cj's z extent meets ci's widened by
-!> R (the columns are z-sorted, so a bisection finds them), and listed when the bounding boxes lie
-!> closer than R (and, with 'atoms', an atom pair does). Positions are stored per cluster as singles
-!> relative to the cluster's box centre; a listed pair carries the single-precision offset between
+!> away dummies). Each cluster pair once: ci's own column (cj > ci) and the 12 columns of the half
+!> stencil ahead of it. cj is a candidate when its z extent meets ci's widened by R (the columns
+!> are z-sorted: a pointer that only moves up as ci does; bisection for the periodic images above
+!> and below), and listed when the bounding boxes lie closer than R (and, with 'atoms', an atom
+!> pair does). Positions are stored per cluster as singles relative to the cluster's box centre; a listed pair carries the single-precision offset between
 !> the two centres (minimum image), so a separation is formed from small numbers (about 1e-7 sigma
 !> round-off, as the mixed kernel's hi/lo pairs).
 !> Three force passes, timed (CPU, best of 5 x 20), forces checked against a double reference:
@@ -225,11 +229,12 @@ contains
         real(dp), allocatable, intent(out) :: centre(:, :), half(:, :)
         integer :: ncx, c, i, k, m, kk, ci, cj, dx, dy, cx, cy, p
         integer, allocatable :: count(:), start(:), idx(:), col(:), c0(:)
-        real(dp) :: w, d(3), s(3), lo(3), hi(3), sxy(2), zz
+        real(dp) :: w, d(3), lo(3), hi(3), sxy(2), zz
         real(dp), allocatable :: cc(:, :), hc(:, :)
         real(sp) :: o(3), q(16), xi16(16, 3)
         real(sp), allocatable :: xq(:, :, :)
-        integer :: j0, j1, lane, wz, mid, t, ptr(13), near
+        integer :: j0, j1, lane, wz, mid, t, ptr(13), near, ncand, cand(100), keep(100)
+        real(sp) :: co(3, 100)
         real(sp) :: r2list
         integer, parameter :: sten(2, 13) = reshape([0, 0, 1, 0, 2, 0, -2, 1, -1, 1, 0, 1, 1, 1, 2, 1, &
                                                       -2, 2, -1, 2, 0, 2, 1, 2, 2, 2], [2, 13])
@@ -284,7 +289,7 @@ contains
                 end do
             end do
         end do
-        allocate (cfirst(ncl + 1), clist(ncl*100), offs(4, ncl*100))
+        allocate (cfirst(ncl + 1), clist(ncl*100 + 1), offs(4, ncl*100 + 1))
         allocate (cc(ncl, 3), hc(ncl, 3), xq(16, 3, ncl))
         cc = transpose(centre); hc = transpose(half)
         do ci = 1, ncl
@@ -303,6 +308,7 @@ contains
             end do
             do ci = c0(c), c0(c + 1) - 1
                 cfirst(ci) = nlisted + 1
+                ncand = 0
                 do lane = 1, 16
                     xi16(lane, :) = xr((lane - 1)/4 + 1, :, ci)
                 end do
@@ -339,33 +345,42 @@ contains
                         end if
                         do cj = j0, c0(m + 1) - 1
                             if (cc(cj, 3) - hc(cj, 3) >= zb) exit
-                            if (t == 1 .and. cj <= ci) cycle
                             d(1) = max(abs(cc(cj, 1) - sxy(1) - cc(ci, 1)) - hc(ci, 1) - hc(cj, 1), 0.0_dp)
                             d(2) = max(abs(cc(cj, 2) - sxy(2) - cc(ci, 2)) - hc(ci, 2) - hc(cj, 2), 0.0_dp)
                             zz = cc(cj, 3) - cc(ci, 3) - wz*L
                             d(3) = max(abs(zz) - hc(ci, 3) - hc(cj, 3), 0.0_dp)
-                            if (d(1)*d(1) + d(2)*d(2) + d(3)*d(3) >= radius*radius) cycle
-                            s = [-sxy(1), -sxy(2), -wz*L]
-                            o = real(centre(:, cj) + s - centre(:, ci), sp)
-                            if (atom_check) then
-                                ! any of the 16 pairs within radius (singles, as the force pass forms them)
-                                ! (counted, not minval: GCC vectorises an integer sum, not a minval)
-                                near = 0
-                                do lane = 1, 16
-                                    q(lane) = ((xi16(lane, 1) - o(1)) - xq(lane, 1, cj))**2 &
-                                              + ((xi16(lane, 2) - o(2)) - xq(lane, 2, cj))**2 &
-                                              + ((xi16(lane, 3) - o(3)) - xq(lane, 3, cj))**2
-                                    near = near + merge(1, 0, q(lane) < r2list)
-                                end do
-                                if (near == 0) cycle
-                            end if
-                            if (nlisted == size(clist)) error stop 'cluster_pair_probe: more than 100 clusters per list'
-                            nlisted = nlisted + 1
-                            clist(nlisted) = cj
-                            offs(1:3, nlisted) = o
-                            offs(4, nlisted) = 0
+                            ! branch-free: written in the next slot, kept by advancing past it
+                            if (ncand == size(cand)) error stop 'cluster_pair_probe: over 100 clusters in a list'
+                            cand(ncand + 1) = cj
+                            co(1, ncand + 1) = real(cc(cj, 1) - sxy(1) - cc(ci, 1), sp)
+                            co(2, ncand + 1) = real(cc(cj, 2) - sxy(2) - cc(ci, 2), sp)
+                            co(3, ncand + 1) = real(zz, sp)
+                            ncand = ncand + merge(1, 0, d(1)*d(1) + d(2)*d(2) + d(3)*d(3) < radius*radius &
+                                                  .and. (t > 1 .or. cj > ci))
                         end do
                     end do
+                end do
+                ! the candidates' verdicts (with atom_check: any of the 16 pairs within radius, in
+                ! singles as the passes form them; counted, not minval: GCC vectorises an integer
+                ! sum, not a minval), independent of one another; then the branch-free compaction
+                do k = 1, ncand
+                    cj = cand(k); o = co(:, k)
+                    near = 1
+                    if (atom_check) then
+                        near = 0
+                        do lane = 1, 16
+                            q(lane) = ((xi16(lane, 1) - o(1)) - xq(lane, 1, cj))**2 &
+                                      + ((xi16(lane, 2) - o(2)) - xq(lane, 2, cj))**2 &
+                                      + ((xi16(lane, 3) - o(3)) - xq(lane, 3, cj))**2
+                            near = near + merge(1, 0, q(lane) < r2list)
+                        end do
+                    end if
+                    keep(k) = min(near, 1)
+                end do
+                do k = 1, ncand
+                    clist(nlisted + 1) = cand(k)
+                    offs(1:3, nlisted + 1) = co(:, k); offs(4, nlisted + 1) = 0
+                    nlisted = nlisted + keep(k)
                 end do
             end do
         end do
@@ -383,7 +398,7 @@ contains
         integer, intent(out) :: nkept
         real(sp), allocatable, save :: xq(:, :, :)
         real(sp) :: xi16(16, 3), o(3), q, r2in
-        integer :: ci, cj, p, lane, near
+        integer :: ci, cj, p, lane, near, keep(100)
         if (.not. allocated(cfirst_in)) allocate (cfirst_in(ncl + 1), clist_in(size(clist)), offs_in(4, size(clist)))
         if (.not. allocated(xq)) allocate (xq(16, 3, ncl))
         do ci = 1, ncl                  ! (every step in an engine: the force pass forms the same replicas)
@@ -393,11 +408,15 @@ contains
         end do
         r2in = real(rin*rin, sp)
         nkept = 0
+        if (maxval(cfirst(2:ncl + 1) - cfirst(1:ncl)) > size(keep)) error stop 'cluster_pair_probe: over 100 clusters in a list'
         do ci = 1, ncl
             cfirst_in(ci) = nkept + 1
             do lane = 1, 16
                 xi16(lane, :) = xr((lane - 1)/4 + 1, :, ci)
             end do
+            ! first the verdicts of all ci's pairs (independent of one another, so they overlap in
+            ! the pipeline), then the compaction (branch-free: each pair written in the next slot,
+            ! kept by advancing past it)
             do p = cfirst(ci), cfirst(ci + 1) - 1
                 cj = clist(p); o = offs(1:3, p)
                 near = 0
@@ -406,9 +425,11 @@ contains
                         + ((xi16(lane, 3) - o(3)) - xq(lane, 3, cj))**2
                     near = near + merge(1, 0, q < r2in)
                 end do
-                if (near == 0) cycle
-                nkept = nkept + 1
-                clist_in(nkept) = cj; offs_in(:, nkept) = offs(:, p)
+                keep(p - cfirst(ci) + 1) = min(near, 1)
+            end do
+            do p = cfirst(ci), cfirst(ci + 1) - 1
+                clist_in(nkept + 1) = clist(p); offs_in(:, nkept + 1) = offs(:, p)
+                nkept = nkept + keep(p - cfirst(ci) + 1)
             end do
         end do
         cfirst_in(ncl + 1) = nkept + 1

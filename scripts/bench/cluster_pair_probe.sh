@@ -16,7 +16,7 @@
 # probe's pass, build and prune in place of the mixed kernel and its list: A, the list at rc + skin
 # rebuilt on Terrace's exact trigger; B, rebuilt every 20 steps (the anchors' schedule); C, an outer
 # list at 3.3 kept while no atom moved 0.3, pruned to 2.7 whenever one moved 0.1 (exact too).
-# The probe times CPU seconds, Terrace's log wall seconds: run it on a quiet machine.
+# Both the probe and Terrace's log time wall seconds (best of several): run it on a quiet machine.
 # Usage: scripts/bench/cluster_pair_probe.sh [TERRACE_BINARY]   (default build/terrace)
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"

@@ -21,7 +21,7 @@
 !> pair does). Positions are stored per cluster as singles relative to the cluster's box centre; a listed pair carries the single-precision offset between
 !> the two centres (minimum image), so a separation is formed from small numbers (about 1e-7 sigma
 !> round-off, as the mixed kernel's hi/lo pairs).
-!> Three force passes, timed (wall clock, as Terrace's run log; best of 5 x 20), forces checked against a double reference:
+!> Four force passes, timed (wall clock, as Terrace's run log; best of 5 x 20), forces checked against a double reference:
 !> - staged: per cluster ci, its neighbours' positions copied end to end (offset added), the pair
 !>   loop over 16 j atoms per vector against ci's four atoms, the j forces summed into singles per
 !>   staged atom and added to double per-cluster records; timed also without its pair loop.
@@ -32,6 +32,11 @@
 !>   four replicas into doubles at the end of the pass. Forming the replicas and the reduction are
 !>   inside the timed pass (an engine would do both every step).
 !> - replicated, j forces in doubles: the same with double j records (16 doubles per component).
+!> - replicated, hi/lo separations, j forces in singles: each relative position carried as two
+!>   singles, hi on the centres' 2^-10 grid and lo the rest, so that (hi_i - off) - hi_j is exact
+!>   and a separation is rounded once, as in Terrace's mixed kernel (whose forces the probe also
+!>   emulates: double separations rounded to single, single pair terms, double sums).
+!> The centres lie on a grid of 2^-10 sigma, so that the offset between two is exact in single.
 !> The list build (columns, clusters, list) is timed too (best of 3). Pairs within one cluster: a
 !> scalar loop in each pass.
 program cluster_pair_probe
@@ -39,18 +44,18 @@ program cluster_pair_probe
     implicit none
     integer, parameter :: nc = 20, natoms = 4*nc**3, jmax = 4096
     real(dp), parameter :: rho = 0.8442_dp, rc = 2.5_dp
-    real(dp) :: x(3, natoms), fref(3, natoms), L, a, radius, frms, err
+    real(dp) :: x(3, natoms), fref(3, natoms), fmix(3, natoms), L, a, radius, frms, err
     integer :: npair_rc, npair_list, ncl, nlisted, i, k, rep, pass, npass
     real(sp), allocatable :: xr(:, :, :), offs(:, :)
     real(dp), allocatable :: f4(:, :, :), centre(:, :), half(:, :)
     integer, allocatable :: member(:, :), cfirst(:), clist(:)
-    real(dp) :: t0, t1, best_full, best_skip, best_rep(2), err_rep(2), best_build
+    real(dp) :: t0, t1, best_full, best_skip, best_rep(3), err_rep(3), best_build
     logical :: atom_check
     real(dp) :: rin, best_prune
     integer :: nouter
     integer, allocatable :: cfirst_in(:), clist_in(:)
     real(sp), allocatable :: offs_in(:, :)
-    real(sp), allocatable :: xrep(:, :, :), frep_s(:, :, :)
+    real(sp), allocatable :: xrep(:, :, :), frep_s(:, :, :), xrl(:, :, :), xrepl(:, :, :), xrh(:, :, :)
     real(dp), allocatable :: frep_d(:, :, :)
     integer :: v
     character(len=32) :: arg
@@ -78,8 +83,10 @@ program cluster_pair_probe
     end if
     a = (4/rho)**(1.0_dp/3); L = nc*a
     call lattice(x)
-    call reference(x, fref, npair_rc, npair_list)
+    call reference(x, fref, npair_rc, npair_list, fmix)
     frms = sqrt(sum(fref**2)/natoms)
+    print '(a, es9.2, a)', 'Terrace''s mixed kernel emulated (double separations rounded to single): max |F - F_double| / F_rms ', &
+        maxval(abs(fmix - fref))/frms, ' (the passes below: their own line)'
     best_build = huge(1.0_dp)
     do rep = 1, 3
         t0 = wall()
@@ -126,21 +133,35 @@ program cluster_pair_probe
             if (member(k, i) > 0) err = max(err, maxval(abs(f4(k, :, i) - fref(:, member(k, i)))))
         end do
     end do
-    allocate (xrep(16, 3, ncl), frep_s(16, 3, ncl), frep_d(16, 3, ncl))
+    allocate (xrep(16, 3, ncl), frep_s(16, 3, ncl), frep_d(16, 3, ncl), xrl(4, 3, ncl), xrepl(16, 3, ncl))
+    ! hi/lo: hi = the relative position on the 2^-10 grid of the centres (so that hi_i - off - hi_j
+    ! is exact in single), lo = the rest (below 2^-11 sigma, its rounding below 1e-10 sigma)
+    xrh = xr
+    do i = 1, ncl
+        do k = 1, 4
+            xrl(k, :, i) = 0
+            if (member(k, i) > 0) then
+                xrh(k, :, i) = real(anint((x(:, member(k, i)) - centre(:, i))*1024)/1024, sp)
+                xrl(k, :, i) = real(x(:, member(k, i)) - centre(:, i) - real(xrh(k, :, i), dp), sp)
+            end if
+        end do
+    end do
     best_rep = huge(1.0_dp)
     do rep = 1, 5
-        do v = 1, 2
+        do v = 1, 3
             t0 = wall()
             do pass = 1, npass
                 if (v == 1) call force_pass_rep_s(ncl, xr, cfirst, clist, offs, f4, xrep, frep_s)
                 if (v == 2) call force_pass_rep_d(ncl, xr, cfirst, clist, offs, f4, xrep, frep_d)
+                if (v == 3) call force_pass_rep_hl(ncl, xrh, xrl, cfirst, clist, offs, f4, xrep, xrepl, frep_s)
             end do
             t1 = wall(); best_rep(v) = min(best_rep(v), (t1 - t0)/npass)
         end do
     end do
-    do v = 1, 2
+    do v = 1, 3
         if (v == 1) call force_pass_rep_s(ncl, xr, cfirst, clist, offs, f4, xrep, frep_s)
         if (v == 2) call force_pass_rep_d(ncl, xr, cfirst, clist, offs, f4, xrep, frep_d)
+        if (v == 3) call force_pass_rep_hl(ncl, xrh, xrl, cfirst, clist, offs, f4, xrep, xrepl, frep_s)
         err_rep(v) = 0
         do i = 1, ncl
             do k = 1, 4
@@ -165,6 +186,9 @@ program cluster_pair_probe
     print '(a, f7.3, a, f6.3, a, f6.3, a, es9.2)', 'replicated j layout, j forces in doubles: ', 1e3*best_rep(2), ' ms; ', &
         1e9*best_rep(2)/npair_list, ' ns per pair within rc + skin; ', 1e9*best_rep(2)/nlisted, &
         ' ns per cluster pair; max |F - F_double| / F_rms ', err_rep(2)/frms
+    print '(a, f7.3, a, f6.3, a, f6.3, a, es9.2)', 'replicated, hi/lo separations, j forces in singles: ', 1e3*best_rep(3), &
+        ' ms; ', 1e9*best_rep(3)/npair_list, ' ns per pair within rc + skin; ', 1e9*best_rep(3)/nlisted, &
+        ' ns per cluster pair; max |F - F_double| / F_rms ', err_rep(3)/frms
 
 contains
 
@@ -204,13 +228,14 @@ contains
     end function uniform
 
     !> Forces of all pairs within rc in double precision (minimum image), and the pair counts
-    subroutine reference(x, f, nrc, nlist)
+    subroutine reference(x, f, nrc, nlist, fmix)
         real(dp), intent(in) :: x(:, :)
-        real(dp), intent(out) :: f(:, :)
+        real(dp), intent(out) :: f(:, :), fmix(:, :)
         integer, intent(out) :: nrc, nlist
         integer :: i, j
         real(dp) :: d(3), r2, r6, fp
-        f = 0; nrc = 0; nlist = 0
+        real(sp) :: e(3), s2, s6, sp_fp
+        f = 0; fmix = 0; nrc = 0; nlist = 0
         do i = 1, natoms
             do j = i + 1, natoms
                 d = x(:, i) - x(:, j); d = d - L*anint(d/L)
@@ -221,6 +246,12 @@ contains
                     r6 = 1/(r2*r2*r2)
                     fp = r6*(48*r6 - 24)/r2
                     f(:, i) = f(:, i) + fp*d; f(:, j) = f(:, j) - fp*d
+                    ! Terrace's mixed kernel: the double separation rounded to single, the pair
+                    ! terms in single, the sums in double
+                    e = real(d, sp)
+                    s2 = e(1)*e(1) + e(2)*e(2) + e(3)*e(3)
+                    s6 = 1/(s2*s2*s2); sp_fp = s6*(48*s6 - 24)/s2
+                    fmix(:, i) = fmix(:, i) + real(sp_fp*e, dp); fmix(:, j) = fmix(:, j) - real(sp_fp*e, dp)
                 end if
             end do
         end do
@@ -289,7 +320,10 @@ contains
                         lo = min(lo, x(:, idx(p))); hi = max(hi, x(:, idx(p)))
                     end if
                 end do
-                centre(:, ci) = 0.5_dp*(lo + hi); half(:, ci) = 0.5_dp*(hi - lo)
+                ! the centre on a grid of 2^-10 sigma: the offset between two centres is then
+                ! exact in single precision (a separation rounds only the relative positions)
+                centre(:, ci) = anint(0.5_dp*(lo + hi)*1024)/1024
+                half(:, ci) = max(hi - centre(:, ci), centre(:, ci) - lo)
                 do k = 1, 4
                     xr(k, :, ci) = 300          ! dummies: beyond the cutoff from every atom
                     if (member(k, ci) > 0) xr(k, :, ci) = real(x(:, member(k, ci)) - centre(:, ci), sp)
@@ -583,6 +617,77 @@ contains
             end do
         end do
     end subroutine force_pass_rep_s
+
+    !> force_pass_rep_s with each relative position carried as two singles, hi (xr) + lo (xrl, what
+    !> the single loses), as the mixed kernel carries its positions: a separation is
+    !> ((hi_i - off) - hi_j) + (lo_i - lo_j), the centres' offset exact on their 2^-10 grid
+    subroutine force_pass_rep_hl(ncl, xr, xrl, cfirst, clist, offs, f4, xrep, xrepl, frep)
+        integer, intent(in) :: ncl, cfirst(ncl + 1), clist(*)
+        real(sp), intent(in) :: xr(4, 3, ncl), xrl(4, 3, ncl), offs(4, *)
+        real(dp), intent(out) :: f4(4, 3, ncl)
+        real(sp), intent(inout) :: xrep(16, 3, ncl), xrepl(16, 3, ncl), frep(16, 3, ncl)
+        real(sp) :: xi(16), yi(16), zi(16), xil(16), yil(16), zil(16), ax(16), ay(16), az(16)
+        real(sp) :: dx, dy, dz, r2, r2i, r6, fp, cut, ox, oy, oz
+        integer :: ci, cj, p, l, ii, jj, c
+        cut = real(rc*rc, sp)
+        do ci = 1, ncl
+            do c = 1, 3
+                do l = 1, 16
+                    xrep(l, c, ci) = xr(mod(l - 1, 4) + 1, c, ci)
+                    xrepl(l, c, ci) = xrl(mod(l - 1, 4) + 1, c, ci)
+                    frep(l, c, ci) = 0
+                end do
+            end do
+        end do
+        f4 = 0
+        do ci = 1, ncl
+            do l = 1, 16
+                xi(l) = xr((l - 1)/4 + 1, 1, ci); yi(l) = xr((l - 1)/4 + 1, 2, ci); zi(l) = xr((l - 1)/4 + 1, 3, ci)
+                xil(l) = xrl((l - 1)/4 + 1, 1, ci); yil(l) = xrl((l - 1)/4 + 1, 2, ci); zil(l) = xrl((l - 1)/4 + 1, 3, ci)
+            end do
+            ax = 0; ay = 0; az = 0
+            do p = cfirst(ci), cfirst(ci + 1) - 1
+                cj = clist(p); ox = offs(1, p); oy = offs(2, p); oz = offs(3, p)
+                do l = 1, 16
+                    dx = ((xi(l) - ox) - xrep(l, 1, cj)) + (xil(l) - xrepl(l, 1, cj))
+                    dy = ((yi(l) - oy) - xrep(l, 2, cj)) + (yil(l) - xrepl(l, 2, cj))
+                    dz = ((zi(l) - oz) - xrep(l, 3, cj)) + (zil(l) - xrepl(l, 3, cj))
+                    r2 = dx*dx + dy*dy + dz*dz
+                    r2i = (0.5_sp + sign(0.5_sp, cut - r2))/r2
+                    r6 = r2i*r2i*r2i; fp = r6*(48*r6 - 24)*r2i
+                    ax(l) = ax(l) + fp*dx; ay(l) = ay(l) + fp*dy; az(l) = az(l) + fp*dz
+                    frep(l, 1, cj) = frep(l, 1, cj) - fp*dx
+                    frep(l, 2, cj) = frep(l, 2, cj) - fp*dy
+                    frep(l, 3, cj) = frep(l, 3, cj) - fp*dz
+                end do
+            end do
+            do ii = 1, 4
+                f4(ii, :, ci) = f4(ii, :, ci) + [sum(real(ax(4*ii - 3:4*ii), dp)), sum(real(ay(4*ii - 3:4*ii), dp)), &
+                                                 sum(real(az(4*ii - 3:4*ii), dp))]
+            end do
+            do ii = 1, 3            ! pairs within the cluster
+                do jj = ii + 1, 4
+                    dx = (xr(ii, 1, ci) - xr(jj, 1, ci)) + (xrl(ii, 1, ci) - xrl(jj, 1, ci))
+                    dy = (xr(ii, 2, ci) - xr(jj, 2, ci)) + (xrl(ii, 2, ci) - xrl(jj, 2, ci))
+                    dz = (xr(ii, 3, ci) - xr(jj, 3, ci)) + (xrl(ii, 3, ci) - xrl(jj, 3, ci))
+                    r2 = dx*dx + dy*dy + dz*dz
+                    if (r2 < cut) then
+                        r6 = 1/(r2*r2*r2); fp = r6*(48*r6 - 24)/r2
+                        f4(ii, :, ci) = f4(ii, :, ci) + fp*[dx, dy, dz]
+                        f4(jj, :, ci) = f4(jj, :, ci) - fp*[dx, dy, dz]
+                    end if
+                end do
+            end do
+        end do
+        do ci = 1, ncl
+            do c = 1, 3
+                do jj = 1, 4
+                    f4(jj, c, ci) = f4(jj, c, ci) + real(frep(jj, c, ci), dp) + real(frep(jj + 4, c, ci), dp) &
+                                    + real(frep(jj + 8, c, ci), dp) + real(frep(jj + 12, c, ci), dp)
+                end do
+            end do
+        end do
+    end subroutine force_pass_rep_hl
 
     !> force_pass_rep_s with the j forces converted to double and summed in doubles
     subroutine force_pass_rep_d(ncl, xr, cfirst, clist, offs, f4, xrep, frep)

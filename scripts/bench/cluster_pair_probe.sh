@@ -8,7 +8,8 @@
 # with GROMACS's atom check ('atoms': a cluster pair listed only when one of its 16 atom pairs is
 # within the radius); and once built at 3.3 sigma and pruned to 2.7 (GROMACS's dynamic pruning: an
 # outer list that lives longer, an inner one re-pruned from it). Each run times the list build and
-# three passes (staged; replicated j layout with j forces in singles; the same in doubles). Then
+# four passes (staged; replicated j layout with j forces in singles; the same in doubles; hi/lo
+# separations, the mixed kernel's accuracy). Then
 # it runs Terrace's double and mixed kernels on input/lj_bench.nml (200 steps, best of 3) and
 # prints their force pass per step from the run log's Pair phase, per pair within rc + skin, and
 # their atom-list build (Neigh phase per build). Last, the list schedules of the mixed kernel's
@@ -78,14 +79,20 @@ pass3=$(sed -n 's/^replicated j layout, j forces in singles: *\([0-9.]*\) ms.*/\
 build5=$(sed -n 's/.*build (columns, clusters, list; best of 3): *\([0-9.]*\) ms.*/\1/p' "$work/probe5.out")
 prune5=$(sed -n 's/.*prune pass (best of 5) *\([0-9.]*\) ms.*/\1/p' "$work/probe5.out")
 pass5=$(sed -n 's/^replicated j layout, j forces in singles: *\([0-9.]*\) ms.*/\1/p' "$work/probe5.out")
+hl3=$(sed -n 's/^replicated, hi\/lo separations, j forces in singles: *\([0-9.]*\) ms.*/\1/p' "$work/probe3.out")
+hl5=$(sed -n 's/^replicated, hi\/lo separations, j forces in singles: *\([0-9.]*\) ms.*/\1/p' "$work/probe5.out")
 echo
 echo "== projected mixed Verlet step with the probe's pass, build and prune in place of the mixed kernel and its list"
 echo "   (ms per step; the rest of the step as the skin 0.3 run's; GROMACS's step: scripts/bench/anchors.sh)"
-awk -v f3="$pass3" -v b3="$build3" -v f5="$pass5" -v b5="$build5" -v p5="$prune5" -v rest="$rest" \
-    -v n02="$builds_02" -v n03="$builds_03" -v n06="$builds_06" -v fp="$pair03" -v fn="$neigh03" 'BEGIN {
-    r = rest                 # s per 1000 steps = ms per step
-    printf "now: the mixed kernel, skin 0.3 (%d builds): %.3f pass + %.3f builds + %.3f rest = %.3f (its run log)\n", n03, fp, fn, r, fp + fn + r
-    printf "A  list at 2.8 (atom check), rebuilt on the skin 0.3 trigger (%d builds): %.3f pass + %.3f builds + %.3f rest = %.3f\n", n03, f3, n03*b3/1000, r, f3 + n03*b3/1000 + r
-    printf "B  the same list rebuilt every 20 steps (50 builds, the anchors schedule):  %.3f pass + %.3f builds + %.3f rest = %.3f\n", f3, 50*b3/1000, r, f3 + 50*b3/1000 + r
-    printf "C  outer list at 3.3 on the skin 0.6 trigger (%d builds), pruned to 2.7 on the skin 0.2 trigger (%d prunes): %.3f pass + %.3f builds + %.3f prunes + %.3f rest = %.3f\n", n06, n02, f5, n06*b5/1000, n02*p5/1000, r, f5 + n06*b5/1000 + n02*p5/1000 + r
-}'
+for variant in single hilo; do
+    if [[ $variant == single ]]; then p3=$pass3; p5=$pass5; label="single relative positions"; else p3=$hl3; p5=$hl5; label="hi/lo separations (the mixed kernel's accuracy)"; fi
+    echo "-- pass with $label"
+    awk -v f3="$p3" -v b3="$build3" -v f5="$p5" -v b5="$build5" -v p5="$prune5" -v rest="$rest" \
+        -v n02="$builds_02" -v n03="$builds_03" -v n06="$builds_06" -v fp="$pair03" -v fn="$neigh03" 'BEGIN {
+        r = rest                 # s per 1000 steps = ms per step
+        printf "now: the mixed kernel, skin 0.3 (%d builds): %.3f pass + %.3f builds + %.3f rest = %.3f (its run log)\n", n03, fp, fn, r, fp + fn + r
+        printf "A  list at 2.8 (atom check), rebuilt on the skin 0.3 trigger (%d builds): %.3f pass + %.3f builds + %.3f rest = %.3f\n", n03, f3, n03*b3/1000, r, f3 + n03*b3/1000 + r
+        printf "B  the same list rebuilt every 20 steps (50 builds, the anchors schedule):  %.3f pass + %.3f builds + %.3f rest = %.3f\n", f3, 50*b3/1000, r, f3 + 50*b3/1000 + r
+        printf "C  outer list at 3.3 on the skin 0.6 trigger (%d builds), pruned to 2.7 on the skin 0.2 trigger (%d prunes): %.3f pass + %.3f builds + %.3f prunes + %.3f rest = %.3f\n", n06, n02, f5, n06*b5/1000, n02*p5/1000, r, f5 + n06*b5/1000 + n02*p5/1000 + r
+    }'
+done

@@ -487,7 +487,7 @@ contains
         real(sp) :: ax(16, 4), ay(16, 4), az(16, 4), xi(4), yi(4), zi(4)
         real(sp) :: dx, dy, dz, r2, r2i, r6, fp, gx, gy, gz, cut
         real(dp) :: t4(4)
-        integer :: ci, cj, p, n, m, k, kb, l, ii, jj
+        integer :: ci, cj, p, n, m, k, kb, l, ii
         cut = real(rc*rc, sp)
         f4 = 0
         do ci = 1, ncl
@@ -535,17 +535,7 @@ contains
             do ii = 1, 4
                 f4(ii, :, ci) = f4(ii, :, ci) + [sum(real(ax(:, ii), dp)), sum(real(ay(:, ii), dp)), sum(real(az(:, ii), dp))]
             end do
-            do ii = 1, 3            ! pairs within the cluster
-                do jj = ii + 1, 4
-                    dx = xi(ii) - xi(jj); dy = yi(ii) - yi(jj); dz = zi(ii) - zi(jj)
-                    r2 = dx*dx + dy*dy + dz*dz
-                    if (r2 < cut) then
-                        r6 = 1/(r2*r2*r2); fp = r6*(48*r6 - 24)/r2
-                        f4(ii, :, ci) = f4(ii, :, ci) + fp*[dx, dy, dz]
-                        f4(jj, :, ci) = f4(jj, :, ci) - fp*[dx, dy, dz]
-                    end if
-                end do
-            end do
+            call within_cluster(ci, xr, xr, .false., f4)
         end do
     end subroutine force_pass
 
@@ -563,16 +553,10 @@ contains
         real(sp), intent(inout) :: xrep(16, 3, ncl), frep(16, 3, ncl)
         real(sp) :: xi(16), yi(16), zi(16), ax(16), ay(16), az(16)
         real(sp) :: dx, dy, dz, r2, r2i, r6, fp, cut, ox, oy, oz
-        integer :: ci, cj, p, l, ii, jj, c
+        integer :: ci, cj, p, l, ii
         cut = real(rc*rc, sp)
-        do ci = 1, ncl
-            do c = 1, 3
-                do l = 1, 16
-                    xrep(l, c, ci) = xr(mod(l - 1, 4) + 1, c, ci)
-                    frep(l, c, ci) = 0
-                end do
-            end do
-        end do
+        call replicate(ncl, xr, xrep)
+        frep = 0
         f4 = 0
         do ci = 1, ncl
             do l = 1, 16
@@ -596,26 +580,9 @@ contains
                 f4(ii, :, ci) = f4(ii, :, ci) + [sum(real(ax(4*ii - 3:4*ii), dp)), sum(real(ay(4*ii - 3:4*ii), dp)), &
                                                  sum(real(az(4*ii - 3:4*ii), dp))]
             end do
-            do ii = 1, 3            ! pairs within the cluster
-                do jj = ii + 1, 4
-                    dx = xr(ii, 1, ci) - xr(jj, 1, ci); dy = xr(ii, 2, ci) - xr(jj, 2, ci); dz = xr(ii, 3, ci) - xr(jj, 3, ci)
-                    r2 = dx*dx + dy*dy + dz*dz
-                    if (r2 < cut) then
-                        r6 = 1/(r2*r2*r2); fp = r6*(48*r6 - 24)/r2
-                        f4(ii, :, ci) = f4(ii, :, ci) + fp*[dx, dy, dz]
-                        f4(jj, :, ci) = f4(jj, :, ci) - fp*[dx, dy, dz]
-                    end if
-                end do
-            end do
+            call within_cluster(ci, xr, xr, .false., f4)
         end do
-        do ci = 1, ncl
-            do c = 1, 3
-                do jj = 1, 4
-                    f4(jj, c, ci) = f4(jj, c, ci) + real(frep(jj, c, ci), dp) + real(frep(jj + 4, c, ci), dp) &
-                                    + real(frep(jj + 8, c, ci), dp) + real(frep(jj + 12, c, ci), dp)
-                end do
-            end do
-        end do
+        call add_replicas(ncl, frep, f4)
     end subroutine force_pass_rep_s
 
     !> force_pass_rep_s with each relative position carried as two singles, hi (xr) + lo (xrl, what
@@ -628,17 +595,10 @@ contains
         real(sp), intent(inout) :: xrep(16, 3, ncl), xrepl(16, 3, ncl), frep(16, 3, ncl)
         real(sp) :: xi(16), yi(16), zi(16), xil(16), yil(16), zil(16), ax(16), ay(16), az(16)
         real(sp) :: dx, dy, dz, r2, r2i, r6, fp, cut, ox, oy, oz
-        integer :: ci, cj, p, l, ii, jj, c
+        integer :: ci, cj, p, l, ii
         cut = real(rc*rc, sp)
-        do ci = 1, ncl
-            do c = 1, 3
-                do l = 1, 16
-                    xrep(l, c, ci) = xr(mod(l - 1, 4) + 1, c, ci)
-                    xrepl(l, c, ci) = xrl(mod(l - 1, 4) + 1, c, ci)
-                    frep(l, c, ci) = 0
-                end do
-            end do
-        end do
+        call replicate(ncl, xr, xrep); call replicate(ncl, xrl, xrepl)
+        frep = 0
         f4 = 0
         do ci = 1, ncl
             do l = 1, 16
@@ -665,28 +625,9 @@ contains
                 f4(ii, :, ci) = f4(ii, :, ci) + [sum(real(ax(4*ii - 3:4*ii), dp)), sum(real(ay(4*ii - 3:4*ii), dp)), &
                                                  sum(real(az(4*ii - 3:4*ii), dp))]
             end do
-            do ii = 1, 3            ! pairs within the cluster
-                do jj = ii + 1, 4
-                    dx = (xr(ii, 1, ci) - xr(jj, 1, ci)) + (xrl(ii, 1, ci) - xrl(jj, 1, ci))
-                    dy = (xr(ii, 2, ci) - xr(jj, 2, ci)) + (xrl(ii, 2, ci) - xrl(jj, 2, ci))
-                    dz = (xr(ii, 3, ci) - xr(jj, 3, ci)) + (xrl(ii, 3, ci) - xrl(jj, 3, ci))
-                    r2 = dx*dx + dy*dy + dz*dz
-                    if (r2 < cut) then
-                        r6 = 1/(r2*r2*r2); fp = r6*(48*r6 - 24)/r2
-                        f4(ii, :, ci) = f4(ii, :, ci) + fp*[dx, dy, dz]
-                        f4(jj, :, ci) = f4(jj, :, ci) - fp*[dx, dy, dz]
-                    end if
-                end do
-            end do
+            call within_cluster(ci, xr, xrl, .true., f4)
         end do
-        do ci = 1, ncl
-            do c = 1, 3
-                do jj = 1, 4
-                    f4(jj, c, ci) = f4(jj, c, ci) + real(frep(jj, c, ci), dp) + real(frep(jj + 4, c, ci), dp) &
-                                    + real(frep(jj + 8, c, ci), dp) + real(frep(jj + 12, c, ci), dp)
-                end do
-            end do
-        end do
+        call add_replicas(ncl, frep, f4)
     end subroutine force_pass_rep_hl
 
     !> force_pass_rep_s with the j forces converted to double and summed in doubles
@@ -700,14 +641,8 @@ contains
         real(sp) :: dx, dy, dz, r2, r2i, r6, fp, cut, ox, oy, oz
         integer :: ci, cj, p, l, ii, jj, c
         cut = real(rc*rc, sp)
-        do ci = 1, ncl
-            do c = 1, 3
-                do l = 1, 16
-                    xrep(l, c, ci) = xr(mod(l - 1, 4) + 1, c, ci)
-                    frep(l, c, ci) = 0
-                end do
-            end do
-        end do
+        call replicate(ncl, xr, xrep)
+        frep = 0
         f4 = 0
         do ci = 1, ncl
             do l = 1, 16
@@ -731,17 +666,7 @@ contains
                 f4(ii, :, ci) = f4(ii, :, ci) + [sum(real(ax(4*ii - 3:4*ii), dp)), sum(real(ay(4*ii - 3:4*ii), dp)), &
                                                  sum(real(az(4*ii - 3:4*ii), dp))]
             end do
-            do ii = 1, 3            ! pairs within the cluster
-                do jj = ii + 1, 4
-                    dx = xr(ii, 1, ci) - xr(jj, 1, ci); dy = xr(ii, 2, ci) - xr(jj, 2, ci); dz = xr(ii, 3, ci) - xr(jj, 3, ci)
-                    r2 = dx*dx + dy*dy + dz*dz
-                    if (r2 < cut) then
-                        r6 = 1/(r2*r2*r2); fp = r6*(48*r6 - 24)/r2
-                        f4(ii, :, ci) = f4(ii, :, ci) + fp*[dx, dy, dz]
-                        f4(jj, :, ci) = f4(jj, :, ci) - fp*[dx, dy, dz]
-                    end if
-                end do
-            end do
+            call within_cluster(ci, xr, xr, .false., f4)
         end do
         do ci = 1, ncl
             do c = 1, 3
@@ -752,5 +677,62 @@ contains
             end do
         end do
     end subroutine force_pass_rep_d
+
+    !> The pairs within cluster ci (scalar; separations from hi + lo when hilo), added to f4
+    subroutine within_cluster(ci, xr, xrl, hilo, f4)
+        integer, intent(in) :: ci
+        real(sp), intent(in) :: xr(4, 3, *), xrl(4, 3, *)
+        logical, intent(in) :: hilo
+        real(dp), intent(inout) :: f4(4, 3, *)
+        real(sp) :: dx, dy, dz, r2, r6, fp, cut
+        integer :: ii, jj
+        cut = real(rc*rc, sp)
+        do ii = 1, 3
+            do jj = ii + 1, 4
+                dx = xr(ii, 1, ci) - xr(jj, 1, ci); dy = xr(ii, 2, ci) - xr(jj, 2, ci); dz = xr(ii, 3, ci) - xr(jj, 3, ci)
+                if (hilo) then
+                    dx = dx + (xrl(ii, 1, ci) - xrl(jj, 1, ci)); dy = dy + (xrl(ii, 2, ci) - xrl(jj, 2, ci))
+                    dz = dz + (xrl(ii, 3, ci) - xrl(jj, 3, ci))
+                end if
+                r2 = dx*dx + dy*dy + dz*dz
+                if (r2 < cut) then
+                    r6 = 1/(r2*r2*r2); fp = r6*(48*r6 - 24)/r2
+                    f4(ii, :, ci) = f4(ii, :, ci) + fp*[dx, dy, dz]
+                    f4(jj, :, ci) = f4(jj, :, ci) - fp*[dx, dy, dz]
+                end if
+            end do
+        end do
+    end subroutine within_cluster
+
+    !> The j side: lane l of 16 holds atom mod(l - 1, 4) + 1 of each cluster
+    pure subroutine replicate(ncl, xr, xrep)
+        integer, intent(in) :: ncl
+        real(sp), intent(in) :: xr(4, 3, ncl)
+        real(sp), intent(out) :: xrep(16, 3, ncl)
+        integer :: ci, c, l
+        do ci = 1, ncl
+            do c = 1, 3
+                do l = 1, 16
+                    xrep(l, c, ci) = xr(mod(l - 1, 4) + 1, c, ci)
+                end do
+            end do
+        end do
+    end subroutine replicate
+
+    !> The j forces' four replicas (lanes jj, jj + 4, jj + 8, jj + 12), summed in double into f4
+    subroutine add_replicas(ncl, frep, f4)
+        integer, intent(in) :: ncl
+        real(sp), intent(in) :: frep(16, 3, ncl)
+        real(dp), intent(inout) :: f4(4, 3, ncl)
+        integer :: ci, c, jj
+        do ci = 1, ncl
+            do c = 1, 3
+                do jj = 1, 4
+                    f4(jj, c, ci) = f4(jj, c, ci) + real(frep(jj, c, ci), dp) + real(frep(jj + 4, c, ci), dp) &
+                                    + real(frep(jj + 8, c, ci), dp) + real(frep(jj + 12, c, ci), dp)
+                end do
+            end do
+        end do
+    end subroutine add_replicas
 
 end program cluster_pair_probe

@@ -3,20 +3,22 @@
 # (GROMACS's nbnxm idea: 4 x 4 atom pairs of two clusters of four, 16 singles per AVX-512 vector)
 # beat Terrace's atom-pair kernels on LAMMPS's LJ bench scene? Compiles the standalone probe
 # cluster_pair_probe.f90 (not part of the engine; see its header) with the engine's flags and runs
-# it five times: cluster lists at rc + skin (2.8 sigma: what every pass reads without pruning) and
-# at rc (2.5: the fewest cluster pairs a pruned list could keep), each by bounding boxes alone and
-# with GROMACS's atom check ('atoms': a cluster pair listed only when one of its 16 atom pairs is
-# within the radius); and once built at 3.3 sigma and pruned to 2.7 (GROMACS's dynamic pruning: an
-# outer list that lives longer, an inner one re-pruned from it). Each run times the list build and
-# four passes (staged; replicated j layout with j forces in singles; the same in doubles; hi/lo
-# separations, the mixed kernel's accuracy). Then
-# it runs Terrace's double and mixed kernels on input/lj_bench.nml (200 steps, best of 3) and
-# prints their force pass per step from the run log's Pair phase, per pair within rc + skin, and
-# their atom-list build (Neigh phase per build). Last, the list schedules of the mixed kernel's
-# run (builds in 1000 steps at skins 0.2, 0.3, 0.6) and the mixed Verlet step projected with the
-# probe's pass, build and prune in place of the mixed kernel and its list: A, the list at rc + skin
-# rebuilt on Terrace's exact trigger; B, rebuilt every 20 steps (the anchors' schedule); C, an outer
-# list at 3.3 kept while no atom moved 0.3, pruned to 2.7 whenever one moved 0.1 (exact too).
+# it five times on the LJ bench liquid (Terrace's state after 1000 steps): cluster lists at rc +
+# skin (2.8 sigma: what every pass reads without pruning) and at rc (2.5: the fewest cluster pairs
+# a pruned list could keep), each by bounding boxes alone and with GROMACS's atom check ('atoms': a
+# cluster pair listed only when one of its 16 atom pairs is within the radius); and once built at
+# 3.3 sigma and pruned to 2.7 (GROMACS's dynamic pruning: an outer list that lives longer, an inner
+# one re-pruned from it). Each run times the list build and four passes (staged; replicated j
+# layout with j forces in singles; the same in doubles; hi/lo separations, the mixed kernel's
+# accuracy). One more run on the probe's own displaced lattice shows the force errors with closer
+# pairs. Then it runs Terrace's double and mixed kernels on input/lj_bench.nml (200 steps, best of
+# 3) and prints their force pass per step from the run log's Pair phase, per pair within rc +
+# skin, and their atom-list build (Neigh phase per build). Last, the list schedules of the mixed
+# kernel's run (builds in 1000 steps at skins 0.2, 0.3, 0.6) and the mixed Verlet step projected
+# with the probe's pass, build and prune in place of the mixed kernel and its list: A, the list at
+# rc + skin rebuilt on Terrace's exact trigger; B, rebuilt every 20 steps (the anchors' schedule);
+# C, an outer list at 3.3 kept while no atom moved 0.3, pruned to 2.7 whenever one moved 0.1
+# (exact too).
 # Both the probe and Terrace's log time wall seconds (best of several): run it on a quiet machine.
 # Usage: scripts/bench/cluster_pair_probe.sh [TERRACE_BINARY]   (default build/terrace)
 set -euo pipefail
@@ -31,13 +33,22 @@ echo "date    : $(date -u '+%Y-%m-%d %H:%M UTC'); load $(cut -d' ' -f1-3 /proc/l
 echo "commit  : $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
 echo "compiler: $(gfortran --version | head -1); -O3 -march=native -funroll-loops"
 echo
-echo "== cluster-pair probe (single-precision pairs)"
+# The probe's scene: the LJ bench liquid after 1000 steps of Terrace (the state the bench's list
+# builds and force passes see), written by &output final_atoms_file
+sed -E "s#^&output .*#\&output thermo_every=1000, thermo_file='', final_atoms_file='$work/liquid.atoms' /#" \
+    "$repo/input/lj_bench.nml" > "$work/liquid.nml"
+grep -q "final_atoms_file" "$work/liquid.nml" || { echo "cluster_pair_probe: could not set final_atoms_file" >&2; exit 1; }
+"$terrace" "$work/liquid.nml" > "$work/liquid.log" 2>&1 || { echo "cluster_pair_probe: Terrace failed:" >&2; tail -5 "$work/liquid.log" >&2; exit 1; }
+echo "== cluster-pair probe (single-precision pairs) on the LJ bench liquid after 1000 steps"
 n=0
-for args in "2.8" "2.5" "2.8 atoms" "2.5 atoms" "3.3 atoms 2.7"; do
+for args in "2.8 boxes 0" "2.5 boxes 0" "2.8 atoms 0" "2.5 atoms 0" "3.3 atoms 2.7"; do
     n=$((n + 1))
-    "$work/probe" $args | tee "$work/probe$n.out"
+    "$work/probe" $args "$work/liquid.atoms" | tee "$work/probe$n.out"
     echo
 done
+echo "== the same probe on its own scene, the fcc lattice displaced by up to 0.2 sigma (closer pairs)"
+"$work/probe" 2.8 atoms 0
+echo
 echo "== Terrace's atom-pair kernels, input/lj_bench.nml, 200 steps (best of 3): force pass per step"
 cd "$work"
 sed -E "s/n_steps=[0-9]+/n_steps=200/" "$repo/input/lj_bench.nml" > double.nml

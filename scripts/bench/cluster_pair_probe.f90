@@ -4,11 +4,13 @@
 !> the atom-pair list that Terrace's kernels use. Not part of the engine; built and run by
 !> cluster_pair_probe.sh with the engine's optimisation flags.
 !>
-!> Scene: fcc, 20^3 cells, rho* 0.8442 (32,000 atoms), each coordinate displaced by a uniform
-!> random amount in [-0.2, 0.2] sigma; rc 2.5 sigma. Arguments: the list radius R (2.8 = rc +
-!> LAMMPS's skin, the list every pass would read without pruning; 2.5 = rc, the fewest cluster
-!> pairs that a pruned list could keep), and 'atoms' to list a cluster pair only when one of its
-!> 16 atom pairs lies within R (GROMACS's check after the bounding boxes), else bounding boxes only;
+!> Scene: LAMMPS's LJ bench box (32,000 atoms, rho* 0.8442, rc 2.5 sigma): by default an fcc
+!> lattice of 20^3 cells, each coordinate displaced by a uniform random amount in [-0.2, 0.2]
+!> sigma; or the atoms of a Terrace final-state file (the fourth argument). Arguments: the list
+!> radius R (2.8 = rc + LAMMPS's skin, the list every pass would read without pruning; 2.5 = rc,
+!> the fewest cluster pairs that a pruned list could keep), and 'atoms' to list a cluster pair only
+!> when one of its 16 atom pairs lies within R (GROMACS's check after the bounding boxes), else
+!> ('boxes') bounding boxes only;
 !> a third, rin < R, prunes the list built at R to the cluster pairs with an atom pair within rin
 !> (GROMACS's dynamic pruning: an outer list that lives longer, an inner one re-pruned from it;
 !> the prune is timed and the passes run over the inner list; 0: none); a fourth, a Terrace
@@ -20,10 +22,11 @@
 !> stencil ahead of it. cj is a candidate when its z extent meets ci's widened by R (the columns
 !> are z-sorted: a pointer that only moves up as ci does; bisection for the periodic images above
 !> and below), and listed when the bounding boxes lie closer than R (and, with 'atoms', an atom
-!> pair does). Positions are stored per cluster as singles relative to the cluster's box centre; a listed pair carries the single-precision offset between
-!> the two centres (minimum image), so a separation is formed from small numbers (about 1e-7 sigma
-!> round-off, as the mixed kernel's hi/lo pairs).
-!> Four force passes, timed (wall clock, as Terrace's run log; best of 5 x 20), forces checked against a double reference:
+!> pair does). Positions are stored per cluster as singles relative to the cluster's centre (the
+!> centres on a grid of 2^-10 sigma); a listed pair carries the offset between the two centres
+!> (minimum image; exact in single precision), so a separation is formed from small numbers.
+!> Four force passes, timed (wall clock, as Terrace's run log; best of 5 x 20), forces checked
+!> against a double reference:
 !> - staged: per cluster ci, its neighbours' positions copied end to end (offset added), the pair
 !>   loop over 16 j atoms per vector against ci's four atoms, the j forces summed into singles per
 !>   staged atom and added to double per-cluster records; timed also without its pair loop.
@@ -38,7 +41,6 @@
 !>   singles, hi on the centres' 2^-10 grid and lo the rest, so that (hi_i - off) - hi_j is exact
 !>   and a separation is rounded once, as in Terrace's mixed kernel (whose forces the probe also
 !>   emulates: double separations rounded to single, single pair terms, double sums).
-!> The centres lie on a grid of 2^-10 sigma, so that the offset between two is exact in single.
 !> Force errors: max over atoms of |F - F_double| / rms F, leaving out the atoms with a pair within
 !> 1e-6 sigma of the cutoff (single and double precision may decide such a pair differently, and the
 !> truncated force jumps there by 0.039; the count is printed).

@@ -500,6 +500,9 @@ contains
         real(sp) :: xi16(16, 3), o(3), q, r2in
         integer :: ci, cj, p, lane, near, keep(100)
         if (.not. allocated(cfirst_in)) allocate (cfirst_in(ncl + 1), clist_in(size(clist)), offs_in(4, size(clist)))
+        if (allocated(xq)) then
+            if (size(xq, 3) /= ncl) deallocate (xq)
+        end if
         if (.not. allocated(xq)) allocate (xq(16, 3, ncl))
         do ci = 1, ncl                  ! (every step in an engine: the force pass forms the same replicas)
             do lane = 1, 16

@@ -11,20 +11,30 @@
 # one re-pruned from it). Each run times the list build and four passes (staged; replicated j
 # layout with j forces in singles; the same in doubles; hi/lo separations, the mixed kernel's
 # accuracy). One more run on the probe's own displaced lattice shows the force errors with closer
-# pairs. Then it runs Terrace's double and mixed kernels on input/lj_bench.nml (200 steps, best of
-# 3) and prints their force pass per step from the run log's Pair phase, per pair within rc +
-# skin, and their atom-list build (Neigh phase per build). Last, the list schedules of the mixed
-# kernel's run (builds in 1000 steps at skins 0.2, 0.3, 0.6) and the mixed Verlet step projected
-# with the probe's pass, build and prune in place of the mixed kernel and its list: A, the list at
-# rc + skin rebuilt on Terrace's exact trigger; B, rebuilt every 20 steps (the anchors' schedule);
-# C, an outer list at 3.3 kept while no atom moved 0.3, pruned to 2.7 whenever one moved 0.1
-# (exact too).
+# pairs. Then it runs Terrace's double and mixed kernels on input/lj_bench.nml (200 steps) and
+# reads their force pass per step from the run log's Pair phase and their atom-list build (Neigh
+# phase per build); and the list schedules of the mixed kernel's run (builds in 1000 steps at skins
+# 0.2, 0.3, 0.6). The summary projects the mixed Verlet step with the probe's pass, build and prune
+# in place of the mixed kernel and its list: A, the list at rc + skin rebuilt on Terrace's exact
+# trigger; B, rebuilt every 20 steps (the anchors' schedule); C, an outer list at 3.3 kept while no
+# atom moved 0.3, pruned to 2.7 whenever one moved 0.1 (exact too).
+# REPEAT rounds (default 3) of the liquid probe runs and of Terrace's kernels, alternating; the
+# summary at the end takes the best of them. With ANCHORS=FILE (an output of scripts/bench/anchors.sh,
+# e.g. doc/bench_data/anchors_all_098eb85_epyc.txt) the projections also use that run's mixed-kernel
+# phases and GROMACS mixed loop time and print the ratio to GROMACS.
 # Both the probe and Terrace's log time wall seconds (best of several): run it on a quiet machine.
-# Usage: scripts/bench/cluster_pair_probe.sh [TERRACE_BINARY]   (default build/terrace)
+# Usage: [REPEAT=N] [ANCHORS=FILE] scripts/bench/cluster_pair_probe.sh [TERRACE_BINARY]   (default build/terrace)
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
 terrace="$(realpath "${1:-$repo/build/terrace}")"
 [[ -x "$terrace" ]] || { echo "cluster_pair_probe: no Terrace binary at $terrace (bash scripts/build.sh first)" >&2; exit 2; }
+repeat="${REPEAT:-3}"
+[[ "$repeat" =~ ^[1-9][0-9]*$ ]] || { echo "cluster_pair_probe: REPEAT must be a positive integer, not '$repeat'" >&2; exit 2; }
+anchors=""
+if [[ -n "${ANCHORS:-}" ]]; then
+    anchors="$(realpath "$ANCHORS")"
+    grep -q '^gromacs_mix ' "$anchors" || { echo "cluster_pair_probe: $ANCHORS has no gromacs_mix row (an anchors.sh output?)" >&2; exit 2; }
+fi
 work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
 gfortran -std=f2018 -ffree-line-length-none -O3 -march=native -funroll-loops \
     "$here/cluster_pair_probe.f90" -J "$work" -o "$work/probe"
@@ -32,78 +42,124 @@ echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(n
 echo "date    : $(date -u '+%Y-%m-%d %H:%M UTC'); load $(cut -d' ' -f1-3 /proc/loadavg) at start"
 echo "commit  : $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
 echo "compiler: $(gfortran --version | head -1); -O3 -march=native -funroll-loops"
+echo "rounds  : $repeat"
 echo
+fail() { echo "cluster_pair_probe: Terrace failed:" >&2; tail -5 "$1" >&2; exit 1; }
+cd "$work"
 # The probe's scene: the LJ bench liquid after 1000 steps of Terrace (the state the bench's list
 # builds and force passes see), written by &output final_atoms_file
 sed -E "s#^&output .*#\&output thermo_every=1000, thermo_file='', final_atoms_file='$work/liquid.atoms' /#" \
-    "$repo/input/lj_bench.nml" > "$work/liquid.nml"
-grep -q "final_atoms_file" "$work/liquid.nml" || { echo "cluster_pair_probe: could not set final_atoms_file" >&2; exit 1; }
-"$terrace" "$work/liquid.nml" > "$work/liquid.log" 2>&1 || { echo "cluster_pair_probe: Terrace failed:" >&2; tail -5 "$work/liquid.log" >&2; exit 1; }
-echo "== cluster-pair probe (single-precision pairs) on the LJ bench liquid after 1000 steps"
-n=0
-for args in "2.8 boxes 0" "2.5 boxes 0" "2.8 atoms 0" "2.5 atoms 0" "3.3 atoms 2.7"; do
-    n=$((n + 1))
-    "$work/probe" $args "$work/liquid.atoms" | tee "$work/probe$n.out"
-    echo
-done
-echo "== the same probe on its own scene, the fcc lattice displaced by up to 0.2 sigma (closer pairs)"
-"$work/probe" 2.8 atoms 0
-echo
-echo "== Terrace's atom-pair kernels, input/lj_bench.nml, 200 steps (best of 3): force pass per step"
-cd "$work"
+    "$repo/input/lj_bench.nml" > liquid.nml
+grep -q "final_atoms_file" liquid.nml || { echo "cluster_pair_probe: could not set final_atoms_file" >&2; exit 1; }
+"$terrace" liquid.nml > liquid.log 2>&1 || fail liquid.log
+# Terrace's kernels: 200 steps, double and mixed
 sed -E "s/n_steps=[0-9]+/n_steps=200/" "$repo/input/lj_bench.nml" > double.nml
 sed -E "s#shift=.false. /#shift=.false., precision='mixed' /#" double.nml > mixed.nml
 grep -q "precision='mixed'" mixed.nml || { echo "cluster_pair_probe: could not set precision='mixed'" >&2; exit 1; }
-for k in double mixed; do
-    best=""
-    for r in 1 2 3; do
-        "$terrace" $k.nml > $k.log 2>&1 || { echo "cluster_pair_probe: Terrace failed:" >&2; tail -5 $k.log >&2; exit 1; }
-        pair=$(awk '/^Pair +[0-9]/ {print $2; exit}' $k.log)
-        if [[ -z "$best" ]] || awk -v a="$pair" -v b="$best" 'BEGIN {exit !(a < b)}'; then best=$pair; fi
+configs=("2.8 boxes 0" "2.5 boxes 0" "2.8 atoms 0" "2.5 atoms 0" "3.3 atoms 2.7")
+for ((r = 1; r <= repeat; r++)); do
+    echo "== round $r of $repeat: cluster-pair probe (single-precision pairs) on the LJ bench liquid after 1000 steps"
+    for n in "${!configs[@]}"; do
+        "$work/probe" ${configs[$n]} "$work/liquid.atoms" | tee "probe_${r}_$n.out"
+        echo
     done
-    pairs=$(sed -n 's/^List pairs (within rc + skin, last build): *//p' $k.log)
-    neigh=$(awk '/^Neigh +[0-9]/ {print $2; exit}' $k.log)
-    builds=$(sed -n 's/^ *Neighbour list builds: *//p' $k.log | head -1)
-    awk -v k="$k" -v t="$best" -v n="$pairs" -v g="$neigh" -v b="$builds" 'BEGIN {printf "%-7s %7.3f ms per step; %6.3f ns per pair within rc + skin (%d pairs); list builds %d, %.2f ms each (Neigh phase of the last run)\n", k, 1e3*t/200, 1e9*t/200/n, n, b, 1e3*g/b}'
+    echo "== round $r of $repeat: Terrace's atom-pair kernels, input/lj_bench.nml, 200 steps (run log)"
+    for k in double mixed; do
+        "$terrace" $k.nml > ${k}_$r.log 2>&1 || fail ${k}_$r.log
+        grep -E '^(Pair|Neigh) +[0-9]|Neighbour list builds|^List pairs' ${k}_$r.log | sed "s/^/$k: /"
+    done
+    echo
 done
-
-# The list schedules: builds in 1000 steps of the mixed kernel's run at skins 0.2, 0.3 and 0.6 (an
-# atom moved more than skin/2 since the last build), and the rest of its step (Comm + Output + Other)
+echo "== the same probe on its own scene, the fcc lattice displaced by up to 0.2 sigma (closer pairs)"
+"$work/probe" 2.8 atoms 0 | tee lattice.out
 echo
+# The list schedules: builds in 1000 steps of the mixed kernel's run at skins 0.2, 0.3 and 0.6 (an
+# atom moved more than skin/2 since the last build), and the phases of its skin 0.3 run
 echo "== list schedules: input/lj_bench.nml, precision='mixed', 1000 steps"
 for sk in 0.2 0.3 0.6; do
     sed -E "s/skin=[0-9.]+/skin=$sk/" "$repo/input/lj_bench.nml" \
         | sed -E "s#shift=.false. /#shift=.false., precision='mixed' /#" > skin$sk.nml
-    "$terrace" skin$sk.nml > skin$sk.log 2>&1 || { echo "cluster_pair_probe: Terrace failed:" >&2; tail -5 skin$sk.log >&2; exit 1; }
-    b=$(sed -n 's/^ *Neighbour list builds: *//p' skin$sk.log | head -1)
-    echo "skin $sk: $b builds"
-    eval "builds_${sk/./}=$b"
+    "$terrace" skin$sk.nml > skin$sk.log 2>&1 || fail skin$sk.log
+    echo "skin $sk: $(sed -n 's/^ *Neighbour list builds: *//p' skin$sk.log | head -1) builds"
 done
-rest=$(awk '/^(Comm|Output|Other) +[0-9]/ {s += $2} END {printf "%.4f", s}' skin0.3.log)
-pair03=$(awk '/^Pair +[0-9]/ {print $2; exit}' skin0.3.log)
-neigh03=$(awk '/^Neigh +[0-9]/ {print $2; exit}' skin0.3.log)
-loop=$(sed -n 's/^Loop time: *\([0-9.]*\) s.*/\1/p' skin0.3.log | head -1)
-echo "skin 0.3 run: Comm + Output + Other $rest s in 1000 steps; loop ${loop:-?} s"
-# figures of the probe runs: build and prune (ms), and the replicated single pass (ms)
-build3=$(sed -n 's/.*build (columns, clusters, list; best of 3): *\([0-9.]*\) ms.*/\1/p' "$work/probe3.out")
-pass3=$(sed -n 's/^replicated j layout, j forces in singles: *\([0-9.]*\) ms.*/\1/p' "$work/probe3.out")
-build5=$(sed -n 's/.*build (columns, clusters, list; best of 3): *\([0-9.]*\) ms.*/\1/p' "$work/probe5.out")
-prune5=$(sed -n 's/.*prune pass (best of 5) *\([0-9.]*\) ms.*/\1/p' "$work/probe5.out")
-pass5=$(sed -n 's/^replicated j layout, j forces in singles: *\([0-9.]*\) ms.*/\1/p' "$work/probe5.out")
-hl3=$(sed -n 's/^replicated, hi\/lo separations, j forces in singles: *\([0-9.]*\) ms.*/\1/p' "$work/probe3.out")
-hl5=$(sed -n 's/^replicated, hi\/lo separations, j forces in singles: *\([0-9.]*\) ms.*/\1/p' "$work/probe5.out")
 echo
-echo "== projected mixed Verlet step with the probe's pass, build and prune in place of the mixed kernel and its list"
-echo "   (ms per step; the rest of the step as the skin 0.3 run's; GROMACS's step: scripts/bench/anchors.sh)"
-for variant in single hilo; do
-    if [[ $variant == single ]]; then p3=$pass3; p5=$pass5; label="single relative positions"; else p3=$hl3; p5=$hl5; label="hi/lo separations (the mixed kernel's accuracy)"; fi
-    echo "-- pass with $label"
-    awk -v f3="$p3" -v b3="$build3" -v f5="$p5" -v b5="$build5" -v p5="$prune5" -v rest="$rest" \
-        -v n02="$builds_02" -v n03="$builds_03" -v n06="$builds_06" -v fp="$pair03" -v fn="$neigh03" 'BEGIN {
-        r = rest                 # s per 1000 steps = ms per step
-        printf "now: the mixed kernel, skin 0.3 (%d builds): %.3f pass + %.3f builds + %.3f rest = %.3f (its run log)\n", n03, fp, fn, r, fp + fn + r
-        printf "A  list at 2.8 (atom check), rebuilt on the skin 0.3 trigger (%d builds): %.3f pass + %.3f builds + %.3f rest = %.3f\n", n03, f3, n03*b3/1000, r, f3 + n03*b3/1000 + r
-        printf "B  the same list rebuilt every 20 steps (50 builds, the anchors schedule):  %.3f pass + %.3f builds + %.3f rest = %.3f\n", f3, 50*b3/1000, r, f3 + 50*b3/1000 + r
-        printf "C  outer list at 3.3 on the skin 0.6 trigger (%d builds), pruned to 2.7 on the skin 0.2 trigger (%d prunes): %.3f pass + %.3f builds + %.3f prunes + %.3f rest = %.3f\n", n06, n02, f5, n06*b5/1000, n02*p5/1000, r, f5 + n06*b5/1000 + n02*p5/1000 + r
-    }'
-done
+python3 - "$repeat" "${#configs[@]}" "$anchors" <<'PY'
+import re, sys
+rounds, nconf, anchors = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+def num(pat, text, cast=float):
+    m = re.search(pat, text, re.M)
+    return cast(m.group(1)) if m else None
+keys = {'build': r'best of 3\):\s+([0-9.]+) ms', 'prune': r'prune pass \(best of 5\)\s+([0-9.]+) ms',
+        'staged': r'^force pass \(best of 5 x 20\):\s+([0-9.]+) ms',
+        'stw': r'per listed cluster pair: staging and write-back\s+([0-9.]+) ns',
+        'single': r'^replicated j layout, j forces in singles:\s+([0-9.]+) ms',
+        'jdouble': r'^replicated j layout, j forces in doubles:\s+([0-9.]+) ms',
+        'hilo': r'^replicated, hi/lo separations, j forces in singles:\s+([0-9.]+) ms'}
+errs = {'staged': r'^max \|F - F_double\| / F_rms:\s+(\S+)', 'single': r'in singles:.*F_rms\s+(\S+)',
+        'jdouble': r'in doubles:.*F_rms\s+(\S+)', 'hilo': r'hi/lo separations.*F_rms\s+(\S+)',
+        'mixed kernel (emulated)': r'emulated.*F_rms\s+(\S+)'}
+best = []
+for n in range(nconf):
+    texts = [open('probe_%d_%d.out' % (r, n)).read() for r in range(1, rounds + 1)]
+    b = {k: min(v for v in (num(p, t) for t in texts) if v is not None) for k, p in keys.items()
+         if num(p, texts[0]) is not None}
+    b['pairs'] = num(r"passes' list:\s+(\d+)", texts[0], int)
+    b['cpp'] = num(r'pairs computed per pair within rc \+ skin\s+([0-9.]+)', texts[0])
+    b['radius'] = num(r'^cluster list radius\s+([0-9.]+)', texts[0])
+    b['atoms'] = 'checked atom by atom: T' in texts[0]
+    b['text'] = texts[0]
+    best.append(b)
+print('== summary: best of %d rounds (wall ms per force pass; build best of 3, prune best of 5 per round)' % rounds)
+print('%-26s %9s %6s %8s %9s %8s %9s %8s %8s %8s' % ('cluster list (liquid)', 'pairs', 'x pair', 'staged', 'ns stage',
+      'single', 'j double', 'hi/lo', 'build', 'prune'))
+for b in best:
+    name = ('%.1f, %s' % (b['radius'], 'atom check' if b['atoms'] else 'boxes only'))
+    if 'prune' in b:
+        name = 'outer 3.3, pruned to 2.7'
+    print('%-26s %9d %6.2f %8.2f %9.1f %8.2f %9.2f %8.2f %8.2f %8s' % (name, b['pairs'], b['cpp'], b['staged'], b['stw'],
+          b['single'], b['jdouble'], b['hilo'], b['build'], '%.2f' % b['prune'] if 'prune' in b else '-'))
+print('force errors, max |F - F_double| / rms F (atoms with a pair within 1e-6 sigma of rc left out):')
+lat = open('lattice.out').read()
+for name, p in errs.items():
+    print('  %-24s liquid %9s   displaced lattice %9s' % (name, num(p, best[2]['text'], str), num(p, lat, str)))
+kern = {}
+for k in ('double', 'mixed'):
+    logs = [open('%s_%d.log' % (k, r)).read() for r in range(1, rounds + 1)]
+    pair = min(num(r'^Pair +([0-9.]+)', t) for t in logs)
+    build = min(num(r'^Neigh +([0-9.]+)', t) / num(r'Neighbour list builds: *(\d+)', t) for t in logs)
+    npairs = num(r'^List pairs \(within rc \+ skin, last build\): *(\d+)', logs[0], int)
+    kern[k] = 1e3 * pair / 200
+    print("Terrace %-6s %6.2f ms per step (%.2f ns per list pair, %d pairs); atom list %.2f ms per build" %
+          (k, 1e3 * pair / 200, 1e9 * pair / 200 / npairs, npairs, 1e3 * build))
+builds = {sk: num(r'Neighbour list builds: *(\d+)', open('skin%s.log' % sk).read(), int) for sk in ('0.2', '0.3', '0.6')}
+s03 = open('skin0.3.log').read()
+phase = lambda name, text: num(r'^ *%s +([0-9.]+)' % name, text)
+now = (phase('Pair', s03), phase('Neigh', s03), sum(phase(p, s03) for p in ('Comm', 'Output', 'Other')))
+source, gmx = "this run's skin 0.3 log", None
+if anchors:
+    a = open(anchors).read()
+    block = a[a.index('Terrace mixed-precision kernel, phases'):]
+    block = block[:block.index('Neighbour list builds')]
+    steps = num(r'^== LJ scene: [0-9,]+ atoms, (\d+) steps', a, int)
+    now = tuple(x * 1000 / steps for x in (phase('Pair', block), phase('Neigh', block),
+                                           sum(phase(p, block) for p in ('Comm', 'Output', 'Other'))))
+    gmx = num(r'^gromacs_mix +\d+ +([0-9.]+)', a) * 1000 / steps
+    source = anchors.split('/')[-1]
+rest = now[2]
+print('== projected mixed Verlet step, ms per step (probe: best figures above; the mixed kernel now, the rest of')
+print('   the step%s: %s)' % (' and GROMACS mixed' if gmx else '', source))
+def line(label, parts):
+    t = sum(parts)
+    ratio = '   %.2fx GROMACS mixed' % (gmx / t) if gmx else ''
+    print('  %-62s %s = %.2f%s' % (label, ' + '.join('%.2f' % x for x in parts), t, ratio))
+line('now: the mixed kernel, exact list (%d builds)' % builds['0.3'], list(now))
+for v in ('single', 'hilo'):
+    a3, c5 = best[2], best[4]
+    print(' -- pass with %s' % ('single relative positions' if v == 'single' else 'hi/lo separations'))
+    line('A: list at 2.8 + atom check, exact trigger (%d builds)' % builds['0.3'], [a3[v], builds['0.3'] * a3['build'] / 1000, rest])
+    line('B: the same rebuilt every 20 steps (50 builds)', [a3[v], 50 * a3['build'] / 1000, rest])
+    line('C: outer 3.3 (%d builds), pruned to 2.7 (%d prunes)' % (builds['0.6'], builds['0.2']),
+         [c5[v], builds['0.6'] * c5['build'] / 1000, builds['0.2'] * c5['prune'] / 1000, rest])
+if gmx:
+    print('  (1.5x GROMACS mixed: %.2f ms per step)' % (gmx / 1.5))
+PY

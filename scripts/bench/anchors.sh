@@ -3,8 +3,11 @@
 #   lj     LAMMPS's LJ benchmark scene (scripts/bench/in.lj_bench, input/lj_bench.nml): 32,000 atoms,
 #          fcc rho* = 0.8442, T* = 1.44, rc 2.5 sigma, skin 0.3 sigma, NVE, dt 0.005 tau. Runs Terrace
 #          (velocity Verlet, double; and with &potential precision = 'mixed', the mixed-precision
-#          kernel, as terrace_mixed; and with &neighbor every = 20, check = .false., the anchors' own
-#          list schedule, as terrace_every20), LAMMPS plain and with -sf opt, GROMACS mixed (gmx mdrun) and
+#          kernel over the cluster-pair list (list = 'auto'), as terrace_mixed; the same kernel over the
+#          atom list (list = 'cells') as terrace_mixed_cells; the cluster kernel with skin 0.5 (its best
+#          on the exact schedule, scripts/bench/cluster_kernel.sh) as terrace_mixed_s05; and with
+#          &neighbor every = 20, check = .false., the anchors' own list schedule, as terrace_every20
+#          (double) and terrace_mixed_every20 (mixed, clusters)), LAMMPS plain and with -sf opt, GROMACS mixed (gmx mdrun) and
 #          double (gmx_d mdrun) on the same lattice in argon units (sigma 0.3405 nm, eps/k_B 119.8 K,
 #          m 39.948 u: rc 0.85125 nm, rlist 0.9534 nm, dt 0.010782 ps, velocities at 172.5 K).
 #   eam    LAMMPS's in.eam scene (scripts/bench/in.eam_bench, Cu_u3.eam, 32,000 atoms, 1600 K, skin
@@ -130,6 +133,9 @@ launch() {
         terrace)        run terrace terrace terrace.out ./terrace lj.nml ;;
         terrace_mixed)  run terrace_mixed terrace terrace_mixed.out ./terrace lj_mixed.nml ;;
         terrace_every20) run terrace_every20 terrace terrace_every20.out ./terrace lj_every20.nml ;;
+        terrace_mixed_cells) run terrace_mixed_cells terrace terrace_mixed_cells.out ./terrace lj_mixed_cells.nml ;;
+        terrace_mixed_s05) run terrace_mixed_s05 terrace terrace_mixed_s05.out ./terrace lj_mixed_s05.nml ;;
+        terrace_mixed_every20) run terrace_mixed_every20 terrace terrace_mixed_every20.out ./terrace lj_mixed_every20.nml ;;
         lammps)         run lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$nlj" -in "$here/in.lj_bench" ;;
         lammps_opt)     run lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$nlj" -in "$here/in.lj_bench" ;;
         gromacs_mix)    run gromacs_mix gromacs md.log gmx "${gargs[@]}" -s gmx.tpr ;;
@@ -196,7 +202,13 @@ if [[ "$parts" == *,lj,* ]]; then
     grep -q "precision='mixed'" lj_mixed.nml || { echo "anchors: could not set precision='mixed' in lj_mixed.nml" >&2; exit 1; }
     sed -E "s#skin=0.3 /#skin=0.3, every=20, check=.false. /#" lj.nml > lj_every20.nml
     grep -q "every=20" lj_every20.nml || { echo "anchors: could not set every=20 in lj_every20.nml" >&2; exit 1; }
-    labels=(terrace terrace_mixed terrace_every20)
+    sed -E "s#skin=0.3 /#skin=0.3, list='cells' /#" lj_mixed.nml > lj_mixed_cells.nml
+    sed -E "s#skin=0.3 /#skin=0.5 /#" lj_mixed.nml > lj_mixed_s05.nml
+    sed -E "s#skin=0.3 /#skin=0.3, every=20, check=.false. /#" lj_mixed.nml > lj_mixed_every20.nml
+    for f in lj_mixed_cells lj_mixed_s05 lj_mixed_every20; do
+        cmp -s $f.nml lj_mixed.nml && { echo "anchors: could not edit the &neighbor line for $f.nml" >&2; exit 1; }
+    done
+    labels=(terrace terrace_mixed terrace_every20 terrace_mixed_cells terrace_mixed_s05 terrace_mixed_every20)
     have lmp && labels+=(lammps lammps_opt)
     gro=0; have gmx && gro=1; have gmx_d && gro=1
     if [[ $gro == 1 ]]; then
@@ -264,8 +276,19 @@ PY
     summary 32000 "$nlj" terrace_every20 "${labels[@]}" | sed -n '/^ratios anchor/,$p'
     echo "Terrace on the anchors' list schedule, phases (best run):"
     sed -n '/^Phase /,/^Neighbour list schedule/p' terrace_every20.best.log | grep -v '^Peak memory' | sed 's/^/    /'
+    for v in terrace_mixed_s05 terrace_mixed_every20; do
+        echo "The same against Terrace's mixed kernel over clusters, $v:"
+        summary 32000 "$nlj" $v "${labels[@]}" | sed -n '/^ratios anchor/,$p'
+    done
+    echo "Terrace's mixed variants, phases (best runs):"
+    for v in terrace_mixed_cells terrace_mixed_s05 terrace_mixed_every20; do
+        echo "  $v:"
+        sed -n '/^Phase /,/^Neighbour list builds/p' $v.best.log | sed 's/^/    /'
+    done
     echo "Energy drift of the exact schedule and of every 20 steps (Terrace's run log; the same scene and seed):"
     grep -h '^Energy drift' terrace.out terrace_every20.out | sed 's/^/    /'
+    echo "  mixed kernel over clusters, exact and every 20 steps:"
+    grep -h '^Energy drift' terrace_mixed.out terrace_mixed_every20.out | sed 's/^/    /'
     python3 - "$nlj" <<'PY'
 import os, re, sys
 nsteps, natoms = int(sys.argv[1]), 32000
@@ -282,7 +305,7 @@ print('Where the time goes (best run of each; pairs = %s atom pairs within rc + 
       % ('%.4g' % pairs if pairs else '?'))
 print('  %-14s %10s %12s %10s %12s %14s' % ('code', 'force s', 'ns/pair', 'builds', 'ms/build', 'ns/atom-build'))
 rows = []
-for l in ('terrace', 'terrace_mixed', 'terrace_every20'):
+for l in ('terrace', 'terrace_mixed', 'terrace_every20', 'terrace_mixed_cells', 'terrace_mixed_s05', 'terrace_mixed_every20'):
     ter = read(l + '.best.log')
     if ter:
         rows.append((l, num(r'^Pair\s+([0-9.eE+-]+)', ter), num(r'^Neigh\s+([0-9.eE+-]+)', ter),

@@ -97,8 +97,14 @@ contains
         call start_clock()
         call run_velocity_verlet(eng, thermo, traj, sched, ctl)
         call close_run(sched%end_time(cfg))
-        call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note(), &
-                           list_pairs())
+        if (eng%list%want_clusters) then
+            call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note(), &
+                               int(eng%list%clusters%pairs%npairs, i8), 'Cluster pairs (clusters of 4 atoms with an atom pair '// &
+                               'within rc + skin, last build; the mixed kernel computes 16 atom pairs each)')
+        else
+            call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note(), &
+                               list_pairs())
+        end if
         call eng%report_warnings()
     end subroutine verlet_run
 

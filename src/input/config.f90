@@ -921,14 +921,18 @@ contains
         end if
         select case (cfg%list)
         case ('auto', 'cells', 'all_pairs')
+        case ('clusters')
+            if (cfg%precision /= 'mixed' .or. cfg%dimension /= 3) call stop_all(cfg%where('neighbor', 'list')// &
+                " = 'clusters': the cluster-pair list serves the mixed-precision kernel of 3-D runs only "// &
+                "(&potential precision = 'mixed', &run dimension = 3; otherwise allowed: 'auto', 'cells', 'all_pairs')")
         case default
             call stop_all(cfg%where('neighbor', 'list')//" = '"//trim(cfg%list)// &
-                          "': unknown (allowed: 'auto', 'cells', 'all_pairs')")
+                          "': unknown (allowed: 'auto', 'cells', 'all_pairs', 'clusters')")
         end select
         if (cfg%list == 'all_pairs' .and. any(cfg%periodic(1:cfg%dimension))) &
             call stop_all(cfg%where('neighbor', 'list')//" = 'all_pairs': only for scenes with no periodic dimension")
-        if (cfg%cutoff == 0 .and. cfg%list == 'cells') &
-            call stop_all(cfg%where('neighbor', 'list')//" = 'cells': needs a cutoff (&potential cutoff > 0)")
+        if (cfg%cutoff == 0 .and. (cfg%list == 'cells' .or. cfg%list == 'clusters')) &
+            call stop_all(cfg%where('neighbor', 'list')//" = '"//trim(cfg%list)//"': needs a cutoff (&potential cutoff > 0)")
 
         if (cfg%nml%find('output', 'thermo_every') > 0 .and. cfg%thermo_every <= 0) &
             call stop_all(cfg%where('output', 'thermo_every')//': must be > 0 (steps)')

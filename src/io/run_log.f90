@@ -16,7 +16,7 @@ module terrace_run_log
 
 contains
 
-    subroutine print_run_log(timers, loop_time, natoms, steps, builds, label, list_note, pairs)
+    subroutine print_run_log(timers, loop_time, natoms, steps, builds, label, list_note, pairs, pairs_what)
         type(timers_t), intent(in) :: timers
         real(dp), intent(in) :: loop_time
         integer(i8), intent(in) :: natoms, steps
@@ -24,6 +24,8 @@ contains
         character(len=*), intent(in) :: label
         character(len=*), intent(in), optional :: list_note   !< lines after the build count (a schedule)
         integer(i8), intent(in), optional :: pairs            !< this rank's list length (0: no list)
+        character(len=*), intent(in), optional :: pairs_what  !< what pairs counts (default: the atom list's pairs)
+        character(len=:), allocatable :: what
         real(dp) :: avg(n_timers), mx(n_timers), mem, memsum, other
         integer(i8) :: p(1), psum(1), pmin(1), pmax(1)
         integer :: k
@@ -37,6 +39,8 @@ contains
         call MPI_Reduce(p, pmin, 1, MPI_INTEGER8, MPI_MIN, 0, world%comm)
         call MPI_Reduce(p, pmax, 1, MPI_INTEGER8, MPI_MAX, 0, world%comm)
         if (world%rank /= 0) return
+        what = 'List pairs (within rc + skin, last build)'
+        if (present(pairs_what)) what = pairs_what
         avg = avg/world%nprocs
         write (output_unit, '(a,a,a,i0,a,i0,a,i0,a)') 'Loop time: ', fixed(loop_time, 4), ' s on ', world%nprocs, &
             ' rank(s) for ', steps, ' '//label//' with ', natoms, ' atoms'
@@ -56,11 +60,11 @@ contains
         end if
         if (psum(1) > 0) then
             if (world%nprocs > 1) then
-                write (output_unit, '(a,i0,a,i0,a,i0,a,a)') 'List pairs (within rc + skin, last build): ', psum(1), &
+                write (output_unit, '(a,i0,a,i0,a,i0,a,a)') what//': ', psum(1), &
                     ' in all ranks; per rank min ', pmin(1), ', max ', pmax(1), ', max/average ', &
                     fixed(real(pmax(1), dp)*world%nprocs/real(psum(1), dp), 3)
             else
-                write (output_unit, '(a,i0)') 'List pairs (within rc + skin, last build): ', psum(1)
+                write (output_unit, '(a,i0)') what//': ', psum(1)
             end if
         end if
         ! per atom only where the atoms dominate the memory (a 7-atom cluster measures the libraries)

@@ -13,6 +13,7 @@ module terrace_neighbor_list
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: any_all
     use terrace_grow, only: reserve, grow_keep
+    use terrace_cluster_list, only: cluster_list_t
     implicit none
     private
     public :: gather_neighbour_types, order_rows_by_type, longest_row
@@ -72,6 +73,12 @@ module terrace_neighbor_list
         !> of per neighbour (EAM). 0: rows in scan order, tfirst unset.
         integer :: type_order = 0
         integer, allocatable :: tfirst(:), tscratch(:, :)
+        !> Optional (want_clusters, 3-D): a cluster-pair list (terrace_cluster_list) at the list
+        !> cutoff in place of the atom rows, for a kernel over clusters (the mixed-precision LJ
+        !> kernel). The first build also builds the atom rows (the start-up overlap check reads
+        !> them); later builds leave every row empty (first(:) = 1), so that nothing reads stale rows.
+        logical :: want_clusters = .false.
+        type(cluster_list_t) :: clusters
     contains
         procedure :: init => nl_init
         procedure :: setup_bins => nl_setup_bins
@@ -241,6 +248,17 @@ contains
         nlocal = atoms%nlocal
         nghost = atoms%nghost
         nall = nlocal + nghost
+        if (self%want_clusters) then
+            call self%clusters%build(atoms%x, nlocal, nall, self%cut)
+            if (self%builds > 0) then
+                call reserve(self%first, nlocal + 1)
+                self%first(1:nlocal + 1) = 1
+                self%max_neighbors = 0
+                call self%hold(atoms)
+                self%builds = self%builds + 1
+                return
+            end if
+        end if
         ntot = product(self%nbin)
         cutsq = self%cutsq
         cr = self%center_reach

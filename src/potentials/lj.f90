@@ -16,11 +16,13 @@
 !> in the force pass as in the ray pass: the event solver decides on V to a few tens of eps |V|,
 !> finer than the noise of a plain running sum over all pairs (terrace_compensated_sum).
 !>
-!> Mixed precision (&potential precision = 'mixed', one atom type, style 'lj', half list): the
-!> separations are formed in double from the double positions and then rounded to single; the pair
-!> terms (rsq, r^-2, r^-6, fpair, the pair force, energy and virial) are single precision, twice as
-!> many per SIMD vector; the force on each atom, the energy and the virial are summed in double,
-!> and the integrator stays double. The ray pass (energy stepping) is always double.
+!> Mixed precision (&potential precision = 'mixed', one atom type, style 'lj'): single-precision
+!> pair terms (rsq, r^-2, r^-6, fpair, the pair force, energy and virial), twice as many per SIMD
+!> vector; the integrator stays double. In 3-D Verlet runs (&neighbor list = 'auto' or 'clusters')
+!> over the cluster-pair list (terrace_cluster_list, kernel terrace_lj_cluster: positions relative
+!> to their cluster's centre, 4 x 4 pairs per 16-lane vector); otherwise (list = 'cells', 2-D)
+!> over the half atom list (kernel_mixed below: separations formed in double, rounded to single,
+!> forces summed in double). The ray pass (energy stepping) is always double.
 module terrace_lj
     use, intrinsic :: iso_fortran_env, only: int64, sp => real32
     use terrace_kinds, only: dp
@@ -29,6 +31,7 @@ module terrace_lj
     use terrace_atoms, only: atoms_t
     use terrace_neighbor_list, only: neighbor_list_t, gather_neighbour_types
     use terrace_potential, only: potential_t, halo_ops_t
+    use terrace_lj_cluster, only: cluster_forces
     implicit none
     private
 
@@ -63,6 +66,7 @@ module terrace_lj
         real(sp), allocatable :: xs(:, :)        !< mixed: positions as (hi, 0, lo, 0) singles, 8 per atom
         real(dp), allocatable :: fd(:, :)        !< mixed: per-atom force records (x, y, z, 0)
         real(sp), allocatable :: rows_sp(:, :), fp_sp(:), ep_sp(:), wp_sp(:)  !< mixed: per-atom rows
+        real(sp), allocatable :: xrep(:, :, :), frep(:, :, :)  !< mixed over clusters: replicated records
     contains
         procedure :: setup => lj_setup
         procedure :: forces => lj_forces
@@ -72,6 +76,7 @@ module terrace_lj
         procedure :: supports_all_pairs => lj_true
         procedure :: runs_on_pruned_list => lj_true
         procedure :: wants_neighbour_types => lj_several_types
+        procedure :: wants_clusters => lj_wants_clusters
         procedure :: contact_distance => lj_contact_distance
         procedure :: time_scale => lj_time_scale
         procedure :: compute => lj_compute
@@ -231,6 +236,14 @@ contains
         lj_true = .true.
     end function lj_true
 
+    !> The mixed-precision kernel runs over a cluster-pair list where the engine gives one
+    !> (3-D Verlet runs with a cell list); elsewhere over the atom rows. (Cutoffs of 1000 length
+    !> units and more keep the atom rows: the cluster kernel puts empty slots 10^4 away.)
+    pure logical function lj_wants_clusters(self)
+        class(lj_t), intent(in) :: self
+        lj_wants_clusters = self%mixed .and. self%cutmax > 0 .and. self%cutmax < 1000
+    end function lj_wants_clusters
+
     !> Several types: the passes read the neighbours' types from the list (list%want_types).
     pure logical function lj_several_types(self)
         class(lj_t), intent(in) :: self
@@ -279,6 +292,22 @@ contains
         logical, intent(in) :: want_energy
         real(dp), intent(out) :: energy, virial
         energy = 0; virial = 0
+        if (self%mixed .and. list%want_clusters) then
+            associate (ncl => list%clusters%ncl)
+                if (allocated(self%xrep)) then
+                    if (size(self%xrep, 3) < ncl) deallocate (self%xrep, self%frep)
+                end if
+                if (.not. allocated(self%xrep)) then
+                    allocate (self%xrep(16, 3, ncl + ncl/4 + 1), self%frep(16, 3, ncl + ncl/4 + 1))
+                    self%frep = 0      ! (the kernel leaves it zero after each pass)
+                end if
+            end associate
+            call list%clusters%replicate_positions(atoms%x, self%xrep)
+            call cluster_forces(list%clusters, list%clusters%pairs, atoms%nlocal + atoms%nghost, atoms%x, atoms%f, want_energy, real(self%lj1(1, 1), sp), &
+                                real(self%lj2(1, 1), sp), real(self%lj3(1, 1), sp), real(self%lj4(1, 1), sp), &
+                                real(self%cutsq(1, 1), sp), real(self%offset(1, 1), sp), self%xrep, self%frep, energy, virial)
+            return
+        end if
         if (self%mixed) then
             call reserve_mixed(self, list, atoms%nlocal + atoms%nghost)
             call kernel_mixed(atoms%nlocal, atoms%nlocal + atoms%nghost, atoms%x, atoms%f, list%first, list%neigh, &

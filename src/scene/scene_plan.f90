@@ -100,6 +100,13 @@ contains
                               pot%runs_on_pruned_list() .and. .not. pot%needs_full_neighbourhood(.true.)
             if (self%inner_list) s = trim(s)//'; force and ray passes over the pairs within cutoff + skin/4, '// &
                                      'pruned from it when an atom has moved skin/8'
+            if ((cfg%list == 'clusters' .or. cfg%list == 'auto') .and. pot%wants_clusters() .and. cfg%dimension == 3 &
+                .and. .not. self%inner_list) then
+                write (s, '(a,g0.6,a,g0.6,a)') 'cluster-pair list (clusters of 4 atoms in columns, pairs of clusters '// &
+                    'with an atom pair within cutoff ', pot%cutoff(), ' + skin ', cfg%skin, '), '//trim(rule)// &
+                    ', atoms sorted by cell at each rebuild; the mixed-precision kernel computes the 16 atom pairs '// &
+                    'of each cluster pair'
+            end if
             self%pairs = trim(s)
             if (self%nprocs == 1) then
                 if (any(box%periodic(1:box%dimension))) then

@@ -14,11 +14,14 @@
 #      (forces obey Newton's third law exactly: one double pair force for both atoms) and
 #      max |E(t) - E0| <= 1e-3 |E0| (check_conservation.py; the double kernel gives 4e-4 there, the
 #      energy jumps of the unshifted cutoff), drift per atom per tau printed.
-# Usage: tests/regression/mixed_precision.sh TERRACE_BINARY OUTPUT_DIR [NP]   (NP default 1)
+# With LIST = 'clusters' (fourth argument; default 'cells') the mixed runs use the cluster-pair list
+# and kernel (&neighbor list = 'clusters'), the double reference the atom list, with the same bounds;
+# the run log must then count cluster pairs.
+# Usage: tests/regression/mixed_precision.sh TERRACE_BINARY OUTPUT_DIR [NP [LIST]]   (NP default 1)
 set -euo pipefail
 [[ $# -ge 2 ]] || { echo "usage: $0 TERRACE_BINARY OUTPUT_DIR [NP]" >&2; exit 2; }
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-terrace="$(realpath "$1")"; out="$2"; np="${3:-1}"
+terrace="$(realpath "$1")"; out="$2"; np="${3:-1}"; list="${4:-cells}"
 PYTHON="${PYTHON:-/usr/bin/python3}"; [[ -x "$PYTHON" ]] || PYTHON=python3
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 rm -rf "$out"; mkdir -p "$out"; cd "$out"
@@ -44,12 +47,15 @@ for p in double mixed; do
 &system atoms_file='liquid.atoms', box_lo=0,0,0, box_hi=$L,$L,$L, periodic=.true.,.true.,.true., mass=1.0 /
 &potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, precision='$p' /
 &integrator style='velocity_verlet', dt=0.005 /
-&neighbor skin=0.3 /
+&neighbor skin=0.3, list='$([[ $p == mixed ]] && echo "$list" || echo cells)' /
 &output thermo_every=1, thermo_file='thermo_$p.csv', forces_file='forces_$p.txt' /
 EOF
     run f_$p.nml "$np"
 done
 grep -q 'mixed precision' f_mixed.log || { echo "FAIL: the mixed run's log does not name the mixed kernel"; exit 1; }
+if [[ $list == clusters ]]; then
+    grep -q '^Cluster pairs' f_mixed.log || { echo "FAIL: the cluster run's log does not count cluster pairs"; exit 1; }
+fi
 "$PYTHON" - <<'PY' || exit 1
 import csv, math, sys
 def forces(name):
@@ -77,7 +83,7 @@ cat > nve.nml <<EOF
 &system atoms_file='liquid.atoms', box_lo=0,0,0, box_hi=$L,$L,$L, periodic=.true.,.true.,.true., mass=1.0 /
 &potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, precision='mixed' /
 &integrator style='velocity_verlet', dt=0.005 /
-&neighbor skin=0.3 /
+&neighbor skin=0.3, list='$list' /
 &output thermo_every=20, thermo_file='thermo.csv' /
 EOF
 run nve.nml "$np"

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Energy conservation of the mixed-precision LJ kernel (&potential precision = 'mixed') against the
-# double kernel, NVE velocity Verlet, one rank. Scene: LAMMPS's LJ bench scene (input/lj_bench.nml:
+# double kernel, NVE velocity Verlet, one rank: the mixed kernel over the cluster-pair list (the
+# default, 'mixed') and over the atom list (&neighbor list = 'cells', 'mixed_cells'). Scene: LAMMPS's LJ bench scene (input/lj_bench.nml:
 # 32,000 atoms, fcc rho* = 0.8442 melting from T* = 1.44, lj/cut rc = 2.5 unshifted, skin 0.3,
 # dt = 0.005 tau). Both runs start from the same state; thermo every 100 steps.
 # Prints per kernel: the drift of the total energy per atom per tau (least-squares slope of
@@ -21,17 +22,21 @@ echo "mixed-precision LJ kernel: energy drift against the double kernel, LJ benc
 echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1) ($(nproc) cores visible)"
 echo "date    : $(date -u '+%Y-%m-%d %H:%M UTC'), load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "commit  : $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)$(git -C "$repo" status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo ' (+ uncommitted changes)')"
-for p in double mixed; do
+for p in double mixed mixed_cells; do
     sed -E -e "s/n_steps=[0-9]+/n_steps=$n/" -e "s/thermo_file=''/thermo_file='thermo_$p.csv'/" \
-        -e "s#shift=.false. /#shift=.false., precision='$p' /#" "$repo/input/lj_bench.nml" > $p.nml
-    grep -q "precision='$p'" $p.nml || { echo "mixed_drift: could not set precision in the deck" >&2; exit 1; }
+        -e "s#shift=.false. /#shift=.false., precision='${p%_cells}' /#" "$repo/input/lj_bench.nml" > $p.nml
+    grep -q "precision='${p%_cells}'" $p.nml || { echo "mixed_drift: could not set precision in the deck" >&2; exit 1; }
+    if [[ $p == mixed_cells ]]; then
+        sed -i -E "s#skin=0.3 /#skin=0.3, list='cells' /#" $p.nml
+        grep -q "list='cells'" $p.nml || { echo "mixed_drift: could not set list in the deck" >&2; exit 1; }
+    fi
     ./terrace $p.nml > $p.log 2>&1 || { echo "mixed_drift: the $p run failed:" >&2; tail -5 $p.log >&2; exit 1; }
 done
 python3 - "$n" <<'PY'
 import csv, math, re, sys
 natoms = 32000
 res = {}
-for p in ('double', 'mixed'):
+for p in ('double', 'mixed', 'mixed_cells'):
     rows = list(csv.DictReader(open('thermo_%s.csv' % p)))
     rows = [r for r in rows if int(r['step']) >= int(sys.argv[1]) // 10]
     t = [float(r['time']) for r in rows]; e = [float(r['etotal']) for r in rows]
@@ -43,8 +48,9 @@ for p in ('double', 'mixed'):
     loop = float(re.search(r'^Loop time:\s*([0-9.eE+-]+)', log, re.M).group(1))
     pair = float(re.search(r'^Pair\s+([0-9.eE+-]+)', log, re.M).group(1))
     res[p] = slope / natoms
-    print('%-7s drift %+.3e eps/atom/tau   max |E(t)-E(t0)|/N %.3e   rms(E)/N %.3e   E(t0)/N %.6f   loop %.2f s, '
+    print('%-11s drift %+.3e eps/atom/tau   max |E(t)-E(t0)|/N %.3e   rms(E)/N %.3e   E(t0)/N %.6f   loop %.2f s, '
           'Pair %.2f s   (%d thermo rows, t = %g to %g tau)' % (p, slope / natoms, dev, rms, e[0] / natoms, loop, pair, m, t[0], t[-1]))
-print('mixed/double drift ratio: %.2f   (|drift| difference %.3e eps/atom/tau)'
-      % (res['mixed'] / res['double'] if res['double'] else float('nan'), abs(res['mixed'] - res['double'])))
+for p in ('mixed', 'mixed_cells'):
+    print('%s/double drift ratio: %.2f   (|drift| difference %.3e eps/atom/tau)'
+          % (p, res[p] / res['double'] if res['double'] else float('nan'), abs(res[p] - res['double'])))
 PY

@@ -157,7 +157,7 @@ contains
         if (.not. allocated(self%masks)) allocate (self%masks(16, 64))
         self%masks(:, 1) = 0
         do l = 1, 16      ! lane l pairs atom (l - 1)/4 + 1 of ci with atom mod(l - 1, 4) + 1 of cj
-            self%masks(l, 2) = merge(0.0_sp, masked, (l - 1)/4 < mod(l - 1, 4))
+            self%masks(l, 2) = merge(0.0_sp, masked, ishft(l - 1, -2) < mod(l - 1, 4))
         end do
         self%nmasks = 2
     end subroutine size_clusters
@@ -316,8 +316,8 @@ contains
         r2list = rlist*rlist
         ci_lo = centre(:, ci) - half(:, ci); ci_hi = centre(:, ci) + half(:, ci)
         do l = 1, 16
-            xi(l, :) = xq((l - 1)/4 + 1, :, ci)
-            if (member((l - 1)/4 + 1, ci) == 0) xi(l, :) = -far_slot
+            xi(l, :) = xq(ishft(l - 1, -2) + 1, :, ci)
+            if (member(ishft(l - 1, -2) + 1, ci) == 0) xi(l, :) = -far_slot
         end do
         za = zlo(ci) - rlist; zb = zhi(ci) + rlist
         do t = 1, nt
@@ -339,37 +339,27 @@ contains
                 if (zlo(j2 + 1) >= zb) exit
                 j2 = j2 + 1
             end do
-            if (.not. ghost(t)) then
-                do cj = j1, j2
-                    o = real(centre(:, cj) - centre(:, ci), sp)
-                    near = 0
-                    do l = 1, 16
-                        q = ((xi(l, 1) - o(1)) - xq(l, 1, cj))**2 + ((xi(l, 2) - o(2)) - xq(l, 2, cj))**2 &
-                            + ((xi(l, 3) - o(3)) - xq(l, 3, cj))**2
-                        near = near + merge(1, 0, q < r2s)
-                    end do
-                    cjs(n + 1) = cj; mask(n + 1) = 1; offset(:, n + 1) = o
-                    n = n + min(near, 1)
-                end do
-            else
-                do cj = j1, j2
+            do cj = j1, j2
+                if (ghost(t)) then
                     if (zhi(cj) < zlo(ci)) cycle       ! every ghost below every atom of ci
-                    o = real(centre(:, cj) - centre(:, ci), sp)
-                    near = 0
-                    do l = 1, 16
-                        q = ((xi(l, 1) - o(1)) - xq(l, 1, cj))**2 + ((xi(l, 2) - o(2)) - xq(l, 2, cj))**2 &
-                            + ((xi(l, 3) - o(3)) - xq(l, 3, cj))**2
-                        near = near + merge(1, 0, q < r2s)
-                    end do
-                    if (near > 0 .and. zlo(cj) <= zhi(ci)) then      ! the (z, y, x) rule may split it
+                end if
+                o = real(centre(:, cj) - centre(:, ci), sp)
+                near = 0
+                do l = 1, 16
+                    q = ((xi(l, 1) - o(1)) - xq(l, 1, cj))**2 + ((xi(l, 2) - o(2)) - xq(l, 2, cj))**2 &
+                        + ((xi(l, 3) - o(3)) - xq(l, 3, cj))**2
+                    near = near + merge(1, 0, q < r2s)
+                end do
+                if (ghost(t) .and. near > 0) then
+                    if (zlo(cj) <= zhi(ci)) then       ! the (z, y, x) rule may split it
                         nsplit = nsplit + 1
                         split(nsplit) = cj
                         cycle
                     end if
-                    cjs(n + 1) = cj; mask(n + 1) = 1; offset(:, n + 1) = o
-                    n = n + min(near, 1)
-                end do
-            end if
+                end if
+                cjs(n + 1) = cj; mask(n + 1) = 1; offset(:, n + 1) = o
+                n = n + min(near, 1)
+            end do
         end do
     end subroutine scan_columns
 
@@ -420,9 +410,9 @@ contains
         end do
         na = 0; nn = 0
         do l = 1, 16
-            dx = xj(mod(l - 1, 4) + 1, 1) - xd((l - 1)/4 + 1, 1)
-            dy = xj(mod(l - 1, 4) + 1, 2) - xd((l - 1)/4 + 1, 2)
-            dz = xj(mod(l - 1, 4) + 1, 3) - xd((l - 1)/4 + 1, 3)
+            dx = xj(mod(l - 1, 4) + 1, 1) - xd(ishft(l - 1, -2) + 1, 1)
+            dy = xj(mod(l - 1, 4) + 1, 2) - xd(ishft(l - 1, -2) + 1, 2)
+            dz = xj(mod(l - 1, 4) + 1, 3) - xd(ishft(l - 1, -2) + 1, 3)
             ok(l) = merge(1, 0, dz > 0) + merge(1, 0, dz == 0)*(merge(1, 0, dy > 0) + merge(1, 0, dy == 0)*merge(1, 0, dx > 0))
             na = na + ok(l)
             nn = nn + ok(l)*merge(1, 0, dx*dx + dy*dy + dz*dz < r2list)

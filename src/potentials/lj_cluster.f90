@@ -90,17 +90,7 @@ contains
             if (p >= p2) madd = masks(:, mask(p))
             ox = offs(1, p); oy = offs(2, p); oz = offs(3, p)
             do l = 1, 16
-                dx = (xi(l, 1) - ox) - xrep(l, 1, cj)
-                dy = (xi(l, 2) - oy) - xrep(l, 2, cj)
-                dz = (xi(l, 3) - oz) - xrep(l, 3, cj)
-                r2 = dx*dx + dy*dy + dz*dz + madd(l)
-                r2i = merge(1/r2, 0.0_sp, r2 < cutsq)
-                r6 = r2i*r2i*r2i
-                fp = r6*(lj1*r6 - lj2)*r2i
-                ax(l, 1) = ax(l, 1) + fp*dx; ax(l, 2) = ax(l, 2) + fp*dy; ax(l, 3) = ax(l, 3) + fp*dz
-                frep(l, 1, cj) = frep(l, 1, cj) - fp*dx
-                frep(l, 2, cj) = frep(l, 2, cj) - fp*dy
-                frep(l, 3, cj) = frep(l, 3, cj) - fp*dz
+                include 'lj_cluster_lanes.inc'
             end do
         end do
         include 'lj_cluster_isum.inc'
@@ -123,20 +113,10 @@ contains
             if (p >= p2) madd = masks(:, mask(p))
             ox = offs(1, p); oy = offs(2, p); oz = offs(3, p)
             do l = 1, 16
-                dx = (xi(l, 1) - ox) - xrep(l, 1, cj)
-                dy = (xi(l, 2) - oy) - xrep(l, 2, cj)
-                dz = (xi(l, 3) - oz) - xrep(l, 3, cj)
-                r2 = dx*dx + dy*dy + dz*dz + madd(l)
+                include 'lj_cluster_lanes.inc'
                 inside = merge(1.0_sp, 0.0_sp, r2 < cutsq)
-                r2i = merge(1/r2, 0.0_sp, r2 < cutsq)
-                r6 = r2i*r2i*r2i
-                fp = r6*(lj1*r6 - lj2)*r2i
                 el(l) = el(l) + r6*(lj3*r6 - lj4) - inside*offset
                 wl(l) = wl(l) + fp*r2
-                ax(l, 1) = ax(l, 1) + fp*dx; ax(l, 2) = ax(l, 2) + fp*dy; ax(l, 3) = ax(l, 3) + fp*dz
-                frep(l, 1, cj) = frep(l, 1, cj) - fp*dx
-                frep(l, 2, cj) = frep(l, 2, cj) - fp*dy
-                frep(l, 3, cj) = frep(l, 3, cj) - fp*dz
             end do
         end do
         include 'lj_cluster_isum.inc'

@@ -19,9 +19,10 @@ cd "$work"
 base="$repo/input/lj_bench.nml"
 skins="${SKINS:-0.4 0.5 0.6}"
 sed -E "s/n_steps=[0-9]+/n_steps=$steps/" "$base" > double_0.3.nml
-sed -E "s/shift=.false. \//shift=.false., precision='mixed' \//" double_0.3.nml > mixed_cells_0.3.nml
-sed -E "s/skin=0.3 \//skin=0.3, list='clusters' \//" mixed_cells_0.3.nml > mixed_clusters_0.3.nml
-grep -q "list='clusters'" mixed_clusters_0.3.nml && grep -q "precision='mixed'" mixed_cells_0.3.nml || {
+sed -E "s/shift=.false. \//shift=.false., precision='mixed' \//" double_0.3.nml > mixed.nml
+sed -E "s/skin=0.3 \//skin=0.3, list='cells' \//" mixed.nml > mixed_cells_0.3.nml
+sed -E "s/skin=0.3 \//skin=0.3, list='clusters' \//" mixed.nml > mixed_clusters_0.3.nml
+grep -q "list='clusters'" mixed_clusters_0.3.nml && grep -q "list='cells'" mixed_cells_0.3.nml && grep -q "precision='mixed'" mixed.nml || {
     echo "cluster_kernel: could not edit $base" >&2; exit 1; }
 variants="double_0.3 mixed_cells_0.3 mixed_clusters_0.3"
 for sk in $skins; do

@@ -339,27 +339,37 @@ contains
                 if (zlo(j2 + 1) >= zb) exit
                 j2 = j2 + 1
             end do
-            do cj = j1, j2
-                if (ghost(t)) then
-                    if (zhi(cj) < zlo(ci)) cycle       ! every ghost below every atom of ci
-                end if
-                o = real(centre(:, cj) - centre(:, ci), sp)
-                near = 0
-                do l = 1, 16
-                    q = ((xi(l, 1) - o(1)) - xq(l, 1, cj))**2 + ((xi(l, 2) - o(2)) - xq(l, 2, cj))**2 &
-                        + ((xi(l, 3) - o(3)) - xq(l, 3, cj))**2
-                    near = near + merge(1, 0, q < r2s)
+            if (.not. ghost(t)) then
+                do cj = j1, j2
+                    o = real(centre(:, cj) - centre(:, ci), sp)
+                    near = 0
+                    do l = 1, 16
+                        q = ((xi(l, 1) - o(1)) - xq(l, 1, cj))**2 + ((xi(l, 2) - o(2)) - xq(l, 2, cj))**2 &
+                            + ((xi(l, 3) - o(3)) - xq(l, 3, cj))**2
+                        near = near + merge(1, 0, q < r2s)
+                    end do
+                    cjs(n + 1) = cj; mask(n + 1) = 1; offset(:, n + 1) = o
+                    n = n + min(near, 1)
                 end do
-                if (ghost(t) .and. near > 0) then
-                    if (zlo(cj) <= zhi(ci)) then       ! the (z, y, x) rule may split it
+            else
+                do cj = j1, j2
+                    if (zhi(cj) < zlo(ci)) cycle       ! every ghost below every atom of ci
+                    o = real(centre(:, cj) - centre(:, ci), sp)
+                    near = 0
+                    do l = 1, 16
+                        q = ((xi(l, 1) - o(1)) - xq(l, 1, cj))**2 + ((xi(l, 2) - o(2)) - xq(l, 2, cj))**2 &
+                            + ((xi(l, 3) - o(3)) - xq(l, 3, cj))**2
+                        near = near + merge(1, 0, q < r2s)
+                    end do
+                    if (near > 0 .and. zlo(cj) <= zhi(ci)) then      ! the (z, y, x) rule may split it
                         nsplit = nsplit + 1
                         split(nsplit) = cj
                         cycle
                     end if
-                end if
-                cjs(n + 1) = cj; mask(n + 1) = 1; offset(:, n + 1) = o
-                n = n + min(near, 1)
-            end do
+                    cjs(n + 1) = cj; mask(n + 1) = 1; offset(:, n + 1) = o
+                    n = n + min(near, 1)
+                end do
+            end if
         end do
     end subroutine scan_columns
 
@@ -401,18 +411,20 @@ contains
         integer, intent(in) :: ci, cj
         integer, intent(inout) :: n
         integer :: b, l, ja, na, nn
-        real(dp) :: xj(4, 3), dx, dy, dz
+        real(dp) :: xj(4, 3), ai(16, 3), aj(16, 3), dx, dy, dz
         integer :: ok(16)
         do b = 1, 4
             ja = self%member(b, cj)
             xj(b, :) = huge(1.0_dp)/4       ! an empty ghost slot: far above (counts, never near)
             if (ja > 0) xj(b, :) = x(:, ja)
         end do
+        do l = 1, 16      ! the 16 lanes' atoms side by side (then one vectorised pass)
+            ai(l, :) = xd(ishft(l - 1, -2) + 1, :)
+            aj(l, :) = xj(iand(l - 1, 3) + 1, :)
+        end do
         na = 0; nn = 0
         do l = 1, 16
-            dx = xj(mod(l - 1, 4) + 1, 1) - xd(ishft(l - 1, -2) + 1, 1)
-            dy = xj(mod(l - 1, 4) + 1, 2) - xd(ishft(l - 1, -2) + 1, 2)
-            dz = xj(mod(l - 1, 4) + 1, 3) - xd(ishft(l - 1, -2) + 1, 3)
+            dx = aj(l, 1) - ai(l, 1); dy = aj(l, 2) - ai(l, 2); dz = aj(l, 3) - ai(l, 3)
             ok(l) = merge(1, 0, dz > 0) + merge(1, 0, dz == 0)*(merge(1, 0, dy > 0) + merge(1, 0, dy == 0)*merge(1, 0, dx > 0))
             na = na + ok(l)
             nn = nn + ok(l)*merge(1, 0, dx*dx + dy*dy + dz*dz < r2list)

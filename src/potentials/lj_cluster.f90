@@ -59,11 +59,12 @@ contains
         end do
         call add_replicas(cl, frep, f, net)
         ! Newton's third law: every pair adds one single-precision force to i and its negative to
-        ! j, but the single-precision lane sums round differently on the two sides, leaving a net
-        ! force of about 1e-7 of a typical force (measured: 1.6e-5 mass*velocity of momentum in
-        ! 4000 steps of the 2048-atom liquid). It is taken off equally from every atom this rank
-        ! holds, so that the forces of this rank's pairs sum to zero (to double round-off), and so
-        ! do all forces after the reverse sum: momentum is conserved as with the double kernels.
+        ! j, but the single-precision lane sums round differently on the two sides and leave a
+        ! small net force (without what follows, the momentum bound of tests/regression/
+        ! mixed_precision.sh, 1e-10 in 4000 steps, fails). It is taken off equally from every atom
+        ! this rank holds, so that the forces of this rank's pairs sum to zero (to double
+        ! round-off), and so do all forces after the reverse sum: momentum is conserved as with the
+        ! double kernels.
         if (nall > 0) then
             net = net/nall
             do a = 1, nall

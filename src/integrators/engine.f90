@@ -115,10 +115,7 @@ contains
         self%list%want_types = self%pot%wants_neighbour_types()
         self%list%type_order = self%pot%neighbour_type_order()
         self%use_inner = self%plan%inner_list
-        ! the cluster-pair list where the potential wants one ('auto' or 'clusters'; 'cells' keeps the
-        ! atom list: the mixed kernel over atom rows, for comparison)
-        self%list%want_clusters = (cfg%list == 'clusters' .or. cfg%list == 'auto') .and. self%pot%wants_clusters() &
-                                  .and. cfg%dimension == 3 .and. self%plan%pair_mode == pair_cells .and. .not. self%use_inner
+        self%list%want_clusters = self%plan%cluster_pairs .and. self%plan%pair_mode == pair_cells
         call self%rebuild()
         call check_overlaps(self%atoms, self%list, self%pot, self%plan%pair_mode, self%source)
         call self%compute_forces(.true.)

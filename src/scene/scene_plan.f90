@@ -24,6 +24,9 @@ module terrace_scene_plan
         !> allow it (runs_on_pruned_list: Lennard-Jones). Only with cell lists, and not where the
         !> passes need the complement list (want_below: EAM).
         logical :: inner_list = .false.
+        !> Cluster-pair list in place of the atom list (terrace_cluster_list): the potential wants one
+        !> (the mixed-precision LJ kernel), 3-D, cell lists, &neighbor list = 'auto' or 'clusters'
+        logical :: cluster_pairs = .false.
         logical :: mesh = .false.            !< the atoms are a mesh's nodes (&system mesh_file)
         character(len=:), allocatable :: halo, pairs, potential, integrator, outputs, box
     contains
@@ -100,8 +103,9 @@ contains
                               pot%runs_on_pruned_list() .and. .not. pot%needs_full_neighbourhood(.true.)
             if (self%inner_list) s = trim(s)//'; force and ray passes over the pairs within cutoff + skin/4, '// &
                                      'pruned from it when an atom has moved skin/8'
-            if ((cfg%list == 'clusters' .or. cfg%list == 'auto') .and. pot%wants_clusters() .and. cfg%dimension == 3 &
-                .and. .not. self%inner_list) then
+            self%cluster_pairs = (cfg%list == 'clusters' .or. cfg%list == 'auto') .and. pot%wants_clusters() .and. &
+                                 cfg%dimension == 3 .and. .not. self%inner_list
+            if (self%cluster_pairs) then
                 write (s, '(a,g0.6,a,g0.6,a)') 'cluster-pair list (clusters of 4 atoms in columns, pairs of clusters '// &
                     'with an atom pair within cutoff ', pot%cutoff(), ' + skin ', cfg%skin, '), '//trim(rule)// &
                     ', atoms sorted by cell at each rebuild; the mixed-precision kernel computes the 16 atom pairs '// &

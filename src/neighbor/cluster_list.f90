@@ -6,9 +6,11 @@
 !> Clusters: the region of the atoms (owned and ghost) cut into square columns in x and y of
 !> side about (4/rho)^(1/3) (four atoms per cube of that side); the owned atoms of a column sorted
 !> by z and taken four at a time, then the ghosts of the column the same way (a cluster is all
-!> owned or all ghost; the last of a column padded with empty slots, member = 0). Each cluster has a
-!> centre on a grid of 2^-10 length units (so that the offset between two centres is exact in
-!> single precision, as long as it is below 2^14 units) and a half-width (its bounding box).
+!> owned or all ghost; its atoms in slots 1..nmem, the others empty, member = 0; a cluster closed
+!> early when the next atom lies more than two sides above its first, so that sparse regions keep
+!> small clusters). Each cluster has a centre on a grid of 2^-10 length units (so that the offset
+!> between two centres is exact in single precision, as long as it is below 2^14 units) and a
+!> half-width (its bounding box).
 !>
 !> Which pairs an owned cluster ci lists: the owned clusters cj >= ci (cj = ci: its own pairs,
 !> i < j within the cluster, through mask 2), and the ghost clusters with at least one atom pair
@@ -17,10 +19,12 @@
 !> pair carries the offset of the centres (cj's minus ci's, single) and a mask: a row of `masks`,
 !> 16 additions to the squared distance, 0 for a lane that counts and 1e30 (beyond any cutoff)
 !> for one that does not (row 1: all count; row 2: within one cluster; rows from 3: ghost pairs
-!> that the (z, y, x) rule splits).
-!> Candidates: columns within reach, and in each the clusters whose z extent meets ci's widened by
-!> the list cutoff (a bisection: a column's clusters ascend in z); kept when the bounding boxes lie
-!> closer than the cutoff and an allowed atom pair does (in double, from the positions at the build).
+!> that the (z, y, x) rule splits). Each cluster's pairs with row 1 come first (masked_first).
+!> Candidates (scan_columns): the columns within rlist of ci's box in x and y (owned clusters: the
+!> half of the columns after ci's), in each the clusters whose z extent meets ci's widened by
+!> rlist (a column's clusters ascend in z, and so do ci's: a pointer that only moves up), then the
+!> atom check in single precision as the kernel forms the separations; a ghost cluster whose z
+!> extent overlaps ci's is decided pair by pair by the rule, in double (split_pair).
 module terrace_cluster_list
     use, intrinsic :: iso_fortran_env, only: sp => real32
     use terrace_kinds, only: dp
@@ -275,7 +279,8 @@ contains
                 call room(self, n + bound)
                 nsplit = 0
                 call scan_columns(ci, nt, k2, ghost, same, tx, ty, ptr, lo, w, rlist, r2s, self%member, self%centre, &
-                                  self%half, self%zlo, self%zhi, self%xq, self%pairs%cj, self%pairs%mask, self%pairs%offset, n, split, nsplit)
+                                  self%half, self%zlo, self%zhi, self%xq, self%pairs%cj, self%pairs%mask, &
+                                  self%pairs%offset, n, split, nsplit)
                 self%pairs%masked_first(ci) = n + 1
                 if (count(self%member(:, ci) > 0) > 1) call add(self, ci, ci, 2, n)   ! its own pairs (i < j)
                 if (nsplit > 0) then

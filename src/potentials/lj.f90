@@ -303,9 +303,10 @@ contains
                 end if
             end associate
             call list%clusters%replicate_positions(atoms%x, self%xrep)
-            call cluster_forces(list%clusters, list%clusters%pairs, atoms%nlocal + atoms%nghost, atoms%x, atoms%f, want_energy, real(self%lj1(1, 1), sp), &
-                                real(self%lj2(1, 1), sp), real(self%lj3(1, 1), sp), real(self%lj4(1, 1), sp), &
-                                real(self%cutsq(1, 1), sp), real(self%offset(1, 1), sp), self%xrep, self%frep, energy, virial)
+            call cluster_forces(list%clusters, list%clusters%pairs, atoms%nlocal + atoms%nghost, atoms%x, atoms%f, &
+                                want_energy, real(self%lj1(1, 1), sp), real(self%lj2(1, 1), sp), real(self%lj3(1, 1), sp), &
+                                real(self%lj4(1, 1), sp), real(self%cutsq(1, 1), sp), real(self%offset(1, 1), sp), &
+                                self%xrep, self%frep, energy, virial)
             return
         end if
         if (self%mixed) then

@@ -243,7 +243,7 @@ contains
         r2list = rlist*rlist
         r2s = real(r2list, sp)*(1 + 8*epsilon(1.0_sp))   ! single rounding never drops a pair
         call replicate_positions(self, x, self%xq)
-        allocate (split(size(k1)*64))
+        allocate (split(max(self%ncl, 1)))   ! (a cluster is a split candidate of ci at most once)
         n = 0
         call reserve(self%pairs%cj, 32*self%nowned + 64)
         call reserve(self%pairs%mask, size(self%pairs%cj))

@@ -67,6 +67,7 @@ module terrace_lj
         real(dp), allocatable :: fd(:, :)        !< mixed: per-atom force records (x, y, z, 0)
         real(sp), allocatable :: rows_sp(:, :), fp_sp(:), ep_sp(:), wp_sp(:)  !< mixed: per-atom rows
         real(sp), allocatable :: xrep(:, :, :), frep(:, :, :)  !< mixed over clusters: replicated records
+        integer :: cluster_build = -1            !< mixed over clusters: the list build of the last pass
     contains
         procedure :: setup => lj_setup
         procedure :: forces => lj_forces
@@ -302,11 +303,14 @@ contains
                     self%frep = 0      ! (the kernel leaves it zero after each pass)
                 end if
             end associate
-            call list%clusters%replicate_positions(atoms%x, self%xrep)
-            call cluster_forces(list%clusters, list%clusters%pairs, atoms%nlocal + atoms%nghost, atoms%x, atoms%f, &
-                                want_energy, real(self%lj1(1, 1), sp), real(self%lj2(1, 1), sp), real(self%lj3(1, 1), sp), &
-                                real(self%lj4(1, 1), sp), real(self%cutsq(1, 1), sp), real(self%offset(1, 1), sp), &
-                                self%xrep, self%frep, energy, virial)
+            if (list%builds /= self%cluster_build) then
+                ! the list was built at these positions, and its build formed their replicas (xq)
+                self%cluster_build = list%builds
+                call cluster_pass(list%clusters%xq)
+            else
+                call list%clusters%replicate_positions(atoms%x, self%xrep)
+                call cluster_pass(self%xrep)
+            end if
             return
         end if
         if (self%mixed) then
@@ -328,6 +332,17 @@ contains
                         want_energy, infinity, one, zero, self%work, self%atom_sums(:, 1), energy, virial)
         end if
         if (want_energy) energy = energy + compensated_total(self%atom_sums(:, 1), atoms%nlocal)
+
+    contains
+
+        !> The mixed kernel over the cluster-pair list, with the replicated positions xr.
+        subroutine cluster_pass(xr)
+            real(sp), intent(in), contiguous :: xr(:, :, :)
+            call cluster_forces(list%clusters, atoms%nlocal + atoms%nghost, atoms%f, want_energy, &
+                                real(self%lj1(1, 1), sp), real(self%lj2(1, 1), sp), real(self%lj3(1, 1), sp), &
+                                real(self%lj4(1, 1), sp), real(self%cutsq(1, 1), sp), real(self%offset(1, 1), sp), &
+                                xr, self%frep, energy, virial)
+        end subroutine cluster_pass
     end subroutine lj_compute
 
     !> Work rows, one entry per neighbour of the current atom (the longest row of the list, plus a

@@ -14,7 +14,7 @@
 module terrace_lj_cluster
     use, intrinsic :: iso_fortran_env, only: sp => real32
     use terrace_kinds, only: dp
-    use terrace_cluster_list, only: cluster_list_t, cluster_pairs_t, far_slot
+    use terrace_cluster_list, only: cluster_list_t, far_slot
     implicit none
     private
 
@@ -26,11 +26,9 @@ contains
     !> W = sum r.F of the listed pairs. xrep: the replicated positions (cl%replicate_positions,
     !> formed by the caller); frep: scratch of (16, 3, ncl) or more, zero on entry and zero again on
     !> return (allocate it zeroed).
-    subroutine cluster_forces(cl, pairs, nall, x, f, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, xrep, frep, energy, virial)
+    subroutine cluster_forces(cl, nall, f, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, xrep, frep, energy, virial)
         type(cluster_list_t), intent(in) :: cl
-        type(cluster_pairs_t), intent(in) :: pairs   !< cl's list (cl%pairs)
         integer, intent(in) :: nall           !< atoms held (owned and ghost): all are in clusters
-        real(dp), intent(in) :: x(:, :)
         real(dp), intent(inout) :: f(:, :)
         logical, intent(in) :: want_energy
         real(sp), intent(in) :: lj1, lj2, lj3, lj4, cutsq, offset
@@ -39,6 +37,7 @@ contains
         real(dp), intent(out) :: energy, virial
         integer :: ci, ii, a
         real(dp) :: net(3), fi(4, 3), ew(2)
+        associate (pairs => cl%pairs)
         net = 0
         energy = 0; virial = 0
         do ci = 1, cl%nowned
@@ -57,6 +56,7 @@ contains
                 net = net + fi(ii, :)
             end do
         end do
+        end associate
         call add_replicas(cl, frep, f, net)
         ! Newton's third law: every pair adds one single-precision force to i and its negative to
         ! j, but the single-precision lane sums round differently on the two sides and leave a

@@ -45,19 +45,21 @@
 #   - velocities from GROMACS's generator at the same temperature (a different random draw);
 #   - energies every 100 steps like the thermo output of the other two, no trajectory output.
 #
-# Usage: scripts/bench/anchors.sh [NSTEPS_LJ [NSTEPS_EAM [TERRACE_BINARY]]]   (defaults 1000 200 build/terrace)
+# Usage: scripts/bench/anchors.sh [NSTEPS_LJ [NSTEPS_EAM [TERRACE_BINARY]]]   (defaults 1000 200, $TERRACE or build/terrace)
 # Environment: REPEAT (rounds, default 3), PARTS (comma list, default lj,eam,types,ljtypes,es), INSTALL=0 to
 # skip installing missing Debian packages (lammps, lammps-data, gromacs; as root with apt-get,
-# otherwise the command is printed and the missing anchor skipped), ES_REPEAT (default 1), KEEP=1.
+# otherwise the command is printed and the missing anchor skipped), ES_REPEAT (default 1), KEEP=1,
+# GNU_TIME (GNU time's binary, default /usr/bin/time) and LAMMPS_POTENTIALS (the EAM files' folder, default
+# /usr/share/lammps/potentials): scripts/bench/bundle.sh run sets both to the bundle's.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
-nlj="${1:-1000}"; neam="${2:-200}"; terrace="$(realpath "${3:-$repo/build/terrace}")"
+nlj="${1:-1000}"; neam="${2:-200}"; terrace="$(realpath "${3:-${TERRACE:-$repo/build/terrace}}")"
 repeat="${REPEAT:-3}"; parts=",${PARTS:-lj,eam,types,ljtypes,es},"
 for v in "$nlj" "$neam" "$repeat"; do
     [[ "$v" =~ ^[1-9][0-9]*$ ]] || { echo "usage: $0 [NSTEPS_LJ [NSTEPS_EAM [TERRACE]]] (positive integers; REPEAT too)" >&2; exit 2; }
 done
 [[ -x "$terrace" ]] || { echo "anchors: Terrace binary '$terrace' not found (bash scripts/build.sh)" >&2; exit 2; }
-pot=/usr/share/lammps/potentials
+pot="${LAMMPS_POTENTIALS:-/usr/share/lammps/potentials}"   # (bundle.sh run: the bundle's)
 export OMP_NUM_THREADS=1 GMX_MAXBACKUP=-1
 
 # ---- install what is missing ------------------------------------------------------------------
@@ -86,10 +88,10 @@ cp "$terrace" ./terrace     # a private copy: a rebuild meanwhile must not mix v
 echo "Terrace against its CPU anchors, 1 rank, 1 thread, $repeat alternating rounds"
 echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1) ($(nproc) cores visible; flags:$(grep -o -w -E 'avx2|fma|avx512f' /proc/cpuinfo | sort -u | tr '\n' ' '))"
 echo "date    : $(date -u '+%Y-%m-%d %H:%M UTC')"
-echo "commit  : $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)$(git -C "$repo" status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo ' (+ uncommitted changes)')"
+echo "commit  : ${BUNDLE_COMMIT:-$(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)$(git -C "$repo" status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo ' (+ uncommitted changes)')}"
 echo "load    : $(cut -d' ' -f1-3 /proc/loadavg) (load average at start)"
 echo "terrace : $terrace"
-echo "compiler: $(gfortran --version | head -1)"
+echo "compiler: $(gfortran --version 2> /dev/null | head -1 || echo "(no gfortran here: a binary built elsewhere)")"
 if have lmp; then echo "LAMMPS  : $(lmp -h | sed -n 's/^Large-scale Atomic.* - \(.* 20[0-9][0-9].*\)$/\1/p' | head -1)"; fi
 for g in gmx gmx_d; do
     if have $g; then echo "$(printf '%-8s' $g): $($g --version 2>&1 | sed -n 's/^GROMACS version: *//p'), $($g --version 2>&1 | sed -n 's/^Precision: *//p') precision, SIMD $($g --version 2>&1 | sed -n 's/^SIMD instructions: *//p')"; fi
@@ -116,7 +118,7 @@ pair_of() {
 }
 run() {
     local label=$1 kind=$2 log=$3; shift 3
-    if ! /usr/bin/time -f '%U' -o user.txt "$@" > "$label.out" 2>&1; then
+    if ! "${GNU_TIME:-/usr/bin/time}" -f '%U' -o user.txt "$@" > "$label.out" 2>&1; then
         echo "anchors: $label failed: $*" >&2; tail -n 15 "$label.out" >&2; [[ -f "$log" ]] && tail -n 15 "$log" >&2; exit 1
     fi
     local t; t="$(loop_of "$kind" "$log")"

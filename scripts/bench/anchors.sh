@@ -143,8 +143,8 @@ launch() {
         gromacs_mix)    run gromacs_mix gromacs md.log gmx "${gargs[@]}" -s gmx.tpr ;;
         gromacs_dbl)    run gromacs_dbl gromacs md.log gmx_d "${gargs[@]}" -s gmx_d.tpr ;;
         eam_terrace)    run eam_terrace terrace eam_terrace.out ./terrace eam.nml ;;
-        eam_lammps)     run eam_lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$neam" -in "$here/in.eam_bench" ;;
-        eam_lammps_opt) run eam_lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$neam" -in "$here/in.eam_bench" ;;
+        eam_lammps)     run eam_lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$neam" -var potdir "$pot" -in "$here/in.eam_bench" ;;
+        eam_lammps_opt) run eam_lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$neam" -var potdir "$pot" -in "$here/in.eam_bench" ;;
     esac
 }
 # rounds LABEL...: REPEAT rounds, each code once per round in the given order (alternating)

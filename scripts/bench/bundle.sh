@@ -69,7 +69,7 @@ run)
     rm -rf $t; mkdir -p $t; tar -C $t -xJf "$dir/bundle.tar.xz"   # afresh: a warm machine may hold an older one
     export PATH="$t/ompi/bin:$t/bin:$t/gmx/bin:$PATH" LD_LIBRARY_PATH="$t/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
     export OPAL_PREFIX="$t/ompi" PMIX_PREFIX="$t/ompi" OMPI_MCA_mca_base_param_files="$t/ompi/etc/openmpi-mca-params.conf"
-    export OMPI_MCA_mca_base_component_show_load_errors=0
+    export OMPI_MCA_mca_base_component_show_load_errors=0 PMIX_MCA_pcompress_base_silence_warning=1   # (no zlib for PMIx there)
     if grep -q -w avx512f /proc/cpuinfo && grep -q -w avx512bw /proc/cpuinfo && grep -q -w avx512vl /proc/cpuinfo \
        && grep -q -w avx512dq /proc/cpuinfo && grep -q -w avx512cd /proc/cpuinfo; then
         export TERRACE="$t/bin/terrace-v4"; else export TERRACE="$t/bin/terrace-v3"; fi

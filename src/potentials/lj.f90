@@ -970,7 +970,7 @@ contains
     !> the vectorised pass) made a ray evaluation about a fifth cheaper, the same bits.
     pure subroutine ray_rows(i, xv, nbrs, rr, dw, ww)
         integer, intent(in) :: i
-        real(dp), intent(in), contiguous :: xv(:, :)
+        real(dp), intent(in) :: xv(6, *)      ! (explicit shape: a neighbour's record without a multiply)
         integer, intent(in), contiguous :: nbrs(:)
         real(dp), intent(inout), contiguous :: rr(:), dw(:), ww(:)
         integer :: k, j

@@ -17,6 +17,7 @@ packages=(
 )
 bench=(
   gromacs                                    # optional: gmx, gmx_d for scripts/bench/anchors.sh only
+  time                                       # GNU time (/usr/bin/time): anchors.sh's user CPU times
 )
 case "${1:-}" in
   --bench) packages+=("${bench[@]}") ;;

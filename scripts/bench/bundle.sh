@@ -2,7 +2,7 @@
 # Carry Terrace, LAMMPS and Open MPI to a machine that has none of them (the 16-core machine that the
 # workplace's device tool lends, which cannot install packages), to run scripts/bench/scaling.sh there.
 #
-#   scripts/bench/bundle.sh pack DIR    (here, after scripts/install_deps.sh) builds Terrace twice, for
+#   scripts/bench/bundle.sh pack DIR    (here, after scripts/install_deps.sh --bench) builds Terrace twice, for
 #       x86-64-v3 (AVX2) and x86-64-v4 (AVX-512), into DIR/build-v3 and DIR/build-v4, and packs into
 #       DIR/bundle.tar.xz: both binaries, /usr/bin/lmp, GROMACS's gmx and gmx_d with their data
 #       (share/gromacs), GNU time, Open MPI's mpirun with its plugins, help files and settings, every

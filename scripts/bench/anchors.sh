@@ -47,7 +47,7 @@
 #
 # Usage: scripts/bench/anchors.sh [NSTEPS_LJ [NSTEPS_EAM [TERRACE_BINARY]]]   (defaults 1000 200, $TERRACE or build/terrace)
 # Environment: REPEAT (rounds, default 3), PARTS (comma list, default lj,eam,types,ljtypes,es), INSTALL=0 to
-# skip installing missing Debian packages (lammps, lammps-data, gromacs; as root with apt-get,
+# skip installing missing Debian packages (lammps, lammps-data, gromacs, time; as root with apt-get,
 # otherwise the command is printed and the missing anchor skipped), ES_REPEAT (default 1), KEEP=1,
 # GNU_TIME (GNU time's binary, default /usr/bin/time) and LAMMPS_POTENTIALS (the EAM files' folder, default
 # /usr/share/lammps/potentials): scripts/bench/bundle.sh run sets both to the bundle's.
@@ -66,6 +66,7 @@ export OMP_NUM_THREADS=1 GMX_MAXBACKUP=-1
 need=()
 command -v lmp > /dev/null || need+=(lammps)
 [[ -r $pot/Cu_u3.eam ]] || need+=(lammps-data)
+[[ -x "${GNU_TIME:-/usr/bin/time}" ]] || need+=(time)
 if [[ "$parts" == *,lj,* ]]; then
     { command -v gmx > /dev/null && command -v gmx_d > /dev/null; } || need+=(gromacs)
 fi

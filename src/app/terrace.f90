@@ -97,24 +97,30 @@ contains
         call start_clock()
         call run_velocity_verlet(eng, thermo, traj, sched, ctl)
         call close_run(sched%end_time(cfg))
-        if (eng%list%want_clusters) then
-            call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note(), &
-                               int(eng%list%clusters%pairs%npairs, i8), 'Cluster pairs (clusters of 4 atoms with an atom pair '// &
-                               'within rc + skin, last build; the mixed kernel computes 16 atom pairs each)')
-        else
-            call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note(), &
-                               list_pairs())
-        end if
+        call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note(), &
+                           list_pairs(), pairs_what())
         call eng%report_warnings()
     end subroutine verlet_run
 
     !> This rank's pairs in the built list (within rc + skin) at its last build; 0 without a list.
     integer(i8) function list_pairs()
         list_pairs = 0
+        if (eng%list%want_clusters) then
+            list_pairs = eng%list%clusters%pairs%npairs
+            return
+        end if
         if (eng%list%builds == 0 .or. eng%list%all_pairs .or. .not. allocated(eng%list%first)) return
         if (size(eng%list%first) < eng%atoms%nlocal + 1) return
         list_pairs = eng%list%first(eng%atoms%nlocal + 1) - 1
     end function list_pairs
+
+    !> What list_pairs counts, for the run log ('': the atom list's pairs).
+    function pairs_what() result(what)
+        character(len=:), allocatable :: what
+        what = ''
+        if (eng%list%want_clusters) what = 'Cluster pairs (clusters of 4 atoms with an atom pair within rc + skin, '// &
+                                           'last build; the mixed kernel computes 16 atom pairs each)'
+    end function pairs_what
 
     !> The run log's line on energy stepping's pruned list (empty without one).
     function prune_note() result(note)

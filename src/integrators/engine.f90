@@ -115,7 +115,7 @@ contains
         self%list%want_types = self%pot%wants_neighbour_types()
         self%list%type_order = self%pot%neighbour_type_order()
         self%use_inner = self%plan%inner_list
-        self%list%want_clusters = self%plan%cluster_pairs .and. self%plan%pair_mode == pair_cells
+        self%list%want_clusters = self%plan%cluster_pairs      ! (the plan sets it with cell lists only)
         call self%rebuild()
         call check_overlaps(self%atoms, self%list, self%pot, self%plan%pair_mode, self%source)
         call self%compute_forces(.true.)

@@ -24,7 +24,7 @@ contains
         character(len=*), intent(in) :: label
         character(len=*), intent(in), optional :: list_note   !< lines after the build count (a schedule)
         integer(i8), intent(in), optional :: pairs            !< this rank's list length (0: no list)
-        character(len=*), intent(in), optional :: pairs_what  !< what pairs counts (default: the atom list's pairs)
+        character(len=*), intent(in), optional :: pairs_what  !< what pairs counts (absent or '': the atom list's pairs)
         character(len=:), allocatable :: what
         real(dp) :: avg(n_timers), mx(n_timers), mem, memsum, other
         integer(i8) :: p(1), psum(1), pmin(1), pmax(1)
@@ -40,7 +40,9 @@ contains
         call MPI_Reduce(p, pmax, 1, MPI_INTEGER8, MPI_MAX, 0, world%comm)
         if (world%rank /= 0) return
         what = 'List pairs (within rc + skin, last build)'
-        if (present(pairs_what)) what = pairs_what
+        if (present(pairs_what)) then
+            if (len(pairs_what) > 0) what = pairs_what
+        end if
         avg = avg/world%nprocs
         write (output_unit, '(a,a,a,i0,a,i0,a,i0,a)') 'Loop time: ', fixed(loop_time, 4), ' s on ', world%nprocs, &
             ' rank(s) for ', steps, ' '//label//' with ', natoms, ' atoms'

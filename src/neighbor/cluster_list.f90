@@ -60,6 +60,7 @@ module terrace_cluster_list
         real(dp), allocatable :: half(:, :), zlo(:), zhi(:)
         real(sp), allocatable :: xq(:, :, :)     !< (16, 3, ncl): replicated positions at the build
         integer, allocatable :: col(:), order(:), cstart(:), ccount(:), ofirst(:), gfirst(:)
+        integer, allocatable :: split(:)         !< ghost clusters of one owned cluster for split_pair
     contains
         procedure :: build => cl_build
         procedure :: replicate_positions
@@ -239,11 +240,10 @@ contains
         real(dp) :: r2list, xd(4, 3)
         real(sp) :: r2s
         integer :: bound, nsplit, l
-        integer, allocatable :: split(:)
         r2list = rlist*rlist
         r2s = real(r2list, sp)*(1 + 8*epsilon(1.0_sp))   ! single rounding never drops a pair
         call replicate_positions(self, x, self%xq)
-        allocate (split(max(self%ncl, 1)))   ! (a cluster is a split candidate of ci at most once)
+        call reserve(self%split, max(self%ncl, 1))   ! (a cluster is a split candidate of ci at most once)
         n = 0
         call reserve(self%pairs%cj, 32*self%nowned + 64)
         call reserve(self%pairs%mask, size(self%pairs%cj))
@@ -280,16 +280,16 @@ contains
                 nsplit = 0
                 call scan_columns(ci, nt, k2, ghost, same, tx, ty, ptr, lo, w, rlist, r2s, self%member, self%centre, &
                                   self%half, self%zlo, self%zhi, self%xq, self%pairs%cj, self%pairs%mask, &
-                                  self%pairs%offset, n, split, nsplit)
+                                  self%pairs%offset, n, self%split, nsplit)
                 self%pairs%masked_first(ci) = n + 1
-                if (count(self%member(:, ci) > 0) > 1) call add(self, ci, ci, 2, n)   ! its own pairs (i < j)
+                if (self%nmem(ci) > 1) call add(self, ci, ci, 2, n)   ! its own pairs (i < j)
                 if (nsplit > 0) then
                     do l = 1, 4      ! ci's atoms in double (the split rule); an empty slot far below
                         xd(l, :) = -huge(1.0_dp)/4
                         if (self%member(l, ci) > 0) xd(l, :) = x(:, self%member(l, ci))
                     end do
                     do l = 1, nsplit
-                        call split_pair(self, x, ci, split(l), xd, r2list, n)
+                        call split_pair(self, x, ci, self%split(l), xd, r2list, n)
                     end do
                 end if
             end do

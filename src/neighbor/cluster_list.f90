@@ -346,26 +346,14 @@ contains
             end do
             if (.not. ghost(t)) then
                 do cj = j1, j2
-                    o = real(centre(:, cj) - centre(:, ci), sp)
-                    near = 0
-                    do l = 1, 16
-                        q = ((xi(l, 1) - o(1)) - xq(l, 1, cj))**2 + ((xi(l, 2) - o(2)) - xq(l, 2, cj))**2 &
-                            + ((xi(l, 3) - o(3)) - xq(l, 3, cj))**2
-                        near = near + merge(1, 0, q < r2s)
-                    end do
+                    include 'cluster_atom_check.inc'
                     cjs(n + 1) = cj; mask(n + 1) = 1; offset(:, n + 1) = o
                     n = n + min(near, 1)
                 end do
             else
                 do cj = j1, j2
                     if (zhi(cj) < zlo(ci)) cycle       ! every ghost below every atom of ci
-                    o = real(centre(:, cj) - centre(:, ci), sp)
-                    near = 0
-                    do l = 1, 16
-                        q = ((xi(l, 1) - o(1)) - xq(l, 1, cj))**2 + ((xi(l, 2) - o(2)) - xq(l, 2, cj))**2 &
-                            + ((xi(l, 3) - o(3)) - xq(l, 3, cj))**2
-                        near = near + merge(1, 0, q < r2s)
-                    end do
+                    include 'cluster_atom_check.inc'
                     if (near > 0 .and. zlo(cj) <= zhi(ci)) then      ! the (z, y, x) rule may split it
                         nsplit = nsplit + 1
                         split(nsplit) = cj

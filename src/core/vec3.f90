@@ -3,7 +3,7 @@ module terrace_vec3
     use terrace_kinds, only: dp
     implicit none
     private
-    public :: cross
+    public :: cross, add_scaled
 
 contains
 
@@ -12,5 +12,18 @@ contains
         real(dp) :: c(3)
         c = [a(2)*b(3) - a(3)*b(2), a(3)*b(1) - a(1)*b(3), a(1)*b(2) - a(2)*b(1)]
     end function cross
+
+    !> x(1:n) = x(1:n) + s v(1:n) over flat arrays: a 3 x N array of positions or velocities passed
+    !> whole (sequence association) is one contiguous loop. Written as x(:, 1:m) = x(:, 1:m) +
+    !> s v(:, 1:m), GCC made two nested loops with an inner one of run-time extent 3 (scalar, a test per atom).
+    pure subroutine add_scaled(n, s, v, x)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: s, v(*)
+        real(dp), intent(inout) :: x(*)
+        integer :: k
+        do k = 1, n
+            x(k) = x(k) + s*v(k)
+        end do
+    end subroutine add_scaled
 
 end module terrace_vec3

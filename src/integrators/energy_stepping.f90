@@ -174,6 +174,33 @@ contains
         b = eng%cfg%units%mvv2e*acc(3)
     end subroutine gradient_sums
 
+    !> The velocity jump v_i = v_i - lam f_i / m_i of the n owned atoms, masses per atom (rmass) or
+    !> by type (minv = 1/m of each type). One statement per component: written as v(:, i) = v(:, i)
+    !> - c f(:, i), GCC made an inner loop of run-time extent 3 with a test per atom.
+    pure subroutine kick_per_atom(n, lam, rmass, f, v)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: lam, rmass(*), f(3, *)
+        real(dp), intent(inout) :: v(3, *)
+        integer :: i
+        real(dp) :: c
+        do i = 1, n
+            c = lam/rmass(i)
+            v(1, i) = v(1, i) - c*f(1, i); v(2, i) = v(2, i) - c*f(2, i); v(3, i) = v(3, i) - c*f(3, i)
+        end do
+    end subroutine kick_per_atom
+
+    pure subroutine kick_by_type(n, lam, minv, type, f, v)
+        integer, intent(in) :: n, type(*)
+        real(dp), intent(in) :: lam, minv(*), f(3, *)
+        real(dp), intent(inout) :: v(3, *)
+        integer :: i
+        real(dp) :: c
+        do i = 1, n
+            c = lam*minv(type(i))
+            v(1, i) = v(1, i) - c*f(1, i); v(2, i) = v(2, i) - c*f(2, i); v(3, i) = v(3, i) - c*f(3, i)
+        end do
+    end subroutine kick_by_type
+
     !> This rank's (sum |g_i|^2 |v_i|^2, sum |g_i|^2/m_i, sum g_i.v_i), g = -f, over the owned atoms:
     !> eight interleaved partial sums (vectorised), added in a fixed order.
     pure subroutine plain_gradient_sums(atoms, acc)
@@ -460,13 +487,9 @@ contains
                 stats%downs = stats%downs + 1
             end select
             if (eng%atoms%per_atom_mass) then
-                do i = 1, eng%atoms%nlocal
-                    eng%atoms%v(:, i) = eng%atoms%v(:, i) - (lam/eng%atoms%rmass(i))*eng%atoms%f(:, i)
-                end do
+                call kick_per_atom(eng%atoms%nlocal, lam, eng%atoms%rmass, eng%atoms%f, eng%atoms%v)
             else
-                do i = 1, eng%atoms%nlocal
-                    eng%atoms%v(:, i) = eng%atoms%v(:, i) - lam*minv(eng%atoms%type(i))*eng%atoms%f(:, i)
-                end do
+                call kick_by_type(eng%atoms%nlocal, lam, minv, eng%atoms%type, eng%atoms%f, eng%atoms%v)
             end if
             call eng%sync_ghosts()
             p0 = [vstar, (b + lam*a)/mvv2e, 0.0_dp]

@@ -9,6 +9,7 @@ module terrace_engine
     use terrace_config, only: config_t
     use terrace_box, only: box_t
     use terrace_atoms, only: atoms_t
+    use terrace_vec3, only: add_scaled
     use terrace_velocities, only: kinetic_energy, atom_mass
     use terrace_thermostat, only: thermostat_dof, thermostat_style
     use terrace_domain, only: domain_t
@@ -308,7 +309,7 @@ contains
         real(dp), intent(in) :: s
         integer :: n
         n = self%atoms%nall()
-        self%atoms%x(:, 1:n) = self%atoms%x(:, 1:n) + s*self%atoms%v(:, 1:n)
+        call add_scaled(3*n, s, self%atoms%v, self%atoms%x)
     end subroutine engine_drift
 
     !> Ghost positions and velocities from their owners (after a velocity jump).

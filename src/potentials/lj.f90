@@ -25,6 +25,7 @@
 !> forces summed in double). The ray pass (energy stepping) is always double.
 module terrace_lj
     use, intrinsic :: iso_fortran_env, only: int64, sp => real32
+    use, intrinsic :: iso_c_binding, only: c_int, c_double
     use terrace_kinds, only: dp
     use terrace_compensated_sum, only: compensated_total
     use terrace_grow, only: reserve
@@ -89,6 +90,17 @@ module terrace_lj
     !> A separation beyond any cutoff whose square is still finite: the pad of the rows that the
     !> eight-lane loops run over (its pair terms are exactly 0).
     real(dp), parameter :: pad_far = 1.0e100_dp
+
+    interface
+        !> src/potentials/ray_gather.c: ray_rows's gather (neighbour indices 1-based, as here)
+        pure subroutine c_ray_rows(i, xv, nbrs, nn, rr, dw, ww) bind(C, name='terrace_ray_rows')
+            import :: c_int, c_double
+            integer(c_int), value :: i, nn
+            real(c_double), intent(in) :: xv(*)
+            integer(c_int), intent(in) :: nbrs(*)
+            real(c_double), intent(inout) :: rr(*), dw(*), ww(*)
+        end subroutine c_ray_rows
+    end interface
 
 contains
 
@@ -870,8 +882,8 @@ contains
         end do
     end subroutine separations
 
-    !> Ray pass, one type: per atom a scalar gather of each pair's |d|^2, d.w and |w|^2 (separation d,
-    !> relative velocity w at s: ray_rows), then one branch-free vectorised pass that computes the four
+    !> Ray pass, one type: per atom a gather of each pair's |d|^2, d.w and |w|^2 (separation d,
+    !> relative velocity w at s: ray_rows, four neighbours at a time), then one branch-free vectorised pass that computes the four
     !> per-pair terms (the cutoff is a mask: 1/rsq of an "infinite" separation) and adds them into
     !> eight lanes per term as it goes (storing four rows and summing them in a second pass made the
     !> ray pass 25 % slower on the 32,000-atom liquid).
@@ -965,26 +977,16 @@ contains
 
     !> The ray passes' rows of atom i: for its neighbours j = nbrs(:), with the separation
     !> d = x_i - x_j and the relative velocity w = v_i - v_j at the ray's s (from xv = (x + s v, v)),
-    !> the three scalars the pair terms need: rr = |d|^2, dw = d.w, ww = |w|^2 (scalar loads,
-    !> contiguous stores). Forming them here rather than storing d and w (six rows, read again by
-    !> the vectorised pass) made a ray evaluation about a fifth cheaper, the same bits.
+    !> the three scalars the pair terms need: rr = |d|^2, dw = d.w, ww = |w|^2 (contiguous stores).
+    !> Forming them here rather than storing d and w (six rows, read again by the vectorised pass)
+    !> made a ray evaluation about a fifth cheaper. The gather itself is src/potentials/ray_gather.c:
+    !> four neighbours at a time with AVX2, the same bits as the scalar loop.
     pure subroutine ray_rows(i, xv, nbrs, rr, dw, ww)
         integer, intent(in) :: i
-        real(dp), intent(in) :: xv(6, *)      ! (explicit shape: a neighbour's record without a multiply)
+        real(dp), intent(in) :: xv(6, *)
         integer, intent(in), contiguous :: nbrs(:)
         real(dp), intent(inout), contiguous :: rr(:), dw(:), ww(:)
-        integer :: k, j
-        real(dp) :: xi, yi, zi, vxi, vyi, vzi, dx, dy, dz, wx, wy, wz
-        xi = xv(1, i); yi = xv(2, i); zi = xv(3, i); vxi = xv(4, i); vyi = xv(5, i); vzi = xv(6, i)
-        !GCC$ novector
-        do k = 1, size(nbrs)
-            j = nbrs(k)
-            dx = xi - xv(1, j); dy = yi - xv(2, j); dz = zi - xv(3, j)
-            wx = vxi - xv(4, j); wy = vyi - xv(5, j); wz = vzi - xv(6, j)
-            rr(k) = dx*dx + dy*dy + dz*dz
-            dw(k) = dx*wx + dy*wy + dz*wz
-            ww(k) = wx*wx + wy*wy + wz*wz
-        end do
+        call c_ray_rows(i, xv, nbrs, size(nbrs), rr, dw, ww)
     end subroutine ray_rows
 
     !> self%xv(:, i) = (x_i + s v_i, v_i) for every atom, owned and ghost (grown as needed).

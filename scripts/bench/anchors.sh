@@ -77,9 +77,11 @@ if [[ ${#need[@]} -gt 0 && "${INSTALL:-1}" != 0 ]]; then
         DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${need[@]}" > /tmp/anchors-apt.log 2>&1 \
             || { echo "anchors: apt-get failed, see /tmp/anchors-apt.log" >&2; exit 1; }
     else
-        echo "anchors: missing ${need[*]}; as root: apt-get install -y ${need[*]} (those anchors are skipped)" >&2
+        echo "anchors: missing ${need[*]}; as root: apt-get install -y ${need[*]} (the anchors without their program are skipped)" >&2
     fi
 fi
+# every run, Terrace's too, is timed by GNU time: without it there is nothing to measure
+[[ -x "${GNU_TIME:-/usr/bin/time}" ]] || { echo "anchors: GNU time (${GNU_TIME:-/usr/bin/time}) times every run and is missing: as root, apt-get install -y time (or set GNU_TIME)" >&2; exit 2; }
 have() { command -v "$1" > /dev/null; }
 
 work="$(mktemp -d "${TMPDIR:-/tmp}/anchors.XXXXXX")"

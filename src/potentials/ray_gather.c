@@ -10,7 +10,9 @@
  * halves, two records per 32-byte register (the upper half inserted from memory), and one unpack
  * per component turns the four records into four-wide rows of x, y, z, vx, vy, vz (12 loads and 6
  * unpacks for 4 pairs); the differences and products then run four-wide, in the same order and with
- * the same fused multiply-adds as the scalar loop, so the results are the same bits:
+ * the same fused multiply-adds as the scalar loop, so the results are the same bits. With AVX-512
+ * eight at a time first (four records per 64-byte register, the same unpacks; the ray pass's Search
+ * phase another 8-9 % cheaper than with four, phase_ab.sh on both liquids):
  *   rr = fma(dz, dz, fma(dx, dx, dy*dy)), dw = fma(dz, wz, fma(dx, wx, dy*wy)),
  *   ww = fma(wz, wz, fma(wx, wx, wy*wy)).
  * Without AVX2 and FMA (a portable build), or for the last nn mod 4 pairs, the scalar loop. */
@@ -40,6 +42,13 @@ static inline __m256d halves(const double *p, const double *q)
 {
     return _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p)), _mm_loadu_pd(q), 1);
 }
+#if defined(__AVX512F__)
+/* four 16-byte halves, p q r t in the four lanes */
+static inline __m512d quarters(const double *p, const double *q, const double *r, const double *t)
+{
+    return _mm512_insertf64x4(_mm512_castpd256_pd512(halves(p, q)), halves(r, t), 1);
+}
+#endif
 #endif
 
 void terrace_ray_rows(int i, const double *xv, const int *nbrs, int nn, double *rr, double *dw, double *ww)
@@ -49,6 +58,31 @@ void terrace_ray_rows(int i, const double *xv, const int *nbrs, int nn, double *
 #if defined(__AVX2__) && defined(__FMA__)
     const __m256d xi = _mm256_set1_pd(a[0]), yi = _mm256_set1_pd(a[1]), zi = _mm256_set1_pd(a[2]);
     const __m256d vxi = _mm256_set1_pd(a[3]), vyi = _mm256_set1_pd(a[4]), vzi = _mm256_set1_pd(a[5]);
+#if defined(__AVX512F__)
+    {
+        const __m512d xi8 = _mm512_set1_pd(a[0]), yi8 = _mm512_set1_pd(a[1]), zi8 = _mm512_set1_pd(a[2]);
+        const __m512d vxi8 = _mm512_set1_pd(a[3]), vyi8 = _mm512_set1_pd(a[4]), vzi8 = _mm512_set1_pd(a[5]);
+        for (; k + 8 <= nn; k += 8) {
+            const double *p[8];
+            for (int l = 0; l < 8; l++) p[l] = xv + 6 * (long)(nbrs[k + l] - 1);
+            __m512d r[6];
+            for (int h = 0; h < 3; h++) {
+                /* records 0 2 4 6 and 1 3 5 7: unpacked, the eight pairs in order */
+                r[2 * h] = quarters(p[0] + 2 * h, p[2] + 2 * h, p[4] + 2 * h, p[6] + 2 * h);
+                r[2 * h + 1] = quarters(p[1] + 2 * h, p[3] + 2 * h, p[5] + 2 * h, p[7] + 2 * h);
+            }
+            __m512d dx = _mm512_sub_pd(xi8, _mm512_unpacklo_pd(r[0], r[1]));
+            __m512d dy = _mm512_sub_pd(yi8, _mm512_unpackhi_pd(r[0], r[1]));
+            __m512d dz = _mm512_sub_pd(zi8, _mm512_unpacklo_pd(r[2], r[3]));
+            __m512d wx = _mm512_sub_pd(vxi8, _mm512_unpackhi_pd(r[2], r[3]));
+            __m512d wy = _mm512_sub_pd(vyi8, _mm512_unpacklo_pd(r[4], r[5]));
+            __m512d wz = _mm512_sub_pd(vzi8, _mm512_unpackhi_pd(r[4], r[5]));
+            _mm512_storeu_pd(rr + k, _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy))));
+            _mm512_storeu_pd(dw + k, _mm512_fmadd_pd(dz, wz, _mm512_fmadd_pd(dx, wx, _mm512_mul_pd(dy, wy))));
+            _mm512_storeu_pd(ww + k, _mm512_fmadd_pd(wz, wz, _mm512_fmadd_pd(wx, wx, _mm512_mul_pd(wy, wy))));
+        }
+    }
+#endif
     for (; k + 4 <= nn; k += 4) {
         const double *p0 = xv + 6 * (long)(nbrs[k] - 1), *p1 = xv + 6 * (long)(nbrs[k + 1] - 1);
         const double *p2 = xv + 6 * (long)(nbrs[k + 2] - 1), *p3 = xv + 6 * (long)(nbrs[k + 3] - 1);

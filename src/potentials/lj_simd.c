@@ -1,4 +1,6 @@
-/* The Lennard-Jones ray pass's gather (terrace_lj, ray_rows): for atom i and its neighbours
+/* Lennard-Jones kernels with SIMD intrinsics (called from terrace_lj, src/potentials/lj.f90).
+ *
+ * The ray pass's gather (terrace_lj, ray_rows): for atom i and its neighbours
  * j = nbrs[0..nn-1] (1-based, as Fortran has them), from the records xv = (x + s v, v), six doubles
  * per atom, the three scalars of each pair: rr = |d|^2, dw = d.w, ww = |w|^2 with d = x_i - x_j and
  * w = v_i - v_j.
@@ -105,3 +107,71 @@ void terrace_ray_rows(int i, const double *xv, const int *nbrs, int nn, double *
         one_pair(a, xv + 6 * (long)(nbrs[k] - 1), rr + k, dw + k, ww + k);
 }
 
+
+/* The one-type Lennard-Jones force pass over the half list, fused, with AVX-512: for each owned
+ * atom i (0-based here; first and neigh 1-based, as the Fortran list has them) eight neighbours at a
+ * time: their positions gathered by index (vgatherdpd, the padding lanes of a row's last block
+ * masked off and placed 1e100 away), the pair terms computed in the vector as terrace_lj's lj_terms
+ * does (the cutoff a mask, 1/infinity beyond it), the force on i summed in the vector, and the
+ * neighbours' forces gathered, reduced and scattered back (the neighbours of a row are distinct, so
+ * the lanes never collide). The Fortran kernel stores the separations and the pair forces in rows
+ * and reads them again (a scalar gather, the vectorised pair loop, a scalar scatter); here nothing
+ * leaves the registers but the forces. With want_energy the pair energies are summed per atom into
+ * atom_e[i] and the virial into *virial. Returns 0 (nothing done: the caller's Fortran kernel runs)
+ * where this build has no AVX-512 (AVX512F, AVX512VL) and FMA. */
+int terrace_lj_one_type(int nlocal, const double *x, double *f, const int *first, const int *neigh, double lj1,
+                        double lj2, double lj3, double lj4, double cutsq, double offset, int want_energy,
+                        double *atom_e, double *virial)
+{
+#if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
+    const __m512d c1 = _mm512_set1_pd(lj1), c2 = _mm512_set1_pd(lj2), c3 = _mm512_set1_pd(lj3);
+    const __m512d c4 = _mm512_set1_pd(lj4), cs = _mm512_set1_pd(cutsq), co = _mm512_set1_pd(offset);
+    const __m512d one = _mm512_set1_pd(1.0), inf = _mm512_set1_pd(INFINITY), zero = _mm512_setzero_pd();
+    const __m512d far = _mm512_set1_pd(1.0e100);
+    __m512d wsum = zero;
+    for (int i = 0; i < nlocal; i++) {
+        const int k0 = first[i] - 1, nn = first[i + 1] - first[i];
+        const double *a = x + 3 * (long)i;
+        const __m512d xi = _mm512_set1_pd(a[0]), yi = _mm512_set1_pd(a[1]), zi = _mm512_set1_pd(a[2]);
+        __m512d sx = zero, sy = zero, sz = zero, se = zero;
+        for (int k = 0; k < nn; k += 8) {
+            const int cnt = nn - k < 8 ? nn - k : 8;
+            const __mmask8 live = (__mmask8)((1u << cnt) - 1u);
+            __m256i jj = _mm256_maskz_loadu_epi32(live, neigh + k0 + k);
+            __m256i idx = _mm256_mullo_epi32(_mm256_sub_epi32(jj, _mm256_set1_epi32(1)), _mm256_set1_epi32(3));
+            __m512d dx = _mm512_sub_pd(xi, _mm512_mask_i32gather_pd(far, live, idx, x, 8));
+            __m512d dy = _mm512_sub_pd(yi, _mm512_mask_i32gather_pd(far, live, idx, x + 1, 8));
+            __m512d dz = _mm512_sub_pd(zi, _mm512_mask_i32gather_pd(far, live, idx, x + 2, 8));
+            __m512d rsq = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy)));
+            __mmask8 in = _mm512_cmp_pd_mask(rsq, cs, _CMP_LT_OQ);
+            __m512d r2inv = _mm512_div_pd(one, _mm512_mask_blend_pd(in, inf, rsq));
+            __m512d r6inv = _mm512_mul_pd(_mm512_mul_pd(r2inv, r2inv), r2inv);
+            __m512d fpair = _mm512_mul_pd(_mm512_mul_pd(r6inv, _mm512_fmsub_pd(c1, r6inv, c2)), r2inv);
+            if (want_energy) {
+                __m512d e = _mm512_mul_pd(r6inv, _mm512_fmsub_pd(c3, r6inv, c4));
+                se = _mm512_add_pd(se, _mm512_mask_sub_pd(e, in, e, co));   /* the offset inside the cutoff */
+                wsum = _mm512_fmadd_pd(rsq, fpair, wsum);
+            }
+            __m512d fx = _mm512_mul_pd(dx, fpair), fy = _mm512_mul_pd(dy, fpair), fz = _mm512_mul_pd(dz, fpair);
+            sx = _mm512_add_pd(sx, fx); sy = _mm512_add_pd(sy, fy); sz = _mm512_add_pd(sz, fz);
+            /* the neighbours' forces: gathered, reduced and scattered back, eight at a time (the
+             * neighbours of one row are distinct; the padding lanes masked off) */
+            __m512d gx = _mm512_mask_i32gather_pd(zero, live, idx, f, 8);
+            __m512d gy = _mm512_mask_i32gather_pd(zero, live, idx, f + 1, 8);
+            __m512d gz = _mm512_mask_i32gather_pd(zero, live, idx, f + 2, 8);
+            _mm512_mask_i32scatter_pd(f, live, idx, _mm512_sub_pd(gx, fx), 8);
+            _mm512_mask_i32scatter_pd(f + 1, live, idx, _mm512_sub_pd(gy, fy), 8);
+            _mm512_mask_i32scatter_pd(f + 2, live, idx, _mm512_sub_pd(gz, fz), 8);
+        }
+        double *fi = f + 3 * (long)i;
+        fi[0] += _mm512_reduce_add_pd(sx); fi[1] += _mm512_reduce_add_pd(sy); fi[2] += _mm512_reduce_add_pd(sz);
+        if (want_energy) atom_e[i] = _mm512_reduce_add_pd(se);
+    }
+    if (want_energy) *virial += _mm512_reduce_add_pd(wsum);
+    return 1;
+#else
+    (void)nlocal; (void)x; (void)f; (void)first; (void)neigh; (void)lj1; (void)lj2; (void)lj3; (void)lj4;
+    (void)cutsq; (void)offset; (void)want_energy; (void)atom_e; (void)virial;
+    return 0;
+#endif
+}

@@ -309,8 +309,8 @@ contains
     !> Forces (added to atoms%f for owned and ghost atoms) from the half list; when want_energy,
     !> also the energy and the virial W = sum r.F of the pairs this rank holds. One type in double
     !> precision: the fused AVX-512 kernel of lj_simd.c where the build has AVX-512 (eight pairs
-    !> gathered, computed and scattered in registers: the force pass about a tenth cheaper than
-    !> `kernel`), else `kernel`.
+    !> gathered, computed and scattered in registers: Pair 0.85 of `kernel`'s on the LJ bench
+    !> scene, doc/performance.md), else `kernel`.
     subroutine lj_compute(self, atoms, list, want_energy, energy, virial)
         class(lj_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
@@ -904,10 +904,10 @@ contains
     end subroutine separations
 
     !> Ray pass, one type: per atom a gather of each pair's |d|^2, d.w and |w|^2 (separation d,
-    !> relative velocity w at s: ray_rows, four neighbours at a time), then one branch-free vectorised pass that computes the four
-    !> per-pair terms (the cutoff is a mask: 1/rsq of an "infinite" separation) and adds them into
-    !> eight lanes per term as it goes (storing four rows and summing them in a second pass made the
-    !> ray pass 25 % slower on the 32,000-atom liquid).
+    !> relative velocity w at s: ray_rows, eight or four neighbours at a time), then one branch-free
+    !> vectorised pass that computes the four per-pair terms (the cutoff is a mask: 1/rsq of an
+    !> "infinite" separation) and adds them into eight lanes per term as it goes (storing four rows
+    !> and summing them in a second pass made the ray pass 25 % slower on the 32,000-atom liquid).
     subroutine ray_one_type(nlocal, xv, first, neigh, lj1_, lj2_, lj3_, lj4_, cutsq_, offset_, inf, one_, zero_, &
                             rr, dw, ww, atom_sums, out)
         integer, intent(in) :: nlocal
@@ -1001,7 +1001,7 @@ contains
     !> the three scalars the pair terms need: rr = |d|^2, dw = d.w, ww = |w|^2 (contiguous stores).
     !> Forming them here rather than storing d and w (six rows, read again by the vectorised pass)
     !> made a ray evaluation about a fifth cheaper. The gather itself is src/potentials/lj_simd.c:
-    !> four neighbours at a time with AVX2, the same bits as the scalar loop.
+    !> eight neighbours at a time with AVX-512, four with AVX2, the same bits as the scalar loop.
     pure subroutine ray_rows(i, xv, nbrs, rr, dw, ww)
         integer, intent(in) :: i
         real(dp), intent(in) :: xv(6, *)

@@ -12,12 +12,14 @@
  * halves, two records per 32-byte register (the upper half inserted from memory), and one unpack
  * per component turns the four records into four-wide rows of x, y, z, vx, vy, vz (12 loads and 6
  * unpacks for 4 pairs); the differences and products then run four-wide, in the same order and with
- * the same fused multiply-adds as the scalar loop, so the results are the same bits. With AVX-512
- * eight at a time first (four records per 64-byte register, the same unpacks; the ray pass's Search
- * phase another 8-9 % cheaper than with four, phase_ab.sh on both liquids):
+ * the same fused multiply-adds as the scalar loop, so the results are the same bits:
  *   rr = fma(dz, dz, fma(dx, dx, dy*dy)), dw = fma(dz, wz, fma(dx, wx, dy*wy)),
  *   ww = fma(wz, wz, fma(wx, wx, wy*wy)).
- * Without AVX2 and FMA (a portable build), or for the last nn mod 4 pairs, the scalar loop. */
+ * With AVX-512 eight at a time first (four records per 64-byte register, the same unpacks; the ray
+ * pass's Search phase another 8-9 % cheaper than with four, phase_ab.sh on both liquids). Without
+ * AVX2 and FMA (a portable build), or for the last nn mod 4 pairs, the scalar loop.
+ *
+ * Below it, the fused one-type force pass (terrace_lj_one_type). */
 #include <math.h>
 #if defined(__AVX2__) && defined(__FMA__)
 #include <immintrin.h>

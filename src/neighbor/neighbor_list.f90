@@ -9,6 +9,7 @@
 !> the pair, so each pair is counted exactly once across ranks and periodic images.
 !> The list is valid until some atom has moved skin/2 since the build.
 module terrace_neighbor_list
+    use, intrinsic :: iso_c_binding, only: c_int, c_double
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
     use terrace_mpi_env, only: any_all
@@ -92,6 +93,19 @@ module terrace_neighbor_list
         procedure :: expiry => nl_expiry
         procedure :: moved_beyond => nl_moved_beyond
     end type neighbor_list_t
+
+    interface
+        !> src/neighbor/scan_simd.c: scan with AVX-512 (-1: not in this build)
+        integer(c_int) function c_scan_compress(xi, yi, zi, cx, cy, cz, cj, k1, k2, cutsq, above, out) &
+            bind(C, name='terrace_scan_compress')
+            import :: c_int, c_double
+            real(c_double), value :: xi, yi, zi, cutsq
+            real(c_double), intent(in) :: cx(*), cy(*), cz(*)
+            integer(c_int), intent(in) :: cj(*)
+            integer(c_int), value :: k1, k2, above
+            integer(c_int), intent(inout) :: out(*)
+        end function c_scan_compress
+    end interface
 
 contains
 
@@ -525,8 +539,9 @@ contains
     end subroutine owned_after
 
     !> Candidates k1..k2 of the shared rows within the cutoff of (xi, yi, zi) and, when above, also
-    !> above it in (z, y, x) order (ghosts of the rows at the same z): 0/1 flags in one vectorised
-    !> pass, then a branch-free compaction.
+    !> above it in (z, y, x) order (ghosts of the rows at the same z): with AVX-512 scan_simd.c's
+    !> masks and compressing stores, else 0/1 flags in one vectorised pass, then a branch-free
+    !> compaction.
     subroutine scan(xi, yi, zi, cx, cy, cz, cj, keep, k1, k2, cutsq, above, neigh, n)
         real(dp), intent(in) :: xi, yi, zi, cutsq
         real(dp), intent(in), contiguous :: cx(:), cy(:), cz(:)
@@ -538,6 +553,11 @@ contains
         integer, intent(inout) :: n
         integer :: k
         real(dp) :: dx, dy, dz
+        k = c_scan_compress(xi, yi, zi, cx, cy, cz, cj, k1, k2, cutsq, merge(1, 0, above), neigh(n + 1:))
+        if (k >= 0) then      ! (scan_simd.c did it: AVX-512)
+            n = n + k
+            return
+        end if
         if (above) then
             do k = k1, k2
                 dx = cx(k) - xi; dy = cy(k) - yi; dz = cz(k) - zi

@@ -925,10 +925,6 @@ contains
             if (cfg%precision /= 'mixed' .or. cfg%dimension /= 3) call stop_all(cfg%where('neighbor', 'list')// &
                 " = 'clusters': the cluster-pair list serves the mixed-precision kernel of 3-D runs only "// &
                 "(&potential precision = 'mixed', &run dimension = 3; otherwise allowed: 'auto', 'cells', 'all_pairs')")
-            ! (the cluster kernel puts its empty slots 1e4 length units away: the potential keeps such
-            ! cutoffs on the atom rows, which 'auto' does without a word and 'clusters' must not)
-            if (cfg%cutoff >= 1000) call stop_all(cfg%where('neighbor', 'list')//" = 'clusters': needs "// &
-                "&potential cutoff < 1000 (length units; allowed with this cutoff: 'auto', 'cells', 'all_pairs')")
         case default
             call stop_all(cfg%where('neighbor', 'list')//" = '"//trim(cfg%list)// &
                           "': unknown (allowed: 'auto', 'cells', 'all_pairs', 'clusters')")

@@ -35,6 +35,9 @@ module terrace_cluster_list
     !> The relative position of an empty slot on the j side (the i side uses -far_slot): empty
     !> slots are then beyond any cutoff from every atom and from each other.
     real(sp), parameter, public :: far_slot = -1.0e4_sp
+    !> The largest cutoff (length units, exclusive) the cluster list and kernel serve: a tenth of
+    !> |far_slot|, so that empty slots stay beyond the cutoff (larger cutoffs keep the atom list).
+    real(dp), parameter, public :: cluster_cutoff_limit = 1000
     !> The squared-distance addition of a lane that does not count.
     real(sp), parameter, public :: masked = 1.0e30_sp
 

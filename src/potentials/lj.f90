@@ -33,6 +33,7 @@ module terrace_lj
     use terrace_neighbor_list, only: neighbor_list_t, gather_neighbour_types
     use terrace_potential, only: potential_t, halo_ops_t
     use terrace_lj_cluster, only: cluster_forces
+    use terrace_cluster_list, only: cluster_cutoff_limit
     implicit none
     private
 
@@ -264,7 +265,7 @@ contains
     !> units and more keep the atom rows: the cluster kernel puts empty slots 10^4 away.)
     pure logical function lj_wants_clusters(self)
         class(lj_t), intent(in) :: self
-        lj_wants_clusters = self%mixed .and. self%cutmax > 0 .and. self%cutmax < 1000
+        lj_wants_clusters = self%mixed .and. self%cutmax > 0 .and. self%cutmax < cluster_cutoff_limit
     end function lj_wants_clusters
 
     !> Several types: the passes read the neighbours' types from the list (list%want_types).

@@ -5,6 +5,8 @@ module terrace_scene_plan
     use terrace_config, only: config_t
     use terrace_box, only: box_t
     use terrace_potential, only: potential_t
+    use terrace_cluster_list, only: cluster_cutoff_limit
+    use terrace_errors, only: stop_all
     implicit none
     private
 
@@ -105,6 +107,13 @@ contains
                                      'pruned from it when an atom has moved skin/8'
             self%cluster_pairs = (cfg%list == 'clusters' .or. cfg%list == 'auto') .and. pot%wants_clusters() .and. &
                                  cfg%dimension == 3 .and. .not. self%inner_list
+            ! an explicit 'clusters' the potential declines (config has checked precision and dimension; a
+            ! cutoff at or beyond the cluster list's limit is left) is refused, where 'auto' takes the atom list
+            if (cfg%list == 'clusters' .and. .not. self%cluster_pairs) then
+                write (s, '(i0)') nint(cluster_cutoff_limit)
+                call stop_all(cfg%where('neighbor', 'list')//" = 'clusters': needs &potential cutoff < "//trim(s)// &
+                              " (length units; allowed with this cutoff: 'auto', 'cells', 'all_pairs')")
+            end if
             if (self%cluster_pairs) then
                 write (s, '(a,g0.6,a,g0.6,a)') 'cluster-pair list (clusters of 4 atoms in columns, pairs of clusters '// &
                     'with an atom pair within cutoff ', pot%cutoff(), ' + skin ', cfg%skin, '), '//trim(rule)// &

@@ -111,6 +111,15 @@ module terrace_lj
             integer(c_int), intent(in) :: first(*), neigh(*)
             real(c_double), value :: lj1, lj2, lj3, lj4, cutsq, offset
         end function c_lj_one_type
+        !> src/potentials/lj_simd.c: the same pass for 2 to 8 types (0: not in this build, or more types)
+        integer(c_int) function c_lj_types(nlocal, x, f, first, neigh, type, ntype, ntypes, lj1, lj2, lj3, lj4, cutsq, &
+                                           offset, want_energy, atom_e, virial) bind(C, name='terrace_lj_types')
+            import :: c_int, c_double
+            integer(c_int), value :: nlocal, ntypes, want_energy
+            real(c_double), intent(in) :: x(*), lj1(*), lj2(*), lj3(*), lj4(*), cutsq(*), offset(*)
+            real(c_double), intent(inout) :: f(*), atom_e(*), virial
+            integer(c_int), intent(in) :: first(*), neigh(*), type(*), ntype(*)
+        end function c_lj_types
     end interface
 
 contains
@@ -311,7 +320,8 @@ contains
     !> also the energy and the virial W = sum r.F of the pairs this rank holds. One type in double
     !> precision: the fused AVX-512 kernel of lj_simd.c where the build has AVX-512 (eight pairs
     !> gathered, computed and scattered in registers: Pair 0.85 of `kernel`'s on the LJ bench
-    !> scene, doc/performance.md), else `kernel`.
+    !> scene, doc/performance.md), else `kernel`; the same fused pass for 2 to 8 types (style 'lj',
+    !> not smooth), each lane's coefficients permuted from its neighbour type (list%ntype).
     subroutine lj_compute(self, atoms, list, want_energy, energy, virial)
         class(lj_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
@@ -353,6 +363,14 @@ contains
             if (c_lj_one_type(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%lj1(1, 1), self%lj2(1, 1), &
                               self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1), &
                               merge(1, 0, want_energy), self%atom_sums(:, 1), virial) /= 0) then
+                if (want_energy) energy = compensated_total(self%atom_sums(:, 1), atoms%nlocal)
+                return
+            end if
+        end if
+        if (self%ntypes > 1 .and. list%want_types .and. .not. self%smooth) then
+            if (c_lj_types(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, atoms%type, list%ntype, self%ntypes, &
+                           self%lj1, self%lj2, self%lj3, self%lj4, self%cutsq, self%offset, merge(1, 0, want_energy), &
+                           self%atom_sums(:, 1), virial) /= 0) then
                 if (want_energy) energy = compensated_total(self%atom_sums(:, 1), atoms%nlocal)
                 return
             end if

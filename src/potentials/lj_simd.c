@@ -19,7 +19,8 @@
  * pass's Search phase another 8-9 % cheaper than with four, phase_ab.sh on both liquids). Without
  * AVX2 and FMA (a portable build), or for the last nn mod 4 pairs, the scalar loop.
  *
- * Below it, the fused one-type force pass (terrace_lj_one_type). */
+ * Below it, the fused force pass: one type (terrace_lj_one_type) and 2 to 8 types (terrace_lj_types,
+ * each lane's coefficients by a register permute from its type). */
 #include <math.h>
 #if defined(__AVX2__) && defined(__FMA__)
 #include <immintrin.h>
@@ -121,26 +122,55 @@ void terrace_ray_rows(int i, const double *xv, const int *nbrs, int nn, double *
  * leaves the registers but the forces. With want_energy the pair energies are summed per atom into
  * atom_e[i] and the virial into *virial. Returns 0 (nothing done: the caller's Fortran kernel runs)
  * where this build has no AVX-512 (AVX512F, AVX512VL) and FMA. */
-int terrace_lj_one_type(int nlocal, const double *x, double *f, const int *first, const int *neigh, double lj1,
-                        double lj2, double lj3, double lj4, double cutsq, double offset, int want_energy,
-                        double *atom_e, double *virial)
-{
 #if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
-    const __m512d c1 = _mm512_set1_pd(lj1), c2 = _mm512_set1_pd(lj2), c3 = _mm512_set1_pd(lj3);
-    const __m512d c4 = _mm512_set1_pd(lj4), cs = _mm512_set1_pd(cutsq), co = _mm512_set1_pd(offset);
+/* The pass for one type (multi = 0: the coefficients lj1[0] ... broadcast) or for up to eight types
+ * (multi = 1: the coefficient tables, ntypes x ntypes and column-major as terrace_lj holds them; per
+ * atom i its type's column in a register, per block the neighbours' types from ntype (the list's row
+ * of neighbour types) and each lane's coefficients by a register permute, vpermpd, not a gather).
+ * Inlined with a constant multi into the two entry points, so the one-type pass has no type work. */
+static inline __attribute__((always_inline)) void lj_pass(const int multi, int nlocal, const double *x, double *f,
+                                                          const int *first, const int *neigh, const int *type,
+                                                          const int *ntype, int ntypes, const double *lj1,
+                                                          const double *lj2, const double *lj3, const double *lj4,
+                                                          const double *cutsq, const double *offset, int want_energy,
+                                                          double *atom_e, double *virial)
+{
+    __m512d c1 = _mm512_set1_pd(lj1[0]), c2 = _mm512_set1_pd(lj2[0]), c3 = _mm512_set1_pd(lj3[0]);
+    __m512d c4 = _mm512_set1_pd(lj4[0]), cs = _mm512_set1_pd(cutsq[0]), co = _mm512_set1_pd(offset[0]);
     const __m512d one = _mm512_set1_pd(1.0), inf = _mm512_set1_pd(INFINITY), zero = _mm512_setzero_pd();
     const __m512d far = _mm512_set1_pd(1.0e100);
+    const __mmask8 tmask = (__mmask8)((1u << ntypes) - 1u);
+    __m512d t1 = zero, t2 = zero, t3 = zero, t4 = zero, ts = zero, to = zero;
     __m512d wsum = zero;
     for (int i = 0; i < nlocal; i++) {
         const int k0 = first[i] - 1, nn = first[i + 1] - first[i];
         const double *a = x + 3 * (long)i;
         const __m512d xi = _mm512_set1_pd(a[0]), yi = _mm512_set1_pd(a[1]), zi = _mm512_set1_pd(a[2]);
+        if (multi) {      /* column type(i) of each table */
+            const long col = (long)(type[i] - 1) * ntypes;
+            t1 = _mm512_maskz_loadu_pd(tmask, lj1 + col); t2 = _mm512_maskz_loadu_pd(tmask, lj2 + col);
+            ts = _mm512_maskz_loadu_pd(tmask, cutsq + col);
+            if (want_energy) {
+                t3 = _mm512_maskz_loadu_pd(tmask, lj3 + col); t4 = _mm512_maskz_loadu_pd(tmask, lj4 + col);
+                to = _mm512_maskz_loadu_pd(tmask, offset + col);
+            }
+        }
         __m512d sx = zero, sy = zero, sz = zero, se = zero;
         for (int k = 0; k < nn; k += 8) {
             const int cnt = nn - k < 8 ? nn - k : 8;
             const __mmask8 live = (__mmask8)((1u << cnt) - 1u);
             __m256i jj = _mm256_maskz_loadu_epi32(live, neigh + k0 + k);
             __m256i idx = _mm256_mullo_epi32(_mm256_sub_epi32(jj, _mm256_set1_epi32(1)), _mm256_set1_epi32(3));
+            if (multi) {  /* each lane's coefficients (padding lanes: any, they lie 1e100 away) */
+                const __m512i tj = _mm512_cvtepi32_epi64(
+                    _mm256_sub_epi32(_mm256_maskz_loadu_epi32(live, ntype + k0 + k), _mm256_set1_epi32(1)));
+                c1 = _mm512_permutexvar_pd(tj, t1); c2 = _mm512_permutexvar_pd(tj, t2);
+                cs = _mm512_permutexvar_pd(tj, ts);
+                if (want_energy) {
+                    c3 = _mm512_permutexvar_pd(tj, t3); c4 = _mm512_permutexvar_pd(tj, t4);
+                    co = _mm512_permutexvar_pd(tj, to);
+                }
+            }
             __m512d dx = _mm512_sub_pd(xi, _mm512_mask_i32gather_pd(far, live, idx, x, 8));
             __m512d dy = _mm512_sub_pd(yi, _mm512_mask_i32gather_pd(far, live, idx, x + 1, 8));
             __m512d dz = _mm512_sub_pd(zi, _mm512_mask_i32gather_pd(far, live, idx, x + 2, 8));
@@ -170,10 +200,41 @@ int terrace_lj_one_type(int nlocal, const double *x, double *f, const int *first
         if (want_energy) atom_e[i] = _mm512_reduce_add_pd(se);
     }
     if (want_energy) *virial += _mm512_reduce_add_pd(wsum);
+}
+#endif
+
+int terrace_lj_one_type(int nlocal, const double *x, double *f, const int *first, const int *neigh, double lj1,
+                        double lj2, double lj3, double lj4, double cutsq, double offset, int want_energy,
+                        double *atom_e, double *virial)
+{
+#if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
+    lj_pass(0, nlocal, x, f, first, neigh, 0, 0, 1, &lj1, &lj2, &lj3, &lj4, &cutsq, &offset, want_energy, atom_e,
+            virial);
     return 1;
 #else
     (void)nlocal; (void)x; (void)f; (void)first; (void)neigh; (void)lj1; (void)lj2; (void)lj3; (void)lj4;
     (void)cutsq; (void)offset; (void)want_energy; (void)atom_e; (void)virial;
+    return 0;
+#endif
+}
+
+/* The same pass for 2 to 8 atom types (style 'lj', not smooth): type(nlocal) the owned atoms' types,
+ * ntype the list's neighbour types (list%ntype: eight valid entries past the last row), the six
+ * coefficient tables ntypes x ntypes, column-major. Returns 0 (nothing done: the Fortran kernel runs)
+ * where this build has no AVX-512 or ntypes is outside 2..8. */
+int terrace_lj_types(int nlocal, const double *x, double *f, const int *first, const int *neigh, const int *type,
+                     const int *ntype, int ntypes, const double *lj1, const double *lj2, const double *lj3,
+                     const double *lj4, const double *cutsq, const double *offset, int want_energy, double *atom_e,
+                     double *virial)
+{
+#if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
+    if (ntypes < 2 || ntypes > 8) return 0;
+    lj_pass(1, nlocal, x, f, first, neigh, type, ntype, ntypes, lj1, lj2, lj3, lj4, cutsq, offset, want_energy, atom_e,
+            virial);
+    return 1;
+#else
+    (void)nlocal; (void)x; (void)f; (void)first; (void)neigh; (void)type; (void)ntype; (void)ntypes; (void)lj1;
+    (void)lj2; (void)lj3; (void)lj4; (void)cutsq; (void)offset; (void)want_energy; (void)atom_e; (void)virial;
     return 0;
 #endif
 }

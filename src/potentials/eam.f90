@@ -43,7 +43,7 @@
 !>   are added with a compensated sum, in the force and in the ray pass: the energy-stepping
 !>   solver decides on V to a few tens of eps |V| (terrace_compensated_sum says why).
 module terrace_eam
-    use, intrinsic :: iso_c_binding, only: c_loc, c_intptr_t
+    use, intrinsic :: iso_c_binding, only: c_loc, c_intptr_t, c_int, c_double
     use terrace_kinds, only: dp
     use terrace_compensated_sum, only: comp_add
     use terrace_atoms, only: atoms_t
@@ -129,6 +129,20 @@ module terrace_eam
         procedure :: warning => eam_warning_global
         procedure :: warning_local => eam_warning
     end type eam_t
+
+    interface
+        !> src/potentials/eam_simd.c: gather_inside with AVX-512 (-1: not in this build)
+        integer(c_int) function c_gather_inside(xi, yi, zi, x, neigh, nn, cutsq, cj, pp) &
+            bind(C, name='terrace_eam_gather_inside')
+            import :: c_int, c_double
+            real(c_double), value :: xi, yi, zi, cutsq
+            real(c_double), intent(in) :: x(*)
+            integer(c_int), intent(in) :: neigh(*)
+            integer(c_int), value :: nn
+            integer(c_int), intent(inout) :: cj(*)
+            real(c_double), intent(inout) :: pp(*)
+        end function c_gather_inside
+    end interface
 
 contains
 
@@ -1143,6 +1157,8 @@ contains
     !> those inside the cutoff appended to cj(c + nin + 1 :) and their squared distances to
     !> pp(nin + 1 :), nin counting them; one scalar pass without branches (the list holds the skin
     !> shell too: a branch there is mispredicted about half the time).
+    !> With AVX-512 the gather is eam_simd.c's (eight partners gathered, tested and compacted at a
+    !> time; the same pairs, distances and order).
     subroutine gather_inside(xi, yi, zi, x, neigh, k0, nn, cutsq, cj, c, pp, nin)
         real(dp), intent(in) :: xi, yi, zi, cutsq
         real(dp), intent(in) :: x(3, *)
@@ -1153,6 +1169,13 @@ contains
         integer, intent(inout) :: nin
         integer :: k, j
         real(dp) :: ddx, ddy, ddz, rsq
+        if (nn > 0) then
+            k = c_gather_inside(xi, yi, zi, x, neigh(k0 + 1:), nn, cutsq, cj(c + nin + 1:), pp(nin + 1:))
+            if (k >= 0) then
+                nin = nin + k
+                return
+            end if
+        end if
         !GCC$ novector
         do k = 1, nn
             j = neigh(k0 + k)

@@ -111,7 +111,7 @@ void terrace_ray_rows(int i, const double *xv, const int *nbrs, int nn, double *
 }
 
 
-/* The one-type Lennard-Jones force pass over the half list, fused, with AVX-512: for each owned
+/* The Lennard-Jones force pass over the half list, fused, with AVX-512: for each owned
  * atom i (0-based here; first and neigh 1-based, as the Fortran list has them) eight neighbours at a
  * time: their positions gathered by index (vgatherdpd, the padding lanes of a row's last block
  * masked off and placed 1e100 away), the pair terms computed in the vector as terrace_lj's lj_terms
@@ -120,14 +120,16 @@ void terrace_ray_rows(int i, const double *xv, const int *nbrs, int nn, double *
  * the lanes never collide). The Fortran kernel stores the separations and the pair forces in rows
  * and reads them again (a scalar gather, the vectorised pair loop, a scalar scatter); here nothing
  * leaves the registers but the forces. With want_energy the pair energies are summed per atom into
- * atom_e[i] and the virial into *virial. Returns 0 (nothing done: the caller's Fortran kernel runs)
- * where this build has no AVX-512 (AVX512F, AVX512VL) and FMA. */
-#if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
-/* The pass for one type (multi = 0: the coefficients lj1[0] ... broadcast) or for up to eight types
- * (multi = 1: the coefficient tables, ntypes x ntypes and column-major as terrace_lj holds them; per
+ * atom_e[i] and the virial into *virial. The entry points (terrace_lj_one_type, terrace_lj_types,
+ * at the end) return 0 (nothing done: the caller's Fortran kernel runs) where this build has no
+ * AVX-512 (AVX512F, AVX512VL) and FMA.
+ *
+ * lj_pass: the pass for one type (multi = 0: the coefficients lj1[0] ... broadcast) or for up to
+ * eight types (multi = 1: the coefficient tables, ntypes x ntypes and column-major as terrace_lj holds them; per
  * atom i its type's column in a register, per block the neighbours' types from ntype (the list's row
  * of neighbour types) and each lane's coefficients by a register permute, vpermpd, not a gather).
  * Inlined with a constant multi into the two entry points, so the one-type pass has no type work. */
+#if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
 static inline __attribute__((always_inline)) void lj_pass(const int multi, int nlocal, const double *x, double *f,
                                                           const int *first, const int *neigh, const int *type,
                                                           const int *ntype, int ntypes, const double *lj1,

@@ -11,6 +11,7 @@
 !> (terrace_run_control); a restart continues with the step after the checkpoint's.
 module terrace_velocity_verlet
     use terrace_kinds, only: dp, i8
+    use terrace_vec3, only: add_scaled
     use terrace_engine, only: engine_t
     use terrace_schedule, only: schedule_t
     use terrace_thermo, only: thermo_writer_t
@@ -202,6 +203,11 @@ contains
         real(dp), intent(in) :: f(3, n), dtfm(:), dt
         logical, intent(in) :: drift
         integer :: i
+        if (size(dtfm) == 1) then     ! one type: flat loops over 3n values (the same bits)
+            call add_scaled(3*n, dtfm(1), f, v)
+            if (drift) call add_scaled(3*n, dt, v, x)
+            return
+        end if
         if (drift) then
             do i = 1, n
                 v(:, i) = v(:, i) + dtfm(type(i))*f(:, i)

@@ -328,6 +328,7 @@ contains
         type(neighbor_list_t), intent(in) :: list
         logical, intent(in) :: want_energy
         real(dp), intent(out) :: energy, virial
+        integer :: fused
         energy = 0; virial = 0
         if (self%mixed .and. list%want_clusters) then
             associate (ncl => list%clusters%ncl)
@@ -359,21 +360,21 @@ contains
             return
         end if
         call reserve_work(self, list, atoms%nlocal)
+        ! the fused pass (lj_simd.c; 0: not in this build, or nine and more types): per-atom energies
+        ! into atom_sums, summed as kernel's
+        fused = 0
         if (self%ntypes == 1 .and. .not. self%smooth) then
-            if (c_lj_one_type(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%lj1(1, 1), self%lj2(1, 1), &
-                              self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1), &
-                              merge(1, 0, want_energy), self%atom_sums(:, 1), virial) /= 0) then
-                if (want_energy) energy = compensated_total(self%atom_sums(:, 1), atoms%nlocal)
-                return
-            end if
+            fused = c_lj_one_type(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, self%lj1(1, 1), self%lj2(1, 1), &
+                                  self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1), &
+                                  merge(1, 0, want_energy), self%atom_sums(:, 1), virial)
+        else if (self%ntypes > 1 .and. list%want_types .and. .not. self%smooth) then
+            fused = c_lj_types(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, atoms%type, list%ntype, self%ntypes, &
+                               self%lj1, self%lj2, self%lj3, self%lj4, self%cutsq, self%offset, merge(1, 0, want_energy), &
+                               self%atom_sums(:, 1), virial)
         end if
-        if (self%ntypes > 1 .and. list%want_types .and. .not. self%smooth) then
-            if (c_lj_types(atoms%nlocal, atoms%x, atoms%f, list%first, list%neigh, atoms%type, list%ntype, self%ntypes, &
-                           self%lj1, self%lj2, self%lj3, self%lj4, self%cutsq, self%offset, merge(1, 0, want_energy), &
-                           self%atom_sums(:, 1), virial) /= 0) then
-                if (want_energy) energy = compensated_total(self%atom_sums(:, 1), atoms%nlocal)
-                return
-            end if
+        if (fused /= 0) then
+            if (want_energy) energy = compensated_total(self%atom_sums(:, 1), atoms%nlocal)
+            return
         end if
         if (self%ntypes > 1 .and. list%want_types) then
             call kernel(self, atoms%nlocal, atoms%x, atoms%f, atoms%type, list%first, list%neigh, list%ntype, want_energy, &

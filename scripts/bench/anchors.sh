@@ -7,9 +7,13 @@
 #          atom list (list = 'cells') as terrace_mixed_cells; the cluster kernel with skin 0.5 (its best
 #          on the exact schedule, scripts/bench/cluster_kernel.sh) as terrace_mixed_s05; and with
 #          &neighbor every = 20, check = .false., the anchors' own list schedule, as terrace_every20
-#          (double) and terrace_mixed_every20 (mixed, clusters)), LAMMPS plain and with -sf opt, GROMACS mixed (gmx mdrun) and
-#          double (gmx_d mdrun) on the same lattice in argon units (sigma 0.3405 nm, eps/k_B 119.8 K,
-#          m 39.948 u: rc 0.85125 nm, rlist 0.9534 nm, dt 0.010782 ps, velocities at 172.5 K).
+#          (double) and terrace_mixed_every20 (mixed, clusters); and the mixed kernel over clusters every
+#          20 steps with the skin from &neighbor buffer_tolerance = GROMACS's default drift tolerance,
+#          0.005 kJ/mol/ps per atom in LJ units, as terrace_mixed_tol), LAMMPS plain and with -sf opt,
+#          GROMACS mixed (gmx mdrun) and double (gmx_d mdrun) on the same lattice in argon units (sigma
+#          0.3405 nm, eps/k_B 119.8 K, m 39.948 u: rc 0.85125 nm, rlist 0.9534 nm, dt 0.010782 ps,
+#          velocities at 172.5 K), and GROMACS mixed with its own buffer at its default tolerance
+#          (verlet-buffer-tolerance = 0.005, nstlist 20; gromacs_mix_tol: the pair of terrace_mixed_tol).
 #   eam    LAMMPS's in.eam scene (scripts/bench/in.eam_bench, Cu_u3.eam, 32,000 atoms, 1600 K, skin
 #          1 A): Terrace against LAMMPS plain and -sf opt.
 #   types  EAM cost per pair of the multi-type paths against the one-type path: fcc Cu with Cu_u3.eam
@@ -141,10 +145,12 @@ launch() {
         terrace_mixed_cells) run terrace_mixed_cells terrace terrace_mixed_cells.out ./terrace lj_mixed_cells.nml ;;
         terrace_mixed_s05) run terrace_mixed_s05 terrace terrace_mixed_s05.out ./terrace lj_mixed_s05.nml ;;
         terrace_mixed_every20) run terrace_mixed_every20 terrace terrace_mixed_every20.out ./terrace lj_mixed_every20.nml ;;
+        terrace_mixed_tol) run terrace_mixed_tol terrace terrace_mixed_tol.out ./terrace lj_mixed_tol.nml ;;
         lammps)         run lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$nlj" -in "$here/in.lj_bench" ;;
         lammps_opt)     run lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$nlj" -in "$here/in.lj_bench" ;;
         gromacs_mix)    run gromacs_mix gromacs md.log gmx "${gargs[@]}" -s gmx.tpr ;;
         gromacs_dbl)    run gromacs_dbl gromacs md.log gmx_d "${gargs[@]}" -s gmx_d.tpr ;;
+        gromacs_mix_tol) run gromacs_mix_tol gromacs md.log gmx "${gargs[@]}" -s gmx_tol.tpr ;;
         eam_terrace)    run eam_terrace terrace eam_terrace.out ./terrace eam.nml ;;
         eam_lammps)     run eam_lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$neam" -var potdir "$pot" -in "$here/in.eam_bench" ;;
         eam_lammps_opt) run eam_lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$neam" -var potdir "$pot" -in "$here/in.eam_bench" ;;
@@ -210,10 +216,14 @@ if [[ "$parts" == *,lj,* ]]; then
     sed -E "s#skin=0.3 /#skin=0.3, list='cells' /#" lj_mixed.nml > lj_mixed_cells.nml
     sed -E "s#skin=0.3 /#skin=0.5 /#" lj_mixed.nml > lj_mixed_s05.nml
     sed -E "s#skin=0.3 /#skin=0.3, every=20, check=.false. /#" lj_mixed.nml > lj_mixed_every20.nml
-    for f in lj_mixed_cells lj_mixed_s05 lj_mixed_every20; do
+    # GROMACS's default drift tolerance, 0.005 kJ/mol/ps per atom, in eps/tau for argon (eps/k_B 119.8 K,
+    # sigma 0.3405 nm, m 39.948 u: tau = sigma sqrt(m/eps) ps)
+    tol_lj="$(python3 -c "kb=0.00831446261815324; e=119.8*kb; print('%.6g' % (0.005*0.3405*(39.948/e)**0.5/e))")"
+    sed -E "s#skin=0.3 /#every=20, buffer_tolerance=$tol_lj /#" lj_mixed.nml > lj_mixed_tol.nml
+    for f in lj_mixed_cells lj_mixed_s05 lj_mixed_every20 lj_mixed_tol; do
         cmp -s $f.nml lj_mixed.nml && { echo "anchors: could not edit the &neighbor line for $f.nml" >&2; exit 1; }
     done
-    labels=(terrace terrace_mixed terrace_every20 terrace_mixed_cells terrace_mixed_s05 terrace_mixed_every20)
+    labels=(terrace terrace_mixed terrace_every20 terrace_mixed_cells terrace_mixed_s05 terrace_mixed_every20 terrace_mixed_tol)
     have lmp && labels+=(lammps lammps_opt)
     gro=0; have gmx && gro=1; have gmx_d && gro=1
     if [[ $gro == 1 ]]; then
@@ -254,6 +264,11 @@ mdp = dict(integrator='md', dt='%.7f' % (0.005 * tau), nsteps=nsteps, **{
 with open('lj.mdp', 'w') as m:
     for k, v in mdp.items():
         m.write('%-24s = %s\n' % (k, v))
+mdp['verlet-buffer-tolerance'] = 0.005        # GROMACS's default: its own buffer for nstlist 20
+del mdp['rlist']
+with open('lj_tol.mdp', 'w') as m:
+    for k, v in mdp.items():
+        m.write('%-24s = %s\n' % (k, v))
 PY
         for g in gmx gmx_d; do
             have $g || continue
@@ -261,6 +276,11 @@ PY
                 || { echo "anchors: $g grompp failed:" >&2; tail -30 $g.grompp.log >&2; exit 1; }
             if [[ $g == gmx ]]; then labels+=(gromacs_mix); else labels+=(gromacs_dbl); fi
         done
+        if have gmx; then
+            gmx grompp -f lj_tol.mdp -c lj.gro -p lj.top -o gmx_tol.tpr -po gmx_tol.mdout.mdp -maxwarn 10 > gmx_tol.grompp.log 2>&1 \
+                || { echo "anchors: gmx grompp (lj_tol.mdp) failed:" >&2; tail -30 gmx_tol.grompp.log >&2; exit 1; }
+            labels+=(gromacs_mix_tol)
+        fi
         glog=$(ls gmx*.grompp.log | head -1)
         if grep -q -E '^(WARNING|NOTE)' "$glog"; then
             echo "grompp notes and warnings (the LJ scene in GROMACS; -maxwarn 10):"
@@ -285,8 +305,21 @@ PY
         echo "The same against Terrace's mixed kernel over clusters, $v:"
         summary 32000 "$nlj" $v "${labels[@]}" | sed -n '/^ratios anchor/,$p'
     done
+    echo "Each code's own buffer at GROMACS's default drift tolerance (0.005 kJ/mol/ps per atom = $tol_lj eps/tau),"
+    echo "every 20 steps: Terrace's mixed kernel over clusters (terrace_mixed_tol) against the anchors:"
+    summary 32000 "$nlj" terrace_mixed_tol "${labels[@]}" | sed -n '/^ratios anchor/,$p'
+    echo "  skins: Terrace $(sed -n 's/^ *pairs *: .* + skin \([0-9.eE+-]*\)[,)].*/\1/p' terrace_mixed_tol.out | head -1) sigma;" \
+         "$( [[ -f gromacs_mix_tol.best.log ]] && grep -m1 -E 'updated every .* steps, buffer' gromacs_mix_tol.best.log | sed 's/^ *//; s/^/GROMACS /')"
+    echo "  measured energy drift per atom (eps/tau; GROMACS's 'Conserved energy drift' converted with eps and tau):"
+    echo "    terrace_mixed (exact list)  $(sed -n 's/^Energy drift: *\([0-9.eE+-]*\) .*/\1/p' terrace_mixed.out)"
+    echo "    terrace_mixed_tol           $(sed -n 's/^Energy drift: *\([0-9.eE+-]*\) .*/\1/p' terrace_mixed_tol.out)"
+    for l in gromacs_mix gromacs_mix_tol; do
+        [[ -f $l.best.log ]] || continue
+        d="$(sed -n 's/^ *Conserved energy drift: *\([0-9.eE+-]*\) kJ\/mol\/ps per atom.*/\1/p' $l.best.log | tail -1)"
+        [[ -n "$d" ]] && echo "    $(printf '%-27s' $l) $(python3 -c "print('%.4E' % ($d * float('$tol_lj') / 0.005))")"
+    done
     echo "Terrace's mixed variants, phases (best runs):"
-    for v in terrace_mixed_cells terrace_mixed_s05 terrace_mixed_every20; do
+    for v in terrace_mixed_cells terrace_mixed_s05 terrace_mixed_every20 terrace_mixed_tol; do
         echo "  $v:"
         sed -n '/^Phase /,/^Neighbour list builds/p' $v.best.log | sed 's/^/    /'
     done
@@ -310,7 +343,8 @@ print('Where the time goes (best run of each; pairs = %s atom pairs within rc + 
       % ('%.4g' % pairs if pairs else '?'))
 print('  %-14s %10s %12s %10s %12s %14s' % ('code', 'force s', 'ns/pair', 'builds', 'ms/build', 'ns/atom-build'))
 rows = []
-for l in ('terrace', 'terrace_mixed', 'terrace_every20', 'terrace_mixed_cells', 'terrace_mixed_s05', 'terrace_mixed_every20'):
+for l in ('terrace', 'terrace_mixed', 'terrace_every20', 'terrace_mixed_cells', 'terrace_mixed_s05', 'terrace_mixed_every20',
+          'terrace_mixed_tol'):
     ter = read(l + '.best.log')
     if ter:
         rows.append((l, num(r'^Pair\s+([0-9.eE+-]+)', ter), num(r'^Neigh\s+([0-9.eE+-]+)', ter),
@@ -320,7 +354,7 @@ for l in ('lammps', 'lammps_opt'):
     if t:
         rows.append((l, num(r'^Pair\s+\|\s*[0-9.eE+-]+\s*\|\s*([0-9.eE+-]+)', t),
                      num(r'^Neigh\s+\|\s*[0-9.eE+-]+\s*\|\s*([0-9.eE+-]+)', t), num(r'^Neighbor list builds = (\d+)', t)))
-for l in ('gromacs_mix', 'gromacs_dbl'):
+for l in ('gromacs_mix', 'gromacs_dbl', 'gromacs_mix_tol'):
     t = read(l + '.best.log')
     if t:
         ns = re.findall(r'^ Neighbor search\s+\d+\s+\d+\s+(\d+)\s+([0-9.]+)', t, re.M)
@@ -336,7 +370,7 @@ for l, fp, nb, b in rows:
     b = max(b or 0, 1)
     print('  %-14s %10.3f %12.3f %10d %12.2f %14.1f' % (l, fp, per_pair, b, 1e3 * nb / b, 1e9 * nb / b / natoms))
 PY
-    for l in gromacs_mix gromacs_dbl; do
+    for l in gromacs_mix gromacs_dbl gromacs_mix_tol; do
         [[ -f $l.best.log ]] && echo "  $l: $(grep -m1 -E 'Using .*nonbonded short-range kernels' $l.best.log), $(grep -m1 -E 'updated every .* steps, buffer' $l.best.log | sed 's/^ *//')"
     done
     echo

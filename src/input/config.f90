@@ -6,7 +6,7 @@
 !>               box_hi), periodic, mass, temperature
 !>   &potential  style, epsilon, sigma, cutoff, pair_cutoff, shift, precision
 !>   &integrator style, dt
-!>   &neighbor   skin, list, every, check
+!>   &neighbor   skin, list, every, check, buffer_tolerance
 !>   &output     thermo_every, thermo_interval, thermo_file, forces_file
 !>   &thermostat style, temperature, temperature_end, damping, chain_length, seed, zero_momentum, interval
 !> Every key is read on its own, so that an error names file, line, group and key.
@@ -83,6 +83,9 @@ module terrace_config
         character(len=16) :: list = 'auto'
         integer :: list_every = 1                   !< steps between list checks (check) or rebuilds (no check)
         logical :: list_check = .true.              !< rebuild only when an atom has moved skin/2
+        real(dp) :: buffer_tolerance = -1.0_dp      !< > 0: skin from this energy drift per atom per time
+        real(dp) :: buffer_drift = -1.0_dp          !< (set with the scene) the skin's estimated drift
+        real(dp) :: buffer_temperature = -1.0_dp    !< (set with the scene) the estimate's temperature
         ! &output
         integer(i8) :: thermo_every = -1
         real(dp) :: thermo_interval = -1.0_dp
@@ -530,22 +533,47 @@ contains
         cfg%terrace_height = terrace_height; cfg%target_mean_dt = target_mean_dt; cfg%root_tolerance = root_tolerance
     end subroutine read_integrator
 
+    !> &neighbor buffer_tolerance: the skin from an energy-drift estimate (terrace_verlet_buffer)
+    !> for a list rebuilt every `every` steps (default 10) without a check; velocity Verlet, 3-D,
+    !> Lennard-Jones pair potentials. skin and check = .true. are refused with it.
+    subroutine check_buffer_tolerance(cfg)
+        type(config_t), intent(inout) :: cfg
+        character(len=:), allocatable :: at
+        at = cfg%where('neighbor', 'buffer_tolerance')
+        if (.not. (cfg%buffer_tolerance > 0)) call stop_all(at//': must be > 0 (an energy drift per atom per unit '// &
+            'time, '//trim(cfg%units%energy)//' per '//trim(cfg%units%time)//'; GROMACS''s default is 0.005 kJ/mol/ps)')
+        if (cfg%nml%find('neighbor', 'skin') > 0) call stop_all(at//': give skin or buffer_tolerance, not both '// &
+            '(buffer_tolerance sets the skin)')
+        if (cfg%nml%find('neighbor', 'check') > 0 .and. cfg%list_check) call stop_all(at//': the list is rebuilt '// &
+            'every `every` steps without a check (allowed with buffer_tolerance: check = .false.; for the exact list, '// &
+            'give skin instead)')
+        if (cfg%integrator /= 'velocity_verlet') call stop_all(at//': serves velocity Verlet (a list rebuilt every '// &
+            '`every` steps of dt); energy stepping needs the exact list (give skin)')
+        if (cfg%dimension /= 3) call stop_all(at//': the estimate is for 3-D runs (allowed with dimension = 2: skin)')
+        if (cfg%potential /= 'lj' .and. cfg%potential /= 'lj/smooth/linear') call stop_all(at//": the estimate "// &
+            "covers the Lennard-Jones pair potentials (&potential style = 'lj', 'lj/smooth/linear'); with '"// &
+            trim(cfg%potential)//"' give skin")
+        cfg%list_check = .false.
+        if (cfg%nml%find('neighbor', 'every') == 0) cfg%list_every = 10
+    end subroutine check_buffer_tolerance
+
     subroutine read_neighbor(cfg)
         type(config_t), intent(inout) :: cfg
-        real(dp) :: skin
+        real(dp) :: skin, buffer_tolerance
         character(len=16) :: list
         integer :: every
         logical :: check
-        namelist /neighbor/ skin, list, every, check
-        character(len=*), parameter :: keys(4) = [character(len=40) :: 'skin:a real number', 'list:a quoted string', &
-                                                  'every:an integer', 'check:a logical']
+        namelist /neighbor/ skin, list, every, check, buffer_tolerance
+        character(len=*), parameter :: keys(5) = [character(len=40) :: 'skin:a real number', 'list:a quoted string', &
+                                                  'every:an integer', 'check:a logical', 'buffer_tolerance:a real number']
         type(item_reader_t) :: it
-        skin = -1; list = 'auto'; every = 1; check = .true.
+        skin = -1; list = 'auto'; every = 1; check = .true.; buffer_tolerance = -1
         do while (it%next(cfg, 'neighbor', keys))
             read (it%buf, nml=neighbor, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
         end do
         cfg%skin = skin; cfg%list = lower(list); cfg%list_every = every; cfg%list_check = check
+        cfg%buffer_tolerance = buffer_tolerance
     end subroutine read_neighbor
 
     subroutine read_output(cfg)
@@ -902,6 +930,7 @@ contains
         end if
         if (cfg%nml%find('neighbor', 'skin') > 0 .and. cfg%skin < 0) &
             call stop_all(cfg%where('neighbor', 'skin')//': must be >= 0 (a length in '//trim(cfg%units%length)//')')
+        if (cfg%nml%find('neighbor', 'buffer_tolerance') > 0) call check_buffer_tolerance(cfg)
         if (cfg%skin < 0) cfg%skin = merge(0.3_dp, 2.0_dp, cfg%units%name == 'lj')
         if (cfg%list_every < 1) call stop_all(cfg%where('neighbor', 'every')// &
                                               ': must be >= 1 (steps between list checks, or rebuilds with check = .false.)')

@@ -140,6 +140,7 @@ contains
         call values%put('trajectory_frames', traj_frames)
         call values%put('output_part', self%output_part)
         call values%put('seed', eng%cfg%seed)
+        call values%put('list_skin', eng%cfg%skin)      ! (&neighbor buffer_tolerance: the restart's skin)
         do d = 1, 3
             write (tag, '(i0)') d
             call values%put('box_lo_'//trim(tag), eng%box%lo(d))

@@ -82,6 +82,7 @@ module terrace_lj
         procedure :: wants_clusters => lj_wants_clusters
         procedure :: contact_distance => lj_contact_distance
         procedure :: time_scale => lj_time_scale
+        procedure :: cutoff_derivatives => lj_cutoff_derivatives
         procedure :: compute => lj_compute
         procedure :: compute_all_pairs => lj_compute_all_pairs
         procedure :: pair_energy => lj_pair_energy
@@ -289,6 +290,23 @@ contains
         integer, intent(in) :: ti, tj
         lj_contact_distance = (self%lj3(ti, tj)/max(self%lj4(ti, tj), tiny(1.0_dp)))**(1.0_dp/6)
     end function lj_contact_distance
+
+    !> (rc, V'(rc), V''(rc), V'''(rc)) of the ti-tj pair: E_LJ's derivatives (the shift changes none;
+    !> lj/smooth/linear's V' is 0 at rc); rc = 0 without a cutoff.
+    pure function lj_cutoff_derivatives(self, ti, tj) result(d)
+        class(lj_t), intent(in) :: self
+        integer, intent(in) :: ti, tj
+        real(dp) :: d(4), r, a, b
+        r = self%rc(ti, tj)
+        d = 0
+        if (r <= 0) return
+        a = self%lj3(ti, tj); b = self%lj4(ti, tj)        ! E_LJ = a r^-12 - b r^-6
+        d(1) = r
+        d(2) = -12*a*r**(-13) + 6*b*r**(-7)
+        d(3) = 156*a*r**(-14) - 42*b*r**(-8)
+        d(4) = -2184*a*r**(-15) + 336*b*r**(-9)
+        if (self%smooth) d(2) = 0
+    end function lj_cutoff_derivatives
 
     !> tau = sigma sqrt(m mvv2e / eps) of type 1.
     pure real(dp) function lj_time_scale(self, mass, mvv2e)

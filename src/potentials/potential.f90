@@ -58,6 +58,10 @@ module terrace_potential
         procedure :: contact_distance => potential_contact_distance
         procedure :: time_scale => potential_time_scale
         procedure :: preferred_skin => potential_preferred_skin
+        !> (rc, V'(rc), V''(rc), V'''(rc)) of the pair term between types ti and tj (as the passes
+        !> compute it: shifted or smoothed), for the Verlet buffer estimate; rc = 0: the term is not
+        !> a pair potential with a cutoff (no estimate)
+        procedure :: cutoff_derivatives => potential_cutoff_derivatives
         procedure :: warning_flags => potential_warning_flags
         procedure :: warning => potential_warning
         procedure :: on_rebuild => potential_on_rebuild
@@ -164,6 +168,13 @@ contains
         class(potential_t), intent(in) :: self
         potential_preferred_skin = 0
     end function potential_preferred_skin
+
+    pure function potential_cutoff_derivatives(self, ti, tj) result(d)
+        class(potential_t), intent(in) :: self
+        integer, intent(in) :: ti, tj
+        real(dp) :: d(4)
+        d = 0
+    end function potential_cutoff_derivatives
 
     !> This rank's sticky warning conditions (the engine ORs them over ranks).
     pure function potential_warning_flags(self) result(flags)

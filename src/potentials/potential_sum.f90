@@ -31,6 +31,7 @@ module terrace_potential_sum
         procedure :: neighbour_type_order => sum_type_order
         procedure :: contact_distance => sum_contact_distance
         procedure :: time_scale => sum_time_scale
+        procedure :: cutoff_derivatives => sum_cutoff_derivatives
         procedure :: on_rebuild => sum_on_rebuild
         procedure :: preferred_skin => sum_preferred_skin
         procedure :: may_become_invalid => sum_may_become_invalid
@@ -154,6 +155,15 @@ contains
             sum_contact_distance = max(sum_contact_distance, self%terms(k)%p%contact_distance(ti, tj))
         end do
     end function sum_contact_distance
+
+    !> The one term's (rc, V', V'', V''') at the cutoff; several terms: none (rc = 0, no estimate).
+    pure function sum_cutoff_derivatives(self, ti, tj) result(d)
+        class(potential_sum_t), intent(in) :: self
+        integer, intent(in) :: ti, tj
+        real(dp) :: d(4)
+        d = 0
+        if (size(self%terms) == 1) d = self%terms(1)%p%cutoff_derivatives(ti, tj)
+    end function sum_cutoff_derivatives
 
     !> The shortest positive time scale of the terms (0 if none has one).
     pure real(dp) function sum_time_scale(self, mass, mvv2e)

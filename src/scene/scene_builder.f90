@@ -23,6 +23,7 @@ module terrace_scene_builder
     use terrace_checkpoint, only: ckpt_values_t, ckpt_data_t, read_checkpoint, deck_hash
     use terrace_h5md_reader, only: h5md_read_frame
     use terrace_gmsh_mesh, only: mesh_t, read_gmsh
+    use terrace_verlet_buffer, only: buffer_skin
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
     private
@@ -168,6 +169,7 @@ contains
 
         ! ---- potential range (and the skin a term asks for when the deck gives none)
         if (cfg%nml%find('neighbor', 'skin') == 0 .and. self%pot%preferred_skin() > 0) cfg%skin = self%pot%preferred_skin()
+        if (cfg%buffer_tolerance > 0) call size_buffer(self, cfg, table, ckpt, ntypes)
         self%cutmax = self%pot%cutoff()
         do d = 1, cfg%dimension
             if (.not. self%box%periodic(d)) cycle
@@ -213,6 +215,62 @@ contains
             self%restart_values = ckpt%values
         end if
     end subroutine build_scene
+
+    !> &neighbor buffer_tolerance: cfg%skin from the drift estimate (terrace_verlet_buffer) for the
+    !> scene's atom counts per type, masses, box volume and temperature (the largest of &system
+    !> temperature and the thermostat's targets; without any, the kinetic temperature of the velocities
+    !> read), and cfg%buffer_drift, cfg%buffer_temperature for the run log. A restart takes the skin
+    !> its checkpoint recorded (list_skin), so that it continues the same run.
+    subroutine size_buffer(self, cfg, table, ckpt, ntypes)
+        type(scene_t), intent(in) :: self
+        type(config_t), intent(inout) :: cfg
+        type(atom_table_t), intent(in) :: table
+        type(ckpt_data_t), intent(in) :: ckpt
+        integer, intent(in) :: ntypes
+        real(dp) :: count(ntypes), deriv(4, ntypes, ntypes), t_ref, ke, skin, drift
+        real(dp), allocatable :: basis(:, :)
+        integer :: a, b, i
+        logical :: ok
+        character(len=:), allocatable :: at
+        at = cfg%where('neighbor', 'buffer_tolerance')
+        do b = 1, ntypes
+            do a = 1, ntypes
+                deriv(:, a, b) = self%pot%cutoff_derivatives(a, b)
+                if (deriv(1, a, b) <= 0) call stop_all(at//': the potential has no cutoff for a pair of atom types '// &
+                    '(the estimate needs one for every pair; give skin)')
+            end do
+        end do
+        t_ref = max(cfg%temperature, cfg%thermostat_temperature, cfg%thermostat_temperature_end)
+        if (self%restarted) then
+            ok = .true.
+            cfg%skin = ckpt%values%get_r('list_skin', ok)
+            if (.not. ok) call stop_all(at//': the checkpoint has no list_skin (it was not written by a run with '// &
+                                        'buffer_tolerance)')
+            cfg%buffer_temperature = t_ref
+            return
+        end if
+        count = 0
+        if (len_trim(cfg%lattice) > 0) then
+            call lattice_basis(cfg%lattice, basis)
+            count(1) = real(size(basis, 2), dp)*product(real(max(cfg%cells, 1), dp))
+        else
+            do i = 1, table%n
+                count(table%type(i)) = count(table%type(i)) + 1
+            end do
+            if (t_ref < 0) then        ! the velocities read: 3 N k_B T = sum m v^2
+                ke = 0
+                do i = 1, table%n
+                    ke = ke + self%atoms%mass(table%type(i))*sum(table%v(:, i)**2)
+                end do
+                t_ref = ke*cfg%units%mvv2e/(3*max(table%n, 1)*cfg%units%boltz)
+            end if
+        end if
+        if (.not. (t_ref > 0)) call stop_all(at//': no temperature to size the buffer for (no &system temperature, '// &
+            'no thermostat, and the velocities read are zero); give skin')
+        call buffer_skin(cfg%buffer_tolerance, cfg%list_every, cfg%dt, cfg%units%boltz*t_ref, cfg%units%mvv2e, count, &
+                         self%atoms%mass(1:ntypes), product(self%box%hi - self%box%lo), deriv, skin, drift)
+        cfg%skin = skin; cfg%buffer_drift = drift; cfg%buffer_temperature = t_ref
+    end subroutine size_buffer
 
     !> Read &system read_checkpoint (every rank), check that it belongs to this deck, and return
     !> the number of atom types, the box and the masses (in table). Collective.

@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# The Verlet buffer from an energy-drift tolerance (&neighbor buffer_tolerance, every = 20), on the
+# 2048-atom LJ liquid deck (fcc 8x8x8 melting at T* = 1.44, rc 2.5, energy shifted at rc so that
+# the total energy has no jumps), 4000 steps of NVE (20 tau):
+#   1. the measured drift (the run log's "Energy drift", per atom per tau) of the runs with
+#      tolerance 1e-2 and 1e-3 lies within each tolerance; the smaller tolerance has the larger skin;
+#   2. the same schedule without a buffer (skin = 0, every = 20) drifts at more than 10 times the
+#      smaller tolerance (the missed pairs the buffer is there for: the check above can fail), and
+#      the exact list (skin 0.3, the default schedule) within 1e-5;
+#   3. 4 ranks size the same skin (the estimate is over the whole system) and run the same 100 steps
+#      as 1 rank (1e-10); the scene plan states the tolerance, the estimate and the temperature.
+# Usage: tests/regression/verlet_buffer.sh TERRACE_BINARY OUTPUT_DIR
+set -euo pipefail
+[[ $# -eq 2 ]] || { echo "usage: $0 TERRACE_BINARY OUTPUT_DIR" >&2; exit 2; }
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
+terrace="$(realpath "$1")"; out="$2"
+PYTHON="${PYTHON:-/usr/bin/python3}"; [[ -x "$PYTHON" ]] || PYTHON=python3
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+rm -rf "$out"; mkdir -p "$out"; cd "$out"
+deck() {   # name steps neighbor-keys
+    sed -e "s|^&neighbor skin=0.3 /|\&neighbor $3 /|" -e "s|n_steps=100|n_steps=$2|" \
+        -e "s|cutoff=2.5 /|cutoff=2.5, shift=.true. /|" -e "s|thermo_file='thermo.csv'|thermo_file='$1.csv'|" \
+        "$here/decks/liquid_2048.nml" > "$1.nml"
+    grep -q "^&neighbor $3 /" "$1.nml" && grep -q "shift=.true." "$1.nml" || { echo "FAIL: could not edit the deck for $1"; exit 1; }
+}
+run() {    # name np
+    if [[ $2 == 1 ]]; then timeout 300 "$terrace" "$1.nml" > "$1.log" 2>&1
+    else timeout 300 mpirun --oversubscribe -np "$2" "$terrace" "$1.nml" > "$1.log" 2>&1; fi || {
+        echo "FAIL: terrace failed on $1 ($2 ranks)"; tail -5 "$1.log"; exit 1; }
+}
+skin() { sed -n 's/^ *pairs *: .* + skin \([0-9.eE+-]*\)[,)].*/\1/p' "$1.log" | head -1; }
+drift() { sed -n 's/^Energy drift: *\([0-9.eE+-]*\) .*/\1/p' "$1.log"; }
+within() { "$PYTHON" -c "import sys; sys.exit(not abs(float('$1')) <= float('$2'))"; }
+
+deck tol2 4000 "every=20, buffer_tolerance=1e-2"
+deck tol3 4000 "every=20, buffer_tolerance=1e-3"
+deck bare 4000 "skin=0, every=20, check=.false."
+deck exact 4000 "skin=0.3"
+deck ranks1 100 "every=20, buffer_tolerance=1e-3"
+cp ranks1.nml ranks4.nml; sed -i "s|ranks1.csv|ranks4.csv|" ranks4.nml
+for n in tol2 tol3 bare exact ranks1; do run $n 1; done
+run ranks4 4
+
+# 1. measured drift within the tolerance
+for t in 2 3; do
+    s="$(skin tol$t)"; d="$(drift tol$t)"
+    [[ -n "$s" && -n "$d" ]] || { echo "FAIL: no skin or drift in tol$t.log"; exit 1; }
+    within "$d" "1e-$t" || { echo "FAIL: tolerance 1e-$t: skin $s, measured drift $d beyond it"; exit 1; }
+    echo "ok   tolerance 1e-$t: skin $s, measured drift $d per atom per tau"
+done
+"$PYTHON" -c "import sys; sys.exit(not float('$(skin tol3)') > float('$(skin tol2)') > 0)" ||
+    { echo "FAIL: skins $(skin tol2) (1e-2) and $(skin tol3) (1e-3) not ordered"; exit 1; }
+echo "ok   the smaller tolerance has the larger skin"
+
+# 2. without a buffer the same schedule drifts; the exact list does not
+within "$(drift bare)" 1e-2 && { echo "FAIL: skin 0, every 20: drift $(drift bare) is not beyond 10 x 1e-3"; exit 1; }
+within "$(drift exact)" 1e-5 || { echo "FAIL: the exact list drifts by $(drift exact)"; exit 1; }
+echo "ok   skin 0 every 20 steps: drift $(drift bare); exact list: $(drift exact)"
+
+# 3. rank count, and the scene plan
+[[ "$(skin ranks1)" == "$(skin ranks4)" ]] || { echo "FAIL: skin $(skin ranks1) on 1 rank, $(skin ranks4) on 4"; exit 1; }
+if "$PYTHON" "$repo/scripts/compare_lammps.py" terrace ranks1.csv ranks4.csv --tol 1e-10 --atol 1e-9 > cmp_ranks.txt 2>&1; then
+    echo "ok   1 and 4 ranks: skin $(skin ranks1), thermo the same (1e-10)"
+else
+    echo "FAIL: 1 and 4 ranks differ:"; cat cmp_ranks.txt; exit 1
+fi
+grep -q 'rebuilt every 20 steps without a check, the skin sized for an energy drift of at most 1.000E-03 per atom per time (&neighbor buffer_tolerance; estimate [0-9.]*E-0[34] at T = 1.44' ranks1.log ||
+    { echo "FAIL: the scene plan does not state the tolerance"; grep 'pairs ' ranks1.log; exit 1; }
+echo "ok   the scene plan states the tolerance, the estimate and the temperature"

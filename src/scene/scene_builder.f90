@@ -179,8 +179,15 @@ contains
                 call stop_all(cfg%where('potential', 'cutoff')//' = '//trim(adjustl(s1))//': beyond half the periodic '// &
                               'box along '//'xyz'(d:d)//' ('//trim(adjustl(s2))//'); use a larger box or a smaller cutoff')
             end if
-            if (self%cutmax + cfg%skin >= self%box%length(d)) &
+            if (self%cutmax + cfg%skin >= self%box%length(d)) then
+                if (cfg%buffer_tolerance > 0) then
+                    write (s1, '(es12.5)') cfg%skin
+                    call stop_all(cfg%where('neighbor', 'buffer_tolerance')//': the skin it needs ('// &
+                                  trim(adjustl(s1))//') makes cutoff + skin reach the periodic box; use a larger '// &
+                                  'tolerance, a smaller every or a larger box')
+                end if
                 call stop_all(cfg%where('neighbor', 'skin')//': cutoff + skin must be smaller than the periodic box')
+            end if
         end do
 
         ! ---- distribute atoms

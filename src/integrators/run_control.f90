@@ -140,7 +140,9 @@ contains
         call values%put('trajectory_frames', traj_frames)
         call values%put('output_part', self%output_part)
         call values%put('seed', eng%cfg%seed)
-        call values%put('list_skin', eng%cfg%skin)      ! (&neighbor buffer_tolerance: the restart's skin)
+        call values%put('list_skin', eng%cfg%skin)      ! (&neighbor buffer_tolerance: the restart's skin,
+        call values%put('list_buffer_drift', eng%cfg%buffer_drift)            !  its estimate and temperature)
+        call values%put('list_buffer_temperature', eng%cfg%buffer_temperature)
         do d = 1, 3
             write (tag, '(i0)') d
             call values%put('box_lo_'//trim(tag), eng%box%lo(d))

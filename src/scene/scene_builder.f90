@@ -226,8 +226,8 @@ contains
     !> &neighbor buffer_tolerance: cfg%skin from the drift estimate (terrace_verlet_buffer) for the
     !> scene's atom counts per type, masses, box volume and temperature (the largest of &system
     !> temperature and the thermostat's targets; without any, the kinetic temperature of the velocities
-    !> read), and cfg%buffer_drift, cfg%buffer_temperature for the run log. A restart takes the skin
-    !> its checkpoint recorded (list_skin), so that it continues the same run.
+    !> read), and cfg%buffer_drift, cfg%buffer_temperature for the run log. A restart takes all three
+    !> from its checkpoint (list_skin, ...), so that it continues the same run.
     subroutine size_buffer(self, cfg, table, ckpt, ntypes)
         type(scene_t), intent(in) :: self
         type(config_t), intent(inout) :: cfg
@@ -251,9 +251,10 @@ contains
         if (self%restarted) then
             ok = .true.
             cfg%skin = ckpt%values%get_r('list_skin', ok)
+            cfg%buffer_drift = ckpt%values%get_r('list_buffer_drift', ok)
+            cfg%buffer_temperature = ckpt%values%get_r('list_buffer_temperature', ok)
             if (.not. ok) call stop_all(at//': the checkpoint has no list_skin (it was not written by a run with '// &
                                         'buffer_tolerance)')
-            cfg%buffer_temperature = t_ref
             return
         end if
         count = 0

@@ -19,49 +19,13 @@ cd "$work"
 echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(date -u '+%Y-%m-%d %H:%M UTC')"
 echo "commit  : $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
 echo "GROMACS : $(gmx --version 2>&1 | sed -n 's/^GROMACS version: *//p')"
-python3 - <<'PY'
-sigma, eps_k, mass, kb, n = 0.3405, 119.8, 39.948, 0.00831446261815324, 20
-a = sigma * (4 / 0.8442) ** (1 / 3)
-basis = [(0, 0, 0), (0.5, 0.5, 0), (0.5, 0, 0.5), (0, 0.5, 0.5)]
-with open('lj.gro', 'w') as g:
-    g.write('fcc LJ\n%d\n' % (4 * n ** 3))
-    k = 0
-    for i in range(n):
-        for j in range(n):
-            for l in range(n):
-                for b in basis:
-                    k += 1
-                    g.write('%5d%-5s%5s%5d%8.3f%8.3f%8.3f\n' % (k % 100000, 'AR', 'AR', k % 100000,
-                            (i + b[0]) * a, (j + b[1]) * a, (l + b[2]) * a))
-    g.write('%10.5f%10.5f%10.5f\n' % (n * a, n * a, n * a))
-with open('lj.top', 'w') as t:
-    t.write('[ defaults ]\n1 2 no\n\n[ atomtypes ]\nAR %.3f 0.0 A %.6f %.8f\n\n[ moleculetype ]\nAR 1\n\n'
-            '[ atoms ]\n1 AR 1 AR AR 1 0.0 %.3f\n\n[ system ]\nLJ\n\n[ molecules ]\nAR %d\n'
-            % (mass, sigma, eps_k * kb, mass, 4 * n ** 3))
-open('a.txt', 'w').write('%.6f\n' % (10 * a))
-PY
-a_ang="$(cat a.txt)"
+python3 "$here/lj_gromacs.py" 0                 # lj.gro, lj.top, lj_tol.mdp (the anchors' scene)
+a_ang="$(python3 -c "print('%.6f' % (3.405 * (4 / 0.8442) ** (1 / 3)))")"   # its fcc lattice constant, A
 printf '%-12s %7s %14s %14s %14s\n' 'tolerance' 'nstlist' 'GROMACS 1x1' 'GROMACS 4x4' 'Terrace'
 printf '%-12s %7s %14s %14s %14s\n' 'kJ/mol/ps' '' 'rlist nm' 'rlist nm' 'rc+skin nm'
 for tol in 0.005 0.0005; do
     for nl in 10 20 40; do
-        cat > t.mdp <<EOF2
-integrator = md
-dt = 0.0107817
-nsteps = 0
-cutoff-scheme = Verlet
-nstlist = $nl
-verlet-buffer-tolerance = $tol
-coulombtype = Cut-off
-rcoulomb = 0.851250
-vdwtype = Cut-off
-vdw-modifier = Potential-shift
-rvdw = 0.851250
-tcoupl = no
-gen-vel = yes
-gen-temp = 172.512
-gen-seed = 87287
-EOF2
+        sed -E -e "s/^(nstlist +=).*/\1 $nl/" -e "s/^(verlet-buffer-tolerance +=).*/\1 $tol/" lj_tol.mdp > t.mdp
         gmx grompp -f t.mdp -c lj.gro -p lj.top -o t.tpr -maxwarn 10 > grompp.log 2>&1 || { tail -20 grompp.log >&2; exit 1; }
         g1="$(sed -n 's/^Calculated rlist for 1x1 atom pair-list as \([0-9.]*\) nm.*/\1/p' grompp.log)"
         g4="$(sed -n 's/^Set rlist, assuming 4x4 atom pair-list, to \([0-9.]*\) nm.*/\1/p' grompp.log)"

@@ -14,29 +14,11 @@
 #      `terrace --check`): on for lj and lj/smooth/linear on this deck, off for EAM (its passes need
 #      the list's complement) and for Verlet.
 # Usage: tests/regression/neighbor_schedule.sh TERRACE_BINARY OUTPUT_DIR
-set -euo pipefail
-[[ $# -eq 2 ]] || { echo "usage: $0 TERRACE_BINARY OUTPUT_DIR" >&2; exit 2; }
-here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
-terrace="$(realpath "$1")"; out="$2"
-PYTHON="${PYTHON:-/usr/bin/python3}"; [[ -x "$PYTHON" ]] || PYTHON=python3
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-rm -rf "$out"; mkdir -p "$out"; cd "$out"
+source "$(dirname "${BASH_SOURCE[0]}")/liquid_common.sh" "$@"
 deck() {   # name neighbor-keys
     sed "s|^&neighbor skin=0.3 /|\&neighbor skin=0.3$2 /|; s|thermo_file='thermo.csv'|thermo_file='$1.csv'|" \
         "$here/decks/liquid_2048.nml" > "$1.nml"
     grep -q "skin=0.3$2 /" "$1.nml" || { echo "FAIL: could not set '$2' in the deck"; exit 1; }
-}
-run() {    # name np
-    if [[ $2 == 1 ]]; then timeout 300 "$terrace" "$1.nml" > "$1.log" 2>&1
-    else timeout 300 mpirun --oversubscribe -np "$2" "$terrace" "$1.nml" > "$1.log" 2>&1; fi || {
-        echo "FAIL: terrace failed on $1 ($2 ranks)"; tail -5 "$1.log"; exit 1; }
-}
-compare() {  # a b what
-    if "$PYTHON" "$repo/scripts/compare_lammps.py" terrace "$1.csv" "$2.csv" --tol 1e-10 --atol 1e-9 > "cmp_$1_$2.txt" 2>&1; then
-        echo "ok   $3"
-    else
-        echo "FAIL $3:"; cat "cmp_$1_$2.txt"; exit 1
-    fi
 }
 builds() { sed -n 's/^Neighbour list builds: \([0-9]*\).*/\1/p' "$1.log"; }
 late() { sed -n 's/^Neighbour list schedule: .*more than skin\/2: \([0-9]*\) of \([0-9]*\)$/\1 \2/p' "$1.log"; }

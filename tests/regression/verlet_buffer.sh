@@ -10,23 +10,12 @@
 #   3. 4 ranks size the same skin (the estimate is over the whole system) and run the same 100 steps
 #      as 1 rank (1e-10); the scene plan states the tolerance, the estimate and the temperature.
 # Usage: tests/regression/verlet_buffer.sh TERRACE_BINARY OUTPUT_DIR
-set -euo pipefail
-[[ $# -eq 2 ]] || { echo "usage: $0 TERRACE_BINARY OUTPUT_DIR" >&2; exit 2; }
-here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
-terrace="$(realpath "$1")"; out="$2"
-PYTHON="${PYTHON:-/usr/bin/python3}"; [[ -x "$PYTHON" ]] || PYTHON=python3
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-rm -rf "$out"; mkdir -p "$out"; cd "$out"
+source "$(dirname "${BASH_SOURCE[0]}")/liquid_common.sh" "$@"
 deck() {   # name steps neighbor-keys
     sed -e "s|^&neighbor skin=0.3 /|\&neighbor $3 /|" -e "s|n_steps=100|n_steps=$2|" \
         -e "s|cutoff=2.5 /|cutoff=2.5, shift=.true. /|" -e "s|thermo_file='thermo.csv'|thermo_file='$1.csv'|" \
         "$here/decks/liquid_2048.nml" > "$1.nml"
     grep -q "^&neighbor $3 /" "$1.nml" && grep -q "shift=.true." "$1.nml" || { echo "FAIL: could not edit the deck for $1"; exit 1; }
-}
-run() {    # name np
-    if [[ $2 == 1 ]]; then timeout 300 "$terrace" "$1.nml" > "$1.log" 2>&1
-    else timeout 300 mpirun --oversubscribe -np "$2" "$terrace" "$1.nml" > "$1.log" 2>&1; fi || {
-        echo "FAIL: terrace failed on $1 ($2 ranks)"; tail -5 "$1.log"; exit 1; }
 }
 skin() { sed -n 's/^ *pairs *: .* + skin \([0-9.eE+-]*\)[,)].*/\1/p' "$1.log" | head -1; }
 drift() { sed -n 's/^Energy drift: *\([0-9.eE+-]*\) .*/\1/p' "$1.log"; }
@@ -59,11 +48,7 @@ echo "ok   skin 0 every 20 steps: drift $(drift bare); exact list: $(drift exact
 
 # 3. rank count, and the scene plan
 [[ "$(skin ranks1)" == "$(skin ranks4)" ]] || { echo "FAIL: skin $(skin ranks1) on 1 rank, $(skin ranks4) on 4"; exit 1; }
-if "$PYTHON" "$repo/scripts/compare_lammps.py" terrace ranks1.csv ranks4.csv --tol 1e-10 --atol 1e-9 > cmp_ranks.txt 2>&1; then
-    echo "ok   1 and 4 ranks: skin $(skin ranks1), thermo the same (1e-10)"
-else
-    echo "FAIL: 1 and 4 ranks differ:"; cat cmp_ranks.txt; exit 1
-fi
+compare ranks1 ranks4 "1 and 4 ranks: skin $(skin ranks1), thermo the same (1e-10)"
 grep -q 'rebuilt every 20 steps without a check, the skin sized for an energy drift of at most 1.000E-03 per atom per time (&neighbor buffer_tolerance; estimate [0-9.]*E-0[34] at T = 1.44' ranks1.log ||
     { echo "FAIL: the scene plan does not state the tolerance"; grep 'pairs ' ranks1.log; exit 1; }
 echo "ok   the scene plan states the tolerance, the estimate and the temperature"

@@ -145,6 +145,9 @@ contains
         note = trim(line)
         if (eng%list%late > 0) note = note//new_line('a')//'  (the list had passed its skin/2 guarantee before each '// &
                                       'of those: pairs within the cutoff may have been missed)'
+        if (eng%list%late > 0 .and. eng%cfg%buffer_tolerance > 0) note = note//new_line('a')//'  (expected with '// &
+            '&neighbor buffer_tolerance: its skin bounds the estimated energy drift of the missed pairs, not the '// &
+            'displacement; compare the energy drift above with the tolerance)'
     end function schedule_note
 
     subroutine energy_stepping_run()

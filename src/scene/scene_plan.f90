@@ -97,9 +97,9 @@ contains
                     ' steps and rebuilt when an atom has moved skin/2 (not exact: pairs may be missed)'
             else if (cfg%buffer_tolerance > 0) then
                 write (rule, '(a,i0,a,es9.3,a,es9.3,a,g0.5,a)') 'rebuilt every ', cfg%list_every, ' steps without a '// &
-                    'check, the skin sized for an energy drift of at most ', cfg%buffer_tolerance, ' per atom per '// &
-                    'time (&neighbor buffer_tolerance; estimate ', max(cfg%buffer_drift, 0.0_dp), ' at T = ', &
-                    cfg%buffer_temperature, '; pairs may be missed)'
+                    'check, the skin sized for an energy drift of at most ', cfg%buffer_tolerance, ' '// &
+                    trim(cfg%units%energy)//' per atom per '//trim(cfg%units%time)//' (&neighbor buffer_tolerance; '// &
+                    'estimate ', max(cfg%buffer_drift, 0.0_dp), ' at T = ', cfg%buffer_temperature, '; pairs may be missed)'
             else
                 write (rule, '(a,i0,a)') 'rebuilt every ', cfg%list_every, ' steps without a check (not exact: '// &
                     'pairs may be missed)'

@@ -49,6 +49,6 @@ echo "ok   skin 0 every 20 steps: drift $(drift bare); exact list: $(drift exact
 # 3. rank count, and the scene plan
 [[ "$(skin ranks1)" == "$(skin ranks4)" ]] || { echo "FAIL: skin $(skin ranks1) on 1 rank, $(skin ranks4) on 4"; exit 1; }
 compare ranks1 ranks4 "1 and 4 ranks: skin $(skin ranks1), thermo the same (1e-10)"
-grep -q 'rebuilt every 20 steps without a check, the skin sized for an energy drift of at most 1.000E-03 per atom per time (&neighbor buffer_tolerance; estimate [0-9.]*E-0[34] at T = 1.44' ranks1.log ||
+grep -q 'rebuilt every 20 steps without a check, the skin sized for an energy drift of at most 1.000E-03 epsilon per atom per tau (&neighbor buffer_tolerance; estimate [0-9.]*E-0[34] at T = 1.44' ranks1.log ||
     { echo "FAIL: the scene plan does not state the tolerance"; grep 'pairs ' ranks1.log; exit 1; }
 echo "ok   the scene plan states the tolerance, the estimate and the temperature"

@@ -695,7 +695,8 @@ contains
     !> Whether the list is rebuilt at this step (collective: the same answer on every rank). forced:
     !> a rebuild the caller needs anyway (a checkpoint). Exact schedule: when an atom has moved skin/2.
     !> Otherwise only at multiples of `every` (with check: when an atom has moved skin/2; without:
-    !> always), and a rebuild at which an atom had moved skin/2 is counted in `late`.
+    !> always), and a rebuild at which an atom had moved skin/2 is counted in `late` (not with
+    !> every = 1: a rebuild at every step leaves no step to an expired list).
     logical function nl_rebuild_due(self, atoms, step, forced) result(flag)
         class(neighbor_list_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
@@ -710,7 +711,7 @@ contains
         flag = forced .or. mod(step, int(self%every, i8)) == 0
         if (.not. flag) return
         moved = self%needs_rebuild(atoms)
-        if (moved) self%late = self%late + 1
+        if (moved .and. self%every > 1) self%late = self%late + 1   ! (every = 1: no step used the expired list)
         if (self%check .and. .not. forced) flag = moved
     end function nl_rebuild_due
 

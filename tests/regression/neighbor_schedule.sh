@@ -3,7 +3,7 @@
 # melting at T* = 1.44, 100 steps, rc 2.5, skin 0.3):
 #   1. a rebuild at every step (every = 1, check = .false.) gives the thermo of the exact default
 #      (skin/2 test at every step) to 1e-10: both lists hold every pair within the cutoff, only
-#      the order of the sums differs;
+#      the order of the sums differs; none of its builds counts as late;
 #   2. a fixed schedule (every = 20, check = .false., the LAMMPS bench's `neigh_modify every 20
 #      check no`) rebuilds at steps 0, 20, ..., 100 (6 builds) on any rank count: 1 and 4 ranks
 #      agree to 1e-10, and the run log counts the builds at which an atom had already moved more
@@ -33,6 +33,7 @@ run exact 1; run every1 1; run fixed20 1; run fixed20_np4 4; run checked5 1
 # 1. rebuilding at every step changes nothing but the order of the sums
 compare exact every1 "rebuild at every step = exact schedule (1e-10)"
 [[ "$(builds every1)" == 101 ]] || { echo "FAIL: every = 1, check = .false. built $(builds every1) times, expected 101"; exit 1; }
+[[ "$(late every1)" == "0 101" ]] || { echo "FAIL: every = 1 counted '$(late every1)' late builds (a rebuild at every step is never late)"; exit 1; }
 grep -q '^Neighbour list schedule' exact.log && { echo "FAIL: the exact schedule printed a schedule line"; exit 1; }
 
 # 2. fixed schedule: 6 builds, rank-count invariant, late builds counted

@@ -534,8 +534,9 @@ contains
     end subroutine read_integrator
 
     !> &neighbor buffer_tolerance: the skin from an energy-drift estimate (terrace_verlet_buffer)
-    !> for a list rebuilt every `every` steps (default 10) without a check; velocity Verlet, 3-D,
-    !> Lennard-Jones pair potentials. skin and check = .true. are refused with it.
+    !> for a list rebuilt every `every` steps (default 10) without a check; velocity Verlet, 3-D.
+    !> skin and check = .true. are refused with it; which potentials serve the estimate the
+    !> potential says itself, with the scene (potential_t%cutoff_derivatives, terrace_scene_builder).
     subroutine check_buffer_tolerance(cfg)
         type(config_t), intent(inout) :: cfg
         character(len=:), allocatable :: at
@@ -547,12 +548,7 @@ contains
         if (cfg%nml%find('neighbor', 'check') > 0 .and. cfg%list_check) call stop_all(at//': the list is rebuilt '// &
             'every `every` steps without a check (allowed with buffer_tolerance: check = .false.; for the exact list, '// &
             'give skin instead)')
-        if (cfg%integrator /= 'velocity_verlet') call stop_all(at//': serves velocity Verlet (a list rebuilt every '// &
-            '`every` steps of dt); energy stepping needs the exact list (give skin)')
         if (cfg%dimension /= 3) call stop_all(at//': the estimate is for 3-D runs (allowed with dimension = 2: skin)')
-        if (cfg%potential /= 'lj' .and. cfg%potential /= 'lj/smooth/linear') call stop_all(at//": the estimate "// &
-            "covers the Lennard-Jones pair potentials (&potential style = 'lj', 'lj/smooth/linear'); with '"// &
-            trim(cfg%potential)//"' give skin")
         cfg%list_check = .false.
         if (cfg%nml%find('neighbor', 'every') == 0) cfg%list_every = 10
     end subroutine check_buffer_tolerance
@@ -891,7 +887,7 @@ contains
     !> Integrator, neighbour and output settings (any potential).
     subroutine validate_run_settings(cfg)
         type(config_t), intent(inout) :: cfg
-        character(len=8) :: key
+        character(len=16) :: key
 
         select case (cfg%integrator)
         case ('velocity_verlet')
@@ -936,6 +932,7 @@ contains
                                               ': must be >= 1 (steps between list checks, or rebuilds with check = .false.)')
         if (cfg%list_every > 1 .or. .not. cfg%list_check) then
             key = merge('every', 'check', cfg%list_every > 1)
+            if (cfg%buffer_tolerance > 0) key = 'buffer_tolerance'     ! (the key that set this schedule)
             if (cfg%integrator == 'energy_stepping') call stop_all(cfg%where('neighbor', trim(key))// &
                 ': energy stepping needs the exact list (its events are timed by the list''s expiry; allowed with '// &
                 'energy stepping: every = 1, check = .true.)')

@@ -243,8 +243,9 @@ contains
         do b = 1, ntypes
             do a = 1, ntypes
                 deriv(:, a, b) = self%pot%cutoff_derivatives(a, b)
-                if (deriv(1, a, b) <= 0) call stop_all(at//': the potential has no cutoff for a pair of atom types '// &
-                    '(the estimate needs one for every pair; give skin)')
+                if (deriv(1, a, b) <= 0) call stop_all(at//": &potential style = '"//trim(cfg%potential)//"' "// &
+                    'gives no pair term with a cutoff for every pair of atom types, which the estimate needs (the '// &
+                    'Lennard-Jones styles give one); give skin')
             end do
         end do
         t_ref = max(cfg%temperature, cfg%thermostat_temperature, cfg%thermostat_temperature_end)

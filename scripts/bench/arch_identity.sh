@@ -1,9 +1,14 @@
 #!/usr/bin/env bash
-# Bitwise identity of two builds on a fixed set of runs (issue 11: no behaviour change):
+# Bitwise identity of two builds on a fixed set of runs (a refactoring changes no behaviour):
 # LJ liquid with velocity Verlet (1000 steps), Rahman argon with energy stepping (2000 events, from
 # a Verlet-equilibrated state), Cu EAM with velocity Verlet and with energy stepping, a free
-# seven-atom cluster (all-pairs path, energy stepping), on 1 and 4 ranks. Prints one line per run
-# and exits non-zero if any thermo file differs by a single byte.
+# seven-atom cluster (all-pairs path, energy stepping), each thermostat with velocity Verlet
+# (Langevin, CSVR, Nose-Hoover chains, Andersen with zero_momentum) and energy stepping's three
+# (Andersen at exact times, CSVR and Andersen's global variant at intervals), the spinning cube and
+# the colliding balls with both integrators, and a checkpoint restart of each integrator (stopped
+# at its first safe point by walltime_limit, continued by each build from its own checkpoint), on 1
+# and 4 ranks. Prints one line per run and exits non-zero if any thermo file differs by a byte.
+# The balls need the gmsh Python package (scripts/make_ball_mesh.py); without it they are skipped.
 # Usage: scripts/bench/arch_identity.sh OLD_TERRACE NEW_TERRACE [WORKDIR]
 set -euo pipefail
 old="$(realpath "$1")"; new="$(realpath "$2")"
@@ -40,6 +45,42 @@ cat > cluster_es.nml <<NML
 &integrator style='energy_stepping', terrace_height=1.378775e-3 /
 &output thermo_interval=100.0, thermo_file='thermo.csv' /
 NML
+# thermostats: LJ 4x4x4 with velocity Verlet; Rahman argon with energy stepping
+for ts in "style='langevin', temperature=1.2, damping=0.5" "style='csvr', temperature=1.2, damping=0.5" \
+          "style='nose_hoover', temperature=1.2, damping=0.5, chain_length=4" \
+          "style='andersen', temperature=1.2, damping=0.5, zero_momentum=.true." ; do
+  name=vv_$(echo "$ts" | sed -E "s/style='([a-z_]+)'.*/\1/")
+  sed -e 's/n_steps=1000/n_steps=400/' -e 's/cells=8,8,8/cells=4,4,4/' lj_vv.nml > $name.nml
+  echo "&thermostat $ts /" >> $name.nml
+done
+for ts in "style='andersen', temperature=94.4, damping=0.5" "style='csvr', temperature=94.4, damping=0.5, interval=0.05" \
+          "style='andersen', temperature=94.4, damping=0.5, interval=0.1, zero_momentum=.true." ; do
+  name=es_$(echo "$ts" | sed -E "s/style='([a-z_]+)'.*/\1/")$([[ $ts == *interval=0.1* ]] && echo _global || true)
+  sed -e 's/n_steps=2000/n_steps=600/' rahman_es.nml > $name.nml
+  echo "&thermostat $ts /" >> $name.nml
+done
+# meshes: the talk's cube (4 x 4 x 4 cells), and the two balls (refine 2) when gmsh is there
+/usr/bin/python3 "$repo/scripts/make_cube_mesh.py" cube.msh --cells 4 --size 0.1 --center > /dev/null
+sed -e "s/run_time=0.1/run_time=0.004/" -e 's/thermo_interval=0.002/thermo_interval=0.0005/' \
+    -e "s/thermo_file='cube_spin_verlet.csv'/thermo_file='thermo.csv'/" "$repo/input/cube_spin_verlet.nml" > cube_vv.nml
+sed -e "s/run_time=0.1/run_time=0.004/" -e 's/thermo_interval=0.002/thermo_interval=0.0005/' \
+    -e "s/thermo_file='cube_spin_es.csv'/thermo_file='thermo.csv'/" "$repo/input/cube_spin_es.nml" > cube_es.nml
+meshes="cube_vv cube_es"
+if "${TERRACE_VENV:-$HOME/.cache/terrace-venv}/bin/python" -c 'import gmsh' 2> /dev/null \
+   && /usr/bin/python3 "$repo/scripts/make_ball_mesh.py" balls.msh --refine 2 > /dev/null 2>&1; then
+  for i in verlet es; do
+    sed -e "s/run_time=0.1/run_time=0.06/" -e "s/thermo_file='balls_$i.csv'/thermo_file='thermo.csv'/" \
+        -e "s/trajectory_file='balls_$i.h5'/trajectory_file=''/" -e 's/terrace_height=1.0e-4/terrace_height=1.0e-3/' \
+        "$repo/input/balls_$i.nml" > balls_$i.nml
+  done
+  meshes="$meshes balls_verlet balls_es"
+else
+  echo "balls: skipped (no gmsh Python package; scripts/make_ball_mesh.py says how to install it)"
+fi
+# restarts: the LJ liquid (Verlet) and Rahman argon (energy stepping) with a checkpoint file
+sed -e "s/thermo_file='thermo.csv'/thermo_file='thermo.csv', checkpoint_file='ckpt.h5', checkpoint_every=200/" lj_vv.nml > restart_vv.nml
+sed -e "s/thermo_file='thermo.csv'/thermo_file='thermo.csv', checkpoint_file='ckpt.h5', checkpoint_interval=0.5/" rahman_es.nml > restart_es.nml
+
 run() {   # build np deck dir
   local exe=$1 np=$2 deck=$3 dir=$4
   rm -rf "$dir"; mkdir -p "$dir"; cp "$deck" "$dir/"
@@ -50,12 +91,29 @@ run() {   # build np deck dir
 # the equilibrated Rahman state both builds start their energy-stepping run from (made once)
 sed -i "s/final_atoms_file='argon_liquid_eq.atoms'/final_atoms_file='eq.atoms'/" rahman_eq.nml
 "$old" rahman_eq.nml > eq.log 2>&1
+# a restart: the first run stops at its first safe point with a checkpoint (exit 3), the second
+# continues from it (each build from its own)
+restart() {   # build np deck dir
+  local exe=$1 np=$2 deck=$3 dir=$4 rc=0
+  rm -rf "$dir"; mkdir -p "$dir"; cp "$deck" "$dir/"; cp eq.atoms "$dir/argon_liquid_eq.atoms"
+  sed -i "s/^&run /\&run walltime_limit=1.0e-6, /" "$dir/$deck"
+  local mpi=(); [[ $np == 1 ]] || mpi=(mpirun --oversubscribe -np "$np")
+  (cd "$dir" && "${mpi[@]}" "$exe" "$deck" > log1.txt 2>&1) || rc=$?
+  [[ $rc == 3 ]] || { echo "restart: the first run did not stop with a checkpoint: $exe $deck np=$np ($dir/log1.txt)"; return 1; }
+  sed -i -e "s/walltime_limit=1.0e-6, //" -e "s/^&system /\&system read_checkpoint='ckpt.h5', /" "$dir/$deck"
+  (cd "$dir" && "${mpi[@]}" "$exe" "$deck" > log.txt 2>&1) || { echo "restart failed: $exe $deck np=$np ($dir/log.txt)"; return 1; }
+}
 fail=0
-for deck in lj_vv rahman_es cu_vv cu_es cluster_es; do
+for deck in lj_vv rahman_es cu_vv cu_es cluster_es vv_langevin vv_csvr vv_nose_hoover vv_andersen \
+            es_andersen es_csvr es_andersen_global $meshes restart_vv restart_es; do
   for np in 1 4; do
-    run "$old" $np $deck.nml old_${deck}_$np; run "$new" $np $deck.nml new_${deck}_$np
+    if [[ $deck == restart_* ]]; then
+      restart "$old" $np $deck.nml old_${deck}_$np; restart "$new" $np $deck.nml new_${deck}_$np
+    else
+      run "$old" $np $deck.nml old_${deck}_$np; run "$new" $np $deck.nml new_${deck}_$np
+    fi
     if cmp -s old_${deck}_$np/thermo.csv new_${deck}_$np/thermo.csv; then res=identical; else res=DIFFERENT; fail=1; fi
-    printf '%-11s np=%d  %5d thermo lines  %s\n' $deck $np "$(wc -l < new_${deck}_$np/thermo.csv)" $res
+    printf '%-20s np=%d  %5d thermo lines  %s\n' $deck $np "$(wc -l < new_${deck}_$np/thermo.csv)" $res
   done
 done
 echo "workdir: $work"

@@ -10,7 +10,10 @@ program terrace
     use terrace_engine, only: engine_t
     use terrace_scene_builder, only: scene_t, build_scene
     use terrace_thermo, only: thermo_writer_t
-    use terrace_schedule, only: schedule_t, make_schedule
+    use terrace_schedule, only: schedule_t
+    use terrace_run_schedule, only: make_schedule
+    use terrace_run_params, only: engine_params, control_params, verlet_params, es_params, make_thermostat
+    use terrace_thermostat, only: thermostat_t
     use terrace_velocity_verlet, only: run_velocity_verlet
     use terrace_energy_stepping, only: run_energy_stepping, choose_terrace_height, print_es_estimates, es_stats_t, &
                                        es_thermo_header
@@ -39,6 +42,7 @@ program terrace
     type(thermo_writer_t) :: thermo
     type(trajectory_t) :: traj
     type(schedule_t) :: sched
+    class(thermostat_t), allocatable :: ts
     character(len=:), allocatable :: path
     character(len=4096) :: arg
     logical :: check_only, ok
@@ -69,9 +73,12 @@ program terrace
 
     call read_config(path, cfg)
     call check_memory(cfg)                              ! issue 15: refuse a scene that cannot fit
-    if (.not. check_only) call ctl%init_signals(cfg)
+    if (.not. check_only) call ctl%init_signals(trim(cfg%checkpoint_file))
     call build_scene(cfg, scene)
-    call eng%setup(cfg, scene)
+    call eng%setup(engine_params(cfg), scene)
+    sched = make_schedule(cfg)
+    call make_thermostat(cfg, eng%natoms, sched, ts)
+    eng%ndof = ts%dof
     call check_outputs(cfg, lock=.not. check_only)      ! outputs checked (and locked) before any is opened
     call check_output_ids(cfg, eng%atoms%id(1:eng%atoms%nlocal), eng%natoms)
     if (world%rank == 0) call eng%plan%print(output_unit)
@@ -86,17 +93,16 @@ program terrace
 contains
 
     subroutine verlet_run()
-        sched = make_schedule(cfg)
         if (check_only) then
             if (world%rank == 0) write (output_unit, '(a,i0,a,i0,a)') '  run        : ', sched%n_steps, &
                 ' steps, thermo every ', sched%thermo_every, ' steps'
             call finish_check()
         end if
         call open_outputs(trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), &
-                          sched%end_time(cfg))
+                          sched%end_time())
         call start_clock()
-        call run_velocity_verlet(eng, thermo, traj, sched, ctl)
-        call close_run(sched%end_time(cfg))
+        call run_velocity_verlet(eng, verlet_params(cfg), ts, thermo, traj, sched, ctl)
+        call close_run(sched%end_time())
         call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note(), &
                            list_pairs(), pairs_what())
         call eng%report_warnings()
@@ -145,7 +151,7 @@ contains
         note = trim(line)
         if (eng%list%late > 0) note = note//new_line('a')//'  (the list had passed its skin/2 guarantee before each '// &
                                       'of those: pairs within the cutoff may have been missed)'
-        if (eng%list%late > 0 .and. eng%cfg%buffer_tolerance > 0) note = note//new_line('a')//'  (expected with '// &
+        if (eng%list%late > 0 .and. cfg%buffer_tolerance > 0) note = note//new_line('a')//'  (expected with '// &
             '&neighbor buffer_tolerance: its skin bounds the estimated energy drift of the missed pairs, not the '// &
             'displacement; compare the energy drift above with the tolerance)'
     end function schedule_note
@@ -158,7 +164,7 @@ contains
             h = eng%restart_values%get_r('h', ok)
             call check_all(ok, trim(cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint (no h)')
         else
-            h = choose_terrace_height(eng)
+            h = choose_terrace_height(eng, es_params(cfg))
         end if
         ke = kinetic_energy(eng%atoms, cfg%units)
         if (h > abs(eng%pe) + ke .and. .not. eng%restarted) then
@@ -168,7 +174,6 @@ contains
                           ': larger than the whole energy range of the system (|V| + K = '//trim(adjustl(s2))//')')
         end if
         call print_es_estimates(eng, h)
-        sched = make_schedule(cfg)
         if (check_only) then
             if (world%rank == 0) then
                 if (cfg%run_time > 0) then
@@ -180,9 +185,9 @@ contains
             call finish_check()
         end if
         call open_outputs(es_thermo_header//trim(merge(',ecouple,econserve', '                  ', &
-                                                        cfg%thermostat /= 'none')), sched%end_time(cfg))
+                                                        cfg%thermostat /= 'none')), sched%end_time())
         call start_clock()
-        call run_energy_stepping(eng, thermo, traj, h, sched, es, ctl)
+        call run_energy_stepping(eng, es_params(cfg), ts, thermo, traj, h, sched, es, ctl)
         call close_run(es%time)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events', prune_note(), &
                            list_pairs())
@@ -253,7 +258,7 @@ contains
     subroutine open_outputs(extra_header, end_time)
         character(len=*), intent(in) :: extra_header
         real(dp), intent(in) :: end_time
-        call ctl%init(eng, wall_start)
+        call ctl%init(control_params(cfg), eng, wall_start)
         if (ctl%active) then
             call probe_checkpoint_path(trim(cfg%checkpoint_file), ok, msg)
             call check_all(ok, cfg%where('output', 'checkpoint_file')//" = '"//trim(cfg%checkpoint_file)//"': "// &

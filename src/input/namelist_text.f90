@@ -5,6 +5,7 @@
 !> one-item namelist on an internal file), so that an unknown key, a value of the wrong type or a
 !> value out of range is reported with file, line, group and key.
 module terrace_namelist_text
+    use terrace_kinds, only: i8
     implicit none
     private
 
@@ -30,7 +31,7 @@ module terrace_namelist_text
         procedure :: has_group => nl_has_group
     end type namelist_file_t
 
-    public :: parse_namelist_text, lower, at_line
+    public :: parse_namelist_text, lower, at_line, deck_hash
 
     character(len=*), parameter :: blanks = ' '//achar(9)//achar(10)//achar(13)
 
@@ -390,5 +391,34 @@ contains
             s = path//':'//trim(ln)//': '
         end if
     end function at_line
+
+    !> A 62-bit hash of the deck's assignments (group, key as written, value as written, in file
+    !> order), leaving out those a restart may change: &system read_checkpoint and &run
+    !> walltime_limit. Two polynomial hashes modulo primes below 2^31 (no integer overflow).
+    integer(i8) function deck_hash(nml) result(h)
+        type(namelist_file_t), intent(in) :: nml
+        integer(i8), parameter :: p1 = 2147483647_i8, p2 = 2147483629_i8
+        integer(i8) :: h1, h2
+        integer :: k
+        h1 = 7; h2 = 11
+        do k = 1, nml%count
+            associate (it => nml%items(k))
+                if (it%group == 'system' .and. it%key == 'read_checkpoint') cycle
+                if (it%group == 'run' .and. it%key == 'walltime_limit') cycle
+                if (it%group == 'system' .and. it%key == 'restart_outputs') cycle
+                call mix(trim(it%group)//'&'//trim(it%target)//'='//trim(adjustl(it%value))//';')
+            end associate
+        end do
+        h = h1*2147483648_i8 + h2
+    contains
+        subroutine mix(s)
+            character(len=*), intent(in) :: s
+            integer :: i
+            do i = 1, len(s)
+                h1 = mod(h1*131 + ichar(s(i:i)), p1)
+                h2 = mod(h2*257 + ichar(s(i:i)), p2)
+            end do
+        end subroutine mix
+    end function deck_hash
 
 end module terrace_namelist_text

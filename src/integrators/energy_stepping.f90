@@ -49,9 +49,9 @@ module terrace_energy_stepping
     use terrace_velocities, only: kinetic_energy
     use terrace_jump, only: terrace_jump_lambda, jump_climb, jump_reflect, jump_fall, jump_none
     use terrace_run_control, only: run_control_t
-    use terrace_checkpoint, only: ckpt_values_t
+    use terrace_named_values, only: named_values_t
     use terrace_scene_plan, only: pair_all
-    use terrace_thermostat, only: thermostat_t, thermostat_andersen
+    use terrace_thermostat, only: thermostat_t
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
     private
@@ -102,6 +102,15 @@ module terrace_energy_stepping
     contains
         procedure :: exchange => es_state_exchange
     end type es_state_t
+
+    !> What energy stepping is made from (the run's units applied).
+    type, public :: es_params_t
+        real(dp) :: terrace_height = 0           !< h (0: chosen for target_mean_dt)
+        real(dp) :: target_mean_dt = 0           !< the mean event interval h is chosen for
+        real(dp) :: root_tolerance = 0           !< the event search's tolerance on V, in units of h
+        !> for messages: the checkpoint a restart read, and where the deck sets the two keys above
+        character(len=:), allocatable :: restart_from, where_height, where_mean_dt
+    end type es_params_t
 
     character(len=*), parameter, public :: es_thermo_header = &
         ',events,reflections,mean_dt,evals_per_event,terrace_height,e_terraced'
@@ -170,8 +179,8 @@ contains
             end if
         end if
         sigma2 = acc(1)/eng%box%dimension
-        a = eng%cfg%units%mvv2e*acc(2)
-        b = eng%cfg%units%mvv2e*acc(3)
+        a = eng%units%mvv2e*acc(2)
+        b = eng%units%mvv2e*acc(3)
     end subroutine gradient_sums
 
     !> The velocity jump v_i = v_i - lam f_i / m_i of the n owned atoms, masses per atom (rmass) or
@@ -253,21 +262,22 @@ contains
         call gradient_sums(eng, sigma2, a, b)
         call eng%ray_pass(0.0_dp, ray)
         kt = 0
-        if (eng%dof() > 0) kt = 2*kinetic_energy(eng%atoms, eng%cfg%units)/eng%dof()
+        if (eng%dof() > 0) kt = 2*kinetic_energy(eng%atoms, eng%units)/eng%dof()
         sigma2 = max(sigma2, 0.25_dp*kt*ray(3))
     end function crossing_sigma2
 
     !> The terrace height: given, or chosen for a target mean event interval from the level-crossing
     !> rate, E|dV/dt| / h with E|dV/dt| = sqrt(2/pi) sigma (Rice), sigma^2 from crossing_sigma2.
-    real(dp) function choose_terrace_height(eng) result(h)
+    real(dp) function choose_terrace_height(eng, p) result(h)
         type(engine_t), intent(inout) :: eng
+        type(es_params_t), intent(in) :: p
         real(dp) :: sigma2
-        if (eng%cfg%terrace_height > 0) then
-            h = eng%cfg%terrace_height
+        if (p%terrace_height > 0) then
+            h = p%terrace_height
         else
             sigma2 = crossing_sigma2(eng)
-            h = eng%cfg%target_mean_dt*sqrt(2/pi)*sqrt(sigma2)
-            if (.not. (h > 0)) call stop_all(eng%cfg%where('integrator', 'target_mean_dt')// &
+            h = p%target_mean_dt*sqrt(2/pi)*sqrt(sigma2)
+            if (.not. (h > 0)) call stop_all(p%where_mean_dt// &
                 ': cannot choose a terrace height: the initial state has no motion or no force')
         end if
     end function choose_terrace_height
@@ -283,18 +293,18 @@ contains
         character(len=:), allocatable :: how
         call gradient_sums(eng, sigma2, a, b)
         sigma2 = crossing_sigma2(eng)
-        tau = eng%pot%time_scale(eng%atoms%mass(1), eng%cfg%units%mvv2e)
+        tau = eng%pot%time_scale(eng%atoms%mass(1), eng%units%mvv2e)
         if (.not. (tau > 0)) then
             ! no natural time unit: 1/50 of the mean vibration period 2 pi / omega, omega^2 = v.H.v / v.M.v
             ! (a Rayleigh quotient over the thermal velocities; LJ's 0.005 tau is about the same fraction)
             call eng%ray_pass(0.0_dp, ray)
-            omega2 = ray(3)/max(2*kinetic_energy(eng%atoms, eng%cfg%units), tiny(1.0_dp))
+            omega2 = ray(3)/max(2*kinetic_energy(eng%atoms, eng%units), tiny(1.0_dp))
         end if
         if (world%rank /= 0) return
         mean_dt = huge(1.0_dp)
         if (sigma2 > 0) mean_dt = h/(sqrt(2/pi)*sqrt(sigma2))
         refl = 0
-        if (sigma2 > 0) refl = 1 - exp(-h*a/(eng%cfg%units%mvv2e**2*sigma2))
+        if (sigma2 > 0) refl = 1 - exp(-h*a/(eng%units%mvv2e**2*sigma2))
         if (.not. (tau > 0)) then
             dt_vv = huge(1.0_dp)
             if (omega2 > 0) dt_vv = 2*pi/sqrt(omega2)/50
@@ -303,26 +313,28 @@ contains
             dt_vv = 0.005_dp*tau
             how = ' (0.005 tau; a mesh: half an element''s wave transit)'
         end if
-        write (output_unit, '(a,es12.5,1x,a)') '  terrace h  : ', h, trim(eng%cfg%units%energy)
+        write (output_unit, '(a,es12.5,1x,a)') '  terrace h  : ', h, trim(eng%units%energy)
         if (mean_dt > 1.0e3_dp*dt_vv) then
             ! no forces and no curvature along the velocities (a body in rigid motion in its reference
             ! shape, a perfect crystal at rest): the level-crossing rate of the start says nothing
             write (output_unit, '(a)') '  expected   : not estimated (the start has almost no forces or curvature '// &
                 'along its velocities, e.g. a rigid motion); the run log gives the measured mean interval'
             write (output_unit, '(a,es12.5,1x,a,a)') '  vs Verlet  : a stable Verlet step here is ~ ', dt_vv, &
-                trim(eng%cfg%units%time), how
+                trim(eng%units%time), how
         else
             write (output_unit, '(a,es12.5,1x,a,a)') '  expected   : mean event interval ~ ', mean_dt, &
-                trim(eng%cfg%units%time), ', about '//fixed(100*refl/2, 1)//' % of events reflections'
+                trim(eng%units%time), ', about '//fixed(100*refl/2, 1)//' % of events reflections'
             write (output_unit, '(a,es12.5,1x,a,a)') '  vs Verlet  : a stable Verlet step here is ~ ', dt_vv, &
-                trim(eng%cfg%units%time), how//'; ratio '//fixed(mean_dt/dt_vv, 2)// &
+                trim(eng%units%time), how//'; ratio '//fixed(mean_dt/dt_vv, 2)// &
                 ' (an event costs about 2-3 force passes: energy stepping pays off above ~3)'
         end if
     end subroutine print_es_estimates
 
     !> The event loop. Ends at t_end, or after max_events events.
-    subroutine run_energy_stepping(eng, thermo, traj, h, sched, stats, ctl)
+    subroutine run_energy_stepping(eng, p, ts, thermo, traj, h, sched, stats, ctl)
         type(engine_t), intent(inout), target :: eng
+        type(es_params_t), intent(in) :: p
+        class(thermostat_t), intent(inout) :: ts
         type(thermo_writer_t), intent(inout) :: thermo
         type(trajectory_t), intent(inout) :: traj
         real(dp), intent(in) :: h
@@ -339,11 +351,7 @@ contains
         integer :: i, outcome
         real(dp) :: minv(size(eng%atoms%mass))
         type(energy_guard_t) :: guard
-        type(thermostat_t) :: ts
-        real(dp) :: t_coll
-        logical :: collide, rescale
-        integer :: changed
-        real(dp) :: t_resc
+        logical :: thermostat_event
 
         associate (t => st%t, k => st%k, lower => st%lower, upper => st%upper, p0 => st%p0, have_c => st%have_c, &
                    have_guess => st%have_guess, c_guess => st%c_guess, trust => st%trust, t_exp => st%t_exp, &
@@ -353,24 +361,21 @@ contains
                    sample_interval => sched%thermo_interval, sample_every => sched%thermo_every, &
                    traj_interval => sched%traj_interval, traj_every => sched%traj_every)
         ray%eng => eng
-        mvv2e = eng%cfg%units%mvv2e
+        mvv2e = eng%units%mvv2e
         do i = 1, size(minv)
             minv(i) = 1/eng%atoms%mass(i)
         end do
         t_next_ckpt = huge(1.0_dp)
         if (ctl%interval > 0) t_next_ckpt = (ctl%written + 1)*ctl%interval
-        call ts%configure(eng%cfg, eng%natoms, merge(t_end, 0.0_dp, t_end < huge(1.0_dp)))
-        t_coll = huge(1.0_dp)
         if (eng%restarted) then
             call restore_state()
         else
             call start_state()
         end if
-        call schedule_collisions()
-        t_resc = ts%rescale_time()
+        call ts%schedule(eng%atoms, st%t)
         do
             if (t >= t_end .or. stats%events >= max_events) exit
-            window = max(0.0_dp, min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end, t_coll, t_resc) - t)
+            window = max(0.0_dp, min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end, ts%event_time()) - t)
             ray%evals = 0
             if (have_c .or. .not. have_guess) then
                 call solver%first_crossing(ray, lower, upper, window, p0, have_c, trust, res)
@@ -386,21 +391,12 @@ contains
                 have_c = .true.
                 if (ray%last_s /= window) call ray%eval(window, p0)
                 call eng%drift(window)
-                t = min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end, t_coll, t_resc)
+                t = min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end, ts%event_time())
                 ckpt_due = t >= t_next_ckpt
-                ! Andersen collisions due now (before a list build reorders the atoms)
-                collide = t >= t_coll
-                if (collide) then
-                    changed = ts%andersen_collide(eng%atoms, t)
-                    if (ts%zero_momentum) call ts%remove_momentum(eng%atoms)
-                end if
-                ! a scheduled CSVR rescaling due now
-                rescale = t >= t_resc
-                if (rescale) then
-                    call ts%rescale(eng%atoms, t)
-                    if (ts%zero_momentum) call ts%remove_momentum(eng%atoms)
-                    t_resc = ts%rescale_time()
-                end if
+                ! a thermostat event due now (Andersen collisions, a CSVR rescaling), before a list
+                ! build reorders the atoms
+                thermostat_event = t >= ts%event_time()
+                if (thermostat_event) call ts%apply_event(eng%atoms, t)
                 ! well inside the nominal terrace again: edges shifted at earlier kicks revert
                 if (p0(1) > k*h + solver%tol .and. p0(1) < (k + 1)*h - solver%tol) then
                     lower = k*h; upper = (k + 1)*h
@@ -410,15 +406,15 @@ contains
                 if (.not. rebuilt .and. t >= t_exp) then
                     ! only the pruned list expired: prune it again (no build, no safe point)
                     call eng%prune()
-                    if (.not. (collide .or. rescale)) t_exp = expiry_after(t)
+                    if (.not. thermostat_event) t_exp = expiry_after(t)
                 end if
                 if (rebuilt) then
                     call eng%rebuild()
                     stats%rebuilds = stats%rebuilds + 1
                     t_exp = expiry_after(t)
-                    if (ts%style == thermostat_andersen) call schedule_collisions()
+                    call ts%schedule(eng%atoms, t)
                 end if
-                if (collide .or. rescale) then
+                if (thermostat_event) then
                     ! new velocities: ghosts, list expiry, and V' and V'' at the search origin along them
                     if (.not. rebuilt) then
                         call eng%sync_ghosts()
@@ -427,10 +423,6 @@ contains
                     call ray%eval(0.0_dp, p0)
                     stats%ray_evals = stats%ray_evals + 1
                     have_c = .true.
-                end if
-                if (collide) then
-                    t_coll = ts%andersen_first(eng%atoms)
-                    call min_all(t_coll)
                 end if
                 if (reached(t, n_sample, sample_interval, t_next_sample)) then
                     call write_sample(t)
@@ -521,18 +513,10 @@ contains
             st%t_exp_built = t0 + both(2)
         end function expiry_after
 
-        !> Next Andersen collision of every owned atom after t, and the global first one.
-        subroutine schedule_collisions()
-            if (ts%style /= thermostat_andersen .or. ts%interval > 0) return   ! (the global variant: scheduled)
-            call ts%andersen_schedule(eng%atoms, st%t)
-            t_coll = ts%andersen_first(eng%atoms)
-            call min_all(t_coll)
-        end subroutine schedule_collisions
-
         subroutine start_state()
             ! the tolerance cannot be finer than the round-off of the total energy
-            solver%tol = max(eng%cfg%root_tolerance*h, 64*epsilon(1.0_dp)*abs(eng%pe))
-            if (world%rank == 0 .and. solver%tol > eng%cfg%root_tolerance*h) write (output_unit, '(a,es10.3,a)') &
+            solver%tol = max(p%root_tolerance*h, 64*epsilon(1.0_dp)*abs(eng%pe))
+            if (world%rank == 0 .and. solver%tol > p%root_tolerance*h) write (output_unit, '(a,es10.3,a)') &
                 '  note       : root_tolerance raised to ', solver%tol/h, ' (round-off of the total energy)'
             st%t = 0
             st%k = floor(eng%pe/h, i8)
@@ -569,13 +553,13 @@ contains
             ! the built list's expiry, as the run computed it after the build it checkpointed at
             te = expiry_after(st%t)
             if (ts%active()) call ts%restore(eng%restart_values, ok)
-            call check_all(ok, trim(eng%cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint '// &
+            call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
                            '(energy-stepping state missing)')
         end subroutine restore_state
 
         subroutine checkpoint(scheduled)
             logical, intent(in) :: scheduled
-            type(ckpt_values_t) :: val
+            type(named_values_t) :: val
             logical :: ok
             character(len=512) :: msg
             call eng%timers%start(t_output)
@@ -643,7 +627,7 @@ contains
     !> (The time is the checkpoint's own 'time'; h and the thermostat's state are saved beside it.)
     subroutine es_state_exchange(self, val, saving, stats, ok)
         class(es_state_t), intent(inout) :: self
-        type(ckpt_values_t), intent(inout) :: val
+        type(named_values_t), intent(inout) :: val
         logical, intent(in) :: saving
         type(es_stats_t), intent(inout) :: stats
         logical, intent(inout) :: ok

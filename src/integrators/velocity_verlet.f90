@@ -1,11 +1,10 @@
 !> Velocity Verlet, the reference integrator:
 !>   v += dt/2 F/m;  x += dt v;  [rebuild or refresh ghosts];  F = F(x);  v += dt/2 F/m
 !> Energies and the virial are computed only on the steps that are sampled.
-!> With a thermostat (terrace_thermostat): Langevin replaces the drift by BAOAB's A O A (the
-!> exact Ornstein-Uhlenbeck step between two half drifts); CSVR and Nose-Hoover chains act for
-!> dt/2 before the first and after the second half kick; Andersen collisions follow the step;
-!> zero_momentum then removes the total momentum. Thermo gains ecouple and econserve = etotal -
-!> ecouple, and the drift report is that of econserve.
+!> A thermostat (terrace_thermostat) acts through its hooks: pre_kick before the first half kick,
+!> kick_drift in place of the first half kick and the drift where the style replaces them
+!> (Langevin's BAOAB), post_kick after the second half kick, then hold_momentum (zero_momentum).
+!> Thermo gains ecouple and econserve = etotal - ecouple, and the drift report is that of econserve.
 !> Checkpoints are taken at the end of a step whose positions were just used for a neighbour-list
 !> build (forced at checkpoint_every steps), so that a restart rebuilds the same list
 !> (terrace_run_control); a restart continues with the step after the checkpoint's.
@@ -21,19 +20,26 @@ module terrace_velocity_verlet
     use terrace_timers, only: t_output
     use terrace_errors, only: check_all
     use terrace_run_control, only: run_control_t
-    use terrace_checkpoint, only: ckpt_values_t
+    use terrace_named_values, only: named_values_t
     use terrace_run_checks, only: energy_guard_t
-    use terrace_thermostat, only: thermostat_t, thermostat_langevin, thermostat_csvr, thermostat_nose_hoover, &
-                                  thermostat_andersen
+    use terrace_thermostat, only: thermostat_t
     implicit none
     private
+
+    !> What velocity Verlet is made from (the run's units applied).
+    type, public :: verlet_params_t
+        real(dp) :: dt = 0
+        character(len=:), allocatable :: restart_from   !< the checkpoint a restart read (for messages)
+    end type verlet_params_t
 
     public :: run_velocity_verlet
 
 contains
 
-    subroutine run_velocity_verlet(eng, thermo, traj, sched, ctl)
+    subroutine run_velocity_verlet(eng, p, ts, thermo, traj, sched, ctl)
         type(engine_t), intent(inout) :: eng
+        type(verlet_params_t), intent(in) :: p
+        class(thermostat_t), intent(inout) :: ts
         type(thermo_writer_t), intent(inout) :: thermo
         type(trajectory_t), intent(inout) :: traj
         type(schedule_t), intent(in) :: sched
@@ -45,13 +51,11 @@ contains
         logical :: sample, frame, scheduled, safe, ok, stop_now
         type(thermo_sample_t) :: first, last
         type(energy_guard_t) :: guard
-        type(thermostat_t) :: ts
         real(dp) :: t_mid
-        dt = eng%cfg%dt
-        call ts%configure(eng%cfg, eng%natoms, sched%n_steps*dt)
-        dtf = 0.5_dp*dt*eng%cfg%units%ftm2v
+        dt = p%dt
+        dtf = 0.5_dp*dt*eng%units%ftm2v
         do t = 1, size(dtfm)
-            dtfm(t) = 0.5_dp*dt*eng%cfg%units%ftm2v/eng%atoms%mass(t)
+            dtfm(t) = 0.5_dp*dt*eng%units%ftm2v/eng%atoms%mass(t)
         end do
         step0 = 0
         if (eng%restarted) then
@@ -67,7 +71,7 @@ contains
                 first%ecouple = eng%restart_values%get_r('first_ecouple', ok)
                 call ts%restore(eng%restart_values, ok)
             end if
-            call check_all(ok, trim(eng%cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint '// &
+            call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
                            '(velocity Verlet state missing)')
             ! (the energy guard takes its reference at the first sample after the restart)
         else
@@ -82,14 +86,9 @@ contains
         last = first
         do step = step0 + 1, sched%n_steps
             t_mid = (step - 0.5_dp)*dt
-            select case (ts%style)
-            case (thermostat_csvr)
-                call ts%csvr(eng%atoms, 0.5_dp*dt, 2*step, t_mid)
-            case (thermostat_nose_hoover)
-                call ts%nose_hoover(eng%atoms, 0.5_dp*dt, t_mid)
-            end select
-            if (ts%style == thermostat_langevin) then
-                call ts%langevin_kick_drift(eng%atoms, dtfm, dt, step, t_mid)
+            call ts%pre_kick(eng%atoms, dt, step, t_mid)
+            if (ts%replaces_kick_drift()) then
+                call ts%kick_drift(eng%atoms, dtfm, dt, step, t_mid)
             else if (eng%atoms%per_atom_mass) then
                 call kick_masses(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, eng%atoms%f, eng%atoms%rmass, dtf, dt, .true.)
             else
@@ -117,15 +116,8 @@ contains
             else
                 call kick_types(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, eng%atoms%f, eng%atoms%type, dtfm, dt, .false.)
             end if
-            select case (ts%style)
-            case (thermostat_csvr)
-                call ts%csvr(eng%atoms, 0.5_dp*dt, 2*step + 1, t_mid)
-            case (thermostat_nose_hoover)
-                call ts%nose_hoover(eng%atoms, 0.5_dp*dt, t_mid)
-            case (thermostat_andersen)
-                call ts%andersen_step(eng%atoms, dt, step, step*dt)
-            end select
-            if (ts%zero_momentum) call ts%remove_momentum(eng%atoms)
+            call ts%post_kick(eng%atoms, dt, step, t_mid)
+            call ts%hold_momentum(eng%atoms)
             if (sample) then
                 call eng%timers%start(t_output)
                 last = eng%sample(step, step*dt)
@@ -161,7 +153,7 @@ contains
         subroutine checkpoint(step, scheduled)
             integer(i8), intent(in) :: step
             logical, intent(in) :: scheduled
-            type(ckpt_values_t) :: values
+            type(named_values_t) :: values
             logical :: ok
             character(len=512) :: msg
             call eng%timers%start(t_output)

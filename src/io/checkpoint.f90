@@ -30,12 +30,12 @@ module terrace_checkpoint
     use, intrinsic :: iso_fortran_env, only: int32
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
+    use terrace_named_values, only: named_values_t
     use terrace_mpi_env, only: world, any_all
     use terrace_id_blocks, only: to_id_blocks
     use terrace_errors, only: note_broken_hdf5_file
     use terrace_file_ops, only: remove_file, remove_at_exit, keep_at_exit
     use terrace_checksum, only: checksum_rows, checksum_text, checksum_add, checksum_over_ranks
-    use terrace_namelist_text, only: namelist_file_t
     use terrace_hdf5_io, only: h5_status_t, h5_agree, h5_writer_closed, h5_guard_begin, h5_guard_end, h5_section_begin, &
                                h5_section_end, h5_open_file, h5_create, h5_read, h5_transfer_list, h5_make_fixed, &
                                h5_write_slab, h5_dataset_rank, h5_dataset_dims, h5_read_whole, h5_attr_text, &
@@ -52,22 +52,6 @@ module terrace_checkpoint
     integer, parameter :: format_version = 2
     integer, parameter :: ncol = 15           !< type, x(3), v(3), f(3), image(3), slot rank, slot index
 
-    !> Named scalars of the run state (integer or real), written as attributes of /state.
-    type, public :: ckpt_values_t
-        character(len=40), allocatable :: names(:)
-        integer(i8), allocatable :: ival(:)
-        real(dp), allocatable :: rval(:)
-        logical, allocatable :: is_int(:)
-        integer :: n = 0
-    contains
-        procedure :: put => values_put
-        procedure :: get_i => values_get_i
-        procedure :: get_r => values_get_r
-        procedure :: get_l => values_get_l
-        procedure :: has => values_has
-        procedure, private :: slot => values_slot
-        procedure, private :: find => values_find
-    end type ckpt_values_t
 
     !> What a checkpoint holds, as read (every rank holds all of it, rows in id order).
     type, public :: ckpt_data_t
@@ -76,7 +60,7 @@ module terrace_checkpoint
         integer(i8), allocatable :: id(:), slot(:, :)
         integer, allocatable :: type(:), image(:, :)
         real(dp), allocatable :: x(:, :), v(:, :), f(:, :)
-        type(ckpt_values_t) :: values
+        type(named_values_t) :: values
     end type ckpt_data_t
 
     interface
@@ -86,129 +70,14 @@ module terrace_checkpoint
         end function c_rename
     end interface
 
-    public :: write_checkpoint, read_checkpoint, deck_hash, probe_checkpoint_path
+    public :: write_checkpoint, read_checkpoint, probe_checkpoint_path
 
 contains
 
     ! ------------------------------------------------------------------ named values
 
-    integer function values_slot(self, name) result(k)
-        class(ckpt_values_t), intent(inout) :: self
-        character(len=*), intent(in) :: name
-        character(len=40), allocatable :: n2(:)
-        integer(i8), allocatable :: i2(:)
-        real(dp), allocatable :: r2(:)
-        logical, allocatable :: b2(:)
-        do k = 1, self%n
-            if (self%names(k) == name) return
-        end do
-        if (.not. allocated(self%names)) then
-            allocate (self%names(32), self%ival(32), self%rval(32), self%is_int(32))
-        else if (self%n == size(self%names)) then
-            allocate (n2(2*self%n), i2(2*self%n), r2(2*self%n), b2(2*self%n))
-            n2(1:self%n) = self%names(1:self%n); i2(1:self%n) = self%ival(1:self%n)
-            r2(1:self%n) = self%rval(1:self%n); b2(1:self%n) = self%is_int(1:self%n)
-            call move_alloc(n2, self%names); call move_alloc(i2, self%ival)
-            call move_alloc(r2, self%rval); call move_alloc(b2, self%is_int)
-        end if
-        self%n = self%n + 1; k = self%n
-        self%names(k) = name; self%ival(k) = 0; self%rval(k) = 0
-    end function values_slot
-
-    !> Store v (integer(i8), real(dp) or logical, kept as 0/1) under name.
-    subroutine values_put(self, name, v)
-        class(ckpt_values_t), intent(inout) :: self
-        character(len=*), intent(in) :: name
-        class(*), intent(in) :: v
-        integer :: k
-        k = self%slot(name)
-        select type (v)
-        type is (integer(i8))
-            self%ival(k) = v; self%is_int(k) = .true.
-        type is (real(dp))
-            self%rval(k) = v; self%is_int(k) = .false.
-        type is (logical)
-            self%ival(k) = merge(1_i8, 0_i8, v); self%is_int(k) = .true.
-        end select
-    end subroutine values_put
-
-    logical function values_has(self, name)
-        class(ckpt_values_t), intent(in) :: self
-        character(len=*), intent(in) :: name
-        values_has = any(self%names(1:self%n) == name)
-    end function values_has
-
-    !> The value called name; ok becomes .false. (and stays so) when it is missing.
-    integer(i8) function values_get_i(self, name, ok) result(v)
-        class(ckpt_values_t), intent(in) :: self
-        character(len=*), intent(in) :: name
-        logical, intent(inout) :: ok
-        integer :: k
-        v = 0
-        k = self%find(name, .true., ok)
-        if (k > 0) v = self%ival(k)
-    end function values_get_i
-
-    real(dp) function values_get_r(self, name, ok) result(v)
-        class(ckpt_values_t), intent(in) :: self
-        character(len=*), intent(in) :: name
-        logical, intent(inout) :: ok
-        integer :: k
-        v = 0
-        k = self%find(name, .false., ok)
-        if (k > 0) v = self%rval(k)
-    end function values_get_r
-
-    !> The slot of name holding an integer (is_int) or a real; 0, and ok = .false., when none does.
-    integer function values_find(self, name, is_int, ok) result(k)
-        class(ckpt_values_t), intent(in) :: self
-        character(len=*), intent(in) :: name
-        logical, intent(in) :: is_int
-        logical, intent(inout) :: ok
-        do k = 1, self%n
-            if (self%names(k) == name .and. (self%is_int(k) .eqv. is_int)) return
-        end do
-        k = 0
-        ok = .false.
-    end function values_find
-
-    logical function values_get_l(self, name, ok) result(v)
-        class(ckpt_values_t), intent(in) :: self
-        character(len=*), intent(in) :: name
-        logical, intent(inout) :: ok
-        v = self%get_i(name, ok) /= 0
-    end function values_get_l
 
     ! ------------------------------------------------------------------ identity
-
-    !> A 62-bit hash of the deck's assignments (group, key as written, value as written, in file
-    !> order), leaving out those a restart may change: &system read_checkpoint and &run
-    !> walltime_limit. Two polynomial hashes modulo primes below 2^31 (no integer overflow).
-    integer(i8) function deck_hash(nml) result(h)
-        type(namelist_file_t), intent(in) :: nml
-        integer(i8), parameter :: p1 = 2147483647_i8, p2 = 2147483629_i8
-        integer(i8) :: h1, h2
-        integer :: k
-        h1 = 7; h2 = 11
-        do k = 1, nml%count
-            associate (it => nml%items(k))
-                if (it%group == 'system' .and. it%key == 'read_checkpoint') cycle
-                if (it%group == 'run' .and. it%key == 'walltime_limit') cycle
-                if (it%group == 'system' .and. it%key == 'restart_outputs') cycle
-                call mix(trim(it%group)//'&'//trim(it%target)//'='//trim(adjustl(it%value))//';')
-            end associate
-        end do
-        h = h1*2147483648_i8 + h2
-    contains
-        subroutine mix(s)
-            character(len=*), intent(in) :: s
-            integer :: i
-            do i = 1, len(s)
-                h1 = mod(h1*131 + ichar(s(i:i)), p1)
-                h2 = mod(h2*257 + ichar(s(i:i)), p2)
-            end do
-        end subroutine mix
-    end function deck_hash
 
     !> Can <path>.tmp be created (and <path> later replace it)? Rank 0 tries, the answer is shared.
     subroutine probe_checkpoint_path(path, ok, msg)
@@ -233,7 +102,7 @@ contains
     !> bits), independent of the order of the values.
     integer(i8) function state_checksum(natoms, nprocs, dimension, hash, values) result(h)
         integer(i8), intent(in) :: natoms, nprocs, dimension, hash
-        type(ckpt_values_t), intent(in) :: values
+        type(named_values_t), intent(in) :: values
         character(len=8) :: bits
         integer :: k
         h = checksum_text(1_i8, transfer(natoms, bits)//transfer(nprocs, bits)//transfer(dimension, bits)// &
@@ -257,7 +126,7 @@ contains
         type(atoms_t), intent(in) :: atoms
         integer(i8), intent(in) :: natoms, hash
         integer, intent(in) :: dimension
-        type(ckpt_values_t), intent(in) :: values
+        type(named_values_t), intent(in) :: values
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
         real(dp), allocatable :: mine(:, :), block(:, :)

@@ -18,7 +18,8 @@ module terrace_run_control
     use terrace_kinds, only: dp, i8
     use terrace_text, only: fixed
     use terrace_engine, only: engine_t
-    use terrace_checkpoint, only: ckpt_values_t, write_checkpoint, deck_hash
+    use terrace_checkpoint, only: write_checkpoint
+    use terrace_named_values, only: named_values_t
     use terrace_signals, only: install_stop_handlers, local_stop_signal, stop_signal_name
     use terrace_mpi_env, only: world
     use terrace_errors, only: check_all, warn
@@ -28,9 +29,24 @@ module terrace_run_control
     implicit none
     private
 
+    !> What the run control is made from (the deck's &output and &run keys, in the run's units).
+    type, public :: control_params_t
+        character(len=:), allocatable :: checkpoint_file   !< '' : no checkpoints, no stop on signals
+        integer(i8) :: every = 0                 !< velocity Verlet: steps between checkpoints (0: none)
+        real(dp) :: interval = 0                 !< energy stepping: time between checkpoints (0: none)
+        real(dp) :: walltime_limit = 0           !< seconds (0: none)
+        character(len=:), allocatable :: restart_from   !< the checkpoint a restart read (for messages)
+        !> what every checkpoint records besides the integrator's values
+        character(len=:), allocatable :: integrator, deck_path
+        integer(i8) :: deck_hash = 0, seed = 0
+        integer :: dimension = 3
+        real(dp) :: skin = 0, buffer_drift = 0, buffer_temperature = 0
+    end type control_params_t
+
     type, public :: run_control_t
         logical :: active = .false.              !< a checkpoint file is given
         character(len=:), allocatable :: path
+        type(control_params_t) :: p
         integer(i8) :: every = 0                 !< velocity Verlet: steps between checkpoints (0: none)
         real(dp) :: interval = 0                 !< energy stepping: time between checkpoints (0: none)
         integer(i8) :: written = 0               !< scheduled checkpoints so far (this run and those before)
@@ -55,37 +71,34 @@ contains
 
     !> Catch SIGTERM and SIGUSR1 from the start when the run can write a checkpoint (before the
     !> system is built: a signal during setup stops the run at its first safe point).
-    subroutine control_init_signals(self, cfg)
-        use terrace_config, only: config_t
+    subroutine control_init_signals(self, checkpoint_file)
         class(run_control_t), intent(inout) :: self
-        type(config_t), intent(in) :: cfg
+        character(len=*), intent(in) :: checkpoint_file
         logical :: ok
-        if (len_trim(cfg%checkpoint_file) == 0) return
+        if (len_trim(checkpoint_file) == 0) return
         call install_stop_handlers(ok)
         if (.not. ok) call warn('cannot catch SIGTERM / SIGUSR1: a signal will end the run without a checkpoint')
         self%active = .false.
     end subroutine control_init_signals
 
-    subroutine control_init(self, eng, wall_start)
+    subroutine control_init(self, p, eng, wall_start)
         class(run_control_t), intent(inout) :: self
+        type(control_params_t), intent(in) :: p
         type(engine_t), intent(in) :: eng
         real(dp), intent(in) :: wall_start
         logical :: ok
         self%wall_start = wall_start
-        self%active = len_trim(eng%cfg%checkpoint_file) > 0
+        self%p = p
+        self%active = len_trim(p%checkpoint_file) > 0
         if (.not. self%active) return
-        self%path = trim(eng%cfg%checkpoint_file)
-        if (eng%cfg%integrator == 'energy_stepping') then
-            if (eng%cfg%checkpoint_interval > 0) self%interval = eng%cfg%checkpoint_interval
-        else
-            if (eng%cfg%checkpoint_every > 0) self%every = eng%cfg%checkpoint_every
-            if (eng%cfg%checkpoint_interval > 0) self%every = max(1_i8, nint(eng%cfg%checkpoint_interval/eng%cfg%dt, i8))
-        end if
-        if (eng%cfg%walltime_limit > 0) self%walltime_limit = eng%cfg%walltime_limit
+        self%path = trim(p%checkpoint_file)
+        self%interval = p%interval
+        self%every = p%every
+        self%walltime_limit = p%walltime_limit
         if (eng%restarted) then
             ok = .true.
             self%written = eng%restart_values%get_i('checkpoints', ok)
-            call check_all(ok, trim(eng%cfg%read_checkpoint)//': &system: read_checkpoint: damaged checkpoint '// &
+            call check_all(ok, trim(p%restart_from)//': &system: read_checkpoint: damaged checkpoint '// &
                            '(no checkpoints counter)')
         end if
     end subroutine control_init
@@ -122,7 +135,7 @@ contains
     subroutine control_write(self, eng, values, step, time, thermo_lines, traj_frames, scheduled)
         class(run_control_t), intent(inout) :: self
         type(engine_t), intent(in) :: eng
-        type(ckpt_values_t), intent(inout) :: values
+        type(named_values_t), intent(inout) :: values
         integer(i8), intent(in) :: step, thermo_lines, traj_frames
         real(dp), intent(in) :: time
         logical, intent(in) :: scheduled
@@ -139,10 +152,10 @@ contains
         call values%put('thermo_lines', thermo_lines)
         call values%put('trajectory_frames', traj_frames)
         call values%put('output_part', self%output_part)
-        call values%put('seed', eng%cfg%seed)
-        call values%put('list_skin', eng%cfg%skin)      ! (&neighbor buffer_tolerance: the restart's skin,
-        call values%put('list_buffer_drift', eng%cfg%buffer_drift)            !  its estimate and temperature)
-        call values%put('list_buffer_temperature', eng%cfg%buffer_temperature)
+        call values%put('seed', self%p%seed)
+        call values%put('list_skin', self%p%skin)      ! (&neighbor buffer_tolerance: the restart's skin,
+        call values%put('list_buffer_drift', self%p%buffer_drift)            !  its estimate and temperature)
+        call values%put('list_buffer_temperature', self%p%buffer_temperature)
         do d = 1, 3
             write (tag, '(i0)') d
             call values%put('box_lo_'//trim(tag), eng%box%lo(d))
@@ -158,8 +171,8 @@ contains
             call values%put('mesh_elements', size(eng%mesh_tet, 2, kind=i8))
             call values%put('mesh_hash', eng%mesh_hash)
         end if
-        call write_checkpoint(self%path, eng%atoms, eng%natoms, eng%cfg%dimension, trim(eng%cfg%integrator), &
-                              eng%cfg%path, deck_hash(eng%cfg%nml), terrace_version_string, values, ok, msg)
+        call write_checkpoint(self%path, eng%atoms, eng%natoms, self%p%dimension, self%p%integrator, &
+                              self%p%deck_path, self%p%deck_hash, terrace_version_string, values, ok, msg)
         call check_all(ok, trim(self%path)//': &output checkpoint_file: '//trim(msg))
         self%write_seconds = MPI_Wtime() - t0
         if (world%rank == 0) write (output_unit, '(a,i0,a,es16.9,a)') 'checkpoint: step ', step, ', time ', &

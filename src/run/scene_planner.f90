@@ -1,48 +1,25 @@
-!> The scene plan: what this run will compute and what it skips, decided once from the
-!> configuration and the atom count, and printed by `terrace --check` and at the start of a run.
-module terrace_scene_plan
+!> The scene plan's decisions, made once from the deck, the box, the atom count and the potential:
+!> all pairs, cells + list (atom pairs or cluster pairs) or no list, and the lines that describe
+!> the halo, pairs, potential, integrator and outputs (terrace_scene_plan holds and prints them).
+module terrace_scene_planner
     use terrace_kinds, only: dp, i8
     use terrace_config, only: config_t
     use terrace_box, only: box_t
     use terrace_potential, only: potential_t
     use terrace_cluster_list, only: cluster_cutoff_limit
     use terrace_errors, only: stop_all
+    use terrace_scene_plan, only: plan_t, pair_all, pair_cells, pair_none
     implicit none
     private
 
-    !> pair_all: no list, every owned atom meets every atom (small free scenes, cutoff-free LJ);
-    !> pair_cells: cell lists + half Verlet list; pair_none: no pair list at all (terms with fixed
-    !> partners, such as the elements of one mesh), only the halo.
-    integer, parameter, public :: pair_all = 1, pair_cells = 2, pair_none = 3
-
-    type, public :: plan_t
-        integer(i8) :: natoms = 0
-        integer :: nprocs = 1
-        integer :: dims(3) = 1
-        integer :: pair_mode = pair_cells
-        integer(i8) :: all_pairs_max = 64    !< 'auto' picks all pairs up to this many atoms (free scenes)
-        !> energy stepping: force and ray passes over a pruned copy of the list (pairs within
-        !> rc + skin/4, pruned again when an atom has moved skin/8), for potentials whose passes
-        !> allow it (runs_on_pruned_list: Lennard-Jones). Only with cell lists, and not where the
-        !> passes need the complement list (want_below: EAM).
-        logical :: inner_list = .false.
-        !> Cluster-pair list in place of the atom list (terrace_cluster_list): the potential wants one
-        !> (the mixed-precision LJ kernel), 3-D, cell lists, &neighbor list = 'auto' or 'clusters'
-        logical :: cluster_pairs = .false.
-        logical :: mesh = .false.            !< the atoms are a mesh's nodes (&system mesh_file)
-        character(len=:), allocatable :: halo, pairs, potential, integrator, outputs, box
-    contains
-        procedure :: decide => plan_decide
-        procedure :: finish => plan_finish
-        procedure :: print => plan_print
-    end type plan_t
+    public :: plan_scene
 
 contains
 
     !> The decisions: all pairs, cells + list or no list (from what the potential supports, the
     !> deck's &neighbor list and the scene's size and boundaries), then the descriptions.
-    subroutine plan_decide(self, cfg, box, natoms, nprocs, dims, pot)
-        class(plan_t), intent(inout) :: self
+    subroutine plan_scene(self, cfg, box, natoms, nprocs, dims, pot)
+        type(plan_t), intent(inout) :: self
         type(config_t), intent(in) :: cfg
         type(box_t), intent(in) :: box
         integer(i8), intent(in) :: natoms
@@ -63,11 +40,11 @@ contains
         else if (.not. pot%needs_pair_list()) then
             self%pair_mode = pair_none
         end if
-        call self%finish(cfg, box, pot)
-    end subroutine plan_decide
+        call describe_plan(self, cfg, box, pot)
+    end subroutine plan_scene
 
-    subroutine plan_finish(self, cfg, box, pot)
-        class(plan_t), intent(inout) :: self
+    subroutine describe_plan(self, cfg, box, pot)
+        type(plan_t), intent(inout) :: self
         type(config_t), intent(in) :: cfg
         type(box_t), intent(in) :: box
         class(potential_t), intent(in) :: pot
@@ -163,22 +140,6 @@ contains
                 merge(' periodic;', ' free;    ', box%periodic(d))
             self%box = self%box//trim(s)//' '
         end do
-    end subroutine plan_finish
+    end subroutine describe_plan
 
-    subroutine plan_print(self, unit)
-        class(plan_t), intent(in) :: self
-        integer, intent(in) :: unit
-        character(len=:), allocatable :: what
-        what = ' atoms on '
-        if (self%mesh) what = ' mesh nodes on '
-        write (unit, '(a,i0,a,i0,a,i0,a,i0,a,i0,a)') 'scene plan: ', self%natoms, what, self%nprocs, &
-            ' rank(s), grid ', self%dims(1), ' x ', self%dims(2), ' x ', self%dims(3)
-        write (unit, '(a)') '  box        : '//self%box
-        write (unit, '(a)') '  pairs      : '//self%pairs
-        write (unit, '(a)') '  halo       : '//self%halo
-        write (unit, '(a)') '  potential  : '//self%potential
-        write (unit, '(a)') '  integrator : '//self%integrator
-        write (unit, '(a)') '  outputs    : '//self%outputs
-    end subroutine plan_print
-
-end module terrace_scene_plan
+end module terrace_scene_planner

@@ -17,10 +17,13 @@ module terrace_scene_builder
     use terrace_domain, only: domain_t
     use terrace_potential, only: potential_t
     use terrace_potential_factory, only: make_potential
-    use terrace_scene_plan, only: plan_t
+    use terrace_scene_planner, only: plan_scene
+    use terrace_scene, only: scene_t
     use terrace_mpi_env, only: world, sum_all_i8
     use terrace_errors, only: stop_all, check_all
-    use terrace_checkpoint, only: ckpt_values_t, ckpt_data_t, read_checkpoint, deck_hash
+    use terrace_checkpoint, only: ckpt_data_t, read_checkpoint
+    use terrace_named_values, only: named_values_t
+    use terrace_namelist_text, only: deck_hash
     use terrace_h5md_reader, only: h5md_read_frame
     use terrace_gmsh_mesh, only: mesh_t, read_gmsh
     use terrace_verlet_buffer, only: buffer_skin
@@ -29,23 +32,8 @@ module terrace_scene_builder
     private
 
     !> A built scene, handed to the engine (which takes its parts over).
-    type, public :: scene_t
-        type(box_t) :: box
-        type(atoms_t) :: atoms                   !< the atoms this rank owns (no ghosts yet)
-        type(domain_t) :: dom                    !< set up for the potential's halo reach + skin
-        class(potential_t), allocatable :: pot
-        type(plan_t) :: plan
-        integer(i8) :: natoms = 0
-        real(dp) :: cutmax = 0                   !< the potential's largest cutoff (0: none)
-        character(len=:), allocatable :: source  !< where the atoms came from (for messages)
-        logical :: restarted = .false.           !< started from &system read_checkpoint
-        type(ckpt_values_t) :: restart_values    !< the checkpoint's named values (integrator state)
-        real(dp), allocatable :: restart_f(:, :) !< the checkpoint's forces, (3, N) by id
-        integer(i8), allocatable :: mesh_tet(:, :) !< a mesh scene: (4, ntet) node ids of the tetrahedra
-        integer(i8) :: mesh_hash = 0             !< a mesh scene: fingerprint of its connectivity and reference
-    end type scene_t
 
-    public :: build_scene
+    public :: build_scene, scene_t
 
 contains
 
@@ -214,7 +202,7 @@ contains
         if (cfg%reverse_velocities .and. .not. self%restarted) self%atoms%v(:, 1:self%atoms%nlocal) = -self%atoms%v(:, 1:self%atoms%nlocal)
 
         ! ---- plan
-        call self%plan%decide(cfg, self%box, self%natoms, world%nprocs, self%dom%dims, self%pot)
+        call plan_scene(self%plan, cfg, self%box, self%natoms, world%nprocs, self%dom%dims, self%pot)
         self%source = cfg%scene_source()
         if (self%restarted) then
             ! the forces of the interrupted run (rows of the checkpoint are ids 1..N) and its state

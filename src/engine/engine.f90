@@ -6,12 +6,12 @@
 !> its passes are this module's engine_halo_t.
 module terrace_engine
     use terrace_kinds, only: dp, i8
-    use terrace_config, only: config_t
+    use terrace_units, only: units_t
     use terrace_box, only: box_t
     use terrace_atoms, only: atoms_t
     use terrace_vec3, only: add_scaled
     use terrace_velocities, only: kinetic_energy, atom_mass
-    use terrace_thermostat, only: thermostat_dof, thermostat_style
+    use terrace_thermostat, only: thermostat_dof
     use terrace_domain, only: domain_t
     use terrace_replicate, only: replicate_t
     use terrace_neighbor_list, only: neighbor_list_t
@@ -19,16 +19,29 @@ module terrace_engine
     use terrace_timers, only: timers_t, t_pair, t_neigh, t_comm, t_search
     use terrace_observables, only: thermo_sample_t
     use terrace_scene_plan, only: plan_t, pair_all, pair_cells, pair_none
-    use terrace_scene_builder, only: scene_t
+    use terrace_scene, only: scene_t
     use terrace_overlap_check, only: check_overlaps
     use terrace_mpi_env, only: world, sum_all, any_all
     use terrace_errors, only: stop_all, check_all, warn
-    use terrace_checkpoint, only: ckpt_values_t
+    use terrace_named_values, only: named_values_t
     implicit none
     private
 
+    !> What the engine is made from besides the scene (the run's units applied).
+    type, public :: engine_params_t
+        type(units_t) :: units
+        integer :: dimension = 3
+        real(dp) :: skin = 0                     !< the neighbour list's skin
+        integer :: list_every = 1                !< build the list at most every this many steps
+        logical :: list_check = .true.           !< and only when an atom has moved skin/2
+        logical :: straight_lines = .false.      !< the integrator moves atoms on rays (energy stepping)
+    end type engine_params_t
+
     type, public :: engine_t
-        type(config_t) :: cfg
+        type(units_t) :: units
+        integer :: dimension = 3
+        !> degrees of freedom of the temperature: d N - d unless a thermostat sets its own
+        real(dp) :: ndof = 0
         type(box_t) :: box
         type(atoms_t) :: atoms
         type(domain_t) :: dom
@@ -54,7 +67,7 @@ module terrace_engine
         character(len=:), allocatable :: source  !< where the atoms came from (for messages)
         logical :: restarted = .false.           !< started from &system read_checkpoint
         logical :: validity_checks = .false.     !< the potential can reach states without finite energy
-        type(ckpt_values_t) :: restart_values    !< the checkpoint's named values (integrator state)
+        type(named_values_t) :: restart_values    !< the checkpoint's named values (integrator state)
         integer(i8), allocatable :: mesh_tet(:, :) !< a mesh scene: (4, ntet) node ids (trajectory, XDMF)
         integer(i8) :: mesh_hash = 0             !< a mesh scene: its fingerprint (checkpoints)
     contains
@@ -85,34 +98,36 @@ contains
 
     !> Take over a built scene, build the halo and the neighbour list, check for overlapping atoms
     !> and compute the first forces (a restart takes the interrupted run's). Collective.
-    subroutine engine_setup(self, cfg, scene)
+    subroutine engine_setup(self, p, scene)
         class(engine_t), intent(inout) :: self
-        type(config_t), intent(in) :: cfg
+        type(engine_params_t), intent(in) :: p
         type(scene_t), intent(inout) :: scene
         integer :: i
-        self%cfg = cfg
+        self%units = p%units
+        self%dimension = p%dimension
         self%box = scene%box
         self%atoms = scene%atoms
         self%dom = scene%dom
         call move_alloc(scene%pot, self%pot)
         self%plan = scene%plan
         self%natoms = scene%natoms
+        self%ndof = thermostat_dof(.true., .false., p%dimension, scene%natoms)
         self%cutmax = scene%cutmax
         self%source = scene%source
         self%restarted = scene%restarted
         if (allocated(scene%mesh_tet)) call move_alloc(scene%mesh_tet, self%mesh_tet)
         self%mesh_hash = scene%mesh_hash
-        self%list%dimension = cfg%dimension
+        self%list%dimension = p%dimension
         self%list%all_pairs = self%plan%pair_mode == pair_all
-        if (self%plan%pair_mode == pair_cells) call self%list%init(self%cutmax, cfg%skin, cfg%dimension)
-        self%list%every = cfg%list_every
-        self%list%check = cfg%list_check
+        if (self%plan%pair_mode == pair_cells) call self%list%init(self%cutmax, p%skin, p%dimension)
+        self%list%every = p%list_every
+        self%list%check = p%list_check
         ! no pair list: bins (for the spatial sort) sized by the halo, and the displacement reference
-        if (self%plan%pair_mode == pair_none) call self%list%init(self%pot%halo_reach(), cfg%skin, cfg%dimension)
+        if (self%plan%pair_mode == pair_none) call self%list%init(self%pot%halo_reach(), p%skin, p%dimension)
         self%validity_checks = self%pot%may_become_invalid()
         ! ray passes of some many-body terms (and the force pass of node-to-face contact) need each
         ! owned atom's whole neighbourhood
-        self%list%want_below = self%pot%needs_full_neighbourhood(cfg%integrator == 'energy_stepping')
+        self%list%want_below = self%pot%needs_full_neighbourhood(p%straight_lines)
         self%list%want_types = self%pot%wants_neighbour_types()
         self%list%type_order = self%pot%neighbour_type_order()
         self%use_inner = self%plan%inner_list
@@ -129,11 +144,10 @@ contains
     end subroutine engine_setup
 
     !> Degrees of freedom for the temperature: d N - d (as LAMMPS), or d N under a thermostat that
-    !> also drives the total momentum (Langevin, Andersen without zero_momentum; terrace_thermostat).
+    !> also drives the total momentum (Langevin, Andersen without zero_momentum): the thermostat's dof, which the run sets.
     pure real(dp) function engine_dof(self)
         class(engine_t), intent(in) :: self
-        engine_dof = thermostat_dof(max(0, thermostat_style(self%cfg%thermostat)), self%cfg%zero_momentum, &
-                                    self%cfg%dimension, self%natoms)
+        engine_dof = self%ndof
     end function engine_dof
 
     !> Migrate atoms, sort them spatially, rebuild the halo and the neighbour list.
@@ -264,7 +278,7 @@ contains
         real(dp) :: dof, pl(6), m, r(3)
         integer :: i
         s%step = step; s%time = time
-        s%ke = kinetic_energy(self%atoms, self%cfg%units)
+        s%ke = kinetic_energy(self%atoms, self%units)
         pl = 0
         do i = 1, self%atoms%nlocal
             m = atom_mass(self%atoms, i)
@@ -280,8 +294,8 @@ contains
         s%etotal = s%ke + s%pe
         dof = self%dof()
         s%temp = 0
-        if (dof > 0) s%temp = 2*s%ke/(dof*self%cfg%units%boltz)
-        s%press = (2*s%ke + self%virial)/(self%box%dimension*self%box%volume())*self%cfg%units%nktv2p
+        if (dof > 0) s%temp = 2*s%ke/(dof*self%units%boltz)
+        s%press = (2*s%ke + self%virial)/(self%box%dimension*self%box%volume())*self%units%nktv2p
     end function engine_sample
 
     !> Energy, its first two derivatives along the ray x + s v, and the virial, summed over all
@@ -392,7 +406,7 @@ contains
         character(len=64) :: at
         logical :: bad
         bad = self%pot%invalid_state(text)
-        write (at, '(a,i0,a,es12.5,1x,a)') ' at step ', step, ', time ', time, trim(self%cfg%units%time)
+        write (at, '(a,i0,a,es12.5,1x,a)') ' at step ', step, ', time ', time, trim(self%units%time)
         call check_all(.not. bad, trim(text)//trim(at))
     end subroutine engine_check_valid
 

@@ -1,0 +1,100 @@
+!> The run's assembly: from the validated deck (config_t) to the small records of parameters that
+!> the engine, the integrators, the run control and the thermostat are made from. Only this layer
+!> (and the deck reader below it) knows config_t: nothing under engine/, integrators/, thermostat/
+!> or lower names it.
+module terrace_run_params
+    use terrace_kinds, only: dp, i8
+    use terrace_config, only: config_t
+    use terrace_namelist_text, only: deck_hash
+    use terrace_engine, only: engine_params_t
+    use terrace_run_control, only: control_params_t
+    use terrace_schedule, only: schedule_t
+    use terrace_velocity_verlet, only: verlet_params_t
+    use terrace_energy_stepping, only: es_params_t
+    use terrace_thermostat, only: thermostat_t, thermostat_params_t
+    use terrace_thermostat_factory, only: new_thermostat
+    implicit none
+    private
+
+    public :: engine_params, control_params, verlet_params, es_params, make_thermostat
+
+contains
+
+    type(engine_params_t) function engine_params(cfg) result(p)
+        type(config_t), intent(in) :: cfg
+        p%units = cfg%units
+        p%dimension = cfg%dimension
+        p%skin = cfg%skin
+        p%list_every = cfg%list_every
+        p%list_check = cfg%list_check
+        p%straight_lines = cfg%integrator == 'energy_stepping'
+    end function engine_params
+
+    !> Checkpoints and stops: steps between checkpoints for velocity Verlet (checkpoint_every, or
+    !> checkpoint_interval / dt), a time for energy stepping.
+    type(control_params_t) function control_params(cfg) result(p)
+        type(config_t), intent(in) :: cfg
+        p%checkpoint_file = trim(cfg%checkpoint_file)
+        if (cfg%integrator == 'energy_stepping') then
+            if (cfg%checkpoint_interval > 0) p%interval = cfg%checkpoint_interval
+        else
+            if (cfg%checkpoint_every > 0) p%every = cfg%checkpoint_every
+            if (cfg%checkpoint_interval > 0) p%every = max(1_i8, nint(cfg%checkpoint_interval/cfg%dt, i8))
+        end if
+        if (cfg%walltime_limit > 0) p%walltime_limit = cfg%walltime_limit
+        p%restart_from = trim(cfg%read_checkpoint)
+        p%integrator = trim(cfg%integrator)
+        p%deck_path = cfg%path
+        p%deck_hash = deck_hash(cfg%nml)
+        p%seed = cfg%seed
+        p%dimension = cfg%dimension
+        p%skin = cfg%skin
+        p%buffer_drift = cfg%buffer_drift
+        p%buffer_temperature = cfg%buffer_temperature
+    end function control_params
+
+    type(verlet_params_t) function verlet_params(cfg) result(p)
+        type(config_t), intent(in) :: cfg
+        p%dt = cfg%dt
+        p%restart_from = trim(cfg%read_checkpoint)
+    end function verlet_params
+
+    type(es_params_t) function es_params(cfg) result(p)
+        type(config_t), intent(in) :: cfg
+        p%terrace_height = cfg%terrace_height
+        p%target_mean_dt = cfg%target_mean_dt
+        p%root_tolerance = cfg%root_tolerance
+        p%restart_from = trim(cfg%read_checkpoint)
+        p%where_height = cfg%where('integrator', 'terrace_height')
+        p%where_mean_dt = cfg%where('integrator', 'target_mean_dt')
+    end function es_params
+
+    !> The deck's thermostat ('none': one that does nothing) for natoms atoms; its temperature ramp
+    !> runs over the schedule's length (Verlet: n_steps dt; energy stepping: run_time, if given).
+    !> Energy stepping's scheduled variants (CSVR, Andersen's global one) act at &thermostat interval.
+    subroutine make_thermostat(cfg, natoms, sched, ts)
+        type(config_t), intent(in) :: cfg
+        integer(i8), intent(in) :: natoms
+        type(schedule_t), intent(in) :: sched
+        class(thermostat_t), allocatable, intent(out) :: ts
+        type(thermostat_params_t) :: p
+        p%temperature = cfg%thermostat_temperature
+        p%temperature_end = cfg%thermostat_temperature_end
+        if (cfg%integrator == 'energy_stepping') then
+            p%ramp_time = merge(sched%t_end, 0.0_dp, sched%t_end < huge(1.0_dp))
+            if (cfg%thermostat_interval > 0) p%interval = cfg%thermostat_interval
+        else
+            p%ramp_time = sched%n_steps*cfg%dt
+        end if
+        p%damping = cfg%thermostat_damping
+        p%chain_length = cfg%chain_length
+        p%seed = cfg%thermostat_seed
+        p%zero_momentum = cfg%zero_momentum
+        p%dimension = cfg%dimension
+        p%natoms = natoms
+        p%boltz = cfg%units%boltz
+        p%mvv2e = cfg%units%mvv2e
+        call new_thermostat(cfg%thermostat, p, ts)
+    end subroutine make_thermostat
+
+end module terrace_run_params

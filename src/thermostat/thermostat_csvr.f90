@@ -1,0 +1,135 @@
+!> Stochastic velocity rescaling (CSVR; Bussi, Donadio & Parrinello 2007): over a time s the total
+!> kinetic energy K becomes
+!>   K' = K + (1 - c)(K_T (R1^2 + S) / Nf - K) + 2 R1 sqrt(c (1 - c) K K_T / Nf),
+!>   c = exp(-s / damping), K_T = Nf k_B T / 2, R1 normal, S chi-square(Nf - 1); v <- v sqrt(K'/K),
+!> the exact solution of the kinetic-energy SDE over s. One global draw (every rank draws the same
+!> numbers, keyed by the event index), then a uniform rescale of the owned velocities.
+!> Velocity Verlet: over dt/2 before the first and after the second half kick (events 2 step and
+!> 2 step + 1). Energy stepping: at the multiples of `interval`, as calendar events (the n-th keyed
+!> by n). A zero total momentum stays zero: dof = d N - d.
+module terrace_thermostat_csvr
+    use terrace_kinds, only: dp, i8
+    use terrace_atoms, only: atoms_t
+    use terrace_counter_rng, only: rng_stream, rng_stream_t
+    use terrace_named_values, only: named_values_t
+    use terrace_thermostat, only: thermostat_t, thermostat_params_t, total_ke, scale_velocities
+    implicit none
+    private
+
+    integer, parameter :: stream_csvr = 102   !< the generator's stream for this thermostat
+
+    type, extends(thermostat_t), public :: csvr_t
+        !> energy stepping: a rescaling at every multiple of interval (0: none); the next one is
+        !> the n_rescale-th (its draws keyed by n_rescale)
+        real(dp) :: interval = 0
+        integer(i8) :: n_rescale = 1
+    contains
+        procedure :: setup => csvr_setup
+        procedure :: holds_momentum => csvr_holds_momentum
+        procedure :: csvr => csvr_apply
+        procedure :: pre_kick => csvr_pre_kick
+        procedure :: post_kick => csvr_post_kick
+        procedure :: event_time => csvr_event_time
+        procedure :: apply_event => csvr_apply_event
+        procedure :: save_own => csvr_save
+        procedure :: restore_own => csvr_restore
+    end type csvr_t
+
+contains
+
+    subroutine csvr_setup(self, p)
+        class(csvr_t), intent(inout) :: self
+        type(thermostat_params_t), intent(in) :: p
+        self%interval = p%interval
+        self%n_rescale = 1
+    end subroutine csvr_setup
+
+    pure logical function csvr_holds_momentum(self)
+        class(csvr_t), intent(in) :: self
+        csvr_holds_momentum = .true.
+    end function csvr_holds_momentum
+
+    subroutine csvr_pre_kick(self, atoms, dt, step, t_mid)
+        class(csvr_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: dt, t_mid
+        integer(i8), intent(in) :: step
+        call self%csvr(atoms, 0.5_dp*dt, 2*step, t_mid)
+    end subroutine csvr_pre_kick
+
+    subroutine csvr_post_kick(self, atoms, dt, step, t_mid)
+        class(csvr_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: dt, t_mid
+        integer(i8), intent(in) :: step
+        call self%csvr(atoms, 0.5_dp*dt, 2*step + 1, t_mid)
+    end subroutine csvr_post_kick
+
+    !> CSVR over a time span: one global kinetic-energy draw keyed by `event`, then a uniform
+    !> rescale of the owned velocities. Collective.
+    subroutine csvr_apply(self, atoms, span, event, time)
+        class(csvr_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: span, time
+        integer(i8), intent(in) :: event
+        real(dp) :: ke, ke_new
+        ke = total_ke(self, atoms)
+        ke_new = csvr_kinetic_energy(self, ke, span, event, time)
+        if (ke > 0) call scale_velocities(atoms, sqrt(ke_new/ke))
+        self%ecouple_global = self%ecouple_global + (ke_new - ke)
+    end subroutine csvr_apply
+
+    !> Time of the next scheduled rescaling (energy stepping; huge when none).
+    pure real(dp) function csvr_event_time(self) result(t)
+        class(csvr_t), intent(in) :: self
+        t = huge(1.0_dp)
+        if (self%interval > 0) t = real(self%n_rescale, dp)*self%interval
+    end function csvr_event_time
+
+    !> The scheduled rescaling at time t: Bussi's propagator over one interval, keyed by its index
+    !> (the same on every rank and after a restart); with zero_momentum the momentum is removed.
+    subroutine csvr_apply_event(self, atoms, t)
+        class(csvr_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: t
+        call self%csvr(atoms, self%interval, self%n_rescale, t)
+        self%n_rescale = self%n_rescale + 1
+        call self%hold_momentum(atoms)
+    end subroutine csvr_apply_event
+
+    !> Bussi's resampled kinetic energy (see the module header).
+    real(dp) function csvr_kinetic_energy(self, ke, span, event, time) result(ke_new)
+        type(csvr_t), intent(in) :: self
+        real(dp), intent(in) :: ke, span, time
+        integer(i8), intent(in) :: event
+        type(rng_stream_t) :: s
+        real(dp) :: c, kt_target, r1, sn
+        integer(i8) :: nf
+        nf = nint(self%dof, i8)
+        if (nf < 1 .or. ke <= 0) then
+            ke_new = ke
+            return
+        end if
+        c = exp(-span/self%damping)
+        kt_target = 0.5_dp*nf*self%boltz*self%target(time)
+        s = rng_stream(self%seed, stream_csvr, 0_i8, event)
+        r1 = s%normal()
+        sn = s%chi_square(nf - 1)
+        ke_new = ke + (1 - c)*(kt_target*(r1*r1 + sn)/nf - ke) + 2*r1*sqrt(c*(1 - c)*ke*kt_target/nf)
+        ke_new = max(ke_new, 0.0_dp)
+    end function csvr_kinetic_energy
+
+    subroutine csvr_save(self, values)
+        class(csvr_t), intent(inout) :: self
+        type(named_values_t), intent(inout) :: values
+        if (self%interval > 0) call values%put('ts_n_rescale', self%n_rescale)
+    end subroutine csvr_save
+
+    subroutine csvr_restore(self, values, ok)
+        class(csvr_t), intent(inout) :: self
+        type(named_values_t), intent(in) :: values
+        logical, intent(inout) :: ok
+        if (self%interval > 0) self%n_rescale = values%get_i('ts_n_rescale', ok)
+    end subroutine csvr_restore
+
+end module terrace_thermostat_csvr

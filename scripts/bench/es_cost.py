@@ -317,7 +317,7 @@ def main():
         print('%-10s %15.4g us %15.4g us %16.3f %16.3f %14.2f' % (r['key'], 1e6 * fp_es, 1e6 * fp_vv, ev_fp, st_fp,
                                                                  ev_fp / st_fp))
     print()
-    print("event/step = loop time per event / loop time per Verlet step (goal <= 1.5, issue 16); evals/ev goal <= 2;")
+    print("event/step = loop time per event / loop time per Verlet step (goal <= 1.5); evals/ev goal <= 2;")
     print("'sim/wall s' = simulated time per second of loop time. Mean dt in the scene's time unit.")
     if a.keep:
         print('work dir kept: %s' % work)

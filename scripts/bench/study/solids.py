@@ -421,7 +421,7 @@ def equal_error(res, k):
 
 def section(ctx, results, env):
     """The page section (markdown lines) from the solids results (this run's, or those saved before)."""
-    L = ['<!-- solids:begin -->', '## Elastic solids: the spinning cube and the colliding balls (issues 12, 13)\n']
+    L = ['<!-- solids:begin -->', '## Elastic solids: the spinning cube and the colliding balls\n']
     saved = [results.get(k) or load(ctx, k) for k in SOLID_KEYS]
     saved = [r for r in saved if r]
     if not saved:

@@ -27,6 +27,7 @@ program terrace
     use terrace_version, only: terrace_version_string
     use terrace_info_flags, only: answer_info_flag
     use terrace_run_control, only: run_control_t
+    use terrace_run_outputs, only: run_outputs_t
     use terrace_signals, only: exit_stopped
     use terrace_checkpoint, only: probe_checkpoint_path
     use terrace_output_files, only: check_outputs, check_output_ids, commit_small_outputs
@@ -39,8 +40,8 @@ program terrace
     type(config_t) :: cfg
     type(engine_t) :: eng
     type(scene_t) :: scene
-    type(thermo_writer_t) :: thermo
-    type(trajectory_t) :: traj
+    type(thermo_writer_t), target :: thermo
+    type(trajectory_t), target :: traj
     type(schedule_t) :: sched
     class(thermostat_t), allocatable :: ts
     character(len=:), allocatable :: path
@@ -50,7 +51,8 @@ program terrace
     real(dp) :: t0, t1, h
     type(es_stats_t) :: es
     character(len=512) :: msg
-    type(run_control_t) :: ctl
+    type(run_control_t), target :: ctl
+    type(run_outputs_t) :: out
     real(dp) :: wall_start
 
     call start_mpi()
@@ -101,7 +103,7 @@ contains
         call open_outputs(trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), &
                           sched%end_time())
         call start_clock()
-        call run_velocity_verlet(eng, verlet_params(cfg), ts, thermo, traj, sched, ctl)
+        call run_velocity_verlet(eng, verlet_params(cfg), ts, out, sched)
         call close_run(sched%end_time())
         call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note(), &
                            list_pairs(), pairs_what())
@@ -187,7 +189,7 @@ contains
         call open_outputs(es_thermo_header//trim(merge(',ecouple,econserve', '                  ', &
                                                         cfg%thermostat /= 'none')), sched%end_time())
         call start_clock()
-        call run_energy_stepping(eng, es_params(cfg), ts, thermo, traj, h, sched, es, ctl)
+        call run_energy_stepping(eng, es_params(cfg), ts, out, h, sched, es)
         call close_run(es%time)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events', prune_note(), &
                            list_pairs())
@@ -208,8 +210,12 @@ contains
         end if
     end subroutine energy_stepping_run
 
-    !> Timers and wall clock start together on every rank.
+    !> Timers and wall clock start together on every rank; the integrator writes through `out`.
     subroutine start_clock()
+        out%thermo => thermo
+        out%traj => traj
+        out%ctl => ctl
+        out%thermostat = ts%active()
         call MPI_Barrier(world%comm)
         eng%timers = timers_t()
         t0 = MPI_Wtime()

@@ -38,17 +38,15 @@ module terrace_energy_stepping
     use terrace_atoms, only: atoms_t
     use terrace_schedule, only: schedule_t
     use terrace_event_solver, only: ray_t, event_solver_t, crossing_t, level_upper, level_lower
-    use terrace_thermo, only: thermo_writer_t
     use terrace_observables, only: thermo_sample_t
-    use terrace_trajectory, only: trajectory_t
+    use terrace_calendar, only: calendar_t, cal_sample, cal_frame, cal_checkpoint, cal_list, cal_thermostat, cal_finish
+    use terrace_run_outputs, only: run_outputs_t
     use terrace_timers, only: t_output, t_comm
     use terrace_mpi_env, only: world, sum_all, min_all
     use terrace_exact_sum, only: exact_sum_all
     use terrace_errors, only: stop_all, check_all
-    use terrace_run_checks, only: energy_guard_t
     use terrace_velocities, only: kinetic_energy
     use terrace_jump, only: terrace_jump_lambda, jump_climb, jump_reflect, jump_fall, jump_none
-    use terrace_run_control, only: run_control_t
     use terrace_named_values, only: named_values_t
     use terrace_scene_plan, only: pair_all
     use terrace_thermostat, only: thermostat_t
@@ -87,12 +85,12 @@ module terrace_energy_stepping
         logical :: have_c = .false.                !< p0(3) is known
         logical :: have_guess = .false.            !< c_guess holds the last event's curvature
         real(dp) :: c_guess = 0, trust = huge(1.0_dp)
-        real(dp) :: t_exp = 0                      !< the neighbour list's exact expiry time
-        !> the built list's own expiry (t_exp is also the pruned list's: a prune, not a build, at
-        !> t_exp < t_exp_built); not in checkpoints: recomputed after the build a restart makes
+        !> the window ends: next sample and frame (by time: n * interval), checkpoint, the
+        !> neighbour list's exact expiry (cal_list), thermostat event and end of the run
+        type(calendar_t) :: cal
+        !> the built list's own expiry (cal_list is also the pruned list's: a prune, not a build,
+        !> before it); not in checkpoints: recomputed after the build a restart makes
         real(dp) :: t_exp_built = 0
-        integer(i8) :: n_sample = 1, n_frame = 1   !< next sample / frame by time: n * interval
-        real(dp) :: t_next_sample = huge(1.0_dp), t_next_frame = huge(1.0_dp)
         integer(i8) :: last_events = 0, last_evals = 0   !< at the last sample (means per sample)
         real(dp) :: last_time = 0
         type(es_stats_t) :: stats
@@ -111,6 +109,20 @@ module terrace_energy_stepping
         !> for messages: the checkpoint a restart read, and where the deck sets the two keys above
         character(len=:), allocatable :: restart_from, where_height, where_mean_dt
     end type es_params_t
+
+    !> One run of the event loop: what its procedures share.
+    type :: es_run_t
+        type(engine_t), pointer :: eng => null()
+        class(thermostat_t), pointer :: ts => null()
+        type(run_outputs_t), pointer :: out => null()
+        type(engine_ray_t) :: ray
+        type(event_solver_t) :: solver
+        type(es_state_t) :: st
+        type(es_stats_t) :: stats
+        real(dp) :: h = 0, mvv2e = 1
+        real(dp), allocatable :: minv(:)          !< 1/m of each type
+        integer(i8) :: sample_every = 0, traj_every = 0   !< samples / frames every N events (0: by time)
+    end type es_run_t
 
     character(len=*), parameter, public :: es_thermo_header = &
         ',events,reflections,mean_dt,evals_per_event,terrace_height,e_terraced'
@@ -330,298 +342,324 @@ contains
         end if
     end subroutine print_es_estimates
 
-    !> The event loop. Ends at t_end, or after max_events events.
-    subroutine run_energy_stepping(eng, p, ts, thermo, traj, h, sched, stats, ctl)
+    !> The event loop. Ends at t_end, or after max_events events (sched), or at a stop request.
+    subroutine run_energy_stepping(eng, p, ts, out, h, sched, stats)
         type(engine_t), intent(inout), target :: eng
         type(es_params_t), intent(in) :: p
-        class(thermostat_t), intent(inout) :: ts
-        type(thermo_writer_t), intent(inout) :: thermo
-        type(trajectory_t), intent(inout) :: traj
+        class(thermostat_t), intent(inout), target :: ts
+        type(run_outputs_t), intent(inout), target :: out
         real(dp), intent(in) :: h
         type(schedule_t), intent(in) :: sched
         type(es_stats_t), intent(out) :: stats
-        type(run_control_t), intent(inout) :: ctl
-        type(engine_ray_t) :: ray
-        type(event_solver_t) :: solver
+        type(es_run_t), target :: r
         type(crossing_t) :: res
-        type(es_state_t), target :: st
-        real(dp) :: window, sigma2, a, b, lam, vstar, mvv2e
-        logical :: sample_due, ckpt_due, rebuilt, stop_now
-        real(dp) :: t_next_ckpt
-        integer :: i, outcome
-        real(dp) :: minv(size(eng%atoms%mass))
-        type(energy_guard_t) :: guard
-        logical :: thermostat_event
-
-        associate (t => st%t, k => st%k, lower => st%lower, upper => st%upper, p0 => st%p0, have_c => st%have_c, &
-                   have_guess => st%have_guess, c_guess => st%c_guess, trust => st%trust, t_exp => st%t_exp, &
-                   n_sample => st%n_sample, n_frame => st%n_frame, t_next_sample => st%t_next_sample, &
-                   t_next_frame => st%t_next_frame, last_events => st%last_events, last_evals => st%last_evals, &
-                   last_time => st%last_time, t_end => sched%t_end, max_events => sched%n_steps, &
-                   sample_interval => sched%thermo_interval, sample_every => sched%thermo_every, &
-                   traj_interval => sched%traj_interval, traj_every => sched%traj_every)
-        ray%eng => eng
-        mvv2e = eng%units%mvv2e
-        do i = 1, size(minv)
-            minv(i) = 1/eng%atoms%mass(i)
+        logical :: stop_now
+        integer :: i
+        r%eng => eng; r%ts => ts; r%out => out
+        r%ray%eng => eng
+        r%h = h
+        r%mvv2e = eng%units%mvv2e
+        allocate (r%minv(size(eng%atoms%mass)))
+        do i = 1, size(r%minv)
+            r%minv(i) = 1/eng%atoms%mass(i)
         end do
-        t_next_ckpt = huge(1.0_dp)
-        if (ctl%interval > 0) t_next_ckpt = (ctl%written + 1)*ctl%interval
+        r%sample_every = sched%thermo_every
+        r%traj_every = sched%traj_every
         if (eng%restarted) then
-            call restore_state()
+            call restore_state(r, p)
         else
-            call start_state()
+            call start_state(r, p, sched)
         end if
-        call ts%schedule(eng%atoms, st%t)
+        call r%st%cal%on_grid(cal_checkpoint, out%ctl%interval, out%ctl%written + 1)
+        r%st%cal%t(cal_finish) = sched%t_end
+        call ts%schedule(eng%atoms, r%st%t)
         do
-            if (t >= t_end .or. stats%events >= max_events) exit
-            window = max(0.0_dp, min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end, ts%event_time()) - t)
-            ray%evals = 0
-            if (have_c .or. .not. have_guess) then
-                call solver%first_crossing(ray, lower, upper, window, p0, have_c, trust, res)
+            if (r%st%t >= sched%t_end .or. r%stats%events >= sched%n_steps) exit
+            r%st%cal%t(cal_thermostat) = ts%event_time()
+            call search(r, res)
+            if (res%found) then
+                call level_crossing(r, res)
             else
-                call solver%first_crossing(ray, lower, upper, window, p0, have_c, trust, res, c_guess)
+                call window_end(r, res, stop_now)
+                if (stop_now) exit
             end if
-            stats%ray_evals = stats%ray_evals + ray%evals
-            if (.not. res%found) then
-                ! ---- window end: sample, list expiry or end of run; no kick
-                ! (f, f', f'' and the virial at the window end, measured from the search origin: before
-                ! the drift)
-                p0 = res%fdc
-                have_c = .true.
-                if (ray%last_s /= window) call ray%eval(window, p0)
-                call eng%drift(window)
-                t = min(t_exp, t_next_sample, t_next_frame, t_next_ckpt, t_end, ts%event_time())
-                ckpt_due = t >= t_next_ckpt
-                ! a thermostat event due now (Andersen collisions, a CSVR rescaling), before a list
-                ! build reorders the atoms
-                thermostat_event = t >= ts%event_time()
-                if (thermostat_event) call ts%apply_event(eng%atoms, t)
-                ! well inside the nominal terrace again: edges shifted at earlier kicks revert
-                if (p0(1) > k*h + solver%tol .and. p0(1) < (k + 1)*h - solver%tol) then
-                    lower = k*h; upper = (k + 1)*h
-                end if
-                eng%pe = ray%last_out(1); eng%virial = ray%last_out(4)
-                rebuilt = t >= st%t_exp_built .or. (ckpt_due .and. eng%plan%pair_mode /= pair_all)
-                if (.not. rebuilt .and. t >= t_exp) then
-                    ! only the pruned list expired: prune it again (no build, no safe point)
-                    call eng%prune()
-                    if (.not. thermostat_event) t_exp = expiry_after(t)
-                end if
-                if (rebuilt) then
-                    call eng%rebuild()
-                    stats%rebuilds = stats%rebuilds + 1
-                    t_exp = expiry_after(t)
-                    call ts%schedule(eng%atoms, t)
-                end if
-                if (thermostat_event) then
-                    ! new velocities: ghosts, list expiry, and V' and V'' at the search origin along them
-                    if (.not. rebuilt) then
-                        call eng%sync_ghosts()
-                        t_exp = expiry_after(t)
-                    end if
-                    call ray%eval(0.0_dp, p0)
-                    stats%ray_evals = stats%ray_evals + 1
-                    have_c = .true.
-                end if
-                if (reached(t, n_sample, sample_interval, t_next_sample)) then
-                    call write_sample(t)
-                else if (t >= t_end) then
-                    call write_sample(t)     ! the end of the run is always sampled
-                end if
-                if (reached(t, n_frame, traj_interval, t_next_frame)) call write_frame(t)
-                ! a safe point: after a list build, or anywhere on the all-pairs path (its replicated
-                ! atoms drift bitwise like their owners); without a pair list (a mesh) the build
-                ! sorts the atoms and remaps the elements as a restart does, so only after one
-                ! (ecouple's per-rank parts are folded at every safe point: a restart sums them alike)
-                if (ts%active() .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode == pair_all)) call ts%fold()
-                if (ctl%active .and. (ckpt_due .or. rebuilt .or. eng%plan%pair_mode == pair_all)) then
-                    stop_now = ctl%stop_requested()
-                    if (ckpt_due .or. stop_now) call checkpoint(ckpt_due)
-                    if (ckpt_due) t_next_ckpt = (ctl%written + 1)*ctl%interval
-                    if (stop_now) exit
-                end if
-                cycle
+        end do
+        r%stats%time = r%st%t
+        if (.not. out%ctl%stopped .and. r%sample_every > 0) then
+            if (mod(r%stats%events, r%sample_every) /= 0) call write_sample(r, r%st%t)
+        end if
+        stats = r%stats
+    end subroutine run_energy_stepping
+
+    !> The first level crossing in the window up to the calendar's next entry.
+    subroutine search(r, res)
+        type(es_run_t), intent(inout) :: r
+        type(crossing_t), intent(out) :: res
+        real(dp) :: window
+        associate (st => r%st)
+            window = max(0.0_dp, st%cal%next() - st%t)
+            r%ray%evals = 0
+            if (st%have_c .or. .not. st%have_guess) then
+                call r%solver%first_crossing(r%ray, st%lower, st%upper, window, st%p0, st%have_c, st%trust, res)
+            else
+                call r%solver%first_crossing(r%ray, st%lower, st%upper, window, st%p0, st%have_c, st%trust, res, &
+                                             st%c_guess)
             end if
-            ! ---- a level crossing at s = res%s: drift there, one force pass, the jump
-            c_guess = res%c_near
-            have_guess = .true.
+            r%stats%ray_evals = r%stats%ray_evals + r%ray%evals
+        end associate
+    end subroutine search
+
+    !> No crossing in the window: drift to its end, the calendar entries due there (thermostat
+    !> event, list prune or build, sample, frame), then at a safe point the stop poll and the
+    !> checkpoint. stop_now: the run stops here (a checkpoint was written).
+    subroutine window_end(r, res, stop_now)
+        type(es_run_t), intent(inout) :: r
+        type(crossing_t), intent(in) :: res
+        logical, intent(out) :: stop_now
+        logical :: ckpt_due, rebuilt, thermostat_event, safe
+        real(dp) :: window
+        associate (st => r%st, eng => r%eng, ts => r%ts, cal => r%st%cal, ctl => r%out%ctl)
+            stop_now = .false.
+            window = max(0.0_dp, cal%next() - st%t)
+            ! (f, f', f'' and the virial at the window end, measured from the search origin: before
+            ! the drift)
+            st%p0 = res%fdc
+            st%have_c = .true.
+            if (r%ray%last_s /= window) call r%ray%eval(window, st%p0)
+            call eng%drift(window)
+            st%t = cal%next()
+            ckpt_due = cal%due(cal_checkpoint, st%t)
+            ! a thermostat event due now (Andersen collisions, a CSVR rescaling), before a list
+            ! build reorders the atoms
+            thermostat_event = cal%due(cal_thermostat, st%t)
+            if (thermostat_event) call ts%apply_event(eng%atoms, st%t)
+            ! well inside the nominal terrace again: edges shifted at earlier kicks revert
+            if (st%p0(1) > st%k*r%h + r%solver%tol .and. st%p0(1) < (st%k + 1)*r%h - r%solver%tol) then
+                st%lower = st%k*r%h; st%upper = (st%k + 1)*r%h
+            end if
+            eng%pe = r%ray%last_out(1); eng%virial = r%ray%last_out(4)
+            rebuilt = st%t >= st%t_exp_built .or. (ckpt_due .and. eng%plan%pair_mode /= pair_all)
+            if (.not. rebuilt .and. cal%due(cal_list, st%t)) then
+                ! only the pruned list expired: prune it again (no build, no safe point)
+                call eng%prune()
+                if (.not. thermostat_event) call expiry_after(r, st%t)
+            end if
+            if (rebuilt) then
+                call eng%rebuild()
+                r%stats%rebuilds = r%stats%rebuilds + 1
+                call expiry_after(r, st%t)
+                call ts%schedule(eng%atoms, st%t)
+            end if
+            if (thermostat_event) then
+                ! new velocities: ghosts, list expiry, and V' and V'' at the search origin along them
+                if (.not. rebuilt) then
+                    call eng%sync_ghosts()
+                    call expiry_after(r, st%t)
+                end if
+                call r%ray%eval(0.0_dp, st%p0)
+                r%stats%ray_evals = r%stats%ray_evals + 1
+                st%have_c = .true.
+            end if
+            if (cal%reached(cal_sample, st%t)) then
+                call write_sample(r, st%t)
+            else if (cal%due(cal_finish, st%t)) then
+                call write_sample(r, st%t)     ! the end of the run is always sampled
+            end if
+            if (cal%reached(cal_frame, st%t)) call write_frame(r, st%t)
+            ! a safe point: after a list build, or anywhere on the all-pairs path (its replicated
+            ! atoms drift bitwise like their owners); without a pair list (a mesh) the build sorts
+            ! the atoms and remaps the elements as a restart does, so only after one (ecouple's
+            ! per-rank parts are folded at every safe point: a restart sums them alike)
+            safe = ckpt_due .or. rebuilt .or. eng%plan%pair_mode == pair_all
+            if (ts%active() .and. safe) call ts%fold()
+            if (ctl%active .and. safe) then
+                stop_now = ctl%stop_requested()
+                if (ckpt_due .or. stop_now) call checkpoint(r, ckpt_due)
+                if (ckpt_due) call cal%on_grid(cal_checkpoint, ctl%interval, ctl%written + 1)
+            end if
+        end associate
+    end subroutine window_end
+
+    !> A level crossing at s = res%s: drift there, one force pass, the jump (climb, reflection or
+    !> fall), the new terrace edges, the ghosts' velocities; samples and frames counted in events.
+    subroutine level_crossing(r, res)
+        type(es_run_t), intent(inout) :: r
+        type(crossing_t), intent(in) :: res
+        real(dp) :: sigma2, a, b, lam, vstar
+        integer :: outcome
+        associate (st => r%st, eng => r%eng, stats => r%stats, h => r%h, tol => r%solver%tol)
+            st%c_guess = res%c_near
+            st%have_guess = .true.
             call eng%drift(res%s)
-            t = t + res%s
+            st%t = st%t + res%s
             ! (V and the virial summed over ranks with the gradient sums: one reduction)
             call eng%compute_forces(.true., partial=.true.)
             stats%force_passes = stats%force_passes + 1
             call gradient_sums(eng, sigma2, a, b, with_energy=.true.)
             vstar = eng%pe
             call terrace_jump_lambda(a, b, h, res%level == level_upper, lam, outcome)
-            if (outcome == jump_none .or. (res%level == level_upper .and. vstar < upper - solver%tol) .or. &
-                (res%level == level_lower .and. vstar > lower + solver%tol)) then
+            if (outcome == jump_none .or. (res%level == level_upper .and. vstar < st%upper - tol) .or. &
+                (res%level == level_lower .and. vstar > st%lower + tol)) then
                 ! the predicted root fell short (or the state is already moving back): search on from here
                 stats%verify_misses = stats%verify_misses + 1
-                p0 = [vstar, b/mvv2e, 0.0_dp]
-                have_c = .false.
-                t_exp = expiry_after(t)
-                cycle
+                st%p0 = [vstar, b/r%mvv2e, 0.0_dp]
+                st%have_c = .false.
+                call expiry_after(r, st%t)
+                return
             end if
             select case (outcome)
             case (jump_climb)
-                k = k + 1
-                lower = vstar                 ! the state sits exactly on the new terrace's lower edge
-                upper = (k + 1)*h
+                st%k = st%k + 1
+                st%lower = vstar                 ! the state sits exactly on the new terrace's lower edge
+                st%upper = (st%k + 1)*h
                 stats%ups = stats%ups + 1
             case (jump_reflect)
-                upper = vstar
+                st%upper = vstar
                 stats%reflections = stats%reflections + 1
             case (jump_fall)
-                k = k - 1
-                upper = vstar
-                lower = k*h
+                st%k = st%k - 1
+                st%upper = vstar
+                st%lower = st%k*h
                 stats%downs = stats%downs + 1
             end select
             if (eng%atoms%per_atom_mass) then
                 call kick_per_atom(eng%atoms%nlocal, lam, eng%atoms%rmass, eng%atoms%f, eng%atoms%v)
             else
-                call kick_by_type(eng%atoms%nlocal, lam, minv, eng%atoms%type, eng%atoms%f, eng%atoms%v)
+                call kick_by_type(eng%atoms%nlocal, lam, r%minv, eng%atoms%type, eng%atoms%f, eng%atoms%v)
             end if
             call eng%sync_ghosts()
-            p0 = [vstar, (b + lam*a)/mvv2e, 0.0_dp]
-            have_c = .false.
+            st%p0 = [vstar, (b + lam*a)/r%mvv2e, 0.0_dp]
+            st%have_c = .false.
             stats%events = stats%events + 1
-            trust = 4*t/stats%events
-            t_exp = expiry_after(t)
-            sample_due = sample_every > 0
-            if (sample_due) sample_due = mod(stats%events, sample_every) == 0
-            if (sample_due) call write_sample(t)
-            if (traj_every > 0) then
-                if (mod(stats%events, traj_every) == 0) call write_frame(t)
+            st%trust = 4*st%t/stats%events
+            call expiry_after(r, st%t)
+            if (r%sample_every > 0) then
+                if (mod(stats%events, r%sample_every) == 0) call write_sample(r, st%t)
             end if
-        end do
-        stats%time = t
-        if (ctl%stopped) return
-        if (sample_every > 0 .and. mod(stats%events, max(sample_every, 1_i8)) /= 0) call write_sample(t)
+            if (r%traj_every > 0) then
+                if (mod(stats%events, r%traj_every) == 0) call write_frame(r, st%t)
+            end if
         end associate
+    end subroutine level_crossing
 
-    contains
+    !> The neighbour list's expiry after time t0 (global minimum over ranks): the calendar's list
+    !> entry (the pruned list's, when there is one) and the built list's own.
+    subroutine expiry_after(r, t0)
+        type(es_run_t), intent(inout) :: r
+        real(dp), intent(in) :: t0
+        real(dp) :: both(2)
+        both(1) = r%eng%list_expiry(both(2))
+        call min_all(both)
+        r%st%cal%t(cal_list) = t0 + both(1)
+        r%st%t_exp_built = t0 + both(2)
+    end subroutine expiry_after
 
-        !> The neighbour list's expiry time after time t0 (global minimum over ranks).
-        real(dp) function expiry_after(t0) result(te)
-            real(dp), intent(in) :: t0
-            real(dp) :: both(2)
-            both(1) = eng%list_expiry(both(2))
-            call min_all(both)
-            te = t0 + both(1)
-            st%t_exp_built = t0 + both(2)
-        end function expiry_after
-
-        subroutine start_state()
+    !> A new run: the terrace of the initial V, the search origin, the calendar's first sample and
+    !> frame, the list expiry; the first sample and frame written.
+    subroutine start_state(r, p, sched)
+        type(es_run_t), intent(inout) :: r
+        type(es_params_t), intent(in) :: p
+        type(schedule_t), intent(in) :: sched
+        real(dp) :: sigma2, a, b
+        associate (st => r%st, eng => r%eng, h => r%h)
             ! the tolerance cannot be finer than the round-off of the total energy
-            solver%tol = max(p%root_tolerance*h, 64*epsilon(1.0_dp)*abs(eng%pe))
-            if (world%rank == 0 .and. solver%tol > p%root_tolerance*h) write (output_unit, '(a,es10.3,a)') &
-                '  note       : root_tolerance raised to ', solver%tol/h, ' (round-off of the total energy)'
+            r%solver%tol = max(p%root_tolerance*h, 64*epsilon(1.0_dp)*abs(eng%pe))
+            if (world%rank == 0 .and. r%solver%tol > p%root_tolerance*h) write (output_unit, '(a,es10.3,a)') &
+                '  note       : root_tolerance raised to ', r%solver%tol/h, ' (round-off of the total energy)'
             st%t = 0
             st%k = floor(eng%pe/h, i8)
             st%lower = st%k*h
             st%upper = (st%k + 1)*h
             call gradient_sums(eng, sigma2, a, b)
-            st%p0 = [eng%pe, b/mvv2e, 0.0_dp]
+            st%p0 = [eng%pe, b/r%mvv2e, 0.0_dp]
             st%have_c = .false.
             st%have_guess = .false.
             st%c_guess = 0
-            st%n_sample = 1
-            st%t_next_sample = huge(1.0_dp)
-            if (sched%thermo_interval > 0) st%t_next_sample = sched%thermo_interval
-            st%n_frame = 1
-            st%t_next_frame = huge(1.0_dp)
-            if (sched%traj_interval > 0) st%t_next_frame = sched%traj_interval
-            st%t_exp = expiry_after(0.0_dp)
+            call st%cal%on_grid(cal_sample, sched%thermo_interval, 1_i8)
+            call st%cal%on_grid(cal_frame, sched%traj_interval, 1_i8)
+            call expiry_after(r, 0.0_dp)
             st%trust = huge(1.0_dp)
             st%last_events = 0; st%last_evals = 0; st%last_time = 0
-            call write_sample(0.0_dp)
-            if (sched%traj_interval > 0 .or. sched%traj_every > 0) call write_frame(0.0_dp)
-        end subroutine start_state
+            call write_sample(r, 0.0_dp)
+            if (sched%traj_interval > 0 .or. sched%traj_every > 0) call write_frame(r, 0.0_dp)
+        end associate
+    end subroutine start_state
 
-        !> The event loop's state as the interrupted run had it at its checkpoint.
-        subroutine restore_state()
-            logical :: ok
-            real(dp) :: te
-            ok = .true.
-            st%t = eng%restart_values%get_r('time', ok)
-            call st%exchange(eng%restart_values, .false., stats, ok)
-            solver%tol = st%tol
-            eng%pe = st%pe; eng%virial = st%virial
-            ray%last_s = st%ray_last_s; ray%last_out = st%ray_last_out
-            ! the built list's expiry, as the run computed it after the build it checkpointed at
-            te = expiry_after(st%t)
-            if (ts%active()) call ts%restore(eng%restart_values, ok)
-            call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
-                           '(energy-stepping state missing)')
-        end subroutine restore_state
+    !> The event loop's state as the interrupted run had it at its checkpoint.
+    subroutine restore_state(r, p)
+        type(es_run_t), intent(inout) :: r
+        type(es_params_t), intent(in) :: p
+        logical :: ok
+        real(dp) :: t_list
+        ok = .true.
+        r%st%t = r%eng%restart_values%get_r('time', ok)
+        call r%st%exchange(r%eng%restart_values, .false., r%stats, ok)
+        r%solver%tol = r%st%tol
+        r%eng%pe = r%st%pe; r%eng%virial = r%st%virial
+        r%ray%last_s = r%st%ray_last_s; r%ray%last_out = r%st%ray_last_out
+        ! the built list's expiry, as the run computed it after the build it checkpointed at (the
+        ! list entry keeps the checkpoint's value)
+        t_list = r%st%cal%t(cal_list)
+        call expiry_after(r, r%st%t)
+        r%st%cal%t(cal_list) = t_list
+        if (r%ts%active()) call r%ts%restore(r%eng%restart_values, ok)
+        call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
+                       '(energy-stepping state missing)')
+    end subroutine restore_state
 
-        subroutine checkpoint(scheduled)
-            logical, intent(in) :: scheduled
-            type(named_values_t) :: val
-            logical :: ok
-            character(len=512) :: msg
-            call eng%timers%start(t_output)
-            call val%put('h', h)
-            if (ts%active()) call ts%save(val)
-            st%tol = solver%tol
-            st%pe = eng%pe; st%virial = eng%virial
-            st%ray_last_s = ray%last_s; st%ray_last_out = ray%last_out
-            ok = .true.
-            call st%exchange(val, .true., stats, ok)
-            ! the trajectory holds every frame the checkpoint counts, even if the run is killed next
-            call traj%flush(ok, msg)
-            call check_all(ok, trim(msg))
-            call ctl%write(eng, val, stats%events, st%t, thermo%lines, traj%frames(), scheduled)
-            call eng%timers%stop(t_output)
-        end subroutine checkpoint
+    !> A checkpoint: h, the thermostat's state and the event loop's, through the run's outputs.
+    subroutine checkpoint(r, scheduled)
+        type(es_run_t), intent(inout) :: r
+        logical, intent(in) :: scheduled
+        type(named_values_t) :: val
+        logical :: ok
+        call val%put('h', r%h)
+        if (r%ts%active()) call r%ts%save(val)
+        r%st%tol = r%solver%tol
+        r%st%pe = r%eng%pe; r%st%virial = r%eng%virial
+        r%st%ray_last_s = r%ray%last_s; r%st%ray_last_out = r%ray%last_out
+        ok = .true.
+        call r%st%exchange(val, .true., r%stats, ok)
+        call r%out%checkpoint(r%eng, val, r%stats%events, r%st%t, scheduled)
+    end subroutine checkpoint
 
-        subroutine write_sample(time)
-            real(dp), intent(in) :: time
-            type(thermo_sample_t) :: s
-            real(dp) :: extra(8), mean_dt, evals
-            call eng%timers%start(t_output)
-            s = eng%sample(stats%events, time)
-            if (ts%active()) s%ecouple = ts%ecouple()
-            call guard%check(s)
+    !> A thermo sample: the engine's, then events, reflections, the mean event interval and ray
+    !> evaluations per event since the last sample, h, and the conserved K + k h.
+    subroutine write_sample(r, time)
+        type(es_run_t), intent(inout) :: r
+        real(dp), intent(in) :: time
+        type(thermo_sample_t) :: s
+        real(dp) :: mean_dt, evals
+        associate (st => r%st, stats => r%stats)
+            call r%eng%timers%start(t_output)
+            s = r%eng%sample(stats%events, time)
+            if (r%ts%active()) s%ecouple = r%ts%ecouple()
             mean_dt = 0; evals = 0
             if (stats%events > st%last_events) then
                 mean_dt = (time - st%last_time)/(stats%events - st%last_events)
                 evals = real(stats%ray_evals - st%last_evals, dp)/(stats%events - st%last_events)
             end if
-            extra(1:6) = [real(stats%events, dp), real(stats%reflections, dp), mean_dt, evals, h, s%ke + st%k*h]
-            stats%conserved_last = s%ke + st%k*h
-            if (ts%active()) stats%conserved_last = stats%conserved_last - s%ecouple
+            stats%conserved_last = s%ke + st%k*r%h
+            if (r%ts%active()) stats%conserved_last = stats%conserved_last - s%ecouple
             if (.not. stats%have_conserved) stats%conserved_first = stats%conserved_last
             stats%have_conserved = .true.
-            if (ts%active()) then
-                extra(7) = s%ecouple
-                extra(8) = s%ke + st%k*h - extra(7)
-                call thermo%write(s, extra)
-            else
-                call thermo%write(s, extra(1:6))
-            end if
+            call r%out%sample(s, s%ke + st%k*r%h, [real(stats%events, dp), real(stats%reflections, dp), mean_dt, &
+                                                   evals, r%h, s%ke + st%k*r%h])
             st%last_events = stats%events; st%last_evals = stats%ray_evals; st%last_time = time
-            call eng%timers%stop(t_output)
-        end subroutine write_sample
+            call r%eng%timers%stop(t_output)
+        end associate
+    end subroutine write_sample
 
-        subroutine write_frame(time)
-            real(dp), intent(in) :: time
-            type(thermo_sample_t) :: s
-            logical :: ok
-            character(len=512) :: msg
-            character(len=16), parameter :: names(4) = [character(len=16) :: 'events', 'reflections', &
-                                                         'terrace_height', 'e_terraced']
-            call eng%timers%start(t_output)
-            s = eng%sample(stats%events, time)
-            call traj%write(stats%events, time, eng%atoms, s, ok, msg, names, &
-                            [real(stats%events, dp), real(stats%reflections, dp), h, s%ke + st%k*h])
-            call check_all(ok, trim(msg))
-            call eng%timers%stop(t_output)
-        end subroutine write_frame
-
-    end subroutine run_energy_stepping
+    subroutine write_frame(r, time)
+        type(es_run_t), intent(inout) :: r
+        real(dp), intent(in) :: time
+        type(thermo_sample_t) :: s
+        character(len=16), parameter :: names(4) = [character(len=16) :: 'events', 'reflections', &
+                                                     'terrace_height', 'e_terraced']
+        s = r%eng%sample(r%stats%events, time)
+        call r%out%frame(r%eng, r%stats%events, time, s, names, &
+                         [real(r%stats%events, dp), real(r%stats%reflections, dp), r%h, s%ke + r%st%k*r%h])
+    end subroutine write_frame
 
     !> Write the state to (saving) or read it from a checkpoint's named values: every key once.
     !> (The time is the checkpoint's own 'time'; h and the thermostat's state are saved beside it.)
@@ -637,9 +675,9 @@ contains
         call x1('es_have_c', self%have_c); call x1('es_have_guess', self%have_guess)
         call x1('es_c_guess', self%c_guess)
         call x1('es_trust', self%trust)
-        call x1('es_t_exp', self%t_exp)
-        call x1('es_n_sample', self%n_sample); call x1('es_t_next_sample', self%t_next_sample)
-        call x1('es_n_frame', self%n_frame); call x1('es_t_next_frame', self%t_next_frame)
+        call x1('es_t_exp', self%cal%t(cal_list))
+        call x1('es_n_sample', self%cal%n(cal_sample)); call x1('es_t_next_sample', self%cal%t(cal_sample))
+        call x1('es_n_frame', self%cal%n(cal_frame)); call x1('es_t_next_frame', self%cal%t(cal_frame))
         call x1('es_last_events', self%last_events); call x1('es_last_evals', self%last_evals)
         call x1('es_last_time', self%last_time)
         call x1('es_events', stats%events); call x1('es_reflections', stats%reflections)
@@ -670,16 +708,5 @@ contains
         end subroutine x1
     end subroutine es_state_exchange
 
-    !> A time-scheduled output is due: t has reached t_next, which then moves to the next multiple
-    !> of the interval (n counts them).
-    logical function reached(t, n, interval, t_next)
-        real(dp), intent(in) :: t, interval
-        integer(i8), intent(inout) :: n
-        real(dp), intent(inout) :: t_next
-        reached = t >= t_next
-        if (.not. reached) return
-        n = n + 1
-        t_next = n*interval
-    end function reached
 
 end module terrace_energy_stepping

@@ -13,15 +13,13 @@ module terrace_velocity_verlet
     use terrace_vec3, only: add_scaled
     use terrace_engine, only: engine_t
     use terrace_schedule, only: schedule_t
-    use terrace_thermo, only: thermo_writer_t
     use terrace_observables, only: thermo_sample_t
-    use terrace_trajectory, only: trajectory_t
     use terrace_scene_plan, only: pair_all
     use terrace_timers, only: t_output
     use terrace_errors, only: check_all
-    use terrace_run_control, only: run_control_t
     use terrace_named_values, only: named_values_t
-    use terrace_run_checks, only: energy_guard_t
+    use terrace_calendar, only: calendar_t, cal_sample, cal_frame, cal_checkpoint
+    use terrace_run_outputs, only: run_outputs_t
     use terrace_thermostat, only: thermostat_t
     implicit none
     private
@@ -36,155 +34,150 @@ module terrace_velocity_verlet
 
 contains
 
-    subroutine run_velocity_verlet(eng, p, ts, thermo, traj, sched, ctl)
+    subroutine run_velocity_verlet(eng, p, ts, out, sched)
         type(engine_t), intent(inout) :: eng
         type(verlet_params_t), intent(in) :: p
         class(thermostat_t), intent(inout) :: ts
-        type(thermo_writer_t), intent(inout) :: thermo
-        type(trajectory_t), intent(inout) :: traj
+        type(run_outputs_t), intent(inout) :: out
         type(schedule_t), intent(in) :: sched
-        type(run_control_t), intent(inout) :: ctl
-        integer(i8), parameter :: poll_all_pairs = 10   !< all-pairs path: steps between stop polls
         integer(i8) :: step, step0
-        integer :: t
         real(dp) :: dt, dtfm(size(eng%atoms%mass)), dtf
-        logical :: sample, frame, scheduled, safe, ok, stop_now
+        logical :: sample, frame, scheduled, safe, stop_now
         type(thermo_sample_t) :: first, last
-        type(energy_guard_t) :: guard
-        real(dp) :: t_mid
+        type(calendar_t) :: cal
         dt = p%dt
         dtf = 0.5_dp*dt*eng%units%ftm2v
-        do t = 1, size(dtfm)
-            dtfm(t) = 0.5_dp*dt*eng%units%ftm2v/eng%atoms%mass(t)
-        end do
+        dtfm = dtf/eng%atoms%mass
+        cal%every(cal_sample) = sched%thermo_every
+        cal%every(cal_frame) = sched%traj_every
+        cal%every(cal_checkpoint) = out%ctl%every
         step0 = 0
         if (eng%restarted) then
-            ! the first sample of the whole run (for the drift report) and the step reached
-            ok = .true.
-            step0 = eng%restart_values%get_i('step', ok)
-            first%step = 0; first%time = 0
-            first%etotal = eng%restart_values%get_r('first_etotal', ok)
-            first%momentum(1) = eng%restart_values%get_r('first_px', ok)
-            first%momentum(2) = eng%restart_values%get_r('first_py', ok)
-            first%momentum(3) = eng%restart_values%get_r('first_pz', ok)
-            if (ts%active()) then
-                first%ecouple = eng%restart_values%get_r('first_ecouple', ok)
-                call ts%restore(eng%restart_values, ok)
-            end if
-            call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
-                           '(velocity Verlet state missing)')
-            ! (the energy guard takes its reference at the first sample after the restart)
+            call restore_state(eng, p, ts, step0, first)
         else
             call eng%timers%start(t_output)
             first = eng%sample(0_i8, 0.0_dp)
             if (ts%active()) first%ecouple = ts%ecouple()
-            call guard%check(first)
-            call write_thermo(first)
-            call write_frame(0_i8, first)
+            call out%sample(first, first%etotal)
+            if (cal%count_due(cal_frame, 0_i8)) call out%frame(eng, 0_i8, 0.0_dp, first)
             call eng%timers%stop(t_output)
         end if
         last = first
         do step = step0 + 1, sched%n_steps
-            t_mid = (step - 0.5_dp)*dt
-            call ts%pre_kick(eng%atoms, dt, step, t_mid)
+            call ts%pre_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
             if (ts%replaces_kick_drift()) then
-                call ts%kick_drift(eng%atoms, dtfm, dt, step, t_mid)
-            else if (eng%atoms%per_atom_mass) then
-                call kick_masses(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, eng%atoms%f, eng%atoms%rmass, dtf, dt, .true.)
+                call ts%kick_drift(eng%atoms, dtfm, dt, step, (step - 0.5_dp)*dt)
             else
-                call kick_types(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, eng%atoms%f, eng%atoms%type, dtfm, dt, .true.)
+                call kick(eng, dtfm, dtf, dt, .true.)
             end if
-            scheduled = .false.
-            if (ctl%every > 0) scheduled = mod(step, ctl%every) == 0
-            if (eng%plan%pair_mode /= pair_all) then
-                safe = eng%list%rebuild_due(eng%atoms, step, scheduled)
-                if (safe) then
-                    call eng%rebuild()
-                else
-                    call eng%refresh_ghosts()
-                end if
-            else
-                call eng%refresh_ghosts()
-                safe = scheduled .or. mod(step, poll_all_pairs) == 0
-            end if
-            sample = sched%sample_due(step) .or. step == sched%n_steps
-            frame = sched%frame_due(step)
+            scheduled = cal%count_due(cal_checkpoint, step)
+            safe = move_ghosts(eng, step, scheduled)
+            sample = cal%count_due(cal_sample, step) .or. step == sched%n_steps
+            frame = cal%count_due(cal_frame, step)
             call eng%compute_forces(sample .or. frame)
             if (eng%validity_checks) call eng%check_valid(step, step*dt)
-            if (eng%atoms%per_atom_mass) then
-                call kick_masses(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, eng%atoms%f, eng%atoms%rmass, dtf, dt, .false.)
-            else
-                call kick_types(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, eng%atoms%f, eng%atoms%type, dtfm, dt, .false.)
-            end if
-            call ts%post_kick(eng%atoms, dt, step, t_mid)
+            call kick(eng, dtfm, dtf, dt, .false.)
+            call ts%post_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
             call ts%hold_momentum(eng%atoms)
             if (sample) then
                 call eng%timers%start(t_output)
                 last = eng%sample(step, step*dt)
                 if (ts%active()) last%ecouple = ts%ecouple()
-                call guard%check(last)
-                call write_thermo(last)
+                call out%sample(last, last%etotal)
                 call eng%timers%stop(t_output)
             end if
-            if (frame) call write_frame(step, eng%sample(step, step*dt))
+            if (frame) call out%frame(eng, step, step*dt, eng%sample(step, step*dt))
             ! ecouple's per-rank parts are folded at every safe point, so that a run continued from a
             ! checkpoint (always taken at one) sums them exactly as the uninterrupted run does
             if (safe .and. ts%active()) call ts%fold()
-            if (safe .and. ctl%active) then
-                stop_now = ctl%stop_requested()
-                if (stop_now .or. scheduled) call checkpoint(step, scheduled)
-                if (ctl%stopped) exit
+            if (safe .and. out%ctl%active) then
+                stop_now = out%ctl%stop_requested()
+                if (stop_now .or. scheduled) call checkpoint(eng, ts, out, first, step, step*dt, scheduled)
+                if (out%ctl%stopped) exit
             end if
         end do
-        if (.not. ctl%stopped) call report_drift(first, last, eng%natoms, ts%active())
-
-    contains
-
-        !> A thermo line; with a thermostat ecouple (set by the caller) and econserve too.
-        subroutine write_thermo(s)
-            type(thermo_sample_t), intent(inout) :: s
-            if (ts%active()) then
-                call thermo%write(s, [s%ecouple, s%etotal - s%ecouple])
-            else
-                call thermo%write(s)
-            end if
-        end subroutine write_thermo
-
-        subroutine checkpoint(step, scheduled)
-            integer(i8), intent(in) :: step
-            logical, intent(in) :: scheduled
-            type(named_values_t) :: values
-            logical :: ok
-            character(len=512) :: msg
-            call eng%timers%start(t_output)
-            call values%put('first_etotal', first%etotal)
-            call values%put('first_px', first%momentum(1))
-            call values%put('first_py', first%momentum(2))
-            call values%put('first_pz', first%momentum(3))
-            if (ts%active()) then
-                call values%put('first_ecouple', first%ecouple)
-                call ts%save(values)
-            end if
-            ! the trajectory holds every frame the checkpoint counts, even if the run is killed next
-            call traj%flush(ok, msg)
-            call check_all(ok, trim(msg))
-            call ctl%write(eng, values, step, step*dt, thermo%lines, traj%frames(), scheduled)
-            call eng%timers%stop(t_output)
-        end subroutine checkpoint
-
-        subroutine write_frame(step, s)
-            integer(i8), intent(in) :: step
-            type(thermo_sample_t), intent(in) :: s
-            logical :: ok
-            character(len=512) :: msg
-            if (.not. sched%frame_due(step)) return
-            call eng%timers%start(t_output)
-            call traj%write(step, step*dt, eng%atoms, s, ok, msg)
-            call check_all(ok, trim(msg))
-            call eng%timers%stop(t_output)
-        end subroutine write_frame
-
+        if (.not. out%ctl%stopped) call report_drift(first, last, eng%natoms, ts%active())
     end subroutine run_velocity_verlet
+
+    !> The first half kick and the drift (drift), or the second half kick, of the owned atoms.
+    subroutine kick(eng, dtfm, dtf, dt, drift)
+        type(engine_t), intent(inout) :: eng
+        real(dp), intent(in) :: dtfm(:), dtf, dt
+        logical, intent(in) :: drift
+        if (eng%atoms%per_atom_mass) then
+            call kick_masses(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, eng%atoms%f, eng%atoms%rmass, dtf, dt, drift)
+        else
+            call kick_types(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, eng%atoms%f, eng%atoms%type, dtfm, dt, drift)
+        end if
+    end subroutine kick
+
+    !> After the drift: the neighbour list rebuilt when due (or the ghosts refreshed). Returns
+    !> whether this step is a safe point (a list build; on the all-pairs path a scheduled checkpoint
+    !> or every poll_all_pairs steps).
+    logical function move_ghosts(eng, step, scheduled) result(safe)
+        type(engine_t), intent(inout) :: eng
+        integer(i8), intent(in) :: step
+        logical, intent(in) :: scheduled
+        integer(i8), parameter :: poll_all_pairs = 10   !< all-pairs path: steps between stop polls
+        if (eng%plan%pair_mode /= pair_all) then
+            safe = eng%list%rebuild_due(eng%atoms, step, scheduled)
+            if (safe) then
+                call eng%rebuild()
+            else
+                call eng%refresh_ghosts()
+            end if
+        else
+            call eng%refresh_ghosts()
+            safe = scheduled .or. mod(step, poll_all_pairs) == 0
+        end if
+    end function move_ghosts
+
+    !> A restart: the step the checkpoint was taken at, the first sample of the whole run (for the
+    !> drift report) and the thermostat's state. (The energy guard takes its reference at the first
+    !> sample after the restart.)
+    subroutine restore_state(eng, p, ts, step0, first)
+        type(engine_t), intent(inout) :: eng
+        type(verlet_params_t), intent(in) :: p
+        class(thermostat_t), intent(inout) :: ts
+        integer(i8), intent(out) :: step0
+        type(thermo_sample_t), intent(out) :: first
+        logical :: ok
+        ok = .true.
+        step0 = eng%restart_values%get_i('step', ok)
+        first%step = 0; first%time = 0
+        first%etotal = eng%restart_values%get_r('first_etotal', ok)
+        first%momentum(1) = eng%restart_values%get_r('first_px', ok)
+        first%momentum(2) = eng%restart_values%get_r('first_py', ok)
+        first%momentum(3) = eng%restart_values%get_r('first_pz', ok)
+        if (ts%active()) then
+            first%ecouple = eng%restart_values%get_r('first_ecouple', ok)
+            call ts%restore(eng%restart_values, ok)
+        end if
+        call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
+                       '(velocity Verlet state missing)')
+    end subroutine restore_state
+
+    !> A checkpoint: the first sample's energy and momentum (the drift report of the continued run)
+    !> and the thermostat's state, through the run's outputs.
+    subroutine checkpoint(eng, ts, out, first, step, time, scheduled)
+        type(engine_t), intent(inout) :: eng
+        class(thermostat_t), intent(inout) :: ts
+        type(run_outputs_t), intent(inout) :: out
+        type(thermo_sample_t), intent(in) :: first
+        integer(i8), intent(in) :: step
+        real(dp), intent(in) :: time
+        logical, intent(in) :: scheduled
+        type(named_values_t) :: values
+        call values%put('first_etotal', first%etotal)
+        call values%put('first_px', first%momentum(1))
+        call values%put('first_py', first%momentum(2))
+        call values%put('first_pz', first%momentum(3))
+        if (ts%active()) then
+            call values%put('first_ecouple', first%ecouple)
+            call ts%save(values)
+        end if
+        call out%checkpoint(eng, values, step, time, scheduled)
+    end subroutine checkpoint
 
     !> Half kick v += dtfm(type) f of the n owned atoms and, when drift, the drift x += dt v.
     !> Explicit shapes: the compiler sees contiguous, unaliased columns and vectorises (through the

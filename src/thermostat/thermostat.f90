@@ -84,6 +84,19 @@ module terrace_thermostat
         procedure :: schedule => ts_at_time
     end type thermostat_t
 
+    !> A thermostat that may act at the multiples of an interval (energy stepping's calendar): the
+    !> interval (0: none), the index of the next action (its draws keyed by it) and its time; the
+    !> index goes into checkpoints.
+    type, extends(thermostat_t), public :: interval_thermostat_t
+        real(dp) :: interval = 0
+        integer(i8) :: n_rescale = 1
+    contains
+        procedure :: setup => interval_setup
+        procedure :: event_time => interval_event_time
+        procedure :: save_own => interval_save
+        procedure :: restore_own => interval_restore
+    end type interval_thermostat_t
+
     !> No thermostat: every hook does nothing (NVE).
     type, extends(thermostat_t), public :: thermostat_none_t
     contains
@@ -125,6 +138,33 @@ contains
         class(thermostat_t), intent(inout) :: self
         type(thermostat_params_t), intent(in) :: p
     end subroutine ts_setup
+
+    subroutine interval_setup(self, p)
+        class(interval_thermostat_t), intent(inout) :: self
+        type(thermostat_params_t), intent(in) :: p
+        self%interval = p%interval
+        self%n_rescale = 1
+    end subroutine interval_setup
+
+    !> The next action at a multiple of the interval (huge when none).
+    pure real(dp) function interval_event_time(self) result(t)
+        class(interval_thermostat_t), intent(in) :: self
+        t = huge(1.0_dp)
+        if (self%interval > 0) t = real(self%n_rescale, dp)*self%interval
+    end function interval_event_time
+
+    subroutine interval_save(self, values)
+        class(interval_thermostat_t), intent(inout) :: self
+        type(named_values_t), intent(inout) :: values
+        if (self%interval > 0) call values%put('ts_n_rescale', self%n_rescale)
+    end subroutine interval_save
+
+    subroutine interval_restore(self, values, ok)
+        class(interval_thermostat_t), intent(inout) :: self
+        type(named_values_t), intent(in) :: values
+        logical, intent(inout) :: ok
+        if (self%interval > 0) self%n_rescale = values%get_i('ts_n_rescale', ok)
+    end subroutine interval_restore
 
     !> Does the style keep a zero total momentum zero (its dof then loses d)?
     pure logical function ts_holds_momentum(self)

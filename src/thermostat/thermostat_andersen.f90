@@ -18,19 +18,16 @@ module terrace_thermostat_andersen
     use terrace_velocities, only: atom_mass
     use terrace_mpi_env, only: min_all
     use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, unit_from_word, box_muller
-    use terrace_named_values, only: named_values_t
-    use terrace_thermostat, only: thermostat_t, thermostat_params_t
+    use terrace_thermostat, only: interval_thermostat_t, thermostat_params_t
     implicit none
     private
 
     ! streams of the counter-based generator (103, a per-step choice of earlier versions, is retired)
     integer, parameter :: stream_andersen_velocity = 104, stream_andersen_time = 105, stream_andersen_global = 106
 
-    type, extends(thermostat_t), public :: andersen_t
-        !> energy stepping, global variant: every atom resampled at the multiples of interval (0:
-        !> none, collisions atom by atom); the next one the n_rescale-th (its draws keyed by it)
-        real(dp) :: interval = 0
-        integer(i8) :: n_rescale = 1
+    !> Energy stepping, global variant: every atom resampled at the multiples of interval (0: none,
+    !> collisions atom by atom), the n_rescale-th keyed by n_rescale.
+    type, extends(interval_thermostat_t), public :: andersen_t
         !> energy stepping, atom by atom: next collision time of each owned atom (same order as
         !> atoms), and the global first one
         real(dp), allocatable :: next_collision(:)
@@ -43,8 +40,6 @@ module terrace_thermostat_andersen
         procedure :: event_time => andersen_event_time
         procedure :: apply_event => andersen_apply_event
         procedure :: schedule => andersen_schedule
-        procedure :: save_own => andersen_save
-        procedure :: restore_own => andersen_restore
     end type andersen_t
 
     public :: andersen_next_collision
@@ -54,8 +49,7 @@ contains
     subroutine andersen_setup(self, p)
         class(andersen_t), intent(inout) :: self
         type(thermostat_params_t), intent(in) :: p
-        self%interval = p%interval
-        self%n_rescale = 1
+        call self%interval_thermostat_t%setup(p)
         self%t_first = huge(1.0_dp)
     end subroutine andersen_setup
 
@@ -214,18 +208,5 @@ contains
         end if
         call self%hold_momentum(atoms)
     end subroutine andersen_apply_event
-
-    subroutine andersen_save(self, values)
-        class(andersen_t), intent(inout) :: self
-        type(named_values_t), intent(inout) :: values
-        if (self%interval > 0) call values%put('ts_n_rescale', self%n_rescale)
-    end subroutine andersen_save
-
-    subroutine andersen_restore(self, values, ok)
-        class(andersen_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
-        logical, intent(inout) :: ok
-        if (self%interval > 0) self%n_rescale = values%get_i('ts_n_rescale', ok)
-    end subroutine andersen_restore
 
 end module terrace_thermostat_andersen

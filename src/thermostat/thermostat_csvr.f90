@@ -11,38 +11,24 @@ module terrace_thermostat_csvr
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
     use terrace_counter_rng, only: rng_stream, rng_stream_t
-    use terrace_named_values, only: named_values_t
-    use terrace_thermostat, only: thermostat_t, thermostat_params_t, total_ke, scale_velocities
+    use terrace_thermostat, only: interval_thermostat_t, total_ke, scale_velocities
     implicit none
     private
 
     integer, parameter :: stream_csvr = 102   !< the generator's stream for this thermostat
 
-    type, extends(thermostat_t), public :: csvr_t
-        !> energy stepping: a rescaling at every multiple of interval (0: none); the next one is
-        !> the n_rescale-th (its draws keyed by n_rescale)
-        real(dp) :: interval = 0
-        integer(i8) :: n_rescale = 1
+    !> Energy stepping: a rescaling at every multiple of interval (0: none), the n_rescale-th keyed
+    !> by n_rescale.
+    type, extends(interval_thermostat_t), public :: csvr_t
     contains
-        procedure :: setup => csvr_setup
         procedure :: holds_momentum => csvr_holds_momentum
         procedure :: csvr => csvr_apply
         procedure :: pre_kick => csvr_pre_kick
         procedure :: post_kick => csvr_post_kick
-        procedure :: event_time => csvr_event_time
         procedure :: apply_event => csvr_apply_event
-        procedure :: save_own => csvr_save
-        procedure :: restore_own => csvr_restore
     end type csvr_t
 
 contains
-
-    subroutine csvr_setup(self, p)
-        class(csvr_t), intent(inout) :: self
-        type(thermostat_params_t), intent(in) :: p
-        self%interval = p%interval
-        self%n_rescale = 1
-    end subroutine csvr_setup
 
     pure logical function csvr_holds_momentum(self)
         class(csvr_t), intent(in) :: self
@@ -79,13 +65,6 @@ contains
         self%ecouple_global = self%ecouple_global + (ke_new - ke)
     end subroutine csvr_apply
 
-    !> Time of the next scheduled rescaling (energy stepping; huge when none).
-    pure real(dp) function csvr_event_time(self) result(t)
-        class(csvr_t), intent(in) :: self
-        t = huge(1.0_dp)
-        if (self%interval > 0) t = real(self%n_rescale, dp)*self%interval
-    end function csvr_event_time
-
     !> The scheduled rescaling at time t: Bussi's propagator over one interval, keyed by its index
     !> (the same on every rank and after a restart); with zero_momentum the momentum is removed.
     subroutine csvr_apply_event(self, atoms, t)
@@ -118,18 +97,5 @@ contains
         ke_new = ke + (1 - c)*(kt_target*(r1*r1 + sn)/nf - ke) + 2*r1*sqrt(c*(1 - c)*ke*kt_target/nf)
         ke_new = max(ke_new, 0.0_dp)
     end function csvr_kinetic_energy
-
-    subroutine csvr_save(self, values)
-        class(csvr_t), intent(inout) :: self
-        type(named_values_t), intent(inout) :: values
-        if (self%interval > 0) call values%put('ts_n_rescale', self%n_rescale)
-    end subroutine csvr_save
-
-    subroutine csvr_restore(self, values, ok)
-        class(csvr_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
-        logical, intent(inout) :: ok
-        if (self%interval > 0) self%n_rescale = values%get_i('ts_n_rescale', ok)
-    end subroutine csvr_restore
 
 end module terrace_thermostat_csvr

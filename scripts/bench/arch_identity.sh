@@ -4,12 +4,14 @@
 # a Verlet-equilibrated state), Cu EAM with velocity Verlet and with energy stepping, a free
 # seven-atom cluster (all-pairs path, energy stepping), each thermostat with velocity Verlet
 # (Langevin, CSVR, Nose-Hoover chains, Andersen with zero_momentum) and energy stepping's three
-# (Andersen at exact times, CSVR and Andersen's global variant at intervals), the spinning cube and
+# (Andersen at exact times, CSVR and Andersen's global variant at intervals), a three-type LJ
+# mixture with both integrators, mixed precision over cluster pairs and over the atom list, the spinning cube and
 # the colliding balls with both integrators, and a checkpoint restart of each integrator (stopped
 # at its first safe point by walltime_limit, continued by each build from its own checkpoint), on 1
 # and 4 ranks. Prints one line per run and exits non-zero if any thermo file differs by a byte.
 # The balls need the gmsh Python package (scripts/make_ball_mesh.py); without it they are skipped.
 # Usage: scripts/bench/arch_identity.sh OLD_TERRACE NEW_TERRACE [WORKDIR]
+#   ONLY=REGEX runs only the decks whose name matches; NPROCS='1 4' the rank counts.
 set -euo pipefail
 old="$(realpath "$1")"; new="$(realpath "$2")"
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
@@ -59,6 +61,12 @@ for ts in "style='andersen', temperature=94.4, damping=0.5" "style='csvr', tempe
   sed -e 's/n_steps=2000/n_steps=600/' rahman_es.nml > $name.nml
   echo "&thermostat $ts /" >> $name.nml
 done
+# LJ kernels: a three-type mixture (Verlet and energy stepping), one type in mixed precision over
+# the cluster-pair list and over the half atom list
+sed -e "s#@REPO@#$repo#" -e 's/n_steps=3000/n_steps=600/' "$repo/tests/regression/decks/es_mix3.nml" > mix3_es.nml
+sed -e "s/style='energy_stepping', terrace_height=0.1/style='velocity_verlet', dt=0.004/" -e 's/n_steps=600/n_steps=300/' mix3_es.nml > mix3_vv.nml
+sed -e "s/cutoff=2.5 \//cutoff=2.5, precision='mixed' \//" -e 's/n_steps=1000/n_steps=300/' lj_vv.nml > lj_mixed.nml
+sed -e "s/skin=0.3 \//skin=0.3, list='cells' \//" lj_mixed.nml > lj_mixed_cells.nml
 # meshes: the talk's cube (4 x 4 x 4 cells), and the two balls (refine 2) when gmsh is there
 /usr/bin/python3 "$repo/scripts/make_cube_mesh.py" cube.msh --cells 4 --size 0.1 --center > /dev/null
 sed -e "s/run_time=0.1/run_time=0.004/" -e 's/thermo_interval=0.002/thermo_interval=0.0005/' \
@@ -104,9 +112,10 @@ restart() {   # build np deck dir
   (cd "$dir" && "${mpi[@]}" "$exe" "$deck" > log.txt 2>&1) || { echo "restart failed: $exe $deck np=$np ($dir/log.txt)"; return 1; }
 }
 fail=0
-for deck in lj_vv rahman_es cu_vv cu_es cluster_es vv_langevin vv_csvr vv_nose_hoover vv_andersen \
+for deck in lj_vv rahman_es cu_vv cu_es cluster_es mix3_vv mix3_es lj_mixed lj_mixed_cells vv_langevin vv_csvr vv_nose_hoover vv_andersen \
             es_andersen es_csvr es_andersen_global $meshes restart_vv restart_es; do
-  for np in 1 4; do
+  [[ -n ${ONLY:-} && ! $deck =~ $ONLY ]] && continue
+  for np in ${NPROCS:-1 4}; do
     if [[ $deck == restart_* ]]; then
       restart "$old" $np $deck.nml old_${deck}_$np; restart "$new" $np $deck.nml new_${deck}_$np
     else

@@ -91,7 +91,7 @@ sed -e "s/thermo_file='thermo.csv'/thermo_file='thermo.csv', checkpoint_file='ck
 
 run() {   # build np deck dir
   local exe=$1 np=$2 deck=$3 dir=$4
-  rm -rf "$dir"; mkdir -p "$dir"; cp "$deck" "$dir/"
+  rm -rf "$dir"; mkdir -p "$dir"; cp "$deck" "$dir/"; cp ./*.msh "$dir/" 2> /dev/null || true
   [[ -f eq.atoms ]] && cp eq.atoms "$dir/argon_liquid_eq.atoms"
   (cd "$dir" && if [[ $np == 1 ]]; then "$exe" "$(basename "$deck")"; else mpirun --oversubscribe -np "$np" "$exe" "$(basename "$deck")"; fi > log.txt 2>&1) \
     || { echo "run failed: $exe $deck np=$np (see $dir/log.txt)"; return 1; }

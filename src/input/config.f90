@@ -19,6 +19,9 @@ module terrace_config
     use terrace_mpi_env, only: world
     use terrace_file_ops, only: path_kind, resolve_path, directory_of, path_regular, path_directory, path_special
     use terrace_text, only: int_text
+    use terrace_thermostat, only: thermostat_t, thermostat_params_t
+    use terrace_thermostat_factory, only: is_thermostat_style, new_thermostat, thermostat_styles, &
+                                          thermostat_styles_for_events, thermostat_styles_with_chain
     implicit none
     private
 
@@ -636,11 +639,12 @@ contains
         cfg%zero_momentum = zero_momentum; cfg%thermostat_interval = interval
     end subroutine read_thermostat
 
-    !> &thermostat: the style, its keys, and whether it fits the integrator.
+    !> &thermostat: the style, its keys, and whether it fits the integrator (the style says which of
+    !> its keys it takes and whether it can act between energy stepping's events: thermostat_factory).
     subroutine validate_thermostat(cfg)
         type(config_t), intent(inout) :: cfg
-        character(len=*), parameter :: styles = "'none', 'langevin', 'csvr', 'nose_hoover', 'andersen'"
         character(len=:), allocatable :: style_is
+        class(thermostat_t), allocatable :: proto
         logical :: given
         given = cfg%nml%find('thermostat', 'style') > 0
         if (.not. given) then
@@ -648,21 +652,17 @@ contains
                 cfg%nml%find('thermostat', 'temperature_end') > 0 .or. cfg%nml%find('thermostat', 'chain_length') > 0 &
                 .or. cfg%nml%find('thermostat', 'seed') > 0 .or. cfg%nml%find('thermostat', 'zero_momentum') > 0 &
                 .or. cfg%nml%find('thermostat', 'interval') > 0) &
-                call stop_all(cfg%path//': &thermostat: style: missing (allowed: '//styles//')')
+                call stop_all(cfg%path//': &thermostat: style: missing (allowed: '//thermostat_styles()//')')
             return
         end if
         style_is = cfg%where('thermostat', 'style')//" = '"//trim(cfg%thermostat)//"'"
-        select case (cfg%thermostat)
-        case ('none')
-            return
-        case ('langevin', 'csvr', 'nose_hoover', 'andersen')
-        case default
-            call stop_all(style_is//': unknown thermostat (allowed: '//styles//')')
-        end select
-        if (cfg%integrator == 'energy_stepping' .and. cfg%thermostat /= 'andersen' .and. cfg%thermostat /= 'csvr') &
+        if (.not. is_thermostat_style(cfg%thermostat)) &
+            call stop_all(style_is//': unknown thermostat (allowed: '//thermostat_styles()//')')
+        call new_thermostat(cfg%thermostat, thermostat_params_t(), proto)
+        if (.not. proto%active()) return
+        if (cfg%integrator == 'energy_stepping' .and. len(proto%event_note()) == 0) &
             call stop_all(style_is//': not available with energy stepping, whose trajectory is straight lines and '// &
-                          "jumps between events (allowed there: 'andersen', collisions at exact times; 'csvr', "// &
-                          "rescaling at fixed intervals; or 'none')")
+                          'jumps between events (allowed there: '//thermostat_styles_for_events()//')')
         if (cfg%nml%find('thermostat', 'temperature') == 0) &
             call stop_all(cfg%path//': &thermostat: temperature: missing (the target temperature in '// &
                           trim(cfg%units%temperature)//')')
@@ -683,20 +683,20 @@ contains
         if (.not. (cfg%thermostat_damping > 0)) &
             call stop_all(cfg%where('thermostat', 'damping')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
         if (cfg%nml%find('thermostat', 'chain_length') > 0) then
-            if (cfg%thermostat /= 'nose_hoover') call stop_all(cfg%where('thermostat', 'chain_length')// &
-                ": only for style = 'nose_hoover'")
+            if (.not. proto%takes_chain()) call stop_all(cfg%where('thermostat', 'chain_length')// &
+                ': only for '//thermostat_styles_with_chain())
             if (cfg%chain_length < 1) call stop_all(cfg%where('thermostat', 'chain_length')//': must be >= 1')
         end if
         ! energy stepping: CSVR acts at multiples of interval (default damping/10); Andersen with an
         ! interval is the global variant (every atom at multiples of interval)
         if (cfg%nml%find('thermostat', 'interval') > 0) then
             if (cfg%integrator /= 'energy_stepping') call stop_all(cfg%where('thermostat', 'interval')// &
-                ": only for energy stepping ('csvr': the time between rescalings; 'andersen': the global variant, "// &
-                'every velocity resampled at that interval); velocity Verlet acts at every step')
+                ': only for energy stepping (the time between scheduled thermostat actions; allowed there: '// &
+                thermostat_styles_for_events()//'); velocity Verlet acts at every step')
             if (.not. (cfg%thermostat_interval > 0)) call stop_all(cfg%where('thermostat', 'interval')// &
                 ': must be > 0 (a time in '//trim(cfg%units%time)//')')
-        else if (cfg%integrator == 'energy_stepping' .and. cfg%thermostat == 'csvr') then
-            cfg%thermostat_interval = cfg%thermostat_damping/10
+        else if (cfg%integrator == 'energy_stepping') then
+            cfg%thermostat_interval = proto%default_interval(cfg%thermostat_damping)
         end if
         if (cfg%nml%find('thermostat', 'seed') > 0) then
             if (cfg%thermostat_seed <= 0) call stop_all(cfg%where('thermostat', 'seed')//': must be a positive integer')

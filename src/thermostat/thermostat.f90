@@ -63,6 +63,10 @@ module terrace_thermostat
         procedure :: setup => ts_setup
         procedure :: holds_momentum => ts_holds_momentum
         procedure :: active => ts_active
+        ! what the deck may ask of the style (the deck reader checks the keys against these)
+        procedure :: event_note => ts_event_note
+        procedure :: takes_chain => ts_false
+        procedure :: default_interval => ts_default_interval
         procedure, non_overridable :: target => ts_target
         procedure, non_overridable :: ecouple => ts_ecouple
         procedure, non_overridable :: fold => ts_fold
@@ -171,6 +175,22 @@ contains
         class(thermostat_t), intent(in) :: self
         ts_holds_momentum = .false.
     end function ts_holds_momentum
+
+    !> With energy stepping, how the style acts (for messages; '': it cannot, its operators need
+    !> the steps of velocity Verlet).
+    function ts_event_note(self) result(note)
+        class(thermostat_t), intent(in) :: self
+        character(len=:), allocatable :: note
+        note = ''
+    end function ts_event_note
+
+    !> With energy stepping: the interval of the style's scheduled action when the deck gives none
+    !> (0: none).
+    pure real(dp) function ts_default_interval(self, damping) result(interval)
+        class(thermostat_t), intent(in) :: self
+        real(dp), intent(in) :: damping
+        interval = 0
+    end function ts_default_interval
 
     pure logical function ts_active(self)
         class(thermostat_t), intent(in) :: self

@@ -36,6 +36,7 @@ module terrace_thermostat_andersen
         real(dp) :: t_first = huge(1.0_dp)
     contains
         procedure :: setup => andersen_setup
+        procedure :: event_note => andersen_event_note
         procedure :: post_kick => andersen_step
         procedure :: event_time => andersen_event_time
         procedure :: apply_event => andersen_apply_event
@@ -52,6 +53,12 @@ contains
         call self%interval_thermostat_t%setup(p)
         self%t_first = huge(1.0_dp)
     end subroutine andersen_setup
+
+    function andersen_event_note(self) result(note)
+        class(andersen_t), intent(in) :: self
+        character(len=:), allocatable :: note
+        note = 'collisions at exact times'
+    end function andersen_event_note
 
     !> Maxwell-Boltzmann velocity at temperature temp for mass m (dimension 2: vz = 0), from one
     !> block keyed by (seed, stream, id, event, sub).

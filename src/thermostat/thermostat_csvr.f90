@@ -22,6 +22,8 @@ module terrace_thermostat_csvr
     type, extends(interval_thermostat_t), public :: csvr_t
     contains
         procedure :: holds_momentum => csvr_holds_momentum
+        procedure :: event_note => csvr_event_note
+        procedure :: default_interval => csvr_default_interval
         procedure :: csvr => csvr_apply
         procedure :: pre_kick => csvr_pre_kick
         procedure :: post_kick => csvr_post_kick
@@ -34,6 +36,19 @@ contains
         class(csvr_t), intent(in) :: self
         csvr_holds_momentum = .true.
     end function csvr_holds_momentum
+
+    function csvr_event_note(self) result(note)
+        class(csvr_t), intent(in) :: self
+        character(len=:), allocatable :: note
+        note = 'rescaling at fixed intervals'
+    end function csvr_event_note
+
+    !> Energy stepping: a rescaling every damping/10 unless &thermostat interval says otherwise.
+    pure real(dp) function csvr_default_interval(self, damping) result(interval)
+        class(csvr_t), intent(in) :: self
+        real(dp), intent(in) :: damping
+        interval = damping/10
+    end function csvr_default_interval
 
     subroutine csvr_pre_kick(self, atoms, dt, step, t_mid)
         class(csvr_t), intent(inout) :: self

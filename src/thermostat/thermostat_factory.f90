@@ -1,5 +1,5 @@
 !> The one place that maps a &thermostat style name to its type. Adding a thermostat: a new file
-!> with a type extending thermostat_t, and one line in each list below.
+!> with a type extending thermostat_t, its name in `names` and one case in new_thermostat.
 module terrace_thermostat_factory
     use terrace_thermostat, only: thermostat_t, thermostat_params_t, thermostat_none_t
     use terrace_thermostat_langevin, only: langevin_t
@@ -9,17 +9,17 @@ module terrace_thermostat_factory
     implicit none
     private
 
-    !> The style names, for messages ("allowed: ...").
-    character(len=*), parameter, public :: thermostat_style_list = &
-        "'none', 'langevin', 'csvr', 'nose_hoover', 'andersen'"
+    character(len=12), parameter :: names(5) = [character(len=12) :: 'none', 'langevin', 'csvr', 'nose_hoover', &
+                                                                      'andersen']
 
-    public :: is_thermostat_style, new_thermostat
+    public :: is_thermostat_style, new_thermostat, thermostat_styles, thermostat_styles_for_events, &
+              thermostat_styles_with_chain
 
 contains
 
     pure logical function is_thermostat_style(name)
         character(len=*), intent(in) :: name
-        is_thermostat_style = index(thermostat_style_list, "'"//trim(name)//"'") > 0 .and. len_trim(name) > 0
+        is_thermostat_style = any(names == name)
     end function is_thermostat_style
 
     !> A thermostat of the named style, set up from p ('none' and unknown names: no thermostat).
@@ -41,5 +41,44 @@ contains
         end select
         call ts%init(p)
     end subroutine new_thermostat
+
+    !> Every style name, quoted: "'none', 'langevin', ..." (for messages).
+    function thermostat_styles() result(list)
+        character(len=:), allocatable :: list
+        integer :: k
+        list = ''
+        do k = 1, size(names)
+            list = list//merge(', ', '  ', k > 1)//"'"//trim(names(k))//"'"
+        end do
+        list = adjustl(list)
+    end function thermostat_styles
+
+    !> The styles energy stepping can run, each with how it acts, and 'none' (for messages).
+    function thermostat_styles_for_events() result(list)
+        character(len=:), allocatable :: list
+        class(thermostat_t), allocatable :: ts
+        integer :: k
+        list = ''
+        do k = 1, size(names)
+            call new_thermostat(names(k), thermostat_params_t(), ts)
+            if (.not. ts%active() .or. len(ts%event_note()) == 0) cycle
+            list = list//"'"//trim(names(k))//"', "//ts%event_note()//'; '
+        end do
+        list = list//"or 'none'"
+    end function thermostat_styles_for_events
+
+    !> The styles that take &thermostat chain_length (for messages).
+    function thermostat_styles_with_chain() result(list)
+        character(len=:), allocatable :: list
+        class(thermostat_t), allocatable :: ts
+        integer :: k
+        list = ''
+        do k = 1, size(names)
+            call new_thermostat(names(k), thermostat_params_t(), ts)
+            if (.not. ts%takes_chain()) cycle
+            if (len(list) > 0) list = list//' or '
+            list = list//"style = '"//trim(names(k))//"'"
+        end do
+    end function thermostat_styles_with_chain
 
 end module terrace_thermostat_factory

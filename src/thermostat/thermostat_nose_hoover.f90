@@ -19,6 +19,7 @@ module terrace_thermostat_nose_hoover
     contains
         procedure :: setup => nhc_setup
         procedure :: holds_momentum => nhc_holds_momentum
+        procedure :: takes_chain => nhc_takes_chain
         procedure :: nose_hoover => nhc_half_step
         procedure :: pre_kick => nhc_step_hook
         procedure :: post_kick => nhc_step_hook
@@ -42,6 +43,11 @@ contains
         class(nose_hoover_t), intent(in) :: self
         nhc_holds_momentum = .true.
     end function nhc_holds_momentum
+
+    pure logical function nhc_takes_chain(self)
+        class(nose_hoover_t), intent(in) :: self
+        nhc_takes_chain = .true.
+    end function nhc_takes_chain
 
     subroutine nhc_step_hook(self, atoms, dt, step, t_mid)
         class(nose_hoover_t), intent(inout) :: self

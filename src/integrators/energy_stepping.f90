@@ -366,7 +366,7 @@ contains
         r%sample_every = sched%thermo_every
         r%traj_every = sched%traj_every
         if (eng%restarted) then
-            call restore_state(r, p)
+            call restore_state(r, p, sched)
         else
             call start_state(r, p, sched)
         end if
@@ -586,14 +586,18 @@ contains
     end subroutine start_state
 
     !> The event loop's state as the interrupted run had it at its checkpoint.
-    subroutine restore_state(r, p)
+    subroutine restore_state(r, p, sched)
         type(es_run_t), intent(inout) :: r
         type(es_params_t), intent(in) :: p
+        type(schedule_t), intent(in) :: sched
         logical :: ok
         real(dp) :: t_list
         ok = .true.
         r%st%t = r%eng%restart_values%get_r('time', ok)
         call r%st%exchange(r%eng%restart_values, .false., r%stats, ok)
+        ! (the grids' next points and indices come from the checkpoint, their spacing from the deck)
+        r%st%cal%interval(cal_sample) = sched%thermo_interval
+        r%st%cal%interval(cal_frame) = sched%traj_interval
         r%solver%tol = r%st%tol
         r%eng%pe = r%st%pe; r%eng%virial = r%st%virial
         r%ray%last_s = r%st%ray_last_s; r%ray%last_out = r%st%ray_last_out

@@ -42,9 +42,9 @@
 !> - V is summed per atom (pair energies of its pairs; its embedding energy) and the per-atom sums
 !>   are added with a compensated sum, in the force and in the ray pass: the energy-stepping
 !>   solver decides on V to a few tens of eps |V| (terrace_compensated_sum says why).
-!> This module holds the type, the file tables and their splines; the force passes are the
-!> submodule terrace_eam_force (eam_force.f90, with the tables the passes read), the ray pass
-!> terrace_eam_ray (eam_ray.f90), the AVX-512 density gather eam_simd.c.
+!> This file holds the type, the file tables and their splines; the force passes (with the tables
+!> they read) are eam_force.inc, the ray pass eam_ray.inc (included below: one compilation unit),
+!> the AVX-512 density gather eam_simd.c.
 module terrace_eam
     use, intrinsic :: iso_c_binding, only: c_loc, c_intptr_t, c_int, c_double
     use terrace_kinds, only: dp
@@ -147,51 +147,6 @@ module terrace_eam
         end function c_gather_inside
     end interface
 
-    interface
-        module subroutine eam_forces(self, atoms, list, halo, want_energy, energy, virial)
-            class(eam_t), intent(inout) :: self
-            type(atoms_t), intent(inout) :: atoms
-            type(neighbor_list_t), intent(in) :: list
-            class(halo_ops_t), intent(inout) :: halo
-            logical, intent(in) :: want_energy
-            real(dp), intent(out) :: energy, virial
-        end subroutine eam_forces
-        module subroutine eam_density(self, atoms, list)
-            class(eam_t), intent(inout) :: self
-            type(atoms_t), intent(in) :: atoms
-            type(neighbor_list_t), intent(in) :: list
-        end subroutine eam_density
-        module subroutine eam_embed(self, atoms, want_energy, energy)
-            class(eam_t), intent(inout) :: self
-            type(atoms_t), intent(in) :: atoms
-            logical, intent(in) :: want_energy
-            real(dp), intent(out) :: energy
-        end subroutine eam_embed
-        module subroutine eam_force(self, atoms, list, want_energy, energy, virial)
-            class(eam_t), intent(inout) :: self
-            type(atoms_t), intent(inout) :: atoms
-            type(neighbor_list_t), intent(in) :: list
-            logical, intent(in) :: want_energy
-            real(dp), intent(out) :: energy, virial
-        end subroutine eam_force
-        module subroutine eam_ray(self, atoms, list, s, out)
-            class(eam_t), intent(inout) :: self
-            type(atoms_t), intent(in) :: atoms
-            type(neighbor_list_t), intent(in) :: list
-            real(dp), intent(in) :: s
-            real(dp), intent(out) :: out(4)
-        end subroutine eam_ray
-        module subroutine reserve_work(self, nlocal, first)
-            type(eam_t), intent(inout) :: self
-            integer, intent(in) :: nlocal
-            integer, intent(in), contiguous :: first(:)
-        end subroutine reserve_work
-        module subroutine ordered_copy(self, list, type, nlocal)
-            type(eam_t), intent(inout) :: self
-            type(neighbor_list_t), intent(in) :: list
-            integer, intent(in) :: type(:), nlocal
-        end subroutine ordered_copy
-    end interface
 
 contains
 
@@ -618,5 +573,7 @@ contains
 
     ! ----------------------------------------------------------------------------- kernels
 
+    include 'eam_force.inc'
+    include 'eam_ray.inc'
 
 end module terrace_eam

@@ -7,9 +7,9 @@
 !>   F_i = fpair (x_i - x_j),  fpair = r^-8 (lj1 r^-6 - lj2)  (no square root).
 !> Kernels walk the half neighbour list (Newton's third law: j gets -F_i, ghosts included) and are
 !> specialised: one type or several, energy+virial wanted or not, plain or smooth.
-!> This module holds the type, its tables and set-up; the force passes are the submodule
-!> terrace_lj_force (lj_force.f90), the ray passes terrace_lj_ray (lj_ray.f90), the pair terms
-!> both use lj_pair_helpers.inc, the fused AVX-512 kernels lj_simd.c.
+!> This file holds the type, its tables and set-up; the force passes are lj_force.inc, the ray
+!> passes lj_ray.inc, the pair terms both use lj_pair_helpers.inc (included below: one compilation
+!> unit, so that GCC inlines the pair loops), the fused AVX-512 kernels lj_simd.c.
 !>
 !> Ray pass (energy stepping): along x(s) = x + s v, with d = x_i - x_j, w = v_i - v_j and
 !> rho = |d|^2 (rho' = 2 d.w, rho'' = 2 |w|^2), each pair adds psi(rho), psi' rho' and
@@ -40,6 +40,13 @@ module terrace_lj
     implicit none
     private
 
+    !> +Infinity: 1/inf = 0 masks pairs beyond the cutoff without a branch (GCC if-converts a
+    !> select of two values, not a division that might trap). Read through a volatile so that GCC
+    !> cannot fold 1/inf and turn the select back into a branch around the division.
+    real(dp), volatile, save :: infinity = transfer(9218868437227405312_int64, 1.0_dp)
+    !> 1 and 0 read through volatiles for the 0/1 factor "inside the cutoff" (GCC would otherwise
+    !> split x * merge(1, 0, c) into a branch around x * 0, which it may not if-convert either).
+    real(dp), volatile, save :: one = 1, zero = 0
     !> Pairs per block of the mixed kernel's single-precision pass (16 singles: one AVX-512 vector).
     integer, parameter :: block = 16
 
@@ -119,51 +126,6 @@ module terrace_lj
         end function c_lj_types
     end interface
 
-    interface
-        module subroutine reserve_mixed(self, list, nall)
-            class(lj_t), intent(inout) :: self
-            type(neighbor_list_t), intent(in) :: list
-            integer, intent(in) :: nall
-        end subroutine reserve_mixed
-        module subroutine reserve_work(self, list, nlocal)
-            class(lj_t), intent(inout) :: self
-            type(neighbor_list_t), intent(in) :: list
-            integer, intent(in) :: nlocal
-        end subroutine reserve_work
-        module subroutine lj_forces(self, atoms, list, halo, want_energy, energy, virial)
-            class(lj_t), intent(inout) :: self
-            type(atoms_t), intent(inout) :: atoms
-            type(neighbor_list_t), intent(in) :: list
-            class(halo_ops_t), intent(inout) :: halo
-            logical, intent(in) :: want_energy
-            real(dp), intent(out) :: energy, virial
-        end subroutine lj_forces
-        module subroutine lj_compute(self, atoms, list, want_energy, energy, virial)
-            class(lj_t), intent(inout) :: self
-            type(atoms_t), intent(inout) :: atoms
-            type(neighbor_list_t), intent(in) :: list
-            logical, intent(in) :: want_energy
-            real(dp), intent(out) :: energy, virial
-        end subroutine lj_compute
-        module subroutine lj_compute_all_pairs(self, atoms, energy, virial)
-            class(lj_t), intent(in) :: self
-            type(atoms_t), intent(inout) :: atoms
-            real(dp), intent(out) :: energy, virial
-        end subroutine lj_compute_all_pairs
-        module subroutine lj_ray_any(self, atoms, list, s, out)
-            class(lj_t), intent(inout) :: self
-            type(atoms_t), intent(in) :: atoms
-            type(neighbor_list_t), intent(in) :: list
-            real(dp), intent(in) :: s
-            real(dp), intent(out) :: out(4)
-        end subroutine lj_ray_any
-        module subroutine lj_ray_all_pairs(self, atoms, s, out)
-            class(lj_t), intent(in) :: self
-            type(atoms_t), intent(in) :: atoms
-            real(dp), intent(in) :: s
-            real(dp), intent(out) :: out(4)
-        end subroutine lj_ray_all_pairs
-    end interface
 
 contains
 
@@ -309,5 +271,9 @@ contains
             e = e + (r - self%rc(ti, tj))*self%fc(ti, tj)
         end if
     end function lj_pair_energy
+
+    include 'lj_force.inc'
+    include 'lj_ray.inc'
+    include 'lj_pair_helpers.inc'
 
 end module terrace_lj

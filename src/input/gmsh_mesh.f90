@@ -169,7 +169,7 @@ contains
                     call fail(line_no, 'node coordinate is not finite'); ok = .false.; return
                 end if
                 if (abs(x(j)) > max_coordinate) then
-                    write (a, '(es10.3)') x(j)
+                    write (a, '(es12.3e3)') x(j)
                     call fail(line_no, 'node coordinate '//trim(adjustl(a))//' is out of range (beyond 1e9 in magnitude)')
                     ok = .false.; return
                 end if

@@ -316,6 +316,21 @@ if os.geteuid() != 0:      # root writes read-only files anyway
     out_case('out_dir_readonly', "thermo_file='rodir/t.csv'", ['&output', 'thermo_file', 'cannot create a file'],
              files={'rodir/keep': ''}, modes={'rodir': stat.S_IRUSR | stat.S_IXUSR})
 
+# outputs through symbolic links are written to the target: the target's directory is checked
+out_case('out_thermo_link_missing_dir', "thermo_file='link.csv'", ['link.csv', '&output', 'thermo_file',
+                                                                  'does not exist'], links={'link.csv': 'nodir/t.csv'})
+out_case('out_forces_link_to_dir', "forces_file='link.txt'", ['link.txt', '&output', 'forces_file', 'not a regular'],
+         files={'adir/keep': 'x'}, links={'link.txt': 'adir'})
+out_case('out_final_link_to_dev_full', "final_atoms_file='link.atoms'", ['link.atoms', '&output', 'final_atoms_file',
+                                                                        'not a regular'],
+         links={'link.atoms': '/dev/full'})
+out_case('out_thermo_link_same_as_forces', "thermo_file='link.csv', forces_file='real.txt'",
+         ['&output', 'forces_file', 'same file as &output thermo_file'], files={'real.txt': 'x\n'},
+         links={'link.csv': 'real.txt'})
+out_case('out_thermo_link_locked', "thermo_every=5, thermo_file='link.csv', forces_file='forces.txt'",
+         ['&output', 'thermo_file', 'another terrace run'], files={'sub/t.csv': 'old\n'},
+         links={'link.csv': 'sub/t.csv'}, hold_lock='sub/.t.csv.terrace-lock')
+
 # ------------------------------------------------------------------ class 11: the smaller ones
 case('str_lattice_two_words', ['&system', 'lattice', 'not one word'],
      groups=dict(LJ, system="lattice='fcc     bogus', density=0.8442, cells=3,3,3, mass=1.0"))

@@ -5,8 +5,12 @@ format, counts beyond what a file can hold, scenes too large for memory, over-lo
 non-finite boxes and coordinates, ids the trajectory cannot take, colliding and special output
 paths, outputs equal to inputs, a locked output, the smaller defects, the files users have, and
 damaged H5MD trajectories (NaN, Inf and huge values in positions, velocities and box, wrong shapes,
-missing datasets) for the engine's read_h5md and for terrace-analyze ('@analyze' cases). Needs
-numpy and h5py (check_bad_inputs.sh picks a python that has them).
+missing datasets, shapes declaring 1e12 frames or atoms, a frame beyond the file) for the engine's
+read_h5md and for terrace-analyze ('@analyze' cases), keys given twice in a group, decks with a
+UTF-8 byte-order mark or that are devices, pipes or directories, damaged Gmsh meshes (MSH 2.2 and
+4.1: declared counts beyond the file, second sections, repeated nodes, huge coordinates, physical
+tags), and outputs through symbolic links. Needs numpy and h5py (check_bad_inputs.sh picks a
+python that has them).
 
 usage: generate_hostile.py OUT_DIR
 Writes OUT_DIR/cases.txt (the manifest format of bad_inputs/cases.txt) and one directory per

@@ -20,6 +20,7 @@ A case directory may hold '.hold_lock': the name of a lock file the harness hold
 the case runs, as a second run on the same outputs would.
 """
 import os
+import re
 import stat
 import sys
 
@@ -86,7 +87,27 @@ def case(name, subs, groups=None, files=None, args=None, rc=1, hold_lock=None, d
     manifest.append('%s | %d | %s | %s' % (name, rc, args, ' ; '.join(subs)))
 
 
+_ASSIGN = re.compile(r"(?:^|,)\s*([A-Za-z_]\w*(?:\s*\([^)]*\))?)\s*=")
+
+
+def _target(key):
+    return re.sub(r'\s+', '', key).lower()
+
+
 def with_key(group, assignment, base=None):
+    """The deck `base` (LJ) with `assignment` in `group`, replacing the group's own assignment of
+    that key (a key given twice in one group is an error of its own)."""
+    b = dict(base or LJ)
+    text = b[group]
+    new = _target(_ASSIGN.match(assignment).group(1))
+    starts = [(m.start(), _target(m.group(1))) for m in _ASSIGN.finditer(text)] + [(len(text), None)]
+    kept = [text[a:starts[i + 1][0]].lstrip(', ') for i, (a, k) in enumerate(starts[:-1]) if k != new]
+    b[group] = ', '.join(kept + [assignment])
+    return b
+
+
+def add_key(group, assignment, base=None):
+    """The deck with `assignment` appended to `group` as it is (to give a key twice)."""
     b = dict(base or LJ)
     b[group] = b[group] + ', ' + assignment
     return b
@@ -511,15 +532,15 @@ for fr in (H5_NF + 1, -(H5_NF + 1), 10 ** 12):
 # ------------------------------------------------------------------ the namelist file itself
 # a key given twice in one group: refused where it is read, with both lines
 for name, groups, line, group, key in (
-        ('nml_repeat_units', with_key('run', "units='metal'"), 2, '&run', 'units'),
-        ('nml_repeat_cutoff', with_key('potential', 'cutoff=3.0'), 4, '&potential', 'cutoff'),
-        ('nml_repeat_case', with_key('potential', 'CUTOFF = 2.5'), 4, '&potential', 'cutoff'),
-        ('nml_repeat_same_value', with_key('integrator', 'dt=0.005'), 5, '&integrator', 'dt'),
-        ('nml_repeat_array', with_key('system', 'cells=4,4,4'), 3, '&system', 'cells'),
+        ('nml_repeat_units', add_key('run', "units='metal'"), 2, '&run', 'units'),
+        ('nml_repeat_cutoff', add_key('potential', 'cutoff=3.0'), 4, '&potential', 'cutoff'),
+        ('nml_repeat_case', add_key('potential', 'CUTOFF = 2.5'), 4, '&potential', 'cutoff'),
+        ('nml_repeat_same_value', add_key('integrator', 'dt=0.005'), 5, '&integrator', 'dt'),
+        ('nml_repeat_array', add_key('system', 'cells=4,4,4'), 3, '&system', 'cells'),
         ('nml_repeat_subscript', dict(LJ, potential="style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, "
                                                     "pair_cutoff(1,1)=2.5, pair_cutoff(1, 1)=2.0"),
          4, '&potential', 'pair_cutoff(1,1)'),
-        ('nml_repeat_output', with_key('output', "thermo_file='other.csv'"), 7, '&output', 'thermo_file')):
+        ('nml_repeat_output', add_key('output', "thermo_file='other.csv'"), 7, '&output', 'thermo_file')):
     case(name, ['%s.nml:%d' % (name, line), group, key, 'given twice'], groups=groups)
 # ... on lines of its own: the message gives both
 d = os.path.join(OUT, 'nml_repeat_lines')
@@ -531,9 +552,9 @@ with open(os.path.join(d, 'nml_repeat_lines.nml'), 'w') as f:
 # a deck saved with a UTF-8 byte-order mark is read (the error is the deck's own, on its line)
 BOM = '\ufeff'
 for name, groups, subs in (
-        ('nml_bom_unknown_key', with_key('potential', 'cutof=2.5'), ['nml_bom_unknown_key.nml:4', '&potential', 'cutof',
+        ('nml_bom_unknown_key', add_key('potential', 'cutof=2.5'), ['nml_bom_unknown_key.nml:4', '&potential', 'cutof',
                                                                       'unknown key']),
-        ('nml_bom_repeat', with_key('run', 'seed=2'), ['nml_bom_repeat.nml:2', '&run', 'seed', 'given twice'])):
+        ('nml_bom_repeat', add_key('run', 'seed=2'), ['nml_bom_repeat.nml:2', '&run', 'seed', 'given twice'])):
     case(name, subs, groups=groups)
     path = os.path.join(OUT, name, name + '.nml')
     text = open(path).read()

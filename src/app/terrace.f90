@@ -339,6 +339,11 @@ contains
         ctl%output_part = part
         traj_path = part_path(trim(cfg%trajectory_file), part)
         thermo_path = part_path(trim(cfg%thermo_file), part)
+        ! every output is checked before any is cut back: a restart that fails changes nothing
+        call thermo%check_append(thermo_path, lines, ok, msg)
+        call any_failed(ok)
+        call check_all(ok, thermo_path//': cannot continue the thermo file (&output thermo_file) from the '// &
+                       'checkpoint: '//trim(msg)//hint)
         call traj%open_append(traj_path, world%comm, frames, ok, msg)
         call check_all(ok, traj_path//': cannot continue the trajectory (&output trajectory_file) from the '// &
                        'checkpoint: '//trim(msg)//hint)

@@ -119,6 +119,10 @@ contains
         allocate (character(len=n) :: body)
         allocate (body_line(max(n, 1)))
         i = 1; line = 1; in_group = .false.; quote = ' '; nb = 0; start_line = 1
+        ! a UTF-8 byte-order mark (editors on Windows save one) is not part of the text
+        if (n >= 3) then
+            if (text(1:3) == achar(239)//achar(187)//achar(191)) i = 4
+        end if
         do while (i <= n)
             c = text(i:i)
             if (.not. in_group) then
@@ -212,10 +216,11 @@ contains
         character(len=*), intent(in) :: body
         integer, intent(in) :: body_line(:)
         integer, allocatable :: key_start(:), eq_pos(:)
-        integer :: i, j, depth, neq, k, vend
+        integer :: i, j, depth, neq, k, vend, first, m
         character :: quote
         character(len=:), allocatable :: group
         group = trim(nf%groups(nf%ngroups))
+        first = nf%count + 1         ! this group's first assignment
         allocate (key_start(len(body) + 1), eq_pos(len(body) + 1))
         neq = 0; depth = 0; quote = ' '
         do i = 1, len(body)
@@ -282,6 +287,15 @@ contains
             end do
             call add_item(nf, group, body(key_start(k):eq_pos(k) - 1), body(eq_pos(k) + 1:vend), &
                           body_line(key_start(k)))
+            ! a key given twice in one group would silently take its last value
+            do m = first, nf%count - 1
+                if (compact(nf%items(m)%target) == compact(nf%items(nf%count)%target)) then
+                    call set_error(nf, body_line(key_start(k)), '&'//group//': '//compact(nf%items(nf%count)%target)// &
+                                   ': given twice in the group (first at line '//line_text(nf%items(m)%line)// &
+                                   '); give each key once')
+                    return
+                end if
+            end do
             if (len(stray_word(body(eq_pos(k) + 1:vend))) > 0) then
                 call set_error(nf, body_line(key_start(k)), '&'//group//': '//trim(nf%items(nf%count)%key)// &
                                ": unexpected word '"//stray_word(body(eq_pos(k) + 1:vend))// &
@@ -364,6 +378,25 @@ contains
         nf%items(nf%count)%value = strip(value)
         nf%items(nf%count)%line = line
     end subroutine add_item
+
+    !> s without any blanks, tabs or line ends (a key as written: 'velocity(:, 1)' -> 'velocity(:,1)').
+    pure function compact(s) result(t)
+        character(len=*), intent(in) :: s
+        character(len=:), allocatable :: t
+        integer :: i
+        t = ''
+        do i = 1, len(s)
+            if (.not. is_space(s(i:i))) t = t//s(i:i)
+        end do
+    end function compact
+
+    function line_text(line) result(s)
+        integer, intent(in) :: line
+        character(len=:), allocatable :: s
+        character(len=16) :: ln
+        write (ln, '(i0)') line
+        s = trim(ln)
+    end function line_text
 
     !> s without leading and trailing blanks, tabs and line ends.
     pure function strip(s) result(t)

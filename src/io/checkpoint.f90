@@ -34,7 +34,7 @@ module terrace_checkpoint
     use terrace_mpi_env, only: world, any_all
     use terrace_id_blocks, only: to_id_blocks
     use terrace_errors, only: note_broken_hdf5_file
-    use terrace_file_ops, only: remove_file, remove_at_exit, keep_at_exit
+    use terrace_file_ops, only: remove_file, remove_at_exit, keep_at_exit, output_target
     use terrace_checksum, only: checksum_rows, checksum_text, checksum_add, checksum_over_ranks
     use terrace_hdf5_io, only: h5_status_t, h5_agree, h5_writer_closed, h5_guard_begin, h5_guard_end, h5_section_begin, &
                                h5_section_end, h5_open_file, h5_create, h5_read, h5_transfer_list, h5_make_fixed, &
@@ -88,14 +88,14 @@ contains
         logical :: failed
         ok = .true.; msg = ''
         if (world%rank == 0) then
-            open (newunit=unit, file=path//'.tmp', status='replace', action='write', iostat=ios, iomsg=msg)
+            open (newunit=unit, file=output_target(path)//'.tmp', status='replace', action='write', iostat=ios, iomsg=msg)
             if (ios == 0) close (unit, status='delete')
             ok = ios == 0
         end if
         failed = .not. ok
         call any_all(failed)
         ok = .not. failed
-        if (.not. ok) msg = 'cannot create '//path//'.tmp (is the directory there and writable?)'
+        if (.not. ok) msg = 'cannot create '//output_target(path)//'.tmp (is the directory there and writable?)'
     end subroutine probe_checkpoint_path
 
     !> Checksum of the scalars: natoms, nprocs, dimension, deck hash and every named value (name and
@@ -134,11 +134,12 @@ contains
         integer(hid_t) :: dxpl, file, g, gs
         integer :: err, n, i, k
         logical :: good, failed
-        character(len=:), allocatable :: tmp
+        character(len=:), allocatable :: tmp, target
         type(h5_status_t) :: st
 
         ok = .true.; msg = ''
-        tmp = path//'.tmp'
+        target = output_target(path)       ! a symbolic link stays; its target is replaced
+        tmp = target//'.tmp'
         n = atoms%nlocal
         allocate (mine(ncol, max(n, 1)))
         do i = 1, n
@@ -234,7 +235,7 @@ contains
         ! the file is complete on disk: replace the previous checkpoint
         call MPI_Barrier(world%comm)
         if (world%rank == 0) then
-            good = c_rename(tmp//c_null_char, path//c_null_char) == 0
+            good = c_rename(tmp//c_null_char, target//c_null_char) == 0
             call keep_at_exit(tmp)
         end if
         failed = .not. good

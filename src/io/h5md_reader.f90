@@ -181,8 +181,9 @@ contains
         integer :: err, e, k
         logical :: exists
         integer(hsize_t) :: dims(3), ref(3)
-        character(len=16) :: a, b
+        character(len=24) :: a, b, c
         character(len=:), allocatable :: vname
+        integer(i8) :: fsize
 
         self%path = trim(path)
         self%group = '/particles/'//trim(group)
@@ -190,6 +191,7 @@ contains
         if (.not. st%ok) return
         inquire (file=self%path, exist=exists)
         if (failed(st, exists, self%path//': '//self%key//': cannot open (no such file)')) return
+        fsize = file_bytes(self%path)
         call h5_open_file(st, self%path, h5_read, self%file)
         if (failed(st, self%file >= 0, self%path//': '//self%key//': cannot open as HDF5 (not an HDF5/H5MD file?)')) &
             return
@@ -215,6 +217,12 @@ contains
                 call h5_dataset_dims(st, el%value, dims)
                 if (failed(st, dims(1) >= 1 .and. dims(1) <= 3 .and. dims(2) >= 1, self%where(vname)// &
                            ': wrong shape (dimension must be 1..3, at least one atom)')) return
+                ! a declared shape costs nothing in the file (chunks never written): every frame and
+                ! every atom takes at least a byte of it, so neither count can exceed its size
+                write (a, '(i0)') dims(3); write (b, '(i0)') dims(2); write (c, '(i0)') fsize
+                if (failed(st, int(dims(3), i8) <= fsize .and. int(dims(2), i8) <= fsize, self%where(vname)// &
+                           ': declares '//trim(a)//' frames of '//trim(b)//' atoms, more than a file of '//trim(c)// &
+                           ' bytes can hold (damaged or not written in full?)')) return
                 if (all(ref == 0)) then
                     ref = dims
                 else if (any(dims(1:2) /= ref(1:2))) then
@@ -271,6 +279,13 @@ contains
             if (self%el(k)%present) self%unit_time = time_unit(self, k)
         end do
     end subroutine open_file
+
+    !> The size of the file in bytes (0 when it cannot be asked).
+    integer(i8) function file_bytes(path) result(n)
+        character(len=*), intent(in) :: path
+        inquire (file=path, size=n)
+        n = max(n, 0_i8)
+    end function file_bytes
 
     !> The time (what = 'time') or step (what = 'step') of every frame of element e: a dataset
     !> [frames], or a scalar increment with an optional offset attribute. A time that is there but
@@ -435,6 +450,8 @@ contains
                 if (failed(st, int(dims(1)) == Dm, self%where('box/edges/value')// &
                            ': wrong shape (the box dimension differs from that of the particle data)')) return
                 if (failed(st, dims(2) >= 1, self%where('box/edges/value')//': no frames')) return
+                if (failed(st, int(dims(2), i8) <= file_bytes(self%path), self%where('box/edges/value')// &
+                           ': declares more frames than the file can hold (damaged or not written in full?)')) return
                 allocate (series(Dm, dims(2)))
                 call h5_read_whole(st, d, H5T_NATIVE_DOUBLE, c_loc(series), 'box/edges/value')
                 if (failed(st, st%ok, self%where('box/edges/value')//': cannot read')) return
@@ -734,6 +751,7 @@ contains
         integer :: rank, nprocs, k, D_
         integer(i8) :: nf, fr, first, nmine
         logical :: opened, hv, hi
+        character(len=24) :: fa, fb
         real(dp), allocatable, target :: rbuf(:, :, :)
         integer, allocatable, target :: ibuf(:, :, :)
 
@@ -752,7 +770,9 @@ contains
             if (nf == 0) then
                 call st%fail('the file has no frames')
             else if (frame == 0 .or. frame > nf .or. frame < -nf) then
-                call st%fail('frame index out of range')
+                write (fa, '(i0)') frame; write (fb, '(i0)') nf
+                call st%fail(trim(path)//': h5md_frame = '//trim(fa)//': the file has '//trim(fb)//' frames (allowed: 1..'// &
+                             trim(fb)//', or -1..-'//trim(fb)//' counting back from the last)')
             end if
             hv = traj%has(el_velocity)
             if (st%ok .and. hv) then

@@ -32,6 +32,7 @@ module terrace_thermo
     contains
         procedure :: open => thermo_open
         procedure :: open_append => thermo_open_append
+        procedure, nopass :: check_append => thermo_check_append
         procedure :: write => thermo_write
         procedure :: close => thermo_close
         procedure :: discard => thermo_discard
@@ -107,10 +108,8 @@ contains
         character(len=*), intent(out) :: msg
         logical, intent(in), optional :: mesh     !< as in thermo_open
         type(units_t), intent(in), optional :: units
-        character(len=:), allocatable :: source
         character(len=:), allocatable :: text
-        integer :: unit, ios, n, pos, nl
-        integer(i8) :: lines
+        integer :: ios, pos
         ok = .true.; msg = ''
         self%end_time = end_time
         self%time_unit = time_unit
@@ -120,32 +119,8 @@ contains
         if (world%rank /= 0) return
         if (len_trim(path) > 0) then
             self%path = path
-            ! a run that was killed left its newest lines under the temporary name
-            source = path
-            if (path_kind(temporary_name(path)) == path_regular) source = temporary_name(path)
-            open (newunit=unit, file=source, access='stream', form='unformatted', status='old', action='read', &
-                  iostat=ios, iomsg=msg)
-            if (ios /= 0) then
-                ok = .false.; return
-            end if
-            inquire (unit=unit, size=n)
-            allocate (character(len=max(n, 0)) :: text)
-            if (n > 0) read (unit, iostat=ios) text
-            close (unit)
-            ! the header line and `keep` data lines
-            pos = 0
-            lines = -1
-            do while (lines < keep)
-                nl = index(text(pos + 1:), new_line('a'))
-                if (nl == 0) exit
-                pos = pos + nl
-                lines = lines + 1
-            end do
-            if (lines < keep) then
-                ok = .false.
-                write (msg, '(a,i0,a)') 'holds fewer than the ', keep, ' data lines the checkpoint recorded'
-                return
-            end if
+            call read_kept_lines(path, keep, text, pos, ok, msg)
+            if (.not. ok) return
             open (newunit=self%unit, file=temporary_name(path), access='stream', form='unformatted', &
                   status='replace', action='write', iostat=ios, iomsg=msg)
             if (ios /= 0) then
@@ -166,6 +141,60 @@ contains
         end if
         call screen_header(units, mesh)
     end subroutine thermo_open_append
+
+    !> Whether a restart can continue the thermo file `path` (rank 0; read only, nothing changed):
+    !> it exists and holds the header and `keep` data lines. A restart checks every output so
+    !> before it cuts any back.
+    subroutine thermo_check_append(path, keep, ok, msg)
+        character(len=*), intent(in) :: path
+        integer(i8), intent(in) :: keep
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        character(len=:), allocatable :: text
+        integer :: pos
+        ok = .true.; msg = ''
+        if (world%rank /= 0 .or. len_trim(path) == 0) return
+        call read_kept_lines(path, keep, text, pos, ok, msg)
+    end subroutine thermo_check_append
+
+    !> The thermo file's text (its newest lines under the temporary name when a killed run left
+    !> them there) and pos, the length of its header and first `keep` data lines.
+    subroutine read_kept_lines(path, keep, text, pos, ok, msg)
+        character(len=*), intent(in) :: path
+        integer(i8), intent(in) :: keep
+        character(len=:), allocatable, intent(out) :: text
+        integer, intent(out) :: pos
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        character(len=:), allocatable :: source
+        integer :: unit, ios, n, nl
+        integer(i8) :: lines
+        ok = .true.; msg = ''
+        pos = 0
+        source = path
+        if (path_kind(temporary_name(path)) == path_regular) source = temporary_name(path)
+        open (newunit=unit, file=source, access='stream', form='unformatted', status='old', action='read', &
+              iostat=ios, iomsg=msg)
+        if (ios /= 0) then
+            ok = .false.; return
+        end if
+        inquire (unit=unit, size=n)
+        allocate (character(len=max(n, 0)) :: text)
+        if (n > 0) read (unit, iostat=ios) text
+        close (unit)
+        ! the header line and `keep` data lines
+        lines = -1
+        do while (lines < keep)
+            nl = index(text(pos + 1:), new_line('a'))
+            if (nl == 0) exit
+            pos = pos + nl
+            lines = lines + 1
+        end do
+        if (lines < keep) then
+            ok = .false.
+            write (msg, '(a,i0,a)') 'holds fewer than the ', keep, ' data lines the checkpoint recorded'
+        end if
+    end subroutine read_kept_lines
 
     subroutine thermo_write(self, s, extra)
         class(thermo_writer_t), intent(inout) :: self

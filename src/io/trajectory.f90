@@ -22,7 +22,7 @@ module terrace_trajectory
     use terrace_observables, only: thermo_sample_t
     use terrace_version, only: terrace_version_string
     use terrace_mpi_env, only: world
-    use terrace_file_ops, only: remove_at_exit, keep_at_exit, remove_file
+    use terrace_file_ops, only: remove_at_exit, keep_at_exit, remove_file, output_target
     use terrace_xdmf, only: xdmf_sidecar_path, write_xdmf_mesh
     use terrace_hdf5_io, only: h5_section_begin, h5_section_end
     use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Bcast, MPI_LOGICAL, MPI_CHARACTER, MPI_Wtime
@@ -74,6 +74,7 @@ contains
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
         character(len=16) :: ul, ut, ue, uv, um
+        character(len=:), allocatable :: target
         integer :: rc
         ok = .true.; msg = ''
         if (len_trim(path) == 0) return
@@ -89,7 +90,9 @@ contains
         end if
         ! a trajectory that cannot be created (a full device) is not left behind, even when the
         ! job is aborted (terrace_hdf5_io: h5_agree)
-        if (world%rank == 0) call remove_at_exit(path, always=.true.)
+        ! (through a symbolic link: the file it points to, and the link stays)
+        target = output_target(path)
+        if (world%rank == 0) call remove_at_exit(target, always=.true.)
         self%comm = comm
         self%natoms = natoms
         call h5_section_begin(label(self), 'creating the file')
@@ -98,8 +101,8 @@ contains
                             trim(ue), trim(uv), trim(um), terrace_version_string, ok, msg)
         call h5_section_end(comm)
         if (world%rank == 0) then
-            call keep_at_exit(path)
-            if (.not. ok) rc = remove_file(path)
+            call keep_at_exit(target)
+            if (.not. ok) rc = remove_file(target)
         end if
         self%active = ok
     end subroutine trajectory_open

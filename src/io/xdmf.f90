@@ -19,7 +19,7 @@
 !> half-written sidecar; the caller (rank 0) rewrites it as frames reach the disk.
 module terrace_xdmf
     use terrace_kinds, only: dp, i8
-    use terrace_file_ops, only: rename_file, check_size
+    use terrace_file_ops, only: rename_file, check_size, output_target
     implicit none
     private
 
@@ -57,12 +57,13 @@ contains
         real(dp), intent(in) :: times(:)
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
-        character(len=:), allocatable :: tmp, h5, sn, st, sf, topo
+        character(len=:), allocatable :: tmp, h5, sn, st, sf, topo, target
         character(len=64) :: buf
         integer :: u, ios, k, p, rc
         integer(i8) :: bytes
-        p = index(trim(path), '/', back=.true.)
-        tmp = path(1:p)//'.'//trim(path(p + 1:))//'.terrace-partial'
+        target = output_target(path)       ! a symbolic link stays; its target is replaced
+        p = index(target, '/', back=.true.)
+        tmp = target(1:p)//'.'//target(p + 1:)//'.terrace-partial'
         p = index(trim(trajectory), '/', back=.true.)
         h5 = xml_escape(trim(trajectory(p + 1:)))
         write (buf, '(i0)') natoms; sn = trim(buf)
@@ -109,7 +110,7 @@ contains
         end if
         call check_size(tmp, bytes, ok, msg)
         if (ok) then
-            rc = rename_file(tmp, path)
+            rc = rename_file(tmp, target)
             ok = rc == 0
             if (.not. ok) then
                 write (buf, '(i0)') rc

@@ -101,6 +101,41 @@ int terrace_resolve_path(const char *path, char *out, int outlen)
     return 0;
 }
 
+/* The file an output named `path` is written to: `path` itself, or, when `path` is a symbolic
+ * link (a chain of them), the file it points to (a dangling link's target is resolved through the
+ * link's directory, up to 40 links). Writing there and not over the link keeps the link. Returns 0
+ * with the target in out (outlen bytes), 2 when it does not fit. */
+int terrace_output_target(const char *path, char *out, int outlen)
+{
+    char cur[PATH_MAX], link[PATH_MAX], next[PATH_MAX];
+    struct stat st;
+    if (strlen(path) + 1 > sizeof cur) return 2;
+    strcpy(cur, path);
+    for (int hops = 0; hops < 40; ++hops) {
+        if (lstat(cur, &st) != 0 || !S_ISLNK(st.st_mode)) break;
+        if (realpath(cur, next) != NULL) {          /* the target exists: its canonical name */
+            strcpy(cur, next);
+            break;
+        }
+        ssize_t n = readlink(cur, link, sizeof link - 1);
+        if (n < 0) break;
+        link[n] = '\0';
+        if (link[0] == '/') {
+            strcpy(next, link);
+        } else {                                     /* relative to the link's directory */
+            const char *slash = strrchr(cur, '/');
+            size_t d = slash ? (size_t)(slash - cur) + 1 : 0;
+            if (d + (size_t)n + 1 > sizeof next) return 2;
+            memcpy(next, cur, d);
+            strcpy(next + d, link);
+        }
+        strcpy(cur, next);
+    }
+    if ((int)strlen(cur) + 1 > outlen) return 2;
+    strcpy(out, cur);
+    return 0;
+}
+
 /* 0: no such path; 1: a regular file; 2: a directory; 3: something else (device, FIFO, socket). */
 int terrace_path_kind(const char *path)
 {

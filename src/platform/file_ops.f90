@@ -10,7 +10,7 @@ module terrace_file_ops
 
     public :: resolve_path, path_kind, is_writable, rename_file, remove_file, lock_file, &
               remove_at_exit, keep_at_exit, process_id, directory_of, &
-              temporary_name, commit_output, check_size, cleanup_now, write_in_place
+              temporary_name, commit_output, check_size, cleanup_now, write_in_place, output_target
 
     interface
         integer(c_int) function c_resolve(path, out, outlen) bind(C, name='terrace_resolve_path')
@@ -19,6 +19,12 @@ module terrace_file_ops
             character(kind=c_char), intent(out) :: out(*)
             integer(c_int), value :: outlen
         end function c_resolve
+        integer(c_int) function c_output_target(path, out, outlen) bind(C, name='terrace_output_target')
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+            character(kind=c_char), intent(out) :: out(*)
+            integer(c_int), value :: outlen
+        end function c_output_target
         integer(c_int) function c_rename(from, to) bind(C, name='terrace_rename')
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: from(*), to(*)
@@ -64,6 +70,23 @@ contains
         n = index(buf, c_null_char) - 1
         abs_path = buf(1:n)
     end function resolve_path
+
+    !> The file an output is written to: path itself, or the file a symbolic link path points to
+    !> (followed through a chain of links, also when the target does not exist yet), so that an
+    !> output renamed into place replaces the link's target and keeps the link.
+    function output_target(path) result(target)
+        character(len=*), intent(in) :: path
+        character(len=:), allocatable :: target
+        character(kind=c_char, len=8192) :: buf
+        integer :: n
+        buf = ''
+        if (c_output_target(trim(path)//c_null_char, buf, int(len(buf), c_int)) /= 0) then
+            target = trim(path)
+            return
+        end if
+        n = index(buf, c_null_char) - 1
+        target = buf(1:n)
+    end function output_target
 
     !> The directory part of a path ('.' for a bare name).
     function directory_of(path) result(dir)
@@ -127,20 +150,23 @@ contains
         rc = int(c_path_op(6_c_int, trim(path)//c_null_char))
     end subroutine keep_at_exit
 
-    !> The temporary name an output is written under: '.NAME.terrace-partial' in its directory.
+    !> The temporary name an output is written under: '.NAME.terrace-partial' in the directory of
+    !> the file it will replace (output_target: a symbolic link's target, so that the rename
+    !> stays on one file system and the link stays).
     function temporary_name(path) result(tmp)
         character(len=*), intent(in) :: path
-        character(len=:), allocatable :: tmp
+        character(len=:), allocatable :: tmp, target
         integer :: p
         if (in_place) then
             tmp = trim(path)
             return
         end if
-        p = index(trim(path), '/', back=.true.)
-        tmp = path(1:p)//'.'//trim(path(p + 1:))//'.terrace-partial'
+        target = output_target(path)
+        p = index(target, '/', back=.true.)
+        tmp = target(1:p)//'.'//target(p + 1:)//'.terrace-partial'
     end function temporary_name
 
-    !> Rename the complete temporary file over the output. ok = .false. with msg on failure.
+    !> Rename the complete temporary file over the output (over a symbolic link's target). ok = .false. with msg on failure.
     subroutine commit_output(path, ok, msg)
         character(len=*), intent(in) :: path
         logical, intent(out) :: ok
@@ -149,12 +175,12 @@ contains
         character(len=16) :: s
         ok = .true.; msg = ''
         if (in_place) return
-        rc = rename_file(temporary_name(path), path)
+        rc = rename_file(temporary_name(path), output_target(path))
         ok = rc == 0
         msg = ''
         if (.not. ok) then
             write (s, '(i0)') rc
-            msg = 'cannot rename '//temporary_name(path)//' to '//trim(path)//' (errno '//trim(s)//')'
+            msg = 'cannot rename '//temporary_name(path)//' to '//output_target(path)//' (errno '//trim(s)//')'
         end if
         call keep_at_exit(temporary_name(path))
     end subroutine commit_output

@@ -8,6 +8,7 @@ module terrace_files
     use terrace_kinds, only: i8
     use terrace_mpi_env, only: world, bcast_text
     use terrace_errors, only: stop_all
+    use terrace_file_ops, only: path_kind, path_missing, path_regular, path_directory
     implicit none
     private
 
@@ -31,21 +32,31 @@ contains
     end subroutine slurp
 
     !> The input file `path` on every rank: read by rank 0, broadcast (collective). Stops every rank
-    !> when it cannot be read.
+    !> when it cannot be read, saying why: no such file, a directory, not a regular file (a device
+    !> such as /dev/zero, a pipe: never read, it may not end), or unreadable.
     subroutine read_input_text(path, text)
         character(len=*), intent(in) :: path
         character(len=:), allocatable, intent(out) :: text
         character(len=:), allocatable :: status_text
         integer :: status
-        status_text = 'ok'
+        status_text = ''
         if (world%rank == 0) then
-            call slurp(path, text, status)
-            if (status /= 0) then
-                status_text = 'missing'; text = ''
-            end if
+            select case (path_kind(path))
+            case (path_missing)
+                status_text = ': cannot open the input file: no such file'
+            case (path_directory)
+                status_text = ': the input file is a directory (give the deck, a namelist file)'
+            case (path_regular)
+                call slurp(path, text, status)
+                if (status /= 0) status_text = ': cannot read the input file (is it readable?)'
+            case default
+                status_text = ': the input file is not a regular file (a device, pipe or socket); '// &
+                              'give the deck, a namelist file'
+            end select
+            if (len(status_text) > 0) text = ''
         end if
         call bcast_text(status_text)
-        if (status_text /= 'ok') call stop_all(path//': cannot open the input file (does it exist and is it readable?)')
+        if (len(status_text) > 0) call stop_all(path//status_text)
         call bcast_text(text)
     end subroutine read_input_text
 

@@ -18,7 +18,7 @@ module terrace_output_files
     use terrace_errors, only: check_all
     use terrace_file_ops, only: resolve_path, path_kind, is_writable, lock_file, remove_at_exit, keep_at_exit, &
                                 process_id, directory_of, path_missing, path_regular, &
-                                temporary_name, commit_output, write_in_place
+                                temporary_name, commit_output, write_in_place, output_target
     use terrace_xdmf, only: xdmf_sidecar_path
     use mpi_f08, only: MPI_Allreduce, MPI_MAX, MPI_INTEGER8
     implicit none
@@ -99,12 +99,12 @@ contains
             if (len(msg) == 0 .and. lock) then
                 do i = 1, nout
                     if (len(out_path(i)%s) == 0) cycle
-                    select case (lock_file(lock_name(out_path(i)%s)))
+                    select case (lock_file(lock_name(output_target(out_path(i)%s))))
                     case (1)
                         msg = where(i)//": another terrace run is writing this output now (it holds the lock "// &
-                              lock_name(out_path(i)%s)//'); wait for it to end or choose other output names'
+                              lock_name(output_target(out_path(i)%s))//'); wait for it to end or choose other output names'
                     case (2)
-                        msg = where(i)//': cannot write: cannot create the lock file '//lock_name(out_path(i)%s)
+                        msg = where(i)//': cannot write: cannot create the lock file '//lock_name(output_target(out_path(i)%s))
                     end select
                     if (len(msg) > 0) exit
                 end do
@@ -134,8 +134,9 @@ contains
             integer :: unit, ios, kind
             character(len=:), allocatable :: probe, dir
             character(len=16) :: pid
-            out_abs(i)%s = resolve_path(out_path(i)%s, ok)
-            dir = directory_of(out_path(i)%s)
+            ! a symbolic link is written through: its target's directory must exist and take files
+            out_abs(i)%s = resolve_path(output_target(out_path(i)%s), ok)
+            dir = directory_of(output_target(out_path(i)%s))
             if (.not. ok) then
                 msg = where(i)//': '//verb(i)//": the directory '"//dir//"' does not exist"
                 return
@@ -185,7 +186,8 @@ contains
 
     end subroutine check_outputs
 
-    !> The lock file of an output: '.NAME.terrace-lock' in its directory.
+    !> The lock file of an output: '.NAME.terrace-lock' in its directory (called with the output's
+    !> target, so that two names of one file share one lock).
     function lock_name(path) result(s)
         character(len=*), intent(in) :: path
         character(len=:), allocatable :: s

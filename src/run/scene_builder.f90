@@ -471,8 +471,10 @@ contains
             xref(:, mesh%node_tag(k)) = mesh%x(:, k)
         end do
         if (any(mesh%body < 1 .or. mesh%body > max_bodies)) then
-            write (s1, '(i0)') max_bodies
-            call stop_all(trim(cfg%mesh_file)//': &system: mesh_file: physical volume tags must be 1..'//trim(s1))
+            write (s1, '(i0,a,i0)') mesh%body(findloc(mesh%body < 1 .or. mesh%body > max_bodies, .true., dim=1)), &
+                ' is not in 1..', max_bodies
+            call stop_all(trim(cfg%mesh_file)//': &system: mesh_file: physical volume tag '//trim(s1)// &
+                          ' (each physical volume is a body, its tag the body number in &system velocity(:,b))')
         end if
         allocate (atoms%mass_of_id(n))
         atoms%mass_of_id = 0

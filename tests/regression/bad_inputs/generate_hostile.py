@@ -5,8 +5,12 @@ format, counts beyond what a file can hold, scenes too large for memory, over-lo
 non-finite boxes and coordinates, ids the trajectory cannot take, colliding and special output
 paths, outputs equal to inputs, a locked output, the smaller defects, the files users have, and
 damaged H5MD trajectories (NaN, Inf and huge values in positions, velocities and box, wrong shapes,
-missing datasets) for the engine's read_h5md and for terrace-analyze ('@analyze' cases). Needs
-numpy and h5py (check_bad_inputs.sh picks a python that has them).
+missing datasets, shapes declaring 1e12 frames or atoms, a frame beyond the file) for the engine's
+read_h5md and for terrace-analyze ('@analyze' cases), keys given twice in a group, decks with a
+UTF-8 byte-order mark or that are devices, pipes or directories, damaged Gmsh meshes (MSH 2.2 and
+4.1: declared counts beyond the file, second sections, repeated nodes, huge coordinates, physical
+tags), and outputs through symbolic links. Needs numpy and h5py (check_bad_inputs.sh picks a
+python that has them).
 
 usage: generate_hostile.py OUT_DIR
 Writes OUT_DIR/cases.txt (the manifest format of bad_inputs/cases.txt) and one directory per
@@ -16,6 +20,7 @@ A case directory may hold '.hold_lock': the name of a lock file the harness hold
 the case runs, as a second run on the same outputs would.
 """
 import os
+import re
 import stat
 import sys
 
@@ -82,7 +87,27 @@ def case(name, subs, groups=None, files=None, args=None, rc=1, hold_lock=None, d
     manifest.append('%s | %d | %s | %s' % (name, rc, args, ' ; '.join(subs)))
 
 
+_ASSIGN = re.compile(r"(?:^|,)\s*([A-Za-z_]\w*(?:\s*\([^)]*\))?)\s*=")
+
+
+def _target(key):
+    return re.sub(r'\s+', '', key).lower()
+
+
 def with_key(group, assignment, base=None):
+    """The deck `base` (LJ) with `assignment` in `group`, replacing the group's own assignment of
+    that key (a key given twice in one group is an error of its own)."""
+    b = dict(base or LJ)
+    text = b[group]
+    new = _target(_ASSIGN.match(assignment).group(1))
+    starts = [(m.start(), _target(m.group(1))) for m in _ASSIGN.finditer(text)] + [(len(text), None)]
+    kept = [text[a:starts[i + 1][0]].lstrip(', ') for i, (a, k) in enumerate(starts[:-1]) if k != new]
+    b[group] = ', '.join(kept + [assignment])
+    return b
+
+
+def add_key(group, assignment, base=None):
+    """The deck with `assignment` appended to `group` as it is (to give a key twice)."""
     b = dict(base or LJ)
     b[group] = b[group] + ', ' + assignment
     return b
@@ -316,6 +341,21 @@ if os.geteuid() != 0:      # root writes read-only files anyway
     out_case('out_dir_readonly', "thermo_file='rodir/t.csv'", ['&output', 'thermo_file', 'cannot create a file'],
              files={'rodir/keep': ''}, modes={'rodir': stat.S_IRUSR | stat.S_IXUSR})
 
+# outputs through symbolic links are written to the target: the target's directory is checked
+out_case('out_thermo_link_missing_dir', "thermo_file='link.csv'", ['link.csv', '&output', 'thermo_file',
+                                                                  'does not exist'], links={'link.csv': 'nodir/t.csv'})
+out_case('out_forces_link_to_dir', "forces_file='link.txt'", ['link.txt', '&output', 'forces_file', 'not a regular'],
+         files={'adir/keep': 'x'}, links={'link.txt': 'adir'})
+out_case('out_final_link_to_dev_full', "final_atoms_file='link.atoms'", ['link.atoms', '&output', 'final_atoms_file',
+                                                                        'not a regular'],
+         links={'link.atoms': '/dev/full'})
+out_case('out_thermo_link_same_as_forces', "thermo_file='link.csv', forces_file='real.txt'",
+         ['&output', 'forces_file', 'same file as &output thermo_file'], files={'real.txt': 'x\n'},
+         links={'link.csv': 'real.txt'})
+out_case('out_thermo_link_locked', "thermo_every=5, thermo_file='link.csv', forces_file='forces.txt'",
+         ['&output', 'thermo_file', 'another terrace run'], files={'sub/t.csv': 'old\n'},
+         links={'link.csv': 'sub/t.csv'}, hold_lock='sub/.t.csv.terrace-lock')
+
 # ------------------------------------------------------------------ class 11: the smaller ones
 case('str_lattice_two_words', ['&system', 'lattice', 'not one word'],
      groups=dict(LJ, system="lattice='fcc     bogus', density=0.8442, cells=3,3,3, mass=1.0"))
@@ -458,6 +498,150 @@ h5_cases('no_edges_value', ENG + [P + 'box/edges/value', 'missing'], ANA + [P + 
          edit=_delete(P + 'box/edges/value'))
 h5_cases('no_position_step', ENG + [P + 'position/step', 'missing'], ANA + [P + 'position/time', 'missing'], compute='msd',
          edit=_delete(P + 'position/step', P + 'position/time'))
+
+
+# damaged H5MD files that declare more than they hold: a dataset's shape costs nothing in the file
+# (chunks never written), so a count is bounded by the file's size before anything is allocated
+def _huge(frames, atoms, scalar_clock):
+    def edit(f):
+        g = f[P + 'position']
+        del g['value']
+        g.create_dataset('value', shape=(frames, atoms, 3), dtype='f8', chunks=(1, min(atoms, 1000), 3))
+        if scalar_clock:
+            del g['time'], g['step']
+            g['time'] = 0.01
+            g['step'] = np.int64(1)
+    return edit
+
+
+h5_cases('position_1e12_frames', ENG + [P + 'position/value', '1000000000000 frames', 'can hold'],
+         ANA + [P + 'position/value', '1000000000000 frames', 'can hold'], edit=_huge(10 ** 12, H5_N, True))
+h5_cases('position_1e12_frames_series', ENG + [P + 'position/value', '1000000000000 frames', 'can hold'],
+         ANA + [P + 'position/value', '1000000000000 frames', 'can hold'], edit=_huge(10 ** 12, H5_N, False))
+h5_cases('position_2e9_frames', ENG + [P + 'position/value', '2147483648 frames', 'can hold'],
+         ANA + [P + 'position/value', '2147483648 frames', 'can hold'], edit=_huge(2 ** 31, H5_N, True))
+h5_cases('position_1e12_atoms', ENG + [P + 'position/value', '1000000000000 atoms', 'can hold'],
+         ANA + [P + 'position/value', '1000000000000 atoms', 'can hold'], edit=_huge(H5_NF, 10 ** 12, True))
+# a frame beyond the file: the key and the file's frame count
+for fr in (H5_NF + 1, -(H5_NF + 1), 10 ** 12):
+    tag = ('m%d' % -fr) if fr < 0 else str(fr)
+    case('h5_eng_frame_' + tag, ['in.h5', '&system', 'read_h5md', 'h5md_frame = %d' % fr, '%d frames' % H5_NF,
+                                 '1..%d' % H5_NF], groups=dict(H5_DECK, system="read_h5md='in.h5', mass=1.0, h5md_frame=%d" % fr))
+    h5_file(os.path.join(OUT, 'h5_eng_frame_' + tag, 'in.h5'))
+
+# ------------------------------------------------------------------ the namelist file itself
+# a key given twice in one group: refused where it is read, with both lines
+for name, groups, line, group, key in (
+        ('nml_repeat_units', add_key('run', "units='metal'"), 2, '&run', 'units'),
+        ('nml_repeat_cutoff', add_key('potential', 'cutoff=3.0'), 4, '&potential', 'cutoff'),
+        ('nml_repeat_case', add_key('potential', 'CUTOFF = 2.5'), 4, '&potential', 'cutoff'),
+        ('nml_repeat_same_value', add_key('integrator', 'dt=0.005'), 5, '&integrator', 'dt'),
+        ('nml_repeat_array', add_key('system', 'cells=4,4,4'), 3, '&system', 'cells'),
+        ('nml_repeat_subscript', dict(LJ, potential="style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, "
+                                                    "pair_cutoff(1,1)=2.5, pair_cutoff(1, 1)=2.0"),
+         4, '&potential', 'pair_cutoff(1,1)'),
+        ('nml_repeat_output', add_key('output', "thermo_file='other.csv'"), 7, '&output', 'thermo_file')):
+    case(name, ['%s.nml:%d' % (name, line), group, key, 'given twice'], groups=groups)
+# ... on lines of its own: the message gives both
+d = os.path.join(OUT, 'nml_repeat_lines')
+case('nml_repeat_lines', ['nml_repeat_lines.nml:4', '&run', 'n_steps', 'given twice', 'first at line 3'])
+with open(os.path.join(d, 'nml_repeat_lines.nml'), 'w') as f:
+    f.write(deck_text('nml_repeat_lines', dict(LJ, run=None)).replace(
+        '! hostile case: nml_repeat_lines\n',
+        "! hostile case: nml_repeat_lines\n&run units='lj',\n     n_steps=10,\n     n_steps=20, seed=1 /\n"))
+# a deck saved with a UTF-8 byte-order mark is read (the error is the deck's own, on its line)
+BOM = '\ufeff'
+for name, groups, subs in (
+        ('nml_bom_unknown_key', add_key('potential', 'cutof=2.5'), ['nml_bom_unknown_key.nml:4', '&potential', 'cutof',
+                                                                      'unknown key']),
+        ('nml_bom_repeat', add_key('run', 'seed=2'), ['nml_bom_repeat.nml:2', '&run', 'seed', 'given twice'])):
+    case(name, subs, groups=groups)
+    path = os.path.join(OUT, name, name + '.nml')
+    text = open(path).read()
+    with open(path, 'w', encoding='utf-8') as f:
+        f.write(BOM + text)
+# a deck that is not a regular file: said so, never read (a pipe would not end)
+case('deck_dev_zero', ['/dev/zero', 'not a regular file'], args='/dev/zero')
+case('deck_dev_null', ['/dev/null', 'not a regular file'], args='/dev/null')
+case('deck_directory', ['adir', 'is a directory'], args='adir', files={'adir/keep': ''})
+case('deck_fifo', ['pipe', 'not a regular file'], args='pipe', fifos=['pipe'])
+case('deck_missing', ['nothere.nml', 'no such file'], args='nothere.nml')
+case('deck_symlink_to_dir', ['dlink', 'is a directory'], args='dlink', files={'adir/keep': ''}, links={'dlink': 'adir'})
+
+# ------------------------------------------------------------------ Gmsh meshes
+MESH = dict(run="units='si', dimension=3, n_steps=10, seed=1",
+            system="mesh_file='in.msh', mass_density=1000.0, periodic=.false.,.false.,.false.",
+            potential="style='neohookean', lambda=1.0e6, mu=1.0e6", integrator="style='velocity_verlet', dt=1.0e-6",
+            neighbor=None, output="thermo_every=5, thermo_file='thermo.csv', forces_file='forces.txt'")
+M_X = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 1)]
+M_T = [(1, 2, 3, 4), (2, 3, 4, 5)]
+
+
+def msh22(x=M_X, t=M_T, phys=(1, 1), nodes_count=None, elems_count=None, extra=''):
+    s = '$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n%s\n' % (nodes_count or len(x))
+    s += ''.join('%d %r %r %r\n' % ((i + 1,) + tuple(p)) for i, p in enumerate(x)) + '$EndNodes\n'
+    s += '$Elements\n%s\n1 15 2 1 1 1\n' % (elems_count or len(t) + 1)
+    s += ''.join('%d 4 2 %d 1 %d %d %d %d\n' % ((k + 2, ph) + tuple(e)) for k, (e, ph) in enumerate(zip(t, phys)))
+    return s + '$EndElements\n' + extra
+
+
+def msh41(x=M_X, t=M_T, vol_phys='1 1', nodes_head=None, elems_head=None, block_entity=1, extra=''):
+    s = '$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Entities\n1 0 0 1\n1 0 0 0 1 7\n1 0 0 0 1 1 1 %s 0\n$EndEntities\n' % vol_phys
+    s += '$Nodes\n%s\n0 1 0 1\n1\n0 0 0\n3 1 0 %d\n' % (nodes_head or '2 %d 1 %d' % (len(x), len(x)), len(x) - 1)
+    s += ''.join('%d\n' % (i + 2) for i in range(len(x) - 1))
+    s += ''.join('%r %r %r\n' % tuple(p) for p in x[1:]) + '$EndNodes\n'
+    s += '$Elements\n%s\n0 1 15 1\n1 1\n3 %d 4 %d\n' % (elems_head or '2 %d 1 %d' % (len(t) + 1, len(t) + 1),
+                                                      block_entity, len(t))
+    s += ''.join('%d %d %d %d %d\n' % ((k + 2,) + tuple(e)) for k, e in enumerate(t))
+    return s + '$EndElements\n' + extra
+
+
+def line_of(text, start, nth=1):
+    """1-based number of the nth line that starts with start."""
+    hits = [i + 1 for i, l in enumerate(text.split('\n')) if l.startswith(start)]
+    return hits[nth - 1]
+
+
+def mesh_case(name, text, subs, line_start=None, nth=1, deck=None):
+    where = 'in.msh' if line_start is None else 'in.msh:%d' % line_of(text, line_start, nth)
+    case(name, [where, '&system', 'mesh_file'] + subs, groups=dict(MESH, **(deck or {})), files={'in.msh': text})
+
+
+for fmt, writer in (('22', msh22), ('41', msh41)):
+    h = '' if fmt == '22' else '2 '        # 4.1 headers start with the block count
+    mesh_case('mesh%s_elements_999999999' % fmt, writer(elems_count='999999999') if fmt == '22' else
+              writer(elems_head='2 999999999 1 999999999'), ['$Elements declares 999999999', 'can hold'],
+              h + '999999999')
+    mesh_case('mesh%s_nodes_999999999' % fmt, writer(nodes_count='999999999') if fmt == '22' else
+              writer(nodes_head='2 999999999 1 999999999'), ['$Nodes declares 999999999', 'can hold'],
+              h + '999999999')
+    mesh_case('mesh%s_elements_negative' % fmt, writer(elems_count='-3') if fmt == '22' else
+              writer(elems_head='2 -3 1 3'), ['$Elements declares -3'], h + '-3')
+    good = writer()
+    mesh_case('mesh%s_second_nodes' % fmt, good + good[good.index('$Nodes'):good.index('$Elements')],
+              ['second $Nodes section', 'first is at line %d' % line_of(good, '$Nodes')], '$Nodes', 2)
+    mesh_case('mesh%s_second_elements' % fmt, good + good[good.index('$Elements'):],
+              ['second $Elements section'], '$Elements', 2)
+    for tag, t in (('12', [(1, 1, 3, 4), (2, 3, 4, 5)]), ('34', [(1, 2, 3, 4), (2, 3, 5, 5)])):
+        text = writer(t=t)
+        node = t[0][0] if tag == '12' else 5
+        mesh_case('mesh%s_repeated_node_%s' % (fmt, tag), text, ['degenerate', 'node %d is repeated' % node])
+    for tag, v in (('1e200', 1e200), ('neg1e300', -1e300), ('2e9', 2e9)):
+        x = list(M_X)
+        x[2] = (0.0, v, 0.0)
+        text = writer(x=x)
+        mesh_case('mesh%s_coordinate_%s' % (fmt, tag), text, ['node coordinate', 'out of range', '1e9'])
+# a physical volume tag beyond the bodies &system velocity can name
+mesh_case('mesh22_physical_17', msh22(phys=(17, 17)), ['physical volume tag 17', '1..16'])
+mesh_case('mesh41_physical_17', msh41(vol_phys='1 17'), ['physical volume tag 17', '1..16'])
+mesh_case('mesh22_physical_0_and_1', msh22(phys=(0, 1)), ['no physical volume', 'tag 0'])
+# MSH 4.1: the volume's physical tags come from $Entities
+mesh_case('mesh41_entity_unknown', msh41(block_entity=9), ['volume entity 9', 'not in the $Entities'])
+mesh_case('mesh41_two_physical', msh41(vol_phys='2 1 2'), ['volume entity 1', 'several physical volumes'])
+mesh_case('mesh41_entities_count', msh41().replace('$Entities\n1 0 0 1', '$Entities\n1 0 0 999999999'),
+          ['$Entities declares 999999999', 'can hold'], '1 0 0 999999999')
+mesh_case('mesh41_node_blocks_huge', msh41(nodes_head='999999999 5 1 5'), ['$Nodes declares blocks: 999999999',
+                                                                        'can hold'], '999999999 5')
 
 with open(os.path.join(OUT, 'cases.txt'), 'w') as f:
     f.write('# generated by generate_hostile.py: name | exit | arguments | substrings\n')

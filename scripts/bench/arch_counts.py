@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Counts that show the code's layout, from the sources of src/ (Fortran only):
+"""Counts that show the code's layout, from the Fortran sources of src/ (.f90 and included .inc):
 
   - modules outside the input, run, analysis and app layers that name config_t;
   - `select case` on a thermostat style, and tests of a thermostat style, in integrators/;
@@ -34,7 +34,7 @@ OWN = ("potentials/", "thermostat/", "core/units.f90")
 def fortran_files(src):
     for root, _, files in os.walk(src):
         for name in sorted(files):
-            if name.endswith(".f90"):
+            if name.endswith((".f90", ".inc")):
                 path = os.path.join(root, name)
                 yield os.path.relpath(path, src), path
 

@@ -121,7 +121,7 @@ contains
         i = 1; line = 1; in_group = .false.; quote = ' '; nb = 0; start_line = 1
         ! a UTF-8 byte-order mark (editors on Windows save one) is not part of the text
         if (n >= 3) then
-            if (text(1:3) == achar(239)//achar(187)//achar(191)) i = 4
+            if (text(1:3) == char(239)//char(187)//char(191)) i = 4
         end if
         do while (i <= n)
             c = text(i:i)

@@ -135,8 +135,9 @@ contains
         end do
         call eng%timers%stop(t_pair)
         n_sample = 1; n_frame = 1
-        t_next_sample = merge(sample_dt, huge(1.0_dp), sample_dt > 0)
-        t_next_frame = merge(frame_dt, huge(1.0_dp), frame_dt > 0)
+        t_next_sample = huge(1.0_dp); t_next_frame = huge(1.0_dp)
+        if (sample_dt > 0) t_next_sample = snapped(sample_dt, sample_dt)
+        if (frame_dt > 0) t_next_frame = snapped(frame_dt, frame_dt)
         call write_sample(0.0_dp)
         stats%e_first = stats%e_last
         if (frame_dt > 0) call write_frame(0.0_dp)
@@ -398,6 +399,14 @@ contains
             call predict(i, t)
         end subroutine cell_event
 
+        !> A scheduled time; one within 1e-9 intervals of the end is the end (no second sample
+        !> a rounding error after the last one).
+        pure real(dp) function snapped(time, interval)
+            real(dp), intent(in) :: time, interval
+            snapped = time
+            if (abs(t_end - time) <= 1.0e-9_dp*interval) snapped = t_end
+        end function snapped
+
         !> The schedule slot at t: samples, frames, the end (.true.). Then its next time.
         logical function schedule(t) result(done)
             real(dp), intent(in) :: t
@@ -409,13 +418,13 @@ contains
                 call write_sample(t)
                 if (t >= t_next_sample) then
                     n_sample = n_sample + 1
-                    t_next_sample = n_sample*sample_dt
+                    t_next_sample = snapped(n_sample*sample_dt, sample_dt)
                 end if
             end if
             if (frame_due) then
                 call write_frame(t)
                 n_frame = n_frame + 1
-                t_next_frame = n_frame*frame_dt
+                t_next_frame = snapped(n_frame*frame_dt, frame_dt)
             end if
             if (.not. done) call q%set(sched_slot, min(t_next_sample, t_next_frame, t_end))
         end function schedule

@@ -107,6 +107,7 @@ contains
         type(pair_map_t) :: map
         real(dp), allocatable :: x(:, :), v(:, :), tl(:), m(:), ev_t(:)
         integer, allocatable :: typ(:), img(:, :), ev_kind(:), ev_partner(:), ev_code(:)
+        integer, allocatable :: id_of(:), slot_of_id(:)      !< atom number (cell order) <-> id
         integer(i8), allocatable :: cnt(:), ev_pcount(:)
         real(dp) :: length(3), inv_len(3), t, pe, ke_run, ke_int, t_ke, virial, t_last
         real(dp) :: t_next_sample, t_next_frame
@@ -207,10 +208,14 @@ contains
             end do
         end subroutine gather_atoms
 
-        !> Wrap the positions into the box and put every atom into its cell.
+        !> Wrap the positions into the box, number the atoms in the order of their cells (atoms
+        !> that meet sit close in memory; slot_of_id and id_of map between ids and these numbers)
+        !> and put every atom into its cell.
         subroutine place_atoms()
-            integer :: i, d, c(3)
+            integer :: i, d, k, c(3)
+            integer, allocatable :: cell_of(:), start(:), perm(:), ic(:, :)
             real(dp) :: s
+            allocate (cell_of(n), ic(3, n), start(product(cells%nc) + 1), perm(n), id_of(n), slot_of_id(n))
             do i = 1, n
                 do d = 1, 3
                     s = floor((x(d, i) - eng%box%lo(d))*inv_len(d))
@@ -219,7 +224,29 @@ contains
                     c(d) = int((x(d, i) - eng%box%lo(d))/cells%w(d))
                     c(d) = min(max(c(d), 0), cells%nc(d) - 1)
                 end do
-                call cells%insert(i, c)
+                ic(:, i) = c
+                cell_of(i) = cells%index(c)
+            end do
+            start = 0                                   ! counting sort by cell (stable: by id within a cell)
+            do i = 1, n
+                start(cell_of(i) + 1) = start(cell_of(i) + 1) + 1
+            end do
+            start(1) = 1
+            do k = 2, size(start)
+                start(k) = start(k) + start(k - 1)
+            end do
+            do i = 1, n
+                perm(start(cell_of(i))) = i
+                start(cell_of(i)) = start(cell_of(i)) + 1
+            end do
+            x = x(:, perm); v = v(:, perm); m = m(perm); typ = typ(perm); img = img(:, perm)
+            ic = ic(:, perm)
+            do k = 1, n
+                id_of(k) = perm(k)
+                slot_of_id(perm(k)) = k
+            end do
+            do i = n, 1, -1          ! (inserted last to first: each cell's list runs in id order)
+                call cells%insert(i, ic(:, i))
             end do
         end subroutine place_atoms
 
@@ -242,7 +269,7 @@ contains
                             dx = dx - length*anint(dx*inv_len)
                             s = tab%region_of(typ(i), typ(j), sum(dx**2))
                             if (s == tab%nr(typ(i), typ(j))) call stop_all(eng%source//': overlapping hard cores '// &
-                                '(atoms '//num_i(i)//' and '//num_i(j)//' closer than their diameter)')
+                                '(atoms '//num_i(id_of(i))//' and '//num_i(id_of(j))//' closer than their diameter)')
                             if (s > 0) then
                                 call map%put(i, j, s)
                                 pe = pe + tab%u(s, typ(i), typ(j))
@@ -501,7 +528,7 @@ contains
             integer :: k, g, d
             real(dp) :: xt(3), s
             do k = 1, eng%atoms%nlocal
-                g = int(eng%atoms%id(k))
+                g = slot_of_id(int(eng%atoms%id(k)))
                 xt = x(:, g) + v(:, g)*(t - tl(g))
                 eng%atoms%image(:, k) = img(:, g)
                 do d = 1, 3        ! (an atom due to cross the box face at t may lie on it)

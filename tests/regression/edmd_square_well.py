@@ -1,11 +1,12 @@
 #!/usr/bin/env python3
 """Square wells with event-driven dynamics: the second virial coefficient, captures and escapes.
 
-A square-well gas (lambda = 1.5, eps = 1, N = 2048, kT about 2) at two low densities n: from the
+A square-well gas (lambda = 1.5, eps = 1, N = 2048, kT about 2) at four low densities n: from the
 collision virial Z = PV/NkT (kT = 2K/3N per sample), (Z - 1)/n - B2(beta_n) with the closed form
     B2 = (2 pi sigma^3 / 3) [1 - (lambda^3 - 1)(exp(beps) - 1)]
-at each run's mean beta is B3 n + ...: the line through the two densities must meet 0 at n = 0
-within 4 standard errors (block averages, propagated). Also checked: the
+at each run's mean beta is B3 n + ...: the weighted line through the four densities must meet 0
+at n = 0 within 4 standard errors (block averages, propagated, and scaled up by the scatter of
+the points about the line where it exceeds their error bars). Also checked: the
 total energy K + U (U the sum of -eps over captured pairs) and the momentum constant to round-off
 (1e-11 relative), and that pairs were captured, escaped and bounced at the well edge.
 Usage: edmd_square_well.py TERRACE OUTDIR [--time 400]
@@ -59,8 +60,8 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument('terrace')
     ap.add_argument('out')
-    ap.add_argument('--time', type=float, default=600.0)
-    ap.add_argument('--densities', default='0.02,0.05')
+    ap.add_argument('--time', type=float, default=400.0)
+    ap.add_argument('--densities', default='0.01,0.02,0.035,0.05')
     a = ap.parse_args()
     terrace = os.path.abspath(a.terrace)
     ok = True
@@ -81,14 +82,24 @@ def main():
             print('FAIL: too few captures, escapes or bounces'); ok = False
     def b2_closed(beta):
         return 2*math.pi/3*(1 - (LAMBDA**3 - 1)*(math.exp(beta) - 1))
-    # each density at its own mean beta: d_n = (Z - 1)/n - B2(beta_n) = B3 n + ...; the line through
-    # both points must go through 0 at n = 0
-    (n1, y1, e1, b1), (n2, y2, e2, b2) = res[0], res[-1]
-    d1, d2 = y1 - b2_closed(b1), y2 - b2_closed(b2)
-    w = n1/(n2 - n1)
-    icpt = d1 - w*(d2 - d1)
-    err = math.sqrt(((1 + w)*e1)**2 + (w*e2)**2)
-    beta = 0.5*(b1 + b2)
+    # each density at its own mean beta: d_n = (Z - 1)/n - B2(beta_n) = B3 n + ...; the weighted
+    # line through the densities must meet 0 at n = 0 (its error scaled up by the scatter of the
+    # points about the line when that exceeds their error bars)
+    n_ = np.array([r[0] for r in res])
+    d_ = np.array([r[1] - b2_closed(r[3]) for r in res])
+    e_ = np.array([r[2] for r in res])
+    w_ = 1/e_**2
+    A = np.vstack([np.ones_like(n_), n_]).T
+    cov = np.linalg.inv(A.T @ (A*w_[:, None]))
+    icpt, slope = cov @ (A.T @ (w_*d_))
+    chi2 = float(np.sum(w_*(d_ - icpt - slope*n_)**2))
+    scale = max(1.0, math.sqrt(chi2/max(1, len(n_) - 2)))
+    err = math.sqrt(cov[0, 0])*scale
+    beta = float(np.mean([r[3] for r in res]))
+    for n1, d1, e1 in zip(n_, d_, e_):
+        print('  n = %.4f: (Z - 1)/n - B2(beta_n) = %8.4f +- %.4f' % (n1, d1, e1))
+    print('line: intercept %.4f +- %.4f (errors scaled by %.2f for the scatter), slope (B3) %.3f' %
+          (icpt, err, scale, slope))
     print('B2 from the collision virial at beta eps = %.4f: %.4f +- %.4f sigma^3; closed form %.4f' %
           (beta, b2_closed(beta) + icpt, err, b2_closed(beta)))
     if abs(icpt) > 4*err:

@@ -31,7 +31,7 @@ module terrace_event_driven
     use terrace_event_queue, only: event_queue_t
     use terrace_event_cells, only: event_cells_t
     use terrace_pair_map, only: pair_map_t
-    use terrace_velocities, only: atom_mass
+    use terrace_velocities, only: atom_mass, hash_uniform
     use terrace_mpi_env, only: world, min_all
     use terrace_errors, only: stop_all, check_all
     use terrace_timers, only: t_pair, t_output
@@ -120,6 +120,7 @@ contains
         length = eng%box%length
         inv_len = 1/length
         call gather_atoms()
+        if (eng%cfg%temperature >= 0 .and. .not. eng%restarted) call same_start_velocities()
         sched_slot = n + 1
         call cells%init(eng%box%lo, length, tab%rmax, n, ok)
         call check_all(ok, eng%cfg%where('system', 'cells')//': the box must be at least 3 interaction radii '// &
@@ -207,6 +208,43 @@ contains
                 x(:, g) = xx(:, k); v(:, g) = vv(:, k); m(g) = mm(k); typ(g) = ti(k); img(:, g) = ii(:, k)
             end do
         end subroutine gather_atoms
+
+        !> &system temperature: the velocities drawn again as the scene builder draws them (the same
+        !> normal deviates keyed by seed, id and component; drift removed; scaled to T with 3N - 3
+        !> degrees of freedom; reversed with reverse_velocities), but with the sums taken over all
+        !> atoms in id order on every rank: the scene builder's sums over ranks differ in their
+        !> last bits between rank counts, which the dynamics' chaos would amplify.
+        subroutine same_start_velocities()
+            integer :: g, d
+            real(dp) :: u1, u2, p(3), mtot, ke, t_now, temp
+            real(dp), parameter :: two_pi = 8*atan(1.0_dp)
+            temp = eng%cfg%temperature
+            do g = 1, n
+                do d = 1, 3
+                    u1 = hash_uniform(eng%cfg%seed, int(g, i8), 2*d - 1)
+                    u2 = hash_uniform(eng%cfg%seed, int(g, i8), 2*d)
+                    v(d, g) = sqrt(-2*log(u1))*cos(two_pi*u2)*sqrt(eng%cfg%units%boltz*temp/(m(g)*eng%cfg%units%mvv2e))
+                end do
+            end do
+            p = 0; mtot = 0
+            do g = 1, n
+                p = p + m(g)*v(:, g)
+                mtot = mtot + m(g)
+            end do
+            do g = 1, n
+                v(:, g) = v(:, g) - p/mtot
+            end do
+            ke = 0
+            do g = 1, n
+                ke = ke + m(g)*(v(1, g)**2 + v(2, g)**2 + v(3, g)**2)
+            end do
+            ke = 0.5_dp*eng%cfg%units%mvv2e*ke
+            if (n > 1 .and. ke > 0) then
+                t_now = 2*ke/((3*real(n, dp) - 3)*eng%cfg%units%boltz)
+                v = v*sqrt(temp/t_now)
+            end if
+            if (eng%cfg%reverse_velocities) v = -v
+        end subroutine same_start_velocities
 
         !> Wrap the positions into the box, number the atoms in the order of their cells (atoms
         !> that meet sit close in memory; slot_of_id and id_of map between ids and these numbers)

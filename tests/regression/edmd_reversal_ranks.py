@@ -6,8 +6,9 @@
    Round-off grows with the chaos of the dynamics (about a factor e per few collisions per atom),
    so the error is tabulated against the events; asserted: max |x_back - x0| < 1e-9 sigma for the
    runs of at most --assert-events events.
-2. Rank invariance: the same deck (with a trajectory) on 1 and 4 ranks: the thermo CSVs must be
-   identical byte for byte (every rank runs the same events; no reduction enters the results).
+2. Rank invariance: the same deck (with a trajectory) on 1 and 4 ranks: the thermo CSVs and final
+   atoms must be identical byte for byte (every rank runs the same events; no reduction enters the
+   results); also a lattice deck whose velocities come from &system temperature.
 Usage: edmd_reversal_ranks.py TERRACE OUTDIR
 """
 import argparse
@@ -102,6 +103,24 @@ def main():
     print('1 vs 4 ranks: thermo.csv (%d lines) %s, final atoms %s' % (lines, 'identical' if same else 'DIFFERENT',
                                                                        'identical' if same_final else 'DIFFERENT'))
     ok = ok and same and same_final
+    # velocities drawn from &system temperature on a lattice: the same start on every rank count
+    lat = """&run units='lj', dimension=3, run_time=4.0, seed=5 /
+&system lattice='fcc', density=0.5, cells=5,5,5, mass=1.0, temperature=1.5 /
+&potential style='square_well', diameter=1.0, well_depth=1.0, well_lambda=1.5 /
+&integrator style='event_driven' /
+&output thermo_interval=0.25, thermo_file='lattice.csv', overwrite=.true. /
+"""
+    for np_ in (1, 4):
+        d = os.path.join(a.out, 'np%d' % np_)
+        open(os.path.join(d, 'lattice.nml'), 'w').write(lat)
+        cmd = [terrace, 'lattice.nml'] if np_ == 1 else ['mpirun', '--oversubscribe', '-np', str(np_), terrace,
+                                                          'lattice.nml']
+        run(cmd, d)
+    same_lat = filecmp.cmp(os.path.join(a.out, 'np1', 'lattice.csv'), os.path.join(a.out, 'np4', 'lattice.csv'),
+                           shallow=False)
+    print('1 vs 4 ranks, lattice with velocities from temperature: thermo %s' %
+          ('identical' if same_lat else 'DIFFERENT'))
+    ok = ok and same_lat
     print('edmd_reversal_ranks: ' + ('PASS' if ok else 'FAIL'))
     return 0 if ok else 1
 

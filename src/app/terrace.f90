@@ -12,12 +12,13 @@ program terrace
     use terrace_thermo, only: thermo_writer_t
     use terrace_schedule, only: schedule_t
     use terrace_run_schedule, only: make_schedule
-    use terrace_run_params, only: engine_params, control_params, verlet_params, es_params, make_thermostat
+    use terrace_run_params, only: engine_params, control_params, verlet_params, es_params, ed_params, make_thermostat
     use terrace_thermostat, only: thermostat_t
     use terrace_velocity_verlet, only: run_velocity_verlet
     use terrace_energy_stepping, only: run_energy_stepping, choose_terrace_height, print_es_estimates, es_stats_t, &
                                        es_thermo_header
     use terrace_velocities, only: kinetic_energy
+    use terrace_event_driven, only: run_event_driven, ed_params_t, ed_stats_t, ed_thermo_header, check_event_driven_start
     use terrace_forces_file, only: write_forces_file
     use terrace_final_atoms, only: write_final_atoms
     use terrace_trajectory, only: trajectory_t
@@ -87,6 +88,8 @@ program terrace
 
     if (cfg%integrator == 'energy_stepping') then
         call energy_stepping_run()
+    else if (cfg%integrator == 'event_driven') then
+        call event_driven_run()
     else
         call verlet_run()
     end if
@@ -209,6 +212,37 @@ contains
                 'energy no longer exchange. Use a smaller terrace_height.'
         end if
     end subroutine energy_stepping_run
+
+    !> Event-driven dynamics of a stepped potential: until run_time, thermo samples every
+    !> thermo_interval (default run_time / 10), frames every trajectory_interval (default: at the
+    !> samples), all at exact times.
+    subroutine event_driven_run()
+        type(ed_stats_t) :: ed
+        type(ed_params_t) :: p
+        p = ed_params(cfg)
+        call check_event_driven_start(eng, p)
+        if (check_only) then
+            if (world%rank == 0) write (output_unit, '(a,es12.5,1x,a)') '  run        : event-driven until t = ', &
+                cfg%run_time, trim(cfg%units%time)
+            call finish_check()
+        end if
+        call open_outputs(ed_thermo_header, cfg%run_time)
+        call start_clock()
+        call run_event_driven(eng, p, thermo, traj, ed)
+        call close_run(cfg%run_time)
+        call print_run_log(eng%timers, t1 - t0, eng%natoms, ed%events, eng%list%builds, 'events')
+        if (world%rank == 0) then
+            write (output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'Events: ', ed%events, ' (', ed%pair_events, &
+                ' pair crossings, ', ed%cell_events, ' cell crossings, ', ed%stale, ' stale predictions)'
+            write (output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'Pair crossings: ', ed%core, ' hard-core collisions, ', &
+                ed%captures, ' captures, ', ed%escapes, ' escapes, ', ed%bounces, ' bounces'
+            if (t1 > t0) write (output_unit, '(a,es11.4,a,es11.4,a,es11.4,a)') 'Event rate: ', ed%events/(t1 - t0), &
+                ' events/s, ', ed%pair_events/(t1 - t0), ' pair crossings/s; ', (t1 - t0)/max(1_i8, ed%events)*1.0e6_dp, &
+                ' us per event'
+            write (output_unit, '(a,es17.10,a,es17.10,a,es10.3)') 'Total energy (first, last thermo sample): ', &
+                ed%e_first, ', ', ed%e_last, '; drift ', ed%e_last - ed%e_first
+        end if
+    end subroutine event_driven_run
 
     !> Timers and wall clock start together on every rank; the integrator writes through `out`.
     subroutine start_clock()

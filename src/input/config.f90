@@ -75,6 +75,12 @@ module terrace_config
         real(dp) :: pair_cutoff(max_types, max_types) = unset
         logical :: shift = .false.
         character(len=8) :: precision = 'double'    !< LJ pair arithmetic: 'double' or 'mixed' (single pairs, double sums)
+        !> hard_sphere, square_well: per type pair hard-core diameter, well depth and outer radius
+        !> (well_radius, or well_lambda times the diameter)
+        real(dp) :: diameter(max_types, max_types) = unset
+        real(dp) :: well_depth(max_types, max_types) = unset
+        real(dp) :: well_lambda(max_types, max_types) = unset
+        real(dp) :: well_radius(max_types, max_types) = unset
         ! &integrator
         character(len=24) :: integrator = 'velocity_verlet'
         real(dp) :: dt = -1.0_dp
@@ -493,9 +499,13 @@ contains
         real(dp) :: lambda, mu, contact_stiffness, contact_distance
         character(len=16) :: contact_model
         character(len=8) :: precision
+        real(dp), dimension(max_types, max_types) :: diameter, well_depth, well_lambda, well_radius
         namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements, lambda, mu, &
-            contact_stiffness, contact_distance, contact_model, precision
-        character(len=*), parameter :: keys(14) = [character(len=60) :: 'style:a quoted string', &
+            contact_stiffness, contact_distance, contact_model, precision, diameter, well_depth, well_lambda, well_radius
+        character(len=*), parameter :: keys(18) = [character(len=60) :: 'style:a quoted string', &
+            'diameter:a real number (or diameter(i,j) = ...)', 'well_depth:a real number (or well_depth(i,j) = ...)', &
+            'well_lambda:a real number (or well_lambda(i,j) = ...)', &
+            'well_radius:a real number (or well_radius(i,j) = ...)', &
             'lambda:a real number (Pa)', 'mu:a real number (Pa)', &
             'contact_stiffness:a real number (N/m)', 'contact_distance:a real number (m)', &
             'contact_model:a quoted string', &
@@ -506,6 +516,7 @@ contains
         style = 'lj'; epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
         file = ''; elements = ''; lambda = unset; mu = unset; contact_stiffness = unset; contact_distance = unset
         contact_model = 'node_face'; precision = 'double'
+        diameter = unset; well_depth = unset; well_lambda = unset; well_radius = unset
         do while (it%next(cfg, 'potential', keys))
             read (it%buf, nml=potential, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
@@ -517,6 +528,8 @@ contains
         cfg%contact_stiffness = contact_stiffness; cfg%contact_distance = contact_distance
         cfg%contact_model = lower(contact_model)
         cfg%precision = lower(precision)
+        cfg%diameter = diameter; cfg%well_depth = well_depth; cfg%well_lambda = well_lambda
+        cfg%well_radius = well_radius
     end subroutine read_potential
 
     subroutine read_integrator(cfg)
@@ -791,10 +804,13 @@ contains
                 " = 'neohookean': needs a mesh (&system mesh_file, a Gmsh MSH file of tetrahedra)")
             call validate_run_settings(cfg)
             return
+        case ('hard_sphere', 'square_well')
+            call validate_stepped(cfg)
+            return
         case default
             call stop_all(cfg%where('potential', 'style')//" = '"//trim(cfg%potential)// &
                           "': unknown potential (allowed: 'lj', 'lj/smooth/linear', 'eam', 'eam/alloy', 'eam/fs', "// &
-                          "'neohookean')")
+                          "'neohookean', 'hard_sphere', 'square_well')")
         end select
         call validate_lj(cfg)
     end subroutine validate
@@ -915,9 +931,11 @@ contains
                 call stop_all(cfg%where('potential', 'shift')//": energy stepping needs a continuous potential: the "// &
                               "truncated, unshifted 'lj' jumps at the cutoff (set shift = .true., use style = "// &
                               "'lj/smooth/linear', or cutoff = 0 in a free scene)")
+        case ('event_driven')
+            call validate_event_driven(cfg)
         case default
             call stop_all(cfg%where('integrator', 'style')//" = '"//trim(cfg%integrator)// &
-                          "': unknown integrator (allowed: 'velocity_verlet', 'energy_stepping')")
+                          "': unknown integrator (allowed: 'velocity_verlet', 'energy_stepping', 'event_driven')")
         end select
         if (cfg%nml%find('integrator', 'dt') > 0 .and. cfg%dt <= 0) &
             call stop_all(cfg%where('integrator', 'dt')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
@@ -983,6 +1001,94 @@ contains
         end subroutine check_steps
 
     end subroutine validate_run_settings
+
+    !> Stepped pair styles (hard_sphere, square_well): per type pair diameter, and for a square
+    !> well its depth and outer radius (well_radius, or well_lambda x diameter); only event-driven
+    !> integration runs them. Table completeness per type is checked with the scene.
+    subroutine validate_stepped(cfg)
+        type(config_t), intent(inout) :: cfg
+        integer :: i, j
+        logical :: sw
+        sw = cfg%potential == 'square_well'
+        if (cfg%integrator /= 'event_driven') call stop_all(cfg%where('integrator', 'style')//" = '"// &
+            trim(cfg%integrator)//"': cannot run &potential style = '"//trim(cfg%potential)//"' (its forces are "// &
+            "impulses at the steps); use &integrator style='event_driven'")
+        if (cfg%nml%find('potential', 'epsilon') > 0 .or. cfg%nml%find('potential', 'sigma') > 0 .or. &
+            cfg%nml%find('potential', 'cutoff') > 0 .or. cfg%nml%find('potential', 'pair_cutoff') > 0 .or. &
+            cfg%nml%find('potential', 'shift') > 0) call stop_all(cfg%where('potential', 'style')//" = '"// &
+            trim(cfg%potential)//"': epsilon, sigma, cutoff, pair_cutoff and shift are for the LJ styles (give "// &
+            'diameter'//trim(merge(', well_depth and well_lambda or well_radius', '                                           ', &
+            sw))//')')
+        if (is_unset(cfg%diameter(1, 1))) call stop_all(cfg%path//': &potential: diameter: missing (the hard-core '// &
+            'diameter of type pair (1,1) in '//trim(cfg%units%length)//')')
+        if (.not. sw) then
+            if (cfg%nml%find('potential', 'well_depth') > 0) call stop_all(cfg%where('potential', 'well_depth')// &
+                ": only for style = 'square_well'")
+            if (cfg%nml%find('potential', 'well_lambda') > 0) call stop_all(cfg%where('potential', 'well_lambda')// &
+                ": only for style = 'square_well'")
+            if (cfg%nml%find('potential', 'well_radius') > 0) call stop_all(cfg%where('potential', 'well_radius')// &
+                ": only for style = 'square_well'")
+        else
+            if (is_unset(cfg%well_depth(1, 1))) call stop_all(cfg%path//': &potential: well_depth: missing (the '// &
+                'depth eps > 0 of the well of type pair (1,1) in '//trim(cfg%units%energy)//')')
+            if (is_unset(cfg%well_lambda(1, 1)) .and. is_unset(cfg%well_radius(1, 1))) call stop_all(cfg%path// &
+                ': &potential: well_lambda: missing (the outer radius of the well in diameters, > 1; or '// &
+                'well_radius in '//trim(cfg%units%length)//')')
+        end if
+        do j = 1, max_types
+            do i = 1, max_types
+                if (.not. is_unset(cfg%diameter(i, j)) .and. .not. (cfg%diameter(i, j) > 0)) &
+                    call stop_all(cfg%where('potential', 'diameter')//': must be > 0 (a length in '// &
+                                  trim(cfg%units%length)//')')
+                if (.not. is_unset(cfg%well_depth(i, j)) .and. .not. (cfg%well_depth(i, j) > 0)) &
+                    call stop_all(cfg%where('potential', 'well_depth')//': must be > 0 (the depth of an attractive '// &
+                                  'well in '//trim(cfg%units%energy)//')')
+                if (.not. is_unset(cfg%well_lambda(i, j)) .and. .not. (cfg%well_lambda(i, j) > 1)) &
+                    call stop_all(cfg%where('potential', 'well_lambda')//': must be > 1 (the outer radius of the '// &
+                                  'well in diameters)')
+                if (.not. is_unset(cfg%well_lambda(i, j)) .and. .not. is_unset(cfg%well_radius(i, j))) &
+                    call stop_all(cfg%where('potential', 'well_radius')//': give either well_lambda or well_radius '// &
+                                  'for a type pair, not both')
+                if (.not. is_unset(cfg%well_radius(i, j)) .and. .not. is_unset(cfg%diameter(i, j))) then
+                    if (.not. (cfg%well_radius(i, j) > cfg%diameter(i, j))) call stop_all(cfg%where('potential', &
+                        'well_radius')//': must be larger than the diameter of its type pair')
+                end if
+            end do
+        end do
+        call validate_run_settings(cfg)
+    end subroutine validate_stepped
+
+    !> &integrator style = 'event_driven': stepped potentials only, a time-scheduled run in a fully
+    !> periodic 3-D box, no thermostat and no checkpoints (not available with it yet).
+    subroutine validate_event_driven(cfg)
+        type(config_t), intent(inout) :: cfg
+        if (cfg%potential /= 'hard_sphere' .and. cfg%potential /= 'square_well') call stop_all(cfg%where('potential', &
+            'style')//" = '"//trim(cfg%potential)//"': event-driven integration runs stepped potentials only "// &
+            "('hard_sphere', 'square_well'); use &integrator style='velocity_verlet' or 'energy_stepping' for it")
+        if (cfg%nml%find('integrator', 'dt') > 0) call stop_all(cfg%where('integrator', 'dt')// &
+            ': event-driven integration has no time step (it moves from event to event)')
+        if (cfg%nml%find('integrator', 'terrace_height') > 0 .or. cfg%nml%find('integrator', 'target_mean_dt') > 0 &
+            .or. cfg%nml%find('integrator', 'root_tolerance') > 0) call stop_all(cfg%where('integrator', 'style')// &
+            ": terrace_height, target_mean_dt and root_tolerance are for style = 'energy_stepping'")
+        if (cfg%n_steps >= 0) call stop_all(cfg%where('run', 'n_steps')//': event-driven integration has no steps; '// &
+            'give run_time (in '//trim(cfg%units%time)//')')
+        if (cfg%nml%find('output', 'thermo_every') > 0) call stop_all(cfg%where('output', 'thermo_every')// &
+            ': event-driven integration samples at exact times; give thermo_interval (in '//trim(cfg%units%time)//')')
+        if (cfg%nml%find('output', 'trajectory_every') > 0) call stop_all(cfg%where('output', 'trajectory_every')// &
+            ': event-driven integration writes frames at exact times; give trajectory_interval (in '// &
+            trim(cfg%units%time)//')')
+        if (cfg%nml%find('thermostat', 'style') > 0) then
+            if (cfg%thermostat /= 'none') call stop_all(cfg%where('thermostat', 'style')// &
+                ': not available with event-driven integration (microcanonical runs only)')
+        end if
+        if (len_trim(cfg%checkpoint_file) > 0) call stop_all(cfg%where('output', 'checkpoint_file')// &
+            ': checkpoints are not available with event-driven integration')
+        if (len_trim(cfg%read_checkpoint) > 0) call stop_all(cfg%where('system', 'read_checkpoint')// &
+            ': checkpoints are not available with event-driven integration')
+        if (cfg%dimension /= 3) call stop_all(cfg%where('run', 'dimension')//': event-driven integration is 3-D')
+        if (.not. all(cfg%periodic)) call stop_all(cfg%where('system', 'periodic')// &
+            ': event-driven integration needs a periodic box in x, y and z')
+    end subroutine validate_event_driven
 
     !> Output files: intervals, fields, and no silent overwrite of an existing file.
     subroutine validate_outputs(cfg)

@@ -12,6 +12,7 @@ module terrace_potential_factory
     use terrace_contact, only: contact_t, model_node_face, model_node_node
     use terrace_potential_sum, only: potential_sum_t
     use terrace_gmsh_mesh, only: mesh_t
+    use terrace_stepped_potential, only: stepped_potential_t
     use terrace_errors, only: stop_all, check_all
     implicit none
     private
@@ -57,6 +58,13 @@ contains
                 else
                     call add_contact(cfg, mesh, xref, xstart, node_mass, nh, pot)
                 end if
+            end block
+        else if (cfg%potential == 'hard_sphere' .or. cfg%potential == 'square_well') then
+            block
+                type(stepped_potential_t), allocatable :: sp
+                allocate (sp)
+                call setup_stepped(sp, cfg, ntypes)
+                call move_alloc(sp, pot)
             end block
         else if (cfg%potential(1:3) == 'eam') then
             block
@@ -174,6 +182,59 @@ contains
         call lj%setup(ntypes, eps, sig, cut, cfg%shift, cfg%potential == 'lj/smooth/linear', &
                       mixed=cfg%precision == 'mixed')
     end subroutine setup_lj
+
+    !> Hard-sphere and square-well tables: per-pair diameter (arithmetic mean of the two types'
+    !> where a pair is not given, additive spheres), well depth (geometric mean) and outer radius
+    !> (well_radius, or well_lambda x diameter, lambda the arithmetic mean).
+    subroutine setup_stepped(sp, cfg, ntypes)
+        type(stepped_potential_t), intent(inout) :: sp
+        type(config_t), intent(in) :: cfg
+        integer, intent(in) :: ntypes
+        integer :: t, i
+        real(dp) :: d, eps, rw, lam
+        character(len=16) :: s1
+        sp%style = trim(cfg%potential)
+        do t = 1, ntypes
+            write (s1, '(i0)') t
+            if (is_unset(cfg%diameter(t, t))) call stop_all(cfg%path//': &potential: diameter: type '//trim(s1)// &
+                ' needs diameter('//trim(s1)//','//trim(s1)//')')
+            if (cfg%potential == 'square_well' .and. (is_unset(cfg%well_depth(t, t)) .or. &
+                (is_unset(cfg%well_lambda(t, t)) .and. is_unset(cfg%well_radius(t, t))))) &
+                call stop_all(cfg%path//': &potential: well_depth: type '//trim(s1)//' needs well_depth('//trim(s1)// &
+                              ','//trim(s1)//') and well_lambda('//trim(s1)//','//trim(s1)//') or well_radius')
+        end do
+        call sp%table%init(ntypes)
+        do t = 1, ntypes
+            do i = t, ntypes
+                d = pick(cfg%diameter, i, t, 0.5_dp*(cfg%diameter(i, i) + cfg%diameter(t, t)))
+                if (cfg%potential == 'hard_sphere') then
+                    call sp%table%set_pair(i, t, [d], [real(dp) ::])
+                    cycle
+                end if
+                eps = pick(cfg%well_depth, i, t, sqrt(cfg%well_depth(i, i)*cfg%well_depth(t, t)))
+                if (.not. is_unset(cfg%well_radius(i, t))) then
+                    rw = cfg%well_radius(i, t)
+                else if (.not. is_unset(cfg%well_radius(t, i))) then
+                    rw = cfg%well_radius(t, i)
+                else
+                    lam = pick(cfg%well_lambda, i, t, 0.5_dp*(lambda_of(i) + lambda_of(t)))
+                    rw = lam*d
+                end if
+                if (.not. (rw > d)) call stop_all(cfg%where('potential', 'well_radius')//': the well of a type '// &
+                    'pair must reach beyond its diameter')
+                call sp%table%set_pair(i, t, [rw, d], [-eps])
+            end do
+        end do
+    contains
+        real(dp) function lambda_of(k)
+            integer, intent(in) :: k
+            if (.not. is_unset(cfg%well_lambda(k, k))) then
+                lambda_of = cfg%well_lambda(k, k)
+            else
+                lambda_of = cfg%well_radius(k, k)/cfg%diameter(k, k)
+            end if
+        end function lambda_of
+    end subroutine setup_stepped
 
     pure real(dp) function pick(table, i, j, fallback) result(v)
         real(dp), intent(in) :: table(:, :), fallback

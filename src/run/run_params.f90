@@ -11,12 +11,13 @@ module terrace_run_params
     use terrace_schedule, only: schedule_t
     use terrace_velocity_verlet, only: verlet_params_t
     use terrace_energy_stepping, only: es_params_t
+    use terrace_event_driven, only: ed_params_t
     use terrace_thermostat, only: thermostat_t, thermostat_params_t
     use terrace_thermostat_factory, only: new_thermostat
     implicit none
     private
 
-    public :: engine_params, control_params, verlet_params, es_params, make_thermostat
+    public :: engine_params, control_params, verlet_params, es_params, ed_params, make_thermostat
 
 contains
 
@@ -68,6 +69,25 @@ contains
         p%where_height = cfg%where('integrator', 'terrace_height')
         p%where_mean_dt = cfg%where('integrator', 'target_mean_dt')
     end function es_params
+
+    !> Event-driven dynamics: until run_time, thermo samples every thermo_interval (default
+    !> run_time / 10), frames every trajectory_interval (default: at the samples; none without a
+    !> trajectory file).
+    type(ed_params_t) function ed_params(cfg) result(p)
+        type(config_t), intent(in) :: cfg
+        p%t_end = cfg%run_time
+        p%sample_dt = cfg%run_time/10
+        if (cfg%thermo_interval > 0) p%sample_dt = cfg%thermo_interval
+        p%frame_dt = 0
+        if (len_trim(cfg%trajectory_file) > 0) then
+            p%frame_dt = p%sample_dt
+            if (cfg%trajectory_interval > 0) p%frame_dt = cfg%trajectory_interval
+        end if
+        p%temperature = cfg%temperature
+        p%seed = cfg%seed
+        p%reverse_velocities = cfg%reverse_velocities
+        p%where_cells = cfg%where('system', 'cells')
+    end function ed_params
 
     !> The deck's thermostat ('none': one that does nothing) for natoms atoms; its temperature ramp
     !> runs over the schedule's length (Verlet: n_steps dt; energy stepping: run_time, if given).

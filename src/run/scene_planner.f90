@@ -116,6 +116,8 @@ contains
         self%potential = pot%describe()
         if (cfg%integrator == 'energy_stepping') then
             s = 'energy_stepping (no time step: the next event decides; terrace height below)'
+        else if (cfg%integrator == 'event_driven') then
+            s = 'event_driven (no time step: exact pair and cell-crossing events, outputs at exact times)'
         else
             write (s, '(a,a,g0.6,1x,a)') trim(cfg%integrator), ', dt = ', cfg%dt, trim(cfg%units%time)
         end if

@@ -26,7 +26,7 @@ module terrace_output_files
 
     public :: check_outputs, check_output_ids, commit_small_outputs
 
-    integer, parameter :: nout = 6, nin = 7   !< output 6: a mesh trajectory's XDMF sidecar
+    integer, parameter :: nout = 7, nin = 7   !< output 6: a mesh trajectory's XDMF sidecar; 7: the run summary
 
 contains
 
@@ -69,13 +69,14 @@ contains
         integer :: i, j
         logical :: ok
         out_keys = [character(len=16) :: 'thermo_file', 'forces_file', 'final_atoms_file', 'trajectory_file', &
-                    'checkpoint_file', 'trajectory_file']
+                    'checkpoint_file', 'trajectory_file', 'summary_file']
         out_path(1)%s = trim(cfg%thermo_file); out_path(2)%s = trim(cfg%forces_file)
         out_path(3)%s = trim(cfg%final_atoms_file); out_path(4)%s = trim(cfg%trajectory_file)
         out_path(5)%s = trim(cfg%checkpoint_file)
         out_path(6)%s = ''
         if (len_trim(cfg%mesh_file) > 0 .and. len_trim(cfg%trajectory_file) > 0) &
             out_path(6)%s = xdmf_sidecar_path(trim(cfg%trajectory_file))
+        out_path(7)%s = trim(cfg%summary_file)
         in_keys = [character(len=16) :: 'input deck', 'read_data', 'atoms_file', 'read_h5md', 'file', 'read_checkpoint', &
                    'mesh_file']
         in_groups = [character(len=16) :: '', 'system', 'system', 'system', 'potential', 'system', 'system']
@@ -126,7 +127,7 @@ contains
             integer, intent(in) :: i
             character(len=:), allocatable :: s
             s = 'cannot write'
-            if (i >= 4) s = 'cannot create'
+            if (i >= 4 .and. i <= 6) s = 'cannot create'
         end function verb
 
         subroutine check_one(i)

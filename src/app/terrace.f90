@@ -33,6 +33,7 @@ program terrace
     use, intrinsic :: iso_fortran_env, only: output_unit
     use terrace_run_summary, only: summary_put, summary_start, summary_write
     use terrace_xdmf, only: xdmf_sidecar_path
+    use terrace_topology_data, only: topology_data_path, wants_topology_data, write_topology_data
     implicit none
 
     type(config_t) :: cfg
@@ -262,6 +263,9 @@ contains
             call summary_put('outputs/trajectory_file', part_path(trim(cfg%trajectory_file), int(ctl%output_part, i8)))
             if (allocated(eng%mesh_tet)) call summary_put('outputs/xdmf_file', &
                 xdmf_sidecar_path(part_path(trim(cfg%trajectory_file), int(ctl%output_part, i8))))
+            if (wants_topology_data(cfg%trajectory_file, cfg%dimension, allocated(eng%mesh_tet))) &
+                call summary_put('outputs/topology_file', &
+                                 topology_data_path(part_path(trim(cfg%trajectory_file), int(ctl%output_part, i8))))
         end if
         if (len_trim(cfg%forces_file) > 0 .and. .not. eng%restarted) call summary_put('outputs/forces_file', &
                                                                                      trim(cfg%forces_file))
@@ -367,7 +371,22 @@ contains
         call any_failed(ok)
         if (.not. ok) call traj%discard()
         call check_all(ok, thermo_path//': cannot write the thermo file (&output thermo_file): '//trim(msg))
+        call create_topology_data(traj_path)
     end subroutine create_outputs
+
+    !> Beside a 3-D trajectory, its topology for MDAnalysis (src/io/topology_data.f90).
+    subroutine create_topology_data(traj_path)
+        character(len=*), intent(in) :: traj_path
+        if (.not. wants_topology_data(traj_path, cfg%dimension, allocated(eng%mesh_tet))) return
+        call write_topology_data(traj_path, eng%atoms, eng%box, trim(cfg%units%name), terrace_version_string, ok, msg)
+        call any_failed(ok)
+        if (.not. ok) then
+            call thermo%discard()
+            call traj%discard()
+        end if
+        call check_all(ok, topology_data_path(traj_path)//': cannot write the trajectory''s topology (&output '// &
+                       'trajectory_file): '//trim(msg))
+    end subroutine create_topology_data
 
     !> A restart continues the outputs of the interrupted run (the deck's files, or the parts that
     !> run wrote, its checkpoint's output_part): the thermo CSV and the trajectory keep what was

@@ -30,7 +30,6 @@ import subprocess
 import sys
 import tempfile
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import es_cost                      # noqa: E402  (shared log parser and shell helper)
 from es_cost import sh              # noqa: E402
 

@@ -27,7 +27,6 @@ import sys
 import h5py
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from checkpoint_restart import fail, make_deck, run as run_deck  # noqa: E402  (the same deck edits and runs)
 
 

@@ -253,6 +253,7 @@ contains
         call summary_put('run/atoms', eng%natoms)
         call summary_put('run/restarted', eng%restarted)
         if (present(sim_time)) call summary_put('run/simulated_time', sim_time)
+        if (eng%list%builds > 0) call summary_put('neighbor/skin', eng%cfg%skin)
         call summary_put('timing/loop_time_s', t1 - t0)
         call summary_put('exit/reason', reason)
         call summary_put('exit/status', merge(exit_stopped, 0, reason /= 'finished'))

@@ -526,7 +526,7 @@ NML
     echo "Thermo at step $nlj, one type and two or three identical types (same data, velocities by position):"
     for name in lj_one lj_two_same lj_three_same; do
         printf '    %-12s Terrace pe, etotal: %s   LAMMPS pe, etotal per atom: %s\n' $name \
-            "$(awk -v n="$nlj" '$1 == n && NF >= 7 {print $4, $6; exit}' t_$name.out)" \
+            "$(figure $name.summary.json thermo_last/pe) $(figure $name.summary.json thermo_last/etotal)" \
             "$(awk -v n="$nlj" '$1 == n && NF == 6 {print $3, $5; exit}' l_$name.best.log)"
     done
     echo

@@ -152,14 +152,13 @@ def sh(cmd):
 
 
 def parse_log(out, summary_path):
-    """The run's figures from its summary (terrace_tools.summary.run_figures; None where a run wrote
-    none), and the temperature of the screen's last thermo line."""
-    r = {'loop': None, 'n': None, 'builds': 0}
+    """The run's figures from its summary (terrace_tools.summary.run_figures, and the temperature of
+    the last thermo sample; None and nan where a run wrote none)."""
+    r = {'loop': None, 'n': None, 'builds': 0, 'temp_end': float('nan')}
     if os.path.exists(summary_path):
         r = summary.run_figures(summary_path)
         r['misses'] = summary.get(summary_path, 'energy_stepping/verification_misses', 0)
-    screen = re.findall(r'^\s+\d+\s+([0-9.eE+-]+)\s+([0-9.eE+-]+)\s', out, re.M)   # step time temp ...
-    r['temp_end'] = float(screen[-1][1]) if screen else float('nan')
+        r['temp_end'] = summary.get(summary_path, 'thermo_last/temp', float('nan'))
     return r
 
 

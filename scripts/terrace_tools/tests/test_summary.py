@@ -61,6 +61,9 @@ def test_verlet_summary_equals_log_and_csv(run, np_):
     assert summary.get(s, "conservation/momentum_change") == pytest.approx(thermo.momentum_change(t), rel=1e-6,
                                                                           abs=1e-15)
     assert summary.get(s, "run/simulated_time") == pytest.approx(t["time"][-1], rel=1e-15)
+    # the last thermo sample: the CSV's last row (17 digits both)
+    for k in ("step", "time", "temp", "pe", "ke", "etotal", "press"):
+        assert summary.get(s, "thermo_last/" + k) == pytest.approx(t[k][-1], rel=1e-15, abs=1e-300)
     mem = log_value(p.stdout, r"^Peak memory: ([0-9.]+) MiB")
     assert summary.get(s, "memory/peak_mib_all_ranks") == pytest.approx(mem, abs=0.051)
     # identity of the run

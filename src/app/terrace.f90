@@ -276,9 +276,11 @@ contains
             inquire (file=trim(cfg%checkpoint_file), exist=there)
             if (there) call summary_put('outputs/checkpoint_file', trim(cfg%checkpoint_file))
         end if
-        call summary_put('outputs/summary_file', trim(cfg%summary_file))
-        call summary_write(trim(cfg%summary_file), ok, msg)
-        call check_all(ok, trim(cfg%summary_file)//': cannot write (&output summary_file): '//trim(msg))
+        ! (a run that goes on in part files, &system restart_outputs = 'new', writes its summary as one too)
+        call summary_put('outputs/summary_file', part_path(trim(cfg%summary_file), int(ctl%output_part, i8)))
+        call summary_write(part_path(trim(cfg%summary_file), int(ctl%output_part, i8)), ok, msg)
+        call check_all(ok, part_path(trim(cfg%summary_file), int(ctl%output_part, i8))// &
+                       ': cannot write (&output summary_file): '//trim(msg))
     end subroutine write_summary
 
     !> Timers and wall clock start together on every rank.

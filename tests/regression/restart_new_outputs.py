@@ -96,7 +96,14 @@ def main():
     log = run(terrace, np_, "new", wd, 3)
     if "the run goes on in thermo.part2.csv and traj.part2.h5" not in log:
         fail("restart_outputs = 'new' did not say where the run goes on:\n" + log[-2000:])
-    s2 = summary.get(os.path.join(wd, "new.summary.json"), "checkpoint/step")
+    # its run summary is a part file too, and names the part files it wrote
+    s2 = summary.get(os.path.join(wd, "new.summary.part2.json"), "checkpoint/step")
+    if summary.get(os.path.join(wd, "new.summary.part2.json"), "outputs") != {
+            "thermo_file": "thermo.part2.csv", "trajectory_file": "traj.part2.h5",
+            "topology_file": "traj.part2.topology.data", "checkpoint_file": "restart.h5",
+            "summary_file": "new.summary.part2.json"}:
+        fail("the run summary of restart_outputs = 'new' does not list its part files: "
+             + str(summary.get(os.path.join(wd, "new.summary.part2.json"), "outputs")))
     if s2 < s:
         fail(f"the second checkpoint (step {s2}) lies before the first (step {s})")
     run(terrace, np_, "append", wd, 0)       # appends to the part-2 files (the checkpoint's output_part)

@@ -15,7 +15,7 @@ packages=(
   libfftw3-dev                               # FFTW 3 (analysis)
   python3 python3-numpy python3-h5py python3-matplotlib   # scripts, plots
   python3-venv                               # MDAnalysis test: a venv with PyPI's MDAnalysis
-  python3-pytest python3-pip python3-setuptools   # terrace_tools: its pytest tests, its editable install
+  python3-pytest python3-pip python3-setuptools python3-wheel   # terrace_tools: its tests, its editable install
   lammps lammps-data                         # reference runs and EAM tables
 )
 bench=(

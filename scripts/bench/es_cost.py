@@ -30,7 +30,7 @@ Scenes:
 
 Usage:  python3 scripts/bench/es_cost.py [--terrace PATH] [--scenes cluster7,rahman,lj32k] [--repeat N]
 Run time on a 2-vCPU AMD EPYC: about 40 s (80 s with --repeat 2). The binary is copied first.
-Timings: loop times from the run logs ("Loop time"); with --repeat N the Verlet and the energy-stepping
+Timings: loop times from the run summaries (timing/loop_time_s); with --repeat N the Verlet and the energy-stepping
 run of a scene alternate N times and the fastest loop time of each is kept (the machine may be shared).
 A last table divides each run's loop time by its own force-pass time (phase table), which cancels
 most of a load that changes between the runs.

@@ -12,7 +12,7 @@ MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
            "OMPI_MCA_rmaps_base_oversubscribe": "1"}
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def terrace():
     path = os.environ.get("TERRACE") or os.path.join(REPO, "build", "terrace")
     if not os.access(path, os.X_OK):
@@ -56,6 +56,6 @@ def run(terrace, workdir):
     return Run(terrace, workdir)
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def python():
     return sys.executable

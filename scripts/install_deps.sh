@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Install what Terrace needs from Debian/Ubuntu packages. As root it installs the missing ones
-# (apt-get); otherwise it prints the exact command and exits 1. pFUnit is in no package registry:
-# CMake finds an installed one or builds it from $TERRACE_PFUNIT_SOURCE (tests/pfunit_from_source.cmake);
+# (apt-get); otherwise it prints the exact command and exits 1. It also says how to make the Python
+# package terrace_tools importable for the benchmark scripts (the tests do not need that).
+# pFUnit is in no package registry: CMake finds an installed one or builds it from $TERRACE_PFUNIT_SOURCE (tests/pfunit_from_source.cmake);
 # without either the unit tests are reported as skipped.
 # Usage: scripts/install_deps.sh [--bench]   (--bench adds the optional benchmark anchors below; the
 # build and the tests never need them)
@@ -13,6 +14,7 @@ packages=(
   libfftw3-dev                               # FFTW 3 (analysis)
   python3 python3-numpy python3-h5py python3-matplotlib   # scripts, plots
   python3-venv                               # MDAnalysis test: a venv with PyPI's MDAnalysis
+  python3-pytest python3-pip python3-setuptools python3-wheel   # terrace_tools: its tests; pip install -e
   lammps lammps-data                         # reference runs and EAM tables
 )
 bench=(
@@ -28,8 +30,18 @@ missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+# terrace_tools (scripts/terrace_tools) is not installed here: the tests put scripts/ on PYTHONPATH
+# themselves, and installing it into the system's python would tie that python to one checkout
+tools() {
+  if ! /usr/bin/python3 -c 'import terrace_tools' > /dev/null 2>&1; then
+    echo "install_deps: note: for the benchmark scripts, make terrace_tools importable:" \
+         "pip install -e $repo/scripts (in a virtual environment), or PYTHONPATH=$repo/scripts"
+  fi
+}
 if [[ ${#missing[@]} -eq 0 ]]; then
   echo "install_deps: all Debian packages present"
+  tools
   exit 0
 fi
 if [[ $(id -u) -eq 0 ]]; then
@@ -43,3 +55,4 @@ else
   echo "  sudo apt-get update && sudo apt-get install -y ${missing[*]}" >&2
   exit 1
 fi
+tools

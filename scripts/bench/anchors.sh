@@ -57,6 +57,9 @@
 # /usr/share/lammps/potentials): scripts/bench/bundle.sh run sets both to the bundle's.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
+# Terrace's figures come from its run summaries (scripts/terrace_tools)
+export PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}"
+figure() { /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 nlj="${1:-1000}"; neam="${2:-200}"; terrace="$(realpath "${3:-${TERRACE:-$repo/build/terrace}}")"
 repeat="${REPEAT:-3}"; parts=",${PARTS:-lj,eam,types,ljtypes,es},"
 for v in "$nlj" "$neam" "$repeat"; do
@@ -109,17 +112,17 @@ echo
 # run LABEL KIND LOG cmd...: runs cmd in $work, appends "LABEL loop user pair" to runs.txt, where
 # loop is the code's own loop time and pair its pair-force time (LAMMPS and Terrace; 0 if none).
 : > runs.txt
-loop_of() {   # KIND LOG
+loop_of() {   # KIND LOG [SUMMARY]
     case $1 in
         lammps)  sed -n 's/^Loop time of \([0-9.eE+-]*\) on .*/\1/p' "$2" | tail -1 ;;
-        terrace) sed -n 's/^Loop time: *\([0-9.eE+-]*\) s.*/\1/p' "$2" | tail -1 ;;
+        terrace) figure "$3" timing/loop_time_s ;;
         gromacs) awk '/^ *Time: /{print $3}' "$2" | tail -1 ;;
     esac
 }
 pair_of() {
     case $1 in
         lammps)  awk -F'|' '/^Pair /{gsub(/ /,"",$3); print $3}' "$2" | tail -1 ;;
-        terrace) awk '/^Pair /{print $2}' "$2" | tail -1 ;;
+        terrace) figure "$3" timing/phases/Pair/avg_s ;;
         *)       echo 0 ;;
     esac
 }
@@ -128,11 +131,13 @@ run() {
     if ! "${GNU_TIME:-/usr/bin/time}" -f '%U' -o user.txt "$@" > "$label.out" 2>&1; then
         echo "anchors: $label failed: $*" >&2; tail -n 15 "$label.out" >&2; [[ -f "$log" ]] && tail -n 15 "$log" >&2; exit 1
     fi
-    local t; t="$(loop_of "$kind" "$log")"
+    local sum=""; [[ $kind == terrace ]] && { sum="${*: -1}"; sum="${sum%.nml}.summary.json"; }   # the deck's
+    local t; t="$(loop_of "$kind" "$log" "$sum")"
     [[ -n "$t" ]] || { echo "anchors: no loop time for $label in $log" >&2; exit 1; }
-    echo "$label $t $(tail -1 user.txt) $(pair_of "$kind" "$log")" >> runs.txt
+    echo "$label $t $(tail -1 user.txt) $(pair_of "$kind" "$log" "$sum")" >> runs.txt
     if [[ ! -f $label.best ]] || awk -v a="$t" -v b="$(cat "$label.best")" 'BEGIN { exit !(a < b) }'; then
         echo "$t" > "$label.best"; cp "$log" "$label.best.log"
+        [[ -z $sum ]] || cp "$sum" "$label.best.summary.json"
     fi
 }
 # launch LABEL: one timed run of that code on its scene (LJ: lj.nml, in.lj_bench, gmx*.tpr; EAM: in.eam)
@@ -267,11 +272,11 @@ if [[ "$parts" == *,lj,* ]]; then
     echo "Each code's own buffer at GROMACS's default drift tolerance (0.005 kJ/mol/ps per atom = $tol_lj eps/tau),"
     echo "every 20 steps: Terrace's mixed kernel over clusters (terrace_mixed_tol) against the anchors:"
     summary 32000 "$nlj" terrace_mixed_tol "${labels[@]}" | sed -n '/^ratios anchor/,$p'
-    echo "  skins: Terrace $(sed -n 's/^ *pairs *: .* + skin \([0-9.eE+-]*\)[,)].*/\1/p' terrace_mixed_tol.out | head -1) sigma;" \
+    echo "  skins: Terrace $(figure lj_mixed_tol.summary.json neighbor/skin) sigma;" \
          "$( [[ -f gromacs_mix_tol.best.log ]] && grep -m1 -E 'updated every .* steps, buffer' gromacs_mix_tol.best.log | sed 's/^ *//; s/^/GROMACS /')"
     echo "  measured energy drift per atom (eps/tau; GROMACS's 'Conserved energy drift' converted with eps and tau):"
-    echo "    terrace_mixed (exact list)  $(sed -n 's/^Energy drift: *\([0-9.eE+-]*\) .*/\1/p' terrace_mixed.out)"
-    echo "    terrace_mixed_tol           $(sed -n 's/^Energy drift: *\([0-9.eE+-]*\) .*/\1/p' terrace_mixed_tol.out)"
+    echo "    terrace_mixed (exact list)  $(figure lj_mixed.summary.json conservation/energy_drift_per_atom_time)"
+    echo "    terrace_mixed_tol           $(figure lj_mixed_tol.summary.json conservation/energy_drift_per_atom_time)"
     for l in gromacs_mix gromacs_mix_tol; do
         [[ -f $l.best.log ]] || continue
         d="$(sed -n 's/^ *Conserved energy drift: *\([0-9.eE+-]*\) kJ\/mol\/ps per atom.*/\1/p' $l.best.log | tail -1)"
@@ -282,12 +287,13 @@ if [[ "$parts" == *,lj,* ]]; then
         echo "  $v:"
         sed -n '/^Phase /,/^Neighbour list builds/p' $v.best.log | sed 's/^/    /'
     done
-    echo "Energy drift of the exact schedule and of every 20 steps (Terrace's run log; the same scene and seed):"
-    grep -h '^Energy drift' terrace.out terrace_every20.out | sed 's/^/    /'
+    echo "Energy drift per atom per tau of the exact schedule and of every 20 steps (Terrace's run summaries; the same scene and seed):"
+    for d in lj lj_every20; do echo "    $d: $(figure $d.summary.json conservation/energy_drift_per_atom_time)"; done
     echo "  mixed kernel over clusters, exact and every 20 steps:"
-    grep -h '^Energy drift' terrace_mixed.out terrace_mixed_every20.out | sed 's/^/    /'
-    python3 - "$nlj" <<'PY'
+    for d in lj_mixed lj_mixed_every20; do echo "    $d: $(figure $d.summary.json conservation/energy_drift_per_atom_time)"; done
+    /usr/bin/python3 - "$nlj" <<'PY'
 import os, re, sys
+from terrace_tools import summary
 nsteps, natoms = int(sys.argv[1]), 32000
 def read(name):
     return open(name).read() if os.path.exists(name) else None
@@ -304,10 +310,10 @@ print('  %-14s %10s %12s %10s %12s %14s' % ('code', 'force s', 'ns/pair', 'build
 rows = []
 for l in ('terrace', 'terrace_mixed', 'terrace_every20', 'terrace_mixed_cells', 'terrace_mixed_s05', 'terrace_mixed_every20',
           'terrace_mixed_tol'):
-    ter = read(l + '.best.log')
-    if ter:
-        rows.append((l, num(r'^Pair\s+([0-9.eE+-]+)', ter), num(r'^Neigh\s+([0-9.eE+-]+)', ter),
-                     num(r'^Neighbour list builds:\s*(\d+)', ter)))
+    if os.path.exists(l + '.best.summary.json'):
+        s = summary.read(l + '.best.summary.json')
+        rows.append((l, summary.get(s, 'timing/phases/Pair/avg_s'), summary.get(s, 'timing/phases/Neigh/avg_s'),
+                     summary.get(s, 'neighbor/builds')))
 for l in ('lammps', 'lammps_opt'):
     t = read(l + '.best.log')
     if t:
@@ -520,7 +526,7 @@ NML
     echo "Thermo at step $nlj, one type and two or three identical types (same data, velocities by position):"
     for name in lj_one lj_two_same lj_three_same; do
         printf '    %-12s Terrace pe, etotal: %s   LAMMPS pe, etotal per atom: %s\n' $name \
-            "$(awk -v n="$nlj" '$1 == n && NF >= 7 {print $4, $6; exit}' t_$name.out)" \
+            "$(figure $name.summary.json thermo_last/pe) $(figure $name.summary.json thermo_last/etotal)" \
             "$(awk -v n="$nlj" '$1 == n && NF == 6 {print $3, $5; exit}' l_$name.best.log)"
     done
     echo

@@ -23,6 +23,8 @@ import time
 
 import numpy as np
 
+from terrace_tools import summary
+
 ap = argparse.ArgumentParser()
 ap.add_argument("terrace")
 ap.add_argument("out")
@@ -101,8 +103,8 @@ for refine in a.refine:
             deck("es_" + tag, mesh, v, f"style='energy_stepping', terrace_height={a.h:g}", run_time)
             r, wall_es = run("es_" + tag)
             e = analyse("es_" + tag)
-            ev = [l for l in r.stdout.splitlines() if l.startswith("Events:")][0].split()[1]
-            mdt = [l for l in r.stdout.splitlines() if l.startswith("Mean event interval")][0].split()[3].rstrip(";")
+            figures = summary.run_figures(os.path.join(a.out, "es_" + tag + ".summary.json"))
+            ev, mdt = figures["events"], figures["mean_dt"]
             row += (f" {e['duration'] * 1e3:.2f} | {e['ratio']:.3f} | {e['restitution']:.4f} | {ev} | {float(mdt):.3g} |"
                     f" {wall_vv:.1f} | {wall_es:.1f} |")
         else:

@@ -35,21 +35,21 @@ echo "machine: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //
 for r in $(seq 1 "${REPEAT:-3}"); do
     for v in $variants; do
         "$terrace" "$v.nml" > "${v}_$r.log" 2>&1 || { echo "cluster_kernel: $v failed" >&2; tail -5 "${v}_$r.log" >&2; exit 1; }
+        cp "$v.summary.json" "${v}_$r.summary.json"
     done
 done
-python3 - "$steps" "${REPEAT:-3}" $variants <<'PY'
-import re, sys
+PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 - "$steps" "${REPEAT:-3}" $variants <<'PY'
+import sys
+from terrace_tools import summary
 steps, rounds, variants = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3:]
 def parse(name):
-    t = open(name).read()
-    loop = float(re.search(r'^Loop time: +([0-9.]+)', t, re.M).group(1))
-    ph = {m.group(1): float(m.group(2)) for m in re.finditer(r'^(Pair|Neigh|Comm|Other) +([0-9.]+)', t, re.M)}
-    builds = int(re.search(r'^Neighbour list builds: (\d+)', t, re.M).group(1))
-    return loop, ph, builds
+    s = summary.read(name)
+    ph = {p: summary.get(s, 'timing/phases/%s/avg_s' % p) for p in ('Pair', 'Neigh', 'Comm', 'Other')}
+    return summary.get(s, 'timing/loop_time_s'), ph, summary.get(s, 'neighbor/builds')
 print('%-20s %10s %14s %16s %7s %s' % ('variant_skin', 'loop (s)', 'Pair (ms/step)', 'Neigh (ms/build)', 'builds', 'rest (ms/step)'))
 best = {}
 for v in variants:
-    runs = [parse('%s_%d.log' % (v, r)) for r in range(1, rounds + 1)]
+    runs = [parse('%s_%d.summary.json' % (v, r)) for r in range(1, rounds + 1)]
     loop, ph, b = min(runs, key=lambda x: x[0])
     best[v] = (loop, ph, b)
     pair = min(x[1]['Pair'] for x in runs) / steps * 1e3

@@ -66,6 +66,7 @@ for ((r = 1; r <= repeat; r++)); do
     echo "== round $r of $repeat: Terrace's atom-pair kernels, input/lj_bench.nml, 200 steps (run log)"
     for k in double mixed; do
         "$terrace" $k.nml > ${k}_$r.log 2>&1 || fail ${k}_$r.log
+        cp $k.summary.json ${k}_$r.summary.json
         grep -E '^(Pair|Neigh) +[0-9]|Neighbour list builds|^List pairs' ${k}_$r.log | sed "s/^/$k: /"
     done
     echo
@@ -80,11 +81,12 @@ for sk in 0.2 0.3 0.6; do
     sed -E "s/skin=[0-9.]+/skin=$sk/" "$repo/input/lj_bench.nml" \
         | sed -E "s#shift=.false. /#shift=.false., precision='mixed' /#" > skin$sk.nml
     "$terrace" skin$sk.nml > skin$sk.log 2>&1 || fail skin$sk.log
-    echo "skin $sk: $(sed -n 's/^ *Neighbour list builds: *//p' skin$sk.log | head -1) builds"
+    echo "skin $sk: $(PYTHONPATH="$repo/scripts" /usr/bin/python3 -m terrace_tools.summary get skin$sk.summary.json neighbor/builds) builds"
 done
 echo
-python3 - "$repeat" "${#configs[@]}" "$anchors" <<'PY'
+PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 - "$repeat" "${#configs[@]}" "$anchors" <<'PY'
 import re, sys
+from terrace_tools import summary
 rounds, nconf, anchors = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 def num(pat, text, cast=float):
     m = re.search(pat, text, re.M)
@@ -124,18 +126,19 @@ for name, p in errs.items():
     print('  %-24s liquid %9s   displaced lattice %9s' % (name, num(p, best[2]['text'], str), num(p, lat, str)))
 kern = {}
 for k in ('double', 'mixed'):
-    logs = [open('%s_%d.log' % (k, r)).read() for r in range(1, rounds + 1)]
-    pair = min(num(r'^Pair +([0-9.]+)', t) for t in logs)
-    build = min(num(r'^Neigh +([0-9.]+)', t) / num(r'Neighbour list builds: *(\d+)', t) for t in logs)
-    npairs = num(r'^List pairs \(within rc \+ skin, last build\): *(\d+)', logs[0], int)
+    runs = [summary.read('%s_%d.summary.json' % (k, r)) for r in range(1, rounds + 1)]
+    pair = min(summary.get(s, 'timing/phases/Pair/avg_s') for s in runs)
+    build = min(summary.get(s, 'timing/phases/Neigh/avg_s') / summary.get(s, 'neighbor/builds') for s in runs)
+    npairs = summary.get(runs[0], 'neighbor/list_pairs')
     kern[k] = 1e3 * pair / 200
     print("Terrace %-6s %6.2f ms per step (%.2f ns per list pair, %d pairs); atom list %.2f ms per build" %
           (k, 1e3 * pair / 200, 1e9 * pair / 200 / npairs, npairs, 1e3 * build))
-builds = {sk: num(r'Neighbour list builds: *(\d+)', open('skin%s.log' % sk).read(), int) for sk in ('0.2', '0.3', '0.6')}
-s03 = open('skin0.3.log').read()
-phase = lambda name, text: num(r'^ *%s +([0-9.]+)' % name, text)
-now = (phase('Pair', s03), phase('Neigh', s03), sum(phase(p, s03) for p in ('Comm', 'Output', 'Other')))
-source, gmx = "this run's skin 0.3 log", None
+builds = {sk: summary.get('skin%s.summary.json' % sk, 'neighbor/builds') for sk in ('0.2', '0.3', '0.6')}
+s03 = summary.read('skin0.3.summary.json')
+own = lambda name: summary.get(s03, 'timing/phases/%s/avg_s' % name)
+phase = lambda name, text: num(r'^ *%s +([0-9.]+)' % name, text)      # (the anchors report's phase table)
+now = (own('Pair'), own('Neigh'), sum(own(p) for p in ('Comm', 'Output', 'Other')))
+source, gmx = "this run's skin 0.3 run summary", None
 if anchors:
     a = open(anchors).read()
     block = a[a.index('Terrace mixed-precision kernel, phases'):]

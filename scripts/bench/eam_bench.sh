@@ -9,6 +9,8 @@
 # sensitive to other load than wall time; it includes the set-up of both codes).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
+# the run summary's figures (scripts/terrace_tools)
+figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 nsteps="${1:-1000}"; terrace="$(realpath "${2:-$repo/build/terrace}")"; repeat="${REPEAT:-1}"
 work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
 cd "$work"
@@ -35,10 +37,10 @@ for ((rep = 1; rep <= repeat; rep++)); do
     tl=$(sed -n 's/^Loop time of \([0-9.eE+-]*\).*/\1/p' lammps.log | tail -1); ul=$(user)
     rm -f user.txt
     "${timer[@]}" "$terrace" eam.nml > terrace.log
-    tt=$(sed -n 's/^Loop time: *\([0-9.eE+-]*\) s.*/\1/p' terrace.log | tail -1); ut=$(user)
+    tt=$(figure eam.summary.json timing/loop_time_s); ut=$(user)
     echo "$tl $tt $ul $ut" >> runs.txt
     if [[ $rep == 1 ]] || awk -v a="$tt" -v b="$(cat best_t 2>/dev/null || echo 1e30)" 'BEGIN{exit !(a < b)}'; then
-        echo "$tt" > best_t; cp terrace.log best_terrace.log
+        echo "$tt" > best_t; cp terrace.log best_terrace.log; cp eam.summary.json best_terrace.summary.json
     fi
 done
 python3 - "$nsteps" <<'PY'
@@ -56,4 +58,5 @@ ul, ut = min(r[2] for r in runs), min(r[3] for r in runs)
 if ul > 0 and ut > 0:
     print(f"ratio   : Terrace/LAMMPS = {ul/ut:.3f} (best user CPU times of the whole processes)")
 PY
-grep -E "^(Pair|Neigh|Comm|Other) |^Neighbour list builds" best_terrace.log
+PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary show best_terrace.summary.json \
+    timing/phases/Pair timing/phases/Neigh timing/phases/Comm timing/phases/Other neighbor/builds

@@ -30,9 +30,8 @@ import subprocess
 import sys
 import tempfile
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import es_cost                      # noqa: E402  (shared log parser and shell helper)
-from es_cost import sh              # noqa: E402
+import es_cost                      # (shared run-figure reader and shell helper)
+from es_cost import sh
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..'))
 POT = '/usr/share/lammps/potentials/Cu_u3.eam'
@@ -57,12 +56,9 @@ RUN = """\
 """
 
 
-def parse_log(out):
-    """es_cost.py's parser (loop time, phases, event statistics) plus the Output phase."""
-    r = es_cost.parse_log(out)
-    m = re.search(r'^Output\s+([0-9.eE+-]+)', out, re.M)
-    r['output'] = float(m.group(1)) if m else 0.0
-    return r
+def parse_log(out, summary_path):
+    """es_cost.py's figures (loop time, phases, event statistics: the run summary's)."""
+    return es_cost.parse_log(out, summary_path)
 
 
 def run(terrace, work, name, text, repeat=1):
@@ -77,9 +73,9 @@ def run(terrace, work, name, text, repeat=1):
         if p.returncode != 0:
             sys.exit('terrace failed on %s (exit %d), deck %s:\n%s\n%s'
                      % (name, p.returncode, path, p.stdout[-2000:], p.stderr[-2000:]))
-        r = parse_log(p.stdout)
+        r = parse_log(p.stdout, os.path.join(work, name + '.summary.json'))
         if r['loop'] is None:
-            sys.exit('no "Loop time" line in the log of %s (%s)' % (name, path))
+            sys.exit('no run summary (loop time) for %s (%s)' % (name, path))
         r['work'] = r['loop'] - r['output']
         if best is None or r['work'] < best['work']:
             best = r

@@ -30,7 +30,7 @@ Scenes:
 
 Usage:  python3 scripts/bench/es_cost.py [--terrace PATH] [--scenes cluster7,rahman,lj32k] [--repeat N]
 Run time on a 2-vCPU AMD EPYC: about 40 s (80 s with --repeat 2). The binary is copied first.
-Timings: loop times from the run logs ("Loop time"); with --repeat N the Verlet and the energy-stepping
+Timings: loop times from the run summaries (timing/loop_time_s); with --repeat N the Verlet and the energy-stepping
 run of a scene alternate N times and the fastest loop time of each is kept (the machine may be shared).
 A last table divides each run's loop time by its own force-pass time (phase table), which cancels
 most of a load that changes between the runs.
@@ -45,6 +45,8 @@ import shutil
 import subprocess
 import sys
 import tempfile
+
+from terrace_tools import summary
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..'))
 KB_METAL = 8.617343e-5
@@ -149,23 +151,14 @@ def sh(cmd):
         return ''
 
 
-def parse_log(out):
-    def g(pat, conv=float, default=None):
-        m = re.search(pat, out, re.M)
-        return conv(m.group(1)) if m else default
-    r = {'loop': g(r'^Loop time:\s*([0-9.eE+-]+)\s*s'), 'n': g(r'^Loop time: .* for (\d+) ', int),
-         'pair': g(r'^Pair\s+([0-9.eE+-]+)'), 'search': g(r'^Search\s+([0-9.eE+-]+)'),
-         'neigh': g(r'^Neigh\s+([0-9.eE+-]+)'), 'other': g(r'^Other\s+([0-9.eE+-]+)'),
-         'builds': g(r'^Neighbour list builds:\s*(\d+)', int, 0)}
-    screen = re.findall(r'^\s+\d+\s+([0-9.eE+-]+)\s+([0-9.eE+-]+)\s', out, re.M)   # step time temp ...
-    r['temp_end'] = float(screen[-1][1]) if screen else float('nan')
-    if 'Events:' in out:
-        m = re.search(r'^Events:\s*(\d+)\s*\((\d+) up, (\d+) down, (\d+) reflections\)', out, re.M)
-        r['events'], r['up'], r['down'], r['refl'] = (int(x) for x in m.groups())
-        r['mean_dt'] = g(r'^Mean event interval:\s*([0-9.eE+-]+)')
-        r['evals'] = g(r'ray evaluations per event:\s*([0-9.eE+-]+)')
-        r['passes'] = g(r'force passes per event:\s*([0-9.eE+-]+)')
-        r['misses'] = g(r'verification misses:\s*(\d+)', int, 0)
+def parse_log(out, summary_path):
+    """The run's figures from its summary (terrace_tools.summary.run_figures, and the temperature of
+    the last thermo sample; None and nan where a run wrote none)."""
+    r = {'loop': None, 'n': None, 'builds': 0, 'temp_end': float('nan')}
+    if os.path.exists(summary_path):
+        r = summary.run_figures(summary_path)
+        r['misses'] = summary.get(summary_path, 'energy_stepping/verification_misses', 0)
+        r['temp_end'] = summary.get(summary_path, 'thermo_last/temp', float('nan'))
     return r
 
 
@@ -175,15 +168,17 @@ def run(terrace, work, name, text, repeat=1, best=None):
     with open(path, 'w') as f:
         f.write(text)
     for _ in range(max(1, repeat)):
+        if os.path.exists(os.path.join(work, name + '.summary.json')):
+            os.remove(os.path.join(work, name + '.summary.json'))
         p = subprocess.run([terrace, name + '.nml'], cwd=work, capture_output=True, text=True, timeout=1800)
         with open(os.path.join(work, name + '.log'), 'w') as f:
             f.write(p.stdout + p.stderr)
         if p.returncode != 0:
             sys.exit('terrace failed on %s (exit %d), deck %s:\n%s\n%s'
                      % (name, p.returncode, path, p.stdout[-2000:], p.stderr[-2000:]))
-        r = parse_log(p.stdout)
+        r = parse_log(p.stdout, os.path.join(work, name + '.summary.json'))
         if r['loop'] is None or r['n'] is None:
-            sys.exit('no "Loop time" line in the log of %s (%s)' % (name, path))
+            sys.exit('no run summary (loop time) for %s (%s)' % (name, path))
         if best is None or r['loop'] < best['loop']:
             best = r
     return best

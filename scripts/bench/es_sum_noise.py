@@ -30,7 +30,6 @@ import sys
 import tempfile
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..'))
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import es_cost  # noqa: E402  (the decks)
 
 RC = 2.5

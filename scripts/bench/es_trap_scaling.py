@@ -31,7 +31,6 @@ import tempfile
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from study.common import run_terrace, read_h5md, read_atoms_file  # noqa: E402
 
 RC = 2.5

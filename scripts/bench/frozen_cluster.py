@@ -40,6 +40,8 @@ import time
 
 import numpy as np
 
+from terrace_tools import summary
+
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..'))
 KB = 8.617343e-5            # eV/K, Terrace's metal boltz (LAMMPS)
 NATOMS = 7
@@ -80,32 +82,17 @@ def commit_line():
         return 'unknown'
 
 
-def parse_log(text):
-    """Numbers from Terrace's end-of-run log."""
-    r = {}
-    m = re.search(r'Loop time:\s*([0-9.eEdD+-]+)\s*s', text)
-    r['loop_s'] = float(m.group(1).replace('d', 'e').replace('D', 'e')) if m else float('nan')
-    m = re.search(r'Events:\s*(\d+)\s*\((\d+) up, (\d+) down, (\d+) reflections\)', text)
-    if m:
-        r['events'], r['up'], r['down'], r['refl'] = (int(g) for g in m.groups())
-    m = re.search(r'Mean event interval:\s*([0-9.eE+-]+);\s*ray evaluations per event:\s*([0-9.eE+-]+);'
-                  r'\s*force passes per event:\s*([0-9.eE+-]+)(?:;\s*verification misses:\s*(\d+))?', text)
-    if m:
-        r['mean_dt_ps'] = float(m.group(1))
-        r['evals'] = float(m.group(2))
-        r['passes'] = float(m.group(3))
-        r['misses'] = int(m.group(4)) if m.group(4) else 0
-    m = re.search(r'for\s+(\d+)\s+steps', text)
-    if m:
-        r['steps'] = int(m.group(1))
+def parse_log(path):
+    """The closing figures of a run, from its run summary (terrace_tools.summary)."""
+    f = summary.run_figures(path)
+    r = {'loop_s': f['loop']}
+    if summary.get(path, 'timing/steps', None) is not None:
+        r['steps'] = f['n']
+    if f.get('events') is not None:
+        r.update(events=f['events'], up=f['up'], down=f['down'], refl=f['refl'], mean_dt_ps=f['mean_dt'],
+                 evals=f['evals'], passes=f['passes'],
+                 misses=summary.get(path, 'energy_stepping/verification_misses', 0))
     return r
-
-
-def read_csv(path):
-    with open(path) as f:
-        names = f.readline().strip().split(',')
-    data = np.loadtxt(path, delimiter=',', skiprows=1, ndmin=2)
-    return {n: data[:, i] for i, n in enumerate(names)}
 
 
 def run_terrace(terrace, work, tag, integrator, run_time_ps, atoms):
@@ -124,7 +111,7 @@ def run_terrace(terrace, work, tag, integrator, run_time_ps, atoms):
     if p.returncode != 0:
         sys.stderr.write(p.stdout[-3000:] + p.stderr[-3000:])
         raise SystemExit('terrace failed on %s (exit %d); deck: %s' % (tag, p.returncode, deck))
-    r = parse_log(p.stdout)
+    r = parse_log(os.path.join(work, tag + '.summary.json'))
     r['wall_s'] = wall
     r['cpu_s'] = (ru1.ru_utime - ru0.ru_utime) + (ru1.ru_stime - ru0.ru_stime)
     r['csv'] = read_csv(os.path.join(work, csv))

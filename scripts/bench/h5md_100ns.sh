@@ -16,6 +16,8 @@
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 repo="$(cd "$here/../.." && pwd)"
+# the run summary's figures (scripts/terrace_tools)
+figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 terrace="$(realpath "${TERRACE:-$repo/build/terrace}")"
 PYTHON="${PYTHON:-/usr/bin/python3}"
 runs=("$@"); [[ ${#runs[@]} -gt 0 ]] || runs=(frozen7 frozen7_vv ico147_vv ico147_cold ico147_warm)
@@ -51,7 +53,7 @@ for run in "${runs[@]}"; do
     t0=$(date +%s.%N)
     "$terrace" "$deck.nml" > "$deck.log" 2>&1 || { echo "$run: terrace failed"; tail -3 "$deck.log"; exit 1; }
     t1=$(date +%s.%N)
-    loop="$(sed -n 's/^Loop time: \([0-9.]*\) s.*/\1/p' "$deck.log")"
+    loop="$(figure "$deck.summary.json" timing/loop_time_s)"
     out="$(awk '$1 == "Output" { print $3 }' "$deck.log")"
     "$PYTHON" - "$deck.nml" "$deck.h5" "$run" "$t0" "$t1" "$loop" "$out" <<'PY'
 import os, re, sys

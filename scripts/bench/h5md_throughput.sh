@@ -14,6 +14,8 @@
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 repo="$(cd "$here/../.." && pwd)"
+# the run summary's figures (scripts/terrace_tools)
+figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 nsteps="${1:-500}"
 terrace="$(realpath "${2:-$repo/build/terrace}")"
 cells="${CELLS:-40}"
@@ -58,7 +60,7 @@ for np in $nps; do
         for ((r = 1; r <= repeat; r++)); do
             rm -f traj.h5
             timeout 3000 "${launch[@]}" "$terrace" run.nml > run.log 2>&1 || { echo "terrace failed:"; tail -5 run.log; exit 1; }
-            loop="$(sed -n 's/^Loop time: \([0-9.]*\) s.*/\1/p' run.log)"
+            loop="$(figure run.summary.json timing/loop_time_s)"
             out="$(awk '$1 == "Output" { print $3 }' run.log)"
             if [[ -z "$best" ]] || awk -v a="$out" -v b="${best%% *}" 'BEGIN { exit !(a < b) }'; then
                 best="$out $loop"

@@ -19,6 +19,8 @@ set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 repo="$(cd "$here/../.." && pwd)"
+# the run summary's figures (scripts/terrace_tools)
+figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 
 nsteps="${1:-1000}"
 terrace="${2:-$repo/build/terrace}"
@@ -94,7 +96,7 @@ for ((rep = 1; rep <= repeat; rep++)); do
         (cd "$work" && "${timer[@]}" ${TERRACE_LAUNCHER:-} "$terrace" lj_bench.nml > terrace.log 2>&1) \
             || { echo "Terrace run failed:" >&2; tail -n 20 "$work/terrace.log" >&2; exit 1; }
         t1="$(date +%s.%N)"
-        ter_t="$(sed -n 's/.*Loop time:[[:space:]]*\([0-9.eEdD+-]*\).*/\1/p' "$work/terrace.log" | tail -n 1 | tr dD eE)"
+        ter_t="$(figure "$work/lj_bench.summary.json" timing/loop_time_s 2> /dev/null || true)"
         ter_how="loop time"
         if [[ -z "$ter_t" ]]; then
             ter_t="$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.6f", b - a }')"

@@ -7,6 +7,8 @@
 # Usage: scripts/bench/lj_callgrind.sh PORTABLE_TERRACE [NSTEPS]   (default 20 steps)
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
+# the run summary's figures (scripts/terrace_tools)
+figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 [[ $# -ge 1 && -x "$1" ]] || { echo "usage: $0 PORTABLE_TERRACE [NSTEPS]" >&2; exit 2; }
 ter="$(realpath "$1")"; n="${2:-20}"
 [[ "$n" =~ ^[1-9][0-9]*$ ]] || { echo "NSTEPS must be a positive integer" >&2; exit 2; }
@@ -17,7 +19,7 @@ lmp -screen none -log lmp.log -var nsteps 0 -in "$here/in.lj_bench" > /dev/null
 pairs=$(sed -n 's/^Total # of neighbors = \([0-9]*\).*/\1/p' lmp.log | tail -1)
 valgrind --tool=callgrind --callgrind-out-file=cg.out "$ter" lj.nml > ter.log 2> cg.err || {
     echo "lj_callgrind: terrace failed under valgrind (a -march=native build? use -DTERRACE_PORTABLE=ON)" >&2; tail -3 cg.err >&2; exit 2; }
-builds=$(sed -n 's/^Neighbour list builds: *\([0-9]*\).*/\1/p' ter.log | tail -1)
+builds=$(figure lj.summary.json neighbor/builds)
 callgrind_annotate --inclusive=yes cg.out > ann.txt 2> /dev/null
 ir() { awk -v pat="$1" '$0 ~ pat { gsub(/,/, "", $1); print $1; exit }' ann.txt; }
 total=$(sed -n 's/^summary: *\([0-9]*\).*/\1/p' cg.out | head -1)

@@ -17,6 +17,8 @@ set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 repo="$(cd "$here/../.." && pwd)"
+# the run summary's figures (scripts/terrace_tools)
+figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 
 nsteps="${1:-20}"
 terrace="${2:-$repo/build/terrace}"
@@ -59,7 +61,7 @@ for n in 20 40; do
     # shellcheck disable=SC2086  # TERRACE_LAUNCHER is deliberately word-split
     (cd "$work" && $timebin -f '%M' -o "terrace_$n.rss" ${TERRACE_LAUNCHER:-} "$terrace" "mem_$n.nml" \
         > "terrace_$n.log" 2>&1) || { echo "Terrace run failed:" >&2; tail -n 20 "$work/terrace_$n.log" >&2; exit 1; }
-    own="$(sed -n 's/^Peak memory: *//p' "$work/terrace_$n.log" | tail -n 1)"
+    own="$(figure "$work/mem_$n.summary.json" memory/peak_mib_all_ranks) MiB, $(figure "$work/mem_$n.summary.json" memory/bytes_per_atom 2> /dev/null || echo '?') bytes/atom"
     got="$(grep -c "with $natoms atoms" "$work/terrace_$n.log" || true)"
     if [[ "$got" -eq 0 ]]; then echo "Terrace did not run $natoms atoms (see $work/terrace_$n.log)" >&2; exit 1; fi
     r="$(tail -n 1 "$work/terrace_$n.rss")"

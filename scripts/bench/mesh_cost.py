@@ -6,7 +6,7 @@ the decks input/cube_spin_verlet.nml (dt 2.5e-5 s) and input/cube_spin_es.nml (h
 
 Measured, each run repeated --repeat times (median):
   * one velocity-Verlet step and one energy-stepping event in microseconds, two ways:
-      wall: from the run log ("Loop time" over the steps/events; "Pair" = force passes, "Search" =
+      wall: from the run summary (loop time over the steps/events; "Pair" = force passes, "Search" =
             ray passes), the difference of a long and a short run so that the start-up cancels;
       cpu:  the process's CPU time (user + system, wait4), long minus short run: on a shared, loaded machine
             the wall clock counts the time the process waited for a core, the CPU time does not;
@@ -167,16 +167,13 @@ def run_cpu(cmd, cwd):
     return text, ru.ru_utime + ru.ru_stime
 
 
-def log_values(text):
-    v = {}
-    m = re.search(r'Loop time: +([0-9.]+) s', text)
-    v['loop'] = float(m.group(1))
-    for name in ('Pair', 'Search'):
-        m = re.search(rf'^{name} +([0-9.]+)', text, re.M)
-        v[name.lower()] = float(m.group(1))
-    m = re.search(r'ray evaluations per event: +([0-9.]+); +force passes per event: +([0-9.]+)', text)
-    if m:
-        v['rays'], v['passes'] = float(m.group(1)), float(m.group(2))
+def log_values(path):
+    """Loop time, the Pair and Search phases and energy stepping's rays and force passes per event,
+    from a run summary."""
+    f = summary.run_figures(path)
+    v = {'loop': f['loop'], 'pair': f['pair'], 'search': f['search']}
+    if f.get('evals') is not None:
+        v['rays'], v['passes'] = f['evals'], f['passes']
     return v
 
 
@@ -264,7 +261,8 @@ def main():
         for _ in range(a.repeat):
             tl, cl = run_cpu([terrace, f'{kind}_long.nml'], work)
             ts, cs = run_cpu([terrace, f'{kind}_short.nml'], work)
-            vl, vs = log_values(tl), log_values(ts)
+            vl = log_values(os.path.join(work, f'{kind}_long.summary.json'))
+            vs = log_values(os.path.join(work, f'{kind}_short.summary.json'))
             per_wall.append((vl['loop'] - vs['loop']) / (count - short))
             per_cpu.append((cl - cs) / (count - short))
             pair.append((vl['pair'] - vs['pair']) / (count - short))

@@ -32,8 +32,9 @@ for p in double mixed mixed_cells; do
     fi
     ./terrace $p.nml > $p.log 2>&1 || { echo "mixed_drift: the $p run failed:" >&2; tail -5 $p.log >&2; exit 1; }
 done
-python3 - "$n" <<'PY'
-import csv, math, re, sys
+PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 - "$n" <<'PY'
+import csv, math, sys
+from terrace_tools import summary
 natoms = 32000
 res = {}
 for p in ('double', 'mixed', 'mixed_cells'):
@@ -44,9 +45,8 @@ for p in ('double', 'mixed', 'mixed_cells'):
     slope = sum((a - tm) * (b - em) for a, b in zip(t, e)) / sum((a - tm) ** 2 for a in t)
     dev = max(abs(b - e[0]) for b in e) / natoms
     rms = math.sqrt(sum((b - em) ** 2 for b in e) / m) / natoms
-    log = open('%s.log' % p).read()
-    loop = float(re.search(r'^Loop time:\s*([0-9.eE+-]+)', log, re.M).group(1))
-    pair = float(re.search(r'^Pair\s+([0-9.eE+-]+)', log, re.M).group(1))
+    loop = summary.get('%s.summary.json' % p, 'timing/loop_time_s')
+    pair = summary.get('%s.summary.json' % p, 'timing/phases/Pair/avg_s')
     res[p] = slope / natoms
     print('%-11s drift %+.3e eps/atom/tau   max |E(t)-E(t0)|/N %.3e   rms(E)/N %.3e   E(t0)/N %.6f   loop %.2f s, '
           'Pair %.2f s   (%d thermo rows, t = %g to %g tau)' % (p, slope / natoms, dev, rms, e[0] / natoms, loop, pair, m, t[0], t[-1]))

@@ -20,6 +20,8 @@
 # Only meaningful on a machine with at least as many free cores as the largest rank count.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
+# the run summary's figures (scripts/terrace_tools)
+figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 ranks="${1:-1,2,4,8,16}"; out="${2:-$(mktemp -d)}"; mkdir -p "$out"; out="$(cd "$out" && pwd)"
 terrace="$(realpath "${TERRACE:-$repo/build/terrace}")"; lmp="${LMP:-lmp}"; mpirun="${MPIRUN:-mpirun}"
 eam_file="${EAM_FILE:-/usr/share/lammps/potentials/Cu_u3.eam}"
@@ -120,7 +122,7 @@ LMP
 
 csv="$out/scaling.csv"
 echo "scene,kind,ranks,atoms,code,n,loop_s,comm_max_s,search_max_s,rays_per_event" > "$csv"
-phase_max() { awk -v p="$1" '$1 == p {print $3}' "$2" | tail -1; }
+phase_max() { figure "$2" "timing/phases/$1/max_s"; }   # PHASE SUMMARY
 
 for scene in $parts; do
     if [[ $scene == lj ]]; then vv="&integrator style='velocity_verlet', dt=0.005 /"; nvv=$lj_steps; nes=$lj_events
@@ -141,9 +143,9 @@ for scene in $parts; do
                     # shellcheck disable=SC2086
                     if ! "$mpirun" $MPI_FLAGS -np "$p" "$terrace" "$code.nml" > "$code.log" 2>&1; then
                         echo "FAILED: $scene $kind $code np $p (log $d/$code.log):"; tail -5 "$code.log"; continue; fi
-                    loop=$(sed -n 's/^Loop time: *\([0-9.eE+-]*\) s.*/\1/p' "$code.log" | tail -1)
-                    comm=$(phase_max Comm "$code.log"); search=$(phase_max Search "$code.log")
-                    rays=$(sed -n 's/.*ray evaluations per event: *\([0-9.]*\);.*/\1/p' "$code.log" | tail -1) ;;
+                    loop=$(figure "$code.summary.json" timing/loop_time_s)
+                    comm=$(phase_max Comm "$code.summary.json"); search=$(phase_max Search "$code.summary.json")
+                    rays=$(figure "$code.summary.json" energy_stepping/ray_evaluations_per_event 2> /dev/null || true) ;;
                 lammps)
                     lammps_input "$scene" "$nx" "$ny" "$nz" "$nvv" > in.lmp; n=$nvv
                     # shellcheck disable=SC2086

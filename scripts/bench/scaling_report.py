@@ -16,6 +16,7 @@ DIR_OR_TGZ is scaling.sh's OUTDIR (scaling.csv and one folder per point), or a .
 import argparse
 import csv
 import io
+import json
 import os
 import re
 import sys
@@ -107,8 +108,16 @@ def summary(src, rows):
     print("event/step: energy stepping's loop time per event over Verlet's per step, same ranks.")
 
 
+def summary_phases(src, d, code):
+    """{phase: (avg, max)} seconds from the run summary d/CODE.summary.json (None if there is none)."""
+    t = src.read(os.path.join(d, code + '.summary.json'))
+    if not t:
+        return None
+    return {k: (v['avg_s'], v['max_s']) for k, v in json.loads(t)['timing']['phases'].items()}
+
+
 def terrace_phases(text):
-    """{phase: (avg, max)} seconds from a Terrace run log's phase table."""
+    """{phase: (avg, max)} seconds from a Terrace run log's phase table (bundles without run summaries)."""
     out = {}
     for m in re.finditer(r'^(Pair|Neigh|Comm|Output|Search|Other)\s+([0-9.eE+-]+)\s+([0-9.eE+-]+)', text, re.M):
         out[m.group(1)] = (float(m.group(2)), float(m.group(3)))
@@ -127,9 +136,12 @@ def lammps_phases(text):
 
 
 def rays_per_event(src, r):
-    """Ray evaluations per event: the CSV's column, or the run log's summary line (older CSVs)."""
+    """Ray evaluations per event: the CSV's column, the run summary's, or the run log's line (older bundles)."""
     if r.get('rays_per_event'):
         return float(r['rays_per_event'])
+    t = src.read(os.path.join(f"{r['scene']}_{r['kind']}_np{r['ranks']}", 'terrace-es.summary.json'))
+    if t:
+        return json.loads(t).get('energy_stepping', {}).get('ray_evaluations_per_event')
     t = src.read(os.path.join(f"{r['scene']}_{r['kind']}_np{r['ranks']}", 'terrace-es.log')) or ''
     m = re.search(r'ray evaluations per event: *([0-9.]+);', t)
     return float(m.group(1)) if m else None
@@ -153,14 +165,14 @@ def phases(src, rows):
                                            ('lammps', 'lammps.log', lammps_phases, ('Pair', 'Neigh', 'Comm'))):
                 t, r = src.read(os.path.join(d, log)), pick(sel, p, code)
                 if t and r:
-                    ph = parse(t)
+                    ph = (code.startswith('terrace') and summary_phases(src, d, code)) or parse(t)
                     line += ''.join(' ' + cell(ph, k, int(r['n'])) for k in keys)
                 else:
                     line += f"{'':42}"
                 line += ' |'
             t, r = src.read(os.path.join(d, 'terrace-es.log')), pick(sel, p, 'terrace-es')
             if t and r:
-                ph, n, rays = terrace_phases(t), int(r['n']), rays_per_event(src, r)
+                ph, n, rays = summary_phases(src, d, 'terrace-es') or terrace_phases(t), int(r['n']), rays_per_event(src, r)
                 line += (' ' + cell(ph, 'Pair', n) + ' ' + cell(ph, 'Search', n) + ' '
                          + (cell(ph, 'Search', n, rays) if rays else f"{'-':>13}") + ' ' + cell(ph, 'Comm', n)
                          + (f" {rays:6.2f}" if rays else ''))

@@ -35,8 +35,6 @@ import shutil
 import sys
 import tempfile
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)
 
 from study import common, scenes as S, sweep, stress, report, analysis, solids  # noqa: E402
 

@@ -19,6 +19,8 @@
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 repo="$(cd "$here/../.." && pwd)"
+# the run summary's figures (scripts/terrace_tools)
+figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 nsteps="${1:-20}"
 terrace="$(realpath "${2:-$repo/build/terrace}")"
 command -v valgrind > /dev/null || { echo "SKIPPED: valgrind not installed"; exit 0; }
@@ -37,7 +39,7 @@ count() {   # style, steps, tag: instructions of the loop into ir[tag], builds i
         --toggle-collect='__terrace_velocity_verlet_MOD_run_velocity_verlet' "$terrace" "$3.nml" > "$3.log" 2>&1) \
         || { echo "FAIL: $3"; tail -3 "$work/$3.log"; exit 1; }
     ir[$3]=$(awk '/^summary:/ {print $2}' "$work/$3.cg")
-    builds[$3]=$(awk '/^Neighbour list builds:/ {print $4}' "$work/$3.log")
+    builds[$3]=$(figure "$work/$3.summary.json" neighbor/builds)
 }
 for s in "${styles[@]}"; do
     count "$s" "$nsteps" "$s"

@@ -16,6 +16,8 @@
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 repo="$(cd "$here/../.." && pwd)"
+# the run summary's figures (scripts/terrace_tools)
+figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 nsteps="${1:-1000}"
 terrace="$(realpath "${2:-$repo/build/terrace}")"
 repeat="${REPEAT:-3}"
@@ -36,10 +38,10 @@ for r in $(seq 1 "$repeat"); do
         (cd "$work" && "${timer[@]}" "$terrace" "$s.nml" > "$s.log" 2>&1) || { echo "FAIL: $s"; tail -3 "$work/$s.log"; exit 1; }
         u=$(awk '/^CPU/ {print $2}' "$work/cpu.txt" 2>/dev/null || true); u=${u:-0}
         if [ -z "${cpu[$s]:-}" ] || awk -v a="$u" -v b="${cpu[$s]}" 'BEGIN {exit !(a < b)}'; then cpu[$s]=$u; fi
-        loop=$(awk '/^Loop time:/ {print $3}' "$work/$s.log")
+        loop=$(figure "$work/$s.summary.json" timing/loop_time_s)
         all[$s]="${all[$s]:-} $loop"
-        oth=$(awk '$1 == "Other" {print $2}' "$work/$s.log")
-        nb=$(awk '/^Neighbour list builds:/ {print $4}' "$work/$s.log")
+        oth=$(figure "$work/$s.summary.json" timing/phases/Other/avg_s)
+        nb=$(figure "$work/$s.summary.json" neighbor/builds)
         if [ -z "${best[$s]:-}" ] || awk -v a="$loop" -v b="${best[$s]}" 'BEGIN {exit !(a < b)}'; then
             best[$s]=$loop; other[$s]=$oth; builds[$s]=$nb
         fi

@@ -32,6 +32,8 @@ import time
 
 import numpy as np
 
+from terrace_tools import summary
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
@@ -92,7 +94,8 @@ def cmd_run(a):
         deck = replace_group(text, "integrator", f"&integrator style='{a.style}', {key}={value} /")
         deck = replace_group(deck, "output", f"&output thermo_interval={a.thermo_interval or a.interval * 50}, "
                              f"thermo_file='{tag}.csv', trajectory_file='{traj}', "
-                             f"trajectory_interval={a.interval}, trajectory_fields='velocity', overwrite=.true. /")
+                             f"trajectory_interval={a.interval}, trajectory_fields='velocity', overwrite=.true., "
+                             f"summary_file='{os.path.join(os.path.abspath(a.out), tag + '.summary.json')}' /")
         nml = os.path.join(deck_dir, f".vdos_shift_{tag}.nml")   # atoms files are relative to the deck
         with open(nml, "w") as f:
             f.write(deck)
@@ -109,10 +112,10 @@ def cmd_run(a):
         if p.returncode != 0:
             sys.exit(f"vdos_shift: the run {tag} failed (log: {a.out}/{tag}.log)")
         mean_step = float(value)
-        m = re.search(r"Mean event interval:\s*([0-9.Ee+-]+)", p.stdout)
-        if m:
-            mean_step = float(m.group(1))
-        loop = re.search(r"Loop time:\s*([0-9.]+)", p.stdout)
+        figures = summary.run_figures(os.path.join(a.out, tag + ".summary.json"))
+        if figures.get("mean_dt") is not None:
+            mean_step = figures["mean_dt"]
+        loop = figures["loop"]
         prefix = os.path.join(a.out, tag)
         q = subprocess.run(launcher + [analyze, f"--trajectory_file={traj}", "--compute=vdos",
                                        f"--correlation_time={a.correlation_time}", f"--output_prefix={prefix}",
@@ -136,7 +139,7 @@ def cmd_run(a):
                 if "reflections" in col else 0.0)
         rows.append(dict(style=a.style, key=key, value=float(value), mean_step=mean_step, peak=peak,
                          centroid=centroid, nu_rms=nu_rms, temperature=temp, de_rms=de_rms, de_max=de_max,
-                         reflections=refl, loop_time=float(loop.group(1)) if loop else wall))
+                         reflections=refl, loop_time=loop if loop is not None else wall))
         print(f"{a.style:16s} {key}={value:10s} mean step {mean_step:.5g}  T {temp:7.2f}  peak {peak:.4f}  "
               f"centroid {centroid:.4f}  nu_rms {nu_rms:.4f}  dE rms {de_rms:.3g} max {de_max:.3g}  "
               f"refl {100 * refl:.1f} %  loop {rows[-1]['loop_time']:.1f} s", flush=True)

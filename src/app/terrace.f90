@@ -36,6 +36,9 @@ program terrace
     use terrace_files, only: part_path
     use mpi_f08, only: MPI_Wtime, MPI_Barrier
     use, intrinsic :: iso_fortran_env, only: output_unit
+    use terrace_run_summary, only: summary_put, summary_start, summary_write
+    use terrace_xdmf, only: xdmf_sidecar_path
+    use terrace_topology_data, only: topology_data_path, wants_topology_data, write_topology_data
     implicit none
 
     type(config_t) :: cfg
@@ -75,6 +78,7 @@ program terrace
     if (len(path) == 0) call stop_all('no input file (usage: terrace [--check] RUN.nml; see terrace --help)', 2)
 
     call read_config(path, cfg)
+    call summary_start(path)
     call check_memory(cfg)                              ! issue 15: refuse a scene that cannot fit
     if (.not. check_only) call ctl%init_signals(trim(cfg%checkpoint_file))
     call build_scene(cfg, scene)
@@ -111,6 +115,8 @@ contains
         call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note(), &
                            list_pairs(), pairs_what())
         call eng%report_warnings()
+        if (.not. eng%list%exact()) call summary_put('neighbor/late_builds', eng%list%late)
+        call write_summary('finished', sched%end_time())
     end subroutine verlet_run
 
     !> This rank's pairs in the built list (within rc + skin) at its last build; 0 without a list.
@@ -211,6 +217,8 @@ contains
                 'terrace edge (its climbs never carry enough kinetic energy across it), so kinetic and potential '// &
                 'energy no longer exchange. Use a smaller terrace_height.'
         end if
+        call summary_es()
+        call write_summary('finished', es%time)
     end subroutine energy_stepping_run
 
     !> Event-driven dynamics of a stepped potential: until run_time, thermo samples every
@@ -242,7 +250,92 @@ contains
             write (output_unit, '(a,es17.10,a,es17.10,a,es10.3)') 'Total energy (first, last thermo sample): ', &
                 ed%e_first, ', ', ed%e_last, '; drift ', ed%e_last - ed%e_first
         end if
+        call summary_put('event_driven/events', ed%events)
+        call summary_put('event_driven/pair_crossings', ed%pair_events)
+        call summary_put('event_driven/cell_crossings', ed%cell_events)
+        call summary_put('event_driven/stale_predictions', ed%stale)
+        call summary_put('event_driven/hard_core_collisions', ed%core)
+        call summary_put('event_driven/captures', ed%captures)
+        call summary_put('event_driven/escapes', ed%escapes)
+        call summary_put('event_driven/bounces', ed%bounces)
+        if (t1 > t0) call summary_put('event_driven/events_per_second', ed%events/(t1 - t0))
+        call summary_put('conservation/energy_first', ed%e_first)
+        call summary_put('conservation/energy_last', ed%e_last)
+        call summary_put('conservation/energy_drift', ed%e_last - ed%e_first)
+        call write_summary('finished', cfg%run_time)
     end subroutine event_driven_run
+
+    !> Energy stepping's closing figures in the run summary.
+    subroutine summary_es()
+        call summary_put('energy_stepping/terrace_height', h)
+        call summary_put('energy_stepping/events', es%events)
+        call summary_put('energy_stepping/ups', es%ups)
+        call summary_put('energy_stepping/downs', es%downs)
+        call summary_put('energy_stepping/reflections', es%reflections)
+        if (es%events > 0) then
+            call summary_put('energy_stepping/mean_event_interval', es%time/es%events)
+            call summary_put('energy_stepping/ray_evaluations_per_event', real(es%ray_evals, dp)/es%events)
+            call summary_put('energy_stepping/force_passes_per_event', real(es%force_passes, dp)/es%events)
+        end if
+        call summary_put('energy_stepping/verification_misses', es%verify_misses)
+        if (es%have_conserved) then
+            call summary_put('energy_stepping/conserved_first', es%conserved_first)
+            call summary_put('energy_stepping/conserved_last', es%conserved_last)
+            call summary_put('energy_stepping/conserved_drift', es%conserved_last - es%conserved_first)
+        end if
+        if (eng%use_inner) call summary_put('neighbor/prunes', eng%prunes)
+    end subroutine summary_es
+
+    !> The run summary (&output summary_file, src/io/run_summary.f90): what ran, where, in which
+    !> units, what it wrote and how it ended, with the figures the run log put there. Collective.
+    subroutine write_summary(reason, sim_time)
+        character(len=*), intent(in) :: reason
+        real(dp), intent(in), optional :: sim_time   !< absent after an early stop (see checkpoint/time)
+        logical :: there
+        if (len_trim(cfg%summary_file) == 0) return
+        call summary_put('units/style', trim(cfg%units%name))
+        call summary_put('units/length', trim(cfg%units%length))
+        call summary_put('units/time', trim(cfg%units%time))
+        call summary_put('units/energy', trim(cfg%units%energy))
+        call summary_put('units/mass', trim(cfg%units%mass))
+        call summary_put('units/temperature', trim(cfg%units%temperature))
+        call summary_put('units/pressure', trim(cfg%units%pressure))
+        call summary_put('units/velocity', trim(cfg%units%velocity))
+        call summary_put('run/integrator', trim(cfg%integrator))
+        call summary_put('run/thermostat', trim(cfg%thermostat))
+        call summary_put('run/dimension', cfg%dimension)
+        call summary_put('run/atoms', eng%natoms)
+        call summary_put('run/restarted', eng%restarted)
+        if (present(sim_time)) call summary_put('run/simulated_time', sim_time)
+        if (eng%list%builds > 0) call summary_put('neighbor/skin', cfg%skin)
+        call summary_put('timing/loop_time_s', t1 - t0)
+        call summary_put('exit/reason', reason)
+        call summary_put('exit/status', merge(exit_stopped, 0, reason /= 'finished'))
+        if (reason /= 'finished') call summary_put('exit/detail', ctl%reason)
+        if (len_trim(cfg%thermo_file) > 0) call summary_put('outputs/thermo_file', part_path(trim(cfg%thermo_file), &
+                                                             int(ctl%output_part, i8)))
+        if (len_trim(cfg%trajectory_file) > 0) then
+            call summary_put('outputs/trajectory_file', part_path(trim(cfg%trajectory_file), int(ctl%output_part, i8)))
+            if (allocated(eng%mesh_tet)) call summary_put('outputs/xdmf_file', &
+                xdmf_sidecar_path(part_path(trim(cfg%trajectory_file), int(ctl%output_part, i8))))
+            if (wants_topology_data(cfg%trajectory_file, cfg%dimension, allocated(eng%mesh_tet))) &
+                call summary_put('outputs/topology_file', &
+                                 topology_data_path(part_path(trim(cfg%trajectory_file), int(ctl%output_part, i8))))
+        end if
+        if (len_trim(cfg%forces_file) > 0 .and. .not. eng%restarted) call summary_put('outputs/forces_file', &
+                                                                                     trim(cfg%forces_file))
+        if (len_trim(cfg%final_atoms_file) > 0 .and. reason == 'finished') &
+            call summary_put('outputs/final_atoms_file', trim(cfg%final_atoms_file))
+        if (len_trim(cfg%checkpoint_file) > 0) then
+            inquire (file=trim(cfg%checkpoint_file), exist=there)
+            if (there) call summary_put('outputs/checkpoint_file', trim(cfg%checkpoint_file))
+        end if
+        ! (a run that goes on in part files, &system restart_outputs = 'new', writes its summary as one too)
+        call summary_put('outputs/summary_file', part_path(trim(cfg%summary_file), int(ctl%output_part, i8)))
+        call summary_write(part_path(trim(cfg%summary_file), int(ctl%output_part, i8)), ok, msg)
+        call check_all(ok, part_path(trim(cfg%summary_file), int(ctl%output_part, i8))// &
+                       ': cannot write (&output summary_file): '//trim(msg))
+    end subroutine write_summary
 
     !> Timers and wall clock start together on every rank; the integrator writes through `out`.
     subroutine start_clock()
@@ -273,6 +366,7 @@ contains
     !> exit_stopped on every rank, so that a batch script can resubmit it with read_checkpoint.
     subroutine stop_early()
         call commit_small_outputs(cfg)                  ! issue 15: what was written so far is kept
+        call write_summary(trim(merge('walltime_limit', 'signal        ', ctl%stop_signal == 0)))
         if (world%rank == 0) then
             write (output_unit, '(a)') 'terrace: stopped early ('//ctl%reason//') with a checkpoint in '//ctl%path// &
                 '; continue with &system read_checkpoint = '''//ctl%path//''' (exit status 3)'
@@ -338,7 +432,22 @@ contains
         call any_failed(ok)
         if (.not. ok) call traj%discard()
         call check_all(ok, thermo_path//': cannot write the thermo file (&output thermo_file): '//trim(msg))
+        call create_topology_data(traj_path)
     end subroutine create_outputs
+
+    !> Beside a 3-D trajectory, its topology for MDAnalysis (src/io/topology_data.f90).
+    subroutine create_topology_data(traj_path)
+        character(len=*), intent(in) :: traj_path
+        if (.not. wants_topology_data(traj_path, cfg%dimension, allocated(eng%mesh_tet))) return
+        call write_topology_data(traj_path, eng%atoms, eng%box, trim(cfg%units%name), terrace_version_string, ok, msg)
+        call any_failed(ok)
+        if (.not. ok) then
+            call thermo%discard()
+            call traj%discard()
+        end if
+        call check_all(ok, topology_data_path(traj_path)//': cannot write the trajectory''s topology (&output '// &
+                       'trajectory_file): '//trim(msg))
+    end subroutine create_topology_data
 
     !> A restart continues the outputs of the interrupted run (the deck's files, or the parts that
     !> run wrote, its checkpoint's output_part): the thermo CSV and the trajectory keep what was

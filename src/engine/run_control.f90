@@ -174,9 +174,19 @@ contains
         call write_checkpoint(self%path, eng%atoms, eng%natoms, self%p%dimension, self%p%integrator, &
                               self%p%deck_path, self%p%deck_hash, terrace_version_string, values, ok, msg)
         call check_all(ok, trim(self%path)//': &output checkpoint_file: '//trim(msg))
+        call summary_checkpoint(step, time)
         self%write_seconds = MPI_Wtime() - t0
         if (world%rank == 0) write (output_unit, '(a,i0,a,es16.9,a)') 'checkpoint: step ', step, ', time ', &
             time, ' -> '//self%path//' ('//fixed(self%write_seconds, 3)//' s)'
     end subroutine control_write
+
+    !> The last checkpoint written, in the run summary.
+    subroutine summary_checkpoint(step, time)
+        use terrace_run_summary, only: summary_put
+        integer(i8), intent(in) :: step
+        real(dp), intent(in) :: time
+        call summary_put('checkpoint/step', step)
+        call summary_put('checkpoint/time', time)
+    end subroutine summary_checkpoint
 
 end module terrace_run_control

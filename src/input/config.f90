@@ -107,6 +107,7 @@ module terrace_config
         character(len=64) :: trajectory_fields = 'position velocity image'
         logical :: overwrite = .false.
         character(len=path_max) :: checkpoint_file = ''
+        character(len=path_max) :: summary_file = ''   !< JSON run summary ('': none)
         real(dp) :: checkpoint_interval = -1.0_dp   !< time between checkpoints
         integer(i8) :: checkpoint_every = -1        !< steps between checkpoints (velocity Verlet)
         ! &thermostat
@@ -600,20 +601,23 @@ contains
         character(len=path_max) :: checkpoint_file
         real(dp) :: checkpoint_interval
         integer(i8) :: checkpoint_every
+        character(len=path_max) :: summary_file
         namelist /output/ thermo_every, thermo_interval, thermo_file, forces_file, final_atoms_file, trajectory_file, &
             trajectory_every, trajectory_interval, trajectory_fields, overwrite, checkpoint_file, checkpoint_interval, &
-            checkpoint_every
-        character(len=*), parameter :: keys(13) = [character(len=72) :: 'thermo_every:an integer', &
+            checkpoint_every, summary_file
+        character(len=*), parameter :: keys(14) = [character(len=72) :: 'thermo_every:an integer', &
             'checkpoint_file:a quoted file name', 'checkpoint_interval:a real number', 'checkpoint_every:an integer', &
             'thermo_interval:a real number', 'thermo_file:a quoted file name', 'forces_file:a quoted file name', &
             'final_atoms_file:a quoted file name', 'trajectory_file:a quoted file name', &
             'trajectory_every:an integer', 'trajectory_interval:a real number', &
-            'trajectory_fields:a quoted list of position, velocity, force, image', 'overwrite:a logical']
+            'trajectory_fields:a quoted list of position, velocity, force, image', 'overwrite:a logical', &
+            'summary_file:a quoted file name']
         type(item_reader_t) :: it
         thermo_every = -1; thermo_interval = -1; thermo_file = ''; forces_file = ''; final_atoms_file = ''
         trajectory_file = ''; trajectory_every = -1; trajectory_interval = -1
         trajectory_fields = 'position velocity image'; overwrite = .false.
         checkpoint_file = ''; checkpoint_interval = -1; checkpoint_every = -1
+        summary_file = default_summary_file(cfg%path)
         do while (it%next(cfg, 'output', keys))
             read (it%buf, nml=output, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
@@ -625,7 +629,23 @@ contains
         cfg%overwrite = overwrite
         cfg%checkpoint_file = checkpoint_file; cfg%checkpoint_interval = checkpoint_interval
         cfg%checkpoint_every = checkpoint_every
+        cfg%summary_file = summary_file
     end subroutine read_output
+
+    !> The default &output summary_file: the deck's file name without its directory and its '.nml',
+    !> with '.summary.json', in the working directory (run.nml -> run.summary.json).
+    function default_summary_file(deck) result(name)
+        character(len=*), intent(in) :: deck
+        character(len=:), allocatable :: name
+        integer :: p, n
+        p = index(deck, '/', back=.true.)
+        name = deck(p + 1:)
+        n = len(name)
+        if (n > 4) then
+            if (lower(name(n - 3:n)) == '.nml') name = name(1:n - 4)
+        end if
+        name = name//'.summary.json'
+    end function default_summary_file
 
     subroutine read_thermostat(cfg)
         type(config_t), intent(inout) :: cfg

@@ -233,6 +233,7 @@ contains
         integer(i8), intent(in) :: natoms
         logical, intent(in) :: thermostat
         if (world%rank /= 0 .or. last%time <= first%time) return
+        call summary_drift(first, last, natoms, thermostat)
         if (thermostat) then
             write (output_unit, '(a,es12.4,a,es12.4,a)') 'Energy drift (econserve): ', &
                 ((last%etotal - last%ecouple) - (first%etotal - first%ecouple))/(real(natoms, dp)*(last%time - first%time)), &
@@ -243,5 +244,18 @@ contains
             (last%etotal - first%etotal)/(real(natoms, dp)*(last%time - first%time)), &
             ' energy/atom/time;  |P_end - P_0| = ', norm2(last%momentum - first%momentum), ' (mass*velocity)'
     end subroutine report_drift
+
+    !> report_drift's figures in the run summary.
+    subroutine summary_drift(first, last, natoms, thermostat)
+        use terrace_run_summary, only: summary_put
+        type(thermo_sample_t), intent(in) :: first, last
+        integer(i8), intent(in) :: natoms
+        logical, intent(in) :: thermostat
+        call summary_put('conservation/energy_drift_per_atom_time', ((last%etotal - last%ecouple) - &
+                         (first%etotal - first%ecouple))/(real(natoms, dp)*(last%time - first%time)))
+        call summary_put('conservation/energy_drift_of', trim(merge('econserve', 'etotal   ', thermostat)))
+        call summary_put('conservation/momentum_change', norm2(last%momentum - first%momentum))
+        if (thermostat) call summary_put('conservation/thermostat_energy', last%ecouple - first%ecouple)
+    end subroutine summary_drift
 
 end module terrace_velocity_verlet

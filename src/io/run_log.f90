@@ -7,6 +7,7 @@ module terrace_run_log
     use terrace_timers, only: timers_t, n_timers, timer_names
     use terrace_mpi_env, only: world
     use terrace_files, only: peak_memory_kib
+    use terrace_run_summary, only: summary_put
     use mpi_f08, only: MPI_Reduce, MPI_DOUBLE_PRECISION, MPI_INTEGER8, MPI_SUM, MPI_MAX, MPI_MIN
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
@@ -56,6 +57,7 @@ contains
             write (output_unit, '(a8,2x,f13.4,2x,f13.4,2x,f6.1)') timer_names(k), avg(k), mx(k), &
                 100*avg(k)/max(loop_time, tiny(1.0_dp))
         end do
+        call put_summary()
         write (output_unit, '(a,i0)') 'Neighbour list builds: ', builds
         if (present(list_note)) then
             if (len(list_note) > 0) write (output_unit, '(a)') list_note
@@ -77,6 +79,30 @@ contains
             write (output_unit, '(a)') 'Peak memory: '//fixed(memsum/1024, 1)//' MiB in all ranks (mostly the '// &
                 'libraries: too few atoms for a per-atom figure)'
         end if
+    contains
+
+        !> The same figures in the run summary.
+        subroutine put_summary()
+            call summary_put('timing/loop_time_s', loop_time)
+            call summary_put('timing/'//label, steps)
+            call summary_put('timing/atoms', natoms)
+            if (loop_time > 0) call summary_put('timing/atom_steps_per_s', real(natoms, dp)*real(steps, dp)/loop_time)
+            do k = 1, n_timers
+                call summary_put('timing/phases/'//trim(adjustl(timer_names(k)))//'/avg_s', avg(k))
+                call summary_put('timing/phases/'//trim(adjustl(timer_names(k)))//'/max_s', mx(k))
+                call summary_put('timing/phases/'//trim(adjustl(timer_names(k)))//'/percent_loop', &
+                                 100*avg(k)/max(loop_time, tiny(1.0_dp)))
+            end do
+            call summary_put('neighbor/builds', builds)
+            if (psum(1) > 0) then
+                call summary_put('neighbor/list_pairs', psum(1))
+                call summary_put('neighbor/list_pairs_min_rank', pmin(1))
+                call summary_put('neighbor/list_pairs_max_rank', pmax(1))
+            end if
+            call summary_put('memory/peak_mib_all_ranks', memsum/1024)
+            if (natoms >= 10000) call summary_put('memory/bytes_per_atom', 1024*memsum/real(natoms, dp))
+        end subroutine put_summary
+
     end subroutine print_run_log
 
 end module terrace_run_log

@@ -206,6 +206,7 @@ contains
         integer :: k, ios, n
         self%lines = self%lines + 1        ! counted on every rank (the checkpoint records it)
         if (world%rank /= 0) return
+        call summary_sample(s)
         if (self%to_file .and. .not. self%failed) then
             write (line, '(i0,12(",",es24.16e3))') s%step, s%time, s%temp, s%pe, s%ke, s%etotal, s%press, &
                 s%momentum, s%angular
@@ -231,6 +232,19 @@ contains
             s%temp, s%pe, s%ke, s%etotal, s%press, trim(eta)
         flush (output_unit)
     end subroutine thermo_write
+
+    !> The last thermo sample, in the run summary (thermo_last).
+    subroutine summary_sample(s)
+        use terrace_run_summary, only: summary_put
+        type(thermo_sample_t), intent(in) :: s
+        call summary_put('thermo_last/step', s%step)
+        call summary_put('thermo_last/time', s%time)
+        call summary_put('thermo_last/temp', s%temp)
+        call summary_put('thermo_last/pe', s%pe)
+        call summary_put('thermo_last/ke', s%ke)
+        call summary_put('thermo_last/etotal', s%etotal)
+        call summary_put('thermo_last/press', s%press)
+    end subroutine summary_sample
 
     !> Close and delete the CSV (a run that stops before its first step leaves no file).
     subroutine thermo_discard(self)

@@ -20,13 +20,15 @@ module terrace_output_files
                                 process_id, directory_of, path_missing, path_regular, &
                                 temporary_name, commit_output, write_in_place, output_target
     use terrace_xdmf, only: xdmf_sidecar_path
+    use terrace_topology_data, only: topology_data_path, wants_topology_data
     use mpi_f08, only: MPI_Allreduce, MPI_MAX, MPI_INTEGER8
     implicit none
     private
 
     public :: check_outputs, check_output_ids, commit_small_outputs
 
-    integer, parameter :: nout = 6, nin = 7   !< output 6: a mesh trajectory's XDMF sidecar
+    integer, parameter :: nout = 8, nin = 7   !< output 6: a mesh trajectory's XDMF sidecar; 7: the run summary;
+    !< 8: a 3-D trajectory's topology for MDAnalysis
 
 contains
 
@@ -43,6 +45,7 @@ contains
             call one('thermo_file', cfg%thermo_file)
             call one('forces_file', cfg%forces_file)
             call one('final_atoms_file', cfg%final_atoms_file)
+            if (len_trim(cfg%trajectory_file) > 0) call one('trajectory_file', topology_data_path(cfg%trajectory_file))
         end if
         call check_all(len(msg) == 0, msg)
     contains
@@ -69,13 +72,17 @@ contains
         integer :: i, j
         logical :: ok
         out_keys = [character(len=16) :: 'thermo_file', 'forces_file', 'final_atoms_file', 'trajectory_file', &
-                    'checkpoint_file', 'trajectory_file']
+                    'checkpoint_file', 'trajectory_file', 'summary_file', 'trajectory_file']
         out_path(1)%s = trim(cfg%thermo_file); out_path(2)%s = trim(cfg%forces_file)
         out_path(3)%s = trim(cfg%final_atoms_file); out_path(4)%s = trim(cfg%trajectory_file)
         out_path(5)%s = trim(cfg%checkpoint_file)
         out_path(6)%s = ''
         if (len_trim(cfg%mesh_file) > 0 .and. len_trim(cfg%trajectory_file) > 0) &
             out_path(6)%s = xdmf_sidecar_path(trim(cfg%trajectory_file))
+        out_path(7)%s = trim(cfg%summary_file)
+        out_path(8)%s = ''
+        if (wants_topology_data(cfg%trajectory_file, cfg%dimension, len_trim(cfg%mesh_file) > 0)) &
+            out_path(8)%s = topology_data_path(trim(cfg%trajectory_file))
         in_keys = [character(len=16) :: 'input deck', 'read_data', 'atoms_file', 'read_h5md', 'file', 'read_checkpoint', &
                    'mesh_file']
         in_groups = [character(len=16) :: '', 'system', 'system', 'system', 'potential', 'system', 'system']
@@ -120,13 +127,15 @@ contains
             s = cfg%where('output', trim(out_keys(i)))//" = '"//out_path(i)%s//"'"
             if (i == 6) s = cfg%where('output', 'trajectory_file')//" = '"//trim(cfg%trajectory_file)// &
                             "': its XDMF sidecar '"//out_path(i)%s//"'"
+            if (i == 8) s = cfg%where('output', 'trajectory_file')//" = '"//trim(cfg%trajectory_file)// &
+                            "': its topology for MDAnalysis '"//out_path(i)%s//"'"
         end function where
 
         function verb(i) result(s)
             integer, intent(in) :: i
             character(len=:), allocatable :: s
             s = 'cannot write'
-            if (i >= 4) s = 'cannot create'
+            if (i >= 4 .and. i <= 6) s = 'cannot create'
         end function verb
 
         subroutine check_one(i)

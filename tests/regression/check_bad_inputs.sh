@@ -66,7 +66,7 @@ if [ "$hostile" = 1 ]; then
             "the damaged-trajectory cases cannot be generated" >&2
         exit 2
     fi
-    "$py" "$here/bad_inputs/generate_hostile.py" "$cases_dir" > /dev/null || { echo "$0: generator failed" >&2; exit 2; }
+    PYTHONPATH="$here/../../scripts${PYTHONPATH:+:$PYTHONPATH}" "$py" "$here/bad_inputs/generate_hostile.py" "$cases_dir" > /dev/null || { echo "$0: generator failed" >&2; exit 2; }
     manifest=$cases_dir/cases.txt
     cp -a "$here/bad_inputs/control_ok" "$cases_dir/"
 fi

@@ -28,7 +28,6 @@ import numpy as np
 
 from mesh_checks import REPO, ball_mesh, check, compare_restart, finish, run as run_terrace, start
 
-sys.path.insert(0, os.path.join(REPO, "scripts"))
 from point_triangle import boundary_faces, min_node_face_distance  # noqa: E402
 
 terrace, out = start()

@@ -16,8 +16,9 @@ usage: check_energy_stepping.py THERMO.csv [--eh-tol 1e-12] [--p-tol 1e-10] [--a
 import argparse
 import csv
 import os
-import re
 import sys
+
+from terrace_tools import summary
 
 
 def main():
@@ -54,9 +55,9 @@ def main():
     ok = (eh_dev <= a.eh_tol and band <= h * (1 + a.band_slack) and dp <= a.p_tol
           and (not a.angular or dl <= a.l_tol) and events >= a.min_events)
     if a.max_rays_per_event is not None:
-        log = os.path.join(os.path.dirname(os.path.abspath(a.csv)), "terrace.log")
-        m = re.search(r"ray evaluations per event: *([0-9.]+);", open(log).read()) if os.path.exists(log) else None
-        rays = float(m.group(1)) if m else float("inf")
+        path = os.path.join(os.path.dirname(os.path.abspath(a.csv)), "deck.summary.json")   # run_and_check.sh's
+        rays = summary.get(path, "energy_stepping/ray_evaluations_per_event", float("inf")) \
+            if os.path.exists(path) else float("inf")
         print(f"ray evaluations per event   {rays:.3f}   (bound {a.max_rays_per_event})")
         ok = ok and rays <= a.max_rays_per_event
     print("PASS" if ok else "FAIL")

@@ -20,12 +20,13 @@ usage: es_list_complete.py TERRACE OUTDIR [--ranks 1,3] [--min-builds 5]
 import argparse
 import csv
 import os
-import re
 import shutil
 import subprocess
 import sys
 
 import numpy as np
+
+from terrace_tools import summary
 
 CELLS = 4
 DENSITY = 0.8442
@@ -108,14 +109,15 @@ def main():
             work = os.path.join(a.outdir, f'{scene}_np{np_}')
             shutil.rmtree(work, ignore_errors=True)
             os.makedirs(work)
-            out = run(a.terrace, work, DECK if scene == 'lj' else EAM_DECK, np_, env)
+            run(a.terrace, work, DECK if scene == 'lj' else EAM_DECK, np_, env)
             row = last_row(os.path.join(work, 'thermo.csv'))   # every digit (the screen has ten)
             pe_run = float(row['pe'])
             end = 1.5 if scene == 'lj' else 1.0
             if abs(float(row['time']) - end) > 1e-12:
                 failures.append(f'{scene}, {np_} rank(s): the last thermo row is at time {row["time"]}, not {end}')
-            builds = int(re.search(r'Neighbour list builds: (\d+)', out).group(1))
-            prunes = re.search(r': (\d+) prunes', out)
+            figures = summary.read(os.path.join(work, 'run.summary.json'))
+            builds = summary.get(figures, 'neighbor/builds')
+            prunes = summary.get(figures, 'neighbor/prunes', None)
             x = np.loadtxt(os.path.join(work, 'final.atoms'), comments='#')[:, 1:4]
             if scene == 'lj':
                 pe_ref = all_pairs_energy(x, length)
@@ -128,7 +130,7 @@ def main():
                 ref = 'a list built for the final positions'
             rel = abs(pe_run - pe_ref)/abs(pe_ref)
             print(f'{scene}, {np_} rank(s): {len(x)} atoms, {builds} list builds'
-                  f'{", " + prunes.group(1) + " prunes" if prunes else ""}; pe from the run {pe_run:.12e}, '
+                  f'{f", {prunes} prunes" if prunes is not None else ""}; pe from the run {pe_run:.12e}, '
                   f'from {ref} {pe_ref:.12e}, relative difference {rel:.2e}')
             if builds < a.min_builds:
                 failures.append(f'{scene}, {np_} rank(s): only {builds} list builds (the atoms must move several skins)')

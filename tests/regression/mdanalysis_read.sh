@@ -5,6 +5,9 @@
 # every frame it returns (positions, velocities, forces, box, time, step) must equal what h5py reads
 # from the file to MDAnalysis's float32 rounding, and the file must match the engine's own text
 # outputs: the forces file (step 0) and the final-atoms file (last frame, positions and velocities).
+# Both also open in one line, mda.Universe('X.topology.data', 'X.h5', format='H5MD', convert_units=False),
+# with the topology Terrace writes beside a 3-D trajectory (types and masses = the file's species and
+# mass), and through terrace_tools.h5md.universe('X.h5'): positions = h5py's in every frame.
 # A 2-D file is also offered to MDAnalysis, which refuses 2-D boxes (reported, not failed).
 #
 # The virtual environment ($TERRACE_VENV, default ~/.cache/terrace-venv; Debian's python3 with
@@ -88,7 +91,7 @@ for deck in cluster flat; do
 done
 
 # ---- MDAnalysis against h5py and the engine's text outputs
-"$venv/bin/python" - <<'PY'
+PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" "$venv/bin/python" - <<'PY'
 import sys
 import warnings
 import h5py
@@ -183,6 +186,46 @@ for stem, periodic, units in (("liquid", True, False), ("cluster", False, True))
     check("last frame velocities (h5py) = final-atoms file exactly",
           np.array_equal(p["velocity/value"][-1], final[:, 4:7]))
     f.close()
+
+# ---- one line: the topology Terrace writes beside a 3-D trajectory, and terrace_tools' helper
+from terrace_tools import h5md as th5
+
+for stem, metal in (("liquid", False), ("cluster", True)):
+    print(f"--- one-line Universe of {stem}.h5 ({'metal' if metal else 'LJ'} units)")
+    u = mda.Universe(f"{stem}.topology.data", f"{stem}.h5", format="H5MD", convert_units=False)
+    helper = th5.universe(f"{stem}.h5")
+    with h5py.File(f"{stem}.h5", "r") as f:
+        p = f["particles/all"]
+        nf = p["position/value"].shape[0]
+        check(f"mda.Universe('{stem}.topology.data', '{stem}.h5', format='H5MD', convert_units=False): "
+              f"{len(u.atoms)} atoms, {u.trajectory.n_frames} frames",
+              len(u.atoms) == p["id"].shape[0] and u.trajectory.n_frames == nf)
+        check("its masses are /particles/all/mass, its types /particles/all/species",
+              np.array_equal(u.atoms.masses, p["mass"][()]) and
+              np.array_equal(u.atoms.types.astype(int), p["species"][()]))
+        check("terrace_tools.h5md.universe: the same atoms, masses and types",
+              np.array_equal(helper.atoms.masses, u.atoms.masses) and
+              np.array_equal(helper.atoms.types, u.atoms.types))
+        check(f"helper converts units only where MDAnalysis knows them all: {helper.trajectory.convert_units}",
+              helper.trajectory.convert_units == metal)
+        wu = wh = 0.0
+        for ts, th in zip(u.trajectory, helper.trajectory):
+            ref = p["position/value"][ts.frame]
+            wu = max(wu, rel32(ts.positions.astype(np.float64), ref))
+            wh = max(wh, rel32(th.positions.astype(np.float64), ref))
+        check(f"every frame's positions equal h5py's to float32 rounding (one line {wu:.2f}, helper {wh:.2f})",
+              wu <= 1.0 and wh <= 1.0)
+        import shutil
+        shutil.copy(f"{stem}.h5", f"{stem}_alone.h5")       # no topology beside it: built from the file
+        alone = th5.universe(f"{stem}_alone.h5")
+        check("terrace_tools.h5md.universe without the topology file: masses and types from the H5MD file",
+              np.array_equal(alone.atoms.masses, p["mass"][()]) and
+              np.array_equal(alone.atoms.types.astype(int), p["species"][()]) and
+              rel32(alone.trajectory[-1].positions.astype(np.float64), p["position/value"][-1]) <= 1.0)
+        if metal:
+            m = mda.Universe(f"{stem}.topology.data", f"{stem}.h5", format="H5MD")
+            check(f"metal units without forces also open with unit conversion: {m.trajectory.units}",
+                  m.trajectory.units["length"] == "Angstrom" and m.trajectory.units["time"] == "ps")
 
 print("--- flat.h5 (2-D)")
 try:

@@ -88,5 +88,5 @@ cat > nve.nml <<EOF
 &output thermo_every=20, thermo_file='thermo.csv' /
 EOF
 run nve.nml "$np"
-grep -E "^(Energy drift|Loop time)" nve.log || true
+"$PYTHON" -m terrace_tools.summary show nve.summary.json conservation timing/loop_time_s
 "$PYTHON" "$here/check_conservation.py" thermo.csv 2048 --p-tol 1e-10 --e-tol 1e-3

@@ -20,8 +20,9 @@ deck() {   # name neighbor-keys
         "$here/decks/liquid_2048.nml" > "$1.nml"
     grep -q "skin=0.3$2 /" "$1.nml" || { echo "FAIL: could not set '$2' in the deck"; exit 1; }
 }
-builds() { sed -n 's/^Neighbour list builds: \([0-9]*\).*/\1/p' "$1.log"; }
-late() { sed -n 's/^Neighbour list schedule: .*more than skin\/2: \([0-9]*\) of \([0-9]*\)$/\1 \2/p' "$1.log"; }
+figure() { "$PYTHON" -m terrace_tools.summary get "$1.summary.json" "$2"; }   # the run summary's
+builds() { figure "$1" neighbor/builds; }
+late() { echo "$(figure "$1" neighbor/late_builds) $(figure "$1" neighbor/builds)"; }
 
 deck exact ""
 deck every1 ", every=1, check=.false."
@@ -54,7 +55,7 @@ ne="$(builds exact)"; n5="$(builds checked5)"; read -r l5 b5 <<< "$(late checked
 [[ "$n5" -le "$ne" && "$b5" == "$n5" && "$l5" -ge 1 && "$l5" -le $((n5 - 1)) ]] || {
     echo "FAIL: checked every 5: $n5 builds ($l5 late) against $ne exact"; exit 1; }
 echo "ok   checked every 5 steps: $n5 builds ($l5 late) against $ne for the exact schedule"
-grep -h "Energy drift" exact.log fixed20.log | sed 's/^/     /'
+for n in exact fixed20; do echo "     $n: energy drift $(figure $n conservation/energy_drift_per_atom_time) per atom per tau"; done
 
 # 4. the pruned list: which potentials and integrators get it (the scene plan's pairs line)
 es_deck() {   # name potential-line

@@ -27,8 +27,8 @@ import sys
 import h5py
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from checkpoint_restart import fail, make_deck, run as run_deck  # noqa: E402  (the same deck edits and runs)
+from checkpoint_restart import fail, make_deck, run as run_deck  # (the same deck edits and runs)
+from terrace_tools import summary
 
 
 def deck(src, dst, walltime=False, restart=False, outputs=None):
@@ -67,11 +67,10 @@ def main():
     run(terrace, np_, "run", ref, 0)
 
     deck(src, os.path.join(wd, "stop.nml"), walltime=True)
-    log = run(terrace, np_, "stop", wd, 3)
-    m = re.findall(r"checkpoint: step (\d+)", log)
-    if not m:
-        fail("the stopped run printed no checkpoint line")
-    s = int(m[-1])
+    run(terrace, np_, "stop", wd, 3)
+    s = summary.get(os.path.join(wd, "stop.summary.json"), "checkpoint/step", None)
+    if s is None or summary.get(os.path.join(wd, "stop.summary.json"), "exit/reason") != "walltime_limit":
+        fail("the stopped run's summary names no checkpoint, or another exit reason than walltime_limit")
 
     # a kill inside HDF5's flush: the superblock's end of file lies beyond the file's end
     traj = os.path.join(wd, "traj.h5")
@@ -97,7 +96,14 @@ def main():
     log = run(terrace, np_, "new", wd, 3)
     if "the run goes on in thermo.part2.csv and traj.part2.h5" not in log:
         fail("restart_outputs = 'new' did not say where the run goes on:\n" + log[-2000:])
-    s2 = int(re.findall(r"checkpoint: step (\d+)", log)[-1])
+    # its run summary is a part file too, and names the part files it wrote
+    s2 = summary.get(os.path.join(wd, "new.summary.part2.json"), "checkpoint/step")
+    if summary.get(os.path.join(wd, "new.summary.part2.json"), "outputs") != {
+            "thermo_file": "thermo.part2.csv", "trajectory_file": "traj.part2.h5",
+            "topology_file": "traj.part2.topology.data", "checkpoint_file": "restart.h5",
+            "summary_file": "new.summary.part2.json"}:
+        fail("the run summary of restart_outputs = 'new' does not list its part files: "
+             + str(summary.get(os.path.join(wd, "new.summary.part2.json"), "outputs")))
     if s2 < s:
         fail(f"the second checkpoint (step {s2}) lies before the first (step {s})")
     run(terrace, np_, "append", wd, 0)       # appends to the part-2 files (the checkpoint's output_part)

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Run a deck on NP ranks, show the run log's summary lines, then check its thermo CSV with CHECKER
+# Run a deck on NP ranks, show the closing figures of its run summary, then check its thermo CSV with CHECKER
 # (a Python script beside this one: check_conservation.py for velocity Verlet, check_energy_stepping.py
 # for energy stepping) and the checker's own options.
 # Usage: tests/regression/run_and_check.sh TERRACE_BINARY DECK OUTDIR NP CHECKER [checker arguments...]
@@ -14,5 +14,5 @@ rm -rf "$out"; mkdir -p "$out"
 sed "s#@REPO@#$repo#g" "$deck" > "$out/deck.nml"
 (cd "$out" && timeout 600 mpirun --oversubscribe -np "$np" "$terrace" deck.nml > terrace.log 2>&1) || {
     echo "FAIL: terrace failed"; tail -5 "$out/terrace.log"; exit 1; }
-grep -E "^(Energy drift|Loop time|Events|Mean event)" "$out/terrace.log" || true
+"$PYTHON" -m terrace_tools.summary show "$out/deck.summary.json" conservation timing/loop_time_s energy_stepping
 "$PYTHON" "$here/$checker" "$out/thermo.csv" "$@"

@@ -10,9 +10,10 @@ usage: time_reversal.py TERRACE OUTDIR [--bound 1e-8] [--assert-events 100]
 """
 import argparse
 import os
-import re
 import subprocess
 import sys
+
+from terrace_tools import summary
 
 DECK = """&run units='metal', dimension=2, run_time={T}, seed=1 /
 &system atoms_file='{atoms}', periodic=.false.,.false., mass=39.951{rev} /
@@ -38,8 +39,7 @@ def run(terrace, work, name, text):
     if p.returncode != 0:
         print(p.stdout[-2000:], p.stderr[-2000:])
         raise SystemExit(f"FAIL: terrace failed on {deck}")
-    m = re.search(r"^Events: (\d+)", p.stdout, re.M)
-    return int(m.group(1)) if m else 0
+    return summary.get(os.path.join(work, name + ".summary.json"), "energy_stepping/events", 0)
 
 
 def main():

@@ -2,7 +2,7 @@
 # The Verlet buffer from an energy-drift tolerance (&neighbor buffer_tolerance, every = 20), on the
 # 2048-atom LJ liquid deck (fcc 8x8x8 melting at T* = 1.44, rc 2.5, energy shifted at rc so that
 # the total energy has no jumps), 4000 steps of NVE (20 tau):
-#   1. the measured drift (the run log's "Energy drift", per atom per tau) of the runs with
+#   1. the measured drift (the run summary's energy drift, per atom per tau) of the runs with
 #      tolerance 1e-2 and 1e-3 lies within each tolerance; the smaller tolerance has the larger skin;
 #   2. the same schedule without a buffer (skin = 0, every = 20) drifts at more than 10 times the
 #      smaller tolerance (the missed pairs the buffer is there for: the check above can fail), and
@@ -17,8 +17,8 @@ deck() {   # name steps neighbor-keys
         "$here/decks/liquid_2048.nml" > "$1.nml"
     grep -q "^&neighbor $3 /" "$1.nml" && grep -q "shift=.true." "$1.nml" || { echo "FAIL: could not edit the deck for $1"; exit 1; }
 }
-skin() { sed -n 's/^ *pairs *: .* + skin \([0-9.eE+-]*\)[,)].*/\1/p' "$1.log" | head -1; }
-drift() { sed -n 's/^Energy drift: *\([0-9.eE+-]*\) .*/\1/p' "$1.log"; }
+skin() { "$PYTHON" -m terrace_tools.summary get "$1.summary.json" neighbor/skin; }
+drift() { "$PYTHON" -m terrace_tools.summary get "$1.summary.json" conservation/energy_drift_per_atom_time; }
 within() { "$PYTHON" -c "import sys; sys.exit(not abs(float('$1')) <= float('$2'))"; }
 
 deck tol2 4000 "every=20, buffer_tolerance=1e-2"

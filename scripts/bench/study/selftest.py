@@ -13,14 +13,14 @@
     paths and harmonic velocities: same first-peak position and height, D within 10 % and within
     3 of its block standard errors, VDOS peak within one resolution 1/(M dt).
 Exit status 0 when all pass.
-Usage: selftest.py [BUILD_DIR]"""
+Usage (from scripts/bench, with scripts on PYTHONPATH or terrace_tools installed):
+  python3 -m study.selftest [BUILD_DIR]"""
 import os
 import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from study import analysis as A  # noqa: E402
+from . import analysis as A
 
 
 def check(name, ok, detail):

@@ -15,7 +15,6 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import MPI_ENV, Checks, read_csv, run  # noqa: E402
 
 terrace, exe, deck, nml, work = [os.path.abspath(a) for a in sys.argv[1:6]]

@@ -14,7 +14,6 @@ import sys
 import h5py
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import MPI_ENV, Checks, write_h5md  # noqa: E402
 
 exe, work = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])

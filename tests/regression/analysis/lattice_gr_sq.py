@@ -19,7 +19,6 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import Checks, read_csv, run, write_h5md  # noqa: E402
 
 exe, work = os.path.abspath(sys.argv[1]), sys.argv[2]

@@ -388,8 +388,7 @@ case('eam_file_missing_beside', ['Cu.set', '&potential', 'file', 'next to the de
 import h5py  # noqa: E402  (the harness runs this generator with a python that has h5py)
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'analysis'))
-from common import write_h5md  # noqa: E402
+from terrace_tools.h5md import write_synthetic as write_h5md  # noqa: E402
 
 H5_NF, H5_N = 40, 16
 _rng = np.random.default_rng(15)

@@ -119,7 +119,10 @@ def main():
             stray = [n for n in os.listdir(d) if 'terrace-' in n or n.endswith('.tmp')]
             if stray:
                 fail('run %d: temporary or lock files left in %s: %s' % (attempt, d, stray))
-        extra = sorted(set(os.listdir(work)) - set(links.values()) - {'run.nml'})
+        # (the run summary, named after the deck, and the trajectory's topology companion, named after
+        # the trajectory as the deck gives it, belong beside the deck)
+        extra = sorted(set(os.listdir(work)) - set(links.values())
+                       - {'run.nml', 'run.summary.json', os.path.splitext(links['traj'])[0] + '.topology.data'})
         if extra:
             fail('run %d: files written beside the links instead of through them: %s' % (attempt, extra))
 

@@ -40,7 +40,7 @@ contains
         u = real(self%state, dp)/2147483647.0_dp
     end function rng_uniform
 
-    !> The sequence of src/integrators/engine.f90 (engine_rebuild) for the cell-list path.
+    !> The sequence of src/engine/engine.f90 (engine_rebuild) for the cell-list path.
     subroutine rebuild(dom, list, atoms)
         type(domain_t), intent(inout) :: dom
         type(neighbor_list_t), intent(inout) :: list

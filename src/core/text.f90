@@ -1,8 +1,9 @@
 !> Small text helpers shared by the readers.
 module terrace_text
+    use terrace_kinds, only: dp
     implicit none
     private
-    public :: count_tokens, fixed, int_text
+    public :: count_tokens, fixed, int_text, real_text
 
 contains
 
@@ -30,10 +31,19 @@ contains
         s = trim(b)
     end function int_text
 
+    !> A real as text with six significant digits (g0.6), no padding.
+    function real_text(x) result(s)
+        real(dp), intent(in) :: x
+        character(len=:), allocatable :: s
+        character(len=32) :: b
+        write (b, '(g0.6)') x
+        s = trim(adjustl(b))
+    end function real_text
+
     !> x in fixed notation with d decimals and no padding, with the leading zero that gfortran's
     !> f0.d leaves out ('0.8269', '-0.5', not '.8269', '-.5').
     function fixed(x, d) result(s)
-        real(kind(1.0d0)), intent(in) :: x
+        real(dp), intent(in) :: x
         integer, intent(in) :: d
         character(len=:), allocatable :: s
         character(len=64) :: b, f

@@ -22,6 +22,7 @@
 !> CSV, and each rank writes its own atoms' rows of a trajectory frame.
 module terrace_event_driven
     use terrace_kinds, only: dp, i8
+    use terrace_text, only: int_text, real_text
     use terrace_engine, only: engine_t
     use terrace_thermo, only: thermo_writer_t
     use terrace_trajectory, only: trajectory_t
@@ -86,7 +87,7 @@ contains
         call check_all(found, 'event_driven: the potential is not a stepped one')
         call check_all(all(eng%box%length >= 3*tab%rmax), p%where_cells// &
                        ': the box must be at least 3 interaction radii long in x, y and z for event-driven '// &
-                       'integration (largest radius: '//num(tab%rmax)//')')
+                       'integration (largest radius: '//real_text(tab%rmax)//')')
         ratio = huge(1.0_dp)
         if (allocated(eng%list%first)) then
             do i = 1, eng%atoms%nlocal
@@ -99,7 +100,7 @@ contains
             end do
         end if
         call min_all(ratio)
-        call check_all(ratio >= 1, eng%source//': overlapping hard cores (closest pair at '//num(sqrt(ratio))// &
+        call check_all(ratio >= 1, eng%source//': overlapping hard cores (closest pair at '//real_text(sqrt(ratio))// &
                        ' diameters)')
     end subroutine check_event_driven_start
 
@@ -135,7 +136,7 @@ contains
         sched_slot = n + 1
         call cells%init(eng%box%lo, length, tab%rmax, n, ok)
         call check_all(ok, p%where_cells//': the box must be at least 3 interaction radii '// &
-                       'long in x, y and z for event-driven integration (largest radius: '//num(tab%rmax)//')')
+                       'long in x, y and z for event-driven integration (largest radius: '//real_text(tab%rmax)//')')
         call place_atoms()
         call find_regions()
         ke_run = kinetic(); ke_int = 0; t_ke = 0; virial = 0; t_last = 0; core_last = 0
@@ -318,7 +319,7 @@ contains
                             dx = dx - length*anint(dx*inv_len)
                             s = tab%region_of(typ(i), typ(j), sum(dx**2))
                             if (s == tab%nr(typ(i), typ(j))) call stop_all(eng%source//': overlapping hard cores '// &
-                                '(atoms '//num_i(id_of(i))//' and '//num_i(id_of(j))//' closer than their diameter)')
+                                '(atoms '//int_text(id_of(i))//' and '//int_text(id_of(j))//' closer than their diameter)')
                             if (s > 0) then
                                 call map%put(i, j, s)
                                 pe = pe + tab%u(s, typ(i), typ(j))
@@ -600,21 +601,5 @@ contains
         end function kinetic
 
     end subroutine run_event_driven
-
-    function num(x) result(s)
-        real(dp), intent(in) :: x
-        character(len=:), allocatable :: s
-        character(len=32) :: b
-        write (b, '(g0.6)') x
-        s = trim(adjustl(b))
-    end function num
-
-    function num_i(k) result(s)
-        integer, intent(in) :: k
-        character(len=:), allocatable :: s
-        character(len=16) :: b
-        write (b, '(i0)') k
-        s = trim(b)
-    end function num_i
 
 end module terrace_event_driven

@@ -56,29 +56,33 @@ contains
     !> The styles energy stepping can run, each with how it acts, and 'none' (for messages).
     function thermostat_styles_for_events() result(list)
         character(len=:), allocatable :: list
-        class(thermostat_t), allocatable :: ts
-        integer :: k
-        list = ''
-        do k = 1, size(names)
-            call new_thermostat(names(k), thermostat_params_t(), ts)
-            if (.not. ts%active() .or. len(ts%event_note()) == 0) cycle
-            list = list//"'"//trim(names(k))//"', "//ts%event_note()//'; '
-        end do
-        list = list//"or 'none'"
+        list = styles_that('events')//"or 'none'"
     end function thermostat_styles_for_events
 
     !> The styles that take &thermostat chain_length (for messages).
     function thermostat_styles_with_chain() result(list)
+        character(len=:), allocatable :: list
+        list = styles_that('chain')
+    end function thermostat_styles_with_chain
+
+    !> The active styles whose prototype answers yes: 'events' (runs with energy stepping: "'name',
+    !> how it acts; " each) or 'chain' (takes chain_length: "style = 'name'", joined by ' or ').
+    function styles_that(what) result(list)
+        character(len=*), intent(in) :: what
         character(len=:), allocatable :: list
         class(thermostat_t), allocatable :: ts
         integer :: k
         list = ''
         do k = 1, size(names)
             call new_thermostat(names(k), thermostat_params_t(), ts)
-            if (.not. ts%takes_chain()) cycle
-            if (len(list) > 0) list = list//' or '
-            list = list//"style = '"//trim(names(k))//"'"
+            if (.not. ts%active()) cycle
+            if (what == 'events' .and. len(ts%event_note()) > 0) then
+                list = list//"'"//trim(names(k))//"', "//ts%event_note()//'; '
+            else if (what == 'chain' .and. ts%takes_chain()) then
+                if (len(list) > 0) list = list//' or '
+                list = list//"style = '"//trim(names(k))//"'"
+            end if
         end do
-    end function thermostat_styles_with_chain
+    end function styles_that
 
 end module terrace_thermostat_factory

@@ -132,9 +132,8 @@ contains
         end if
     end function move_ghosts
 
-    !> A restart: the step the checkpoint was taken at, the first sample of the whole run (for the
-    !> drift report) and the thermostat's state. (The energy guard takes its reference at the first
-    !> sample after the restart.)
+    !> A restart: the step the checkpoint was taken at and the run's own keys (exchange_first). (The
+    !> energy guard takes its reference at the first sample after the restart.)
     subroutine restore_state(eng, p, ts, step0, first)
         type(engine_t), intent(inout) :: eng
         type(verlet_params_t), intent(in) :: p
@@ -145,39 +144,56 @@ contains
         ok = .true.
         step0 = eng%restart_values%get_i('step', ok)
         first%step = 0; first%time = 0
-        first%etotal = eng%restart_values%get_r('first_etotal', ok)
-        first%momentum(1) = eng%restart_values%get_r('first_px', ok)
-        first%momentum(2) = eng%restart_values%get_r('first_py', ok)
-        first%momentum(3) = eng%restart_values%get_r('first_pz', ok)
-        if (ts%active()) then
-            first%ecouple = eng%restart_values%get_r('first_ecouple', ok)
-            call ts%restore(eng%restart_values, ok)
-        end if
+        call exchange_first(eng%restart_values, first, ts, .false., ok)
         call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
                        '(velocity Verlet state missing)')
     end subroutine restore_state
 
-    !> A checkpoint: the first sample's energy and momentum (the drift report of the continued run)
-    !> and the thermostat's state, through the run's outputs.
+    !> A checkpoint of the run's own keys (exchange_first) through the run's outputs.
     subroutine checkpoint(eng, ts, out, first, step, time, scheduled)
         type(engine_t), intent(inout) :: eng
         class(thermostat_t), intent(inout) :: ts
         type(run_outputs_t), intent(inout) :: out
-        type(thermo_sample_t), intent(in) :: first
+        type(thermo_sample_t), intent(inout) :: first
         integer(i8), intent(in) :: step
         real(dp), intent(in) :: time
         logical, intent(in) :: scheduled
         type(named_values_t) :: values
-        call values%put('first_etotal', first%etotal)
-        call values%put('first_px', first%momentum(1))
-        call values%put('first_py', first%momentum(2))
-        call values%put('first_pz', first%momentum(3))
-        if (ts%active()) then
-            call values%put('first_ecouple', first%ecouple)
-            call ts%save(values)
-        end if
+        logical :: ok
+        ok = .true.
+        call exchange_first(values, first, ts, .true., ok)
         call out%checkpoint(eng, values, step, time, scheduled)
     end subroutine checkpoint
+
+    !> The Verlet run's own restart keys, in one place: the first sample's energy and momentum (the
+    !> drift report of a continued run) and, with a thermostat, its ecouple and the thermostat's
+    !> state; written to (saving) or read from a checkpoint's values.
+    subroutine exchange_first(values, first, ts, saving, ok)
+        type(named_values_t), intent(inout) :: values
+        type(thermo_sample_t), intent(inout) :: first
+        class(thermostat_t), intent(inout) :: ts
+        logical, intent(in) :: saving
+        logical, intent(inout) :: ok
+        character(len=12), parameter :: keys(4) = [character(len=12) :: 'first_etotal', 'first_px', 'first_py', &
+                                                                          'first_pz']
+        real(dp) :: vals(4)
+        integer :: k
+        if (saving) then
+            vals = [first%etotal, first%momentum]
+            do k = 1, 4
+                call values%put(trim(keys(k)), vals(k))
+            end do
+            if (ts%active()) call values%put('first_ecouple', first%ecouple)
+            if (ts%active()) call ts%save(values)
+            return
+        end if
+        do k = 1, 4
+            vals(k) = values%get_r(trim(keys(k)), ok)
+        end do
+        first%etotal = vals(1); first%momentum = vals(2:4)
+        if (ts%active()) first%ecouple = values%get_r('first_ecouple', ok)
+        if (ts%active()) call ts%restore(values, ok)
+    end subroutine exchange_first
 
     !> Half kick v += dtfm(type) f of the n owned atoms and, when drift, the drift x += dt v.
     !> Explicit shapes: the compiler sees contiguous, unaliased columns and vectorises (through the

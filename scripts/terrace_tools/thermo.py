@@ -31,3 +31,39 @@ def momentum_change(t):
     """|P_last - P_first| from the px, py, pz columns."""
     p = np.stack([t["px"], t["py"], t["pz"]], axis=1)
     return float(np.linalg.norm(p[-1] - p[0]))
+
+
+def plot(path, columns, out, units=None):
+    """One panel per column of a thermo CSV against time, saved as a PNG (`out`). `units`: a label
+    per column, e.g. {'temp': 'K'}. Returns the figure's path."""
+    from terrace_tools.plotting import plt, DPI
+    t = read(path)
+    if not t:
+        raise SystemExit(f"{path}: no thermo rows")
+    missing = [c for c in columns if c not in t]
+    if missing:
+        raise SystemExit(f"{path}: no column {', '.join(missing)} (columns: {', '.join(t)})")
+    fig, axes = plt.subplots(len(columns), 1, sharex=True, figsize=(6.4, 1.9 * len(columns) + 0.6), squeeze=False)
+    for ax, c in zip(axes[:, 0], columns):
+        ax.plot(t["time"], t[c], color="tab:blue")
+        ax.set_ylabel(c + (f" ({units[c]})" if units and c in units else ""))
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("time" + (f" ({units['time']})" if units and "time" in units else ""))
+    fig.suptitle(os.path.basename(path))
+    fig.tight_layout()
+    fig.savefig(out, dpi=DPI)
+    plt.close(fig)
+    return out
+
+
+def main(argv=None):
+    """python3 -m terrace_tools.thermo plot THERMO.csv COL[,COL...] OUT.png"""
+    import sys
+    argv = sys.argv[1:] if argv is None else argv
+    if len(argv) != 4 or argv[0] != "plot":
+        raise SystemExit("usage: python3 -m terrace_tools.thermo plot THERMO.csv COL[,COL...] OUT.png")
+    print(plot(argv[1], [c for c in argv[2].split(",") if c], argv[3]))
+
+
+if __name__ == "__main__":
+    main()

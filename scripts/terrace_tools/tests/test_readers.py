@@ -95,3 +95,13 @@ def test_thermo_csv(tmp_path):
     assert thermo.energy_drift(t, 2) == pytest.approx(0.01 / (2 * 0.05))
     assert thermo.momentum_change(t) == 5.0
     assert thermo.read(str(tmp_path / "missing.csv")) == {}
+
+
+def test_thermo_plot(tmp_path):
+    p = tmp_path / "t.csv"
+    p.write_text("step,time,temp,etotal\n0, 0.0, 184.0, -1.0\n10, 1.0, 120.0, -0.99\n20, 2.0, 95.0, -0.98\n")
+    out = tmp_path / "t.png"
+    assert thermo.plot(str(p), ["temp", "etotal"], str(out)) == str(out)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 5000
+    with pytest.raises(SystemExit, match="no column press"):
+        thermo.plot(str(p), ["press"], str(out))

@@ -1,6 +1,7 @@
 """Shared machinery of the benchmark study: environment description, running Terrace and LAMMPS,
 reading their outputs (logs, thermo CSV, H5MD, LAMMPS dumps, atoms files)."""
 import datetime
+import math
 import os
 import re
 import shutil
@@ -15,6 +16,14 @@ REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), 
 KB_METAL = 8.617343e-5          # eV/K (Terrace and LAMMPS metal units)
 MPI_ENV = {'OMPI_ALLOW_RUN_AS_ROOT': '1', 'OMPI_ALLOW_RUN_AS_ROOT_CONFIRM': '1',
            'OMPI_MCA_rmaps_base_oversubscribe': '1'}
+
+
+def exact_dt(t_end, dt):
+    """The Verlet step that ends a run exactly at T_END: t_end / N with N = ceil(t_end / dt), so the
+    step is never larger than the requested DT (the engine takes nint(run_time / dt) steps: with a dt
+    that does not divide run_time the run would end up to dt/2 away from t_end)."""
+    n = max(1, int(math.ceil(t_end / dt * (1.0 - 1e-12))))
+    return t_end / n
 
 
 def sh(cmd, cwd=None):

@@ -25,7 +25,7 @@ import sys
 
 import numpy as np
 
-from .common import REPO, run_terrace, read_thermo
+from .common import REPO, exact_dt, run_terrace, read_thermo
 
 SOLID_KEYS = ['cube', 'balls']
 FAIL_FRACTION = 0.1          # a Verlet run fails when max |E - E0| > 10 % of E0 (or the engine stops it)
@@ -112,6 +112,9 @@ def read_final(path):
 # ------------------------------------------------------------------------------------ runs
 def one_run(ctx, scene, work, mesh, method, param, p, ref=None, t_end=None, traj=0.0, every=0):
     t_end = t_end or p['t_long']
+    requested = param
+    if method == 'verlet':          # dt = t_end / N: the run ends exactly at t_end
+        param = exact_dt(t_end, param)
     name = '%s_%s_%g' % (os.path.splitext(mesh)[0], method, param)
     integ = verlet(param) if method == 'verlet' else stepping(param)
     if mesh not in _BASE:           # the zero-length run's CPU time, best of 3
@@ -119,7 +122,7 @@ def one_run(ctx, scene, work, mesh, method, param, p, ref=None, t_end=None, traj
         _BASE[mesh] = min(_cpu_run(ctx, work, bn, _deck(scene, mesh, verlet(p['dt_ref']), 0, p['thermo'], bn)
                                    .replace('run_time=0,', 'n_steps=0,'))[1] for _ in range(3))
     r, cpu = _cpu_run(ctx, work, name, _deck(scene, mesh, integ, t_end, p['thermo'], name, traj, every))
-    row = dict(scene=scene, method=method, param=param, t_end=t_end, rc=r['rc'], error=r['error'],
+    row = dict(scene=scene, method=method, param=param, requested=requested, t_end=t_end, rc=r['rc'], error=r['error'],
                cpu=cpu - _BASE[mesh], cpu_base=_BASE[mesh])
     th = read_thermo(os.path.join(work, name + '.csv')) if r['rc'] == 0 else {}
     if r['rc'] == 0 and th:
@@ -161,13 +164,14 @@ def bisect_dt(ctx, scene, work, mesh, p, lo, hi, t_end):
         ok = stable(row)
         why = ('ok (max |E - E0| = %.3g J)' % row['max_de']) if ok else (row['error'] if row['rc'] != 0 else
                                'max |E - E0| = %.3g J > %g E0' % (row['max_de'], FAIL_FRACTION))
-        tried.append(dict(dt=dt, ok=ok, why=why, max_de=row.get('max_de')))
-        print('      %s bisection dt = %.4g s: %s' % (mesh, dt, why), flush=True)
+        tried.append(dict(dt=dt, ran=row['param'], ok=ok, why=why, max_de=row.get('max_de')))
+        print('      %s bisection dt = %.4g s (ran %.4g s, %g s / N): %s' % (mesh, dt, row['param'], t_end, why),
+              flush=True)
         return ok
     if not test(lo):
         raise RuntimeError('%s: Verlet dt = %g is not stable' % (mesh, lo))
     if test(hi):
-        return dict(stable=hi, fail=None, tried=tried, t_end=t_end)
+        return dict(stable=tried[-1]['ran'], fail=None, tried=tried, t_end=t_end)
     while hi / lo > 1.03:
         mid = math.sqrt(lo * hi)
         if test(mid):
@@ -175,7 +179,8 @@ def bisect_dt(ctx, scene, work, mesh, p, lo, hi, t_end):
         else:
             hi = mid
     fail_why = short_why([t['why'] for t in tried if t['dt'] == hi][0])
-    return dict(stable=lo, fail=hi, fail_why=fail_why, tried=tried, t_end=t_end,
+    ran = {t['dt']: t['ran'] for t in tried}          # the steps that ran (t_end / N, at most the bracket's)
+    return dict(stable=ran[lo], fail=ran[hi], fail_why=fail_why, tried=tried, t_end=t_end,
                 stable_de=[t['max_de'] for t in tried if t['dt'] == lo][0])
 
 

@@ -501,8 +501,8 @@ def write(ctx, results):
           'completes)" = max|E − E0| above 10 % of the initial kinetic energy K0 with exit status 0 (for '
           'Terrace below its blow-up threshold |K0| + |V0|; LAMMPS has no such check); "(not detected)" = '
           'NaN in the output with exit status 0. Energy stepping outcomes: "bound violated" = '
-          '|K + V − E0| > h at a sample (a missed level crossing), "trapped" = the engine\'s >90 % '
-          'reflections warning. Data: [bench_data/stress.csv](bench_data/stress.csv).\n')
+          '|K + V − E0| > h at a sample (a missed level crossing), "trapped" = more than 90 % of '
+          'the events were reflections (the run summary\'s share; the engine warns above one half). Data: [bench_data/stress.csv](bench_data/stress.csv).\n')
         w(table(['test', 'scene', 'method', 'parameter', 'outcome', 'detail', 'wall (s)'],
                 [(r['test'], r['scene'], r['method'], r['param'], r['outcome'], r['detail'],
                   f(r['wall'], '%.2f')) for r in st]))
@@ -530,8 +530,8 @@ def write(ctx, results):
       'at every neighbour-list build, a non-finite coordinate or an atom more than one box length '
       'outside a periodic box stops the run naming the atom (before, the wrap silently clamped it '
       'into the box). Tests `fail_moved_box`, `fail_moved_box_np4`.')
-    w('- **Energy stepping:** h larger than |V0| + K0 is refused at input; a trapped state warns '
-      '(>90 % reflections); a runaway event search stops with a message; |K + V − E0| ≤ h is checked '
+    w('- **Energy stepping:** h larger than |V0| + K0 is refused at input; more than half of the events '
+      'reflections warns (with the share; above 90 % the state is trapped); a runaway event search stops with a message; |K + V − E0| ≤ h is checked '
       'by the tests `es_conservation_frozen7` and by this study at every sample.')
     w('- **More ranks than atoms** is supported (replicated all-pairs path for small free scenes); '
       'results agree with one rank (`ranks_frozen7` on 8 ranks, and the table above).')

@@ -27,7 +27,7 @@ def _terrace_row(scene, r, method, param, label, p, natoms):
     if 'events' in r:
         row.update(events=r['events'], refl_frac=r['refl'] / max(1, r['events']), evals=r.get('evals'),
                    mean_dt=r.get('mean_dt'))
-        if r['trapped_warning'] or any('reflection' in w for w in r['warnings']):
+        if r['trapped']:
             row['status'] = 'ok (trapped: >90 % reflections)'
     return row
 

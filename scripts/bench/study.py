@@ -59,6 +59,9 @@ def main():
     ap.add_argument('--keep', action='store_true', help='keep trajectories and dumps')
     ap.add_argument('--doc', default=os.path.join(common.REPO, 'doc'), help='where benchmarks.md goes')
     ap.add_argument('--no-report', action='store_true')
+    ap.add_argument('--reuse-extras', action='store_true',
+                    help="mesh scenes: keep the saved runs on the talk's 8x8x8 cube and the balls deck's mesh "
+                         "(bench_data/solids_*.json) instead of running them again")
     ap.add_argument('--report-only', action='store_true',
                     help='rebuild benchmarks.md and the figures from DOC/bench_data (no runs; the energy-curve figures are kept)')
     ap.add_argument('--repeat', type=int, default=1,
@@ -69,6 +72,7 @@ def main():
     ctx = Ctx()
     ctx.mode = 'full' if a.full else 'quick'
     ctx.keep = a.keep
+    ctx.reuse_extras = a.reuse_extras
     ctx.repeat = max(1, a.repeat)
     ctx.lammps = not a.no_lammps
     ctx.timeout = a.timeout or (600 if ctx.mode == 'quick' else 36000)

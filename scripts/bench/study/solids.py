@@ -40,7 +40,7 @@ MATERIAL = "&potential style='neohookean', lambda=2.7e6, mu=3.0e5 /"
 PARAMS = {
     'cube': {
         'quick': dict(cells=4, t_long=0.05, thermo=0.0005, dt_ref=1.0e-6,
-                      dts=[5e-6, 1e-5, 2e-5, 5e-5, 1e-4], hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4],
+                      dts=[5e-6, 1e-5, 2e-5, 5e-5, 1e-4], hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5],
                       bisect=(1e-5, 1e-3), bisect_time=0.05,
                       talk=dict(cells=8, t=0.01, hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4], bisect=(1e-5, 4e-4),
                                 bisect_time=0.01)),
@@ -51,12 +51,12 @@ PARAMS = {
                                bisect_time=0.02)),
     },
     'balls': {
-        'quick': dict(refine=3, gap=0.035, t_long=0.065, thermo=0.0005, dt_ref=2.0e-6,
+        'quick': dict(refine=3, gap=0.035, t_long=0.065, thermo=0.0005, dt_ref=2.0e-6, traj=2.5e-4,
                       dts=[5e-6, 1e-5, 2e-5, 4e-5], hs=[3e-3, 1e-3, 3e-4, 1e-4], h_events=1e-3,
                       bisect=(1e-5, 1e-3), bisect_time=0.065,
                       # the deck's mesh and gap (input/balls_es.nml: refine 4, 5 cm), its 0.1 s
                       deck=dict(refine=4, gap=None, t_long=0.1, hs=[1e-3], bisect=(1e-5, 1e-3))),
-        'full': dict(refine=4, gap=0.035, t_long=0.065, thermo=0.0005, dt_ref=1.0e-6,
+        'full': dict(refine=4, gap=0.035, t_long=0.065, thermo=0.0005, dt_ref=1.0e-6, traj=2.5e-4,
                      dts=[5e-6, 1e-5, 2e-5, 4e-5], hs=[3e-3, 1e-3, 3e-4, 1e-4, 3e-5], h_events=1e-3,
                      bisect=(1e-5, 1e-3), bisect_time=0.065),
     },
@@ -110,7 +110,7 @@ def read_final(path):
 
 
 # ------------------------------------------------------------------------------------ runs
-def one_run(ctx, scene, work, mesh, method, param, p, ref=None, t_end=None, traj=0.0, every=0):
+def one_run(ctx, scene, work, mesh, method, param, p, ref=None, t_end=None, traj=0.0, every=0, contact=False):
     t_end = t_end or p['t_long']
     requested = param
     if method == 'verlet':          # dt = t_end / N: the run ends exactly at t_end
@@ -136,8 +136,19 @@ def one_run(ctx, scene, work, mesh, method, param, p, ref=None, t_end=None, traj
                        refl=r.get('refl'))
         x = read_final(os.path.join(work, name + '.final'))
         row['x'] = x
+        row['k_hist'] = (th['time'], th['ke'])
+        if method == 'stepping' and row.get('events'):
+            row['refl_share'] = (row.get('refl') or 0) / row['events']
+        if contact and traj:          # restitution and contact duration (balls_analysis.py)
+            d, _ = contact_window(ctx, work, name)
+            row.update(restitution=d['restitution'], contact=d['duration'], contact_start=d['t_start'])
         if ref is not None:
-            row['pos_err'] = float(np.max(np.linalg.norm(x - ref, axis=1)))
+            row['pos_err'] = float(np.max(np.linalg.norm(x - ref['x'], axis=1)))
+            tr, kr = ref['k_hist']            # kinetic energy history against the reference's, at its samples
+            row['ke_err'] = float(np.max(np.abs(np.interp(tr, th['time'], th['ke']) - kr)))
+            if 'restitution' in row and 'restitution' in ref:
+                row['rest_err'] = abs(row['restitution'] - ref['restitution'])
+                row['contact_err'] = abs(row['contact'] - ref['contact'])
     elif r['rc'] == 0:
         row['rc'], row['error'] = -1, 'no thermo output'
     row['name'] = name
@@ -209,6 +220,7 @@ def event_split(ctx, work, mesh, p, h):
     print('    balls  %s events at h = %g J: %d, contact %.4g to %.4g s' % (mesh, h, len(te), d['t_start'], d['t_end']),
           flush=True)
     row.pop('x', None)
+    row.pop('k_hist', None)
     return dict(h=h, t=[float('%.7g' % x) for x in te], dt=[float('%.5g' % x) for x in dte], start=d['t_start'], end=d['t_end'], analysis=text.strip(),
                 cpu=row['cpu'], max_de=row['max_de'], events=row['events'])
 
@@ -243,10 +255,14 @@ def run_scene(key, ctx):
     print('    %s: %s' % (key, mesh_info.splitlines()[0] if mesh_info else mesh), flush=True)
     res = dict(scene=key, mode=mode, env=dict(ctx.env), params={k: v for k, v in p.items() if k != 'talk'}, mesh=mesh_info)
     # reference
-    ref_row, _ = one_run(ctx, key, work, mesh, 'verlet', p['dt_ref'], p)
+    traj = p.get('traj', 0.0)          # balls: frames for restitution and contact duration
+    ref_row, _ = one_run(ctx, key, work, mesh, 'verlet', p['dt_ref'], p, traj=traj, contact=bool(traj))
     if ref_row['rc'] != 0:
         raise RuntimeError('%s: reference failed: %s' % (key, ref_row['error']))
-    xref = ref_row.pop('x')
+    xref = dict(x=ref_row.pop('x'), k_hist=ref_row.pop('k_hist'))
+    for k in ('restitution', 'contact'):
+        if k in ref_row:
+            xref[k] = ref_row[k]
     res['reference'] = ref_row
     print('    %-6s reference  dt = %-8g cpu %7.2f s  max|dE| %9.3g J  |dL|/L %9.3g  (zero-length run: cpu %.2f s)'
           % (key, p['dt_ref'], ref_row['cpu'], ref_row['max_de'], ref_row['max_dl'], ref_row['cpu_base']), flush=True)
@@ -256,8 +272,9 @@ def run_scene(key, ctx):
     rows = []
     for method, params in (('verlet', sorted(set(p['dts'] + [near]))), ('stepping', p['hs'])):
         for v in params:
-            row, _ = one_run(ctx, key, work, mesh, method, v, p, ref=xref)
+            row, _ = one_run(ctx, key, work, mesh, method, v, p, ref=xref, traj=traj, contact=bool(traj))
             row.pop('x', None)
+            row.pop('k_hist', None)
             rows.append(row)
             if row['rc'] == 0:
                 print('    %-6s %-9s %-10g cpu %7.2f s (loop wall %6.2f s)  max|dE| %9.3g J  |dL|/L %9.3g  pos err %9.3g m%s'
@@ -267,13 +284,20 @@ def run_scene(key, ctx):
             else:
                 print('    %-6s %-9s %-10g FAILED: %s' % (key, method, v, row['error']), flush=True)
     res['rows'] = rows
-    if key == 'cube' and 'talk' in PARAMS[key][mode]:
+    if getattr(ctx, 'reuse_extras', False):     # the talk's / the deck's mesh: keep the saved runs
+        old = load(ctx, key) or {}
+        for k in ('talk', 'deck'):
+            if k in old:
+                res[k] = old[k]
+                res.setdefault('extras_from', old.get('env', {}))
+    if key == 'cube' and 'talk' in PARAMS[key][mode] and 'talk' not in res:
         tk = PARAMS[key][mode]['talk']
         tmesh, info = make_mesh(key, p, work, cells=tk['cells'])
         talk = dict(mesh=info, t=tk['t'], rows=[])
         for h in tk['hs']:
             row, _ = one_run(ctx, key, work, tmesh, 'stepping', h, dict(p, thermo=tk['t']), t_end=tk['t'])
             row.pop('x', None)
+            row.pop('k_hist', None)
             talk['rows'].append(row)
             print('    cube%d stepping h = %g J: %s events in %g s, mean interval %.3g s, cpu %.1f s'
                   % (tk['cells'], h, row.get('events'), tk['t'], row.get('mean_dt') or float('nan'),
@@ -284,6 +308,7 @@ def run_scene(key, ctx):
         dtc = float('%.2g' % (0.97 * talk['bisect']['stable']))
         row, _ = one_run(ctx, key, work, tmesh, 'verlet', dtc, dict(p, thermo=0.002), t_end=0.1)
         row.pop('x', None)
+        row.pop('k_hist', None)
         talk['confirm'] = row
         print('    cube%d verlet dt = %g s over 0.1 s: %s' % (tk['cells'], dtc, 'max |E - E0| = %.3g J, cpu %.2f s'
                                                            % (row['max_de'], row['cpu']) if row['rc'] == 0
@@ -291,7 +316,7 @@ def run_scene(key, ctx):
         res['talk'] = talk
     if key == 'balls':
         res['events'] = event_split(ctx, work, mesh, p, p['h_events'])
-        if p.get('deck'):        # the deck's mesh (input/balls_es.nml): stability limit and event split only
+        if p.get('deck') and 'deck' not in res:        # the deck's mesh (input/balls_es.nml): stability limit and event split only
             dk = dict(p, **p['deck'])
             dmesh, info = make_mesh(key, dk, work)
             deck = dict(mesh=info, refine=dk['refine'], t=dk['t_long'])
@@ -312,7 +337,7 @@ def save(ctx, res):
     with open(base + '.json', 'w') as f:
         json.dump(res, f, indent=1)
     fields = ['method', 'param', 'rc', 'cpu', 'cpu_base', 'wall', 'n', 'max_de', 'max_dl', 'pos_err', 'events', 'mean_dt', 'evals',
-              'refl', 'error']
+              'refl', 'refl_share', 'ke_err', 'restitution', 'rest_err', 'contact', 'contact_err', 'requested', 'error']
     with open(base + '.csv', 'w', newline='') as f:
         w = csv.writer(f)
         w.writerow(fields)
@@ -331,14 +356,28 @@ def _ok(rows, method, k):
                   key=lambda r: r['param'])
 
 
+def convergence(res, method, k):
+    """Least-squares slope of log(error K) against log(dt or h) over the method's runs that finished
+    (the fit range: the smallest and largest parameter used). None with fewer than 3 runs."""
+    pts = [r for r in res['rows'] if r['method'] == method and r['rc'] == 0 and r.get(k)]
+    if len(pts) < 3:
+        return None
+    x = np.array([r['param'] for r in pts])
+    y = np.array([r[k] for r in pts])
+    slope, icept = np.polyfit(np.log(x), np.log(y), 1)
+    return dict(x=x.tolist(), y=y.tolist(), slope=float(slope), icept=float(icept), lo=float(x.min()),
+                hi=float(x.max()), n=len(pts))
+
+
 def fig_wp(res, path):
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.ticker
     import matplotlib.pyplot as plt
-    panels = [('max_de', 'max |E(t) − E0|  [J]'), ('max_dl', 'max |L(t) − L0| / |L0|'),
-              ('pos_err', 'max node-position error at t = %g s  [m]' % res['params']['t_long'])]
-    fig, axs = plt.subplots(1, 3, figsize=(14, 4.6))
+    panels = [('pos_err', 'max node-position error at t = %g s  [m]' % res['params']['t_long'])] + \
+        ([('rest_err', '|e − e_ref|: coefficient of restitution'), ('contact_err', '|t_c − t_c,ref|: contact duration  [s]')]
+         if res['scene'] == 'balls' else [('ke_err', 'max |K(t) − K_ref(t)|: kinetic-energy history  [J]')])
+    fig, axs = plt.subplots(1, len(panels) + 1, figsize=(4.7 * (len(panels) + 1), 4.6))
     for ax, (k, lab) in zip(axs, panels):
         for m, col, mk, name, unit in (('verlet', 'tab:blue', 'o', 'velocity Verlet (dt)', 's'),
                                        ('stepping', 'tab:red', 's', 'energy stepping (h)', 'J')):
@@ -351,12 +390,24 @@ def fig_wp(res, path):
                             fontsize=7, color=col)
         ax.set_xlabel(lab)
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-        if k == 'max_dl':        # round-off for both integrators: show it on a few decades
-            ax.set_xlim(1e-17, 1e-12)
-            ax.set_xlabel(lab + '  (round-off for both)')
         ax.set_ylabel('CPU time [s] (run less a zero-length run)')
         ax.grid(True, which='both', alpha=0.3)
     axs[0].legend(fontsize=8, loc='lower left')
+    ax = axs[-1]             # order of convergence: position error against dt and h, fitted slopes
+    for m, col, mk, name in (('verlet', 'tab:blue', 'o', 'velocity Verlet: dt [s]'),
+                             ('stepping', 'tab:red', 's', 'energy stepping: h [J]')):
+        fit = convergence(res, m, 'pos_err')
+        if not fit:
+            continue
+        ax.loglog(fit['x'], fit['y'], 'o', color=col, marker=mk, ls='none',
+                  label='%s; slope %.2f (%g to %g)' % (name, fit['slope'], fit['lo'], fit['hi']))
+        xs = np.array([fit['lo'], fit['hi']])
+        ax.loglog(xs, np.exp(fit['icept']) * xs ** fit['slope'], '-', color=col, lw=1)
+    ax.set_xlabel('dt [s] (Verlet) or h [J] (energy stepping)')
+    ax.set_ylabel('max node-position error [m]')
+    ax.set_title('order of convergence (least-squares fit)', fontsize=9)
+    ax.legend(fontsize=7, loc='upper left')
+    ax.grid(True, which='both', alpha=0.3)
     fig.suptitle('%s — %s, %g s per run; labels: dt in s, h in J' % (TITLES[res['scene']], _mesh_words(res),
                                                                       res['params']['t_long']), fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.94))
@@ -454,6 +505,11 @@ def section(ctx, results, env):
         L.append('`%s` (commit %s%s), %s, load %s at the start.\n'
                  % (re.sub(r' --work \S+', '', ev_.get('command', '?')), ev_.get('commit', '?'),
                     ' + uncommitted changes' if ev_.get('dirty') else '', ev_.get('date', '?'), ev_.get('load', '?')))
+        if res.get('extras_from'):
+            xf = res['extras_from']
+            L.append('The runs on the %s are those of `%s` (commit %s, %s), kept by `--reuse-extras`.\n'
+                     % ("talk's 8 x 8 x 8 mesh" if key == 'cube' else "deck's mesh",
+                        re.sub(r' --work \S+', '', xf.get('command', '?')), xf.get('commit', '?'), xf.get('date', '?')))
         L.append('Mesh: %s. Reference: velocity Verlet at dt = %g s (max |E - E0| = %.2g J, initial energy '
                  '%.4g J). Runs of %g s.\n' % (_mesh_words(res), p['dt_ref'], res['reference']['max_de'],
                                                 res['reference']['e0'], p['t_long']))
@@ -503,20 +559,41 @@ def section(ctx, results, env):
                      "(max |E − E0| %.2g J there; fails at %.3g s: %s; runs of %g s through the whole collision).\n"
                      % (bs['stable'], bs.get('stable_de', float('nan')), bs['fail'] or float('nan'),
                         bs.get('fail_why', '-'), bs['t_end']))
-        L.append('| method | parameter | CPU [s] | loop wall [s] | steps / events | mean interval [s] | max \\|E − E0\\| [J] | '
-                 'max \\|L − L0\\|/\\|L0\\| | max position error [m] |')
-        L.append('|---|---|---|---|---|---|---|---|---|')
+        balls = key == 'balls'
+        extra = (['restitution e (\\|e − e_ref\\|)', 'contact duration [ms] (\\|error\\| [s])'] if balls
+                 else ['max \\|K − K_ref\\| [J]'])
+        L.append('| method | parameter | CPU [s] | loop wall [s] | steps / events | mean interval [s] | reflections | '
+                 'max \\|E − E0\\| [J] | max \\|L − L0\\|/\\|L0\\| | max position error [m] | ' + ' | '.join(extra) + ' |')
+        L.append('|---' * (10 + len(extra)) + '|')
+        ref = res['reference']
+        if balls and ref.get('restitution') is not None:
+            L.append('| reference: velocity Verlet | dt = %g s | | | %d | | | %.2g | | | %.5f | %.4f |'
+                     % (ref['param'], ref['n'], ref['max_de'], ref['restitution'], ref['contact'] * 1e3))
         for r in res['rows']:
             if r['rc'] != 0:
-                L.append('| %s | %s = %g | failed: %s | | | | | | |' % (r['method'], 'dt' if r['method'] == 'verlet'
-                                                                      else 'h', r['param'], r['error']))
+                L.append('| %s | %s = %g | failed: %s |%s' % (r['method'], 'dt' if r['method'] == 'verlet'
+                                                              else 'h', r['param'], r['error'], ' |' * (7 + len(extra))))
                 continue
-            L.append('| %s | %s = %g %s | %.3g | %.3g | %d | %.3g | %.3g | %.2g | %.3g |' % (
+            if balls:
+                ex = ['%.5f (%.2g)' % (r['restitution'], r['rest_err']) if r.get('rest_err') is not None else '-',
+                      '%.4f (%.2g)' % (r['contact'] * 1e3, r['contact_err']) if r.get('contact_err') is not None else '-']
+            else:
+                ex = ['%.3g' % r['ke_err'] if r.get('ke_err') is not None else '-']
+            L.append('| %s | %s = %.4g %s | %.3g | %.3g | %d | %.3g | %s | %.3g | %.2g | %.3g | %s |' % (
                 'velocity Verlet' if r['method'] == 'verlet' else 'energy stepping',
                 'dt' if r['method'] == 'verlet' else 'h', r['param'], 's' if r['method'] == 'verlet' else 'J',
                 r[COST], r['wall'], r['events'] if r['method'] == 'stepping' else r['n'],
-                r['mean_dt'] if r['method'] == 'stepping' else r['param'], r['max_de'], r['max_dl'], r['pos_err']))
+                r['mean_dt'] if r['method'] == 'stepping' else r['param'],
+                ('%.1f %%' % (100 * r['refl'] / r['events'])) if r['method'] == 'stepping' and r.get('events')
+                else '–', r['max_de'], r['max_dl'], r['pos_err'], ' | '.join(ex)))
         L.append('')
+        L.append('Velocity Verlet runs use dt = t_end / N (N = the requested step rounded up), so every run ends '
+                 'exactly at t = %g s; the table gives the step that ran. Energy stepping\'s max \\|E − E0\\| is '
+                 'bounded by h by construction and \\|ΔL\\|/\\|L0\\| is round-off for both methods, so the figure '
+                 'shows the measures that separate them: the position error%s, and the order of convergence.\n'
+                 % (p['t_long'], ', the restitution and contact-duration errors against the reference' if balls
+                    else ', the kinetic-energy history against the reference\'s'))
+        L.append(conv_table(res))
         L.append('![run time against error, %s](figures/bench_%s_wp.png)\n' % (key, key))
         if key == 'balls' and res.get('events'):
             ev = res['events']
@@ -558,6 +635,28 @@ def section(ctx, results, env):
         L.append(verdict_line(res, eq))
     L.append('<!-- solids:end -->')
     return L
+
+
+def conv_table(res):
+    """Markdown: fitted order of convergence of each error measure against dt (Verlet) and h (energy stepping)."""
+    ks = [('pos_err', 'position error')] + ([('rest_err', 'restitution error'), ('contact_err', 'contact-duration error')]
+                                           if res['scene'] == 'balls' else [('ke_err', 'kinetic-energy history error')])
+    L = ['Order of convergence: least-squares slope of log(error) against log(dt) for velocity Verlet and log(h) for '
+         'energy stepping, over the runs listed above (fit range in brackets; errors at the smallest and largest '
+         'parameter):\n', '| error | velocity Verlet: slope in dt [range, s] | errors | energy stepping: slope in h '
+         '[range, J] | errors |', '|---|---|---|---|---|']
+    for k, word in ks:
+        cells = []
+        for m in ('verlet', 'stepping'):
+            f = convergence(res, m, k)
+            if f:
+                y = dict(zip(f['x'], f['y']))
+                cells += ['**%.2f** [%g, %g] (%d runs)' % (f['slope'], f['lo'], f['hi'], f['n']),
+                          '%.2g to %.2g' % (y[f['lo']], y[f['hi']])]
+            else:
+                cells += ['-', '-']
+        L.append('| %s | %s |' % (word, ' | '.join(cells)))
+    return '\n'.join(L) + '\n'
 
 
 def verdict_line(res, eq):

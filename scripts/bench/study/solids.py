@@ -40,7 +40,7 @@ MATERIAL = "&potential style='neohookean', lambda=2.7e6, mu=3.0e5 /"
 PARAMS = {
     'cube': {
         'quick': dict(cells=4, t_long=0.05, thermo=0.0005, dt_ref=1.0e-6,
-                      dts=[5e-6, 1e-5, 2e-5, 5e-5, 1e-4], hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5],
+                      dts=[5e-6, 1e-5, 2e-5, 5e-5, 1e-4], hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5],
                       bisect=(1e-5, 1e-3), bisect_time=0.05,
                       talk=dict(cells=8, t=0.01, hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4], bisect=(1e-5, 4e-4),
                                 bisect_time=0.01)),

@@ -211,7 +211,7 @@ def equal_error(rows, key):
         wv, how = interp_wall(vv, e)
         if wv is None:
             continue
-        out.append(dict(h=r['param'], err=e, wall=w, vv_wall=wv, how=how, factor=wv / w))
+        out.append(dict(h=r['param'], err=e, wall=w, vv_wall=wv, how=how, factor=wv / w, refl=r.get('refl_frac')))
     return out
 
 
@@ -485,8 +485,10 @@ def write(ctx, results):
             if not eq:
                 continue
             w('Equal-error comparison, %s:\n' % name)
-            w(table(['h', 'ES error', 'ES wall (s)', 'Verlet wall at that error (s)', 'Verlet wall / ES wall'],
-                    [(sc.h_label(q['h']), '%.3g' % q['err'], '%.3g' % q['wall'],
+            w(table(['h', 'ES reflections', 'ES error', 'ES wall (s)', 'Verlet wall at that error (s)',
+                     'Verlet wall / ES wall'],
+                    [(sc.h_label(q['h']), '%.0f %%' % (100 * q['refl']) if q.get('refl') is not None else '–',
+                      '%.3g' % q['err'], '%.3g' % q['wall'],
                       ('%.3g' % q['vv_wall']) + {'interp': '', 'below': ' (ES below every Verlet error: ≥)',
                                                   'above': ' (ES above every Verlet error: ≤)'}[q['how']],
                       '%.2g' % q['factor']) for q in eq]))

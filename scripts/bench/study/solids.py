@@ -222,7 +222,7 @@ def event_split(ctx, work, mesh, p, h):
     row.pop('x', None)
     row.pop('k_hist', None)
     return dict(h=h, t=[float('%.7g' % x) for x in te], dt=[float('%.5g' % x) for x in dte], start=d['t_start'], end=d['t_end'], analysis=text.strip(),
-                cpu=row['cpu'], max_de=row['max_de'], events=row['events'])
+                cpu=row['cpu'], max_de=row['max_de'], events=row['events'], refl=row.get('refl'))
 
 
 def split_text(ev):
@@ -469,9 +469,10 @@ def equal_error(res, k):
         good = [q for q in vv if q[k] <= r[k]]
         if good:
             q = min(good, key=lambda q: q[COST])
-            out.append((r['param'], r[k], r[COST], q['param'], q[k], q[COST], r[COST] / q[COST], r['events'], q['n']))
+            out.append((r['param'], r[k], r[COST], q['param'], q[k], q[COST], r[COST] / q[COST], r['events'], q['n'],
+                        r.get('refl')))
         else:
-            out.append((r['param'], r[k], r[COST], None, None, None, None, r['events'], None))
+            out.append((r['param'], r[k], r[COST], None, None, None, None, r['events'], None, r.get('refl')))
     return out
 
 
@@ -525,23 +526,25 @@ def section(ctx, results, env):
                      "Verlet's largest stable step on each mesh:\n"
                      % (tk['mesh'].split(': ', 1)[1].split(', volume')[0] if ': ' in tk['mesh'] else '',
                         tk['t'], p['cells'], p['cells'], p['cells'], p['t_long']))
-            L.append('| h [J] | 8x8x8: events | 8x8x8: mean interval [s] | 8x8x8: ray passes/event | '
+            L.append('| h [J] | 8x8x8: events | 8x8x8: reflections | 8x8x8: mean interval [s] | 8x8x8: ray passes/event | '
                      '8x8x8: max \\|E − E0\\| [J] | 8x8x8: CPU per simulated second [s] | %dx%dx%d: mean interval [s] |'
                      % (p['cells'], p['cells'], p['cells']))
-            L.append('|---|---|---|---|---|---|---|')
+            L.append('|---|---|---|---|---|---|---|---|')
             small = {r['param']: r for r in res['rows'] if r['method'] == 'stepping'}
             c = tk.get('confirm')
             for r in tk['rows']:
                 sm = small.get(r['param'])
-                L.append('| %g | %s | %s | %s | %s | %s | %s |' % (
-                    r['param'], r.get('events', '-'), '%.3g' % r['mean_dt'] if r.get('mean_dt') else r.get('error'),
+                L.append('| %g | %s | %s | %s | %s | %s | %s | %s |' % (
+                    r['param'], r.get('events', '-'),
+                    ('%.1f %%' % (100.0 * r['refl'] / r['events'])) if r.get('refl') is not None and r.get('events') else '–',
+                    '%.3g' % r['mean_dt'] if r.get('mean_dt') else r.get('error'),
                     '%.3g' % r['evals'] if r.get('evals') else '-',
                     '%.2g' % r['max_de'] if r.get('max_de') is not None else '-',
                     ('%.3g (%.2g x Verlet\'s)' % (r['cpu'] / tk['t'], (r['cpu'] / tk['t']) / (c['cpu'] / 0.1))
                      if c and c['rc'] == 0 else '%.3g' % (r['cpu'] / tk['t'])) if r.get('cpu') else '-',
                     '%.3g' % sm['mean_dt'] if sm and sm.get('mean_dt') else '-'))
             c = tk.get('confirm')
-            L.append('| **Verlet, largest stable dt** | | **%.3g** (max \\|E − E0\\| %.2g J; fails at %.3g: %s; runs of '
+            L.append('| **Verlet, largest stable dt** | | | **%.3g** (max \\|E − E0\\| %.2g J; fails at %.3g: %s; runs of '
                      '%g s) | | %s | %s | **%.3g** (max \\|E − E0\\| %.2g J; fails at %.3g: %s; runs of %g s) |\n'
                      % (tb['stable'], tb.get('stable_de', float('nan')), tb['fail'] or float('nan'),
                         tb.get('fail_why', '-'), tb['t_end'],
@@ -618,15 +621,16 @@ def section(ctx, results, env):
                         db['stable'], db.get('stable_de', float('nan')), db['fail'] or float('nan'),
                         short_why(db.get('fail_why', '-'))))
             L.append('')
-            L.append('| energy stepping h [J] | events | max \\|E − E0\\| [J] | CPU [s] | contact [ms] | before: events, '
+            L.append('| energy stepping h [J] | events | reflections | max \\|E − E0\\| [J] | CPU [s] | contact [ms] | before: events, '
                      'mean interval [s] | during: events, mean, median, shortest [s] | after: events, mean [s] | '
                      'Verlet stable dt / mean interval during the contact |')
-            L.append('|---|---|---|---|---|---|---|---|---|')
+            L.append('|---|---|---|---|---|---|---|---|---|---|')
             for ev in dk['events']:
                 parts = {q[0]: q for q in split_text(ev)}
                 b_, d_, a_ = parts.get('before'), parts.get('during'), parts.get('after')
-                L.append('| %g | %d | %.2g | %.3g | %.2f to %.2f | %s | %s | %s | %s |' % (
-                    ev['h'], ev['events'], ev['max_de'], ev['cpu'], ev['start'] * 1e3, ev['end'] * 1e3,
+                L.append('| %g | %d | %s | %.2g | %.3g | %.2f to %.2f | %s | %s | %s | %s |' % (
+                    ev['h'], ev['events'],
+                    ('%.1f %%' % (100.0 * ev['refl'] / ev['events'])) if ev.get('refl') is not None else '–', ev['max_de'], ev['cpu'], ev['start'] * 1e3, ev['end'] * 1e3,
                     '%d, %.3g' % (b_[1], b_[2]) if b_ else '-',
                     '%d, %.3g, %.3g, %.3g' % (d_[1], d_[2], d_[3], d_[4]) if d_ else '-',
                     '%d, %.3g' % (a_[1], a_[2]) if a_ else '-', '%.3g' % (db['stable'] / d_[2]) if d_ else '-'))
@@ -662,9 +666,9 @@ def conv_table(res):
 def verdict_line(res, eq):
     words = {'max_de': 'max \\|E − E0\\|', 'pos_err': 'position error'}
     eq = {k: eq[k] for k in words}
-    L = ['| energy stepping h [J] | CPU [s] | ' + ' | '.join(
+    L = ['| energy stepping h [J] | reflections | CPU [s] | ' + ' | '.join(
         'cheapest Verlet with no larger %s: dt [s], CPU [s] → CPU ratio (events / steps)' % words[k] for k in eq) + ' |',
-        '|---|---|' + '---|' * len(eq)]
+        '|---|---|---|' + '---|' * len(eq)]
     hs = [q[0] for q in eq['max_de']]
     for i, h in enumerate(hs):
         cells = []
@@ -672,7 +676,9 @@ def verdict_line(res, eq):
             q = eq[k][i]
             cells.append('none as accurate' if q[3] is None else '%g, %.3g → **%.2g x** (%d / %d = %.2g)'
                          % (q[3], q[5], q[6], q[7], q[8], q[7] / q[8]))
-        L.append('| %g | %.3g | %s |' % (h, eq['max_de'][i][2], ' | '.join(cells)))
+        q = eq['max_de'][i]
+        L.append('| %g | %s | %.3g | %s |' % (h, ('%.1f %%' % (100.0 * q[9] / q[7])) if q[9] is not None and q[7] else '–',
+                                             q[2], ' | '.join(cells)))
     ratios = [q[6] for k in ('max_de', 'pos_err') for q in eq[k] if q[6] is not None]
     if ratios and min(ratios) >= 1:
         win = ('**Velocity Verlet wins on this scene**: for every energy-stepping run there is a Verlet run with '

@@ -45,7 +45,7 @@ def main():
     good &= check('exact_dt', worst < 1e-12, 'N dt = t_end to %.1e, dt never above the requested' % worst)
     hs = [1e-5, 3e-5, 1e-4, 3e-4]
     fit = convergence({'rows': [dict(method='stepping', rc=0, param=h, pos_err=0.02 * h ** 0.5) for h in hs]},
-                      'stepping', 'pos_err')
+                      'stepping', 'pos_err', n=None)
     good &= check('convergence', abs(fit['slope'] - 0.5) < 1e-9 and fit['lo'] == 1e-5 and fit['hi'] == 3e-4,
                   'slope %.3f over [%g, %g] (expect 0.5 over [1e-05, 0.0003])' % (fit['slope'], fit['lo'], fit['hi']))
 

@@ -356,12 +356,18 @@ def _ok(rows, method, k):
                   key=lambda r: r['param'])
 
 
-def convergence(res, method, k):
-    """Least-squares slope of log(error K) against log(dt or h) over the method's runs that finished
-    (the fit range: the smallest and largest parameter used). None with fewer than 3 runs."""
-    pts = [r for r in res['rows'] if r['method'] == method and r['rc'] == 0 and r.get(k)]
+FIT_POINTS = 3      # the order of convergence: fitted over the runs with the 3 smallest dt or h
+
+
+def convergence(res, method, k, n=FIT_POINTS):
+    """Least-squares slope of log(error K) against log(dt or h) over the method's N finished runs with
+    the smallest parameter (all with n=None); the fit range: the smallest and largest parameter used.
+    None with fewer than 3 runs."""
+    pts = sorted([r for r in res['rows'] if r['method'] == method and r['rc'] == 0 and r.get(k)],
+                 key=lambda r: r['param'])
     if len(pts) < 3:
         return None
+    pts = pts[:n] if n else pts
     x = np.array([r['param'] for r in pts])
     y = np.array([r[k] for r in pts])
     slope, icept = np.polyfit(np.log(x), np.log(y), 1)
@@ -399,8 +405,9 @@ def fig_wp(res, path):
         fit = convergence(res, m, 'pos_err')
         if not fit:
             continue
-        ax.loglog(fit['x'], fit['y'], 'o', color=col, marker=mk, ls='none',
-                  label='%s; slope %.2f (%g to %g)' % (name, fit['slope'], fit['lo'], fit['hi']))
+        allp = convergence(res, m, 'pos_err', n=None)
+        ax.loglog(allp['x'], allp['y'], color=col, marker=mk, ls='none',
+                  label='%s; slope %.2f (fit %g to %g)' % (name, fit['slope'], fit['lo'], fit['hi']))
         xs = np.array([fit['lo'], fit['hi']])
         ax.loglog(xs, np.exp(fit['icept']) * xs ** fit['slope'], '-', color=col, lw=1)
     ax.set_xlabel('dt [s] (Verlet) or h [J] (energy stepping)')
@@ -646,19 +653,21 @@ def conv_table(res):
     ks = [('pos_err', 'position error')] + ([('rest_err', 'restitution error'), ('contact_err', 'contact-duration error')]
                                            if res['scene'] == 'balls' else [('ke_err', 'kinetic-energy history error')])
     L = ['Order of convergence: least-squares slope of log(error) against log(dt) for velocity Verlet and log(h) for '
-         'energy stepping, over the runs listed above (fit range in brackets; errors at the smallest and largest '
-         'parameter):\n', '| error | velocity Verlet: slope in dt [range, s] | errors | energy stepping: slope in h '
-         '[range, J] | errors |', '|---|---|---|---|---|']
+         'energy stepping, over the %d runs with the smallest dt or h (fit range in brackets; the errors there, '
+         'smallest parameter first), and over all runs of the table:\n' % FIT_POINTS,
+         '| error | velocity Verlet: slope in dt [range, s] | errors [range] | all runs | energy stepping: slope in h '
+         '[range, J] | errors [range] | all runs |', '|---|---|---|---|---|---|---|']
     for k, word in ks:
         cells = []
         for m in ('verlet', 'stepping'):
             f = convergence(res, m, k)
+            a = convergence(res, m, k, n=None)
             if f:
-                y = dict(zip(f['x'], f['y']))
-                cells += ['**%.2f** [%g, %g] (%d runs)' % (f['slope'], f['lo'], f['hi'], f['n']),
-                          '%.2g to %.2g' % (y[f['lo']], y[f['hi']])]
+                cells += ['**%.2f** [%g, %g]' % (f['slope'], f['lo'], f['hi']),
+                          ', '.join('%.2g' % y for y in f['y']),
+                          '%.2f [%g, %g] (%d runs)' % (a['slope'], a['lo'], a['hi'], a['n'])]
             else:
-                cells += ['-', '-']
+                cells += ['-', '-', '-']
         L.append('| %s | %s |' % (word, ' | '.join(cells)))
     return '\n'.join(L) + '\n'
 

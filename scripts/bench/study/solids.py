@@ -52,7 +52,7 @@ PARAMS = {
     },
     'balls': {
         'quick': dict(refine=3, gap=0.035, t_long=0.065, thermo=0.0005, dt_ref=2.0e-6, traj=2.5e-4,
-                      dts=[5e-6, 1e-5, 2e-5, 4e-5], hs=[3e-3, 1e-3, 3e-4, 1e-4], h_events=1e-3,
+                      dts=[5e-6, 1e-5, 2e-5, 4e-5], hs=[3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5], h_events=1e-3,
                       bisect=(1e-5, 1e-3), bisect_time=0.065,
                       # the deck's mesh and gap (input/balls_es.nml: refine 4, 5 cm), its 0.1 s
                       deck=dict(refine=4, gap=None, t_long=0.1, hs=[1e-3], bisect=(1e-5, 1e-3))),

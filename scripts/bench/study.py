@@ -36,7 +36,7 @@ import sys
 import tempfile
 
 
-from study import common, scenes as S, sweep, stress, report, analysis, solids  # noqa: E402
+from study import common, scenes as S, sweep, stress, report, analysis, solids, stiffness  # noqa: E402
 
 
 class Ctx:
@@ -49,9 +49,10 @@ def main():
     g.add_argument('--quick', action='store_true', help='minutes (default)')
     g.add_argument('--full', action='store_true', help='hours')
     ap.add_argument('--build', default=os.path.join(common.REPO, 'build'), help='build directory (terrace binary)')
-    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS + solids.SOLID_KEYS),
+    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness']),
                     help='default: all; the mesh scenes alone: --scenes cube,balls (their section is '
-                         'spliced into the existing page)')
+                         'spliced into the existing page); the stiffness sweeps of the mesh scenes: '
+                         '--scenes stiffness')
     ap.add_argument('--skip-sweep', action='store_true')
     ap.add_argument('--skip-stress', action='store_true')
     ap.add_argument('--no-lammps', action='store_true')
@@ -99,10 +100,11 @@ def main():
     ctx.env['analyze'] = ctx.analyzer.exe or 'not in this build (numpy fallback)'
     keys = [k.strip() for k in a.scenes.split(',') if k.strip()]
     for k in keys:
-        if k not in S.SCENE_KEYS + solids.SOLID_KEYS:
-            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS + solids.SOLID_KEYS)))
+        if k not in S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness']:
+            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness'])))
+    stiff = 'stiffness' in keys
     solid_keys = [k for k in keys if k in solids.SOLID_KEYS]
-    keys = [k for k in keys if k not in solids.SOLID_KEYS]
+    keys = [k for k in keys if k not in solids.SOLID_KEYS + ['stiffness']]
 
     e = ctx.env
     print('Terrace benchmark study, %s mode' % ctx.mode)
@@ -118,6 +120,7 @@ def main():
             results = report.load(ctx, keys)
             report.write(ctx, results)
         solids.splice(page, solids.write_report(ctx, {}, e))      # the mesh scenes' saved results
+        stiffness.splice(page, stiffness.write_report(ctx))
         return
     sw = common.Stopwatch()
     results = {'env': e, 'sweeps': {}, 'curves': {}, 'stress': None}
@@ -139,6 +142,13 @@ def main():
                     results['solids'][k] = solids.run_scene(k, ctx)
                 except RuntimeError as err:
                     print('    %s: FAILED: %s' % (k, err), flush=True)
+    results['stiffness'] = None
+    if not a.skip_sweep and stiff:
+        with sw.part('stiffness sweeps'):
+            try:
+                results['stiffness'] = stiffness.run(ctx)
+            except RuntimeError as err:
+                print('    stiffness: FAILED: %s' % err, flush=True)
     if not a.skip_stress and keys:
         with sw.part('stress tests'):
             results['stress'] = stress.run_all(ctx)
@@ -147,14 +157,18 @@ def main():
         with sw.part('figures and doc/benchmarks.md'):
             if keys:
                 report.write(ctx, results)
-            solids.splice(page, solids.write_report(ctx, results['solids'], e))   # this run's or saved
+            if solid_keys or not stiff:
+                solids.splice(page, solids.write_report(ctx, results['solids'], e))   # this run's or saved
+            if stiff:
+                stiffness.splice(page, stiffness.write_report(ctx, results['stiffness']))
     results['timing'] = sw.parts
     print()
     print('Time per part:')
     for name, dt in sw.parts:
         print('  %-32s %7.1f s' % (name, dt))
     print('  %-32s %7.1f s' % ('total', sw.total()))
-    tfile = 'timing_%s.json' % ctx.mode if keys else 'timing_solids_%s.json' % ctx.mode
+    tfile = ('timing_%s.json' % ctx.mode if keys else 'timing_solids_%s.json' % ctx.mode if solid_keys
+             else 'timing_stiffness_%s.json' % ctx.mode)
     with open(os.path.join(ctx.data, tfile), 'w') as f:
         json.dump({'parts': sw.parts, 'total': sw.total(), 'env': e}, f, indent=1)
 

@@ -392,7 +392,7 @@ def fig_wp(res, path):
                 continue
             ax.loglog([r[k] for r in pts], [r[COST] for r in pts], '-', color=col, marker=mk, label=name)
             for r in pts:
-                ax.annotate('%g' % r['param'], (r[k], r[COST]), textcoords='offset points', xytext=(4, 3),
+                ax.annotate('%.3g' % r['param'], (r[k], r[COST]), textcoords='offset points', xytext=(4, 3),
                             fontsize=7, color=col)
         ax.set_xlabel(lab)
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())

@@ -407,7 +407,7 @@ def fig_wp(res, path):
             continue
         allp = convergence(res, m, 'pos_err', n=None)
         ax.loglog(allp['x'], allp['y'], color=col, marker=mk, ls='none',
-                  label='%s; slope %.2f (fit %g to %g)' % (name, fit['slope'], fit['lo'], fit['hi']))
+                  label='%s; slope %.2f (fit %.3g to %.3g)' % (name, fit['slope'], fit['lo'], fit['hi']))
         xs = np.array([fit['lo'], fit['hi']])
         ax.loglog(xs, np.exp(fit['icept']) * xs ** fit['slope'], '-', color=col, lw=1)
     ax.set_xlabel('dt [s] (Verlet) or h [J] (energy stepping)')
@@ -663,9 +663,9 @@ def conv_table(res):
             f = convergence(res, m, k)
             a = convergence(res, m, k, n=None)
             if f:
-                cells += ['**%.2f** [%g, %g]' % (f['slope'], f['lo'], f['hi']),
+                cells += ['**%.2f** [%.3g, %.3g]' % (f['slope'], f['lo'], f['hi']),
                           ', '.join('%.2g' % y for y in f['y']),
-                          '%.2f [%g, %g] (%d runs)' % (a['slope'], a['lo'], a['hi'], a['n'])]
+                          '%.2f [%.3g, %.3g] (%d runs)' % (a['slope'], a['lo'], a['hi'], a['n'])]
             else:
                 cells += ['-', '-', '-']
         L.append('| %s | %s |' % (word, ' | '.join(cells)))
@@ -683,7 +683,7 @@ def verdict_line(res, eq):
         cells = []
         for k in eq:
             q = eq[k][i]
-            cells.append('none as accurate' if q[3] is None else '%g, %.3g → **%.2g x** (%d / %d = %.2g)'
+            cells.append('none as accurate' if q[3] is None else '%.3g, %.3g → **%.2g x** (%d / %d = %.2g)'
                          % (q[3], q[5], q[6], q[7], q[8], q[7] / q[8]))
         q = eq['max_de'][i]
         L.append('| %g | %s | %.3g | %s |' % (h, ('%.1f %%' % (100.0 * q[9] / q[7])) if q[9] is not None and q[7] else '–',
@@ -724,7 +724,11 @@ def splice(path, lines):
     text = open(path).read() if os.path.exists(path) else ''
     block = '\n'.join(lines)
     b, e = '<!-- solids:begin -->', '<!-- solids:end -->'
-    if b in text and e in text:
+    head = '## Elastic solids: the spinning cube and the colliding balls'
+    if e in text and (b not in text or text.index(b) > text.index(e)) and head in text \
+            and text.index(head) < text.index(e):
+        b = head                     # a page whose begin marker was lost: the section starts at its heading
+    if b in text and e in text and text.index(b) < text.index(e):
         text = text[:text.index(b)] + block + text[text.index(e) + len(e):]
     else:
         anchor = '## Full mode and what is pending'

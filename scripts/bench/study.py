@@ -157,10 +157,8 @@ def main():
         with sw.part('figures and doc/benchmarks.md'):
             if keys:
                 report.write(ctx, results)
-            if solid_keys or not stiff:
-                solids.splice(page, solids.write_report(ctx, results['solids'], e))   # this run's or saved
-            if stiff:
-                stiffness.splice(page, stiffness.write_report(ctx, results['stiffness']))
+            solids.splice(page, solids.write_report(ctx, results['solids'], e))   # this run's or saved
+            stiffness.splice(page, stiffness.write_report(ctx, results['stiffness']))   # likewise
     results['timing'] = sw.parts
     print()
     print('Time per part:')

@@ -36,7 +36,7 @@ import sys
 import tempfile
 
 
-from study import common, scenes as S, sweep, stress, report, analysis, solids  # noqa: E402
+from study import common, scenes as S, sweep, stress, report, analysis, solids, stiffness  # noqa: E402
 
 
 class Ctx:
@@ -49,9 +49,10 @@ def main():
     g.add_argument('--quick', action='store_true', help='minutes (default)')
     g.add_argument('--full', action='store_true', help='hours')
     ap.add_argument('--build', default=os.path.join(common.REPO, 'build'), help='build directory (terrace binary)')
-    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS + solids.SOLID_KEYS),
+    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness']),
                     help='default: all; the mesh scenes alone: --scenes cube,balls (their section is '
-                         'spliced into the existing page)')
+                         'spliced into the existing page); the stiffness sweeps of the mesh scenes: '
+                         '--scenes stiffness')
     ap.add_argument('--skip-sweep', action='store_true')
     ap.add_argument('--skip-stress', action='store_true')
     ap.add_argument('--no-lammps', action='store_true')
@@ -59,6 +60,9 @@ def main():
     ap.add_argument('--keep', action='store_true', help='keep trajectories and dumps')
     ap.add_argument('--doc', default=os.path.join(common.REPO, 'doc'), help='where benchmarks.md goes')
     ap.add_argument('--no-report', action='store_true')
+    ap.add_argument('--reuse-extras', action='store_true',
+                    help="mesh scenes: keep the saved runs on the talk's 8x8x8 cube and the balls deck's mesh "
+                         "(bench_data/solids_*.json) instead of running them again")
     ap.add_argument('--report-only', action='store_true',
                     help='rebuild benchmarks.md and the figures from DOC/bench_data (no runs; the energy-curve figures are kept)')
     ap.add_argument('--repeat', type=int, default=1,
@@ -69,6 +73,7 @@ def main():
     ctx = Ctx()
     ctx.mode = 'full' if a.full else 'quick'
     ctx.keep = a.keep
+    ctx.reuse_extras = a.reuse_extras
     ctx.repeat = max(1, a.repeat)
     ctx.lammps = not a.no_lammps
     ctx.timeout = a.timeout or (600 if ctx.mode == 'quick' else 36000)
@@ -95,10 +100,11 @@ def main():
     ctx.env['analyze'] = ctx.analyzer.exe or 'not in this build (numpy fallback)'
     keys = [k.strip() for k in a.scenes.split(',') if k.strip()]
     for k in keys:
-        if k not in S.SCENE_KEYS + solids.SOLID_KEYS:
-            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS + solids.SOLID_KEYS)))
+        if k not in S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness']:
+            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness'])))
+    stiff = 'stiffness' in keys
     solid_keys = [k for k in keys if k in solids.SOLID_KEYS]
-    keys = [k for k in keys if k not in solids.SOLID_KEYS]
+    keys = [k for k in keys if k not in solids.SOLID_KEYS + ['stiffness']]
 
     e = ctx.env
     print('Terrace benchmark study, %s mode' % ctx.mode)
@@ -114,6 +120,7 @@ def main():
             results = report.load(ctx, keys)
             report.write(ctx, results)
         solids.splice(page, solids.write_report(ctx, {}, e))      # the mesh scenes' saved results
+        stiffness.splice(page, stiffness.write_report(ctx))
         return
     sw = common.Stopwatch()
     results = {'env': e, 'sweeps': {}, 'curves': {}, 'stress': None}
@@ -135,6 +142,13 @@ def main():
                     results['solids'][k] = solids.run_scene(k, ctx)
                 except RuntimeError as err:
                     print('    %s: FAILED: %s' % (k, err), flush=True)
+    results['stiffness'] = None
+    if not a.skip_sweep and stiff:
+        with sw.part('stiffness sweeps'):
+            try:
+                results['stiffness'] = stiffness.run(ctx)
+            except RuntimeError as err:
+                print('    stiffness: FAILED: %s' % err, flush=True)
     if not a.skip_stress and keys:
         with sw.part('stress tests'):
             results['stress'] = stress.run_all(ctx)
@@ -144,13 +158,15 @@ def main():
             if keys:
                 report.write(ctx, results)
             solids.splice(page, solids.write_report(ctx, results['solids'], e))   # this run's or saved
+            stiffness.splice(page, stiffness.write_report(ctx, results['stiffness']))   # likewise
     results['timing'] = sw.parts
     print()
     print('Time per part:')
     for name, dt in sw.parts:
         print('  %-32s %7.1f s' % (name, dt))
     print('  %-32s %7.1f s' % ('total', sw.total()))
-    tfile = 'timing_%s.json' % ctx.mode if keys else 'timing_solids_%s.json' % ctx.mode
+    tfile = ('timing_%s.json' % ctx.mode if keys else 'timing_solids_%s.json' % ctx.mode if solid_keys
+             else 'timing_stiffness_%s.json' % ctx.mode)
     with open(os.path.join(ctx.data, tfile), 'w') as f:
         json.dump({'parts': sw.parts, 'total': sw.total(), 'env': e}, f, indent=1)
 

@@ -79,6 +79,10 @@ def run_figures(summary):
         r.update(events=es.get("events"), up=es.get("ups"), down=es.get("downs"), refl=es.get("reflections"),
                  mean_dt=es.get("mean_event_interval"), evals=es.get("ray_evaluations_per_event"),
                  passes=es.get("force_passes_per_event"))
+        share = es.get("reflection_share")
+        if share is None and es.get("events"):
+            share = (es.get("reflections") or 0) / es["events"]
+        r["refl_share"] = share
     c = summary.get("conservation", {})
     r.update(drift=c.get("energy_drift_per_atom_time"), dp=c.get("momentum_change"))
     return r

@@ -52,6 +52,8 @@ program terrace
     character(len=4096) :: arg
     logical :: check_only, ok
     integer :: k
+    !> Energy stepping: the run log warns when more than half of at least this many events were reflections.
+    integer, parameter :: min_events_share = 100
     real(dp) :: t0, t1, h
     type(es_stats_t) :: es
     character(len=512) :: msg
@@ -212,10 +214,20 @@ contains
             if (es%have_conserved) write (output_unit, '(a,es17.10,a,es17.10,a,es10.3,a)') &
                 'Conserved K + k h (first, last thermo sample): ', es%conserved_first, ', ', es%conserved_last, &
                 '; drift ', es%conserved_last - es%conserved_first, ' (round-off; K + V stays within h of it)'
-            if (es%events >= 100 .and. es%reflections > 0.9_dp*es%events) write (output_unit, '(a)') &
-                'terrace: warning: more than 90 % of the events were reflections: the state is trapped below a '// &
-                'terrace edge (its climbs never carry enough kinetic energy across it), so kinetic and potential '// &
-                'energy no longer exchange. Use a smaller terrace_height.'
+            if (es%events >= min_events_share .and. es%reflections > 0.5_dp*es%events) then
+                write (s1, '(f5.1)') 100.0_dp*real(es%reflections, dp)/es%events
+                if (es%reflections > 0.9_dp*es%events) then
+                    write (output_unit, '(a)') 'terrace: warning: '//trim(adjustl(s1))//' % of the events were '// &
+                        'reflections: the state is trapped below a terrace edge (its climbs never carry enough '// &
+                        'kinetic energy across it), so kinetic and potential energy no longer exchange. Use a '// &
+                        'smaller terrace_height.'
+                else
+                    write (output_unit, '(a)') 'terrace: warning: '//trim(adjustl(s1))//' % of the events were '// &
+                        'reflections (more than half): most climbs fall short of the next terrace, kinetic and '// &
+                        'potential energy exchange slowly and the trajectory is coarse. Use a smaller terrace_height '// &
+                        '(doc/choosing_an_integrator.md).'
+                end if
+            end if
         end if
         call summary_es()
         call write_summary('finished', es%time)
@@ -273,6 +285,7 @@ contains
         call summary_put('energy_stepping/downs', es%downs)
         call summary_put('energy_stepping/reflections', es%reflections)
         if (es%events > 0) then
+            call summary_put('energy_stepping/reflection_share', real(es%reflections, dp)/es%events)
             call summary_put('energy_stepping/mean_event_interval', es%time/es%events)
             call summary_put('energy_stepping/ray_evaluations_per_event', real(es%ray_evals, dp)/es%events)
             call summary_put('energy_stepping/force_passes_per_event', real(es%force_passes, dp)/es%events)

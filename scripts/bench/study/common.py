@@ -1,6 +1,7 @@
 """Shared machinery of the benchmark study: environment description, running Terrace and LAMMPS,
 reading their outputs (logs, thermo CSV, H5MD, LAMMPS dumps, atoms files)."""
 import datetime
+import math
 import os
 import re
 import shutil
@@ -13,8 +14,18 @@ from terrace_tools import atoms, h5md, lammps, summary, thermo
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', '..'))
 KB_METAL = 8.617343e-5          # eV/K (Terrace and LAMMPS metal units)
+TRAPPED_SHARE = 0.9             # energy stepping: 'trapped' above this share of reflections among events
+TRAPPED_MIN_EVENTS = 100        # ... of at least this many events (the engine's own threshold for warning)
 MPI_ENV = {'OMPI_ALLOW_RUN_AS_ROOT': '1', 'OMPI_ALLOW_RUN_AS_ROOT_CONFIRM': '1',
            'OMPI_MCA_rmaps_base_oversubscribe': '1'}
+
+
+def exact_dt(t_end, dt):
+    """The Verlet step that ends a run exactly at T_END: t_end / N with N = ceil(t_end / dt), so the
+    step is never larger than the requested DT (the engine takes nint(run_time / dt) steps: with a dt
+    that does not divide run_time the run would end up to dt/2 away from t_end)."""
+    n = max(1, int(math.ceil(t_end / dt * (1.0 - 1e-12))))
+    return t_end / n
 
 
 def sh(cmd, cwd=None):
@@ -142,7 +153,10 @@ def run_terrace(terrace, work, name, deck, np_=1, timeout=3600):
     with open(os.path.join(work, name + '.log'), 'w') as f:
         f.write(out + '\n--- stderr ---\n' + err)
     r = parse_terrace_summary(summary_path)
-    r['trapped_warning'] = 'reflections' in out and 'trapped' in out
+    # trapped: more than 90 % of the events were reflections (the run summary's measured share; the
+    # run log warns above one half, and says 'trapped' above 90 %)
+    share = r.get('refl_share')
+    r['trapped'] = share is not None and (r.get('events') or 0) >= TRAPPED_MIN_EVENTS and share > TRAPPED_SHARE
     r.update(rc=rc, wall=wall, log=out, err=err, name=name)
     m = re.search(r'^terrace: error: (.*)$', err + '\n' + out, re.M)
     r['error'] = m.group(1).strip() if m else ('' if rc == 0 else 'exit status %d: %s' % (rc, err.strip()[-300:]))

@@ -8,6 +8,8 @@
   - vdos_peak: velocities cos(2 pi f t + phase) give the peak at f (within one frequency bin);
   - traj_error: a rigid shift of every atom by (0.3, 0.4, 0) gives 0.5;
   - energy_metrics: a linear energy ramp gives its slope as the drift;
+  - exact_dt: dt = t_end / N ends every run at t_end and is never above the requested step;
+  - convergence (the mesh scenes' order-of-convergence fit): errors 0.02 h^(1/2) give slope 1/2;
   - with a build directory as argument that holds terrace-analyze: the study's adapter (Analyzer,
     which runs terrace-analyze on H5MD files written by write_h5md) on the same fcc lattice, Brownian
     paths and harmonic velocities: same first-peak position and height, D within 10 % and within
@@ -31,6 +33,21 @@ def check(name, ok, detail):
 def main():
     rng = np.random.default_rng(7)
     good = True
+
+    from .common import exact_dt
+    from .solids import convergence
+    worst = 0.0
+    for t_end, dt in ((0.05, 1.6e-4), (0.065, 2.1e-4), (0.05, 1e-6), (2000.0, 0.08), (0.1, 8.9e-5)):
+        d = exact_dt(t_end, dt)
+        n = round(t_end / d)
+        worst = max(worst, abs(n * d - t_end) / t_end)
+        good &= d <= dt * (1 + 1e-12)
+    good &= check('exact_dt', worst < 1e-12, 'N dt = t_end to %.1e, dt never above the requested' % worst)
+    hs = [1e-5, 3e-5, 1e-4, 3e-4]
+    fit = convergence({'rows': [dict(method='stepping', rc=0, param=h, pos_err=0.02 * h ** 0.5) for h in hs]},
+                      'stepping', 'pos_err', n=None)
+    good &= check('convergence', abs(fit['slope'] - 0.5) < 1e-9 and fit['lo'] == 1e-5 and fit['hi'] == 3e-4,
+                  'slope %.3f over [%g, %g] (expect 0.5 over [1e-05, 0.0003])' % (fit['slope'], fit['lo'], fit['hi']))
 
     m, se = A.block_mean(rng.normal(size=10000))
     good &= check('block_mean', abs(se - 0.01) < 0.003 and abs(m) < 0.05, 'mean %.4f, SE %.4f (expect 0.01)' % (m, se))

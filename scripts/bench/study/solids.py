@@ -25,7 +25,7 @@ import sys
 
 import numpy as np
 
-from .common import REPO, run_terrace, read_thermo
+from .common import REPO, exact_dt, run_terrace, read_thermo
 
 SOLID_KEYS = ['cube', 'balls']
 FAIL_FRACTION = 0.1          # a Verlet run fails when max |E - E0| > 10 % of E0 (or the engine stops it)
@@ -40,7 +40,7 @@ MATERIAL = "&potential style='neohookean', lambda=2.7e6, mu=3.0e5 /"
 PARAMS = {
     'cube': {
         'quick': dict(cells=4, t_long=0.05, thermo=0.0005, dt_ref=1.0e-6,
-                      dts=[5e-6, 1e-5, 2e-5, 5e-5, 1e-4], hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4],
+                      dts=[5e-6, 1e-5, 2e-5, 5e-5, 1e-4], hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5],
                       bisect=(1e-5, 1e-3), bisect_time=0.05,
                       talk=dict(cells=8, t=0.01, hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4], bisect=(1e-5, 4e-4),
                                 bisect_time=0.01)),
@@ -51,12 +51,12 @@ PARAMS = {
                                bisect_time=0.02)),
     },
     'balls': {
-        'quick': dict(refine=3, gap=0.035, t_long=0.065, thermo=0.0005, dt_ref=2.0e-6,
-                      dts=[5e-6, 1e-5, 2e-5, 4e-5], hs=[3e-3, 1e-3, 3e-4, 1e-4], h_events=1e-3,
+        'quick': dict(refine=3, gap=0.035, t_long=0.065, thermo=0.0005, dt_ref=2.0e-6, traj=2.5e-4,
+                      dts=[5e-6, 1e-5, 2e-5, 4e-5], hs=[3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5], h_events=1e-3,
                       bisect=(1e-5, 1e-3), bisect_time=0.065,
                       # the deck's mesh and gap (input/balls_es.nml: refine 4, 5 cm), its 0.1 s
                       deck=dict(refine=4, gap=None, t_long=0.1, hs=[1e-3], bisect=(1e-5, 1e-3))),
-        'full': dict(refine=4, gap=0.035, t_long=0.065, thermo=0.0005, dt_ref=1.0e-6,
+        'full': dict(refine=4, gap=0.035, t_long=0.065, thermo=0.0005, dt_ref=1.0e-6, traj=2.5e-4,
                      dts=[5e-6, 1e-5, 2e-5, 4e-5], hs=[3e-3, 1e-3, 3e-4, 1e-4, 3e-5], h_events=1e-3,
                      bisect=(1e-5, 1e-3), bisect_time=0.065),
     },
@@ -110,8 +110,11 @@ def read_final(path):
 
 
 # ------------------------------------------------------------------------------------ runs
-def one_run(ctx, scene, work, mesh, method, param, p, ref=None, t_end=None, traj=0.0, every=0):
+def one_run(ctx, scene, work, mesh, method, param, p, ref=None, t_end=None, traj=0.0, every=0, contact=False):
     t_end = t_end or p['t_long']
+    requested = param
+    if method == 'verlet':          # dt = t_end / N: the run ends exactly at t_end
+        param = exact_dt(t_end, param)
     name = '%s_%s_%g' % (os.path.splitext(mesh)[0], method, param)
     integ = verlet(param) if method == 'verlet' else stepping(param)
     if mesh not in _BASE:           # the zero-length run's CPU time, best of 3
@@ -119,7 +122,7 @@ def one_run(ctx, scene, work, mesh, method, param, p, ref=None, t_end=None, traj
         _BASE[mesh] = min(_cpu_run(ctx, work, bn, _deck(scene, mesh, verlet(p['dt_ref']), 0, p['thermo'], bn)
                                    .replace('run_time=0,', 'n_steps=0,'))[1] for _ in range(3))
     r, cpu = _cpu_run(ctx, work, name, _deck(scene, mesh, integ, t_end, p['thermo'], name, traj, every))
-    row = dict(scene=scene, method=method, param=param, t_end=t_end, rc=r['rc'], error=r['error'],
+    row = dict(scene=scene, method=method, param=param, requested=requested, t_end=t_end, rc=r['rc'], error=r['error'],
                cpu=cpu - _BASE[mesh], cpu_base=_BASE[mesh])
     th = read_thermo(os.path.join(work, name + '.csv')) if r['rc'] == 0 else {}
     if r['rc'] == 0 and th:
@@ -133,8 +136,19 @@ def one_run(ctx, scene, work, mesh, method, param, p, ref=None, t_end=None, traj
                        refl=r.get('refl'))
         x = read_final(os.path.join(work, name + '.final'))
         row['x'] = x
+        row['k_hist'] = (th['time'], th['ke'])
+        if method == 'stepping' and row.get('events'):
+            row['refl_share'] = (row.get('refl') or 0) / row['events']
+        if contact and traj:          # restitution and contact duration (balls_analysis.py)
+            d, _ = contact_window(ctx, work, name)
+            row.update(restitution=d['restitution'], contact=d['duration'], contact_start=d['t_start'])
         if ref is not None:
-            row['pos_err'] = float(np.max(np.linalg.norm(x - ref, axis=1)))
+            row['pos_err'] = float(np.max(np.linalg.norm(x - ref['x'], axis=1)))
+            tr, kr = ref['k_hist']            # kinetic energy history against the reference's, at its samples
+            row['ke_err'] = float(np.max(np.abs(np.interp(tr, th['time'], th['ke']) - kr)))
+            if 'restitution' in row and 'restitution' in ref:
+                row['rest_err'] = abs(row['restitution'] - ref['restitution'])
+                row['contact_err'] = abs(row['contact'] - ref['contact'])
     elif r['rc'] == 0:
         row['rc'], row['error'] = -1, 'no thermo output'
     row['name'] = name
@@ -161,13 +175,14 @@ def bisect_dt(ctx, scene, work, mesh, p, lo, hi, t_end):
         ok = stable(row)
         why = ('ok (max |E - E0| = %.3g J)' % row['max_de']) if ok else (row['error'] if row['rc'] != 0 else
                                'max |E - E0| = %.3g J > %g E0' % (row['max_de'], FAIL_FRACTION))
-        tried.append(dict(dt=dt, ok=ok, why=why, max_de=row.get('max_de')))
-        print('      %s bisection dt = %.4g s: %s' % (mesh, dt, why), flush=True)
+        tried.append(dict(dt=dt, ran=row['param'], ok=ok, why=why, max_de=row.get('max_de')))
+        print('      %s bisection dt = %.4g s (ran %.4g s, %g s / N): %s' % (mesh, dt, row['param'], t_end, why),
+              flush=True)
         return ok
     if not test(lo):
         raise RuntimeError('%s: Verlet dt = %g is not stable' % (mesh, lo))
     if test(hi):
-        return dict(stable=hi, fail=None, tried=tried, t_end=t_end)
+        return dict(stable=tried[-1]['ran'], fail=None, tried=tried, t_end=t_end)
     while hi / lo > 1.03:
         mid = math.sqrt(lo * hi)
         if test(mid):
@@ -175,7 +190,8 @@ def bisect_dt(ctx, scene, work, mesh, p, lo, hi, t_end):
         else:
             hi = mid
     fail_why = short_why([t['why'] for t in tried if t['dt'] == hi][0])
-    return dict(stable=lo, fail=hi, fail_why=fail_why, tried=tried, t_end=t_end,
+    ran = {t['dt']: t['ran'] for t in tried}          # the steps that ran (t_end / N, at most the bracket's)
+    return dict(stable=ran[lo], fail=ran[hi], fail_why=fail_why, tried=tried, t_end=t_end,
                 stable_de=[t['max_de'] for t in tried if t['dt'] == lo][0])
 
 
@@ -204,8 +220,9 @@ def event_split(ctx, work, mesh, p, h):
     print('    balls  %s events at h = %g J: %d, contact %.4g to %.4g s' % (mesh, h, len(te), d['t_start'], d['t_end']),
           flush=True)
     row.pop('x', None)
+    row.pop('k_hist', None)
     return dict(h=h, t=[float('%.7g' % x) for x in te], dt=[float('%.5g' % x) for x in dte], start=d['t_start'], end=d['t_end'], analysis=text.strip(),
-                cpu=row['cpu'], max_de=row['max_de'], events=row['events'])
+                cpu=row['cpu'], max_de=row['max_de'], events=row['events'], refl=row.get('refl'))
 
 
 def split_text(ev):
@@ -238,10 +255,14 @@ def run_scene(key, ctx):
     print('    %s: %s' % (key, mesh_info.splitlines()[0] if mesh_info else mesh), flush=True)
     res = dict(scene=key, mode=mode, env=dict(ctx.env), params={k: v for k, v in p.items() if k != 'talk'}, mesh=mesh_info)
     # reference
-    ref_row, _ = one_run(ctx, key, work, mesh, 'verlet', p['dt_ref'], p)
+    traj = p.get('traj', 0.0)          # balls: frames for restitution and contact duration
+    ref_row, _ = one_run(ctx, key, work, mesh, 'verlet', p['dt_ref'], p, traj=traj, contact=bool(traj))
     if ref_row['rc'] != 0:
         raise RuntimeError('%s: reference failed: %s' % (key, ref_row['error']))
-    xref = ref_row.pop('x')
+    xref = dict(x=ref_row.pop('x'), k_hist=ref_row.pop('k_hist'))
+    for k in ('restitution', 'contact'):
+        if k in ref_row:
+            xref[k] = ref_row[k]
     res['reference'] = ref_row
     print('    %-6s reference  dt = %-8g cpu %7.2f s  max|dE| %9.3g J  |dL|/L %9.3g  (zero-length run: cpu %.2f s)'
           % (key, p['dt_ref'], ref_row['cpu'], ref_row['max_de'], ref_row['max_dl'], ref_row['cpu_base']), flush=True)
@@ -251,8 +272,9 @@ def run_scene(key, ctx):
     rows = []
     for method, params in (('verlet', sorted(set(p['dts'] + [near]))), ('stepping', p['hs'])):
         for v in params:
-            row, _ = one_run(ctx, key, work, mesh, method, v, p, ref=xref)
+            row, _ = one_run(ctx, key, work, mesh, method, v, p, ref=xref, traj=traj, contact=bool(traj))
             row.pop('x', None)
+            row.pop('k_hist', None)
             rows.append(row)
             if row['rc'] == 0:
                 print('    %-6s %-9s %-10g cpu %7.2f s (loop wall %6.2f s)  max|dE| %9.3g J  |dL|/L %9.3g  pos err %9.3g m%s'
@@ -262,13 +284,20 @@ def run_scene(key, ctx):
             else:
                 print('    %-6s %-9s %-10g FAILED: %s' % (key, method, v, row['error']), flush=True)
     res['rows'] = rows
-    if key == 'cube' and 'talk' in PARAMS[key][mode]:
+    if getattr(ctx, 'reuse_extras', False):     # the talk's / the deck's mesh: keep the saved runs
+        old = load(ctx, key) or {}
+        for k in ('talk', 'deck'):
+            if k in old:
+                res[k] = old[k]
+                res.setdefault('extras_from', old.get('env', {}))
+    if key == 'cube' and 'talk' in PARAMS[key][mode] and 'talk' not in res:
         tk = PARAMS[key][mode]['talk']
         tmesh, info = make_mesh(key, p, work, cells=tk['cells'])
         talk = dict(mesh=info, t=tk['t'], rows=[])
         for h in tk['hs']:
             row, _ = one_run(ctx, key, work, tmesh, 'stepping', h, dict(p, thermo=tk['t']), t_end=tk['t'])
             row.pop('x', None)
+            row.pop('k_hist', None)
             talk['rows'].append(row)
             print('    cube%d stepping h = %g J: %s events in %g s, mean interval %.3g s, cpu %.1f s'
                   % (tk['cells'], h, row.get('events'), tk['t'], row.get('mean_dt') or float('nan'),
@@ -279,6 +308,7 @@ def run_scene(key, ctx):
         dtc = float('%.2g' % (0.97 * talk['bisect']['stable']))
         row, _ = one_run(ctx, key, work, tmesh, 'verlet', dtc, dict(p, thermo=0.002), t_end=0.1)
         row.pop('x', None)
+        row.pop('k_hist', None)
         talk['confirm'] = row
         print('    cube%d verlet dt = %g s over 0.1 s: %s' % (tk['cells'], dtc, 'max |E - E0| = %.3g J, cpu %.2f s'
                                                            % (row['max_de'], row['cpu']) if row['rc'] == 0
@@ -286,7 +316,7 @@ def run_scene(key, ctx):
         res['talk'] = talk
     if key == 'balls':
         res['events'] = event_split(ctx, work, mesh, p, p['h_events'])
-        if p.get('deck'):        # the deck's mesh (input/balls_es.nml): stability limit and event split only
+        if p.get('deck') and 'deck' not in res:        # the deck's mesh (input/balls_es.nml): stability limit and event split only
             dk = dict(p, **p['deck'])
             dmesh, info = make_mesh(key, dk, work)
             deck = dict(mesh=info, refine=dk['refine'], t=dk['t_long'])
@@ -307,7 +337,7 @@ def save(ctx, res):
     with open(base + '.json', 'w') as f:
         json.dump(res, f, indent=1)
     fields = ['method', 'param', 'rc', 'cpu', 'cpu_base', 'wall', 'n', 'max_de', 'max_dl', 'pos_err', 'events', 'mean_dt', 'evals',
-              'refl', 'error']
+              'refl', 'refl_share', 'ke_err', 'restitution', 'rest_err', 'contact', 'contact_err', 'requested', 'error']
     with open(base + '.csv', 'w', newline='') as f:
         w = csv.writer(f)
         w.writerow(fields)
@@ -326,14 +356,34 @@ def _ok(rows, method, k):
                   key=lambda r: r['param'])
 
 
+FIT_POINTS = 3      # the order of convergence: fitted over the runs with the 3 smallest dt or h
+
+
+def convergence(res, method, k, n=FIT_POINTS):
+    """Least-squares slope of log(error K) against log(dt or h) over the method's N finished runs with
+    the smallest parameter (all with n=None); the fit range: the smallest and largest parameter used.
+    None with fewer than 3 runs."""
+    pts = sorted([r for r in res['rows'] if r['method'] == method and r['rc'] == 0 and r.get(k)],
+                 key=lambda r: r['param'])
+    if len(pts) < 3:
+        return None
+    pts = pts[:n] if n else pts
+    x = np.array([r['param'] for r in pts])
+    y = np.array([r[k] for r in pts])
+    slope, icept = np.polyfit(np.log(x), np.log(y), 1)
+    return dict(x=x.tolist(), y=y.tolist(), slope=float(slope), icept=float(icept), lo=float(x.min()),
+                hi=float(x.max()), n=len(pts))
+
+
 def fig_wp(res, path):
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.ticker
     import matplotlib.pyplot as plt
-    panels = [('max_de', 'max |E(t) − E0|  [J]'), ('max_dl', 'max |L(t) − L0| / |L0|'),
-              ('pos_err', 'max node-position error at t = %g s  [m]' % res['params']['t_long'])]
-    fig, axs = plt.subplots(1, 3, figsize=(14, 4.6))
+    panels = [('pos_err', 'max node-position error at t = %g s  [m]' % res['params']['t_long'])] + \
+        ([('rest_err', '|e − e_ref|: coefficient of restitution'), ('contact_err', '|t_c − t_c,ref|: contact duration  [s]')]
+         if res['scene'] == 'balls' else [('ke_err', 'max |K(t) − K_ref(t)|: kinetic-energy history  [J]')])
+    fig, axs = plt.subplots(1, len(panels) + 1, figsize=(4.7 * (len(panels) + 1), 4.6))
     for ax, (k, lab) in zip(axs, panels):
         for m, col, mk, name, unit in (('verlet', 'tab:blue', 'o', 'velocity Verlet (dt)', 's'),
                                        ('stepping', 'tab:red', 's', 'energy stepping (h)', 'J')):
@@ -342,16 +392,29 @@ def fig_wp(res, path):
                 continue
             ax.loglog([r[k] for r in pts], [r[COST] for r in pts], '-', color=col, marker=mk, label=name)
             for r in pts:
-                ax.annotate('%g' % r['param'], (r[k], r[COST]), textcoords='offset points', xytext=(4, 3),
+                ax.annotate('%.3g' % r['param'], (r[k], r[COST]), textcoords='offset points', xytext=(4, 3),
                             fontsize=7, color=col)
         ax.set_xlabel(lab)
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-        if k == 'max_dl':        # round-off for both integrators: show it on a few decades
-            ax.set_xlim(1e-17, 1e-12)
-            ax.set_xlabel(lab + '  (round-off for both)')
         ax.set_ylabel('CPU time [s] (run less a zero-length run)')
         ax.grid(True, which='both', alpha=0.3)
     axs[0].legend(fontsize=8, loc='lower left')
+    ax = axs[-1]             # order of convergence: position error against dt and h, fitted slopes
+    for m, col, mk, name in (('verlet', 'tab:blue', 'o', 'velocity Verlet: dt [s]'),
+                             ('stepping', 'tab:red', 's', 'energy stepping: h [J]')):
+        fit = convergence(res, m, 'pos_err')
+        if not fit:
+            continue
+        allp = convergence(res, m, 'pos_err', n=None)
+        ax.loglog(allp['x'], allp['y'], color=col, marker=mk, ls='none',
+                  label='%s; slope %.2f (fit %.3g to %.3g)' % (name, fit['slope'], fit['lo'], fit['hi']))
+        xs = np.array([fit['lo'], fit['hi']])
+        ax.loglog(xs, np.exp(fit['icept']) * xs ** fit['slope'], '-', color=col, lw=1)
+    ax.set_xlabel('dt [s] (Verlet) or h [J] (energy stepping)')
+    ax.set_ylabel('max node-position error [m]')
+    ax.set_title('order of convergence (least-squares fit)', fontsize=9)
+    ax.legend(fontsize=7, loc='upper left')
+    ax.grid(True, which='both', alpha=0.3)
     fig.suptitle('%s — %s, %g s per run; labels: dt in s, h in J' % (TITLES[res['scene']], _mesh_words(res),
                                                                       res['params']['t_long']), fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.94))
@@ -413,9 +476,10 @@ def equal_error(res, k):
         good = [q for q in vv if q[k] <= r[k]]
         if good:
             q = min(good, key=lambda q: q[COST])
-            out.append((r['param'], r[k], r[COST], q['param'], q[k], q[COST], r[COST] / q[COST], r['events'], q['n']))
+            out.append((r['param'], r[k], r[COST], q['param'], q[k], q[COST], r[COST] / q[COST], r['events'], q['n'],
+                        r.get('refl')))
         else:
-            out.append((r['param'], r[k], r[COST], None, None, None, None, r['events'], None))
+            out.append((r['param'], r[k], r[COST], None, None, None, None, r['events'], None, r.get('refl')))
     return out
 
 
@@ -449,6 +513,11 @@ def section(ctx, results, env):
         L.append('`%s` (commit %s%s), %s, load %s at the start.\n'
                  % (re.sub(r' --work \S+', '', ev_.get('command', '?')), ev_.get('commit', '?'),
                     ' + uncommitted changes' if ev_.get('dirty') else '', ev_.get('date', '?'), ev_.get('load', '?')))
+        if res.get('extras_from'):
+            xf = res['extras_from']
+            L.append('The runs on the %s are those of `%s` (commit %s, %s), kept by `--reuse-extras`.\n'
+                     % ("talk's 8 x 8 x 8 mesh" if key == 'cube' else "deck's mesh",
+                        re.sub(r' --work \S+', '', xf.get('command', '?')), xf.get('commit', '?'), xf.get('date', '?')))
         L.append('Mesh: %s. Reference: velocity Verlet at dt = %g s (max |E - E0| = %.2g J, initial energy '
                  '%.4g J). Runs of %g s.\n' % (_mesh_words(res), p['dt_ref'], res['reference']['max_de'],
                                                 res['reference']['e0'], p['t_long']))
@@ -464,23 +533,25 @@ def section(ctx, results, env):
                      "Verlet's largest stable step on each mesh:\n"
                      % (tk['mesh'].split(': ', 1)[1].split(', volume')[0] if ': ' in tk['mesh'] else '',
                         tk['t'], p['cells'], p['cells'], p['cells'], p['t_long']))
-            L.append('| h [J] | 8x8x8: events | 8x8x8: mean interval [s] | 8x8x8: ray passes/event | '
+            L.append('| h [J] | 8x8x8: events | 8x8x8: reflections | 8x8x8: mean interval [s] | 8x8x8: ray passes/event | '
                      '8x8x8: max \\|E − E0\\| [J] | 8x8x8: CPU per simulated second [s] | %dx%dx%d: mean interval [s] |'
                      % (p['cells'], p['cells'], p['cells']))
-            L.append('|---|---|---|---|---|---|---|')
+            L.append('|---|---|---|---|---|---|---|---|')
             small = {r['param']: r for r in res['rows'] if r['method'] == 'stepping'}
             c = tk.get('confirm')
             for r in tk['rows']:
                 sm = small.get(r['param'])
-                L.append('| %g | %s | %s | %s | %s | %s | %s |' % (
-                    r['param'], r.get('events', '-'), '%.3g' % r['mean_dt'] if r.get('mean_dt') else r.get('error'),
+                L.append('| %g | %s | %s | %s | %s | %s | %s | %s |' % (
+                    r['param'], r.get('events', '-'),
+                    ('%.1f %%' % (100.0 * r['refl'] / r['events'])) if r.get('refl') is not None and r.get('events') else '–',
+                    '%.3g' % r['mean_dt'] if r.get('mean_dt') else r.get('error'),
                     '%.3g' % r['evals'] if r.get('evals') else '-',
                     '%.2g' % r['max_de'] if r.get('max_de') is not None else '-',
                     ('%.3g (%.2g x Verlet\'s)' % (r['cpu'] / tk['t'], (r['cpu'] / tk['t']) / (c['cpu'] / 0.1))
                      if c and c['rc'] == 0 else '%.3g' % (r['cpu'] / tk['t'])) if r.get('cpu') else '-',
                     '%.3g' % sm['mean_dt'] if sm and sm.get('mean_dt') else '-'))
             c = tk.get('confirm')
-            L.append('| **Verlet, largest stable dt** | | **%.3g** (max \\|E − E0\\| %.2g J; fails at %.3g: %s; runs of '
+            L.append('| **Verlet, largest stable dt** | | | **%.3g** (max \\|E − E0\\| %.2g J; fails at %.3g: %s; runs of '
                      '%g s) | | %s | %s | **%.3g** (max \\|E − E0\\| %.2g J; fails at %.3g: %s; runs of %g s) |\n'
                      % (tb['stable'], tb.get('stable_de', float('nan')), tb['fail'] or float('nan'),
                         tb.get('fail_why', '-'), tb['t_end'],
@@ -498,20 +569,41 @@ def section(ctx, results, env):
                      "(max |E − E0| %.2g J there; fails at %.3g s: %s; runs of %g s through the whole collision).\n"
                      % (bs['stable'], bs.get('stable_de', float('nan')), bs['fail'] or float('nan'),
                         bs.get('fail_why', '-'), bs['t_end']))
-        L.append('| method | parameter | CPU [s] | loop wall [s] | steps / events | mean interval [s] | max \\|E − E0\\| [J] | '
-                 'max \\|L − L0\\|/\\|L0\\| | max position error [m] |')
-        L.append('|---|---|---|---|---|---|---|---|---|')
+        balls = key == 'balls'
+        extra = (['restitution e (\\|e − e_ref\\|)', 'contact duration [ms] (\\|error\\| [s])'] if balls
+                 else ['max \\|K − K_ref\\| [J]'])
+        L.append('| method | parameter | CPU [s] | loop wall [s] | steps / events | mean interval [s] | reflections | '
+                 'max \\|E − E0\\| [J] | max \\|L − L0\\|/\\|L0\\| | max position error [m] | ' + ' | '.join(extra) + ' |')
+        L.append('|---' * (10 + len(extra)) + '|')
+        ref = res['reference']
+        if balls and ref.get('restitution') is not None:
+            L.append('| reference: velocity Verlet | dt = %g s | | | %d | | | %.2g | | | %.5f | %.4f |'
+                     % (ref['param'], ref['n'], ref['max_de'], ref['restitution'], ref['contact'] * 1e3))
         for r in res['rows']:
             if r['rc'] != 0:
-                L.append('| %s | %s = %g | failed: %s | | | | | | |' % (r['method'], 'dt' if r['method'] == 'verlet'
-                                                                      else 'h', r['param'], r['error']))
+                L.append('| %s | %s = %g | failed: %s |%s' % (r['method'], 'dt' if r['method'] == 'verlet'
+                                                              else 'h', r['param'], r['error'], ' |' * (7 + len(extra))))
                 continue
-            L.append('| %s | %s = %g %s | %.3g | %.3g | %d | %.3g | %.3g | %.2g | %.3g |' % (
+            if balls:
+                ex = ['%.5f (%.2g)' % (r['restitution'], r['rest_err']) if r.get('rest_err') is not None else '-',
+                      '%.4f (%.2g)' % (r['contact'] * 1e3, r['contact_err']) if r.get('contact_err') is not None else '-']
+            else:
+                ex = ['%.3g' % r['ke_err'] if r.get('ke_err') is not None else '-']
+            L.append('| %s | %s = %.4g %s | %.3g | %.3g | %d | %.3g | %s | %.3g | %.2g | %.3g | %s |' % (
                 'velocity Verlet' if r['method'] == 'verlet' else 'energy stepping',
                 'dt' if r['method'] == 'verlet' else 'h', r['param'], 's' if r['method'] == 'verlet' else 'J',
                 r[COST], r['wall'], r['events'] if r['method'] == 'stepping' else r['n'],
-                r['mean_dt'] if r['method'] == 'stepping' else r['param'], r['max_de'], r['max_dl'], r['pos_err']))
+                r['mean_dt'] if r['method'] == 'stepping' else r['param'],
+                ('%.1f %%' % (100 * r['refl'] / r['events'])) if r['method'] == 'stepping' and r.get('events')
+                else '–', r['max_de'], r['max_dl'], r['pos_err'], ' | '.join(ex)))
         L.append('')
+        L.append('Velocity Verlet runs use dt = t_end / N (N = the requested step rounded up), so every run ends '
+                 'exactly at t = %g s; the table gives the step that ran. Energy stepping\'s max \\|E − E0\\| is '
+                 'bounded by h by construction and \\|ΔL\\|/\\|L0\\| is round-off for both methods, so the figure '
+                 'shows the measures that separate them: the position error%s, and the order of convergence.\n'
+                 % (p['t_long'], ', the restitution and contact-duration errors against the reference' if balls
+                    else ', the kinetic-energy history against the reference\'s'))
+        L.append(conv_table(res))
         L.append('![run time against error, %s](figures/bench_%s_wp.png)\n' % (key, key))
         if key == 'balls' and res.get('events'):
             ev = res['events']
@@ -536,15 +628,16 @@ def section(ctx, results, env):
                         db['stable'], db.get('stable_de', float('nan')), db['fail'] or float('nan'),
                         short_why(db.get('fail_why', '-'))))
             L.append('')
-            L.append('| energy stepping h [J] | events | max \\|E − E0\\| [J] | CPU [s] | contact [ms] | before: events, '
+            L.append('| energy stepping h [J] | events | reflections | max \\|E − E0\\| [J] | CPU [s] | contact [ms] | before: events, '
                      'mean interval [s] | during: events, mean, median, shortest [s] | after: events, mean [s] | '
                      'Verlet stable dt / mean interval during the contact |')
-            L.append('|---|---|---|---|---|---|---|---|---|')
+            L.append('|---|---|---|---|---|---|---|---|---|---|')
             for ev in dk['events']:
                 parts = {q[0]: q for q in split_text(ev)}
                 b_, d_, a_ = parts.get('before'), parts.get('during'), parts.get('after')
-                L.append('| %g | %d | %.2g | %.3g | %.2f to %.2f | %s | %s | %s | %s |' % (
-                    ev['h'], ev['events'], ev['max_de'], ev['cpu'], ev['start'] * 1e3, ev['end'] * 1e3,
+                L.append('| %g | %d | %s | %.2g | %.3g | %.2f to %.2f | %s | %s | %s | %s |' % (
+                    ev['h'], ev['events'],
+                    ('%.1f %%' % (100.0 * ev['refl'] / ev['events'])) if ev.get('refl') is not None else '–', ev['max_de'], ev['cpu'], ev['start'] * 1e3, ev['end'] * 1e3,
                     '%d, %.3g' % (b_[1], b_[2]) if b_ else '-',
                     '%d, %.3g, %.3g, %.3g' % (d_[1], d_[2], d_[3], d_[4]) if d_ else '-',
                     '%d, %.3g' % (a_[1], a_[2]) if a_ else '-', '%.3g' % (db['stable'] / d_[2]) if d_ else '-'))
@@ -555,20 +648,46 @@ def section(ctx, results, env):
     return L
 
 
+def conv_table(res):
+    """Markdown: fitted order of convergence of each error measure against dt (Verlet) and h (energy stepping)."""
+    ks = [('pos_err', 'position error')] + ([('rest_err', 'restitution error'), ('contact_err', 'contact-duration error')]
+                                           if res['scene'] == 'balls' else [('ke_err', 'kinetic-energy history error')])
+    L = ['Order of convergence: least-squares slope of log(error) against log(dt) for velocity Verlet and log(h) for '
+         'energy stepping, over the %d runs with the smallest dt or h (fit range in brackets; the errors there, '
+         'smallest parameter first), and over all runs of the table:\n' % FIT_POINTS,
+         '| error | velocity Verlet: slope in dt [range, s] | errors [range] | all runs | energy stepping: slope in h '
+         '[range, J] | errors [range] | all runs |', '|---|---|---|---|---|---|---|']
+    for k, word in ks:
+        cells = []
+        for m in ('verlet', 'stepping'):
+            f = convergence(res, m, k)
+            a = convergence(res, m, k, n=None)
+            if f:
+                cells += ['**%.2f** [%.3g, %.3g]' % (f['slope'], f['lo'], f['hi']),
+                          ', '.join('%.2g' % y for y in f['y']),
+                          '%.2f [%.3g, %.3g] (%d runs)' % (a['slope'], a['lo'], a['hi'], a['n'])]
+            else:
+                cells += ['-', '-', '-']
+        L.append('| %s | %s |' % (word, ' | '.join(cells)))
+    return '\n'.join(L) + '\n'
+
+
 def verdict_line(res, eq):
     words = {'max_de': 'max \\|E − E0\\|', 'pos_err': 'position error'}
     eq = {k: eq[k] for k in words}
-    L = ['| energy stepping h [J] | CPU [s] | ' + ' | '.join(
+    L = ['| energy stepping h [J] | reflections | CPU [s] | ' + ' | '.join(
         'cheapest Verlet with no larger %s: dt [s], CPU [s] → CPU ratio (events / steps)' % words[k] for k in eq) + ' |',
-        '|---|---|' + '---|' * len(eq)]
+        '|---|---|---|' + '---|' * len(eq)]
     hs = [q[0] for q in eq['max_de']]
     for i, h in enumerate(hs):
         cells = []
         for k in eq:
             q = eq[k][i]
-            cells.append('none as accurate' if q[3] is None else '%g, %.3g → **%.2g x** (%d / %d = %.2g)'
+            cells.append('none as accurate' if q[3] is None else '%.3g, %.3g → **%.2g x** (%d / %d = %.2g)'
                          % (q[3], q[5], q[6], q[7], q[8], q[7] / q[8]))
-        L.append('| %g | %.3g | %s |' % (h, eq['max_de'][i][2], ' | '.join(cells)))
+        q = eq['max_de'][i]
+        L.append('| %g | %s | %.3g | %s |' % (h, ('%.1f %%' % (100.0 * q[9] / q[7])) if q[9] is not None and q[7] else '–',
+                                             q[2], ' | '.join(cells)))
     ratios = [q[6] for k in ('max_de', 'pos_err') for q in eq[k] if q[6] is not None]
     if ratios and min(ratios) >= 1:
         win = ('**Velocity Verlet wins on this scene**: for every energy-stepping run there is a Verlet run with '
@@ -605,7 +724,11 @@ def splice(path, lines):
     text = open(path).read() if os.path.exists(path) else ''
     block = '\n'.join(lines)
     b, e = '<!-- solids:begin -->', '<!-- solids:end -->'
-    if b in text and e in text:
+    head = '## Elastic solids: the spinning cube and the colliding balls'
+    if e in text and (b not in text or text.index(b) > text.index(e)) and head in text \
+            and text.index(head) < text.index(e):
+        b = head                     # a page whose begin marker was lost: the section starts at its heading
+    if b in text and e in text and text.index(b) < text.index(e):
         text = text[:text.index(b)] + block + text[text.index(e) + len(e):]
     else:
         anchor = '## Full mode and what is pending'

@@ -8,7 +8,8 @@
 Every outcome is one of: ok; 'stopped: <kind>' with the code's error line; 'NaN in the output (not
 detected)'; 'large energy error (run completes)': max|E - E0| > 10 % of K0 with exit status 0 (below
 the engine's blow-up threshold |K0| + |V0|); 'bound violated' (energy stepping outside
-|K + V - E0| <= h: a missed level crossing); 'trapped' (the engine's >90 % reflections warning).
+|K + V - E0| <= h: a missed level crossing); 'trapped' (more than 90 % of the events were reflections: the run
+summary's share; the engine warns above one half).
 """
 import csv
 import os
@@ -108,7 +109,7 @@ def escalate_h(ctx, rows, key, hs, t_end, thermo):
             refl = r['refl'] / max(1, r['events'])
             t0, t1 = th['temp'][0], np.mean(th['temp'][1:]) if len(th['temp']) > 1 else float('nan')
             det += '; %d events, %.0f %% reflections, T %.4g -> mean %.4g' % (r['events'], 100 * refl, t0, t1)
-            if r['trapped_warning'] or any('reflection' in w for w in r['warnings']) or refl > 0.9:
+            if r['trapped'] or refl > 0.9:
                 out = 'trapped (>90 % reflections, warned)'
         _row(rows, 'escalate-h', key, 'terrace-es', 'h = %s' % scene.h_label(h), out, det, r['wall'])
         if out.startswith('refused') or out.startswith('stopped') or out.startswith('bound'):

@@ -7,7 +7,7 @@ import os
 import numpy as np
 
 from . import analysis as A
-from .common import run_terrace, run_lammps, read_thermo, read_h5md, read_lammps_dump, have_lammps
+from .common import exact_dt, run_terrace, run_lammps, read_thermo, read_h5md, read_lammps_dump, have_lammps
 
 FIELDS = ['scene', 'method', 'param', 'param_label', 'status', 'wall', 'loop', 'output', 'n', 'natoms',
           't_long', 'max_de', 'drift', 'max_dp', 'traj_err', 'T', 'T_se', 'P', 'P_se', 'gr_r', 'gr_peak',
@@ -27,7 +27,7 @@ def _terrace_row(scene, r, method, param, label, p, natoms):
     if 'events' in r:
         row.update(events=r['events'], refl_frac=r['refl'] / max(1, r['events']), evals=r.get('evals'),
                    mean_dt=r.get('mean_dt'))
-        if r['trapped_warning'] or any('reflection' in w for w in r['warnings']):
+        if r['trapped']:
             row['status'] = 'ok (trapped: >90 % reflections)'
     return row
 
@@ -114,18 +114,19 @@ def run_scene(scene, ctx):
         return row, times, x
 
     # reference: Terrace Verlet at dt_ref over t_long
-    ref_row, rt, rx = terrace_run('reference', p['dt_ref'], 'dt = %g %s' % (p['dt_ref'], scene.tunit),
-                                  scene.verlet(p['dt_ref']))
+    dt_ref = exact_dt(p['t_long'], p['dt_ref'])
+    ref_row, rt, rx = terrace_run('reference', dt_ref, 'dt = %g %s' % (dt_ref, scene.tunit), scene.verlet(dt_ref))
     if not ref_row['status'].startswith('ok') or rx is None:
         raise RuntimeError('%s: the reference run failed: %s' % (scene.key, ref_row['status']))
     ref = dict(times=rt, x=rx)
     rows.append(ref_row)
-    for dt in p['dts']:
+    dts = [exact_dt(p['t_long'], dt) for dt in p['dts']]     # every run ends exactly at t_long
+    for dt in dts:
         rows.append(terrace_run('terrace-vv', dt, 'dt = %g %s' % (dt, scene.tunit), scene.verlet(dt), ref)[0])
     for h in p['hs']:
         rows.append(terrace_run('terrace-es', h, 'h = %s' % scene.h_label(h), scene.stepping(h), ref)[0])
     if ctx.lammps and have_lammps():
-        for dt in p['dts']:
+        for dt in dts:
             name = 'lmp_%g' % dt
             r = run_lammps(work, name, scene.lammps_input(name, dt, p['t_long'], p['thermo'], p['traj']),
                            timeout=ctx.timeout)

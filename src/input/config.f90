@@ -715,6 +715,9 @@ contains
         end select
         if (len_trim(cfg%mesh_file) > 0) call stop_all(style_is//': a barostat changes the box of a periodic '// &
             'scene of atoms; a mesh (&system mesh_file) has free boundaries and no box to scale')
+        if (len_trim(cfg%trajectory_file) > 0) call stop_all(cfg%where('output', 'trajectory_file')// &
+            ': not available with a barostat (&barostat style = '''//trim(cfg%barostat)//"'): the trajectory "// &
+            'holds one box, and a barostat changes it (the thermo file has vol and the box lengths)')
         if (cfg%integrator /= 'velocity_verlet') call stop_all(style_is//": runs with &integrator style = "// &
             "'velocity_verlet' only")
         if (cfg%thermostat == 'none') call stop_all(style_is//': needs a thermostat (&thermostat style and '// &
@@ -737,9 +740,9 @@ contains
             if (.not. (cfg%barostat_damping > 0)) call stop_all(cfg%where('barostat', 'damping')// &
                 ': must be > 0 (a time in '//trim(cfg%units%time)//')')
             if (cfg%nml%find('barostat', 'compressibility') == 0) call stop_all(cfg%path//': &barostat: '// &
-                'compressibility: missing (the isothermal compressibility, in 1/'//trim(cfg%units%pressure)//')')
+                'compressibility: missing (the isothermal compressibility, in 1/('//trim(cfg%units%pressure)//'))')
             if (.not. (cfg%barostat_compressibility > 0)) call stop_all(cfg%where('barostat', 'compressibility')// &
-                ': must be > 0 (in 1/'//trim(cfg%units%pressure)//')')
+                ': must be > 0 (in 1/('//trim(cfg%units%pressure)//'))')
         else
             if (cfg%nml%find('barostat', 'damping') > 0) call stop_all(cfg%where('barostat', 'damping')// &
                 ": not used by style 'mc' (it adapts its volume moves itself)")

@@ -140,6 +140,9 @@ contains
             write (output_unit, '(a,i0,a,i0)') '  iterations, force evaluations = ', res%iterations, ' ', res%evaluations
             write (output_unit, '(a,es24.16,1x,es24.16)') '  energy initial, final = ', res%e_initial, res%e_final
             write (output_unit, '(a,es12.5,1x,es12.5)') '  force two-norm, max component = ', res%fnorm2, res%fmax
+            if (len_trim(cfg%box_relax) > 0 .and. cfg%box_relax /= 'none') &
+                write (output_unit, '(a,i0,a,es24.16,a,3es24.16)') '  box relaxed: ', res%box_steps, &
+                ' volume steps; pressure ', res%pressure, ' ; box lengths ', eng%box%length
             flush (output_unit)
         end if
     end subroutine minimize_run

@@ -121,6 +121,8 @@ module terrace_config
         character(len=8) :: minimize = ''           !< '' (none), fire, cg
         real(dp) :: etol = 0, ftol = 0              !< LAMMPS minimize's stopping tolerances
         integer(i8) :: max_iterations = 10000, max_evaluations = 100000
+        character(len=8) :: box_relax = 'none'      !< none, iso: the box's volume relaxed too
+        real(dp) :: min_pressure = 0                !< box_relax: target pressure
     contains
         procedure :: where => cfg_where
         procedure :: scene_source => cfg_scene_source
@@ -673,20 +675,23 @@ contains
 
     subroutine read_minimize(cfg)
         type(config_t), intent(inout) :: cfg
-        character(len=8) :: style
-        real(dp) :: etol, ftol
+        character(len=8) :: style, box_relax
+        real(dp) :: etol, ftol, pressure
         integer(i8) :: max_iterations, max_evaluations
-        namelist /minimize/ style, etol, ftol, max_iterations, max_evaluations
-        character(len=*), parameter :: keys(5) = [character(len=40) :: 'style:a quoted string', &
-            'etol:a real number', 'ftol:a real number', 'max_iterations:an integer', 'max_evaluations:an integer']
+        namelist /minimize/ style, etol, ftol, max_iterations, max_evaluations, box_relax, pressure
+        character(len=*), parameter :: keys(7) = [character(len=40) :: 'style:a quoted string', &
+            'etol:a real number', 'ftol:a real number', 'max_iterations:an integer', 'max_evaluations:an integer', &
+            'box_relax:a quoted string', 'pressure:a real number']
         type(item_reader_t) :: it
         style = ''; etol = 0; ftol = 0; max_iterations = 10000; max_evaluations = 100000
+        box_relax = 'none'; pressure = 0
         do while (it%next(cfg, 'minimize', keys))
             read (it%buf, nml=minimize, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
         end do
         cfg%minimize = lower(style); cfg%etol = etol; cfg%ftol = ftol
         cfg%max_iterations = max_iterations; cfg%max_evaluations = max_evaluations
+        cfg%box_relax = lower(box_relax); cfg%min_pressure = pressure
     end subroutine read_minimize
 
     !> &barostat: the style, its keys, and what it needs (velocity Verlet, a thermostat's
@@ -756,7 +761,8 @@ contains
         type(config_t), intent(inout) :: cfg
         logical :: any_key
         any_key = cfg%nml%find('minimize', 'etol') > 0 .or. cfg%nml%find('minimize', 'ftol') > 0 .or. &
-                  cfg%nml%find('minimize', 'max_iterations') > 0 .or. cfg%nml%find('minimize', 'max_evaluations') > 0
+                  cfg%nml%find('minimize', 'max_iterations') > 0 .or. cfg%nml%find('minimize', 'max_evaluations') > 0 &
+                  .or. cfg%nml%find('minimize', 'box_relax') > 0 .or. cfg%nml%find('minimize', 'pressure') > 0
         if (cfg%nml%find('minimize', 'style') == 0) then
             if (any_key) call stop_all(cfg%path//": &minimize: style: missing (allowed: 'fire', 'cg')")
             return
@@ -774,6 +780,21 @@ contains
             trim(cfg%units%length)//')')
         if (cfg%max_iterations < 1) call stop_all(cfg%where('minimize', 'max_iterations')//': must be >= 1')
         if (cfg%max_evaluations < 1) call stop_all(cfg%where('minimize', 'max_evaluations')//': must be >= 1')
+        select case (cfg%box_relax)
+        case ('none')
+            if (cfg%nml%find('minimize', 'pressure') > 0) call stop_all(cfg%where('minimize', 'pressure')// &
+                ": the target pressure of box_relax (give box_relax = 'iso')")
+        case ('iso')
+            if (len_trim(cfg%mesh_file) > 0) call stop_all(cfg%where('minimize', 'box_relax')// &
+                ': a mesh (&system mesh_file) has free boundaries and no box to relax')
+            if (.not. all(cfg%periodic(1:cfg%dimension))) call stop_all(cfg%where('minimize', 'box_relax')// &
+                ': needs a box periodic in every dimension (&system periodic)')
+        case ('aniso')
+            call stop_all(cfg%where('minimize', 'box_relax')//" = 'aniso': not available (allowed: 'none', 'iso')")
+        case default
+            call stop_all(cfg%where('minimize', 'box_relax')//" = '"//trim(cfg%box_relax)// &
+                          "': unknown (allowed: 'none', 'iso')")
+        end select
         if (cfg%barostat /= 'none' .and. len_trim(cfg%barostat) > 0 .and. cfg%integrator /= 'velocity_verlet') &
             call stop_all(cfg%where('minimize', 'style')//': dynamics after a minimization run with velocity Verlet')
     end subroutine validate_minimize

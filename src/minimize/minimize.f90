@@ -36,6 +36,8 @@ module terrace_minimize
         integer(i8) :: max_iterations = 10000, max_evaluations = 100000
         real(dp) :: dt = 0.001_dp                !< FIRE's first time step
         real(dp) :: dmax = 0.1_dp                !< largest move of a coordinate in one step (length)
+        logical :: box_relax = .false.           !< also the box's volume (isotropic), to pressure
+        real(dp) :: pressure = 0                 !< box_relax: target pressure (the run's unit)
     end type minimize_params_t
 
     !> What it did: the criterion that stopped it (LAMMPS's words), counts and energies.
@@ -43,6 +45,8 @@ module terrace_minimize
         character(len=:), allocatable :: criterion
         integer(i8) :: iterations = 0, evaluations = 0
         real(dp) :: e_initial = 0, e_final = 0, fnorm2 = 0, fmax = 0
+        integer :: box_steps = 0                 !< box_relax: volume changes made
+        real(dp) :: pressure = 0                 !< box_relax: the final virial pressure (the run's unit)
     end type minimize_result_t
 
     real(dp), parameter :: eps_energy = 1.0e-8_dp
@@ -70,17 +74,84 @@ contains
         res%e_initial = eng%pe
         if (unit >= 0 .and. world%rank == 0) write (unit, '(a)') 'iteration,pe,fmax,fnorm'
         call write_row(eng, 0_i8, unit)
+        if (p%box_relax) then
+            call relax_box(eng, p, unit, ev0, res)
+        else
+            call relax_atoms(eng, p, unit, ev0, res)
+        end if
+        res%e_final = eng%pe
+        res%evaluations = eng%force_evaluations - ev0
+        res%fnorm2 = sqrt(dot_ff(eng))
+        res%fmax = fmax_all(eng)
+    end subroutine run_minimize
+
+    subroutine relax_atoms(eng, p, unit, ev0, res)
+        type(engine_t), intent(inout) :: eng
+        type(minimize_params_t), intent(in) :: p
+        integer, intent(in) :: unit
+        integer(i8), intent(in) :: ev0
+        type(minimize_result_t), intent(inout) :: res
+        res%iterations = 0
+        if (p%ftol > 0 .and. dot_ff(eng) < p%ftol**2) then
+            res%criterion = 'force tolerance'       ! already there
+            return
+        end if
         select case (trim(p%style))
         case ('fire')
             call fire(eng, p, unit, ev0, res)
         case default
             call cg(eng, p, unit, ev0, res)
         end select
-        res%e_final = eng%pe
-        res%evaluations = eng%force_evaluations - ev0
-        res%fnorm2 = sqrt(dot_ff(eng))
-        res%fmax = fmax_all(eng)
-    end subroutine run_minimize
+    end subroutine relax_atoms
+
+    !> box_relax: the atoms relaxed at a fixed box, then the volume changed (isotropically, through
+    !> engine%scale_box) towards the target pressure, until the static pressure W / (d V) is
+    !> within ftol / V of the target (the force on ln V below ftol) after an atom relaxation.
+    !> The volume steps are secants on ln V of P(ln V) - P0 (the first one from a bulk modulus
+    !> of 1 eV/A^3 in metal units, 100 in lj, 1e11 Pa in si); iterations count on across the atom
+    !> relaxations.
+    subroutine relax_box(eng, p, unit, ev0, res)
+        type(engine_t), intent(inout) :: eng
+        type(minimize_params_t), intent(in) :: p
+        integer, intent(in) :: unit
+        integer(i8), intent(in) :: ev0
+        type(minimize_result_t), intent(inout) :: res
+        type(minimize_params_t) :: q
+        real(dp) :: p0, g, g_old, eps, eps_old, deps, b0, v, mu
+        integer :: k, d
+        integer(i8) :: done
+        p0 = p%pressure/eng%units%nktv2p
+        b0 = 1.0_dp
+        if (eng%units%name == 'lj') b0 = 100.0_dp
+        if (eng%units%name == 'si') b0 = 1.0e11_dp
+        q = p
+        done = 0
+        g_old = 0; eps_old = 0
+        do k = 1, 200
+            q%max_iterations = max(1_i8, p%max_iterations - done)
+            call relax_atoms(eng, q, unit, ev0, res)
+            done = done + res%iterations
+            res%iterations = done
+            v = eng%box%volume()
+            g = eng%virial/(eng%box%dimension*v) - p0         ! > 0: the box wants to grow
+            eps = log(v)
+            if (abs(g)*v < max(p%ftol, 1.0e-300_dp) .or. res%criterion == 'max iterations' .or. &
+                res%criterion == 'max force evaluations') exit
+            if (k == 1 .or. g == g_old) then
+                deps = g/b0
+            else
+                deps = -g*(eps - eps_old)/(g - g_old)
+            end if
+            deps = max(-0.05_dp, min(0.05_dp, deps))
+            if (abs(deps) < 1.0e-15_dp) exit
+            g_old = g; eps_old = eps
+            mu = exp(deps/eng%box%dimension)
+            call eng%scale_box([(merge(mu, 1.0_dp, d <= eng%box%dimension), d = 1, 3)], velocities=.false.)
+            call eng%compute_forces(.true.)
+            res%box_steps = res%box_steps + 1
+        end do
+        res%pressure = eng%virial/(eng%box%dimension*eng%box%volume())*eng%units%nktv2p
+    end subroutine relax_box
 
     !> Positions moved: ghosts refreshed or the list rebuilt when due, then forces and energy.
     subroutine evaluate(eng, iter)

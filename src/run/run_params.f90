@@ -132,6 +132,8 @@ contains
         p%dt = merge(0.001_dp, 0.005_dp, cfg%units%name == 'metal')
         if (cfg%dt > 0) p%dt = cfg%dt
         p%dmax = 0.1_dp
+        p%box_relax = cfg%box_relax == 'iso'
+        p%pressure = cfg%min_pressure
         if (cfg%units%name == 'si') p%dmax = 1.0e-11_dp
     end function minimize_params
 

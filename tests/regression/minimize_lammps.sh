@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Minimization against LAMMPS: the vacancy formation energy of Cu (Cu_u3.eam, fcc 4x4x4 at a =
 # 3.615 A, box fixed), E_f = E_vac - (N-1)/N E_perfect, with Terrace's CG and FIRE against LAMMPS's
-# `minimize` (min_style cg and fire) on the same data file, each within 1e-6 eV; and the relaxed
-# energy of Terrace's CG on 1 and 4 ranks within 1e-9 eV of each other. Exit 77 without LAMMPS.
+# `minimize` (min_style cg and fire) on the same data file, each within 1e-6 eV; the relaxed
+# energy of Terrace's CG on 1 and 4 ranks within 1e-9 eV of each other; and the 0 K lattice
+# constant from a = 3.6 A with &minimize box_relax = 'iso' (CG and FIRE; CG on 4 ranks) against
+# LAMMPS's `fix box/relax iso 0.0` with min_style cg, within 1e-6 A. Exit 77 without LAMMPS.
 # usage: minimize_lammps.sh TERRACE OUTDIR
 set -euo pipefail
 terrace=$1 out=$2
@@ -40,6 +42,37 @@ IN
 for style in cg fire; do
     lmp -in vac.in -var style $style -log lmp_$style.log > /dev/null
 done
+cat > lat.in <<IN
+units metal
+atom_style atomic
+boundary p p p
+lattice fcc 3.6
+region box block 0 4 0 4 0 4
+create_box 1 box
+create_atoms 1 box
+mass 1 63.546
+pair_style eam
+pair_coeff * * $pot
+fix 1 all box/relax iso 0.0
+min_style cg
+minimize 0.0 1.0e-10 100000 1000000
+variable a equal lx/4
+print "LATTICE \${a}"
+IN
+lmp -in lat.in -log lmp_lat.log > /dev/null
+for style in cg fire; do
+cat > lat_$style.nml <<NML
+&run units='metal', n_steps=0 /
+&system lattice='fcc', lattice_constant=3.6, cells=4,4,4, periodic=.true.,.true.,.true. /
+&potential style='eam', file='$pot' /
+&integrator style='velocity_verlet', dt=0.002 /
+&neighbor skin=1.0 /
+&minimize style='$style', etol=0.0, ftol=1.0e-10, box_relax='iso', pressure=0.0 /
+&output thermo_file='lat_$style.csv' /
+NML
+"$terrace" lat_$style.nml > lat_$style.log
+done
+mpirun --oversubscribe -np 4 "$terrace" lat_cg.nml > lat_cg_np4.log
 
 deck() {   # deck NAME DATA STYLE
 cat > "$1.nml" <<NML
@@ -92,5 +125,16 @@ print(f"CG relaxed energy, 1 vs 4 ranks: {e1:.12f} {e4:.12f} (difference {e4 - e
 if abs(e4 - e1) > 1e-9:
     ok = False
     print("FAIL: 1 and 4 ranks differ by more than 1e-9 eV")
+def lattice(name):
+    text = open(name + ".log").read()
+    return float(re.search(r"box lengths +(\S+)", text).group(1)) / 4
+a_l = lmp("lat", "LATTICE")
+for name in ("lat_cg", "lat_fire", "lat_cg_np4"):
+    a_t = lattice(name)
+    print(f"0 K lattice constant, {name}: Terrace {a_t:.12f} A, LAMMPS box/relax {a_l:.12f} A, "
+          f"difference {a_t - a_l:.2e}")
+    if abs(a_t - a_l) > 1e-6:
+        ok = False
+        print(f"FAIL: {name}: lattice constant differs from LAMMPS's by more than 1e-6 A")
 sys.exit(0 if ok else 1)
 PY

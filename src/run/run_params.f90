@@ -121,7 +121,7 @@ contains
     end subroutine make_barostat
 
     !> The deck's minimization (FIRE's first step: &integrator dt when given, else 0.001 ps in
-    !> metal units and 0.005 tau otherwise; dmax 0.1 Angstrom or 0.1 sigma, as LAMMPS).
+    !> metal units and 0.005 tau otherwise; dmax 0.1 length units, as LAMMPS).
     type(minimize_params_t) function minimize_params(cfg) result(p)
         type(config_t), intent(in) :: cfg
         p%style = cfg%minimize
@@ -134,7 +134,6 @@ contains
         p%dmax = 0.1_dp
         p%box_relax = cfg%box_relax == 'iso'
         p%pressure = cfg%min_pressure
-        if (cfg%units%name == 'si') p%dmax = 1.0e-11_dp
     end function minimize_params
 
 end module terrace_run_params

@@ -223,10 +223,12 @@ contains
             end if
             call finish_check()
         end if
-        call open_outputs(es_thermo_header//trim(merge(',ecouple,econserve', '                  ', &
-                                                        cfg%thermostat /= 'none')), sched%end_time())
+        call open_outputs(es_thermo_header//trim(merge(',vol,box_lx,box_ly,box_lz', '                         ', &
+                                                        bs%active()))// &
+                          trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), &
+                          sched%end_time())
         call start_clock()
-        call run_energy_stepping(eng, es_params(cfg), ts, out, h, sched, es)
+        call run_energy_stepping(eng, es_params(cfg), ts, bs, out, h, sched, es)
         call close_run(es%time)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events', prune_note(), &
                            list_pairs())

@@ -8,6 +8,8 @@
 !>                                of the box with the positions and velocities; C-rescale)
 !>                                after_step (after the second half kick: a trial move of the box
 !>                                judged on its energy; Monte Carlo)
+!>   energy stepping:             apply_event (at the multiples of `interval`, a calendar entry:
+!>                                Monte Carlo volume moves)
 !>   both:                        active, pv (the P V term of the conserved quantity), save / restore
 !>
 !> A change of the box goes through the engine (engine%scale_box): positions and box scaled about
@@ -37,6 +39,7 @@ module terrace_barostat
         integer(i8) :: natoms = 0
         integer :: dimension = 3
         integer :: every = 25                    !< Monte Carlo: steps between trial moves
+        real(dp) :: interval = 0                 !< energy stepping: time between events (0: none)
         real(dp) :: boltz = 1, nktv2p = 1
     end type barostat_params_t
 
@@ -48,6 +51,7 @@ module terrace_barostat
         real(dp) :: dt = 0
         integer(i8) :: seed = 1, natoms = 0
         integer :: dimension = 3, every = 25
+        real(dp) :: interval = 0                 !< energy stepping: events at its multiples (0: none)
         real(dp) :: nktv2p = 1
     contains
         procedure, non_overridable :: init => baro_init
@@ -56,6 +60,7 @@ module terrace_barostat
         procedure :: needs_virial => baro_needs_virial
         procedure :: before_forces => baro_before_forces
         procedure :: after_step => baro_after_step
+        procedure :: apply_event => baro_apply_event
         procedure, non_overridable :: pv => baro_pv
         procedure :: save => baro_save
         procedure :: restore => baro_restore
@@ -84,6 +89,7 @@ contains
         self%natoms = p%natoms
         self%dimension = p%dimension
         self%every = p%every
+        self%interval = p%interval
         call self%setup(p)
     end subroutine baro_init
 
@@ -128,6 +134,16 @@ contains
         logical, intent(out) :: moved
         moved = .false.
     end subroutine baro_after_step
+
+    !> Energy stepping: the event of index n (at time n interval), all atoms drifted there (nothing
+    !> by default); moved as above.
+    subroutine baro_apply_event(self, eng, n, moved)
+        class(barostat_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        integer(i8), intent(in) :: n
+        logical, intent(out) :: moved
+        moved = .false.
+    end subroutine baro_apply_event
 
     !> P0 V, the enthalpy's term (energy).
     real(dp) function baro_pv(self, eng)

@@ -1,4 +1,5 @@
-!> Monte Carlo barostat (as OpenMM's MonteCarloBarostat): every `every` steps an isotropic trial
+!> Monte Carlo barostat (as OpenMM's MonteCarloBarostat): every `every` steps (energy stepping: at
+!> the multiples of `interval`, a calendar entry, all atoms drifted to that time) an isotropic trial
 !> change of the volume, V' = V + dV_max (2 u - 1), scales the box and the atom positions (not the
 !> velocities); its energy U' is computed and the move accepted with probability
 !>   min(1, exp(-(U' - U + P0 (V' - V) - N k T ln(V'/V)) / k T)),
@@ -26,6 +27,7 @@ module terrace_barostat_mc
     contains
         procedure :: needs_virial => mc_needs_virial
         procedure :: after_step => mc_after_step
+        procedure :: apply_event => mc_apply_event
         procedure :: save => mc_save
         procedure :: restore => mc_restore
     end type mc_barostat_t
@@ -44,14 +46,33 @@ contains
         type(engine_t), intent(inout) :: eng
         integer(i8), intent(in) :: step
         logical, intent(out) :: moved
+        moved = .false.
+        if (mod(step, int(self%every, i8)) /= 0) return
+        call mc_trial(self, eng, step, moved)
+    end subroutine mc_after_step
+
+    !> Energy stepping: a trial move at the event of index n (its numbers keyed by n).
+    subroutine mc_apply_event(self, eng, n, moved)
+        class(mc_barostat_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        integer(i8), intent(in) :: n
+        logical, intent(out) :: moved
+        call mc_trial(self, eng, n, moved)
+    end subroutine mc_apply_event
+
+    !> One trial move from the present state (eng%pe its energy), its numbers keyed by `key`.
+    subroutine mc_trial(self, eng, key, moved)
+        class(mc_barostat_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        integer(i8), intent(in) :: key
+        logical, intent(out) :: moved
         type(rng_stream_t) :: s
         real(dp) :: v, v_new, u_old, dh, mu, ua, ub
         integer :: d
         moved = .false.
-        if (mod(step, int(self%every, i8)) /= 0) return
         v = eng%box%volume()
         if (self%dv_max < 0) self%dv_max = 0.01_dp*v
-        s = rng_stream(self%seed, stream_mc_barostat, 0_i8, step)
+        s = rng_stream(self%seed, stream_mc_barostat, 0_i8, key)
         ua = s%uniform()
         ub = s%uniform()
         v_new = v + self%dv_max*(2*ua - 1)
@@ -79,7 +100,7 @@ contains
             end if
             self%attempted = 0; self%accepted = 0
         end if
-    end subroutine mc_after_step
+    end subroutine mc_trial
 
     subroutine mc_save(self, values)
         class(mc_barostat_t), intent(inout) :: self

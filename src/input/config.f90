@@ -117,6 +117,7 @@ module terrace_config
         real(dp) :: barostat_damping = -1.0_dp      !< C-rescale: relaxation time tau_p
         real(dp) :: barostat_compressibility = -1.0_dp  !< C-rescale: isothermal compressibility (1/pressure)
         character(len=8) :: barostat_couple = 'iso'
+        real(dp) :: barostat_interval = -1.0_dp     !< energy stepping mc: time between volume moves
         ! &minimize
         character(len=8) :: minimize = ''           !< '' (none), fire, cg
         real(dp) :: etol = 0, ftol = 0              !< LAMMPS minimize's stopping tolerances
@@ -657,20 +658,20 @@ contains
         type(config_t), intent(inout) :: cfg
         character(len=16) :: style
         character(len=8) :: couple
-        real(dp) :: pressure, damping, compressibility
-        namelist /barostat/ style, pressure, damping, compressibility, couple
-        character(len=*), parameter :: keys(5) = [character(len=40) :: 'style:a quoted string', &
+        real(dp) :: pressure, damping, compressibility, interval
+        namelist /barostat/ style, pressure, damping, compressibility, couple, interval
+        character(len=*), parameter :: keys(6) = [character(len=40) :: 'style:a quoted string', &
             'pressure:a real number', 'damping:a real number', 'compressibility:a real number', &
-            'couple:a quoted string']
+            'couple:a quoted string', 'interval:a real number']
         type(item_reader_t) :: it
-        style = 'none'; couple = 'iso'; pressure = 0; damping = -1; compressibility = -1
+        style = 'none'; couple = 'iso'; pressure = 0; damping = -1; compressibility = -1; interval = -1
         do while (it%next(cfg, 'barostat', keys))
             read (it%buf, nml=barostat, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
         end do
         cfg%barostat = lower(style); cfg%barostat_couple = lower(couple)
         cfg%barostat_pressure = pressure; cfg%barostat_damping = damping
-        cfg%barostat_compressibility = compressibility
+        cfg%barostat_compressibility = compressibility; cfg%barostat_interval = interval
     end subroutine read_barostat
 
     subroutine read_minimize(cfg)
@@ -704,7 +705,8 @@ contains
         given = cfg%nml%find('barostat', 'style') > 0
         if (.not. given) then
             if (cfg%nml%find('barostat', 'pressure') > 0 .or. cfg%nml%find('barostat', 'damping') > 0 .or. &
-                cfg%nml%find('barostat', 'compressibility') > 0 .or. cfg%nml%find('barostat', 'couple') > 0) &
+                cfg%nml%find('barostat', 'compressibility') > 0 .or. cfg%nml%find('barostat', 'couple') > 0 .or. &
+                cfg%nml%find('barostat', 'interval') > 0) &
                 call stop_all(cfg%path//': &barostat: style: missing (allowed: '//styles//')')
             return
         end if
@@ -723,8 +725,17 @@ contains
         if (len_trim(cfg%trajectory_file) > 0) call stop_all(cfg%where('output', 'trajectory_file')// &
             ': not available with a barostat (&barostat style = '''//trim(cfg%barostat)//"'): the trajectory "// &
             'holds one box, and a barostat changes it (the thermo file has vol and the box lengths)')
-        if (cfg%integrator /= 'velocity_verlet') call stop_all(style_is//": runs with &integrator style = "// &
-            "'velocity_verlet' only")
+        if (cfg%integrator /= 'velocity_verlet' .and. cfg%barostat /= 'mc') call stop_all(style_is// &
+            ": runs with &integrator style = 'velocity_verlet' only (energy stepping: style = 'mc')")
+        if (cfg%nml%find('barostat', 'interval') > 0) then
+            if (cfg%integrator /= 'energy_stepping') call stop_all(cfg%where('barostat', 'interval')// &
+                ': for energy stepping only (velocity Verlet tries a volume move every 25 steps)')
+            if (.not. (cfg%barostat_interval > 0)) call stop_all(cfg%where('barostat', 'interval')// &
+                ': must be > 0 (a time in '//trim(cfg%units%time)//')')
+        else if (cfg%integrator == 'energy_stepping') then
+            call stop_all(cfg%path//': &barostat: interval: missing (energy stepping: the time between volume '// &
+                          'moves, in '//trim(cfg%units%time)//')')
+        end if
         if (cfg%thermostat == 'none') call stop_all(style_is//': needs a thermostat (&thermostat style and '// &
             'temperature): the barostat samples at its temperature')
         if (.not. all(cfg%periodic(1:cfg%dimension))) call stop_all(style_is//': needs a box periodic in every '// &

@@ -117,6 +117,7 @@ contains
         p%dimension = cfg%dimension
         p%boltz = cfg%units%boltz
         p%nktv2p = cfg%units%nktv2p
+        if (cfg%integrator == 'energy_stepping' .and. cfg%barostat_interval > 0) p%interval = cfg%barostat_interval
         call new_barostat(cfg%barostat, p, bs)
     end subroutine make_barostat
 

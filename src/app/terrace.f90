@@ -16,7 +16,7 @@ program terrace
                                   make_barostat, minimize_params
     use terrace_thermostat, only: thermostat_t
     use terrace_barostat, only: barostat_t
-    use terrace_minimize, only: run_minimize, minimize_result_t
+    use terrace_minimize, only: run_minimize, minimize_result_t, no_unit
     use terrace_velocity_verlet, only: run_velocity_verlet
     use terrace_energy_stepping, only: run_energy_stepping, choose_terrace_height, print_es_estimates, es_stats_t, &
                                        es_thermo_header
@@ -123,18 +123,25 @@ contains
         type(minimize_result_t) :: res
         integer :: unit, dot
         character(len=:), allocatable :: min_path
-        unit = -1
-        if (world%rank == 0 .and. len_trim(cfg%thermo_file) > 0) then
+        logical :: there
+        unit = no_unit
+        there = .false.
+        min_path = ''
+        if (len_trim(cfg%thermo_file) > 0) then
             dot = index(trim(cfg%thermo_file), '.', back=.true.)
             if (dot > index(trim(cfg%thermo_file), '/', back=.true.)) then
                 min_path = cfg%thermo_file(1:dot - 1)//'.min'//trim(cfg%thermo_file(dot:))
             else
                 min_path = trim(cfg%thermo_file)//'.min.csv'
             end if
-            open (newunit=unit, file=min_path, status='replace', action='write')
+            if (world%rank == 0) inquire (file=min_path, exist=there)
+            call any_all(there)
+            call check_all(.not. there .or. cfg%overwrite, min_path//': exists (the minimization rows of '// &
+                           cfg%where('output', 'thermo_file')//'); set &output overwrite = .true. to replace it')
+            if (world%rank == 0) open (newunit=unit, file=min_path, status='replace', action='write')
         end if
         call run_minimize(eng, minimize_params(cfg), unit, res)
-        if (unit >= 0) close (unit)
+        if (unit /= no_unit) close (unit)
         if (world%rank == 0) then
             write (output_unit, '(a)') 'Minimization ('//trim(cfg%minimize)//'): stopping criterion = '//res%criterion
             write (output_unit, '(a,i0,a,i0)') '  iterations, force evaluations = ', res%iterations, ' ', res%evaluations

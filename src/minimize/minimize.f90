@@ -20,7 +20,7 @@
 !>           restored at the end (dynamics that follow start from the deck's velocities).
 !> Global sums (dot products, norms) are taken with one reduction each; every rank takes the
 !> same decisions. A thermo row per iteration: iteration, energy, largest force component, the
-!> force 2-norm (rank 0 writes it to `unit`, when >= 0).
+!> force 2-norm (rank 0 writes it to `unit`, unless it is `no_unit`).
 module terrace_minimize
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
@@ -50,6 +50,8 @@ module terrace_minimize
     end type minimize_result_t
 
     real(dp), parameter :: eps_energy = 1.0e-8_dp
+    !> run_minimize's unit when no rows are written (newunit= numbers are negative: not -1)
+    integer, parameter, public :: no_unit = -huge(1)
 
     !> The conjugate-gradient search's per-atom arrays, in the owned atoms' rows: ids, the unwrapped
     !> start of the line search, the direction h and the previous force g. A list rebuild may
@@ -72,7 +74,7 @@ contains
         ev0 = eng%force_evaluations
         call eng%compute_forces(.true.)
         res%e_initial = eng%pe
-        if (unit >= 0 .and. world%rank == 0) write (unit, '(a)') 'iteration,pe,fmax,fnorm'
+        if (unit /= no_unit .and. world%rank == 0) write (unit, '(a)') 'iteration,pe,fmax,fnorm'
         call write_row(eng, 0_i8, unit)
         if (p%box_relax) then
             call relax_box(eng, p, unit, ev0, res)
@@ -473,7 +475,7 @@ contains
         real(dp) :: fm, fn
         fm = fmax_all(eng)
         fn = sqrt(dot_ff(eng))
-        if (unit >= 0 .and. world%rank == 0) write (unit, '(i0,3(",",es24.16))') iter, eng%pe, fm, fn
+        if (unit /= no_unit .and. world%rank == 0) write (unit, '(i0,3(",",es24.16))') iter, eng%pe, fm, fn
     end subroutine write_row
 
 end module terrace_minimize

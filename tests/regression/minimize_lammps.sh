@@ -68,7 +68,7 @@ cat > lat_$style.nml <<NML
 &integrator style='velocity_verlet', dt=0.002 /
 &neighbor skin=1.0 /
 &minimize style='$style', etol=0.0, ftol=1.0e-10, box_relax='iso', pressure=0.0 /
-&output thermo_file='lat_$style.csv' /
+&output thermo_file='lat_$style.csv', overwrite=.true. /
 NML
 "$terrace" lat_$style.nml > lat_$style.log
 done
@@ -82,7 +82,7 @@ cat > "$1.nml" <<NML
 &integrator style='velocity_verlet', dt=0.002 /
 &neighbor skin=1.0 /
 &minimize style='$3', etol=0.0, ftol=1.0e-10, max_iterations=100000, max_evaluations=1000000 /
-&output thermo_file='$1.csv' /
+&output thermo_file='$1.csv', overwrite=.true. /
 NML
 }
 deck perfect perfect.data cg

@@ -7,7 +7,7 @@
 # errors from block averages (BLOCKS blocks), and whether each Terrace style lies within 2 combined
 # standard errors of LAMMPS.
 # Styles (STYLES): c_rescale, mc (velocity Verlet, 10 fs), mc_es (energy stepping, mean event
-# interval about 2 fs, Andersen thermostat with zero_momentum, volume moves every 0.25 ps). A LAMMPS
+# interval about 4 fs, Andersen thermostat with zero_momentum, volume moves every 0.25 ps). A LAMMPS
 # log already in WORKDIR is reused (so a later call with STYLES=mc_es and a shorter PROD compares
 # with the same reference).
 # usage: barostat_npt.sh TERRACE [WORKDIR]   (env: PROD=2000 EQ=100 BLOCKS=20 NP=1 STYLES="c_rescale mc")

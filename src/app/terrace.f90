@@ -12,8 +12,11 @@ program terrace
     use terrace_thermo, only: thermo_writer_t
     use terrace_schedule, only: schedule_t
     use terrace_run_schedule, only: make_schedule
-    use terrace_run_params, only: engine_params, control_params, verlet_params, es_params, ed_params, make_thermostat
+    use terrace_run_params, only: engine_params, control_params, verlet_params, es_params, ed_params, make_thermostat, &
+                                  make_barostat, minimize_params
     use terrace_thermostat, only: thermostat_t
+    use terrace_barostat, only: barostat_t
+    use terrace_minimize, only: run_minimize, minimize_result_t, no_unit
     use terrace_velocity_verlet, only: run_velocity_verlet
     use terrace_energy_stepping, only: run_energy_stepping, choose_terrace_height, print_es_estimates, es_stats_t, &
                                        es_thermo_header
@@ -48,6 +51,7 @@ program terrace
     type(trajectory_t), target :: traj
     type(schedule_t) :: sched
     class(thermostat_t), allocatable :: ts
+    class(barostat_t), allocatable :: bs
     character(len=:), allocatable :: path
     character(len=4096) :: arg
     logical :: check_only, ok
@@ -88,9 +92,11 @@ program terrace
     sched = make_schedule(cfg)
     call make_thermostat(cfg, eng%natoms, sched, ts)
     eng%ndof = ts%dof
+    call make_barostat(cfg, eng%natoms, bs)
     call check_outputs(cfg, lock=.not. check_only)      ! outputs checked (and locked) before any is opened
     call check_output_ids(cfg, eng%atoms%id(1:eng%atoms%nlocal), eng%natoms)
     if (world%rank == 0) call eng%plan%print(output_unit)
+    if (len_trim(cfg%minimize) > 0 .and. .not. check_only .and. .not. eng%restarted) call minimize_run()
 
     if (cfg%integrator == 'energy_stepping') then
         call energy_stepping_run()
@@ -109,10 +115,11 @@ contains
                 ' steps, thermo every ', sched%thermo_every, ' steps'
             call finish_check()
         end if
-        call open_outputs(trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), &
+        call open_outputs(trim(merge(',vol,box_lx,box_ly,box_lz', '                         ', bs%active()))// &
+                          trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), &
                           sched%end_time())
         call start_clock()
-        call run_velocity_verlet(eng, verlet_params(cfg), ts, out, sched)
+        call run_velocity_verlet(eng, verlet_params(cfg), ts, bs, out, sched)
         call close_run(sched%end_time())
         call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note(), &
                            list_pairs(), pairs_what())
@@ -120,6 +127,43 @@ contains
         if (.not. eng%list%exact()) call summary_put('neighbor/late_builds', eng%list%late)
         call write_summary('finished', sched%end_time())
     end subroutine verlet_run
+
+    !> The deck's minimization before the dynamics: its rows in <thermo_file stem>.min.csv (when
+    !> a thermo file is written), the stopping criterion and energies on the screen.
+    subroutine minimize_run()
+        type(minimize_result_t) :: res
+        integer :: unit, dot
+        character(len=:), allocatable :: min_path
+        logical :: there
+        unit = no_unit
+        there = .false.
+        min_path = ''
+        if (len_trim(cfg%thermo_file) > 0) then
+            dot = index(trim(cfg%thermo_file), '.', back=.true.)
+            if (dot > index(trim(cfg%thermo_file), '/', back=.true.)) then
+                min_path = cfg%thermo_file(1:dot - 1)//'.min'//trim(cfg%thermo_file(dot:))
+            else
+                min_path = trim(cfg%thermo_file)//'.min.csv'
+            end if
+            if (world%rank == 0) inquire (file=min_path, exist=there)
+            call any_all(there)
+            call check_all(.not. there .or. cfg%overwrite, min_path//': exists (the minimization rows of '// &
+                           cfg%where('output', 'thermo_file')//'); set &output overwrite = .true. to replace it')
+            if (world%rank == 0) open (newunit=unit, file=min_path, status='replace', action='write')
+        end if
+        call run_minimize(eng, minimize_params(cfg), unit, res)
+        if (unit /= no_unit) close (unit)
+        if (world%rank == 0) then
+            write (output_unit, '(a)') 'Minimization ('//trim(cfg%minimize)//'): stopping criterion = '//res%criterion
+            write (output_unit, '(a,i0,a,i0)') '  iterations, force evaluations = ', res%iterations, ' ', res%evaluations
+            write (output_unit, '(a,es24.16,1x,es24.16)') '  energy initial, final = ', res%e_initial, res%e_final
+            write (output_unit, '(a,es12.5,1x,es12.5)') '  force two-norm, max component = ', res%fnorm2, res%fmax
+            if (len_trim(cfg%box_relax) > 0 .and. cfg%box_relax /= 'none') &
+                write (output_unit, '(a,i0,a,es24.16,a,3es24.16)') '  box relaxed: ', res%box_steps, &
+                ' volume steps; pressure ', res%pressure, ' ; box lengths ', eng%box%length
+            flush (output_unit)
+        end if
+    end subroutine minimize_run
 
     !> This rank's pairs in the built list (within rc + skin) at its last build; 0 without a list.
     integer(i8) function list_pairs()
@@ -197,10 +241,12 @@ contains
             end if
             call finish_check()
         end if
-        call open_outputs(es_thermo_header//trim(merge(',ecouple,econserve', '                  ', &
-                                                        cfg%thermostat /= 'none')), sched%end_time())
+        call open_outputs(es_thermo_header//trim(merge(',vol,box_lx,box_ly,box_lz', '                         ', &
+                                                        bs%active()))// &
+                          trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), &
+                          sched%end_time())
         call start_clock()
-        call run_energy_stepping(eng, es_params(cfg), ts, out, h, sched, es)
+        call run_energy_stepping(eng, es_params(cfg), ts, bs, out, h, sched, es)
         call close_run(es%time)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events', prune_note(), &
                            list_pairs())

@@ -5,6 +5,7 @@
 !>   checkpoint  scheduled checkpoint     by count (Verlet: steps) or by time (energy stepping)
 !>   list        neighbour-list expiry    by time (the exact expiry of straight-line motion)
 !>   thermostat  thermostat event         by time (Andersen collisions, CSVR rescalings)
+!>   barostat    barostat event           by time (Monte Carlo volume moves at multiples of an interval)
 !>   finish      end of the run           by time
 !>
 !> A time entry holds its next time t(k) (huge: none); an entry on a fixed grid also its index
@@ -18,8 +19,8 @@ module terrace_calendar
     private
 
     integer, parameter, public :: cal_sample = 1, cal_frame = 2, cal_checkpoint = 3, cal_list = 4, &
-                                  cal_thermostat = 5, cal_finish = 6
-    integer, parameter :: n_entries = 6
+                                  cal_thermostat = 5, cal_finish = 6, cal_barostat = 7
+    integer, parameter :: n_entries = 7
 
     type, public :: calendar_t
         real(dp) :: t(n_entries) = huge(1.0_dp)     !< next time of each entry (huge: none)

@@ -84,7 +84,22 @@ module terrace_engine
         procedure :: prune => engine_prune
         procedure :: report_warnings => engine_report_warnings
         procedure :: check_valid => engine_check_valid
+        procedure :: scale_box => engine_scale_box
+        procedure :: save_state => engine_save_state
+        procedure :: restore_state => engine_restore_state
     end type engine_t
+
+    !> Everything a trial move of the box (or of the atoms) changes, for an exact return to the
+    !> state before it: the atoms (positions, velocities, forces, order, ghosts), the lists, the
+    !> domain's brick and halo, the box and the last energy and virial.
+    type, public :: engine_state_t
+        type(atoms_t) :: atoms
+        type(neighbor_list_t) :: list, inner
+        type(domain_t) :: dom
+        type(box_t) :: box
+        real(dp) :: pe = 0, virial = 0
+        logical :: built_covered = .false.
+    end type engine_state_t
 
     !> The halo operations handed to the potential during a force pass.
     type, extends(halo_ops_t) :: engine_halo_t
@@ -409,5 +424,65 @@ contains
         write (at, '(a,i0,a,es12.5,1x,a)') ' at step ', step, ', time ', time, trim(self%units%time)
         call check_all(.not. bad, trim(text)//trim(at))
     end subroutine engine_check_valid
+
+    !> Scale the box by mu(d) along each dimension about the origin, and with it every owned atom's
+    !> position (x = mu x: the unwrapped positions scale too, image flags unchanged); with
+    !> velocities also v = v / mu. The domain's bricks follow the box; the atoms are migrated and
+    !> the halo and the neighbour list rebuilt. Collective (every rank passes the same mu).
+    subroutine engine_scale_box(self, mu, velocities)
+        class(engine_t), intent(inout) :: self
+        real(dp), intent(in) :: mu(3)
+        logical, intent(in) :: velocities
+        integer :: i, d, n
+        n = self%atoms%nlocal
+        do i = 1, n
+            do d = 1, self%box%dimension
+                self%atoms%x(d, i) = mu(d)*self%atoms%x(d, i)
+            end do
+        end do
+        if (velocities) then
+            do i = 1, n
+                do d = 1, self%box%dimension
+                    self%atoms%v(d, i) = self%atoms%v(d, i)/mu(d)
+                end do
+            end do
+        end if
+        do d = 1, self%box%dimension
+            self%box%lo(d) = mu(d)*self%box%lo(d)
+            self%box%hi(d) = mu(d)*self%box%hi(d)
+        end do
+        self%box%length = self%box%hi - self%box%lo
+        call self%dom%resize(self%box)
+        call self%rebuild()
+    end subroutine engine_scale_box
+
+    !> A copy of what a trial move changes (restore_state returns to it exactly).
+    subroutine engine_save_state(self, st)
+        class(engine_t), intent(in) :: self
+        type(engine_state_t), intent(inout) :: st
+        st%atoms = self%atoms
+        st%list = self%list
+        st%inner = self%inner
+        st%dom = self%dom
+        st%box = self%box
+        st%pe = self%pe; st%virial = self%virial
+        st%built_covered = self%built_covered
+    end subroutine engine_save_state
+
+    !> Back to a saved state (a rejected trial move): bitwise the state saved, the potential told
+    !> of the restored atom order.
+    subroutine engine_restore_state(self, st)
+        class(engine_t), intent(inout) :: self
+        type(engine_state_t), intent(in) :: st
+        self%atoms = st%atoms
+        self%list = st%list
+        self%inner = st%inner
+        self%dom = st%dom
+        self%box = st%box
+        self%pe = st%pe; self%virial = st%virial
+        self%built_covered = st%built_covered
+        call self%atoms%refresh_rmass()
+        call self%pot%on_rebuild(self%atoms)
+    end subroutine engine_restore_state
 
 end module terrace_engine

@@ -9,6 +9,8 @@
 !>   &neighbor   skin, list, every, check, buffer_tolerance
 !>   &output     thermo_every, thermo_interval, thermo_file, forces_file
 !>   &thermostat style, temperature, temperature_end, damping, chain_length, seed, zero_momentum, interval
+!>   &barostat   style, pressure, damping, compressibility, couple
+!>   &minimize   style, etol, ftol, max_iterations, max_evaluations
 !> Every key is read on its own, so that an error names file, line, group and key.
 module terrace_config
     use terrace_kinds, only: dp, i8
@@ -119,6 +121,19 @@ module terrace_config
         integer :: chain_length = 3                       !< Nose-Hoover chain length
         integer(i8) :: thermostat_seed = -1               !< < 0: &run seed
         logical :: zero_momentum = .false.
+        ! &barostat
+        character(len=16) :: barostat = 'none'      !< none, c_rescale, mc
+        real(dp) :: barostat_pressure = 0           !< target pressure (the run's pressure unit)
+        real(dp) :: barostat_damping = -1.0_dp      !< C-rescale: relaxation time tau_p
+        real(dp) :: barostat_compressibility = -1.0_dp  !< C-rescale: isothermal compressibility (1/pressure)
+        character(len=8) :: barostat_couple = 'iso'
+        real(dp) :: barostat_interval = -1.0_dp     !< energy stepping mc: time between volume moves
+        ! &minimize
+        character(len=8) :: minimize = ''           !< '' (none), fire, cg
+        real(dp) :: etol = 0, ftol = 0              !< LAMMPS minimize's stopping tolerances
+        integer(i8) :: max_iterations = 10000, max_evaluations = 100000
+        character(len=8) :: box_relax = 'none'      !< none, iso: the box's volume relaxed too
+        real(dp) :: min_pressure = 0                !< box_relax: target pressure
     contains
         procedure :: where => cfg_where
         procedure :: scene_source => cfg_scene_source
@@ -126,7 +141,8 @@ module terrace_config
 
     public :: read_config, is_unset
 
-    character(len=*), parameter :: groups_allowed = 'run, system, potential, integrator, neighbor, output, thermostat'
+    character(len=*), parameter :: groups_allowed = 'run, system, potential, integrator, neighbor, output, thermostat, '// &
+                                                    'barostat, minimize'
 
     !> Walks the assignments of one namelist group: the current item, its key's kind, its text.
     type :: item_reader_t
@@ -184,7 +200,7 @@ contains
         if (len(cfg%nml%syntax_error) > 0) call stop_all(cfg%nml%syntax_error)
         do i = 1, cfg%nml%ngroups
             select case (cfg%nml%groups(i))
-            case ('run', 'system', 'potential', 'integrator', 'neighbor', 'output', 'thermostat')
+            case ('run', 'system', 'potential', 'integrator', 'neighbor', 'output', 'thermostat', 'barostat', 'minimize')
                 if (count(cfg%nml%groups(1:i - 1) == cfg%nml%groups(i)) > 0) &
                     call stop_all(at_line(cfg%path, cfg%nml%group_lines(i))//'&'//trim(cfg%nml%groups(i))// &
                                   ': group given twice (merge its keys into one group)')
@@ -200,6 +216,8 @@ contains
         call read_neighbor(cfg)
         call read_output(cfg)
         call read_thermostat(cfg)
+        call read_barostat(cfg)
+        call read_minimize(cfg)
         call validate(cfg)
         call check_input_files(cfg)
     end subroutine read_config
@@ -672,6 +690,162 @@ contains
         cfg%zero_momentum = zero_momentum; cfg%thermostat_interval = interval
     end subroutine read_thermostat
 
+    subroutine read_barostat(cfg)
+        type(config_t), intent(inout) :: cfg
+        character(len=16) :: style
+        character(len=8) :: couple
+        real(dp) :: pressure, damping, compressibility, interval
+        namelist /barostat/ style, pressure, damping, compressibility, couple, interval
+        character(len=*), parameter :: keys(6) = [character(len=40) :: 'style:a quoted string', &
+            'pressure:a real number', 'damping:a real number', 'compressibility:a real number', &
+            'couple:a quoted string', 'interval:a real number']
+        type(item_reader_t) :: it
+        style = 'none'; couple = 'iso'; pressure = 0; damping = -1; compressibility = -1; interval = -1
+        do while (it%next(cfg, 'barostat', keys))
+            read (it%buf, nml=barostat, iostat=it%ios, iomsg=it%msg)
+            call it%done(cfg)
+        end do
+        cfg%barostat = lower(style); cfg%barostat_couple = lower(couple)
+        cfg%barostat_pressure = pressure; cfg%barostat_damping = damping
+        cfg%barostat_compressibility = compressibility; cfg%barostat_interval = interval
+    end subroutine read_barostat
+
+    subroutine read_minimize(cfg)
+        type(config_t), intent(inout) :: cfg
+        character(len=8) :: style, box_relax
+        real(dp) :: etol, ftol, pressure
+        integer(i8) :: max_iterations, max_evaluations
+        namelist /minimize/ style, etol, ftol, max_iterations, max_evaluations, box_relax, pressure
+        character(len=*), parameter :: keys(7) = [character(len=40) :: 'style:a quoted string', &
+            'etol:a real number', 'ftol:a real number', 'max_iterations:an integer', 'max_evaluations:an integer', &
+            'box_relax:a quoted string', 'pressure:a real number']
+        type(item_reader_t) :: it
+        style = ''; etol = 0; ftol = 0; max_iterations = 10000; max_evaluations = 100000
+        box_relax = 'none'; pressure = 0
+        do while (it%next(cfg, 'minimize', keys))
+            read (it%buf, nml=minimize, iostat=it%ios, iomsg=it%msg)
+            call it%done(cfg)
+        end do
+        cfg%minimize = lower(style); cfg%etol = etol; cfg%ftol = ftol
+        cfg%max_iterations = max_iterations; cfg%max_evaluations = max_evaluations
+        cfg%box_relax = lower(box_relax); cfg%min_pressure = pressure
+    end subroutine read_minimize
+
+    !> &barostat: the style, its keys, and what it needs (velocity Verlet, a thermostat's
+    !> temperature, a periodic box of atoms).
+    subroutine validate_barostat(cfg)
+        type(config_t), intent(inout) :: cfg
+        character(len=*), parameter :: styles = "'none', 'c_rescale', 'mc'"
+        character(len=:), allocatable :: style_is
+        logical :: given
+        given = cfg%nml%find('barostat', 'style') > 0
+        if (.not. given) then
+            if (cfg%nml%find('barostat', 'pressure') > 0 .or. cfg%nml%find('barostat', 'damping') > 0 .or. &
+                cfg%nml%find('barostat', 'compressibility') > 0 .or. cfg%nml%find('barostat', 'couple') > 0 .or. &
+                cfg%nml%find('barostat', 'interval') > 0) &
+                call stop_all(cfg%path//': &barostat: style: missing (allowed: '//styles//')')
+            return
+        end if
+        style_is = cfg%where('barostat', 'style')//" = '"//trim(cfg%barostat)//"'"
+        select case (cfg%barostat)
+        case ('none')
+            return
+        case ('c_rescale', 'mc')
+        case ('mttk')
+            call stop_all(style_is//': not available (allowed: '//styles//')')
+        case default
+            call stop_all(style_is//': unknown barostat (allowed: '//styles//')')
+        end select
+        if (len_trim(cfg%mesh_file) > 0) call stop_all(style_is//': a barostat changes the box of a periodic '// &
+            'scene of atoms; a mesh (&system mesh_file) has free boundaries and no box to scale')
+        if (len_trim(cfg%trajectory_file) > 0) call stop_all(cfg%where('output', 'trajectory_file')// &
+            ': not available with a barostat (&barostat style = '''//trim(cfg%barostat)//"'): the trajectory "// &
+            'holds one box, and a barostat changes it (the thermo file has vol and the box lengths)')
+        if (cfg%integrator /= 'velocity_verlet' .and. cfg%barostat /= 'mc') call stop_all(style_is// &
+            ": runs with &integrator style = 'velocity_verlet' only (energy stepping: style = 'mc')")
+        if (cfg%nml%find('barostat', 'interval') > 0) then
+            if (cfg%integrator /= 'energy_stepping') call stop_all(cfg%where('barostat', 'interval')// &
+                ': for energy stepping only (velocity Verlet tries a volume move every 25 steps)')
+            if (.not. (cfg%barostat_interval > 0)) call stop_all(cfg%where('barostat', 'interval')// &
+                ': must be > 0 (a time in '//trim(cfg%units%time)//')')
+        else if (cfg%integrator == 'energy_stepping') then
+            call stop_all(cfg%path//': &barostat: interval: missing (energy stepping: the time between volume '// &
+                          'moves, in '//trim(cfg%units%time)//')')
+        end if
+        if (cfg%thermostat == 'none') call stop_all(style_is//': needs a thermostat (&thermostat style and '// &
+            'temperature): the barostat samples at its temperature')
+        if (.not. all(cfg%periodic(1:cfg%dimension))) call stop_all(style_is//': needs a box periodic in every '// &
+            'dimension (&system periodic)')
+        if (cfg%nml%find('barostat', 'pressure') == 0) call stop_all(cfg%path//': &barostat: pressure: missing '// &
+            '(the target pressure in '//trim(cfg%units%pressure)//')')
+        select case (cfg%barostat_couple)
+        case ('iso')
+        case ('aniso')
+            call stop_all(cfg%where('barostat', 'couple')//" = 'aniso': not available (allowed: 'iso')")
+        case default
+            call stop_all(cfg%where('barostat', 'couple')//" = '"//trim(cfg%barostat_couple)// &
+                          "': unknown (allowed: 'iso')")
+        end select
+        if (cfg%barostat == 'c_rescale') then
+            if (cfg%nml%find('barostat', 'damping') == 0) call stop_all(cfg%path//': &barostat: damping: missing '// &
+                '(the relaxation time tau_p, a time in '//trim(cfg%units%time)//')')
+            if (.not. (cfg%barostat_damping > 0)) call stop_all(cfg%where('barostat', 'damping')// &
+                ': must be > 0 (a time in '//trim(cfg%units%time)//')')
+            if (cfg%nml%find('barostat', 'compressibility') == 0) call stop_all(cfg%path//': &barostat: '// &
+                'compressibility: missing (the isothermal compressibility, in 1/('//trim(cfg%units%pressure)//'))')
+            if (.not. (cfg%barostat_compressibility > 0)) call stop_all(cfg%where('barostat', 'compressibility')// &
+                ': must be > 0 (in 1/('//trim(cfg%units%pressure)//'))')
+        else
+            if (cfg%nml%find('barostat', 'damping') > 0) call stop_all(cfg%where('barostat', 'damping')// &
+                ": not used by style 'mc' (it adapts its volume moves itself)")
+            if (cfg%nml%find('barostat', 'compressibility') > 0) call stop_all(cfg%where('barostat', &
+                'compressibility')//": not used by style 'mc'")
+        end if
+    end subroutine validate_barostat
+
+    !> &minimize: the style and its tolerances and limits.
+    subroutine validate_minimize(cfg)
+        type(config_t), intent(inout) :: cfg
+        logical :: any_key
+        any_key = cfg%nml%find('minimize', 'etol') > 0 .or. cfg%nml%find('minimize', 'ftol') > 0 .or. &
+                  cfg%nml%find('minimize', 'max_iterations') > 0 .or. cfg%nml%find('minimize', 'max_evaluations') > 0 &
+                  .or. cfg%nml%find('minimize', 'box_relax') > 0 .or. cfg%nml%find('minimize', 'pressure') > 0
+        if (cfg%nml%find('minimize', 'style') == 0) then
+            if (any_key) call stop_all(cfg%path//": &minimize: style: missing (allowed: 'fire', 'cg')")
+            return
+        end if
+        select case (cfg%minimize)
+        case ('fire', 'cg')
+        case default
+            call stop_all(cfg%where('minimize', 'style')//" = '"//trim(cfg%minimize)// &
+                          "': unknown minimizer (allowed: 'fire', 'cg')")
+        end select
+        if (.not. (cfg%etol >= 0)) call stop_all(cfg%where('minimize', 'etol')// &
+            ': must be >= 0 (relative change of the energy between iterations)')
+        if (.not. (cfg%ftol >= 0)) call stop_all(cfg%where('minimize', 'ftol')// &
+            ': must be >= 0 (the 2-norm of the global force vector, in '//trim(cfg%units%energy)//'/'// &
+            trim(cfg%units%length)//')')
+        if (cfg%max_iterations < 1) call stop_all(cfg%where('minimize', 'max_iterations')//': must be >= 1')
+        if (cfg%max_evaluations < 1) call stop_all(cfg%where('minimize', 'max_evaluations')//': must be >= 1')
+        select case (cfg%box_relax)
+        case ('none')
+            if (cfg%nml%find('minimize', 'pressure') > 0) call stop_all(cfg%where('minimize', 'pressure')// &
+                ": the target pressure of box_relax (give box_relax = 'iso')")
+        case ('iso')
+            if (len_trim(cfg%mesh_file) > 0) call stop_all(cfg%where('minimize', 'box_relax')// &
+                ': a mesh (&system mesh_file) has free boundaries and no box to relax')
+            if (.not. all(cfg%periodic(1:cfg%dimension))) call stop_all(cfg%where('minimize', 'box_relax')// &
+                ': needs a box periodic in every dimension (&system periodic)')
+        case ('aniso')
+            call stop_all(cfg%where('minimize', 'box_relax')//" = 'aniso': not available (allowed: 'none', 'iso')")
+        case default
+            call stop_all(cfg%where('minimize', 'box_relax')//" = '"//trim(cfg%box_relax)// &
+                          "': unknown (allowed: 'none', 'iso')")
+        end select
+        if (cfg%barostat /= 'none' .and. len_trim(cfg%barostat) > 0 .and. cfg%integrator /= 'velocity_verlet') &
+            call stop_all(cfg%where('minimize', 'style')//': dynamics after a minimization run with velocity Verlet')
+    end subroutine validate_minimize
+
     !> &thermostat: the style, its keys, and whether it fits the integrator (the style says which of
     !> its keys it takes and whether it can act between energy stepping's events: thermostat_factory).
     subroutine validate_thermostat(cfg)
@@ -1005,6 +1179,8 @@ contains
         if (cfg%thermo_every > 0 .and. cfg%thermo_interval > 0) &
             call stop_all(cfg%where('output', 'thermo_interval')//': give either thermo_every or thermo_interval')
         call validate_thermostat(cfg)
+        call validate_barostat(cfg)
+        call validate_minimize(cfg)
         call validate_outputs(cfg)
     contains
 

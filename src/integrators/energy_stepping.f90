@@ -39,7 +39,8 @@ module terrace_energy_stepping
     use terrace_schedule, only: schedule_t
     use terrace_event_solver, only: ray_t, event_solver_t, crossing_t, level_upper, level_lower
     use terrace_observables, only: thermo_sample_t
-    use terrace_calendar, only: calendar_t, cal_sample, cal_frame, cal_checkpoint, cal_list, cal_thermostat, cal_finish
+    use terrace_calendar, only: calendar_t, cal_sample, cal_frame, cal_checkpoint, cal_list, cal_thermostat, cal_finish, &
+                               cal_barostat
     use terrace_run_outputs, only: run_outputs_t
     use terrace_timers, only: t_output, t_comm
     use terrace_mpi_env, only: world, sum_all, min_all
@@ -50,6 +51,7 @@ module terrace_energy_stepping
     use terrace_named_values, only: named_values_t
     use terrace_scene_plan, only: pair_all
     use terrace_thermostat, only: thermostat_t
+    use terrace_barostat, only: barostat_t
     use, intrinsic :: iso_fortran_env, only: output_unit
     implicit none
     private
@@ -114,6 +116,7 @@ module terrace_energy_stepping
     type :: es_run_t
         type(engine_t), pointer :: eng => null()
         class(thermostat_t), pointer :: ts => null()
+        class(barostat_t), pointer :: bs => null()
         type(run_outputs_t), pointer :: out => null()
         type(engine_ray_t) :: ray
         type(event_solver_t) :: solver
@@ -343,10 +346,11 @@ contains
     end subroutine print_es_estimates
 
     !> The event loop. Ends at t_end, or after max_events events (sched), or at a stop request.
-    subroutine run_energy_stepping(eng, p, ts, out, h, sched, stats)
+    subroutine run_energy_stepping(eng, p, ts, bs, out, h, sched, stats)
         type(engine_t), intent(inout), target :: eng
         type(es_params_t), intent(in) :: p
         class(thermostat_t), intent(inout), target :: ts
+        class(barostat_t), intent(inout), target :: bs
         type(run_outputs_t), intent(inout), target :: out
         real(dp), intent(in) :: h
         type(schedule_t), intent(in) :: sched
@@ -355,7 +359,7 @@ contains
         type(crossing_t) :: res
         logical :: stop_now
         integer :: i
-        r%eng => eng; r%ts => ts; r%out => out
+        r%eng => eng; r%ts => ts; r%bs => bs; r%out => out
         r%ray%eng => eng
         r%h = h
         r%mvv2e = eng%units%mvv2e
@@ -416,7 +420,7 @@ contains
         type(es_run_t), intent(inout) :: r
         type(crossing_t), intent(in) :: res
         logical, intent(out) :: stop_now
-        logical :: ckpt_due, rebuilt, thermostat_event, safe
+        logical :: ckpt_due, rebuilt, thermostat_event, safe, box_moved
         real(dp) :: window
         associate (st => r%st, eng => r%eng, ts => r%ts, cal => r%st%cal, ctl => r%out%ctl)
             stop_now = .false.
@@ -438,20 +442,32 @@ contains
                 st%lower = st%k*r%h; st%upper = (st%k + 1)*r%h
             end if
             eng%pe = r%ray%last_out(1); eng%virial = r%ray%last_out(4)
-            rebuilt = st%t >= st%t_exp_built .or. (ckpt_due .and. eng%plan%pair_mode /= pair_all)
+            ! a barostat event (a Monte Carlo volume move from the state at this time): an accepted
+            ! move rebuilt the list; the terrace is that of the new V
+            box_moved = .false.
+            if (cal%due(cal_barostat, st%t)) then
+                call r%bs%apply_event(eng, cal%n(cal_barostat), box_moved)
+                if (cal%reached(cal_barostat, st%t)) continue      ! on to the next grid point
+                if (box_moved) then
+                    st%k = floor(eng%pe/r%h, i8)
+                    st%lower = st%k*r%h; st%upper = (st%k + 1)*r%h
+                end if
+            end if
+            rebuilt = box_moved .or. st%t >= st%t_exp_built .or. (ckpt_due .and. eng%plan%pair_mode /= pair_all)
             if (.not. rebuilt .and. cal%due(cal_list, st%t)) then
                 ! only the pruned list expired: prune it again (no build, no safe point)
                 call eng%prune()
                 if (.not. thermostat_event) call expiry_after(r, st%t)
             end if
             if (rebuilt) then
-                call eng%rebuild()
+                if (.not. box_moved) call eng%rebuild()
                 r%stats%rebuilds = r%stats%rebuilds + 1
                 call expiry_after(r, st%t)
                 call ts%schedule(eng%atoms, st%t)
             end if
-            if (thermostat_event) then
-                ! new velocities: ghosts, list expiry, and V' and V'' at the search origin along them
+            if (thermostat_event .or. box_moved) then
+                ! new velocities or positions: ghosts, list expiry, and V, V' and V'' at the search
+                ! origin
                 if (.not. rebuilt) then
                     call eng%sync_ghosts()
                     call expiry_after(r, st%t)
@@ -577,6 +593,7 @@ contains
             st%c_guess = 0
             call st%cal%on_grid(cal_sample, sched%thermo_interval, 1_i8)
             call st%cal%on_grid(cal_frame, sched%traj_interval, 1_i8)
+            call st%cal%on_grid(cal_barostat, r%bs%interval, 1_i8)
             call expiry_after(r, 0.0_dp)
             st%trust = huge(1.0_dp)
             st%last_events = 0; st%last_evals = 0; st%last_time = 0
@@ -594,10 +611,11 @@ contains
         real(dp) :: t_list
         ok = .true.
         r%st%t = r%eng%restart_values%get_r('time', ok)
-        call r%st%exchange(r%eng%restart_values, .false., r%stats, ok)
-        ! (the grids' next points and indices come from the checkpoint, their spacing from the deck)
+        ! the grids' spacings come from the deck (the checkpoint holds their next points)
         r%st%cal%interval(cal_sample) = sched%thermo_interval
         r%st%cal%interval(cal_frame) = sched%traj_interval
+        r%st%cal%interval(cal_barostat) = r%bs%interval
+        call r%st%exchange(r%eng%restart_values, .false., r%stats, ok)
         r%solver%tol = r%st%tol
         r%eng%pe = r%st%pe; r%eng%virial = r%st%virial
         r%ray%last_s = r%st%ray_last_s; r%ray%last_out = r%st%ray_last_out
@@ -607,6 +625,7 @@ contains
         call expiry_after(r, r%st%t)
         r%st%cal%t(cal_list) = t_list
         if (r%ts%active()) call r%ts%restore(r%eng%restart_values, ok)
+        if (r%bs%active()) call r%bs%restore(r%eng%restart_values, ok)
         call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
                        '(energy-stepping state missing)')
     end subroutine restore_state
@@ -619,6 +638,7 @@ contains
         logical :: ok
         call val%put('h', r%h)
         if (r%ts%active()) call r%ts%save(val)
+        if (r%bs%active()) call r%bs%save(val)
         r%st%tol = r%solver%tol
         r%st%pe = r%eng%pe; r%st%virial = r%eng%virial
         r%st%ray_last_s = r%ray%last_s; r%st%ray_last_out = r%ray%last_out
@@ -647,8 +667,14 @@ contains
             if (r%ts%active()) stats%conserved_last = stats%conserved_last - s%ecouple
             if (.not. stats%have_conserved) stats%conserved_first = stats%conserved_last
             stats%have_conserved = .true.
-            call r%out%sample(s, s%ke + st%k*r%h, [real(stats%events, dp), real(stats%reflections, dp), mean_dt, &
-                                                   evals, r%h, s%ke + st%k*r%h])
+            if (r%bs%active()) then        ! vol and the box lengths; P0 V in the conserved quantity
+                call r%out%sample(s, s%ke + st%k*r%h + r%bs%pv(r%eng), [real(stats%events, dp), &
+                                  real(stats%reflections, dp), mean_dt, evals, r%h, s%ke + st%k*r%h, &
+                                  r%eng%box%volume(), r%eng%box%length])
+            else
+                call r%out%sample(s, s%ke + st%k*r%h, [real(stats%events, dp), real(stats%reflections, dp), mean_dt, &
+                                                       evals, r%h, s%ke + st%k*r%h])
+            end if
             st%last_events = stats%events; st%last_evals = stats%ray_evals; st%last_time = time
             call r%eng%timers%stop(t_output)
         end associate
@@ -693,6 +719,9 @@ contains
         call x1('es_ray_last_s', self%ray_last_s)
         call x1('es_ray_last_v', self%ray_last_out(1)); call x1('es_ray_last_dv', self%ray_last_out(2))
         call x1('es_ray_last_d2v', self%ray_last_out(3)); call x1('es_ray_last_w', self%ray_last_out(4))
+        if (self%cal%interval(cal_barostat) > 0) then
+            call x1('es_n_barostat', self%cal%n(cal_barostat)); call x1('es_t_next_barostat', self%cal%t(cal_barostat))
+        end if
     contains
         !> One named value, real, integer(i8) or logical: written when saving, else read.
         subroutine x1(name, x)

@@ -21,6 +21,7 @@ module terrace_velocity_verlet
     use terrace_calendar, only: calendar_t, cal_sample, cal_frame, cal_checkpoint
     use terrace_run_outputs, only: run_outputs_t
     use terrace_thermostat, only: thermostat_t
+    use terrace_barostat, only: barostat_t
     implicit none
     private
 
@@ -34,15 +35,16 @@ module terrace_velocity_verlet
 
 contains
 
-    subroutine run_velocity_verlet(eng, p, ts, out, sched)
+    subroutine run_velocity_verlet(eng, p, ts, bs, out, sched)
         type(engine_t), intent(inout) :: eng
         type(verlet_params_t), intent(in) :: p
         class(thermostat_t), intent(inout) :: ts
+        class(barostat_t), intent(inout) :: bs
         type(run_outputs_t), intent(inout) :: out
         type(schedule_t), intent(in) :: sched
         integer(i8) :: step, step0
         real(dp) :: dt, dtfm(size(eng%atoms%mass)), dtf
-        logical :: sample, frame, scheduled, safe, stop_now
+        logical :: sample, frame, scheduled, safe, stop_now, moved
         type(thermo_sample_t) :: first, last
         type(calendar_t) :: cal
         dt = p%dt
@@ -53,12 +55,12 @@ contains
         cal%every(cal_checkpoint) = out%ctl%every
         step0 = 0
         if (eng%restarted) then
-            call restore_state(eng, p, ts, step0, first)
+            call restore_state(eng, p, ts, bs, step0, first)
         else
             call eng%timers%start(t_output)
             first = eng%sample(0_i8, 0.0_dp)
             if (ts%active()) first%ecouple = ts%ecouple()
-            call out%sample(first, first%etotal)
+            call write_sample(first)
             if (cal%count_due(cal_frame, 0_i8)) call out%frame(eng, 0_i8, 0.0_dp, first)
             call eng%timers%stop(t_output)
         end if
@@ -71,19 +73,26 @@ contains
                 call kick(eng, dtfm, dtf, dt, .true.)
             end if
             scheduled = cal%count_due(cal_checkpoint, step)
-            safe = move_ghosts(eng, step, scheduled)
+            call bs%before_forces(eng, step, moved)
+            if (moved) then
+                safe = .true.                 ! the box changed: the list was just rebuilt here
+            else
+                safe = move_ghosts(eng, step, scheduled)
+            end if
             sample = cal%count_due(cal_sample, step) .or. step == sched%n_steps
             frame = cal%count_due(cal_frame, step)
-            call eng%compute_forces(sample .or. frame)
+            call eng%compute_forces(sample .or. frame .or. bs%needs_virial(step))
             if (eng%validity_checks) call eng%check_valid(step, step*dt)
             call kick(eng, dtfm, dtf, dt, .false.)
             call ts%post_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
             call ts%hold_momentum(eng%atoms)
+            call bs%after_step(eng, step, moved)
+            safe = safe .or. moved
             if (sample) then
                 call eng%timers%start(t_output)
                 last = eng%sample(step, step*dt)
                 if (ts%active()) last%ecouple = ts%ecouple()
-                call out%sample(last, last%etotal)
+                call write_sample(last)
                 call eng%timers%stop(t_output)
             end if
             if (frame) call out%frame(eng, step, step*dt, eng%sample(step, step*dt))
@@ -92,11 +101,24 @@ contains
             if (safe .and. ts%active()) call ts%fold()
             if (safe .and. out%ctl%active) then
                 stop_now = out%ctl%stop_requested()
-                if (stop_now .or. scheduled) call checkpoint(eng, ts, out, first, step, step*dt, scheduled)
+                if (stop_now .or. scheduled) call checkpoint(eng, ts, bs, out, first, step, step*dt, scheduled)
                 if (out%ctl%stopped) exit
             end if
         end do
         if (.not. out%ctl%stopped) call report_drift(first, last, eng%natoms, ts%active())
+
+    contains
+
+        !> A thermo line; with a barostat the columns vol, box_lx, box_ly, box_lz, and P0 V in the conserved
+        !> quantity (econserve = etotal + P0 V - ecouple).
+        subroutine write_sample(s)
+            type(thermo_sample_t), intent(in) :: s
+            if (bs%active()) then
+                call out%sample(s, s%etotal + bs%pv(eng), [eng%box%volume(), eng%box%length])
+            else
+                call out%sample(s, s%etotal)
+            end if
+        end subroutine write_sample
     end subroutine run_velocity_verlet
 
     !> The first half kick and the drift (drift), or the second half kick, of the owned atoms.
@@ -134,25 +156,27 @@ contains
 
     !> A restart: the step the checkpoint was taken at and the run's own keys (exchange_first). (The
     !> energy guard takes its reference at the first sample after the restart.)
-    subroutine restore_state(eng, p, ts, step0, first)
+    subroutine restore_state(eng, p, ts, bs, step0, first)
         type(engine_t), intent(inout) :: eng
         type(verlet_params_t), intent(in) :: p
         class(thermostat_t), intent(inout) :: ts
+        class(barostat_t), intent(inout) :: bs
         integer(i8), intent(out) :: step0
         type(thermo_sample_t), intent(out) :: first
         logical :: ok
         ok = .true.
         step0 = eng%restart_values%get_i('step', ok)
         first%step = 0; first%time = 0
-        call exchange_first(eng%restart_values, first, ts, .false., ok)
+        call exchange_first(eng%restart_values, first, ts, bs, .false., ok)
         call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
                        '(velocity Verlet state missing)')
     end subroutine restore_state
 
     !> A checkpoint of the run's own keys (exchange_first) through the run's outputs.
-    subroutine checkpoint(eng, ts, out, first, step, time, scheduled)
+    subroutine checkpoint(eng, ts, bs, out, first, step, time, scheduled)
         type(engine_t), intent(inout) :: eng
         class(thermostat_t), intent(inout) :: ts
+        class(barostat_t), intent(inout) :: bs
         type(run_outputs_t), intent(inout) :: out
         type(thermo_sample_t), intent(inout) :: first
         integer(i8), intent(in) :: step
@@ -161,17 +185,18 @@ contains
         type(named_values_t) :: values
         logical :: ok
         ok = .true.
-        call exchange_first(values, first, ts, .true., ok)
+        call exchange_first(values, first, ts, bs, .true., ok)
         call out%checkpoint(eng, values, step, time, scheduled)
     end subroutine checkpoint
 
     !> The Verlet run's own restart keys, in one place: the first sample's energy and momentum (the
-    !> drift report of a continued run) and, with a thermostat, its ecouple and the thermostat's
-    !> state; written to (saving) or read from a checkpoint's values.
-    subroutine exchange_first(values, first, ts, saving, ok)
+    !> drift report of a continued run), with a thermostat its ecouple and the thermostat's state,
+    !> with a barostat the barostat's; written to (saving) or read from a checkpoint's values.
+    subroutine exchange_first(values, first, ts, bs, saving, ok)
         type(named_values_t), intent(inout) :: values
         type(thermo_sample_t), intent(inout) :: first
         class(thermostat_t), intent(inout) :: ts
+        class(barostat_t), intent(inout) :: bs
         logical, intent(in) :: saving
         logical, intent(inout) :: ok
         character(len=12), parameter :: keys(4) = [character(len=12) :: 'first_etotal', 'first_px', 'first_py', &
@@ -185,6 +210,7 @@ contains
             end do
             if (ts%active()) call values%put('first_ecouple', first%ecouple)
             if (ts%active()) call ts%save(values)
+            if (bs%active()) call bs%save(values)
             return
         end if
         do k = 1, 4
@@ -193,6 +219,7 @@ contains
         first%etotal = vals(1); first%momentum = vals(2:4)
         if (ts%active()) first%ecouple = values%get_r('first_ecouple', ok)
         if (ts%active()) call ts%restore(values, ok)
+        if (bs%active()) call bs%restore(values, ok)
     end subroutine exchange_first
 
     !> Half kick v += dtfm(type) f of the n owned atoms and, when drift, the drift x += dt v.

@@ -47,6 +47,7 @@ module terrace_domain
         type(box_t) :: box
     contains
         procedure :: setup => domain_setup
+        procedure :: resize => domain_resize
         procedure :: owner_coord => domain_owner_coord
         procedure :: owns => domain_owns
         procedure :: wrap => domain_wrap
@@ -109,6 +110,21 @@ contains
             if (self%coords(d) == self%dims(d) - 1) self%subhi(d) = box%hi(d)
         end do
     end subroutine domain_setup
+
+    !> The same processor grid over a box of new extent (a barostat's or a box relaxation's
+    !> change): the box and this rank's brick; no communication. The caller migrates and rebuilds
+    !> the halo next (borders reads the box and the brick).
+    subroutine domain_resize(self, box)
+        class(domain_t), intent(inout) :: self
+        type(box_t), intent(in) :: box
+        integer :: d
+        self%box = box
+        do d = 1, 3
+            self%sublo(d) = box%lo(d) + self%coords(d)*box%length(d)/self%dims(d)
+            self%subhi(d) = box%lo(d) + (self%coords(d) + 1)*box%length(d)/self%dims(d)
+            if (self%coords(d) == self%dims(d) - 1) self%subhi(d) = box%hi(d)
+        end do
+    end subroutine domain_resize
 
     pure integer function domain_owner_coord(self, d, xd) result(c)
         class(domain_t), intent(in) :: self

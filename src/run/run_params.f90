@@ -14,10 +14,14 @@ module terrace_run_params
     use terrace_event_driven, only: ed_params_t
     use terrace_thermostat, only: thermostat_t, thermostat_params_t
     use terrace_thermostat_factory, only: new_thermostat
+    use terrace_barostat, only: barostat_t, barostat_params_t
+    use terrace_barostat_factory, only: new_barostat
+    use terrace_minimize, only: minimize_params_t
     implicit none
     private
 
-    public :: engine_params, control_params, verlet_params, es_params, ed_params, make_thermostat
+    public :: engine_params, control_params, verlet_params, es_params, ed_params, make_thermostat, make_barostat, &
+              minimize_params
 
 contains
 
@@ -116,5 +120,42 @@ contains
         p%mvv2e = cfg%units%mvv2e
         call new_thermostat(cfg%thermostat, p, ts)
     end subroutine make_thermostat
+
+    !> The deck's barostat ('none': one that does nothing) for natoms atoms, at the thermostat's
+    !> temperature.
+    subroutine make_barostat(cfg, natoms, bs)
+        type(config_t), intent(in) :: cfg
+        integer(i8), intent(in) :: natoms
+        class(barostat_t), allocatable, intent(out) :: bs
+        type(barostat_params_t) :: p
+        p%pressure = cfg%barostat_pressure
+        if (cfg%barostat_damping > 0) p%damping = cfg%barostat_damping
+        if (cfg%barostat_compressibility > 0) p%compressibility = cfg%barostat_compressibility
+        p%temperature = cfg%thermostat_temperature
+        p%dt = cfg%dt
+        p%seed = cfg%thermostat_seed
+        p%natoms = natoms
+        p%dimension = cfg%dimension
+        p%boltz = cfg%units%boltz
+        p%nktv2p = cfg%units%nktv2p
+        if (cfg%integrator == 'energy_stepping' .and. cfg%barostat_interval > 0) p%interval = cfg%barostat_interval
+        call new_barostat(cfg%barostat, p, bs)
+    end subroutine make_barostat
+
+    !> The deck's minimization (FIRE's first step: &integrator dt when given, else 0.001 ps in
+    !> metal units and 0.005 tau otherwise; dmax 0.1 length units, as LAMMPS).
+    type(minimize_params_t) function minimize_params(cfg) result(p)
+        type(config_t), intent(in) :: cfg
+        p%style = cfg%minimize
+        p%etol = cfg%etol
+        p%ftol = cfg%ftol
+        p%max_iterations = cfg%max_iterations
+        p%max_evaluations = cfg%max_evaluations
+        p%dt = merge(0.001_dp, 0.005_dp, cfg%units%name == 'metal')
+        if (cfg%dt > 0) p%dt = cfg%dt
+        p%dmax = 0.1_dp
+        p%box_relax = cfg%box_relax == 'iso'
+        p%pressure = cfg%min_pressure
+    end function minimize_params
 
 end module terrace_run_params

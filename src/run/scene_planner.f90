@@ -128,8 +128,22 @@ contains
                 ', damping ', cfg%thermostat_damping, trim(cfg%units%time)
             self%integrator = self%integrator//trim(s)
         end if
+        if (cfg%barostat /= 'none' .and. len_trim(cfg%barostat) > 0) then
+            write (s, '(a,g0.6,1x,a)') '; barostat '//trim(cfg%barostat)//' ('//trim(cfg%barostat_couple)// &
+                '), P = ', cfg%barostat_pressure, trim(cfg%units%pressure)
+            self%integrator = self%integrator//trim(s)
+        end if
+        if (len_trim(cfg%minimize) > 0) then
+            write (s, '(a,g0.6,a,g0.6,a,i0,a,i0)') '; first minimized ('//trim(cfg%minimize)//', etol ', cfg%etol, &
+                ', ftol ', cfg%ftol, ', at most ', cfg%max_iterations, ' iterations, ', cfg%max_evaluations
+            s = trim(s)//' force evaluations'
+            if (cfg%box_relax == 'iso') s = trim(s)//'; box relaxed (iso)'
+            self%integrator = self%integrator//trim(s)//')'
+        end if
         self%outputs = 'screen'
         if (len_trim(cfg%thermo_file) > 0) self%outputs = self%outputs//', thermo CSV '//trim(cfg%thermo_file)
+        if (len_trim(cfg%thermo_file) > 0 .and. len_trim(cfg%minimize) > 0) self%outputs = self%outputs// &
+            ' (and the minimization rows beside it, .min before the extension)'
         if (len_trim(cfg%forces_file) > 0) self%outputs = self%outputs//', forces at step 0 '//trim(cfg%forces_file)
         if (len_trim(cfg%trajectory_file) > 0) self%outputs = self%outputs//', H5MD trajectory '// &
             trim(cfg%trajectory_file)//' ('//trim(cfg%trajectory_fields)//')'

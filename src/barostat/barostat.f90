@@ -1,0 +1,174 @@
+!> Pressure control: the abstract barostat that velocity Verlet calls, and what every style
+!> shares. A style is one type extending barostat_t, in a file of its own (barostat_c_rescale,
+!> barostat_mc); barostat_factory maps a style name to its type. The integrator calls the hooks
+!> below and never asks which style it holds:
+!>
+!>   velocity Verlet, one step:   needs_virial (whether this step's force pass must give the virial)
+!>                                before_forces (after the drift, before the force pass: a change
+!>                                of the box with the positions and velocities; C-rescale)
+!>                                after_step (after the second half kick: a trial move of the box
+!>                                judged on its energy; Monte Carlo)
+!>   energy stepping:             apply_event (at the multiples of `interval`, a calendar entry:
+!>                                Monte Carlo volume moves)
+!>   both:                        active, pv (the P V term of the conserved quantity), save / restore
+!>
+!> A change of the box goes through the engine (engine%scale_box): positions and box scaled about
+!> the origin, the domain's bricks following the box, atoms migrated and the neighbour list
+!> rebuilt. Every random number is drawn from the counter-based generator keyed by (seed, stream,
+!> step), the same on every rank: a run gives the same decisions on any rank count and continues
+!> bitwise after a restart.
+!>
+!> Units: the pressure and compressibility arrive in the run's units (bar and 1/bar for metal) and
+!> are held internally as energy/volume and volume/energy (divided and multiplied by nktv2p).
+module terrace_barostat
+    use terrace_kinds, only: dp, i8
+    use terrace_engine, only: engine_t
+    use terrace_velocities, only: kinetic_energy
+    use terrace_named_values, only: named_values_t
+    implicit none
+    private
+
+    !> What a barostat is made from (the run's units applied).
+    type, public :: barostat_params_t
+        real(dp) :: pressure = 0                 !< target, in the run's pressure unit
+        real(dp) :: damping = 1                  !< relaxation time (C-rescale tau_p)
+        real(dp) :: compressibility = 0          !< the run's 1/pressure unit (C-rescale beta_T)
+        real(dp) :: temperature = 0              !< the thermostat's target
+        real(dp) :: dt = 0                       !< the integrator's time step
+        integer(i8) :: seed = 1
+        integer(i8) :: natoms = 0
+        integer :: dimension = 3
+        integer :: every = 25                    !< Monte Carlo: steps between trial moves
+        real(dp) :: interval = 0                 !< energy stepping: time between events (0: none)
+        real(dp) :: boltz = 1, nktv2p = 1
+    end type barostat_params_t
+
+    type, abstract, public :: barostat_t
+        real(dp) :: p0 = 0                       !< target pressure (energy/volume)
+        real(dp) :: beta = 0                     !< compressibility (volume/energy)
+        real(dp) :: tau = 1
+        real(dp) :: kt = 0                       !< k_B T of the thermostat's target
+        real(dp) :: dt = 0
+        integer(i8) :: seed = 1, natoms = 0
+        integer :: dimension = 3, every = 25
+        real(dp) :: interval = 0                 !< energy stepping: events at its multiples (0: none)
+        real(dp) :: nktv2p = 1
+    contains
+        procedure, non_overridable :: init => baro_init
+        procedure :: setup => baro_setup
+        procedure :: active => baro_active
+        procedure :: needs_virial => baro_needs_virial
+        procedure :: before_forces => baro_before_forces
+        procedure :: after_step => baro_after_step
+        procedure :: apply_event => baro_apply_event
+        procedure, non_overridable :: pv => baro_pv
+        procedure :: save => baro_save
+        procedure :: restore => baro_restore
+    end type barostat_t
+
+    !> No barostat: every hook does nothing (constant volume).
+    type, extends(barostat_t), public :: barostat_none_t
+    contains
+        procedure :: active => none_active
+    end type barostat_none_t
+
+    public :: internal_pressure
+
+contains
+
+    subroutine baro_init(self, p)
+        class(barostat_t), intent(inout) :: self
+        type(barostat_params_t), intent(in) :: p
+        self%nktv2p = p%nktv2p
+        self%p0 = p%pressure/p%nktv2p
+        self%beta = p%compressibility*p%nktv2p
+        self%tau = p%damping
+        self%kt = p%boltz*p%temperature
+        self%dt = p%dt
+        self%seed = p%seed
+        self%natoms = p%natoms
+        self%dimension = p%dimension
+        self%every = p%every
+        self%interval = p%interval
+        call self%setup(p)
+    end subroutine baro_init
+
+    !> A style's own set-up from its parameters (nothing by default).
+    subroutine baro_setup(self, p)
+        class(barostat_t), intent(inout) :: self
+        type(barostat_params_t), intent(in) :: p
+    end subroutine baro_setup
+
+    logical function baro_active(self)
+        class(barostat_t), intent(in) :: self
+        baro_active = .true.
+    end function baro_active
+
+    logical function none_active(self)
+        class(barostat_none_t), intent(in) :: self
+        none_active = .false.
+    end function none_active
+
+    !> Whether the force pass of this step must give the energy and the virial (none by default).
+    logical function baro_needs_virial(self, step)
+        class(barostat_t), intent(in) :: self
+        integer(i8), intent(in) :: step
+        baro_needs_virial = .false.
+    end function baro_needs_virial
+
+    !> After the drift of step `step`, before its force pass (nothing by default). moved: the box
+    !> changed (the neighbour list was rebuilt at the present positions).
+    subroutine baro_before_forces(self, eng, step, moved)
+        class(barostat_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        integer(i8), intent(in) :: step
+        logical, intent(out) :: moved
+        moved = .false.
+    end subroutine baro_before_forces
+
+    !> After the second half kick of step `step` (nothing by default); moved as above.
+    subroutine baro_after_step(self, eng, step, moved)
+        class(barostat_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        integer(i8), intent(in) :: step
+        logical, intent(out) :: moved
+        moved = .false.
+    end subroutine baro_after_step
+
+    !> Energy stepping: the event of index n (at time n interval), all atoms drifted there (nothing
+    !> by default); moved as above.
+    subroutine baro_apply_event(self, eng, n, moved)
+        class(barostat_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        integer(i8), intent(in) :: n
+        logical, intent(out) :: moved
+        moved = .false.
+    end subroutine baro_apply_event
+
+    !> P0 V, the enthalpy's term (energy).
+    real(dp) function baro_pv(self, eng)
+        class(barostat_t), intent(in) :: self
+        type(engine_t), intent(in) :: eng
+        baro_pv = self%p0*eng%box%volume()
+    end function baro_pv
+
+    !> A style's variables in a checkpoint (none by default).
+    subroutine baro_save(self, values)
+        class(barostat_t), intent(inout) :: self
+        type(named_values_t), intent(inout) :: values
+    end subroutine baro_save
+
+    subroutine baro_restore(self, values, ok)
+        class(barostat_t), intent(inout) :: self
+        type(named_values_t), intent(in) :: values
+        logical, intent(inout) :: ok
+    end subroutine baro_restore
+
+    !> The instantaneous pressure (energy/volume) from the kinetic energy and the last virial:
+    !> (2 K + W) / (d V). Collective (the kinetic energy's sum).
+    real(dp) function internal_pressure(eng) result(p)
+        type(engine_t), intent(inout) :: eng
+        p = (2*kinetic_energy(eng%atoms, eng%units) + eng%virial)/(eng%box%dimension*eng%box%volume())
+    end function internal_pressure
+
+end module terrace_barostat

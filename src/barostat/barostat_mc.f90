@@ -1,0 +1,126 @@
+!> Monte Carlo barostat (as OpenMM's MonteCarloBarostat): every `every` steps (energy stepping: at
+!> the multiples of `interval`, a calendar entry, all atoms drifted to that time) an isotropic trial
+!> change of the volume, V' = V + dV_max (2 u - 1), scales the box and the atom positions (not the
+!> velocities); its energy U' is computed and the move accepted with probability
+!>   min(1, exp(-(U' - U + P0 (V' - V) - N k T ln(V'/V)) / k T)),
+!> the Metropolis rule on the enthalpy H = U + P V - N k T ln V. A rejected move restores the
+!> engine's saved state exactly (atoms, lists, domain, box, energy, forces). dV_max starts at 1 %
+!> of the volume and is adapted every 10 trials to keep the acceptance between 25 % and 75 %
+!> (times 1.1 or 1/1.1, at most a third of the volume). The uniform number is drawn from the
+!> counter-based generator keyed by (seed, step): the same on every rank.
+module terrace_barostat_mc
+    use terrace_kinds, only: dp, i8
+    use terrace_engine, only: engine_t, engine_state_t
+    use terrace_barostat, only: barostat_t, barostat_params_t
+    use terrace_counter_rng, only: rng_stream, rng_stream_t
+    use terrace_named_values, only: named_values_t
+    implicit none
+    private
+
+    integer, parameter :: stream_mc_barostat = 201   !< the generator's stream for this barostat
+
+    type, extends(barostat_t), public :: mc_barostat_t
+        real(dp) :: dv_max = -1                  !< < 0: not yet set (1 % of the first volume)
+        integer(i8) :: attempted = 0, accepted = 0   !< since the last adaptation
+        integer(i8) :: total_attempted = 0, total_accepted = 0
+        type(engine_state_t) :: saved
+    contains
+        procedure :: needs_virial => mc_needs_virial
+        procedure :: after_step => mc_after_step
+        procedure :: apply_event => mc_apply_event
+        procedure :: save => mc_save
+        procedure :: restore => mc_restore
+    end type mc_barostat_t
+
+contains
+
+    !> The step of a trial needs the energy of the state it starts from.
+    logical function mc_needs_virial(self, step)
+        class(mc_barostat_t), intent(in) :: self
+        integer(i8), intent(in) :: step
+        mc_needs_virial = mod(step, int(self%every, i8)) == 0
+    end function mc_needs_virial
+
+    subroutine mc_after_step(self, eng, step, moved)
+        class(mc_barostat_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        integer(i8), intent(in) :: step
+        logical, intent(out) :: moved
+        moved = .false.
+        if (mod(step, int(self%every, i8)) /= 0) return
+        call mc_trial(self, eng, step, moved)
+    end subroutine mc_after_step
+
+    !> Energy stepping: a trial move at the event of index n (its numbers keyed by n).
+    subroutine mc_apply_event(self, eng, n, moved)
+        class(mc_barostat_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        integer(i8), intent(in) :: n
+        logical, intent(out) :: moved
+        call mc_trial(self, eng, n, moved)
+    end subroutine mc_apply_event
+
+    !> One trial move from the present state (eng%pe its energy), its numbers keyed by `key`.
+    subroutine mc_trial(self, eng, key, moved)
+        class(mc_barostat_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        integer(i8), intent(in) :: key
+        logical, intent(out) :: moved
+        type(rng_stream_t) :: s
+        real(dp) :: v, v_new, u_old, dh, mu, ua, ub
+        integer :: d
+        moved = .false.
+        v = eng%box%volume()
+        if (self%dv_max < 0) self%dv_max = 0.01_dp*v
+        s = rng_stream(self%seed, stream_mc_barostat, 0_i8, key)
+        ua = s%uniform()
+        ub = s%uniform()
+        v_new = v + self%dv_max*(2*ua - 1)
+        if (v_new <= 0) return
+        u_old = eng%pe
+        call eng%save_state(self%saved)
+        mu = (v_new/v)**(1.0_dp/self%dimension)
+        call eng%scale_box([(merge(mu, 1.0_dp, d <= self%dimension), d = 1, 3)], velocities=.false.)
+        call eng%compute_forces(.true.)
+        dh = eng%pe - u_old + self%p0*(v_new - v) - self%natoms*self%kt*log(v_new/v)
+        self%attempted = self%attempted + 1
+        self%total_attempted = self%total_attempted + 1
+        if (dh <= 0 .or. ub < exp(-dh/self%kt)) then
+            self%accepted = self%accepted + 1
+            self%total_accepted = self%total_accepted + 1
+            moved = .true.
+        else
+            call eng%restore_state(self%saved)
+        end if
+        if (self%attempted >= 10) then
+            if (self%accepted < 0.25_dp*self%attempted) then
+                self%dv_max = self%dv_max/1.1_dp
+            else if (self%accepted > 0.75_dp*self%attempted) then
+                self%dv_max = min(self%dv_max*1.1_dp, v/3)
+            end if
+            self%attempted = 0; self%accepted = 0
+        end if
+    end subroutine mc_trial
+
+    subroutine mc_save(self, values)
+        class(mc_barostat_t), intent(inout) :: self
+        type(named_values_t), intent(inout) :: values
+        call values%put('baro_dv_max', self%dv_max)
+        call values%put('baro_attempted', self%attempted)
+        call values%put('baro_accepted', self%accepted)
+        call values%put('baro_total_attempted', self%total_attempted)
+        call values%put('baro_total_accepted', self%total_accepted)
+    end subroutine mc_save
+
+    subroutine mc_restore(self, values, ok)
+        class(mc_barostat_t), intent(inout) :: self
+        type(named_values_t), intent(in) :: values
+        logical, intent(inout) :: ok
+        self%dv_max = values%get_r('baro_dv_max', ok)
+        self%attempted = values%get_i('baro_attempted', ok)
+        self%accepted = values%get_i('baro_accepted', ok)
+        self%total_attempted = values%get_i('baro_total_attempted', ok)
+        self%total_accepted = values%get_i('baro_total_accepted', ok)
+    end subroutine mc_restore
+
+end module terrace_barostat_mc

@@ -230,6 +230,15 @@ contains
             call stop_all(cfg%where('integrator', 'terrace_height')//' = '//trim(adjustl(s1))// &
                           ': larger than the whole energy range of the system (|V| + K = '//trim(adjustl(s2))//')')
         end if
+        ! a terrace below the round-off of V cannot be resolved: the event search would stall
+        if (h < 1.0e3_dp*epsilon(1.0_dp)*(abs(eng%pe) + ke) .and. .not. eng%restarted) then
+            write (s1, '(es12.5)') h
+            write (s2, '(es12.5)') 1.0e3_dp*epsilon(1.0_dp)*(abs(eng%pe) + ke)
+            call stop_all(cfg%where('integrator', trim(merge('terrace_height', 'target_mean_dt', &
+                          cfg%terrace_height > 0)))//': the terrace height '//trim(adjustl(s1))//' is below the '// &
+                          'round-off of the energy (|V| + K) of this system; the events could not be resolved '// &
+                          '(allowed: a terrace height of at least '//trim(adjustl(s2))//' '//trim(cfg%units%energy)//')')
+        end if
         call print_es_estimates(eng, h)
         if (check_only) then
             if (world%rank == 0) then

@@ -27,6 +27,11 @@ module terrace_config
     implicit none
     private
 
+    !> The most calendar entries (samples, frames, events, thermostat actions) a run may schedule
+    !> by its intervals, and the longest Nose-Hoover chain
+    real(dp), parameter :: max_events = 1.0e12_dp
+    integer, parameter :: max_chain = 100
+
     integer, parameter, public :: max_types = 8
     integer, parameter, public :: max_bodies = 16  !< physical volumes of a mesh with their own rigid motion
     !> Longest file name a key may hold (Linux PATH_MAX); a longer one is refused, never truncated.
@@ -682,7 +687,7 @@ contains
         zero_momentum = .false.; interval = -1
         do while (it%next(cfg, 'thermostat', keys))
             read (it%buf, nml=thermostat, iostat=it%ios, iomsg=it%msg)
-            call it%done(cfg, check_text=.false.)
+            call it%done(cfg)
         end do
         cfg%thermostat = lower(style)
         cfg%thermostat_temperature = temperature; cfg%thermostat_temperature_end = temperature_end
@@ -892,7 +897,8 @@ contains
         if (cfg%nml%find('thermostat', 'chain_length') > 0) then
             if (.not. proto%takes_chain()) call stop_all(cfg%where('thermostat', 'chain_length')// &
                 ': only for '//thermostat_styles_with_chain())
-            if (cfg%chain_length < 1) call stop_all(cfg%where('thermostat', 'chain_length')//': must be >= 1')
+            if (cfg%chain_length < 1 .or. cfg%chain_length > max_chain) call stop_all(cfg%where('thermostat', &
+                'chain_length')//': must be between 1 and 100 (3 to 10 is usual)')
         end if
         ! energy stepping: CSVR acts at multiples of interval (default damping/10); Andersen with an
         ! interval is the global variant (every atom at multiples of interval)
@@ -904,6 +910,18 @@ contains
                 ': must be > 0 (a time in '//trim(cfg%units%time)//')')
         else if (cfg%integrator == 'energy_stepping') then
             cfg%thermostat_interval = proto%default_interval(cfg%thermostat_damping)
+        end if
+        ! with energy stepping the thermostat's actions are calendar entries: at most max_events of them
+        ! (per atom, for Andersen's collisions at rate 1/damping) in run_time
+        if (cfg%integrator == 'energy_stepping' .and. cfg%run_time > 0) then
+            if (cfg%thermostat_interval > 0 .and. cfg%run_time/cfg%thermostat_interval > max_events) &
+                call stop_all(cfg%where('thermostat', 'interval')//': more than 1e12 thermostat actions in run_time '// &
+                              '(the run would not finish; allowed: at least '//real_word(cfg%run_time/max_events)//' '// &
+                              trim(cfg%units%time)//' for this run_time)')
+            if (cfg%run_time/cfg%thermostat_damping > max_events) &
+                call stop_all(cfg%where('thermostat', 'damping')//': more than 1e12 thermostat events per atom in '// &
+                              'run_time (the run would not finish; allowed: at least '// &
+                              real_word(cfg%run_time/max_events)//' '//trim(cfg%units%time)//' for this run_time)')
         end if
         if (cfg%nml%find('thermostat', 'seed') > 0) then
             if (cfg%thermostat_seed <= 0) call stop_all(cfg%where('thermostat', 'seed')//': must be a positive integer')
@@ -1156,6 +1174,13 @@ contains
             call check_steps('output', 'thermo_interval', cfg%thermo_interval)
             call check_steps('output', 'trajectory_interval', cfg%trajectory_interval)
             call check_steps('output', 'checkpoint_interval', cfg%checkpoint_interval)
+        else
+            ! energy stepping and event-driven runs: every interval is a calendar entry; one that
+            ! puts more than max_events entries into run_time would never let the run finish
+            call check_events('output', 'thermo_interval', cfg%thermo_interval, 'thermo samples')
+            call check_events('output', 'trajectory_interval', cfg%trajectory_interval, 'frames')
+            call check_events('output', 'checkpoint_interval', cfg%checkpoint_interval, 'checkpoints')
+            call check_events('integrator', 'target_mean_dt', cfg%target_mean_dt, 'events')
         end if
         select case (cfg%list)
         case ('auto', 'cells', 'all_pairs')
@@ -1195,6 +1220,21 @@ contains
             call stop_all(cfg%where(group, key)//': '//trim(adjustl(s))//' time steps of dt (the most a run '// &
                           'may count is 1e15; give a larger dt or a shorter time)')
         end subroutine check_steps
+
+        !> An interval of a calendar entry: at least run_time / max_events, and above the resolution of
+        !> the run's time (a run of run_time cannot tell times closer than run_time * 1e-15 apart).
+        subroutine check_events(group, key, interval, what)
+            character(len=*), intent(in) :: group, key, what
+            real(dp), intent(in) :: interval
+            character(len=32) :: s, m
+            if (.not. (interval > 0 .and. cfg%run_time > 0)) return
+            if (cfg%run_time/interval <= max_events) return
+            write (s, '(es10.3)') cfg%run_time/interval
+            write (m, '(es10.3)') cfg%run_time/max_events
+            call stop_all(cfg%where(group, key)//': '//trim(adjustl(s))//' '//what//' in run_time (the most a run '// &
+                          'may schedule is 1e12: the run would not finish; allowed: at least '//trim(adjustl(m))// &
+                          ' '//trim(cfg%units%time)//' for this run_time)')
+        end subroutine check_events
 
     end subroutine validate_run_settings
 
@@ -1366,5 +1406,14 @@ contains
                               'where a restart writes its outputs)')
         end if
     end subroutine validate_checkpoints
+
+    !> A real as one word ('1.000E-12').
+    function real_word(x) result(w)
+        real(dp), intent(in) :: x
+        character(len=:), allocatable :: w
+        character(len=32) :: b
+        write (b, '(es10.3)') x
+        w = trim(adjustl(b))
+    end function real_word
 
 end module terrace_config

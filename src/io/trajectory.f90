@@ -1,7 +1,9 @@
 !> The trajectory output: H5MD frames of the fields asked for (&output trajectory_fields) and the
 !> thermo quantities as H5MD observables, written at the sample times the integrator chooses; the
-!> file is flushed after a frame when a second of wall time has passed since the last flush, and
-!> when it is closed.
+!> file is flushed after a frame when a second of wall time has passed since the last flush, before
+!> a checkpoint (a stop request writes one) and when it is closed. Between flushes a small system's
+!> frames are kept in memory and written a block at a time (terrace_h5md): a frame that goes only
+!> into memory opens no watchdog section (no HDF5 call, no barrier).
 !>
 !> A mesh scene (add_mesh) also writes its tetrahedra into the file once (/connectivity/tetrahedra,
 !> node ids; /parameters/terrace/tetrahedra_index, 0-based rows) and keeps an XDMF sidecar beside
@@ -215,11 +217,16 @@ contains
         character(len=*), intent(in), optional :: extra_names(:)
         real(dp), intent(in), optional :: extra(:)
         integer :: n, k
+        logical :: io, flush_due
         ok = .true.; msg = ''
         if (.not. self%active) return
         n = atoms%nlocal
-        ! a frame moves at most 3 fields of 3 reals per atom over all ranks (the watchdog's limit)
-        call h5_section_begin(label(self), 'writing a frame', bytes=72*self%natoms)
+        ! (both the same on every rank)
+        io = self%h5%frame_touches_file()
+        flush_due = self%h5%flush_due(flush_interval)
+        ! a frame moves at most 3 fields of 3 reals per atom over all ranks (the watchdog's limit; a
+        ! block of small frames is at most about 256 KiB)
+        if (io .or. flush_due) call h5_section_begin(label(self), 'writing a frame', bytes=72*self%natoms + 262144)
         call self%h5%write_frame(step, time, n, atoms%id(1:n), atoms%type(1:n), x=atoms%x(:, 1:n), &
                                  v=atoms%v(:, 1:n), f=atoms%f(:, 1:n), image=atoms%image(:, 1:n), ok=ok, msg=msg, &
                                  flush=.false.)
@@ -235,13 +242,13 @@ contains
             end do
         end if
         if (ok .and. self%mesh) call add_time()
-        if (ok) call self%h5%flush(ok, msg, min_interval=flush_interval)
+        if (ok .and. flush_due) call self%h5%flush(ok, msg)
         if (ok .and. self%mesh) then
             ! new frames on disk: list them in the sidecar, unless it was rewritten a moment ago
             ! (the rewrite costs O(frames): it is kept to about 1 % of the wall time)
             if (self%h5%frames_flushed() > self%xdmf_frames .and. due_sidecar()) call self%write_sidecar(ok, msg)
         end if
-        call h5_section_end(self%comm)
+        if (io .or. flush_due) call h5_section_end(self%comm)
         if (.not. ok) msg = self%path//': &output trajectory_file: cannot write a frame: '//trim(msg)
 
     contains

@@ -131,6 +131,7 @@ module terrace_h5md
         character(len=:), allocatable :: unit_time
         type(observable_t), allocatable :: obs(:)
         integer :: nobs = 0
+        integer, allocatable :: frame_obs(:)               !< write_frame_observables: index in obs of each name
         type(frame_work_t) :: work
         !> frames kept in memory: nbuf of them (frames ndisk+1 .. ndisk+nbuf), at most `block`
         integer :: block = 1, nbuf = 0
@@ -144,6 +145,7 @@ module terrace_h5md
         procedure :: open_append => writer_open_append
         procedure :: write_frame => writer_write_frame
         procedure :: write_observable => writer_write_observable
+        procedure :: write_frame_observables => writer_write_frame_observables
         procedure :: flush => writer_flush
         procedure :: close => writer_close
         procedure :: is_open => writer_is_open
@@ -573,7 +575,7 @@ contains
         if (self%nframes > 0 .and. step < self%last_step) call st%fail('h5md: write_frame: step decreases')
         total = merge(int(nlocal, i8), 0_i8, st%ok)
         if (P > 1) call MPI_Allreduce(MPI_IN_PLACE, total, 1, MPI_INTEGER8, MPI_SUM, self%comm)
-        call h5_agree(self%comm, st, ok, msg)
+        if (P > 1 .or. .not. st%ok) call h5_agree(self%comm, st, ok, msg)
         if (.not. ok) call note_broken_hdf5_file()
         if (.not. ok) return
         if (total /= self%natoms) then
@@ -675,7 +677,7 @@ contains
         end associate
         if (st%ok) self%nbuf = k
         call flush_unless_told(self, st, flush)
-        call h5_agree(self%comm, st, ok, msg)
+        if (P > 1 .or. .not. st%ok) call h5_agree(self%comm, st, ok, msg)
         if (.not. ok) call note_broken_hdf5_file()
         if (ok) then
             self%nframes = self%nframes + 1
@@ -839,6 +841,61 @@ contains
             msg = 'h5md: write_observable '//trim(name)//': '//trim(msg)
         end if
     end subroutine writer_write_observable
+
+    !> The per-frame observables of the frame just written (write_observable with per_frame and
+    !> flush = .false. for each name, in one call): values(k) is observables/names(k) (trailing blanks
+    !> ignored). The same names in the same order at every frame find their series without a search.
+    !> Collective; rank 0's values are written.
+    subroutine writer_write_frame_observables(self, names, values, ok, msg)
+        class(h5md_writer_t), intent(inout), target :: self
+        character(len=*), intent(in) :: names(:)
+        real(dp), intent(in) :: values(:)
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        type(h5_status_t) :: st
+        integer :: k, i, j
+        logical :: known
+        ok = .true.; msg = ''
+        if (.not. self%opened) then
+            ok = .false.; msg = 'h5md: write_frame_observables: the writer is not open'; return
+        end if
+        if (size(values) /= size(names)) then
+            ok = .false.; msg = 'h5md: write_frame_observables: as many values as names are needed'; return
+        end if
+        if (allocated(self%frame_obs)) then
+            if (size(self%frame_obs) /= size(names)) deallocate (self%frame_obs)
+        end if
+        if (.not. allocated(self%frame_obs)) allocate (self%frame_obs(size(names)), source=0)
+        do k = 1, size(names)
+            j = self%frame_obs(k)
+            known = j >= 1 .and. j <= self%nobs
+            if (known) known = self%obs(j)%per_frame .and. self%obs(j)%name == names(k)
+            if (.not. known) then
+                ! first sight of this name here (created, or found, by write_observable)
+                call self%write_observable(names(k), self%last_step, 0.0_dp, values(k), ok, msg, flush=.false., &
+                                           per_frame=.true.)
+                if (.not. ok) return
+                do i = 1, self%nobs
+                    if (self%obs(i)%name == trim(names(k))) self%frame_obs(k) = i
+                end do
+                cycle
+            end if
+            associate (o => self%obs(j))
+                if (o%n + 1 /= self%nframes) then
+                    call st%fail('a per-frame observable must be written once after each frame, at its step')
+                    exit
+                end if
+                if (.not. allocated(o%buf)) allocate (o%buf(self%block + 1))
+                if (int(o%n - o%ndisk) >= size(o%buf)) call grow_values(o%buf)
+                o%buf(o%n - o%ndisk + 1) = values(k)
+                o%n = o%n + 1
+            end associate
+        end do
+        if (self%nprocs > 1 .or. .not. st%ok) then
+            call h5_agree(self%comm, st, ok, msg)
+            if (.not. ok) msg = 'h5md: write_frame_observables: '//trim(msg)
+        end if
+    end subroutine writer_write_frame_observables
 
     !> Flush the file after a frame or an observable unless the caller said flush = .false.
     subroutine flush_unless_told(self, st, flush)
@@ -1099,6 +1156,7 @@ contains
             if (self%obs(k)%value >= 0) call h5dclose_f(self%obs(k)%value, err)
         end do
         if (allocated(self%obs)) deallocate (self%obs)
+        if (allocated(self%frame_obs)) deallocate (self%frame_obs)
         self%nobs = 0
         self%work = frame_work_t()
         self%nbuf = 0

@@ -216,8 +216,10 @@ contains
         character(len=*), intent(out) :: msg
         character(len=*), intent(in), optional :: extra_names(:)
         real(dp), intent(in), optional :: extra(:)
-        integer :: n, k
+        integer :: n, k, nobs
         logical :: io, flush_due
+        character(len=64) :: names(32)
+        real(dp) :: values(32)
         ok = .true.; msg = ''
         if (.not. self%active) return
         n = atoms%nlocal
@@ -231,16 +233,17 @@ contains
                                  v=atoms%v(:, 1:n), f=atoms%f(:, 1:n), image=atoms%image(:, 1:n), ok=ok, msg=msg, &
                                  flush=.false.)
         ! observables: sampled with the frame (their step and time are the frame's), flushed below
-        call observable('potential_energy', s%pe)
-        call observable('kinetic_energy', s%ke)
-        call observable('total_energy', s%etotal)
-        call observable('temperature', s%temp)
-        call observable('pressure', s%press)
+        nobs = 5
+        names(1:5) = [character(len=len(names)) :: 'potential_energy', 'kinetic_energy', 'total_energy', &
+                      'temperature', 'pressure']
+        values(1:5) = [s%pe, s%ke, s%etotal, s%temp, s%press]
         if (present(extra) .and. present(extra_names)) then
-            do k = 1, size(extra)
-                call observable(trim(extra_names(k)), extra(k))
+            do k = 1, min(size(extra), size(extra_names), size(names) - 5)
+                nobs = nobs + 1
+                names(nobs) = extra_names(k); values(nobs) = extra(k)
             end do
         end if
+        if (ok) call self%h5%write_frame_observables(names(1:nobs), values(1:nobs), ok, msg)
         if (ok .and. self%mesh) call add_time()
         if (ok .and. flush_due) call self%h5%flush(ok, msg)
         if (ok .and. self%mesh) then
@@ -271,12 +274,6 @@ contains
             call MPI_Bcast(due_sidecar, 1, MPI_LOGICAL, 0, self%comm)
         end function due_sidecar
 
-
-        subroutine observable(name, value)
-            character(len=*), intent(in) :: name
-            real(dp), intent(in) :: value
-            if (ok) call self%h5%write_observable(name, step, time, value, ok, msg, flush=.false., per_frame=.true.)
-        end subroutine observable
 
     end subroutine trajectory_write
 

@@ -296,7 +296,7 @@ contains
     end subroutine trajectory_discard
 
     !> Close the file; a mesh trajectory's sidecar then lists every frame. Collective. ok/msg
-    !> (optional) report a failure to write the sidecar.
+    !> (optional) report a failure to write the frames kept in memory or the sidecar.
     subroutine trajectory_close(self, ok, msg)
         class(trajectory_t), intent(inout) :: self
         logical, intent(out), optional :: ok
@@ -306,8 +306,10 @@ contains
         ok_ = .true.; msg_ = ''
         if (self%active) then
             call h5_section_begin(label(self), 'closing the file')
-            call self%h5%close()
-            if (self%mesh .and. self%ntimes /= self%xdmf_frames) then
+            ! (the frames still kept in memory go into the file here)
+            call self%h5%close(ok_, msg_)
+            if (.not. ok_) msg_ = 'cannot write the last frames: '//trim(msg_)
+            if (ok_ .and. self%mesh .and. self%ntimes /= self%xdmf_frames) then
                 ! every frame is on disk now (h5%frames_flushed no longer answers: the writer is closed)
                 self%xdmf_frames = -1
                 call close_sidecar()

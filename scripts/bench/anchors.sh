@@ -34,6 +34,11 @@
 #          pair as for types (pairs within rc + skin from LAMMPS's list).
 #   es     energy stepping: mean cost of one event in Verlet steps (scripts/bench/es_cost.py on the
 #          864-atom liquid, the 32,000-atom LJ liquid and the seven-atom cluster).
+#   cluster the talk's seven-atom 2-D argon cluster with energy stepping on the all-pairs path
+#          (input/argon_frozen_2d.nml: 100 ns, about 1.6 million events, a trajectory frame every
+#          10 ps, 10,001 frames; CLUSTER_NS sets a shorter run): loop time, time per event, the phases
+#          and the cost of a frame (the Output phase over the frames). CLUSTER_BASELINE=BINARY runs
+#          that build too, alternating, with the ratio of the loop times.
 # Every timed code runs once per round, in the same order, REPEAT rounds (alternating); the script
 # prints the best and the median loop time of each, the time per atom-step and the ratios
 # anchor/Terrace (> 1: Terrace is faster). Loop times are each code's own: LAMMPS "Loop time of",
@@ -50,7 +55,7 @@
 #   - energies every 100 steps like the thermo output of the other two, no trajectory output.
 #
 # Usage: scripts/bench/anchors.sh [NSTEPS_LJ [NSTEPS_EAM [TERRACE_BINARY]]]   (defaults 1000 200, $TERRACE or build/terrace)
-# Environment: REPEAT (rounds, default 3), PARTS (comma list, default lj,eam,types,ljtypes,es), INSTALL=0 to
+# Environment: REPEAT (rounds, default 3), PARTS (comma list, default lj,eam,types,ljtypes,es,cluster), INSTALL=0 to
 # skip installing missing Debian packages (lammps, lammps-data, gromacs, time; as root with apt-get,
 # otherwise the command is printed and the missing anchor skipped), ES_REPEAT (default 1), KEEP=1,
 # GNU_TIME (GNU time's binary, default /usr/bin/time) and LAMMPS_POTENTIALS (the EAM files' folder, default
@@ -61,7 +66,7 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." &
 export PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}"
 figure() { /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 nlj="${1:-1000}"; neam="${2:-200}"; terrace="$(realpath "${3:-${TERRACE:-$repo/build/terrace}}")"
-repeat="${REPEAT:-3}"; parts=",${PARTS:-lj,eam,types,ljtypes,es},"
+repeat="${REPEAT:-3}"; parts=",${PARTS:-lj,eam,types,ljtypes,es,cluster},"
 for v in "$nlj" "$neam" "$repeat"; do
     [[ "$v" =~ ^[1-9][0-9]*$ ]] || { echo "usage: $0 [NSTEPS_LJ [NSTEPS_EAM [TERRACE]]] (positive integers; REPEAT too)" >&2; exit 2; }
 done
@@ -537,5 +542,46 @@ if [[ "$parts" == *,es,* ]]; then
     echo "== energy stepping: cost of one event in Verlet steps (scripts/bench/es_cost.py)"
     python3 "$here/es_cost.py" --terrace ./terrace --scenes rahman,lj32k,cluster7 --repeat "${ES_REPEAT:-1}" \
         | sed -n '/^scene /,$p'
+fi
+
+# ---- the seven-atom cluster with its trajectory -----------------------------------------------------
+if [[ "$parts" == *,cluster,* ]]; then
+    ns="${CLUSTER_NS:-100}"
+    [[ "$ns" =~ ^[1-9][0-9]*$ ]] || { echo "anchors: CLUSTER_NS must be a positive integer (ns)" >&2; exit 2; }
+    echo "== seven-atom argon cluster, energy stepping, all pairs: $ns ns, a frame every 10 ps (input/argon_frozen_2d.nml)"
+    cp "$repo/input/argon_frozen_2d.atoms" .
+    sed -e "s/run_time=100000.0/run_time=${ns}000.0/" "$repo/input/argon_frozen_2d.nml" > cluster.nml
+    codes=(terrace)
+    if [[ -n "${CLUSTER_BASELINE:-}" ]]; then cp "$(realpath "$CLUSTER_BASELINE")" ./baseline; codes+=(baseline); fi
+    : > cluster.txt
+    for ((r = 1; r <= repeat; r++)); do
+        for code in "${codes[@]}"; do
+            rm -f argon_frozen_2d.h5 argon_frozen_2d.csv
+            "./$code" cluster.nml > "cluster_$code.log" 2>&1 || { tail "cluster_$code.log" >&2; exit 1; }
+            j=cluster.summary.json
+            echo "$code $(figure $j timing/loop_time_s) $(figure $j timing/events)" \
+                 "$(for ph in Pair Comm Output Search Other; do figure $j timing/phases/$ph/avg_s; done | tr '\n' ' ')" >> cluster.txt
+        done
+    done
+    /usr/bin/python3 - cluster.txt "$ns" <<'PY'
+import statistics, sys
+rows = [l.split() for l in open(sys.argv[1]) if l.strip()]
+frames = int(sys.argv[2]) * 100 + 1
+print('%-9s %9s %9s %8s | %7s %7s %7s %7s %7s | %8s' % ('code', 'loop s', 'events', 'us/ev', 'Pair', 'Comm',
+      'Output', 'Search', 'Other', 'us/frame'))
+med = {}
+for code in dict.fromkeys(r[0] for r in rows):
+    rs = [r for r in rows if r[0] == code]
+    med[code] = statistics.median(float(r[1]) for r in rs)
+    best = min(rs, key=lambda r: float(r[1]))
+    ph = [float(x) for x in best[3:8]]
+    print('%-9s %9.3f %9d %8.3f | %7.3f %7.3f %7.3f %7.3f %7.3f | %8.1f   (best of %d; median %.3f s)' % (
+        code, float(best[1]), int(best[2]), 1e6 * float(best[1]) / int(best[2]), *ph, 1e6 * ph[2] / frames,
+        len(rs), med[code]))
+print('(us/frame: the Output phase, frames and thermo samples, over the %d frames)' % frames)
+if 'baseline' in med:
+    print('baseline / terrace, median loop times: %.2f' % (med['baseline'] / med['terrace']))
+PY
+    echo
 fi
 if [[ "${KEEP:-0}" == 1 ]]; then echo "work dir: $work"; fi

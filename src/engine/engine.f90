@@ -247,7 +247,7 @@ contains
         sum_here = .not. self%pot%sums_global()
         if (present(partial)) sum_here = sum_here .and. .not. partial
         if (want_energy) then
-            if (sum_here) then
+            if (sum_here .and. world%nprocs > 1) then
                 call self%timers%start(t_comm)
                 call sum_all(ew)
                 call self%timers%stop(t_comm)
@@ -314,7 +314,7 @@ contains
     end function engine_sample
 
     !> Energy, its first two derivatives along the ray x + s v, and the virial, summed over all
-    !> ranks: out = (V, dV/ds, d2V/ds2, W). One pass over the pairs, one global sum.
+    !> ranks: out = (V, dV/ds, d2V/ds2, W). One pass over the pairs, one global sum (none on one rank).
     subroutine engine_ray_pass(self, s, out)
         class(engine_t), intent(inout) :: self
         real(dp), intent(in) :: s
@@ -326,7 +326,8 @@ contains
             call self%pot%ray(self%atoms, self%list, s, out)
         end if
         call self%timers%stop(t_search)
-        if (self%pot%sums_global()) return
+        ! (nothing to sum on one rank: no call, no timer)
+        if (world%nprocs == 1 .or. self%pot%sums_global()) return
         call self%timers%start(t_comm)
         call sum_all(out)
         call self%timers%stop(t_comm)
@@ -350,6 +351,8 @@ contains
     subroutine ghosts_from_owners(self, velocities)
         class(engine_t), intent(inout) :: self
         logical, intent(in) :: velocities
+        ! all pairs on one rank: no ghosts (no call, no timer)
+        if (self%plan%pair_mode == pair_all .and. world%nprocs == 1) return
         call self%timers%start(t_comm)
         if (self%plan%pair_mode == pair_all) then
             if (world%nprocs > 1) call self%rep%gather(self%atoms, self%atoms%x)

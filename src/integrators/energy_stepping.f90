@@ -186,9 +186,11 @@ contains
         else
             call plain_gradient_sums(eng%atoms, acc(1:3))
             acc(4:5) = [eng%pe, eng%virial]
-            call eng%timers%start(t_comm)
-            call sum_all(acc(1:n))
-            call eng%timers%stop(t_comm)
+            if (world%nprocs > 1) then
+                call eng%timers%start(t_comm)
+                call sum_all(acc(1:n))
+                call eng%timers%stop(t_comm)
+            end if
             if (n == 5) then
                 eng%pe = acc(4); eng%virial = acc(5)
             end if

@@ -39,7 +39,11 @@
 !> gathered on one rank), and each rank then writes its block as one hyperslab with a collective
 !> MPI-IO transfer. write_frame flushes the file after the frame unless told not to (the trajectory
 !> output flushes after its observables, at most once a second: writer_flush's min_interval), so a
-!> killed run leaves a readable file up to its last flushed frame. Unit strings follow the H5MD
+!> killed run leaves a readable file up to its last flushed frame. Frames written without a flush
+!> (and the per-frame observables written with them) are kept in memory, up to a block of frames of
+!> about 256 KiB over all atoms (at most 512 frames; a large system's block is one frame), and the
+!> block goes into the file with one extension and one hyperslab per dataset when it is full, at a
+!> flush and at close: a small system's frame then costs a copy, not a dozen HDF5 calls. Unit strings follow the H5MD
 !> units module; the engine passes 'Angstrom', 'ps', 'eV', 'Angstrom ps-1', 'u' for metal units (the
 !> spelling MDAnalysis reads) and '' everywhere for reduced (lj) units.
 !>
@@ -77,6 +81,8 @@ module terrace_h5md
     integer(hsize_t), parameter :: chunk_bytes = 1048576   !< largest chunk of the per-atom series (one frame)
     integer(hsize_t), parameter :: small_chunk_bytes = 65536 !< several frames of a small system per chunk
     integer(hsize_t), parameter :: chunk_scalar = 512      !< chunk of the edges series
+    integer(i8), parameter :: block_bytes = 262144         !< frames kept in memory: about this many bytes
+    integer, parameter :: max_block_frames = 512            !< and at most this many frames
 
 
     !> write_frame's work arrays, kept from frame to frame: for a large system, allocating and
@@ -96,6 +102,8 @@ module terrace_h5md
         integer(hid_t) :: step = -1, time = -1, value = -1
         integer(hsize_t) :: n = 0
         logical :: per_frame = .false.                    !< step and time are the frames' (hard links)
+        integer(hsize_t) :: ndisk = 0                     !< per_frame: values in the file; n - ndisk in buf
+        real(dp), allocatable :: buf(:)
     end type observable_t
 
     type, public :: h5md_writer_t
@@ -123,12 +131,21 @@ module terrace_h5md
         character(len=:), allocatable :: unit_time
         type(observable_t), allocatable :: obs(:)
         integer :: nobs = 0
+        integer, allocatable :: frame_obs(:)               !< write_frame_observables: index in obs of each name
         type(frame_work_t) :: work
+        !> frames kept in memory: nbuf of them (frames ndisk+1 .. ndisk+nbuf), at most `block`
+        integer :: block = 1, nbuf = 0
+        integer(hsize_t) :: ndisk = 0                      !< frames in the file's datasets
+        real(dp), allocatable :: breal(:, :, :, :)         !< (D, nmine, block, 3): position, velocity, force
+        integer, allocatable :: bimage(:, :, :)            !< (D, nmine, block)
+        integer(i8), allocatable :: bstep(:)
+        real(dp), allocatable :: btime(:), bedges(:, :)
     contains
         procedure :: create => writer_create
         procedure :: open_append => writer_open_append
         procedure :: write_frame => writer_write_frame
         procedure :: write_observable => writer_write_observable
+        procedure :: write_frame_observables => writer_write_frame_observables
         procedure :: flush => writer_flush
         procedure :: close => writer_close
         procedure :: is_open => writer_is_open
@@ -136,6 +153,8 @@ module terrace_h5md
         procedure :: frames_flushed => writer_frames_flushed
         procedure :: frame_times => writer_frame_times
         procedure :: write_connectivity => writer_write_connectivity
+        procedure :: frame_touches_file => writer_frame_touches_file
+        procedure :: flush_due => writer_flush_due
     end type h5md_writer_t
 
 
@@ -204,11 +223,12 @@ contains
         self%want = [want_position, want_velocity, want_force, want_image]
         self%masses_by_type = masses_by_type
         self%unit_time = trim(unit_time)
-        self%nframes = 0; self%last_step = 0; self%nflushed = 0
+        self%nframes = 0; self%last_step = 0; self%nflushed = 0; self%ndisk = 0
         self%nobs = 0
         if (allocated(self%obs)) deallocate (self%obs)
         allocate (self%obs(4))
         call id_block(natoms, self%nprocs, self%rank, self%first, self%nmine)
+        call set_block(self)
 
         ! file (collective): MPI-IO driver, HDF5 file format version 2 (1.8 object headers)
         call h5_open_file(st, self%path, h5_create, self%file, self%comm, collective_metadata=.true., &
@@ -428,6 +448,7 @@ contains
         end if
         self%nframes = int(keep, hsize_t)
         self%nflushed = self%nframes
+        self%ndisk = self%nframes
         if (st%ok) then
             do e = 1, nel
                 if (self%want(e)) call h5_extend(st, self%value(e), [int(self%dimension, hsize_t), &
@@ -475,7 +496,7 @@ contains
                     call h5dopen_f(g, o%name//'/value', o%value, err); call st%check(err, 'open '//o%name//'/value')
                     if (st%ok) call h5_dataset_dims(st, o%value, d1, m1)
                     if (st%ok .and. int(d1(1), i8) < keep) call st%fail('observable '//o%name//' holds too few entries')
-                    o%n = int(keep, hsize_t)
+                    o%n = int(keep, hsize_t); o%ndisk = o%n
                     if (st%ok) call h5_extend(st, o%value, [o%n])
                 end associate
             end do
@@ -484,6 +505,7 @@ contains
         self%unit_time = ''
         self%masses_by_type = [0.0_dp]   ! only read at the first frame, which is written already
         call id_block(self%natoms, self%nprocs, self%rank, self%first, self%nmine)
+        call set_block(self)
         call end_open(self, st, ok, msg)
     contains
         subroutine grow_obs(w)
@@ -513,22 +535,19 @@ contains
         character(len=*), intent(out) :: msg
         logical, intent(in), optional :: flush
         type(h5_status_t) :: st
-        integer :: D_, P, i, j, e, r, wr, wi, it, im, nrecv, roff(nel)
+        integer :: D_, P, i, j, k, e, r, wr, wi, it, im, nrecv, roff(nel)
         integer, allocatable :: scount(:), rcount(:), sdisp(:), rdisp(:), cursor(:)
         real(dp), allocatable, target :: mbuf(:)
         integer, allocatable, target :: tbuf(:)
         integer(i8), allocatable, target :: idbuf(:)
-        integer(i8), target :: step_t
-        real(dp), target :: time_t, edges_t(3)
         integer(i8) :: total, kk
         logical :: bad
-        integer(hsize_t) :: Dh
 
         ok = .true.; msg = ''
         if (.not. self%opened) then
             ok = .false.; msg = 'h5md: write_frame: the writer is not open'; return
         end if
-        D_ = self%dimension; Dh = int(D_, hsize_t); P = self%nprocs
+        D_ = self%dimension; P = self%nprocs
 
         ! ---- check the arguments on every rank, then agree
         if (nlocal < 0 .or. size(ids) < nlocal .or. size(types) < nlocal) &
@@ -555,8 +574,8 @@ contains
         end if
         if (self%nframes > 0 .and. step < self%last_step) call st%fail('h5md: write_frame: step decreases')
         total = merge(int(nlocal, i8), 0_i8, st%ok)
-        call MPI_Allreduce(MPI_IN_PLACE, total, 1, MPI_INTEGER8, MPI_SUM, self%comm)
-        call h5_agree(self%comm, st, ok, msg)
+        if (P > 1) call MPI_Allreduce(MPI_IN_PLACE, total, 1, MPI_INTEGER8, MPI_SUM, self%comm)
+        if (P > 1 .or. .not. st%ok) call h5_agree(self%comm, st, ok, msg)
         if (.not. ok) call note_broken_hdf5_file()
         if (.not. ok) return
         if (total /= self%natoms) then
@@ -576,27 +595,31 @@ contains
         it = merge(2, 0, self%nframes == 0)          ! row of the type in the integers (0: not sent)
         im = 1 + merge(1, 0, it > 0)                  ! image: rows im+1 .. im+D
         wi = im + merge(D_, 0, self%want(e_image))
-        allocate (scount(0:P - 1), rcount(0:P - 1), sdisp(0:P - 1), rdisp(0:P - 1), cursor(0:P - 1))
         associate (w => self%work)
-            call reserve_send(w, max(wr, 1), wi, nlocal)
-            call exchange_plan(ids(1:nlocal), self%natoms, self%comm, w%dest(1:nlocal), scount, sdisp, rcount, rdisp)
-            cursor = sdisp
-            do i = 1, nlocal
-                r = w%dest(i)
-                cursor(r) = cursor(r) + 1; j = cursor(r)
-                w%sint(1, j) = ids(i)
-                if (it > 0) w%sint(it, j) = types(i)
-                if (self%want(e_image)) w%sint(im + 1:im + D_, j) = image(1:D_, i)
-                if (self%want(e_pos)) w%sreal(roff(e_pos) + 1:roff(e_pos) + D_, j) = x(1:D_, i)
-                if (self%want(e_vel)) w%sreal(roff(e_vel) + 1:roff(e_vel) + D_, j) = v(1:D_, i)
-                if (self%want(e_force)) w%sreal(roff(e_force) + 1:roff(e_force) + D_, j) = f(1:D_, i)
-            end do
-            nrecv = sum(rcount)
-            call reserve_recv(w, max(wr, 1), wi, D_, max(nrecv, int(self%nmine)))
-            call MPI_Alltoallv(w%sint, wi*scount, wi*sdisp, MPI_INTEGER8, w%rint, wi*rcount, wi*rdisp, &
-                               MPI_INTEGER8, self%comm)
-            if (wr > 0) call MPI_Alltoallv(w%sreal, wr*scount, wr*sdisp, MPI_DOUBLE_PRECISION, w%rreal, wr*rcount, &
-                                           wr*rdisp, MPI_DOUBLE_PRECISION, self%comm)
+            if (P == 1) then
+                ! one rank: the atoms are its own block already (no exchange)
+                nrecv = nlocal
+                call reserve_recv(w, max(wr, 1), wi, D_, max(nrecv, int(self%nmine)))
+                do i = 1, nlocal
+                    call pack(i, w%rint(:, i), w%rreal(:, i))
+                end do
+            else
+                allocate (scount(0:P - 1), rcount(0:P - 1), sdisp(0:P - 1), rdisp(0:P - 1), cursor(0:P - 1))
+                call reserve_send(w, max(wr, 1), wi, nlocal)
+                call exchange_plan(ids(1:nlocal), self%natoms, self%comm, w%dest(1:nlocal), scount, sdisp, rcount, rdisp)
+                cursor = sdisp
+                do i = 1, nlocal
+                    r = w%dest(i)
+                    cursor(r) = cursor(r) + 1; j = cursor(r)
+                    call pack(i, w%sint(:, j), w%sreal(:, j))
+                end do
+                nrecv = sum(rcount)
+                call reserve_recv(w, max(wr, 1), wi, D_, max(nrecv, int(self%nmine)))
+                call MPI_Alltoallv(w%sint, wi*scount, wi*sdisp, MPI_INTEGER8, w%rint, wi*rcount, wi*rdisp, &
+                                   MPI_INTEGER8, self%comm)
+                if (wr > 0) call MPI_Alltoallv(w%sreal, wr*scount, wr*sdisp, MPI_DOUBLE_PRECISION, w%rreal, wr*rcount, &
+                                               wr*rdisp, MPI_DOUBLE_PRECISION, self%comm)
+            end if
         end associate
 
         ! ---- row of each received atom in this rank's block (id order); every id exactly once
@@ -616,42 +639,29 @@ contains
                     seen(kk) = .true.; row(j) = int(kk)
                 end do
             end if
-            call MPI_Allreduce(MPI_IN_PLACE, bad, 1, MPI_LOGICAL, MPI_LOR, self%comm)
+            if (P > 1) call MPI_Allreduce(MPI_IN_PLACE, bad, 1, MPI_LOGICAL, MPI_LOR, self%comm)
             if (bad) then
                 ok = .false.; msg = 'h5md: write_frame: an atom id appears twice (or is missing) over the ranks'
                 return
             end if
 
-            ! ---- write: extend the series by one frame, each rank writes its block
-            associate (nf => self%nframes, nm => int(self%nmine, hsize_t), f0 => int(self%first - 1, hsize_t))
-                do e = 1, nel
-                    if (.not. self%want(e)) cycle
-                    call h5_extend(st, self%value(e), [Dh, int(self%natoms, hsize_t), nf + 1])
-                    if (e == e_image) then
-                        do j = 1, nrecv
-                            ibuf(:, row(j)) = int(rint(im + 1:im + D_, j))
-                        end do
-                        call h5_write_slab(st, self%value(e), H5T_NATIVE_INTEGER, c_loc(ibuf), [0_hsize_t, f0, nf], &
-                                        [Dh, nm, 1_hsize_t], nm > 0, self%dxpl)
-                    else
-                        do j = 1, nrecv
-                            rbuf(:, row(j)) = rreal(roff(e) + 1:roff(e) + D_, j)
-                        end do
-                        call h5_write_slab(st, self%value(e), H5T_NATIVE_DOUBLE, c_loc(rbuf), [0_hsize_t, f0, nf], &
-                                        [Dh, nm, 1_hsize_t], nm > 0, self%dxpl)
-                    end if
+            ! ---- keep the frame in memory (slot nbuf + 1; a full block goes to the file first)
+            if (self%nbuf >= self%block) call write_block(self, st)
+            k = self%nbuf + 1
+            do e = e_pos, e_force
+                if (.not. self%want(e)) cycle
+                do j = 1, nrecv
+                    self%breal(1:D_, row(j), k, e) = rreal(roff(e) + 1:roff(e) + D_, j)
                 end do
-                step_t = step; time_t = time; edges_t = self%edges
-                call h5_extend(st, self%step, [nf + 1])
-                call h5_extend(st, self%time, [nf + 1])
-                call h5_extend(st, self%edges_value, [Dh, nf + 1])
-                call h5_write_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [nf], &
-                                [1_hsize_t], self%rank == 0, self%dxpl_rank0)
-                call h5_write_slab(st, self%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [nf], [1_hsize_t], &
-                                self%rank == 0, self%dxpl_rank0)
-                call h5_write_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(edges_t), [0_hsize_t, nf], &
-                                [Dh, 1_hsize_t], self%rank == 0, self%dxpl_rank0)
-                if (nf == 0) then
+            end do
+            if (self%want(e_image)) then
+                do j = 1, nrecv
+                    self%bimage(1:D_, row(j), k) = int(rint(im + 1:im + D_, j))
+                end do
+            end if
+            self%bstep(k) = step; self%btime(k) = time; self%bedges(1:D_, k) = self%edges(1:D_)
+            associate (nm => int(self%nmine, hsize_t), f0 => int(self%first - 1, hsize_t))
+                if (self%nframes == 0) then
                     allocate (idbuf(max(self%nmine, 1_i8)), tbuf(max(self%nmine, 1_i8)), mbuf(max(self%nmine, 1_i8)))
                     do j = 1, nrecv
                         idbuf(row(j)) = rint(1, j)
@@ -665,8 +675,9 @@ contains
                 end if
             end associate
         end associate
+        if (st%ok) self%nbuf = k
         call flush_unless_told(self, st, flush)
-        call h5_agree(self%comm, st, ok, msg)
+        if (P > 1 .or. .not. st%ok) call h5_agree(self%comm, st, ok, msg)
         if (.not. ok) call note_broken_hdf5_file()
         if (ok) then
             self%nframes = self%nframes + 1
@@ -676,6 +687,19 @@ contains
         end if
 
     contains
+
+        !> Atom i's id, type (first frame), image and reals into one column of the integers and reals.
+        subroutine pack(i, ints, reals)
+            integer, intent(in) :: i
+            integer(i8), intent(out) :: ints(:)
+            real(dp), intent(out) :: reals(:)
+            ints(1) = ids(i)
+            if (it > 0) ints(it) = types(i)
+            if (self%want(e_image)) ints(im + 1:im + D_) = image(1:D_, i)
+            if (self%want(e_pos)) reals(roff(e_pos) + 1:roff(e_pos) + D_) = x(1:D_, i)
+            if (self%want(e_vel)) reals(roff(e_vel) + 1:roff(e_vel) + D_) = v(1:D_, i)
+            if (self%want(e_force)) reals(roff(e_force) + 1:roff(e_force) + D_) = f(1:D_, i)
+        end subroutine pack
 
         subroutine need_real(wanted, a, what)
             logical, intent(in) :: wanted
@@ -726,7 +750,7 @@ contains
     !> after it (same step), and its step and time are hard links to the frames' (box/edges/step,
     !> time), so that only its value grows.
     subroutine writer_write_observable(self, name, step, time, value, ok, msg, unit, flush, per_frame)
-        class(h5md_writer_t), intent(inout) :: self
+        class(h5md_writer_t), intent(inout), target :: self
         character(len=*), intent(in) :: name
         integer(i8), intent(in) :: step
         real(dp), intent(in) :: time, value
@@ -760,7 +784,7 @@ contains
             end if
             self%nobs = self%nobs + 1; k = self%nobs
             associate (o => self%obs(k))
-                o%name = trim(name); o%n = 0
+                o%name = trim(name); o%n = 0; o%ndisk = 0
                 o%per_frame = .false.
                 if (present(per_frame)) o%per_frame = per_frame
                 call h5_group(st, self%file, 'observables', g)
@@ -796,9 +820,17 @@ contains
                 call h5_write_slab(st, o%time, H5T_NATIVE_DOUBLE, c_loc(time_t), [o%n], [1_hsize_t], self%rank == 0, &
                                 self%dxpl_rank0)
             end if
-            call h5_extend(st, o%value, [o%n + 1])
-            call h5_write_slab(st, o%value, H5T_NATIVE_DOUBLE, c_loc(value_t), [o%n], [1_hsize_t], self%rank == 0, &
-                            self%dxpl_rank0)
+            if (o%per_frame) then
+                ! kept with the frames in memory, written with their block
+                if (.not. allocated(o%buf)) allocate (o%buf(self%block + 1))
+                if (int(o%n - o%ndisk) >= size(o%buf)) call grow_values(o%buf)
+                o%buf(o%n - o%ndisk + 1) = value
+            else
+                call h5_extend(st, o%value, [o%n + 1])
+                call h5_write_slab(st, o%value, H5T_NATIVE_DOUBLE, c_loc(value_t), [o%n], [1_hsize_t], self%rank == 0, &
+                                self%dxpl_rank0)
+                o%ndisk = o%n + 1
+            end if
         end associate
         call flush_unless_told(self, st, flush)
         call h5_agree(self%comm, st, ok, msg)
@@ -810,19 +842,163 @@ contains
         end if
     end subroutine writer_write_observable
 
+    !> The per-frame observables of the frame just written (write_observable with per_frame and
+    !> flush = .false. for each name, in one call): values(k) is observables/names(k) (trailing blanks
+    !> ignored). The same names in the same order at every frame find their series without a search.
+    !> Collective; rank 0's values are written.
+    subroutine writer_write_frame_observables(self, names, values, ok, msg)
+        class(h5md_writer_t), intent(inout), target :: self
+        character(len=*), intent(in) :: names(:)
+        real(dp), intent(in) :: values(:)
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        type(h5_status_t) :: st
+        integer :: k, i, j
+        logical :: known
+        ok = .true.; msg = ''
+        if (.not. self%opened) then
+            ok = .false.; msg = 'h5md: write_frame_observables: the writer is not open'; return
+        end if
+        if (size(values) /= size(names)) then
+            ok = .false.; msg = 'h5md: write_frame_observables: as many values as names are needed'; return
+        end if
+        if (allocated(self%frame_obs)) then
+            if (size(self%frame_obs) /= size(names)) deallocate (self%frame_obs)
+        end if
+        if (.not. allocated(self%frame_obs)) allocate (self%frame_obs(size(names)), source=0)
+        do k = 1, size(names)
+            j = self%frame_obs(k)
+            known = j >= 1 .and. j <= self%nobs
+            if (known) known = self%obs(j)%per_frame .and. self%obs(j)%name == names(k)
+            if (.not. known) then
+                ! first sight of this name here (created, or found, by write_observable)
+                call self%write_observable(names(k), self%last_step, 0.0_dp, values(k), ok, msg, flush=.false., &
+                                           per_frame=.true.)
+                if (.not. ok) return
+                do i = 1, self%nobs
+                    if (self%obs(i)%name == trim(names(k))) self%frame_obs(k) = i
+                end do
+                cycle
+            end if
+            associate (o => self%obs(j))
+                if (o%n + 1 /= self%nframes) then
+                    call st%fail('a per-frame observable must be written once after each frame, at its step')
+                    exit
+                end if
+                if (.not. allocated(o%buf)) allocate (o%buf(self%block + 1))
+                if (int(o%n - o%ndisk) >= size(o%buf)) call grow_values(o%buf)
+                o%buf(o%n - o%ndisk + 1) = values(k)
+                o%n = o%n + 1
+            end associate
+        end do
+        if (self%nprocs > 1 .or. .not. st%ok) then
+            call h5_agree(self%comm, st, ok, msg)
+            if (.not. ok) msg = 'h5md: write_frame_observables: '//trim(msg)
+        end if
+    end subroutine writer_write_frame_observables
+
     !> Flush the file after a frame or an observable unless the caller said flush = .false.
     subroutine flush_unless_told(self, st, flush)
-        class(h5md_writer_t), intent(inout) :: self
+        class(h5md_writer_t), intent(inout), target :: self
         type(h5_status_t), intent(inout) :: st
         logical, intent(in), optional :: flush
         integer :: err
         if (present(flush)) then
             if (.not. flush) return
         end if
+        call write_block(self, st)
         call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
         call st%check(err, 'H5Fflush')
         self%nflushed = self%nframes
     end subroutine flush_unless_told
+
+    !> The frames kept in memory (and the per-frame observables' values) into the file: each series
+    !> extended once and written as one hyperslab. Collective (every rank keeps the same frames).
+    subroutine write_block(self, st)
+        class(h5md_writer_t), intent(inout), target :: self
+        type(h5_status_t), intent(inout) :: st
+        integer(hsize_t) :: nb, Dh, nd
+        integer :: e, k
+        if (self%nbuf > 0) then
+            nb = int(self%nbuf, hsize_t); Dh = int(self%dimension, hsize_t); nd = self%ndisk
+            associate (nm => int(self%nmine, hsize_t), f0 => int(self%first - 1, hsize_t))
+                do e = 1, nel
+                    if (.not. self%want(e)) cycle
+                    call h5_extend(st, self%value(e), [Dh, int(self%natoms, hsize_t), nd + nb])
+                    if (e == e_image) then
+                        call h5_write_slab(st, self%value(e), H5T_NATIVE_INTEGER, c_loc(self%bimage), [0_hsize_t, f0, nd], &
+                                           [Dh, nm, nb], nm > 0, self%dxpl)
+                    else
+                        call h5_write_slab(st, self%value(e), H5T_NATIVE_DOUBLE, c_loc(self%breal(1, 1, 1, e)), &
+                                           [0_hsize_t, f0, nd], [Dh, nm, nb], nm > 0, self%dxpl)
+                    end if
+                end do
+            end associate
+            call h5_extend(st, self%step, [nd + nb])
+            call h5_extend(st, self%time, [nd + nb])
+            call h5_extend(st, self%edges_value, [Dh, nd + nb])
+            call h5_write_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(self%bstep), [nd], [nb], &
+                               self%rank == 0, self%dxpl_rank0)
+            call h5_write_slab(st, self%time, H5T_NATIVE_DOUBLE, c_loc(self%btime), [nd], [nb], self%rank == 0, &
+                               self%dxpl_rank0)
+            call h5_write_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(self%bedges), [0_hsize_t, nd], [Dh, nb], &
+                               self%rank == 0, self%dxpl_rank0)
+            self%ndisk = nd + nb
+            self%nbuf = 0
+        end if
+        do k = 1, self%nobs
+            associate (o => self%obs(k))
+                if (.not. o%per_frame .or. o%n == o%ndisk) cycle
+                call h5_extend(st, o%value, [o%n])
+                call h5_write_slab(st, o%value, H5T_NATIVE_DOUBLE, c_loc(o%buf), [o%ndisk], [o%n - o%ndisk], &
+                                   self%rank == 0, self%dxpl_rank0)
+                o%ndisk = o%n
+            end associate
+        end do
+    end subroutine write_block
+
+    !> The number of frames kept in memory before they go into the file (the same on every rank:
+    !> from the global frame size), and the buffers for them.
+    subroutine set_block(self)
+        class(h5md_writer_t), intent(inout) :: self
+        integer(i8) :: bytes
+        integer :: D_, nm
+        D_ = self%dimension
+        bytes = self%natoms*D_*(8*count(self%want(e_pos:e_force)) + merge(4, 0, self%want(e_image)))
+        self%block = int(max(1_i8, min(int(max_block_frames, i8), block_bytes/max(bytes, 1_i8))))
+        self%nbuf = 0
+        nm = int(max(self%nmine, 1_i8))
+        if (allocated(self%breal)) deallocate (self%breal, self%bimage, self%bstep, self%btime, self%bedges)
+        allocate (self%breal(D_, nm, self%block, e_pos:e_force), self%bimage(D_, nm, self%block), &
+                  self%bstep(self%block), self%btime(self%block), self%bedges(D_, self%block))
+    end subroutine set_block
+
+    !> Whether the next write_frame goes to the file (its block is full, or it is the first frame:
+    !> ids, species and masses), rather than only into memory. The same on every rank.
+    logical function writer_frame_touches_file(self)
+        class(h5md_writer_t), intent(in) :: self
+        writer_frame_touches_file = self%opened .and. (self%nbuf >= self%block .or. self%nframes == 0)
+    end function writer_frame_touches_file
+
+    !> Whether at least min_interval seconds of wall time have passed since the last flush (rank 0's
+    !> clock decides for every rank). Collective.
+    logical function writer_flush_due(self, min_interval) result(due)
+        class(h5md_writer_t), intent(inout) :: self
+        real(dp), intent(in) :: min_interval
+        due = .false.
+        if (.not. self%opened) return
+        if (self%rank == 0) due = MPI_Wtime() - self%last_flush >= min_interval
+        if (self%nprocs > 1) call MPI_Bcast(due, 1, MPI_LOGICAL, 0, self%comm)
+    end function writer_flush_due
+
+    !> values grown to twice their size, kept
+    subroutine grow_values(values)
+        real(dp), allocatable, intent(inout) :: values(:)
+        real(dp), allocatable :: grown(:)
+        allocate (grown(2*size(values)))
+        grown(1:size(values)) = values
+        call move_alloc(grown, values)
+    end subroutine grow_values
 
     !> Flush the file to disk (collective).
     !> With min_interval (seconds of wall time), only when at least that long has passed since the
@@ -830,7 +1006,7 @@ contains
     !> metadata (every extended dataset's header) and syncs the file: for a small system it costs
     !> several times a frame's data, so frequent small frames are flushed in batches.
     subroutine writer_flush(self, ok, msg, min_interval)
-        class(h5md_writer_t), intent(inout) :: self
+        class(h5md_writer_t), intent(inout), target :: self
         logical, intent(out), optional :: ok
         character(len=*), intent(out), optional :: msg
         real(dp), intent(in), optional :: min_interval
@@ -841,11 +1017,9 @@ contains
         ok_ = .true.; msg_ = ''
         if (self%opened) then
             due = .true.
-            if (present(min_interval)) then
-                if (self%rank == 0) due = MPI_Wtime() - self%last_flush >= min_interval
-                call MPI_Bcast(due, 1, MPI_LOGICAL, 0, self%comm)
-            end if
+            if (present(min_interval)) due = self%flush_due(min_interval)
             if (due) then
+                call write_block(self, st)
                 call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
                 call st%check(err, 'H5Fflush')
                 call h5_agree(self%comm, st, ok_, msg_)
@@ -860,7 +1034,7 @@ contains
 
     !> Close the file (collective). Closing a writer that is not open does nothing.
     subroutine writer_close(self, ok, msg)
-        class(h5md_writer_t), intent(inout) :: self
+        class(h5md_writer_t), intent(inout), target :: self
         logical, intent(out), optional :: ok
         character(len=*), intent(out), optional :: msg
         type(h5_status_t) :: st
@@ -869,6 +1043,7 @@ contains
         character(len=256) :: msg_
         ok_ = .true.; msg_ = ''
         if (self%opened) then
+            call write_block(self, st)
             call h5_guard_begin('H5Fflush'); call h5fflush_f(self%file, H5F_SCOPE_GLOBAL_F, err); call h5_guard_end()
             call st%check(err, 'H5Fflush')
             call h5_agree(self%comm, st, ok_, msg_)
@@ -897,7 +1072,7 @@ contains
 
     !> The times of the frames written so far (every rank reads them; collective).
     subroutine writer_frame_times(self, times, ok, msg)
-        class(h5md_writer_t), intent(inout) :: self
+        class(h5md_writer_t), intent(inout), target :: self
         real(dp), allocatable, target, intent(out) :: times(:)
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
@@ -907,6 +1082,7 @@ contains
         if (.not. self%opened) then
             ok = .false.; msg = 'h5md: frame_times: the writer is not open'; return
         end if
+        call write_block(self, st)
         if (self%nframes > 0) call h5_read_slab(st, self%time, H5T_NATIVE_DOUBLE, c_loc(times), [0_hsize_t], &
                                                 [self%nframes], .true., self%dxpl)
         call h5_agree(self%comm, st, ok, msg)
@@ -980,8 +1156,10 @@ contains
             if (self%obs(k)%value >= 0) call h5dclose_f(self%obs(k)%value, err)
         end do
         if (allocated(self%obs)) deallocate (self%obs)
+        if (allocated(self%frame_obs)) deallocate (self%frame_obs)
         self%nobs = 0
         self%work = frame_work_t()
+        self%nbuf = 0
         if (self%step >= 0) call h5dclose_f(self%step, err)
         if (self%time >= 0) call h5dclose_f(self%time, err)
         if (self%id >= 0) call h5dclose_f(self%id, err)

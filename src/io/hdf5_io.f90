@@ -238,7 +238,7 @@ contains
         call MPI_Comm_rank(comm, rank)
         call MPI_Comm_size(comm, nprocs)
         failing = merge(nprocs, rank, st%ok)
-        call MPI_Allreduce(MPI_IN_PLACE, failing, 1, MPI_INTEGER, MPI_MIN, comm)
+        if (nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, failing, 1, MPI_INTEGER, MPI_MIN, comm)
         if (section_depth == 0) then
             failure_pending = .false.
             call watchdog_disarm()

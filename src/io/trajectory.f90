@@ -1,7 +1,9 @@
 !> The trajectory output: H5MD frames of the fields asked for (&output trajectory_fields) and the
 !> thermo quantities as H5MD observables, written at the sample times the integrator chooses; the
-!> file is flushed after a frame when a second of wall time has passed since the last flush, and
-!> when it is closed.
+!> file is flushed after a frame when a second of wall time has passed since the last flush, before
+!> a checkpoint (a stop request writes one) and when it is closed. Between flushes a small system's
+!> frames are kept in memory and written a block at a time (terrace_h5md): a frame that goes only
+!> into memory opens no watchdog section (no HDF5 call, no barrier).
 !>
 !> A mesh scene (add_mesh) also writes its tetrahedra into the file once (/connectivity/tetrahedra,
 !> node ids; /parameters/terrace/tetrahedra_index, 0-based rows) and keeps an XDMF sidecar beside
@@ -214,34 +216,42 @@ contains
         character(len=*), intent(out) :: msg
         character(len=*), intent(in), optional :: extra_names(:)
         real(dp), intent(in), optional :: extra(:)
-        integer :: n, k
+        integer :: n, k, nobs
+        logical :: io, flush_due
+        character(len=64) :: names(32)
+        real(dp) :: values(32)
         ok = .true.; msg = ''
         if (.not. self%active) return
         n = atoms%nlocal
-        ! a frame moves at most 3 fields of 3 reals per atom over all ranks (the watchdog's limit)
-        call h5_section_begin(label(self), 'writing a frame', bytes=72*self%natoms)
+        ! (both the same on every rank)
+        io = self%h5%frame_touches_file()
+        flush_due = self%h5%flush_due(flush_interval)
+        ! a frame moves at most 3 fields of 3 reals per atom over all ranks (the watchdog's limit; a
+        ! block of small frames is at most about 256 KiB)
+        if (io .or. flush_due) call h5_section_begin(label(self), 'writing a frame', bytes=72*self%natoms + 262144)
         call self%h5%write_frame(step, time, n, atoms%id(1:n), atoms%type(1:n), x=atoms%x(:, 1:n), &
                                  v=atoms%v(:, 1:n), f=atoms%f(:, 1:n), image=atoms%image(:, 1:n), ok=ok, msg=msg, &
                                  flush=.false.)
         ! observables: sampled with the frame (their step and time are the frame's), flushed below
-        call observable('potential_energy', s%pe)
-        call observable('kinetic_energy', s%ke)
-        call observable('total_energy', s%etotal)
-        call observable('temperature', s%temp)
-        call observable('pressure', s%press)
+        nobs = 5
+        names(1:5) = [character(len=len(names)) :: 'potential_energy', 'kinetic_energy', 'total_energy', &
+                      'temperature', 'pressure']
+        values(1:5) = [s%pe, s%ke, s%etotal, s%temp, s%press]
         if (present(extra) .and. present(extra_names)) then
-            do k = 1, size(extra)
-                call observable(trim(extra_names(k)), extra(k))
+            do k = 1, min(size(extra), size(extra_names), size(names) - 5)
+                nobs = nobs + 1
+                names(nobs) = extra_names(k); values(nobs) = extra(k)
             end do
         end if
+        if (ok) call self%h5%write_frame_observables(names(1:nobs), values(1:nobs), ok, msg)
         if (ok .and. self%mesh) call add_time()
-        if (ok) call self%h5%flush(ok, msg, min_interval=flush_interval)
+        if (ok .and. flush_due) call self%h5%flush(ok, msg)
         if (ok .and. self%mesh) then
             ! new frames on disk: list them in the sidecar, unless it was rewritten a moment ago
             ! (the rewrite costs O(frames): it is kept to about 1 % of the wall time)
             if (self%h5%frames_flushed() > self%xdmf_frames .and. due_sidecar()) call self%write_sidecar(ok, msg)
         end if
-        call h5_section_end(self%comm)
+        if (io .or. flush_due) call h5_section_end(self%comm)
         if (.not. ok) msg = self%path//': &output trajectory_file: cannot write a frame: '//trim(msg)
 
     contains
@@ -265,12 +275,6 @@ contains
         end function due_sidecar
 
 
-        subroutine observable(name, value)
-            character(len=*), intent(in) :: name
-            real(dp), intent(in) :: value
-            if (ok) call self%h5%write_observable(name, step, time, value, ok, msg, flush=.false., per_frame=.true.)
-        end subroutine observable
-
     end subroutine trajectory_write
 
     !> Close and delete the file (a run that stops before its first step leaves no trajectory).
@@ -292,7 +296,7 @@ contains
     end subroutine trajectory_discard
 
     !> Close the file; a mesh trajectory's sidecar then lists every frame. Collective. ok/msg
-    !> (optional) report a failure to write the sidecar.
+    !> (optional) report a failure to write the frames kept in memory or the sidecar.
     subroutine trajectory_close(self, ok, msg)
         class(trajectory_t), intent(inout) :: self
         logical, intent(out), optional :: ok
@@ -302,8 +306,10 @@ contains
         ok_ = .true.; msg_ = ''
         if (self%active) then
             call h5_section_begin(label(self), 'closing the file')
-            call self%h5%close()
-            if (self%mesh .and. self%ntimes /= self%xdmf_frames) then
+            ! (the frames still kept in memory go into the file here)
+            call self%h5%close(ok_, msg_)
+            if (.not. ok_) msg_ = 'cannot write the last frames: '//trim(msg_)
+            if (ok_ .and. self%mesh .and. self%ntimes /= self%xdmf_frames) then
                 ! every frame is on disk now (h5%frames_flushed no longer answers: the writer is closed)
                 self%xdmf_frames = -1
                 call close_sidecar()

@@ -9,7 +9,7 @@
 module terrace_errors
     use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
     use, intrinsic :: iso_c_binding, only: c_int
-    use mpi_f08, only: MPI_Comm_rank, MPI_COMM_WORLD, MPI_Finalize, MPI_Abort, MPI_Allreduce, MPI_Barrier, &
+    use mpi_f08, only: MPI_Comm_rank, MPI_Comm_size, MPI_COMM_WORLD, MPI_Finalize, MPI_Abort, MPI_Allreduce, MPI_Barrier, &
                        MPI_Bcast, MPI_INTEGER, MPI_CHARACTER, MPI_MIN, MPI_Initialized, MPI_Finalized
     use terrace_file_ops, only: cleanup_now
     implicit none
@@ -76,8 +76,11 @@ contains
     subroutine check_all(ok, msg)
         logical, intent(in) :: ok
         character(len=*), intent(in) :: msg
-        integer :: mine, first, ierr
+        integer :: mine, first, ierr, nprocs
         character(len=8192) :: text
+        ! one rank: nothing to agree on (no call)
+        call MPI_Comm_size(MPI_COMM_WORLD, nprocs, ierr)
+        if (nprocs == 1 .and. ok) return
         mine = huge(1)
         if (.not. ok) mine = my_rank()
         call MPI_Allreduce(mine, first, 1, MPI_INTEGER, MPI_MIN, MPI_COMM_WORLD, ierr)

@@ -3,7 +3,7 @@ module terrace_text
     use terrace_kinds, only: dp
     implicit none
     private
-    public :: count_tokens, fixed, int_text, real_text
+    public :: count_tokens, fixed, int_text, real_text, sci_text
 
 contains
 
@@ -39,6 +39,15 @@ contains
         write (b, '(g0.6)') x
         s = trim(adjustl(b))
     end function real_text
+
+    !> A real in scientific notation with four significant digits ('1.000E-12'), no padding.
+    function sci_text(x) result(s)
+        real(dp), intent(in) :: x
+        character(len=:), allocatable :: s
+        character(len=32) :: b
+        write (b, '(es10.3)') x
+        s = trim(adjustl(b))
+    end function sci_text
 
     !> x in fixed notation with d decimals and no padding, with the leading zero that gfortran's
     !> f0.d leaves out ('0.8269', '-0.5', not '.8269', '-.5').

@@ -20,7 +20,7 @@ module terrace_config
     use terrace_files, only: read_input_text
     use terrace_mpi_env, only: world
     use terrace_file_ops, only: path_kind, resolve_path, directory_of, path_regular, path_directory, path_special
-    use terrace_text, only: int_text
+    use terrace_text, only: int_text, sci_text
     use terrace_thermostat, only: thermostat_t, thermostat_params_t
     use terrace_thermostat_factory, only: is_thermostat_style, new_thermostat, thermostat_styles, &
                                           thermostat_styles_for_events, thermostat_styles_with_chain
@@ -916,12 +916,12 @@ contains
         if (cfg%integrator == 'energy_stepping' .and. cfg%run_time > 0) then
             if (cfg%thermostat_interval > 0 .and. cfg%run_time/cfg%thermostat_interval > max_events) &
                 call stop_all(cfg%where('thermostat', 'interval')//': more than 1e12 thermostat actions in run_time '// &
-                              '(the run would not finish; allowed: at least '//real_word(cfg%run_time/max_events)//' '// &
+                              '(the run would not finish; allowed: at least '//sci_text(cfg%run_time/max_events)//' '// &
                               trim(cfg%units%time)//' for this run_time)')
             if (cfg%run_time/cfg%thermostat_damping > max_events) &
                 call stop_all(cfg%where('thermostat', 'damping')//': more than 1e12 thermostat events per atom in '// &
                               'run_time (the run would not finish; allowed: at least '// &
-                              real_word(cfg%run_time/max_events)//' '//trim(cfg%units%time)//' for this run_time)')
+                              sci_text(cfg%run_time/max_events)//' '//trim(cfg%units%time)//' for this run_time)')
         end if
         if (cfg%nml%find('thermostat', 'seed') > 0) then
             if (cfg%thermostat_seed <= 0) call stop_all(cfg%where('thermostat', 'seed')//': must be a positive integer')
@@ -1406,14 +1406,5 @@ contains
                               'where a restart writes its outputs)')
         end if
     end subroutine validate_checkpoints
-
-    !> A real as one word ('1.000E-12').
-    function real_word(x) result(w)
-        real(dp), intent(in) :: x
-        character(len=:), allocatable :: w
-        character(len=32) :: b
-        write (b, '(es10.3)') x
-        w = trim(adjustl(b))
-    end function real_word
 
 end module terrace_config

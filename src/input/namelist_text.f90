@@ -6,6 +6,7 @@
 !> value out of range is reported with file, line, group and key.
 module terrace_namelist_text
     use terrace_kinds, only: i8
+    use terrace_text, only: int_text
     implicit none
     private
 
@@ -291,7 +292,7 @@ contains
             do m = first, nf%count - 1
                 if (compact(nf%items(m)%target) == compact(nf%items(nf%count)%target)) then
                     call set_error(nf, body_line(key_start(k)), '&'//group//': '//compact(nf%items(nf%count)%target)// &
-                                   ': given twice in the group (first at line '//line_text(nf%items(m)%line)// &
+                                   ': given twice in the group (first at line '//int_text(nf%items(m)%line)// &
                                    '); give each key once')
                     return
                 end if
@@ -389,14 +390,6 @@ contains
             if (.not. is_space(s(i:i))) t = t//s(i:i)
         end do
     end function compact
-
-    function line_text(line) result(s)
-        integer, intent(in) :: line
-        character(len=:), allocatable :: s
-        character(len=16) :: ln
-        write (ln, '(i0)') line
-        s = trim(ln)
-    end function line_text
 
     !> s without leading and trailing blanks, tabs and line ends.
     pure function strip(s) result(t)

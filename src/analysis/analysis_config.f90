@@ -289,7 +289,8 @@ contains
             call stop_all(cfg%where('correlation_time')//': must be > 0 (a time)')
         if (cfg%given('rdf_r_max') .and. .not. (cfg%rdf_r_max > 0)) call stop_all(cfg%where('rdf_r_max')// &
             ': must be > 0 (a length)')
-        if (cfg%rdf_bins < 1) call stop_all(cfg%where('rdf_bins')//': must be >= 1')
+        if (cfg%rdf_bins < 1 .or. cfg%rdf_bins > 10000000) call stop_all(cfg%where('rdf_bins')// &
+            ': must be between 1 and 10000000 (a histogram of that many bins is finer than any trajectory resolves)')
         if (cfg%given('msd_max_time') .and. .not. (cfg%msd_max_time > 0)) call stop_all(cfg%where('msd_max_time')// &
             ': must be > 0 (a time)')
         if (cfg%given('msd_fit_start') .and. .not. (cfg%msd_fit_start >= 0)) call stop_all(cfg%where('msd_fit_start')// &

@@ -1156,6 +1156,11 @@ contains
         end if
         if (cfg%nml%find('neighbor', 'skin') > 0 .and. cfg%skin < 0) &
             call stop_all(cfg%where('neighbor', 'skin')//': must be >= 0 (a length in '//trim(cfg%units%length)//')')
+        if (cfg%nml%find('neighbor', 'skin') > 0 .and. cfg%skin == 0 .and. cfg%integrator == 'energy_stepping' .and. &
+            .not. (cfg%cutoff == 0 .and. len_trim(cfg%mesh_file) == 0)) &
+            call stop_all(cfg%where('neighbor', 'skin')//' = 0: energy stepping needs a skin > 0 (its events are '// &
+                          'timed by the list''s expiry, which a zero skin puts at every instant; a length in '// &
+                          trim(cfg%units%length)//')')
         if (cfg%nml%find('neighbor', 'buffer_tolerance') > 0) call check_buffer_tolerance(cfg)
         if (cfg%skin < 0) cfg%skin = merge(0.3_dp, 2.0_dp, cfg%units%name == 'lj')
         if (cfg%list_every < 1) call stop_all(cfg%where('neighbor', 'every')// &

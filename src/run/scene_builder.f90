@@ -516,6 +516,11 @@ contains
         end do
         do b = 1, max_bodies
             if (mb(b) > 0) com(:, b) = com(:, b)/mb(b)
+            if (mb(b) == 0 .and. (any(cfg%body_velocity(:, b) /= 0) .or. any(cfg%body_angular_velocity(:, b) /= 0))) then
+                write (s1, '(i0)') b
+                call stop_all(cfg%where('system', 'velocity')//': body '//trim(s1)//' is given a velocity, but '// &
+                              trim(cfg%mesh_file)//' has no body '//trim(s1)//' (its bodies: '//body_list()//')')
+            end if
         end do
         do k = 1, n
             b = node_body(k)
@@ -524,6 +529,20 @@ contains
             table%v(:, k) = table%v(:, k) + cfg%body_velocity(:, b) + [w(2)*r(3) - w(3)*r(2), w(3)*r(1) - w(1)*r(3), &
                                                                         w(1)*r(2) - w(2)*r(1)]
         end do
+    contains
+        !> The bodies the mesh has, '1, 2'.
+        function body_list() result(t)
+            character(len=:), allocatable :: t
+            character(len=8) :: w
+            integer :: j
+            t = ''
+            do j = 1, max_bodies
+                if (mb(j) <= 0) cycle
+                write (w, '(i0)') j
+                if (len(t) > 0) t = t//', '
+                t = t//trim(w)
+            end do
+        end function body_list
     end subroutine mesh_scene
 
     !> A restart of a mesh scene: the mesh file is read again (reference configuration, lumped

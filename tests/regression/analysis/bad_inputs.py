@@ -93,6 +93,8 @@ cases = [
     ("missing_compute", 1, "--trajectory_file=good.h5", ["&analysis", "compute", "missing"], False),
     ("wrong_type", 1, "--trajectory_file=good.h5 --compute=rdf --rdf_bins=many",
      ["&analysis", "rdf_bins", "expected an integer"], False),
+    ("rdf_bins_huge", 1, "--trajectory_file=good.h5 --compute=rdf --rdf_bins=2000000000",
+     ["&analysis", "rdf_bins", "between 1 and 10000000"], False),
     ("window_unknown", 1, "--trajectory_file=good.h5 --compute=vdos --window=hamming",
      ["&analysis", "window", "hamming", "allowed"], False),
     ("unknown_key_in_file", 1, "unknown_key.nml", ["unknown_key.nml:2", "&analysis", "rdf_binz", "unknown key"], True),

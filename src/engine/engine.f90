@@ -239,6 +239,7 @@ contains
             call self%pot%forces(self%atoms, self%list, halo, want_energy, ew(1), ew(2))
         end if
         call self%timers%stop(t_pair)
+        if (self%validity_checks) call check_list_problem(self)
         if (self%plan%pair_mode /= pair_all) then
             call self%timers%start(t_comm)
             call self%dom%reverse(self%atoms%f)
@@ -416,6 +417,16 @@ contains
 
     !> Stop every rank with the potential's description when any rank's state is invalid (after a
     !> force pass of an integrator with fixed steps). Collective.
+    !> A pass that could not serve the state from its list (potential%list_problem) stops every rank
+    !> with the failing rank's description. Collective.
+    subroutine check_list_problem(self)
+        class(engine_t), intent(inout) :: self
+        character(len=512) :: text
+        logical :: bad
+        bad = self%pot%list_problem(text)
+        call check_all(.not. bad, trim(text))
+    end subroutine check_list_problem
+
     subroutine engine_check_valid(self, step, time)
         class(engine_t), intent(inout) :: self
         integer(i8), intent(in) :: step

@@ -43,7 +43,6 @@ module terrace_contact
     use terrace_potential, only: potential_t, halo_ops_t
     use terrace_point_triangle, only: closest_point, distance_derivatives
     use terrace_heap_sort, only: sort_by_id
-    use terrace_errors, only: abort_all
     implicit none
     private
 
@@ -74,6 +73,9 @@ module terrace_contact
         logical :: stale = .true.
         integer :: npair = 0
         integer, allocatable :: pi(:), pj(:)
+        !> a state the contact search cannot serve (a boundary edge stretched beyond the list's reach),
+        !> reported by invalid_state
+        character(len=:), allocatable :: problem
     contains
         procedure :: setup => ct_setup
         procedure :: check_start => ct_check_start
@@ -85,6 +87,8 @@ module terrace_contact
         procedure :: time_scale => ct_time_scale
         procedure :: preferred_skin => ct_preferred_skin
         procedure :: needs_full_neighbourhood => ct_needs_full
+        procedure :: list_problem => ct_list_problem
+        procedure :: may_become_invalid => ct_may_become_invalid
     end type contact_t
 
     public :: boundary_nodes
@@ -536,6 +540,7 @@ contains
             if (atoms%id(i) >= 1 .and. atoms%id(i) <= size(self%id_map)) self%id_map(atoms%id(i)) = i
         end do
         call check_stretch(self, atoms, list%skin)
+        if (allocated(self%problem)) return        ! (the run stops at the engine's check after this pass)
         do pass = 1, 2
             n = 0
             do i = 1, nlocal
@@ -603,16 +608,23 @@ contains
     !> The list cutoff holds every pair within d0 only while no boundary edge is longer than
     !> edge_allowance times the longest reference edge; edges grow by at most the skin before the
     !> next build. Every owned boundary node's edges are checked at each build: a longer edge, or a
-    !> face vertex missing on this rank, stops the run (on one rank, without a collective: MPI_Abort)
-    !> rather than miss contact pairs silently.
+    !> face vertex missing on this rank, is recorded (`problem`), and the engine's collective check
+    !> after the force pass (list_problem) stops every rank with it, rather than miss contact pairs silently.
     subroutine check_stretch(self, atoms, skin)
-        class(contact_t), intent(in) :: self
+        class(contact_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
         real(dp), intent(in) :: skin
         integer :: i, f, a, v
         real(dp) :: limit, len
         character(len=320) :: text
         limit = edge_allowance*self%max_edge - skin
+        if (limit <= 0 .and. atoms%nlocal > 0) then
+            write (text, '(a,es11.3e3,a,es11.3e3,a)') 'contact: &neighbor skin = ', skin, ' leaves the contact search '// &
+                'no reach (it must stay below ', edge_allowance*self%max_edge, ', the allowance for boundary edges '// &
+                'to stretch before the next list build; the default skin is half the contact distance)'
+            if (.not. allocated(self%problem)) self%problem = trim(text)
+            return
+        end if
         do i = 1, atoms%nlocal
             if (self%tag(i) == 0) cycle
             do f = self%face_first(atoms%id(i)), self%face_first(atoms%id(i) + 1) - 1
@@ -621,12 +633,13 @@ contains
                     len = huge(1.0_dp)
                     if (v > 0) len = norm2(atoms%x(:, v) - atoms%x(:, i))
                     if (len <= limit) cycle
-                    write (text, '(a,i0,a,i0,a,es10.3,a,es10.3,a,es10.3,a)') 'contact: the boundary edge of nodes ', &
+                    write (text, '(a,i0,a,i0,a,es11.3e3,a,es11.3e3,a,es11.3e3,a)') 'contact: the boundary edge of nodes ', &
                         atoms%id(i), ' and ', self%faces(a, self%face_of(f)), ' has stretched to ', len, &
                         ' (longest reference boundary edge ', self%max_edge, ', skin ', skin, &
                         '): the contact search would miss pairs; the deformation is beyond the mesh, '// &
-                        'or the skin is too large'
-                    call abort_all(trim(text))
+                        'or the skin is too large (&neighbor skin)'
+                    if (.not. allocated(self%problem)) self%problem = trim(text)
+                    return
                 end do
             end do
         end do
@@ -739,5 +752,19 @@ contains
             hi(:, node_body(i)) = max(hi(:, node_body(i)), x(:, i))
         end do
     end subroutine body_boxes
+
+    !> A boundary edge stretched beyond the contact search's reach (check_stretch) at the last build.
+    logical function ct_list_problem(self, text) result(bad)
+        class(contact_t), intent(in) :: self
+        character(len=*), intent(out) :: text
+        bad = allocated(self%problem)
+        text = ''
+        if (bad) text = self%problem
+    end function ct_list_problem
+
+    pure logical function ct_may_become_invalid(self)
+        class(contact_t), intent(in) :: self
+        ct_may_become_invalid = .true.
+    end function ct_may_become_invalid
 
 end module terrace_contact

@@ -70,6 +70,7 @@ module terrace_potential
         !> potential reduces them itself, e.g. exactly); the engine then does not sum them again
         procedure :: sums_global => potential_false
         procedure :: invalid_state => potential_invalid_state
+        procedure :: list_problem => potential_invalid_state
     end type potential_t
 
     abstract interface
@@ -198,6 +199,9 @@ contains
         type(atoms_t), intent(in) :: atoms
     end subroutine potential_on_rebuild
 
+    !> list_problem: after a force or ray pass, .true. with a description when this rank's pass could
+    !> not serve the state from its list (node-to-face contact: a boundary edge stretched beyond the
+    !> search's reach); every integrator stops there. Asked of the same potentials.
     !> After a force pass: .true. with a description when this rank's state has no finite energy
     !> (an inverted element); integrators with fixed steps stop there. Only asked of potentials whose
     !> may_become_invalid() is .true.

@@ -36,6 +36,7 @@ module terrace_potential_sum
         procedure :: preferred_skin => sum_preferred_skin
         procedure :: may_become_invalid => sum_may_become_invalid
         procedure :: invalid_state => sum_invalid_state
+        procedure :: list_problem => sum_list_problem
     end type potential_sum_t
 
 contains
@@ -221,5 +222,19 @@ contains
             if (bad) return
         end do
     end function sum_invalid_state
+
+    !> The first term's list problem (potential%list_problem).
+    logical function sum_list_problem(self, text) result(bad)
+        class(potential_sum_t), intent(in) :: self
+        character(len=*), intent(out) :: text
+        integer :: k
+        bad = .false.
+        text = ''
+        do k = 1, size(self%terms)
+            if (.not. self%terms(k)%p%may_become_invalid()) cycle
+            bad = self%terms(k)%p%list_problem(text)
+            if (bad) return
+        end do
+    end function sum_list_problem
 
 end module terrace_potential_sum

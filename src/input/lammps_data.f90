@@ -213,6 +213,9 @@ contains
                     if (p == 0) then
                         call fail(t, path, line, 'Velocities line for an atom id that is not in Atoms'); exit
                     end if
+                    if (vel_set(p)) then
+                        call fail(t, path, line, 'Velocities line for an atom id given before (each atom once)'); exit
+                    end if
                     t%v(:, p) = vals(1:3); vel_set(p) = .true.
                 end do
                 t%has_velocities = all(vel_set)

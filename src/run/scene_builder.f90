@@ -164,8 +164,15 @@ contains
             if (self%cutmax > 0.5_dp*self%box%length(d)) then
                 write (s1, '(es12.5)') self%cutmax
                 write (s2, '(es12.5)') 0.5_dp*self%box%length(d)
-                call stop_all(cfg%where('potential', 'cutoff')//' = '//trim(adjustl(s1))//': beyond half the periodic '// &
-                              'box along '//'xyz'(d:d)//' ('//trim(adjustl(s2))//'); use a larger box or a smaller cutoff')
+                if (cfg%nml%find('potential', 'cutoff') > 0 .or. cfg%nml%find('potential', 'pair_cutoff') > 0) then
+                    call stop_all(cfg%where('potential', 'cutoff')//' = '//trim(adjustl(s1))//': beyond half the '// &
+                                  'periodic box along '//'xyz'(d:d)//' ('//trim(adjustl(s2))//'); use a larger box or '// &
+                                  'a smaller cutoff')
+                else      ! (a cutoff the potential's file sets, as EAM's: the box must grow)
+                    call stop_all(cfg%where('potential', 'style')//" = '"//trim(cfg%potential)//"': its cutoff "// &
+                                  trim(adjustl(s1))//' is beyond half the periodic box along '//'xyz'(d:d)//' ('// &
+                                  trim(adjustl(s2))//'); use a larger box (&system cells or box_hi)')
+                end if
             end if
             if (self%cutmax + cfg%skin >= self%box%length(d)) then
                 if (cfg%buffer_tolerance > 0) then

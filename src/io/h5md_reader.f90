@@ -583,18 +583,24 @@ contains
         character(len=*), intent(in) :: why
         integer(i8) :: k
         real(dp) :: step, tol
-        logical :: uniform
+        logical :: uniform, increasing
         call check_all(self%el(e)%has_time, self%where(trim(el_name(e))//'/time')//': missing ('//why// &
                        ' needs the time of every frame)')
         call check_all(nsel >= 2, self%where(trim(el_name(e))//'/value')//': too few frames selected ('//why// &
                        ' needs at least 2; see &analysis first_frame, last_frame, frame_stride)')
         dt = self%el(e)%time(f0 + 1 + stride) - self%el(e)%time(f0 + 1)
         tol = 1.0e-6_dp*abs(dt)
-        uniform = dt > 0
+        increasing = .true.
+        uniform = .true.
         do k = 1, nsel - 1
             step = self%el(e)%time(f0 + 1 + k*stride) - self%el(e)%time(f0 + 1 + (k - 1)*stride)
-            if (abs(step - dt) > tol) uniform = .false.
+            ! (written so that a NaN time fails both tests)
+            if (.not. (step > 0 .and. step <= huge(1.0_dp))) increasing = .false.
+            if (.not. (abs(step - dt) <= tol)) uniform = .false.
         end do
+        call check_all(increasing, self%where(trim(el_name(e))//'/time')//': the times of the selected frames '// &
+                       'do not increase (or are not finite numbers): a damaged or concatenated trajectory ('//why// &
+                       ' needs increasing, equally spaced times)')
         call check_all(uniform, self%where(trim(el_name(e))//'/time')//': the selected frames are not equally '// &
                        'spaced in time ('//why//' needs a uniform sampling)')
     end function traj_time_step

@@ -36,6 +36,10 @@ write_h5md(F("no_velocity.h5"), 3, positions=x, times=t, edges=[10, 10, 10])
 write_h5md(F("velocity_shape.h5"), 3, positions=x, velocities=v[:, :-1], times=t, edges=[10, 10, 10])
 write_h5md(F("image_frames.h5"), 3, positions=x, images=img[:-1], times=t, edges=[10, 10, 10])
 write_h5md(F("uneven_time.h5"), 3, positions=x, velocities=v, times=t ** 1.5, edges=[10, 10, 10])
+t_nan = t.copy(); t_nan[7] = float("nan")
+write_h5md(F("nan_time.h5"), 3, positions=x, velocities=v, times=t_nan, edges=[10, 10, 10])
+t_back = t.copy(); t_back[7] = t[3]
+write_h5md(F("backward_time.h5"), 3, positions=x, velocities=v, times=t_back, edges=[10, 10, 10])
 write_h5md(F("free.h5"), 3, positions=x, velocities=v, times=t, boundary=["none"] * 3)
 write_h5md(F("no_time.h5"), 3, positions=x, images=img, edges=[10, 10, 10])
 write_h5md(F("box_frames.h5"), 3, positions=x[:10], times=t[:10], edges=[10, 10, 10], edges_series=True)
@@ -76,6 +80,10 @@ cases = [
      ["&analysis", "msd_max_time", "too few frames", "good.h5"], False),
     ("uneven_time", 1, "--trajectory_file=uneven_time.h5 --compute=vdos",
      ["uneven_time.h5", "velocity/time", "not equally spaced"], False),
+    ("nan_time", 1, "--trajectory_file=nan_time.h5 --compute=vdos",
+     ["nan_time.h5", "velocity/time", "do not increase", "not finite"], False),
+    ("backward_time", 1, "--trajectory_file=backward_time.h5 --compute=msd",
+     ["backward_time.h5", "position/time", "do not increase"], False),
     ("no_time_for_msd", 1, "--trajectory_file=no_time.h5 --compute=msd",
      ["no_time.h5", "position/time", "missing"], False),
     ("time_wrong_length", 1, "--trajectory_file=time_length.h5 --compute=rdf",

@@ -213,28 +213,33 @@ contains
     logical function sum_invalid_state(self, text) result(bad)
         class(potential_sum_t), intent(in) :: self
         character(len=*), intent(out) :: text
-        integer :: k
-        bad = .false.
-        text = ''
-        do k = 1, size(self%terms)
-            if (.not. self%terms(k)%p%may_become_invalid()) cycle
-            bad = self%terms(k)%p%invalid_state(text)
-            if (bad) return
-        end do
+        bad = first_problem(self, .false., text)
     end function sum_invalid_state
 
     !> The first term's list problem (potential%list_problem).
     logical function sum_list_problem(self, text) result(bad)
         class(potential_sum_t), intent(in) :: self
         character(len=*), intent(out) :: text
+        bad = first_problem(self, .true., text)
+    end function sum_list_problem
+
+    !> Ask the terms that may become invalid, in order, for an invalid state or (list) a list problem.
+    logical function first_problem(self, list, text) result(bad)
+        class(potential_sum_t), intent(in) :: self
+        logical, intent(in) :: list
+        character(len=*), intent(out) :: text
         integer :: k
         bad = .false.
         text = ''
         do k = 1, size(self%terms)
             if (.not. self%terms(k)%p%may_become_invalid()) cycle
-            bad = self%terms(k)%p%list_problem(text)
+            if (list) then
+                bad = self%terms(k)%p%list_problem(text)
+            else
+                bad = self%terms(k)%p%invalid_state(text)
+            end if
             if (bad) return
         end do
-    end function sum_list_problem
+    end function first_problem
 
 end module terrace_potential_sum

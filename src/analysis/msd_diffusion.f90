@@ -54,9 +54,15 @@ contains
         end if
         write (a, '(i0,a,i0,a,i0,a,i0,a)') plan%nblocks, ' blocks of ', plan%block_len, ' frames; lag ', &
             plan%maxlag, ' frames needs blocks of at least ', 2*max(plan%maxlag, 2), ' frames'
-        call check_all(plan%maxlag >= 2 .and. plan%block_len >= 2*plan%maxlag, cfg%where('msd_max_time')// &
-                       ': too few frames in '//traj%path//' for this MSD length ('//trim(a)// &
-                       '; lower msd_max_time or msd_blocks, or select more frames)')
+        if (is_unset(cfg%msd_max_time)) then      ! (the advice names only keys the user can change)
+            call check_all(plan%maxlag >= 2 .and. plan%block_len >= 2*plan%maxlag, cfg%where('msd_blocks')// &
+                           ': too few frames in '//traj%path//' for the MSD ('//trim(a)// &
+                           '; lower msd_blocks, or select more frames)')
+        else
+            call check_all(plan%maxlag >= 2 .and. plan%block_len >= 2*plan%maxlag, cfg%where('msd_max_time')// &
+                           ': too few frames in '//traj%path//' for this MSD length ('//trim(a)// &
+                           '; lower msd_max_time or msd_blocks, or select more frames)')
+        end if
         plan%fit_lo = max(1, plan%maxlag/5)
         plan%fit_hi = plan%maxlag
         if (.not. is_unset(cfg%msd_fit_start)) plan%fit_lo = nint(cfg%msd_fit_start/plan%dt)

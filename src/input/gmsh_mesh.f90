@@ -10,7 +10,7 @@
 !> a node, and coordinates beyond 1e9 are refused. Errors name the file and line.
 module terrace_gmsh_mesh
     use terrace_kinds, only: dp, i8
-    use terrace_text, only: int_text
+    use terrace_text, only: int_text, count_tokens
     implicit none
     private
 
@@ -34,7 +34,7 @@ contains
         character(len=*), intent(in) :: path
         type(mesh_t), intent(out) :: mesh
         integer :: u, ios, line_no
-        character(len=4096) :: line
+        character(len=4096) :: line, node_line
         real(dp) :: version
         integer :: ftype, dsize
         integer(i8) :: fsize
@@ -291,10 +291,13 @@ contains
                     end if
                 end do
                 do k = 1, int(nb)
-                    read (u, *, iostat=ios) mesh%x(:, n0 + k)
+                    ! (one line read as text first: a list-directed read would go on to the next line
+                    ! for a missing coordinate and report the wrong line)
+                    read (u, '(a)', iostat=ios) node_line
                     line_no = line_no + 1
-                    if (ios /= 0) then
-                        call fail(line_no, 'bad node coordinates'); return
+                    if (ios == 0) read (node_line, *, iostat=ios) mesh%x(:, n0 + k)
+                    if (ios /= 0 .or. count_tokens(node_line) /= 3) then
+                        call fail(line_no, 'bad node coordinates (expected: x y z)'); return
                     end if
                     if (.not. coordinates_ok(mesh%x(:, n0 + k))) return
                 end do
@@ -314,9 +317,10 @@ contains
             if (.not. count_fits(nnodes, 8, '$Nodes declares')) return
             allocate (mesh%node_tag(nnodes), mesh%x(3, nnodes))
             do k = 1, int(nnodes)
-                read (u, *, iostat=ios) mesh%node_tag(k), mesh%x(:, k)
+                read (u, '(a)', iostat=ios) node_line
                 line_no = line_no + 1
-                if (ios /= 0) then
+                if (ios == 0) read (node_line, *, iostat=ios) mesh%node_tag(k), mesh%x(:, k)
+                if (ios /= 0 .or. count_tokens(node_line) /= 4) then
                     call fail(line_no, 'bad node line (expected: tag x y z)'); return
                 end if
                 if (.not. coordinates_ok(mesh%x(:, k))) return

@@ -17,7 +17,7 @@ module terrace_output_files
     use terrace_mpi_env, only: world
     use terrace_errors, only: check_all
     use terrace_file_ops, only: resolve_path, path_kind, is_writable, lock_file, remove_at_exit, keep_at_exit, &
-                                process_id, directory_of, path_missing, path_regular, &
+                                process_id, directory_of, path_missing, path_regular, path_directory, &
                                 temporary_name, commit_output, write_in_place, output_target
     use terrace_xdmf, only: xdmf_sidecar_path
     use terrace_topology_data, only: topology_data_path, wants_topology_data
@@ -29,6 +29,9 @@ module terrace_output_files
 
     integer, parameter :: nout = 8, nin = 7   !< output 6: a mesh trajectory's XDMF sidecar; 7: the run summary;
     !< 8: a 3-D trajectory's topology for MDAnalysis
+
+    !> Characters a temporary or lock file adds to an output's path ('.' + '.terrace-partial', ...)
+    integer, parameter :: name_room = 26
 
 contains
 
@@ -147,7 +150,20 @@ contains
             out_abs(i)%s = resolve_path(output_target(out_path(i)%s), ok)
             dir = directory_of(output_target(out_path(i)%s))
             if (.not. ok) then
-                msg = where(i)//': '//verb(i)//": the directory '"//dir//"' does not exist"
+                if (path_kind(dir) == path_directory) then
+                    ! (the directory is there: the absolute path is what cannot be formed)
+                    msg = where(i)//': '//verb(i)//': the path is too long once the current directory is put '// &
+                          'before it (an absolute path has at most 4096 characters; give a shorter name)'
+                else
+                    msg = where(i)//': '//verb(i)//": the directory '"//dir//"' does not exist"
+                end if
+                return
+            end if
+            ! beside each output go its temporary file and its lock ('.NAME.terrace-partial', ...)
+            if (len(out_abs(i)%s) + name_room > 4096) then
+                write (pid, '(i0)') len(out_abs(i)%s)
+                msg = where(i)//': '//verb(i)//': the path has '//trim(pid)//' characters once made absolute; an '// &
+                      'output may have at most 4070 (its temporary and lock files beside it need the rest of 4096)'
                 return
             end if
             kind = path_kind(out_path(i)%s)

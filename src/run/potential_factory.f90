@@ -124,10 +124,13 @@ contains
                 'boundary edge, below which a node slips between the nodes of the other body, to a quarter of '// &
                 'the smallest body)')
         else if (d0 > 0) then
+            write (s1, '(es10.3)') 1.0e-3_dp*ct%spacing
             write (s2, '(es10.3)') 0.25_dp*ct%min_body_extent
-            if (d0 > 0.25_dp*ct%min_body_extent) call stop_all(cfg%where('potential', 'contact_distance')// &
-                ': allowed up to '//trim(adjustl(s2))//' '//trim(cfg%units%length)//' for this mesh (a quarter of '// &
-                'the smallest body)')
+            if (d0 < 1.0e-3_dp*ct%spacing .or. d0 > 0.25_dp*ct%min_body_extent) call stop_all(cfg%where('potential', &
+                'contact_distance')//': allowed '//trim(adjustl(s1))//' .. '//trim(adjustl(s2))//' '// &
+                trim(cfg%units%length)//' for this mesh (from 1e-3 x the mean boundary edge: a thinner barrier, and '// &
+                'the skin of half of it, would have the contact search rebuilt at every step; to a quarter of the '// &
+                'smallest body)')
         end if
         if (present(xstart)) then
             call ct%check_start(xstart, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), ok, msg)

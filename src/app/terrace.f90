@@ -408,6 +408,7 @@ contains
     !> Timers and wall clock start together on every rank; the integrator writes through `out`.
     subroutine start_clock()
         out%thermo => thermo
+        thermo%progress_seconds = cfg%progress_seconds
         out%traj => traj
         out%ctl => ctl
         out%thermostat = ts%active()

@@ -115,6 +115,7 @@ module terrace_config
         logical :: overwrite = .false.
         character(len=path_max) :: checkpoint_file = ''
         character(len=path_max) :: summary_file = ''   !< JSON run summary ('': none)
+        real(dp) :: progress_seconds = 60.0_dp          !< wall seconds without a screen line before a progress line
         real(dp) :: checkpoint_interval = -1.0_dp   !< time between checkpoints
         integer(i8) :: checkpoint_every = -1        !< steps between checkpoints (velocity Verlet)
         ! &thermostat
@@ -625,22 +626,23 @@ contains
         real(dp) :: checkpoint_interval
         integer(i8) :: checkpoint_every
         character(len=path_max) :: summary_file
+        real(dp) :: progress_seconds
         namelist /output/ thermo_every, thermo_interval, thermo_file, forces_file, final_atoms_file, trajectory_file, &
             trajectory_every, trajectory_interval, trajectory_fields, overwrite, checkpoint_file, checkpoint_interval, &
-            checkpoint_every, summary_file
-        character(len=*), parameter :: keys(14) = [character(len=72) :: 'thermo_every:an integer', &
+            checkpoint_every, summary_file, progress_seconds
+        character(len=*), parameter :: keys(15) = [character(len=72) :: 'thermo_every:an integer', &
             'checkpoint_file:a quoted file name', 'checkpoint_interval:a real number', 'checkpoint_every:an integer', &
             'thermo_interval:a real number', 'thermo_file:a quoted file name', 'forces_file:a quoted file name', &
             'final_atoms_file:a quoted file name', 'trajectory_file:a quoted file name', &
             'trajectory_every:an integer', 'trajectory_interval:a real number', &
             'trajectory_fields:a quoted list of position, velocity, force, image', 'overwrite:a logical', &
-            'summary_file:a quoted file name']
+            'summary_file:a quoted file name', 'progress_seconds:a real number (wall-clock seconds)']
         type(item_reader_t) :: it
         thermo_every = -1; thermo_interval = -1; thermo_file = ''; forces_file = ''; final_atoms_file = ''
         trajectory_file = ''; trajectory_every = -1; trajectory_interval = -1
         trajectory_fields = 'position velocity image'; overwrite = .false.
         checkpoint_file = ''; checkpoint_interval = -1; checkpoint_every = -1
-        summary_file = default_summary_file(cfg%path)
+        summary_file = default_summary_file(cfg%path); progress_seconds = 60.0_dp
         do while (it%next(cfg, 'output', keys))
             read (it%buf, nml=output, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
@@ -653,6 +655,9 @@ contains
         cfg%checkpoint_file = checkpoint_file; cfg%checkpoint_interval = checkpoint_interval
         cfg%checkpoint_every = checkpoint_every
         cfg%summary_file = summary_file
+        if (.not. progress_seconds >= 0) call stop_all(cfg%where('output', 'progress_seconds')// &
+            ': must be >= 0 (wall-clock seconds without a screen line before a progress line; 0: none)')
+        cfg%progress_seconds = progress_seconds
     end subroutine read_output
 
     !> The default &output summary_file: the deck's file name without its directory and its '.nml',

@@ -550,6 +550,7 @@ contains
             st%have_c = .false.
             stats%events = stats%events + 1
             st%trust = 4*st%t/stats%events
+            call r%out%thermo%tick(stats%events, st%t)
             call expiry_after(r, st%t)
             if (r%sample_every > 0) then
                 if (mod(stats%events, r%sample_every) == 0) call write_sample(r, st%t)

@@ -96,6 +96,7 @@ contains
                 call eng%timers%stop(t_output)
             end if
             if (frame) call out%frame(eng, step, step*dt, eng%sample(step, step*dt))
+            call out%thermo%tick(step, step*dt)
             ! ecouple's per-rank parts are folded at every safe point, so that a run continued from a
             ! checkpoint (always taken at one) sums them exactly as the uninterrupted run does
             if (safe .and. ts%active()) call ts%fold()

@@ -1,6 +1,8 @@
 !> Thermodynamic output: the CSV file (header `step,time,temp,pe,ke,etotal,press,px,py,pz,lx,ly,lz`, extensive totals
 !> in the run's units, full precision) and the same lines on screen with the simulated time reached
 !> and an estimate of the wall time to completion. Rank 0 writes; other ranks do nothing here.
+!> Between screen lines further apart than progress_seconds of wall time (sparse samples, or none),
+!> tick (called once per step or event) prints a progress line, so that a slow run shows it moves.
 module terrace_thermo
     use terrace_kinds, only: dp, i8
     use terrace_mpi_env, only: world
@@ -29,11 +31,17 @@ module terrace_thermo
         logical :: failed = .false.          !< a write failed (full disk): reported by close, collectively
         integer(i8) :: bytes = 0             !< bytes written to the file (checked against its size at close)
         character(len=256) :: why = ''
+        !> progress lines: wall seconds without a screen line before one is printed (0: none); the
+        !> clock is read every `stride` ticks, the stride adapted to about 0.1 s between reads
+        real(dp) :: progress_seconds = 60
+        real(dp) :: last_line = 0, last_read = 0
+        integer(i8) :: ticks = 0, next_read = 1, stride = 1
     contains
         procedure :: open => thermo_open
         procedure :: open_append => thermo_open_append
         procedure, nopass :: check_append => thermo_check_append
         procedure :: write => thermo_write
+        procedure :: tick => thermo_tick
         procedure :: close => thermo_close
         procedure :: discard => thermo_discard
     end type thermo_writer_t
@@ -56,6 +64,7 @@ contains
         self%time_unit = time_unit
         self%extra_header = extra_header
         self%wall_start = MPI_Wtime()
+        self%last_line = self%wall_start; self%last_read = self%wall_start
         if (world%rank /= 0) return
         if (len_trim(path) > 0) then
             self%path = path
@@ -115,6 +124,7 @@ contains
         self%time_unit = time_unit
         self%extra_header = extra_header
         self%wall_start = MPI_Wtime()
+        self%last_line = self%wall_start; self%last_read = self%wall_start
         self%lines = keep
         if (world%rank /= 0) return
         if (len_trim(path) > 0) then
@@ -222,16 +232,55 @@ contains
             if (ios == 0) flush (self%unit, iostat=ios, iomsg=self%why)
             self%failed = ios /= 0
         end if
-        elapsed = MPI_Wtime() - self%wall_start
-        eta = ''
-        if (s%time > 0 .and. self%end_time > 0) then
-            remaining = elapsed*(self%end_time - s%time)/s%time
-            write (eta, '(a,f6.1,a,f9.1,a)') '  ', 100*s%time/self%end_time, '%  eta ', remaining, ' s'
-        end if
+        self%last_line = MPI_Wtime()
+        eta = progress_text(self, s%time)
         write (output_unit, '(i10,1x,es12.5,1x,es12.5,1x,es16.9,1x,es16.9,1x,es16.9,1x,es13.5,a)') s%step, s%time, &
             s%temp, s%pe, s%ke, s%etotal, s%press, trim(eta)
         flush (output_unit)
     end subroutine thermo_write
+
+    !> '  12.3%  eta    456.7 s' (blank before any time has passed or without an end time).
+    function progress_text(self, time) result(eta)
+        class(thermo_writer_t), intent(in) :: self
+        real(dp), intent(in) :: time
+        character(len=64) :: eta
+        real(dp) :: remaining
+        eta = ''
+        if (time > 0 .and. self%end_time > 0) then
+            remaining = (self%last_line - self%wall_start)*(self%end_time - time)/time
+            write (eta, '(a,f6.1,a,f9.1,a)') '  ', 100*time/self%end_time, '%  eta ', remaining, ' s'
+        end if
+    end function progress_text
+
+    !> One step (velocity Verlet) or event (energy stepping, event-driven) done: on rank 0, a progress
+    !> line when no screen line has been printed for progress_seconds of wall time. No communication.
+    subroutine thermo_tick(self, step, time)
+        class(thermo_writer_t), intent(inout) :: self
+        integer(i8), intent(in) :: step
+        real(dp), intent(in) :: time
+        real(dp) :: now
+        character(len=24) :: t
+        self%ticks = self%ticks + 1
+        if (self%ticks < self%next_read) return
+        if (world%rank /= 0 .or. .not. self%progress_seconds > 0) then
+            self%next_read = huge(self%next_read)
+            return
+        end if
+        now = MPI_Wtime()
+        if (now - self%last_read < 0.05_dp) then
+            self%stride = min(2*self%stride, 1048576_i8)
+        else if (now - self%last_read > 0.5_dp) then
+            self%stride = max(self%stride/2, 1_i8)
+        end if
+        self%last_read = now
+        self%next_read = self%ticks + self%stride
+        if (now - self%last_line < self%progress_seconds) return
+        self%last_line = now
+        write (t, '(es12.5)') time
+        write (output_unit, '(a,i0,a)') '  progress: step ', step, ', time '//trim(adjustl(t))//' '// &
+            self%time_unit//trim(progress_text(self, time))
+        flush (output_unit)
+    end subroutine thermo_tick
 
     !> The last thermo sample, in the run summary (thermo_last).
     subroutine summary_sample(s)

@@ -409,6 +409,7 @@ contains
     subroutine start_clock()
         out%thermo => thermo
         thermo%progress_seconds = cfg%progress_seconds
+        if (sched%n_steps > 0 .and. sched%n_steps < huge(1_i8)) thermo%end_step = sched%n_steps
         out%traj => traj
         out%ctl => ctl
         out%thermostat = ts%active()

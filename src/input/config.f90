@@ -1191,6 +1191,7 @@ contains
             call check_events('output', 'trajectory_interval', cfg%trajectory_interval, 'frames')
             call check_events('output', 'checkpoint_interval', cfg%checkpoint_interval, 'checkpoints')
             call check_events('integrator', 'target_mean_dt', cfg%target_mean_dt, 'events')
+            call check_events('barostat', 'interval', cfg%barostat_interval, 'volume moves')
         end if
         select case (cfg%list)
         case ('auto', 'cells', 'all_pairs')
@@ -1225,6 +1226,9 @@ contains
             real(dp), intent(in) :: time
             character(len=32) :: s
             if (.not. (time > 0)) return
+            if (time < 0.5_dp*cfg%dt) call stop_all(cfg%where(group, key)//': '//sci_text(time)//' '// &
+                trim(cfg%units%time)//' is shorter than half a time step (dt = '//sci_text(cfg%dt)//' '// &
+                trim(cfg%units%time)//'), and velocity Verlet counts whole steps (allowed: at least dt/2)')
             if (time/cfg%dt <= 1.0e15_dp) return
             write (s, '(es10.3)') time/cfg%dt
             call stop_all(cfg%where(group, key)//': '//trim(adjustl(s))//' time steps of dt (the most a run '// &

@@ -33,7 +33,7 @@
 !> Thermo gains ecouple and econserve = K + k h - ecouple.
 module terrace_energy_stepping
     use terrace_kinds, only: dp, i8, pi
-    use terrace_text, only: fixed
+    use terrace_text, only: fixed, sci_text
     use terrace_engine, only: engine_t
     use terrace_atoms, only: atoms_t
     use terrace_schedule, only: schedule_t
@@ -42,6 +42,7 @@ module terrace_energy_stepping
     use terrace_calendar, only: calendar_t, cal_sample, cal_frame, cal_checkpoint, cal_list, cal_thermostat, cal_finish, &
                                cal_barostat
     use terrace_run_outputs, only: run_outputs_t
+    use terrace_thermo, only: thermo_writer_t
     use terrace_timers, only: t_output, t_comm
     use terrace_mpi_env, only: world, sum_all, min_all
     use terrace_exact_sum, only: exact_sum_all
@@ -62,6 +63,11 @@ module terrace_energy_stepping
         type(engine_t), pointer :: eng => null()
         real(dp) :: last_s = -huge(1.0_dp)
         real(dp) :: last_out(4) = 0
+        !> progress lines during a long search (every 64 evaluations): the thermo writer, and
+        !> the event count and time at the search's origin
+        type(thermo_writer_t), pointer :: thermo => null()
+        integer(i8) :: events = 0
+        real(dp) :: t = 0
     contains
         procedure :: eval_ray => engine_ray_eval
     end type engine_ray_t
@@ -99,6 +105,9 @@ module terrace_energy_stepping
         real(dp) :: tol = 0                        !< the solver's tolerance on V
         real(dp) :: pe = 0, virial = 0             !< the engine's V and W at the last evaluation
         real(dp) :: ray_last_s = -huge(1.0_dp), ray_last_out(4) = 0   !< the ray's memory
+        !> windows ended by the calendar in a row without an event of the dynamics or a list expiry
+        !> (the run-away guard, idle_limit; not in checkpoints: it only decides that guard)
+        integer(i8) :: idle = 0
     contains
         procedure :: exchange => es_state_exchange
     end type es_state_t
@@ -141,6 +150,7 @@ contains
         call self%eng%ray_pass(s, self%last_out)
         self%last_s = s
         fdc = self%last_out(1:3)
+        if (iand(self%evals, 63) == 0 .and. associated(self%thermo)) call self%thermo%tick(self%events, self%t)
         if (self%evals > 100000) then
             ! a search that does not converge: show where it is, then stop every rank (collective:
             ! every rank makes the same decisions from the same global sums)
@@ -363,6 +373,7 @@ contains
         integer :: i
         r%eng => eng; r%ts => ts; r%bs => bs; r%out => out
         r%ray%eng => eng
+        r%ray%thermo => out%thermo
         r%h = h
         r%mvv2e = eng%units%mvv2e
         allocate (r%minv(size(eng%atoms%mass)))
@@ -405,6 +416,7 @@ contains
         associate (st => r%st)
             window = max(0.0_dp, st%cal%next() - st%t)
             r%ray%evals = 0
+            r%ray%events = r%stats%events; r%ray%t = st%t
             if (st%have_c .or. .not. st%have_guess) then
                 call r%solver%first_crossing(r%ray, st%lower, st%upper, window, st%p0, st%have_c, st%trust, res)
             else
@@ -412,6 +424,13 @@ contains
                                              st%c_guess)
             end if
             r%stats%ray_evals = r%stats%ray_evals + r%ray%evals
+            if (res%stalled) call check_all(.false., 'energy stepping: the search for the next level crossing '// &
+                'took '//sci_text(real(r%solver%max_search_evals, dp))//' evaluations without reaching it (time '// &
+                sci_text(st%t)//' '//r%out%thermo%time_unit//', the energy changing at '// &
+                sci_text(abs(res%fdc(2)))//' per '//r%out%thermo%time_unit//' against a terrace of '// &
+                sci_text(r%h)//'): &integrator terrace_height (or target_mean_dt) is far too small for '// &
+                'the energies this motion meets, or the motion is beyond the potential (an element turned '// &
+                'inside out, a contact overrun); give a larger one')
         end associate
     end subroutine search
 
@@ -484,6 +503,13 @@ contains
                 call write_sample(r, st%t)     ! the end of the run is always sampled
             end if
             if (cal%reached(cal_frame, st%t)) call write_frame(r, st%t)
+            call r%out%thermo%tick(r%stats%events, st%t)
+            if ((rebuilt .and. .not. box_moved) .or. cal%due(cal_list, st%t)) then
+                st%idle = 0
+            else
+                st%idle = st%idle + 1
+                if (st%idle > idle_limit(eng%natoms)) call run_away(r, thermostat_event, box_moved)
+            end if
             ! a safe point: after a list build, or anywhere on the all-pairs path (its replicated
             ! atoms drift bitwise like their owners); without a pair list (a mesh) the build sorts
             ! the atoms and remaps the elements as a restart does, so only after one (ecouple's
@@ -498,6 +524,46 @@ contains
         end associate
     end subroutine window_end
 
+    !> The most windows in a row the calendar may end with no event of the dynamics and no list
+    !> expiry between them: 1000, or 10 per atom (a dilute gas with Andersen collisions has many
+    !> thermostat events between list expiries). Beyond it an interval is far below the time the
+    !> dynamics needs to move at all, and the run would never finish.
+    pure integer(i8) function idle_limit(natoms)
+        integer(i8), intent(in) :: natoms
+        idle_limit = max(1000_i8, 10*natoms)
+    end function idle_limit
+
+    !> The run-away guard's stop: the key whose schedule ended the last windows, with its interval.
+    !> Every rank has the same calendar and events, so every rank stops here together.
+    subroutine run_away(r, thermostat_event, box_moved)
+        type(es_run_t), intent(in) :: r
+        logical, intent(in) :: thermostat_event, box_moved
+        character(len=:), allocatable :: key
+        character(len=24) :: n
+        real(dp) :: interval
+        associate (cal => r%st%cal)
+            if (thermostat_event) then
+                key = '&thermostat interval (or damping: Andersen collisions)'
+                interval = -1
+            else if (box_moved .or. cal%interval(cal_barostat) > 0 .and. &
+                     cal%n(cal_barostat) > 1 .and. cal%t(cal_barostat) - cal%interval(cal_barostat) >= r%st%t) then
+                key = '&barostat interval'; interval = cal%interval(cal_barostat)
+            else if (cal%interval(cal_frame) > 0 .and. cal%t(cal_frame) - cal%interval(cal_frame) >= r%st%t) then
+                key = '&output trajectory_interval'; interval = cal%interval(cal_frame)
+            else if (cal%interval(cal_sample) > 0) then
+                key = '&output thermo_interval'; interval = cal%interval(cal_sample)
+            else
+                key = '&output checkpoint_interval'; interval = cal%interval(cal_checkpoint)
+            end if
+            if (interval > 0) key = key//' = '//sci_text(interval)//' '//r%out%thermo%time_unit
+            write (n, '(i0)') idle_limit(r%eng%natoms)
+            call check_all(.false., 'energy stepping: '//trim(n)// &
+                ' windows in a row ended by '//key//' with no event of the dynamics between them (time '// &
+                sci_text(r%st%t)//' '//r%out%thermo%time_unit//'): the interval is far below the time the atoms need to move, and the run '// &
+                'would not finish; give a longer one')
+        end associate
+    end subroutine run_away
+
     !> A level crossing at s = res%s: drift there, one force pass, the jump (climb, reflection or
     !> fall), the new terrace edges, the ghosts' velocities; samples and frames counted in events.
     subroutine level_crossing(r, res)
@@ -508,6 +574,7 @@ contains
         associate (st => r%st, eng => r%eng, stats => r%stats, h => r%h, tol => r%solver%tol)
             st%c_guess = res%c_near
             st%have_guess = .true.
+            st%idle = 0
             call eng%drift(res%s)
             st%t = st%t + res%s
             ! (V and the virial summed over ranks with the gradient sums: one reduction)

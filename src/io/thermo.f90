@@ -23,6 +23,7 @@ module terrace_thermo
         logical :: to_file = .false.
         real(dp) :: wall_start = 0
         real(dp) :: end_time = 0
+        integer(i8) :: end_step = 0          !< a run counted in steps or events only: its count (progress)
         character(len=:), allocatable :: time_unit
         character(len=:), allocatable :: extra_header
         integer(i8) :: lines = 0             !< samples written (CSV data lines, kept ones included)
@@ -32,7 +33,7 @@ module terrace_thermo
         integer(i8) :: bytes = 0             !< bytes written to the file (checked against its size at close)
         character(len=256) :: why = ''
         !> progress lines: wall seconds without a screen line before one is printed (0: none); the
-        !> clock is read every `stride` ticks, the stride adapted to about 0.1 s between reads
+        !> clock is read every `stride` ticks (at most 4: a tick may suddenly take long)
         real(dp) :: progress_seconds = 60
         real(dp) :: last_line = 0, last_read = 0
         integer(i8) :: ticks = 0, next_read = 1, stride = 1
@@ -233,22 +234,31 @@ contains
             self%failed = ios /= 0
         end if
         self%last_line = MPI_Wtime()
-        eta = progress_text(self, s%time)
+        eta = progress_text(self, s%step, s%time)
         write (output_unit, '(i10,1x,es12.5,1x,es12.5,1x,es16.9,1x,es16.9,1x,es16.9,1x,es13.5,a)') s%step, s%time, &
             s%temp, s%pe, s%ke, s%etotal, s%press, trim(eta)
         flush (output_unit)
     end subroutine thermo_write
 
-    !> '  12.3%  eta    456.7 s' (blank before any time has passed or without an end time).
-    function progress_text(self, time) result(eta)
+    !> '  12.3%  eta    456.7 s': the share of the run (of its time, or of its steps or events when it
+    !> is counted in those) and the wall time left; blank at the start.
+    function progress_text(self, step, time) result(eta)
         class(thermo_writer_t), intent(in) :: self
+        integer(i8), intent(in) :: step
         real(dp), intent(in) :: time
         character(len=64) :: eta
         real(dp) :: remaining
+        real(dp) :: done
         eta = ''
-        if (time > 0 .and. self%end_time > 0) then
-            remaining = (self%last_line - self%wall_start)*(self%end_time - time)/time
-            write (eta, '(a,f6.1,a,f9.1,a)') '  ', 100*time/self%end_time, '%  eta ', remaining, ' s'
+        done = 0
+        if (self%end_time > 0) then
+            done = time/self%end_time
+        else if (self%end_step > 0) then
+            done = real(step, dp)/self%end_step
+        end if
+        if (done > 0) then
+            remaining = (self%last_line - self%wall_start)*(1 - done)/done
+            write (eta, '(a,f6.1,a,f9.1,a)') '  ', 100*done, '%  eta ', remaining, ' s'
         end if
     end function progress_text
 
@@ -268,7 +278,7 @@ contains
         end if
         now = MPI_Wtime()
         if (now - self%last_read < 0.05_dp) then
-            self%stride = min(2*self%stride, 1048576_i8)
+            self%stride = min(2*self%stride, 4_i8)
         else if (now - self%last_read > 0.5_dp) then
             self%stride = max(self%stride/2, 1_i8)
         end if
@@ -278,7 +288,7 @@ contains
         self%last_line = now
         write (t, '(es12.5)') time
         write (output_unit, '(a,i0,a)') '  progress: step ', step, ', time '//trim(adjustl(t))//' '// &
-            self%time_unit//trim(progress_text(self, time))
+            self%time_unit//trim(progress_text(self, step, time))
         flush (output_unit)
     end subroutine thermo_tick
 

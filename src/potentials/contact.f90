@@ -633,11 +633,12 @@ contains
                     len = huge(1.0_dp)
                     if (v > 0) len = norm2(atoms%x(:, v) - atoms%x(:, i))
                     if (len <= limit) cycle
-                    write (text, '(a,i0,a,i0,a,es11.3e3,a,es11.3e3,a,es11.3e3,a)') 'contact: the boundary edge of nodes ', &
-                        atoms%id(i), ' and ', self%faces(a, self%face_of(f)), ' has stretched to ', len, &
-                        ' (longest reference boundary edge ', self%max_edge, ', skin ', skin, &
-                        '): the contact search would miss pairs; the deformation is beyond the mesh, '// &
-                        'or the skin is too large (&neighbor skin)'
+                    write (text, '(a,i0,a,i0,a,es11.3e3,a,es11.3e3,a,f0.2,a,es11.3e3,a,es11.3e3,a)') &
+                        'contact: the boundary edge of nodes ', atoms%id(i), ' and ', &
+                        self%faces(a, self%face_of(f)), ' has stretched to ', len, ', beyond the ', limit, &
+                        ' the contact search allows (', edge_allowance, ' x the longest reference boundary edge ', &
+                        self%max_edge, ' less &neighbor skin = ', skin, '): it would miss pairs; the deformation '// &
+                        'is beyond the mesh, or the skin is too large (&neighbor skin)'
                     if (.not. allocated(self%problem)) self%problem = trim(text)
                     return
                 end do

@@ -595,8 +595,8 @@ contains
         text = ''
         if (self%first_inverted > 0) then
             write (text, '(a,i0,a,4(1x,i0),a)') 'element ', self%first_inverted, ' (nodes', &
-                self%node(:, self%first_inverted), ') turned inside out (J <= 0): the time step is too large for '// &
-                'this mesh and material (see the stability estimate), or the deformation is beyond the mesh'
+                self%node(:, self%first_inverted), ') turned inside out (J <= 0): the time step (&integrator dt) is too large for '// &
+                'this mesh and material (terrace --check prints the stable step), or the deformation is beyond the mesh'
             bad = .true.
         else if (self%missing_node) then
             text = 'an element''s node is not among this rank''s atoms (the halo is too short for the deformation)'

@@ -36,8 +36,14 @@ LJ = {
     'neighbor': 'skin=0.3',
     'output': "thermo_every=5, thermo_file='thermo.csv', forces_file='forces.txt'",
 }
-GROUPS = ['run', 'system', 'potential', 'integrator', 'neighbor', 'output']
-LINE = {g: i + 2 for i, g in enumerate(GROUPS)}   # line 1 is a comment
+GROUPS = ['run', 'system', 'potential', 'integrator', 'neighbor', 'output', 'thermostat', 'barostat', 'minimize']
+LINE = {g: i + 2 for i, g in enumerate(GROUPS)}   # line 1 is a comment (the six groups of LJ)
+
+
+def line_in(groups, group):
+    """The deck line of `group` when the deck has `groups` (those not None, in GROUPS order)."""
+    present = [g for g in GROUPS if groups.get(g) is not None]
+    return present.index(group) + 2
 
 
 def deck_text(name, groups):
@@ -641,6 +647,96 @@ mesh_case('mesh41_entities_count', msh41().replace('$Entities\n1 0 0 1', '$Entit
           ['$Entities declares 999999999', 'can hold'], '1 0 0 999999999')
 mesh_case('mesh41_node_blocks_huge', msh41(nodes_head='999999999 5 1 5'), ['$Nodes declares blocks: 999999999',
                                                                         'can hold'], '999999999 5')
+
+# ------------------------------------------------------------------ the newer groups' reals
+# Every real key of &thermostat (each style), &barostat, &minimize, the stepped potentials, the
+# mesh and &output progress_seconds through the same finite-and-range check: two of the six bad
+# values per key, rotating, so that each value meets every group.
+NVT = {st: dict(LJ, thermostat="style='%s', temperature=1.0, damping=0.5" % st)
+       for st in ('langevin', 'csvr', 'nose_hoover', 'andersen')}
+ES_T = {st: dict(ES, thermostat="style='%s', temperature=1.0, %s" % (st, extra))
+        for st, extra in (('csvr', 'damping=0.5, interval=0.1'), ('andersen', 'damping=0.5'))}
+NPT = dict(NVT['csvr'], barostat="style='c_rescale', pressure=1.0, damping=5.0, compressibility=0.1")
+ES_MC = dict(ES_T['andersen'], barostat="style='mc', pressure=1.0, interval=0.5")
+MIN = dict(LJ, minimize="style='cg', etol=1e-8, ftol=1e-8")
+MIN_BOX = dict(LJ, minimize="style='cg', etol=1e-8, ftol=1e-8, box_relax='iso', pressure=0.0")
+ED = dict(LJ, run="units='lj', dimension=3, run_time=1.0, seed=1",
+          system="lattice='fcc', density=0.5, cells=3,3,3, mass=1.0, temperature=1.0",
+          potential="style='hard_sphere', diameter=1.0", integrator="style='event_driven'", neighbor=None,
+          output="thermo_interval=0.5, thermo_file='thermo.csv', forces_file='forces.txt'")
+SW = dict(ED, potential="style='square_well', diameter=1.0, well_depth=1.0, well_lambda=1.5")
+SW_R = dict(ED, potential="style='square_well', diameter=1.0, well_depth=1.0, well_radius=1.5")
+MESH2 = dict(MESH, system="mesh_file='in.msh', mass_density=1000.0, periodic=.false.,.false.,.false., "
+                          "velocity(:,1)=1.0,0.0,0.0, angular_velocity(:,1)=0.0,0.0,1.0",
+             potential="style='neohookean', lambda=1.0e6, mu=1.0e6, contact_stiffness=1.0e4, contact_distance=0.1")
+newer_keys = [
+    ('thermostat', 'temperature', NVT['langevin'], 'langevin'), ('thermostat', 'damping', NVT['langevin'], 'langevin'),
+    ('thermostat', 'temperature', NVT['csvr'], 'csvr'), ('thermostat', 'damping', NVT['csvr'], 'csvr'),
+    ('thermostat', 'temperature_end', NVT['csvr'], 'csvr'),
+    ('thermostat', 'temperature', NVT['nose_hoover'], 'nh'), ('thermostat', 'damping', NVT['nose_hoover'], 'nh'),
+    ('thermostat', 'temperature', NVT['andersen'], 'andersen'),
+    ('thermostat', 'damping', NVT['andersen'], 'andersen'),
+    ('thermostat', 'interval', ES_T['csvr'], 'es_csvr'), ('thermostat', 'damping', ES_T['andersen'], 'es_andersen'),
+    ('barostat', 'pressure', NPT, 'c_rescale'), ('barostat', 'damping', NPT, 'c_rescale'),
+    ('barostat', 'compressibility', NPT, 'c_rescale'), ('barostat', 'pressure', ES_MC, 'mc'),
+    ('barostat', 'interval', ES_MC, 'mc'),
+    ('minimize', 'etol', MIN, 'cg'), ('minimize', 'ftol', MIN, 'cg'), ('minimize', 'pressure', MIN_BOX, 'box'),
+    ('potential', 'diameter', ED, 'hs'), ('potential', 'well_depth', SW, 'sw'),
+    ('potential', 'well_lambda', SW, 'sw'), ('potential', 'well_radius', SW_R, 'sw'),
+    ('output', 'thermo_interval', ED, 'ed'),
+    ('potential', 'lambda', MESH2, 'mesh'), ('potential', 'mu', MESH2, 'mesh'),
+    ('system', 'mass_density', MESH2, 'mesh'), ('potential', 'contact_stiffness', MESH2, 'mesh'),
+    ('potential', 'contact_distance', MESH2, 'mesh'), ('system', 'velocity(:,1)', MESH2, 'mesh'),
+    ('system', 'angular_velocity(:,1)', MESH2, 'mesh'), ('output', 'progress_seconds', LJ, 'lj'),
+]
+for i, (group, key, base, tag) in enumerate(newer_keys):
+    for tag_v, value, what in (bad_reals[i % 6], bad_reals[(i + 3) % 6]):
+        name = 'real_%s_%s_%s_%s' % (group[:4], tag, re.sub(r'\W', '', key.split('(')[0]), tag_v)
+        if ':,' in key:
+            value = '%s,0.0,0.0' % value
+        groups = with_key(group, '%s=%s' % (key, value), base)
+        files = {'in.msh': msh22(phys=(1, 2))} if base is MESH2 else None
+        case(name, ['%s.nml:%d' % (name, line_in(groups, group)), '&' + group, key.split('(')[0],
+                    value.split(',')[0], what], groups=groups, files=files)
+
+# ------------------------------------------------------------------ run-away schedules, run-time failures
+# Energy stepping counted in events (n_steps, no run_time to bound the schedule by): a calendar
+# interval far below the time the atoms need to move ends window after window with no event; the
+# run stops with the key after 1000 such windows. Velocity Verlet: an interval below half a step.
+ES_N = dict(ES, run="units='lj', dimension=3, n_steps=100, seed=1")
+for tag, groups, key in [
+        ('thermo', dict(ES_N, output=ES_N['output'].replace('thermo_every=5', 'thermo_interval=1e-20')),
+         'thermo_interval'),
+        ('thermo_1e-29', dict(ES_N, output=ES_N['output'].replace('thermo_every=5', 'thermo_interval=1e-29')),
+         'thermo_interval'),
+        ('andersen', dict(ES_N, thermostat="style='andersen', temperature=1.0, damping=1e-21"), '&thermostat'),
+        ('csvr', dict(ES_N, thermostat="style='csvr', temperature=1.0, damping=0.5, interval=1e-22"), '&thermostat'),
+        ('mc', dict(ES_N, thermostat="style='andersen', temperature=1.0, damping=0.5",
+                    barostat="style='mc', pressure=1.0, interval=1e-22"), '&barostat interval')]:
+    case('runaway_es_events_' + tag, [key, 'windows in a row', 'would not finish'], groups=groups)
+MC_RT = dict(ES, run="units='lj', dimension=3, run_time=1.0, seed=1",
+             thermostat="style='andersen', temperature=1.0, damping=0.5",
+             barostat="style='mc', pressure=1.0, interval=1e-25")
+case('runaway_es_mc_run_time', ['runaway_es_mc_run_time.nml:%d' % line_in(MC_RT, 'barostat'), '&barostat',
+                                'interval', 'volume moves', 'would not finish'], groups=MC_RT)
+for key in ('thermo_interval', 'trajectory_interval', 'checkpoint_interval'):
+    extra = {'trajectory_interval': ", trajectory_file='t.h5'", 'checkpoint_interval': ", checkpoint_file='c.h5'"}
+    out = LJ['output'].replace('thermo_every=5', '') + extra.get(key, '') + ', %s=1e-20' % key
+    case('runaway_vv_%s_below_dt' % key, ['&output', key, 'shorter than half a time step', 'dt/2'],
+         groups=dict(LJ, output=out.lstrip(', ')))
+# two tetrahedra 2 m apart, bodies 1 and 2; body 2 thrown at body 1
+TWO_X = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (3, 0, 0), (4, 0, 0), (3, 1, 0), (3, 0, 1)]
+TWO = msh22(x=TWO_X, t=[(1, 2, 3, 4), (5, 6, 7, 8)], phys=(1, 2))
+THROWN = dict(MESH, run="units='si', dimension=3, n_steps=3000, seed=1",
+              system="mesh_file='in.msh', mass_density=1000.0, periodic=.false.,.false.,.false., "
+                     "velocity(:,2)=-2000.0,0.0,0.0",
+              potential="style='neohookean', lambda=1.0e6, mu=1.0e6, contact_stiffness=1.0e13")
+case('runtime_contact_thrown_stiff', ['turned inside out', '&integrator dt', 'step'], groups=THROWN,
+     files={'in.msh': TWO})
+case('runtime_contact_skin_stretch', ['stretched', '&neighbor skin', 'beyond the'],
+     groups=dict(THROWN, potential="style='neohookean', lambda=1.0e6, mu=1.0e6, contact_stiffness=1.0e4",
+                 system=THROWN['system'].replace('-2000.0', '-20.0'), neighbor='skin=1.0'),
+     files={'in.msh': TWO})
 
 with open(os.path.join(OUT, 'cases.txt'), 'w') as f:
     f.write('# generated by generate_hostile.py: name | exit | arguments | substrings\n')

@@ -508,7 +508,7 @@ contains
                 st%idle = 0
             else
                 st%idle = st%idle + 1
-                if (st%idle > idle_limit(eng%natoms)) call run_away(r, thermostat_event, box_moved)
+                if (st%idle > idle_limit(eng%natoms, thermostat_event)) call run_away(r, thermostat_event, box_moved)
             end if
             ! a safe point: after a list build, or anywhere on the all-pairs path (its replicated
             ! atoms drift bitwise like their owners); without a pair list (a mesh) the build sorts
@@ -525,12 +525,14 @@ contains
     end subroutine window_end
 
     !> The most windows in a row the calendar may end with no event of the dynamics and no list
-    !> expiry between them: 1000, or 10 per atom (a dilute gas with Andersen collisions has many
-    !> thermostat events between list expiries). Beyond it an interval is far below the time the
-    !> dynamics needs to move at all, and the run would never finish.
-    pure integer(i8) function idle_limit(natoms)
+    !> expiry between them: 500, and for thermostat events 10 per atom if that is more (a dilute gas
+    !> with Andersen collisions has many of them between list expiries). Beyond it an interval is
+    !> far below the time the dynamics needs to move at all, and the run would never finish.
+    pure integer(i8) function idle_limit(natoms, thermostat_event)
         integer(i8), intent(in) :: natoms
-        idle_limit = max(1000_i8, 10*natoms)
+        logical, intent(in) :: thermostat_event
+        idle_limit = 500
+        if (thermostat_event) idle_limit = max(500_i8, 10*natoms)
     end function idle_limit
 
     !> The run-away guard's stop: the key whose schedule ended the last windows, with its interval.
@@ -556,7 +558,7 @@ contains
                 key = '&output checkpoint_interval'; interval = cal%interval(cal_checkpoint)
             end if
             if (interval > 0) key = key//' = '//sci_text(interval)//' '//r%out%thermo%time_unit
-            write (n, '(i0)') idle_limit(r%eng%natoms)
+            write (n, '(i0)') idle_limit(r%eng%natoms, thermostat_event)
             call check_all(.false., 'energy stepping: '//trim(n)// &
                 ' windows in a row ended by '//key//' with no event of the dynamics between them (time '// &
                 sci_text(r%st%t)//' '//r%out%thermo%time_unit//'): the interval is far below the time the atoms need to move, and the run '// &

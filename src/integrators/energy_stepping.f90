@@ -441,7 +441,7 @@ contains
         type(es_run_t), intent(inout) :: r
         type(crossing_t), intent(in) :: res
         logical, intent(out) :: stop_now
-        logical :: ckpt_due, rebuilt, thermostat_event, safe, box_moved
+        logical :: ckpt_due, rebuilt, thermostat_event, safe, box_moved, grid_next
         real(dp) :: window
         associate (st => r%st, eng => r%eng, ts => r%ts, cal => r%st%cal, ctl => r%out%ctl)
             stop_now = .false.
@@ -468,7 +468,7 @@ contains
             box_moved = .false.
             if (cal%due(cal_barostat, st%t)) then
                 call r%bs%apply_event(eng, cal%n(cal_barostat), box_moved)
-                if (cal%reached(cal_barostat, st%t)) continue      ! on to the next grid point
+                grid_next = cal%reached(cal_barostat, st%t)       ! on to the next grid point
                 if (box_moved) then
                     st%k = floor(eng%pe/r%h, i8)
                     st%lower = st%k*r%h; st%upper = (st%k + 1)*r%h

@@ -19,8 +19,7 @@ import h5py
 import matplotlib
 import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from terrace_tools.plotting import plt, save  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 
@@ -116,7 +115,7 @@ def main():
     if a.exaggerate != 1.0:
         title += f"  (deformation drawn x{a.exaggerate:g})"
     fig.suptitle(title, fontsize=10)
-    fig.savefig(a.output, dpi=110)
+    save(fig, a.output, dpi=110, tight=False)
     print(f"{a.output}: frames {pick} of {len(times)}, max elastic displacement {vmax:.4g} {lunit}")
 
 

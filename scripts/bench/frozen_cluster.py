@@ -336,8 +336,7 @@ def main():
 
     # ---- (d): plots ---------------------------------------------------------------------------
     import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    from terrace_tools.plotting import plt, save
 
     stamp = 'Terrace %s, %g ns runs' % (commit_line().split()[0], run_ns)
     f1 = os.path.join(figdir, 'frozen_cluster_interval_vs_h.png')
@@ -356,9 +355,7 @@ def main():
     ax.grid(True, which='both', alpha=0.3)
     ax.legend(fontsize=8)
     fig.text(0.99, 0.005, stamp, ha='right', va='bottom', fontsize=6, color='gray')
-    fig.tight_layout()
-    fig.savefig(f1, dpi=120)
-    plt.close(fig)
+    save(fig, f1, dpi=120)
 
     f2 = os.path.join(figdir, 'frozen_cluster_energy_error.png')
     fig, axs = plt.subplots(len(runs), 1, figsize=(7.5, 8.5), sharex=True)
@@ -378,9 +375,7 @@ def main():
     axs[-1].set_xlabel('time (ns)')
     fig.suptitle('Frozen argon cluster: energy error K + V - E$_0$, E$_0$/k$_B$ = %.1f K' % (E0 / KB), fontsize=10)
     fig.text(0.99, 0.005, stamp, ha='right', va='bottom', fontsize=6, color='gray')
-    fig.tight_layout()
-    fig.savefig(f2, dpi=120)
-    plt.close(fig)
+    save(fig, f2, dpi=120)
 
     f3 = os.path.join(figdir, 'frozen_cluster_temperature.png')
     fig, axs = plt.subplots(len(runs), 1, figsize=(7.5, 8.5), sharex=True, sharey=True)
@@ -394,9 +389,7 @@ def main():
     fig.suptitle('Frozen argon cluster: T = $\\sum m v^2 / (2 N k_B)$, sampled every %g ps' % SAMPLE_PS,
                  fontsize=10)
     fig.text(0.99, 0.005, stamp, ha='right', va='bottom', fontsize=6, color='gray')
-    fig.tight_layout()
-    fig.savefig(f3, dpi=120)
-    plt.close(fig)
+    save(fig, f3, dpi=120)
     print('figures : %s' % ', '.join((f1, f2, f3)))
     print()
 

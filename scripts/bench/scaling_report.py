@@ -176,8 +176,7 @@ def phases(src, rows):
 
 def figure(rows, path):
     import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    from terrace_tools.plotting import plt, save
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.4))
     style = {'terrace-vv': ('C0', 'o'), 'terrace-es': ('C1', 's'), 'lammps': ('C2', '^')}
     for ax, kind in zip(axes, ('strong', 'weak')):
@@ -228,8 +227,7 @@ def figure(rows, path):
     ax.set_title('strong scaling, 32,000 atoms: time')
     ax.grid(alpha=0.3, which='both')
     axes[0].legend(fontsize=7, loc='upper left')
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save(fig, path, dpi=110)
     print(f"figure: {path}")
 
 

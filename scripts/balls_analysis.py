@@ -27,10 +27,10 @@ import os
 import re
 import sys
 
-import h5py
 import numpy as np
 
 from point_triangle import boundary_faces, closest_on_triangles
+from terrace_tools import h5md
 
 
 def deck_values(path):
@@ -160,12 +160,9 @@ b2 = np.where(is_b & (nodebody == 2))[0]
 faces1 = bfaces[nodebody[bfaces[:, 0]] == 1]
 faces2 = bfaces[nodebody[bfaces[:, 0]] == 2]
 
-with h5py.File(traj_path, "r") as f:
-    ids = f["particles/all/id"][()]
-    order = np.argsort(ids)
-    pos = f["particles/all/position/value"][()][:, order]
-    vel = f["particles/all/velocity/value"][()][:, order]
-    time = f["particles/all/position/time"][()]
+fr = h5md.read(traj_path, unwrap=False)
+order = np.argsort(fr["id"])
+pos, vel, time = fr["x"][:, order], fr["v"][:, order], fr["time"]
 nf = len(time)
 
 rows = []

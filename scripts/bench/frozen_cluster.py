@@ -40,7 +40,7 @@ import time
 
 import numpy as np
 
-from terrace_tools import summary
+from terrace_tools import summary, thermo
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..'))
 KB = 8.617343e-5            # eV/K, Terrace's metal boltz (LAMMPS)
@@ -114,7 +114,7 @@ def run_terrace(terrace, work, tag, integrator, run_time_ps, atoms):
     r = parse_log(os.path.join(work, tag + '.summary.json'))
     r['wall_s'] = wall
     r['cpu_s'] = (ru1.ru_utime - ru0.ru_utime) + (ru1.ru_stime - ru0.ru_stime)
-    r['csv'] = read_csv(os.path.join(work, csv))
+    r['csv'] = thermo.read(os.path.join(work, csv))
     if not np.all(np.isfinite(r['csv']['etotal'])):
         raise SystemExit('non-finite energy in %s (deck %s)' % (csv, deck))
     return r

@@ -24,7 +24,7 @@ STYLE = {"terrace-vv": dict(color="tab:blue", marker="o", label="Terrace velocit
 METHODS = ["terrace-vv", "terrace-es", "lammps-vv"]
 DPI = 110
 # every figure: light grid, legends and titles a little smaller than the axis labels
-RC = {"axes.grid": True, "grid.alpha": 0.3, "grid.linewidth": 0.6, "axes.titlesize": 10, "axes.labelsize": 10,
+RC = {"axes.grid": True, "axes.axisbelow": True, "grid.alpha": 0.3, "grid.linewidth": 0.6, "axes.titlesize": 10, "axes.labelsize": 10,
       "legend.fontsize": 8, "legend.framealpha": 0.85, "xtick.labelsize": 9, "ytick.labelsize": 9,
       "savefig.dpi": DPI, "figure.dpi": DPI}
 plt.rcParams.update(RC)

@@ -39,7 +39,7 @@ SUFFIXES = (".py", ".sh", ".cmake", ".txt", ".md", ".nml.in")
 # closing lines, the scene plan). 'Loop time' not followed by ' of' (LAMMPS's 'Loop time of').
 MARKERS = re.compile(
     r"Loop time(?! of)|Performance: atom-steps|avg time \(s\)|Neighbour list builds|Neighbour list schedule"
-    r"|List pairs|Peak memory|Energy drift(?: \(econserve\))?:|Events:|Event rate:|Mean event interval"
+    r"|List pairs|Cluster pairs|Peak memory|Energy drift(?: \(econserve\))?:|Events:|Event rate:|Mean event interval"
     r"|Pair crossings:|ray evaluations per event|Total energy \(first, last|checkpoint: step")
 # ... matched as text on the same line
 MATCHING = re.compile(

@@ -2,8 +2,8 @@
 """No script, test or document reads Terrace's screen log by pattern: a run's figures come from its
 run summary (&output summary_file; terrace_tools.summary), not from the lines the run prints.
 
-Looks at every file git tracks outside src/ (or at the files under the folders given): Python,
-shell, CMake, Markdown and text. A line is a log parser when it names a line of Terrace's screen
+Looks at every file git tracks or would add (not ignored) outside src/, or at the files under the
+folders given: Python, shell, CMake, Markdown and text. A line is a log parser when it names a line of Terrace's screen
 log that carries a run's figures (the closing run log: 'Loop time:', the phase table, 'Neighbour
 list builds', 'Peak memory', 'Energy drift:', 'Events:', ...; 'checkpoint: step') and matches text
 on the same line: a regular expression (re.*, grep, sed, awk, a '^...' pattern, CMake's
@@ -55,14 +55,16 @@ SYS_PATH = re.compile(r"\bsys\.path\.(?:insert|append|extend)\(|\bsys\.path\s*(?
 
 
 def files(roots):
-    """Files to look at: those under the given folders, or every file git tracks outside src/."""
+    """Files to look at: those under the given folders, or every file git tracks or would add
+    (untracked, not ignored) outside src/."""
     if roots:
         for root in roots:
             for d, _, names in os.walk(root):
                 for n in sorted(names):
                     yield os.path.join(d, n)
         return
-    out = subprocess.run(["git", "-C", REPO, "ls-files"], capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(["git", "-C", REPO, "ls-files", "--cached", "--others", "--exclude-standard"],
+                         capture_output=True, text=True, check=True).stdout
     for rel in out.splitlines():
         if rel.startswith("src/") or rel in SELF or "bad_inputs/" in rel:
             continue

@@ -3,16 +3,15 @@
 run summary (&output summary_file; terrace_tools.summary), not from the lines the run prints.
 
 Looks at every file git tracks or would add (not ignored) outside src/, or at the files under the
-folders given: Python, shell, CMake, Markdown and text. A line is a log parser when it names a line of Terrace's screen
-log that carries a run's figures (the closing run log: 'Loop time:', the phase table, 'Neighbour
-list builds', 'Peak memory', 'Energy drift:', 'Events:', ...; 'checkpoint: step') and matches text
-on the same line: a regular expression (re.*, grep, sed, awk, a '^...' pattern, CMake's
-PASS_REGULAR_EXPRESSION), a substring test (startswith, find, index, count, 'in'), or a
-phase-table row picked by its first word (awk $1 == "Pair", '^(Pair|Neigh) +[0-9]'). Comment
-lines are not read. LAMMPS's and GROMACS's logs are other programs'
-outputs and are not counted ('Loop time of' is LAMMPS's line, 'Loop time:' Terrace's); nor are
-tests of what the screen tells its reader (the plan `terrace --check` prints, a note, an error
-line): they check text, not figures.
+folders given: Python, shell, CMake, Markdown and text. A line is a log parser when it names a line
+of Terrace's screen log that carries a run's figures (the closing run log: 'Loop time:', the phase
+table, 'Neighbour list builds', 'Peak memory', 'Energy drift:', 'Events:', ...; 'checkpoint: step')
+and matches text on the same line: a regular expression (re.*, grep, sed, awk, a '^...' pattern,
+CMake's PASS_REGULAR_EXPRESSION), a substring test (startswith, find, index, count, 'in'), or a
+phase-table row picked by its first word (awk $1 == "Pair", '^(Pair|Neigh) +[0-9]'). Comment lines
+are not read. LAMMPS's and GROMACS's logs are other programs' outputs and are not counted ('Loop
+time of' is LAMMPS's line, 'Loop time:' Terrace's); nor are tests of what the screen tells its
+reader (the plan `terrace --check` prints, a note, an error line): they check text, not figures.
 It also counts sys.path hacks (sys.path.insert / append / assignment, site.addsitedir): the
 package is found through PYTHONPATH or `pip install -e scripts`.
 

@@ -150,14 +150,16 @@ def cmd_run(a):
 
 
 def load_tables(paths, average_seeds):
-    """Read the sweep tables (rows sorted by mean step). With average_seeds, tables whose labels
-    differ only by a '_seed<N>' suffix are runs of the same sweep from other initial velocities:
-    they are replaced by their mean, with the standard error of the mean in <key>_err."""
+    """Read the sweep tables (rows sorted by the step parameter, dt or h: a seed whose trapped run
+    has a shorter mean step than a smaller h's keeps its rows in line with the other seeds'). With
+    average_seeds, tables whose labels differ only by a '_seed<N>' suffix are runs of the same sweep
+    from other initial velocities: they are replaced by their mean, with the standard error of the
+    mean in <key>_err."""
     tables = []
     for path in paths:
         rows = list(csv.DictReader(open(path)))
         col = lambda k: np.array([float(r[k]) for r in rows])
-        order = np.argsort(col("mean_step"))
+        order = np.argsort(col("value"), kind="stable")
         t = {k: col(k)[order] for k in rows[0] if k not in ("style", "key")}
         t["label"] = os.path.basename(path).replace("vdos_shift_", "").replace(".csv", "")
         t["style"] = rows[0]["style"]

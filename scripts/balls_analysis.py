@@ -27,10 +27,10 @@ import os
 import re
 import sys
 
-import h5py
 import numpy as np
 
 from point_triangle import boundary_faces, closest_on_triangles
+from terrace_tools import h5md
 
 
 def deck_values(path):
@@ -160,12 +160,9 @@ b2 = np.where(is_b & (nodebody == 2))[0]
 faces1 = bfaces[nodebody[bfaces[:, 0]] == 1]
 faces2 = bfaces[nodebody[bfaces[:, 0]] == 2]
 
-with h5py.File(traj_path, "r") as f:
-    ids = f["particles/all/id"][()]
-    order = np.argsort(ids)
-    pos = f["particles/all/position/value"][()][:, order]
-    vel = f["particles/all/velocity/value"][()][:, order]
-    time = f["particles/all/position/time"][()]
+fr = h5md.read(traj_path, unwrap=False)
+order = np.argsort(fr["id"])
+pos, vel, time = fr["x"][:, order], fr["v"][:, order], fr["time"]
 nf = len(time)
 
 rows = []
@@ -294,8 +291,7 @@ if a.json:
     json.dump(out, open(a.json, "w"), indent=1)
 if a.plot:
     import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from terrace_tools.plotting import plt, save
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
     ax[0].plot((tt - t_start) * 1e3, Fc, "o-", ms=2.5, lw=1, label=f"Terrace {a.label}")
     ax[0].plot(ht * 1e3, hf, "k--", lw=1.2, label=f"Hertz, T = {T * 1e3:.1f} ms")
@@ -317,12 +313,10 @@ if a.plot:
     ax[1].set_ylabel("energy (J)")
     ax[1].set_title("energy split (grey: contact)")
     ax[1].legend(fontsize=7, loc="lower left")
-    fig.tight_layout()
-    fig.savefig(a.plot, dpi=110)
+    save(fig, a.plot, dpi=110)
 if a.snapshots:
     import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from terrace_tools.plotting import plt, save
     from matplotlib.collections import PolyCollection
     ipk = int(np.argmax(Fc))
     picks = [max(i0 - 1, 0), (i0 + ipk) // 2, ipk, (ipk + i1) // 2, min(i1 + 1 + (i1 - i0) // 4, nf - 1)]
@@ -353,4 +347,4 @@ if a.snapshots:
         ax[k].set_xticks([]); ax[k].set_yticks([])
     fig.colorbar(pc, ax=ax, shrink=0.8, label="log10 W (J/m^3)")
     fig.suptitle(f"two rubber balls {a.label}: section z = 0 (tetrahedra cut by it), strain-energy density", fontsize=10)
-    fig.savefig(a.snapshots, dpi=110, bbox_inches="tight")
+    save(fig, a.snapshots, dpi=110, tight=False, bbox_inches="tight")

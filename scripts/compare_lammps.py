@@ -111,7 +111,7 @@ def parse_lammps_log(path):
                 continue
             if header is None:
                 continue
-            if line.startswith("Loop time"):
+            if line.startswith("Loop time of"):   # (LAMMPS's line after the thermo rows)
                 header = None
                 continue
             if len(toks) != len(header):

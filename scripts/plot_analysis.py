@@ -15,16 +15,16 @@ import os
 import matplotlib
 import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from terrace_tools import analysis  # noqa: E402
+from terrace_tools.plotting import plt, save  # noqa: E402
 
 CURVES = ["vdos", "vacf", "rdf", "msd", "sq"]
 
 
 def read(path):
-    with open(path) as f:
-        header = f.readline().strip().split(",")
-    return header, np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    """(column names, (rows, columns) array) of a terrace-analyze CSV (terrace_tools.analysis)."""
+    t = analysis.read(path)
+    return list(t), analysis.array(path)
 
 
 def main():
@@ -71,8 +71,7 @@ def main():
         out = os.path.join(a.out, f"{base}_{curve}.png") if a.out else f"{first}_{curve}.png"
         if a.out:
             os.makedirs(a.out, exist_ok=True)
-        fig.savefig(out, dpi=120)
-        plt.close(fig)
+        save(fig, out, dpi=120, tight=False)
         written.append(out)
     if not written:
         raise SystemExit(f"plot_analysis: no CSV curves found for {a.prefixes}")

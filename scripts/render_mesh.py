@@ -11,16 +11,15 @@ the title says so.
 
 usage: render_mesh.py TRAJECTORY.h5 [-o doc/figures/cube_spin.png] [--frames N | --times t1,t2,...]
                       [--exaggerate F] [--title TEXT]
-Reads with h5py; writes one PNG (matplotlib, Agg).
+Reads with terrace_tools.h5md; writes one PNG through terrace_tools.plotting.
 """
 import argparse
 
-import h5py
 import matplotlib
 import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from terrace_tools import h5md  # noqa: E402
+from terrace_tools.plotting import plt, save  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 
@@ -53,24 +52,22 @@ def main():
     ap.add_argument("--title", default="")
     a = ap.parse_args()
 
-    with h5py.File(a.trajectory, "r") as f:
-        if "connectivity/tetrahedra" not in f:
-            raise SystemExit(f"{a.trajectory}: no /connectivity/tetrahedra (not a mesh trajectory)")
-        ids = f["particles/all/id"][:]
-        tets = f["connectivity/tetrahedra"][:] - 1           # node ids -> rows (rows are in id order)
-        if not np.array_equal(ids, np.arange(1, len(ids) + 1)):
-            raise SystemExit(f"{a.trajectory}: particles/all/id is not 1..N")
-        pos = f["particles/all/position/value"]
-        times = f["particles/all/position/time"][:]
-        unit = f["particles/all/position/value"].attrs.get("unit", b"")
-        unit = unit.decode() if isinstance(unit, bytes) else str(unit)
-        if a.times:
-            want = [float(t) for t in a.times.split(",")]
-            pick = sorted({int(np.argmin(np.abs(times - t))) for t in want})
-        else:
-            pick = sorted(set(np.linspace(0, len(times) - 1, min(a.frames, len(times))).round().astype(int)))
-        x0 = pos[0]
-        frames = [pos[k] for k in pick]
+    tets = h5md.connectivity(a.trajectory, "tetrahedra")
+    if tets is None:
+        raise SystemExit(f"{a.trajectory}: no /connectivity/tetrahedra (not a mesh trajectory)")
+    fr = h5md.read(a.trajectory, unwrap=False)
+    ids, times, pos = fr["id"], fr["time"], fr["x"]
+    tets = tets - 1                                          # node ids -> rows (rows are in id order)
+    if not np.array_equal(ids, np.arange(1, len(ids) + 1)):
+        raise SystemExit(f"{a.trajectory}: particles/all/id is not 1..N")
+    unit = h5md.units(a.trajectory).get("position", "")
+    if a.times:
+        want = [float(t) for t in a.times.split(",")]
+        pick = sorted({int(np.argmin(np.abs(times - t))) for t in want})
+    else:
+        pick = sorted(set(np.linspace(0, len(times) - 1, min(a.frames, len(times))).round().astype(int)))
+    x0 = pos[0]
+    frames = [pos[k] for k in pick]
 
     tri = boundary_faces(tets)
     scale = 1e3 if unit in ("m", "") else 1.0                  # SI lengths drawn in mm
@@ -110,13 +107,14 @@ def main():
         ax.set_title(f"t = {times[k] * 1e3:.3g} ms" if unit in ("m", "") else f"t = {times[k]:.4g}", fontsize=10)
     fig.subplots_adjust(left=0.0, right=0.92, bottom=0.02, top=0.84, wspace=0.0)
     cax = fig.add_axes([0.935, 0.15, 0.012, 0.6])
+    cax.grid(False)                                        # (a colour bar has no grid)
     cb = fig.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap), cax=cax)
     cb.set_label(f"elastic displacement ({lunit})", fontsize=9)
     title = a.title or f"{a.trajectory}: {len(x0)} nodes, {len(tets)} tetrahedra, {len(tri)} boundary triangles"
     if a.exaggerate != 1.0:
         title += f"  (deformation drawn x{a.exaggerate:g})"
     fig.suptitle(title, fontsize=10)
-    fig.savefig(a.output, dpi=110)
+    save(fig, a.output, dpi=110, tight=False)
     print(f"{a.output}: frames {pick} of {len(times)}, max elastic displacement {vmax:.4g} {lunit}")
 
 

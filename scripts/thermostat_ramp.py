@@ -20,6 +20,8 @@ import sys
 
 import numpy as np
 
+from terrace_tools import thermo
+
 here = os.path.dirname(os.path.abspath(__file__))
 repo = os.path.dirname(here)
 KB = 8.617343e-5
@@ -45,7 +47,7 @@ def main():
         if r.returncode != 0:
             sys.exit("FAIL: the ramp run failed (see " + os.path.join(args.out, "terrace.log") + ")")
         args.csv = os.path.join(args.out, "argon_ramp.csv")
-    d = np.genfromtxt(args.csv, delimiter=",", names=True)
+    d = thermo.read(args.csv)
     t = d["time"]; temp = d["temp"]; pe = d["pe"]
     nf = float(np.median(2 * d["ke"][1:] / (KB * temp[1:])))
     target = t0 + (t1 - t0) * np.clip(t / run_time, 0, 1)
@@ -80,9 +82,7 @@ def main():
           f"(melting of the expanded crystal)")
     print(f"largest |mean deviation - expected lag| in standard errors: {worst:.2f}")
     try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        from terrace_tools.plotting import plt, save
     except ImportError:
         print("matplotlib missing: no figure")
         return
@@ -94,8 +94,7 @@ def main():
     ax[0].set_xlabel("time (ps)"); ax[0].set_ylabel("T (K)"); ax[0].legend(); ax[0].set_title("CSVR ramp, 864 argon atoms")
     ax[1].plot(target, pe / 864.0, lw=0.5)
     ax[1].set_xlabel("target T (K)"); ax[1].set_ylabel("V per atom (eV)"); ax[1].set_title("potential energy: melting")
-    fig.tight_layout()
-    fig.savefig(args.png, dpi=110)
+    save(fig, args.png)
     print("figure: " + args.png)
 
 

@@ -9,7 +9,7 @@
 #
 # Usage: scripts/bench/ab_ranks.sh OLD_BINARY NEW_BINARY DECK.nml [DECK.nml...]
 # Environment: ROUNDS (3), RANKS ("16 8 1"), MPIRUN (mpirun), MPI_FLAGS ("--map-by core --bind-to core"),
-#   OUTDIR (the run logs; default a temp dir). Decks run from their own directory.
+#   OUTDIR (the run logs and summaries; default a temp dir). Decks run from their own directory.
 # Used on the 16-core machine through scripts/bench/bundle.sh run (doc/performance.md, "Parallel runs").
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -19,6 +19,9 @@ for b in "$old" "$new"; do [[ -x "$b" ]] || { echo "ab_ranks: $b is not an execu
 rounds="${ROUNDS:-3}"; ranks="${RANKS:-16 8 1}"; mpirun="${MPIRUN:-mpirun}"
 flags="${MPI_FLAGS:---map-by core --bind-to core}"
 out="${OUTDIR:-$(mktemp -d)}"; mkdir -p "$out"
+# the figures come from each run's summary (the deck's name with .summary.json, beside the deck),
+# kept beside its log
+figure() { PYTHONPATH="$here/..${PYTHONPATH:+:$PYTHONPATH}" python3 -m terrace_tools.summary get "$@"; }
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1
 echo "machine: $(lscpu | sed -n 's/^Model name: *//p' | head -1); date $(date -u '+%F %T UTC'); old = $old, new = $new"
 for ((r = 1; r <= rounds; r++)); do
@@ -31,8 +34,12 @@ for ((r = 1; r <= rounds; r++)); do
                 # shellcheck disable=SC2086
                 if ! (cd "$(dirname "$deck")" && "$mpirun" $flags -np "$np" "$bin" "$(basename "$deck")") > "$log" 2>&1; then
                     echo "FAILED $log"; tail -3 "$log"; continue; fi
-                loop=$(sed -n 's/^Loop time: *\([0-9.]*\) s.*/\1/p' "$log")
-                ph=$(awk '$1=="Pair"||$1=="Neigh"||$1=="Comm"{printf " %s %s/%s", $1, $2, $3}' "$log")
+                sum="${log%.log}.summary.json"
+                cp "$(dirname "$deck")/$name.summary.json" "$sum"
+                loop=$(figure "$sum" timing/loop_time_s)
+                ph=$(for p in Pair Neigh Comm; do
+                         printf ' %s %.4f/%.4f' $p "$(figure "$sum" timing/phases/$p/avg_s)" "$(figure "$sum" timing/phases/$p/max_s)"
+                     done)
                 printf 'r%d np%2d %-14s %-3s loop %7.3f s |%s\n' "$r" "$np" "$name" "$b" "$loop" "$ph"
             done
         done

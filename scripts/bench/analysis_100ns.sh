@@ -21,7 +21,8 @@ sed -e "s|thermo_file='argon_frozen_2d.csv'|thermo_file='cluster.csv', trajector
 if [ "${REUSE:-0}" != 1 ] || [ ! -f cluster_100ns.h5 ]; then
     /usr/bin/time -v "$build/terrace" cluster_100ns.nml > run.log 2> run.time
 fi
-echo "run:      $(grep -E 'Elapsed' run.time | sed 's/.*: //') wall, max RSS $(grep 'Maximum resident' run.time | awk '{print $NF}') KiB; $(grep 'Loop time' run.log)"
+echo "run:      $(grep -E 'Elapsed' run.time | sed 's/.*: //') wall, max RSS $(grep 'Maximum resident' run.time | awk '{print $NF}') KiB; loop time" \
+     "$(PYTHONPATH="$here/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get cluster_100ns.summary.json timing/loop_time_s) s"
 ls -l cluster_100ns.h5 | awk '{printf "trajectory: %s bytes\n", $5}'
 for n in 1 "$np"; do
     launcher=()

@@ -51,4 +51,4 @@ NML
 "${analyze[@]}" --trajectory_file=prod.h5 --compute=rdf,sq,msd,vdos --output_prefix=argon --rdf_every=10 \
     --sq_every=40 --sq_bin_width=0.05 --correlation_time=5 | tee analyze.log
 
-/usr/bin/python3 "$here/scripts/bench/analysis_figures.py" "$work" "$here/doc/figures"
+PYTHONPATH="$here/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 "$here/scripts/bench/analysis_figures.py" "$work" "$here/doc/figures"

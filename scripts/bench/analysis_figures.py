@@ -11,24 +11,19 @@ usage: analysis_figures.py WORK_DIR FIGURE_DIR
 import os
 import sys
 
-import matplotlib
 import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from terrace_tools import analysis, thermo
+from terrace_tools.plotting import plt, save
 
 work, figs = sys.argv[1], sys.argv[2]
-os.makedirs(figs, exist_ok=True)
-
-
-def load(path):
-    return np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+load = analysis.array                       # terrace-analyze's CSVs as (rows, columns) arrays
 
 
 # ---------------------------------------------------------------- Cu VDOS
 d = load(os.path.join(work, "cu", "cu_vdos.csv"))
 nu, g = d[:, 0], d[:, 1] / 12000.0                      # per degree of freedom: integrates to 1
-t_cu = load(os.path.join(work, "cu", "prod.csv"))[:, 2].mean()
+t_cu = thermo.read(os.path.join(work, "cu", "prod.csv"))["temp"].mean()
 mt, ml = (nu > 3) & (nu < 6), (nu > 6) & (nu < 8.5)
 pt, pl = nu[mt][np.argmax(g[mt])], nu[ml][np.argmax(g[ml])]
 il = np.flatnonzero(ml)[np.argmax(g[ml])]
@@ -44,12 +39,11 @@ ax.set_xlim(0, 10)
 ax.set_xlabel("frequency (THz)")
 ax.set_ylabel("VDOS per degree of freedom (1/THz)")
 ax.legend(fontsize=7, loc="upper left")
-fig.tight_layout()
-fig.savefig(os.path.join(figs, "analysis_cu_vdos.png"), dpi=120)
+save(fig, os.path.join(figs, "analysis_cu_vdos.png"), dpi=120)
 
 # ---------------------------------------------------------------- argon g(r), S(q), MSD
 a = os.path.join(work, "argon")
-t_ar = load(os.path.join(a, "prod.csv"))[:, 2]
+t_ar = thermo.read(os.path.join(a, "prod.csv"))["temp"]
 rdf, sq, msd, dif = (load(os.path.join(a, f"argon_{k}.csv")) for k in ("rdf", "sq", "msd", "diffusion"))
 i, j = np.argmax(rdf[:, 1]), np.argmax(sq[:, 1])
 far = (rdf[:, 0] > 12) & (rdf[:, 0] < 17)
@@ -68,7 +62,7 @@ axes[1].plot(sq[:, 0], sq[:, 1], ".-", lw=1, ms=3, label="Terrace (reciprocal la
 axes[1].axvline(2.0, color="tab:red", ls=":", label="first peak ~2.0 A^-1")
 axes[1].set_xlabel("q (1/A)")
 axes[1].set_ylabel("S(q)")
-axes[1].legend(fontsize=8)
+axes[1].legend(fontsize=8, loc="lower right")
 axes[2].plot(msd[:, 0], msd[:, 1], lw=1.2, label="MSD (5 blocks: band = standard error)")
 axes[2].fill_between(msd[:, 0], msd[:, 1] - msd[:, 2], msd[:, 1] + msd[:, 2], alpha=0.3)
 tt = np.linspace(0, msd[-1, 0], 50)
@@ -77,6 +71,5 @@ axes[2].set_xlabel("t (ps)")
 axes[2].set_ylabel("MSD (A^2)")
 axes[2].set_title(f"D = {dif[0, 6]:.3e} +- {dif[0, 7]:.1e} cm^2/s", fontsize=9)
 axes[2].legend(fontsize=8)
-fig.tight_layout()
-fig.savefig(os.path.join(figs, "analysis_argon_liquid.png"), dpi=120)
+save(fig, os.path.join(figs, "analysis_argon_liquid.png"), dpi=120)
 print(f"wrote {figs}/analysis_cu_vdos.png, {figs}/analysis_argon_liquid.png")

@@ -65,6 +65,7 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." &
 # Terrace's figures come from its run summaries (scripts/terrace_tools)
 export PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}"
 figure() { /usr/bin/python3 -m terrace_tools.summary get "$@"; }
+phases() { /usr/bin/python3 -m terrace_tools.summary phases "$1.best.summary.json" | sed 's/^/    /'; }   # LABEL's best run
 nlj="${1:-1000}"; neam="${2:-200}"; terrace="$(realpath "${3:-${TERRACE:-$repo/build/terrace}}")"
 repeat="${REPEAT:-3}"; parts=",${PARTS:-lj,eam,types,ljtypes,es,cluster},"
 for v in "$nlj" "$neam" "$repeat"; do
@@ -263,13 +264,13 @@ if [[ "$parts" == *,lj,* ]]; then
     summary 32000 "$nlj" terrace_mixed "${labels[@]}" | sed -n '/^ratios anchor/,$p'
     echo
     echo "Terrace phases (best run):"
-    sed -n '/^Phase /,/^Neighbour list builds/p' terrace.best.log | sed 's/^/    /'
+    phases terrace
     echo "Terrace mixed-precision kernel, phases (best run):"
-    sed -n '/^Phase /,/^Neighbour list builds/p' terrace_mixed.best.log | sed 's/^/    /'
+    phases terrace_mixed
     echo "The same against Terrace on the anchors' list schedule (terrace_every20: rebuilt every 20 steps, no check):"
     summary 32000 "$nlj" terrace_every20 "${labels[@]}" | sed -n '/^ratios anchor/,$p'
     echo "Terrace on the anchors' list schedule, phases (best run):"
-    sed -n '/^Phase /,/^Neighbour list schedule/p' terrace_every20.best.log | grep -v '^Peak memory' | sed 's/^/    /'
+    phases terrace_every20
     for v in terrace_mixed_s05 terrace_mixed_every20; do
         echo "The same against Terrace's mixed kernel over clusters, $v:"
         summary 32000 "$nlj" $v "${labels[@]}" | sed -n '/^ratios anchor/,$p'
@@ -290,7 +291,7 @@ if [[ "$parts" == *,lj,* ]]; then
     echo "Terrace's mixed variants, phases (best runs):"
     for v in terrace_mixed_cells terrace_mixed_s05 terrace_mixed_every20 terrace_mixed_tol; do
         echo "  $v:"
-        sed -n '/^Phase /,/^Neighbour list builds/p' $v.best.log | sed 's/^/    /'
+        phases $v
     done
     echo "Energy drift per atom per tau of the exact schedule and of every 20 steps (Terrace's run summaries; the same scene and seed):"
     for d in lj lj_every20; do echo "    $d: $(figure $d.summary.json conservation/energy_drift_per_atom_time)"; done
@@ -361,7 +362,7 @@ NML
     rounds "${labels[@]}"
     summary 32000 "$neam" eam_terrace "${labels[@]}"
     echo "Terrace phases (best run):"
-    sed -n '/^Phase /,/^Neighbour list builds/p' eam_terrace.best.log | sed 's/^/    /'
+    phases eam_terrace
     echo
 fi
 

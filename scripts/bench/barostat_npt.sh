@@ -66,7 +66,7 @@ deck mc_es "style='mc', pressure=1.0, interval=0.25" "style='energy_stepping', t
     "style='andersen', temperature=94.4, damping=0.5, zero_momentum=.true."
 [ -s lmp_npt.log ] || mpirun --oversubscribe -np "$NP" lmp -in lmp_npt.in -log lmp_npt.log > /dev/null
 for s in $STYLES; do
-    [ -s "$s.csv" ] && grep -q "^Loop time" "$s.log" 2>/dev/null || mpirun --oversubscribe -np "$NP" "$terrace" "$s.nml" > "$s.log"
+    [ -s "$s.csv" ] && [ -s "$s.summary.json" ] || mpirun --oversubscribe -np "$NP" "$terrace" "$s.nml" > "$s.log"
 done
 PY=${PYTHON:-$HOME/.cache/terrace-venv/bin/python}; [ -x "$PY" ] || PY=python3
 "$PY" "$here/barostat_npt_table.py" --blocks "$BLOCKS" --eq "$EQ" .

@@ -12,7 +12,7 @@
 # layout with j forces in singles; the same in doubles; hi/lo separations, the mixed kernel's
 # accuracy). One more run on the probe's own displaced lattice shows the force errors with closer
 # pairs. Then it runs Terrace's double and mixed kernels on input/lj_bench.nml (200 steps) and
-# reads their force pass per step from the run log's Pair phase and their atom-list build (Neigh
+# reads their force pass per step from the run summary's Pair phase and their atom-list build (Neigh
 # phase per build); and the list schedules of the mixed kernel's run (builds in 1000 steps at skins
 # 0.2, 0.3, 0.6). The summary projects the mixed Verlet step with the probe's pass, build and prune
 # in place of the mixed kernel and its list: A, the list at rc + skin rebuilt on Terrace's exact
@@ -63,11 +63,12 @@ for ((r = 1; r <= repeat; r++)); do
         "$work/probe" ${configs[$n]} "$work/liquid.atoms" | tee "probe_${r}_$n.out"
         echo
     done
-    echo "== round $r of $repeat: Terrace's atom-pair kernels, input/lj_bench.nml, 200 steps (run log)"
+    echo "== round $r of $repeat: Terrace's atom-pair kernels, input/lj_bench.nml, 200 steps (run summary)"
     for k in double mixed; do
         "$terrace" $k.nml > ${k}_$r.log 2>&1 || fail ${k}_$r.log
         cp $k.summary.json ${k}_$r.summary.json
-        grep -E '^(Pair|Neigh) +[0-9]|Neighbour list builds|^List pairs' ${k}_$r.log | sed "s/^/$k: /"
+        PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary show \
+            ${k}_$r.summary.json timing/phases/Pair timing/phases/Neigh neighbor/builds neighbor/list_pairs | sed "s/^/$k: /"
     done
     echo
 done
@@ -141,8 +142,8 @@ now = (own('Pair'), own('Neigh'), sum(own(p) for p in ('Comm', 'Output', 'Other'
 source, gmx = "this run's skin 0.3 run summary", None
 if anchors:
     a = open(anchors).read()
-    block = a[a.index('Terrace mixed-precision kernel, phases'):]
-    block = block[:block.index('Neighbour list builds')]
+    block = a[a.index('Terrace mixed-precision kernel, phases'):].split('\n')[1:]
+    block = '\n'.join(block[:next(i for i, l in enumerate(block) if not l.startswith('    '))])   # its indented table
     steps = num(r'^== LJ scene: [0-9,]+ atoms, (\d+) steps', a, int)
     now = tuple(x * 1000 / steps for x in (phase('Pair', block), phase('Neigh', block),
                                            sum(phase(p, block) for p in ('Comm', 'Output', 'Other'))))

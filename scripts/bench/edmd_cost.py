@@ -16,9 +16,10 @@ Usage: scripts/bench/edmd_cost.py [--terrace build/terrace] [--eta 0.45] [--coll
 import argparse
 import math
 import os
-import re
 import resource
 import subprocess
+
+from terrace_tools import summary
 
 
 def main():
@@ -71,10 +72,10 @@ def run_one(terrace, d, m, n, t_run):
         print('m = %d: terrace failed:\n%s' % (m, log[-1500:]))
         return None
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    loop = float(re.search(r'Loop time: ([0-9.eE+-]+) s', log).group(1))
-    ev = re.search(r'Events: (\d+) \((\d+) pair crossings', log)
-    mem = re.search(r'Peak memory: ([0-9.]+ \w+)', log)
-    return cpu, int(ev.group(1)), int(ev.group(2)), loop, mem.group(1) if mem else '?'
+    s = summary.read(os.path.join(d, 'run.summary.json'))
+    mem = summary.get(s, 'memory/peak_mib_all_ranks', None)
+    return (cpu, summary.get(s, 'event_driven/events'), summary.get(s, 'event_driven/pair_crossings'),
+            summary.get(s, 'timing/loop_time_s'), '?' if mem is None else '%.1f MiB' % mem)
 
 
 if __name__ == '__main__':

@@ -40,7 +40,7 @@ import time
 
 import numpy as np
 
-from terrace_tools import summary
+from terrace_tools import summary, thermo
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..'))
 KB = 8.617343e-5            # eV/K, Terrace's metal boltz (LAMMPS)
@@ -114,7 +114,7 @@ def run_terrace(terrace, work, tag, integrator, run_time_ps, atoms):
     r = parse_log(os.path.join(work, tag + '.summary.json'))
     r['wall_s'] = wall
     r['cpu_s'] = (ru1.ru_utime - ru0.ru_utime) + (ru1.ru_stime - ru0.ru_stime)
-    r['csv'] = read_csv(os.path.join(work, csv))
+    r['csv'] = thermo.read(os.path.join(work, csv))
     if not np.all(np.isfinite(r['csv']['etotal'])):
         raise SystemExit('non-finite energy in %s (deck %s)' % (csv, deck))
     return r
@@ -336,8 +336,7 @@ def main():
 
     # ---- (d): plots ---------------------------------------------------------------------------
     import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    from terrace_tools.plotting import plt, save
 
     stamp = 'Terrace %s, %g ns runs' % (commit_line().split()[0], run_ns)
     f1 = os.path.join(figdir, 'frozen_cluster_interval_vs_h.png')
@@ -356,9 +355,7 @@ def main():
     ax.grid(True, which='both', alpha=0.3)
     ax.legend(fontsize=8)
     fig.text(0.99, 0.005, stamp, ha='right', va='bottom', fontsize=6, color='gray')
-    fig.tight_layout()
-    fig.savefig(f1, dpi=120)
-    plt.close(fig)
+    save(fig, f1, dpi=120)
 
     f2 = os.path.join(figdir, 'frozen_cluster_energy_error.png')
     fig, axs = plt.subplots(len(runs), 1, figsize=(7.5, 8.5), sharex=True)
@@ -378,9 +375,7 @@ def main():
     axs[-1].set_xlabel('time (ns)')
     fig.suptitle('Frozen argon cluster: energy error K + V - E$_0$, E$_0$/k$_B$ = %.1f K' % (E0 / KB), fontsize=10)
     fig.text(0.99, 0.005, stamp, ha='right', va='bottom', fontsize=6, color='gray')
-    fig.tight_layout()
-    fig.savefig(f2, dpi=120)
-    plt.close(fig)
+    save(fig, f2, dpi=120)
 
     f3 = os.path.join(figdir, 'frozen_cluster_temperature.png')
     fig, axs = plt.subplots(len(runs), 1, figsize=(7.5, 8.5), sharex=True, sharey=True)
@@ -394,9 +389,7 @@ def main():
     fig.suptitle('Frozen argon cluster: T = $\\sum m v^2 / (2 N k_B)$, sampled every %g ps' % SAMPLE_PS,
                  fontsize=10)
     fig.text(0.99, 0.005, stamp, ha='right', va='bottom', fontsize=6, color='gray')
-    fig.tight_layout()
-    fig.savefig(f3, dpi=120)
-    plt.close(fig)
+    save(fig, f3, dpi=120)
     print('figures : %s' % ', '.join((f1, f2, f3)))
     print()
 

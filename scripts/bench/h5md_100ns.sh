@@ -54,7 +54,7 @@ for run in "${runs[@]}"; do
     "$terrace" "$deck.nml" > "$deck.log" 2>&1 || { echo "$run: terrace failed"; tail -3 "$deck.log"; exit 1; }
     t1=$(date +%s.%N)
     loop="$(figure "$deck.summary.json" timing/loop_time_s)"
-    out="$(awk '$1 == "Output" { print $3 }' "$deck.log")"
+    out="$(figure "$deck.summary.json" timing/phases/Output/max_s)"   # the slowest rank's
     "$PYTHON" - "$deck.nml" "$deck.h5" "$run" "$t0" "$t1" "$loop" "$out" <<'PY'
 import os, re, sys
 import h5py

@@ -61,7 +61,7 @@ for np in $nps; do
             rm -f traj.h5
             timeout 3000 "${launch[@]}" "$terrace" run.nml > run.log 2>&1 || { echo "terrace failed:"; tail -5 run.log; exit 1; }
             loop="$(figure run.summary.json timing/loop_time_s)"
-            out="$(awk '$1 == "Output" { print $3 }' run.log)"
+            out="$(figure run.summary.json timing/phases/Output/max_s)"   # the slowest rank's
             if [[ -z "$best" ]] || awk -v a="$out" -v b="${best%% *}" 'BEGIN { exit !(a < b) }'; then
                 best="$out $loop"
             fi

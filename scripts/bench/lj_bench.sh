@@ -6,8 +6,8 @@
 #        defaults: NSTEPS=1000, TERRACE_BINARY=build/terrace (relative to repo root)
 #
 # Both codes run on 1 rank, 1 thread. Timing: LAMMPS's own "Loop time of X"
-# line; Terrace's own "Loop time: X" line if it prints one, otherwise the wall
-# time of the whole Terrace process (includes setup; reported as such).
+# line; Terrace's loop time from its run summary if it writes one, otherwise the
+# wall time of the whole Terrace process (includes setup; reported as such).
 # Prints atom-steps/s for each and the ratio Terrace/LAMMPS (>1: Terrace faster).
 #
 # Environment (optional): LMP (default lmp), TERRACE_LAUNCHER (e.g. "mpirun -np 1"),
@@ -106,6 +106,7 @@ for ((rep = 1; rep <= repeat; rep++)); do
         if [[ -z "$ter_best" ]] || awk -v a="$ter_t" -v b="$ter_best" 'BEGIN { exit !(a < b) }'; then
             ter_best=$ter_t
             cp "$work/terrace.log" "$work/terrace_best.log"
+            [[ ! -f "$work/lj_bench.summary.json" ]] || cp "$work/lj_bench.summary.json" "$work/terrace_best.summary.json"
         fi
     fi
 done
@@ -121,6 +122,10 @@ fi
 if [[ -n "$ter_best" ]]; then
     echo
     echo "Terrace phases (best run):"
-    sed -n '/^Phase /,/^Peak memory/p' "$work/terrace_best.log"
+    if [[ -f "$work/terrace_best.summary.json" ]]; then
+        PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary phases "$work/terrace_best.summary.json"
+    else
+        echo "    (no run summary: a binary that writes none)"
+    fi
 fi
 if [[ "${KEEP:-0}" == 1 ]]; then echo "work dir: $work"; fi

@@ -6,8 +6,8 @@
 # Usage: scripts/bench/memory.sh [NSTEPS [TERRACE_BINARY]]
 #        defaults: NSTEPS=20, TERRACE_BINARY=build/terrace (relative to repo root)
 #
-# Per size it prints Terrace's own "Peak memory" line (VmHWM of the process: binary, MPI and
-# libraries included) and the peak resident set size (GNU time %M) of both codes; the last line
+# Per size it prints Terrace's own peak memory (the run summary's memory/peak_mib_all_ranks: VmHWM of
+# the process, binary, MPI and libraries included) and the peak resident set size (GNU time %M) of both codes; the last line
 # is the marginal cost per atom between the two sizes, (peak(256k) - peak(32k)) / 224,000,
 # which leaves out the fixed cost of the process.
 #
@@ -62,8 +62,8 @@ for n in 20 40; do
     (cd "$work" && $timebin -f '%M' -o "terrace_$n.rss" ${TERRACE_LAUNCHER:-} "$terrace" "mem_$n.nml" \
         > "terrace_$n.log" 2>&1) || { echo "Terrace run failed:" >&2; tail -n 20 "$work/terrace_$n.log" >&2; exit 1; }
     own="$(figure "$work/mem_$n.summary.json" memory/peak_mib_all_ranks) MiB, $(figure "$work/mem_$n.summary.json" memory/bytes_per_atom 2> /dev/null || echo '?') bytes/atom"
-    got="$(grep -c "with $natoms atoms" "$work/terrace_$n.log" || true)"
-    if [[ "$got" -eq 0 ]]; then echo "Terrace did not run $natoms atoms (see $work/terrace_$n.log)" >&2; exit 1; fi
+    got="$(figure "$work/mem_$n.summary.json" timing/atoms 2> /dev/null || true)"
+    if [[ "$got" != "$natoms" ]]; then echo "Terrace did not run $natoms atoms (see $work/terrace_$n.log)" >&2; exit 1; fi
     r="$(tail -n 1 "$work/terrace_$n.rss")"
     rss[terrace_$n]=$r
     printf '%-9s %-8s %-42s %-20s %s\n' "$natoms" Terrace "${own:-?}" "$r" \

@@ -24,7 +24,10 @@ NML
 echo "old: $old"; echo "new: $new"
 echo "machine: $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(nproc) cores visible, load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "date: $(date -u '+%Y-%m-%d %H:%M UTC')"
-loop() { "$1" "$2" 2>&1 | sed -n 's/^Loop time: *\([0-9.eE+-]*\).*/\1/p' | head -1; }
+# the loop time from the run summary the deck writes beside it (lj.nml -> lj.summary.json; both
+# builds must write run summaries)
+figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
+loop() { rm -f "${2%.nml}.summary.json"; "$1" "$2" > /dev/null 2>&1; figure "${2%.nml}.summary.json" timing/loop_time_s; }
 if [[ "${COUNT:-}" == instructions ]]; then
   command -v valgrind > /dev/null || { echo "old_new_speed: valgrind is not installed" >&2; exit 2; }
   # a build with -march=native may use instructions valgrind cannot run (it stops with SIGILL after
@@ -43,7 +46,7 @@ for scene in lj eam; do
   best_old=1e30; best_new=1e30
   for r in $(seq "$repeat"); do
     to=$(loop "$old" $scene.nml); tn=$(loop "$new" $scene.nml)
-    echo "  $scene run $r: old $to s, new $tn s"
+    printf "  %s run %d: old %.4f s, new %.4f s\n" "$scene" "$r" "$to" "$tn"
     best_old=$(awk -v a="$best_old" -v b="$to" 'BEGIN{print (b<a)?b:a}')
     best_new=$(awk -v a="$best_new" -v b="$tn" 'BEGIN{print (b<a)?b:a}')
   done

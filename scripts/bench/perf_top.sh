@@ -20,5 +20,7 @@ echo "binary  : $bin"
 echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(date -u '+%Y-%m-%d %H:%M UTC')"
 perf record -q -e cpu-clock -o perf.data "$bin" "$(basename "$deck")" > run.log 2>&1 \
     || { echo "perf_top: the run failed:" >&2; tail -5 run.log >&2; exit 1; }
-grep -E '^Loop time|^(Pair|Neigh|Comm|Search|Other) +[0-9]' run.log || true
+# the loop time and the phases from the deck's run summary (its default name, beside the deck)
+PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary show \
+    "$(basename "$deck" .nml).summary.json" timing/loop_time_s timing/phases || true
 perf report -i perf.data --stdio --no-children --sort symbol 2> /dev/null | grep -E '^ +[0-9]' | head -n "$lines"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Phase-by-phase A/B of Terrace binaries on one deck: each round runs every binary once, one after
 # the other (alternating, so that a load that drifts weighs on all of them), ROUNDS rounds; then,
-# per binary, the lowest and the median of each phase of the run log (Pair, Neigh, Comm, Other,
+# per binary, the lowest and the median of each phase of the run summary (Pair, Neigh, Comm, Other,
 # Search) and of the loop time, and the ratio of each binary's median to the first one's. For a
 # change that moves one phase by a few per cent, which the loop time of a shared machine hides.
 # Where the runs differ in their step or event count (energy stepping: a change of round-off gives
@@ -15,6 +15,7 @@
 set -euo pipefail
 [[ $# -ge 4 && "$1" =~ ^[1-9][0-9]*$ ]] || { echo "usage: $0 ROUNDS DECK.nml BINARY_A BINARY_B [BINARY...]" >&2; exit 2; }
 rounds=$1; deck="$(realpath "$2")"; shift 2
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 bins=(); for b in "$@"; do [[ -x "$b" ]] || { echo "phase_ab: $b is not an executable" >&2; exit 2; }; bins+=("$(realpath "$b")"); done
 work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
 find "$(dirname "$deck")" -maxdepth 1 -type f -exec cp {} "$work"/ \;
@@ -23,26 +24,31 @@ echo "deck    : $deck"
 echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(nproc) cores visible"
 echo "date    : $(date -u '+%Y-%m-%d %H:%M UTC'); load $(cut -d' ' -f1-3 /proc/loadavg) at start"
 for k in "${!bins[@]}"; do echo "binary $k: ${bins[$k]}"; done
-: > phases.txt
+summary="$(basename "$deck" .nml).summary.json"     # the deck's run summary (its default name)
 for ((r = 1; r <= rounds; r++)); do
     for k in "${!bins[@]}"; do
+        rm -f "$summary"
         "${bins[$k]}" "$(basename "$deck")" > run.log 2>&1 || { echo "phase_ab: binary $k failed:" >&2; tail -5 run.log >&2; exit 1; }
-        awk -v k="$k" '/^(Pair|Neigh|Comm|Other|Search) +[0-9]/ {print k, $1, $2}
-                       /^Loop time:/ {print k, "Loop", $3; print k, "Count", $9; print k, "Unit", $10}' run.log >> phases.txt
+        mv "$summary" "run_${r}_$k.summary.json"
     done
 done
-python3 - "$rounds" <<'PY'
+PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" python3 - "$rounds" "${#bins[@]}" <<'PY'
 import sys, statistics as st
-rounds = int(sys.argv[1])
+from terrace_tools import summary
+rounds, nbins = int(sys.argv[1]), int(sys.argv[2])
 t = {}
+counts = {}
 unit = 'step'
-for line in open('phases.txt'):
-    k, phase, v = line.split()
-    if phase == 'Unit':
-        unit = v.rstrip('s')
-        continue
-    t.setdefault(phase, {}).setdefault(int(k), []).append(float(v))
-counts = t.pop('Count')
+for r in range(1, rounds + 1):
+    for k in range(nbins):
+        s = summary.read('run_%d_%d.summary.json' % (r, k))
+        timing = s['timing']
+        t.setdefault('Loop', {}).setdefault(k, []).append(timing['loop_time_s'])
+        for phase in ('Pair', 'Neigh', 'Comm', 'Other', 'Search'):
+            if phase in timing['phases']:
+                t.setdefault(phase, {}).setdefault(k, []).append(timing['phases'][phase]['avg_s'])
+        unit = 'step' if 'steps' in timing else 'event'
+        counts.setdefault(k, []).append(timing.get('steps', timing.get('events')))
 what = 'seconds'
 if len({c for v in counts.values() for c in v}) > 1:
     # energy stepping: a change of round-off gives another trajectory, with another number of events

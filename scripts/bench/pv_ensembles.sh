@@ -25,7 +25,7 @@ mkdir -p "$work"; cd "$work"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 total=$(python3 -c "print($EQ + $PROD)")
 run() {   # run NAME SEED THERMOSTAT_LINE BAROSTAT_LINE
-    [ -s "$1.csv" ] && grep -q "^Loop time" "$1.log" 2>/dev/null && return 0
+    [ -s "$1.csv" ] && [ -s "$1.summary.json" ] && return 0   # a finished run left its summary
     cat > "$1.nml" <<NML
 &run units='metal', dimension=3, run_time=$total, seed=$2 /
 &system lattice='fcc', lattice_constant=5.780150, cells=6,6,6, periodic=.true.,.true.,.true.,

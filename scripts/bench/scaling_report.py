@@ -7,7 +7,7 @@ DIR_OR_TGZ is scaling.sh's OUTDIR (scaling.csv and one folder per point), or a .
   default    one table per scene and kind: loop seconds of Terrace Verlet, Terrace energy stepping
              and LAMMPS, speed-up (strong) or efficiency (weak) against one rank, the LAMMPS/Terrace
              Verlet ratio, Terrace's Comm and Search (slowest rank) and ray evaluations per event.
-  --phases   per step / per event milliseconds of each phase from the logs (average and slowest
+  --phases   per step / per event milliseconds of each phase (Terrace's run summaries, LAMMPS's log; average and slowest
              rank): Terrace Verlet and LAMMPS Pair, Neigh, Comm; energy stepping's force pass (Pair),
              ray passes (Search, also per ray evaluation) and Comm. Energy stepping's ray evaluations
              per event depend on the state, so its weak scaling is read per pass here.
@@ -18,9 +18,11 @@ import csv
 import io
 import json
 import os
-import re
 import sys
 import tarfile
+
+from terrace_tools import lammps
+from terrace_tools import summary as run_summary
 
 CODES = ['terrace-vv', 'terrace-es', 'lammps']
 LABEL = {'terrace-vv': 'Terrace Verlet', 'terrace-es': 'Terrace energy stepping', 'lammps': 'LAMMPS Verlet'}
@@ -116,35 +118,20 @@ def summary_phases(src, d, code):
     return {k: (v['avg_s'], v['max_s']) for k, v in json.loads(t)['timing']['phases'].items()}
 
 
-def terrace_phases(text):
-    """{phase: (avg, max)} seconds from a Terrace run log's phase table (bundles without run summaries)."""
-    out = {}
-    for m in re.finditer(r'^(Pair|Neigh|Comm|Output|Search|Other)\s+([0-9.eE+-]+)\s+([0-9.eE+-]+)', text, re.M):
-        out[m.group(1)] = (float(m.group(2)), float(m.group(3)))
-    return out
-
-
 def lammps_phases(text):
     """{phase: (avg, max)} seconds from a LAMMPS log's MPI task timing breakdown."""
-    out = {}
-    for m in re.finditer(r'^(Pair|Neigh|Comm|Modify|Output|Other)\s*\|\s*([0-9.eE+-]*)\s*\|\s*([0-9.eE+-]+)\s*\|'
-                         r'\s*([0-9.eE+-]*)', text, re.M):
-        avg = float(m.group(3))
-        mx = float(m.group(4)) if m.group(4) else avg
-        out[m.group(1)] = (avg, mx)
-    return out
+    r = lammps.parse_log(text)
+    return {k.capitalize(): (r[k], r.get(k + '_max', r[k])) for k in ('pair', 'neigh', 'comm', 'modify', 'output', 'other')}
 
 
 def rays_per_event(src, r):
-    """Ray evaluations per event: the CSV's column, the run summary's, or the run log's line (older bundles)."""
+    """Ray evaluations per event: the CSV's column or the run summary's."""
     if r.get('rays_per_event'):
         return float(r['rays_per_event'])
     t = src.read(os.path.join(f"{r['scene']}_{r['kind']}_np{r['ranks']}", 'terrace-es.summary.json'))
     if t:
-        return json.loads(t).get('energy_stepping', {}).get('ray_evaluations_per_event')
-    t = src.read(os.path.join(f"{r['scene']}_{r['kind']}_np{r['ranks']}", 'terrace-es.log')) or ''
-    m = re.search(r'ray evaluations per event: *([0-9.]+);', t)
-    return float(m.group(1)) if m else None
+        return run_summary.get(json.loads(t), 'energy_stepping/ray_evaluations_per_event', None)
+    return None
 
 
 def phases(src, rows):
@@ -161,18 +148,21 @@ def phases(src, rows):
         for p in sorted({r['ranks'] for r in sel}):
             d = f"{scene}_{kind}_np{p}"
             line = f"{p:5d} |"
-            for code, log, parse, keys in (('terrace-vv', 'terrace-vv.log', terrace_phases, ('Pair', 'Neigh', 'Comm')),
-                                           ('lammps', 'lammps.log', lammps_phases, ('Pair', 'Neigh', 'Comm'))):
-                t, r = src.read(os.path.join(d, log)), pick(sel, p, code)
-                if t and r:
-                    ph = (code.startswith('terrace') and summary_phases(src, d, code)) or parse(t)
+            for code, keys in (('terrace-vv', ('Pair', 'Neigh', 'Comm')), ('lammps', ('Pair', 'Neigh', 'Comm'))):
+                r = pick(sel, p, code)
+                if code == 'lammps':
+                    t = src.read(os.path.join(d, 'lammps.log'))
+                    ph = lammps_phases(t) if t else None
+                else:
+                    ph = summary_phases(src, d, code)
+                if ph and r:
                     line += ''.join(' ' + cell(ph, k, int(r['n'])) for k in keys)
                 else:
                     line += f"{'':42}"
                 line += ' |'
-            t, r = src.read(os.path.join(d, 'terrace-es.log')), pick(sel, p, 'terrace-es')
-            if t and r:
-                ph, n, rays = summary_phases(src, d, 'terrace-es') or terrace_phases(t), int(r['n']), rays_per_event(src, r)
+            ph, r = summary_phases(src, d, 'terrace-es'), pick(sel, p, 'terrace-es')
+            if ph and r:
+                n, rays = int(r['n']), rays_per_event(src, r)
                 line += (' ' + cell(ph, 'Pair', n) + ' ' + cell(ph, 'Search', n) + ' '
                          + (cell(ph, 'Search', n, rays) if rays else f"{'-':>13}") + ' ' + cell(ph, 'Comm', n)
                          + (f" {rays:6.2f}" if rays else ''))
@@ -186,8 +176,7 @@ def phases(src, rows):
 
 def figure(rows, path):
     import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    from terrace_tools.plotting import plt, save
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.4))
     style = {'terrace-vv': ('C0', 'o'), 'terrace-es': ('C1', 's'), 'lammps': ('C2', '^')}
     for ax, kind in zip(axes, ('strong', 'weak')):
@@ -238,8 +227,7 @@ def figure(rows, path):
     ax.set_title('strong scaling, 32,000 atoms: time')
     ax.grid(alpha=0.3, which='both')
     axes[0].legend(fontsize=7, loc='upper left')
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save(fig, path, dpi=110)
     print(f"figure: {path}")
 
 

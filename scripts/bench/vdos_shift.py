@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from terrace_tools import summary
+from terrace_tools import analysis, summary, thermo
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -63,7 +63,7 @@ def set_seed(text, seed):
 
 
 def vdos_metrics(path, band):
-    data = np.loadtxt(path, delimiter=",", skiprows=1)
+    data = analysis.array(path)
     nu, g = data[:, 0], data[:, 1]
     m = (nu >= band[0]) & (nu <= band[1])
     i = np.flatnonzero(m)[np.argmax(g[m])]
@@ -127,16 +127,14 @@ def cmd_run(a):
             os.remove(traj)
         peak, centroid, nu_rms = vdos_metrics(prefix + "_vdos.csv", band)
         thermo_path = os.path.join(a.out, tag + ".csv")
-        header = open(thermo_path).readline().strip().split(",")
-        thermo = np.loadtxt(thermo_path, delimiter=",", skiprows=1, ndmin=2)
-        col = {name: k for k, name in enumerate(header)}
-        kept = thermo[thermo[:, col["time"]] >= a.skip]            # the analysed part
-        temp = kept[:, col["temp"]].mean()
-        etot = kept[:, col["etotal"]]                              # K + V with the untruncated V
+        th = thermo.read(thermo_path)
+        kept = th["time"] >= a.skip                                # the analysed part
+        temp = th["temp"][kept].mean()
+        etot = th["etotal"][kept]                                  # K + V with the untruncated V
         de_rms = etot.std()
         de_max = np.abs(etot - etot[0]).max()
-        refl = (thermo[-1, col["reflections"]] / max(thermo[-1, col["events"]], 1)
-                if "reflections" in col else 0.0)
+        refl = (th["reflections"][-1] / max(th["events"][-1], 1)
+                if "reflections" in th else 0.0)
         rows.append(dict(style=a.style, key=key, value=float(value), mean_step=mean_step, peak=peak,
                          centroid=centroid, nu_rms=nu_rms, temperature=temp, de_rms=de_rms, de_max=de_max,
                          reflections=refl, loop_time=loop if loop is not None else wall))
@@ -152,14 +150,16 @@ def cmd_run(a):
 
 
 def load_tables(paths, average_seeds):
-    """Read the sweep tables (rows sorted by mean step). With average_seeds, tables whose labels
-    differ only by a '_seed<N>' suffix are runs of the same sweep from other initial velocities:
-    they are replaced by their mean, with the standard error of the mean in <key>_err."""
+    """Read the sweep tables (rows sorted by the step parameter, dt or h: a seed whose trapped run
+    has a shorter mean step than a smaller h's keeps its rows in line with the other seeds'). With
+    average_seeds, tables whose labels differ only by a '_seed<N>' suffix are runs of the same sweep
+    from other initial velocities: they are replaced by their mean, with the standard error of the
+    mean in <key>_err."""
     tables = []
     for path in paths:
         rows = list(csv.DictReader(open(path)))
         col = lambda k: np.array([float(r[k]) for r in rows])
-        order = np.argsort(col("mean_step"))
+        order = np.argsort(col("value"), kind="stable")
         t = {k: col(k)[order] for k in rows[0] if k not in ("style", "key")}
         t["label"] = os.path.basename(path).replace("vdos_shift_", "").replace(".csv", "")
         t["style"] = rows[0]["style"]
@@ -218,11 +218,11 @@ def cmd_thermo(a):
     print("| run | T block min (K) | T block max (K) | largest reflection fraction in a block | at (time) |")
     print("|---|---|---|---|---|")
     for path in a.thermo:
-        d = np.genfromtxt(path, delimiter=",", names=True)
+        d = thermo.read(path)
         starts = np.arange(a.skip, d["time"][-1] - 1e-9, a.block)
         temps = [d["temp"][(d["time"] >= t0) & (d["time"] < t0 + a.block)].mean() for t0 in starts]
         line = f"| {os.path.basename(path)} | {min(temps):.1f} | {max(temps):.1f} |"
-        if "reflections" in d.dtype.names:
+        if "reflections" in d:
             t1, r, e = d["time"][1:], np.diff(d["reflections"]), np.diff(d["events"])
             frac = [r[(t1 > t0) & (t1 <= t0 + a.block)].sum() / max(e[(t1 > t0) & (t1 <= t0 + a.block)].sum(), 1)
                     for t0 in starts]
@@ -235,8 +235,7 @@ def cmd_thermo(a):
 
 def cmd_plot(a):
     import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from terrace_tools.plotting import plt, save
     tables = load_tables(a.tables, a.average_seeds)
     with_energy = all("de_rms" in t for t in tables)
     fig, axes = plt.subplots(1, 3 if with_energy else 2, figsize=(15 if with_energy else 10, 4.2))
@@ -282,8 +281,7 @@ def cmd_plot(a):
         axes[2].legend(fontsize=7)
     if a.title:
         fig.suptitle(a.title)
-    fig.tight_layout()
-    fig.savefig(a.out, dpi=120)
+    save(fig, a.out, dpi=120)
     print(f"wrote {a.out}")
 
 

@@ -4,7 +4,7 @@
 # units (scripts/bench/anchors.sh: 32,000 atoms, fcc at rho* 0.8442, rc 2.5 sigma = 8.5125 A, dt
 # 0.005 tau = 0.0107817 ps, T 172.512 K): for each tolerance (kJ/mol/ps per atom) and list interval,
 # GROMACS's atom-pair rlist and its 4x4 cluster-list rlist (the one mdrun uses), and Terrace's
-# rc + skin (`terrace --check`, metal units: the tolerance in eV/ps). Terrace keeps V'' and V''' at
+# rc + skin (the run summary's neighbor/skin of a one-step run, metal units: the tolerance in eV/ps). Terrace keeps V'' and V''' at
 # the cutoff besides V' (GROMACS: V' only for a plain cut-off) and no cluster-list factor, so its
 # figure is the larger; with V' alone the two agree to GROMACS's 0.001 nm step
 # (tests/unit/test_verlet_buffer.pf).
@@ -31,15 +31,15 @@ for tol in 0.005 0.0005; do
         g4="$(sed -n 's/^Set rlist, assuming 4x4 atom pair-list, to \([0-9.]*\) nm.*/\1/p' grompp.log)"
         tol_ev="$(python3 -c "print('%.8g' % ($tol / 96.48533212))")"
         cat > t.nml <<EOF2
-&run units='metal', dimension=3, n_steps=10, seed=1 /
+&run units='metal', dimension=3, n_steps=1, seed=1 /
 &system lattice='fcc', lattice_constant=$a_ang, cells=20,20,20, periodic=.true.,.true.,.true., mass=39.948, temperature=172.512 /
 &potential style='lj', epsilon=$(python3 -c "print('%.10g' % (119.8 * 8.617343e-5))"), sigma=3.405, cutoff=8.5125, shift=.true. /
 &integrator style='velocity_verlet', dt=0.0107817 /
 &neighbor every=$nl, buffer_tolerance=$tol_ev /
-&output thermo_every=10 /
+&output thermo_every=1 /
 EOF2
-        "$terrace" --check t.nml > check.log 2>&1 || { tail -5 check.log >&2; exit 1; }
-        sk="$(sed -n 's/^ *pairs *: .* + skin \([0-9.eE+-]*\)[,)].*/\1/p' check.log | head -1)"
+        "$terrace" t.nml > run.log 2>&1 || { tail -5 run.log >&2; exit 1; }
+        sk="$(PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get t.summary.json neighbor/skin)"
         printf '%-12s %7d %14s %14s %14.4f\n' "$tol" "$nl" "$g1" "$g4" "$(python3 -c "print((8.5125 + $sk) / 10)")"
     done
 done

@@ -58,6 +58,15 @@ def read(path, unwrap=True):
     return out
 
 
+def connectivity(path, name="tetrahedra"):
+    """A mesh trajectory's /connectivity/<name> (the tetrahedra of a mesh scene) as particle ids,
+    (M, T) int; None when the file has none."""
+    import h5py
+    with h5py.File(path, "r") as h:
+        key = "connectivity/" + name
+        return np.asarray(h[key][()]) if key in h else None
+
+
 def units(path):
     """{quantity: unit attribute} of a trajectory ({} for reduced units)."""
     import h5py

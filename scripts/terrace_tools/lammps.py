@@ -10,7 +10,8 @@ _THERMO_NAMES = {"Step": "step", "Time": "time", "Temp": "temp", "PotEng": "pe",
 
 
 def parse_log(text):
-    """A LAMMPS log's last run: {'loop', 'n', 'output', 'pair', 'neigh', 'comm', 'other', 'error',
+    """A LAMMPS log's last run: {'loop', 'n', 'output', 'pair', 'neigh', 'comm', 'other' (and their
+    slowest rank's, 'pair_max', ...), 'error',
     'thermo': {column: array}} (thermo columns renamed as Terrace's CSV: pe, ke, etotal, ...)."""
     r = {"loop": None, "output": 0.0, "error": "", "thermo": {}}
     m = re.findall(r"^Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps", text, re.M)
@@ -25,6 +26,8 @@ def parse_log(text):
         if len(cols) >= 3 and cols[0].lower() in ("pair", "neigh", "comm", "output", "modify", "other"):
             try:
                 r[cols[0].lower()] = float(cols[2])
+                # the slowest rank's ('max'; a one-rank breakdown may leave min and max empty)
+                r[cols[0].lower() + "_max"] = float(cols[3]) if len(cols) > 3 and cols[3] else float(cols[2])
             except ValueError:
                 pass
     m = re.search(r"^(ERROR.*)$", text, re.M)

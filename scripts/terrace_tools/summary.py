@@ -5,6 +5,8 @@ Command line:
     python3 -m terrace_tools.summary get FILE KEY     # print one value ('timing/loop_time_s')
     python3 -m terrace_tools.summary show FILE [PREFIX ...]   # key = value, one a line (keys
                                                       # under the prefixes, or all)
+    python3 -m terrace_tools.summary phases FILE      # the loop time, the phase table (average and
+                                                      # slowest rank) and the list builds
     python3 -m terrace_tools.summary check-deck FILE  # the deck's CRC-32 equals deck/crc32?
 Exit status 1 when the key is missing or the deck differs.
 """
@@ -88,6 +90,23 @@ def run_figures(summary):
     return r
 
 
+def phase_table(summary):
+    """The loop time, the time of each phase (average and slowest rank, share of the loop) and the
+    neighbour-list builds, as lines of text (the closing run log's figures, from the summary)."""
+    if isinstance(summary, (str, os.PathLike)):
+        summary = read(summary)
+    t = summary.get("timing", {})
+    count = "%s steps" % t["steps"] if "steps" in t else "%s events" % t.get("events")
+    lines = ["loop time %.4f s for %s (%s rank(s), %s atoms)" % (t.get("loop_time_s", float("nan")), count,
+             get(summary, "machine/ranks", "?"), t.get("atoms", "?")),
+             "%-8s %13s %14s %7s" % ("phase", "avg time (s)", "max time (s)", "%loop")]
+    for name, v in t.get("phases", {}).items():
+        lines.append("%-8s %13.4f %14.4f %7.1f" % (name, v.get("avg_s", 0.0), v.get("max_s", 0.0),
+                                                   v.get("percent_loop", 0.0)))
+    lines.append("list builds: %s" % get(summary, "neighbor/builds", "?"))
+    return lines
+
+
 def _format(v):
     if isinstance(v, bool):
         return "true" if v else "false"
@@ -100,7 +119,8 @@ def _format(v):
 
 def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
-    usage = "usage: python3 -m terrace_tools.summary get FILE KEY | show FILE [PREFIX ...] | check-deck FILE"
+    usage = ("usage: python3 -m terrace_tools.summary get FILE KEY | show FILE [PREFIX ...] | phases FILE"
+             " | check-deck FILE")
     if not argv:
         print(usage, file=sys.stderr)
         return 2
@@ -118,6 +138,9 @@ def main(argv=None):
         for k, v in flatten(read(argv[1])).items():
             if not prefixes or any(k == p or k.startswith(p.rstrip("/") + "/") for p in prefixes):
                 print(f"{k} = {_format(v)}")
+        return 0
+    if cmd == "phases" and len(argv) == 2:
+        print("\n".join(phase_table(argv[1])))
         return 0
     if cmd == "check-deck" and len(argv) == 2:
         s = read(argv[1])

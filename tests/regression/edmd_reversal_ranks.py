@@ -20,8 +20,8 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edmd_hard_spheres import fcc_scene  # noqa: E402
+from edmd_hard_spheres import fcc_scene   # (beside this script: on sys.path as its folder)
+from terrace_tools import summary
 
 DECK = """&run units='lj', dimension=3, run_time={T:.17g}, seed=1 /
 &system atoms_file='{atoms}', box_lo=0,0,0, box_hi={L:.17g},{L:.17g},{L:.17g}, mass=1.0{rev} /
@@ -49,11 +49,9 @@ def run(cmd, cwd):
     return p.stdout
 
 
-def events(log):
-    for line in log.splitlines():
-        if line.startswith('Events: '):
-            return int(line.split()[1])
-    return -1
+def events(summary_path):
+    """The run's event count, from its run summary."""
+    return summary.get(summary_path, 'event_driven/events')
 
 
 def main():
@@ -75,7 +73,8 @@ def main():
     for T in [0.5, 1.0, 2.0, 4.0]:
         kw = dict(T=T, L=L, dt=T, thermo='thermo.csv', traj='')
         open(os.path.join(a.out, 'fwd.nml'), 'w').write(DECK.format(atoms='start.txt', rev='', out='fwd.txt', **kw))
-        ev = events(run([terrace, 'fwd.nml'], a.out))
+        run([terrace, 'fwd.nml'], a.out)
+        ev = events(os.path.join(a.out, 'fwd.summary.json'))
         open(os.path.join(a.out, 'back.nml'), 'w').write(DECK.format(atoms='fwd.txt', rev=', reverse_velocities=.true.',
                                                                      out='back.txt', **kw))
         run([terrace, 'back.nml'], a.out)

@@ -20,8 +20,7 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edmd_hard_spheres import fcc_scene, block_error  # noqa: E402
+from edmd_hard_spheres import fcc_scene, block_error   # (beside this script: on sys.path as its folder)
 
 LAMBDA = 1.5
 

@@ -22,8 +22,7 @@ import sys
 import h5py
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from checkpoint_restart import fail, make_deck, run  # noqa: E402
+from checkpoint_restart import fail, make_deck, run   # (beside this script: on sys.path as its folder)
 
 
 def snapshot(d):

@@ -11,8 +11,7 @@ nan = float('nan')
 import numpy as np
 
 import matplotlib
-matplotlib.use('Agg')
-import matplotlib.pyplot as plt  # noqa: E402
+from terrace_tools.plotting import plt, save  # noqa: E402
 import matplotlib.ticker  # noqa: E402
 
 from terrace_tools import plotting  # noqa: E402
@@ -90,8 +89,7 @@ def fig_workprecision(scene, rows, path):
     fig.suptitle('%s: %s%g %s per run (%s)' % (scene.title, atoms, scene.params_used['t_long'],
                                                scene.tunit, lab), fontsize=10)
     fig.tight_layout(rect=(0, 0.07, 1, 0.97))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, dpi=110, tight=False)
 
 
 log_tick_labels = plotting.log_tick_labels
@@ -158,8 +156,7 @@ def fig_observables(scene, rows, path):
                                                                         scene.tunit)
     fig.suptitle(textwrap.fill(title, 60 * len(keys)), fontsize=10)
     fig.tight_layout(rect=(0, 0.06 * nrow + 0.02, 1, 1))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, dpi=110, tight=False)
     return True
 
 
@@ -178,9 +175,7 @@ def fig_curves(scene, curves, path):
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     ax.set_title('%s: energy error, finest and coarsest parameter of each method' % scene.title, fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, dpi=110)
 
 
 # ----------------------------------------------------------------------------------- analysis

@@ -377,9 +377,8 @@ def convergence(res, method, k, n=FIT_POINTS):
 
 def fig_wp(res, path):
     import matplotlib
-    matplotlib.use('Agg')
     import matplotlib.ticker
-    import matplotlib.pyplot as plt
+    from terrace_tools.plotting import plt, save as save_figure
     panels = [('pos_err', 'max node-position error at t = %g s  [m]' % res['params']['t_long'])] + \
         ([('rest_err', '|e − e_ref|: coefficient of restitution'), ('contact_err', '|t_c − t_c,ref|: contact duration  [s]')]
          if res['scene'] == 'balls' else [('ke_err', 'max |K(t) − K_ref(t)|: kinetic-energy history  [J]')])
@@ -418,14 +417,12 @@ def fig_wp(res, path):
     fig.suptitle('%s — %s, %g s per run; labels: dt in s, h in J' % (TITLES[res['scene']], _mesh_words(res),
                                                                       res['params']['t_long']), fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.94))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110, tight=False)
 
 
 def fig_intervals(res, path):
     import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    from terrace_tools.plotting import plt, save as save_figure
     ev = res['events']
     t, dt = np.array(ev['t']), np.array(ev['dt'])
     s, e = ev['start'], ev['end']
@@ -453,8 +450,7 @@ def fig_intervals(res, path):
     b.grid(True, which='both', alpha=0.3)
     fig.suptitle('%s — %s: energy-stepping event intervals' % (TITLES['balls'], _mesh_words(res)), fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.94))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110, tight=False)
 
 
 def _mesh_words(res):

@@ -138,8 +138,7 @@ def load(ctx):
 
 def figure(res, path):
     import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    from terrace_tools.plotting import plt, save as save_figure
     fig, axs = plt.subplots(1, 2, figsize=(12.5, 4.6))
     for ax, sweep, key, xl in ((axs[0], 'contact', 'factor', 'contact stiffness / (E h_b)'),
                                (axs[1], 'poisson', 'nu', "Poisson's ratio nu")):
@@ -167,9 +166,7 @@ def figure(res, path):
         ax.legend(fontsize=8, loc='upper left')
     axs[0].set_title('two colliding balls, %g s (labels: reflections)' % res['params']['balls']['t_long'], fontsize=9)
     axs[1].set_title('spinning cube, %g s (labels: reflections)' % res['params']['cube']['t_long'], fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
 
 
 def section(ctx, res):

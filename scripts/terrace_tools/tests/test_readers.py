@@ -105,3 +105,21 @@ def test_thermo_plot(tmp_path):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 5000
     with pytest.raises(SystemExit, match="no column press"):
         thermo.plot(str(p), ["press"], str(out))
+
+
+def test_analysis_csv_and_plotting_save(tmp_path):
+    from terrace_tools import analysis
+    from terrace_tools.plotting import DPI, plt, save
+    p = tmp_path / "x_rdf.csv"
+    p.write_text("# g(r) of 4 frames\nr,g\n0.5,0.0\n1.0,2.5\n1.5,1.0\n")
+    t = analysis.read(str(p))
+    assert list(t) == ["r", "g"] and t["g"].tolist() == [0.0, 2.5, 1.0]
+    assert analysis.array(str(p)).shape == (3, 2)
+    fig, ax = plt.subplots(figsize=(2.0, 1.0))
+    ax.plot(t["r"], t["g"])
+    out = save(fig, str(tmp_path / "sub" / "x.png"))
+    png = open(out, "rb").read()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    width, height = int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
+    assert (width, height) == (2 * DPI, 1 * DPI)
+    assert not plt.get_fignums()                 # closed

@@ -1,4 +1,5 @@
-"""The run summary against the run log on the screen and the thermo CSV of the same run."""
+"""The run summary against independent records of the same run: the deck, the thermo CSV, the
+checkpoint file, its own identities (phases that add up to the loop time), and the files it lists."""
 import json
 import os
 import re
@@ -7,7 +8,7 @@ import subprocess
 import time
 import zlib
 
-import numpy as np
+import h5py
 import pytest
 
 from terrace_tools import summary, thermo
@@ -32,30 +33,28 @@ ES = """&run units='metal', dimension=3, run_time=0.5, seed=147 /
 """
 
 
-def log_value(text, pattern, conv=float):
-    m = re.search(pattern, text, re.M)
-    assert m, f"no line matching {pattern!r} in the run log"
-    return conv(m.group(1))
-
-
 @pytest.mark.parametrize("np_", [1, 2])
-def test_verlet_summary_equals_log_and_csv(run, np_):
-    p = run("lj", LJ.format(steps=200, extra=""), np_=np_)
+def test_verlet_summary_against_deck_and_csv(run, np_):
+    run("lj", LJ.format(steps=200, extra=""), np_=np_)
     s = summary.read(run.path("lj.summary.json"))
     t = thermo.read(run.path("thermo.csv"))
     natoms = summary.get(s, "run/atoms")
     assert natoms == 500 == summary.get(s, "timing/atoms")
-    # the figures of the run log, to the digits it prints
-    assert round(summary.get(s, "timing/loop_time_s"), 4) == pytest.approx(
-        log_value(p.stdout, r"^Loop time: ([0-9.]+) s"), abs=1e-12)
-    assert summary.get(s, "timing/steps") == log_value(p.stdout, r"^Loop time: .* for (\d+) steps", int) == 200
-    assert summary.get(s, "neighbor/builds") == log_value(p.stdout, r"^Neighbour list builds: (\d+)", int)
-    for ph in ("Pair", "Neigh", "Comm", "Output", "Search", "Other"):
-        avg = log_value(p.stdout, r"^%s\s+([0-9.]+)" % ph)
-        assert summary.get(s, f"timing/phases/{ph}/avg_s") == pytest.approx(avg, abs=0.6e-4)
-    drift_log = log_value(p.stdout, r"^Energy drift:\s+(\S+) energy/atom/time")
-    assert summary.get(s, "conservation/energy_drift_per_atom_time") == pytest.approx(drift_log, rel=1e-4)
-    # ... and equal to what the thermo CSV gives (same doubles, printed with 17 digits)
+    # the deck's steps; the phases (Other is the loop's remainder) add up to the loop time
+    loop = summary.get(s, "timing/loop_time_s")
+    assert summary.get(s, "timing/steps") == 200
+    assert loop > 0 and summary.get(s, "timing/atom_steps_per_s") == pytest.approx(500 * 200 / loop, rel=1e-14)
+    phases = summary.get(s, "timing/phases")
+    assert list(phases) == ["Pair", "Neigh", "Comm", "Output", "Search", "Other"]
+    assert sum(v["avg_s"] for v in phases.values()) == pytest.approx(loop, rel=1e-12)
+    for v in phases.values():
+        assert v["max_s"] >= v["avg_s"] - 1e-15 * loop
+        assert v["percent_loop"] == pytest.approx(100 * v["avg_s"] / loop, rel=1e-12, abs=1e-12)
+    assert phases["Pair"]["avg_s"] > 0
+    # an exact list on a liquid at T* = 1.44: rebuilt, but not at every step
+    assert 2 <= summary.get(s, "neighbor/builds") < 200
+    assert summary.get(s, "neighbor/list_pairs") > 0
+    # the energy drift and momentum change: what the thermo CSV gives (same doubles, 17 digits)
     assert summary.get(s, "conservation/energy_drift_per_atom_time") == pytest.approx(
         thermo.energy_drift(t, natoms), rel=1e-12)
     assert summary.get(s, "conservation/momentum_change") == pytest.approx(thermo.momentum_change(t), rel=1e-6,
@@ -64,16 +63,16 @@ def test_verlet_summary_equals_log_and_csv(run, np_):
     # the last thermo sample: the CSV's last row (17 digits both)
     for k in ("step", "time", "temp", "pe", "ke", "etotal", "press"):
         assert summary.get(s, "thermo_last/" + k) == pytest.approx(t[k][-1], rel=1e-15, abs=1e-300)
-    mem = log_value(p.stdout, r"^Peak memory: ([0-9.]+) MiB")
-    assert summary.get(s, "memory/peak_mib_all_ranks") == pytest.approx(mem, abs=0.051)
+    # the peak memory of every rank: at least the binary and its libraries, far below a GiB per rank here
+    assert 1.0 * np_ < summary.get(s, "memory/peak_mib_all_ranks") < 1024.0 * np_
     # identity of the run
     assert summary.get(s, "deck/crc32") == "%08x" % zlib.crc32(open(run.path("lj.nml"), "rb").read())
     assert summary.get(s, "deck/path") == "lj.nml"
     assert summary.get(s, "machine/ranks") == np_
     assert summary.get(s, "units/style") == "lj" and summary.get(s, "units/time") == "tau"
     assert re.fullmatch(r"([0-9a-f]{40})?", summary.get(s, "terrace/git_commit"))
-    assert summary.get(s, "terrace/version") == log_value(
-        subprocess.run([run.terrace, "--version"], capture_output=True, text=True).stdout, r"(\d+\.\d+\.\d+)", str)
+    assert summary.get(s, "terrace/version") in subprocess.run([run.terrace, "--version"], capture_output=True,
+                                                               text=True).stdout.split()
     assert summary.get(s, "exit/reason") == "finished" and summary.get(s, "exit/status") == 0
     assert summary.get(s, "outputs") == {"thermo_file": "thermo.csv", "summary_file": "lj.summary.json"}
     # no temporary file is left
@@ -82,22 +81,22 @@ def test_verlet_summary_equals_log_and_csv(run, np_):
 
 def test_energy_stepping_summary(run):
     from .conftest import REPO
-    p = run("es", ES.format(repo=REPO), np_=2)
+    run("es", ES.format(repo=REPO), np_=2)
     s = summary.read(run.path("es.summary.json"))
     t = thermo.read(run.path("es.csv"))
-    m = re.search(r"^Events: (\d+) \((\d+) up, (\d+) down, (\d+) reflections\)", p.stdout, re.M)
-    events, ups, downs, refl = (int(v) for v in m.groups())
     es = s["energy_stepping"]
-    assert (es["events"], es["ups"], es["downs"], es["reflections"]) == (events, ups, downs, refl)
+    events = es["events"]
+    # every event goes up, down or is reflected; the thermo CSV counts the same events and reflections
+    assert events > 0 and es["ups"] + es["downs"] + es["reflections"] == events
     assert es["events"] == int(t["events"][-1]) and es["reflections"] == int(t["reflections"][-1])
     assert es["mean_event_interval"] == pytest.approx(t["time"][-1] / es["events"], rel=1e-14)
-    assert es["ray_evaluations_per_event"] == pytest.approx(
-        log_value(p.stdout, r"ray evaluations per event: ([0-9.]+)"), abs=5e-4)
+    # an event takes at least one ray evaluation and one force pass
+    assert es["ray_evaluations_per_event"] >= 1.0 and es["force_passes_per_event"] >= 1.0
     assert es["terrace_height"] == t["terrace_height"][0]
     assert es["conserved_first"] == pytest.approx(t["e_terraced"][0], rel=1e-13)
     assert es["conserved_last"] == pytest.approx(t["e_terraced"][-1], rel=1e-13)
     assert summary.get(s, "timing/events") == events
-    assert summary.get(s, "neighbor/prunes") == log_value(p.stdout, r": (\d+) prunes", int)
+    assert summary.get(s, "neighbor/prunes") >= 0
     assert summary.get(s, "units/length") == "Angstrom" and summary.get(s, "units/style") == "metal"
     out = summary.get(s, "outputs")
     assert out == {"thermo_file": "es.csv", "trajectory_file": "es.h5", "topology_file": "es.topology.data",
@@ -115,8 +114,10 @@ def test_walltime_stop_writes_summary_with_reason(run):
     assert summary.get(s, "exit/reason") == "walltime_limit"
     assert summary.get(s, "exit/status") == 3
     assert summary.get(s, "exit/detail") == "walltime_limit reached"
-    steps = [int(v) for v in re.findall(r"^checkpoint: step (\d+)", p.stdout, re.M)]
-    assert summary.get(s, "checkpoint/step") == steps[-1]
+    # the step and time of the checkpoint file it names (its /state attributes)
+    with h5py.File(run.path("ck.h5"), "r") as ck:
+        assert summary.get(s, "checkpoint/step") == int(ck["state"].attrs["step"]) > 0
+        assert summary.get(s, "checkpoint/time") == float(ck["state"].attrs["time"])
     assert summary.get(s, "outputs/checkpoint_file") == "ck.h5"
     assert "simulated_time" not in s["run"]
 
@@ -168,6 +169,17 @@ def test_command_line(run, python):
     shown = subprocess.run([python, "-m", "terrace_tools.summary", "show", path], capture_output=True, text=True,
                            env=env)
     assert "exit/reason = finished" in shown.stdout.splitlines()
+    # the phase table: every phase's average and slowest rank, to the 4 decimals it prints
+    table = subprocess.run([python, "-m", "terrace_tools.summary", "phases", path], capture_output=True, text=True,
+                           env=env)
+    assert table.returncode == 0, table.stderr
+    lines = table.stdout.splitlines()
+    phases = json.load(open(path))["timing"]["phases"]
+    rows = {ln.split()[0]: [float(x) for x in ln.split()[1:]] for ln in lines[2:-1]}
+    assert list(rows) == list(phases)
+    for name, (avg, mx, pct) in rows.items():
+        assert (avg, mx) == (round(phases[name]["avg_s"], 4), round(phases[name]["max_s"], 4))
+    assert lines[-1] == "list builds: %d" % json.load(open(path))["neighbor"]["builds"]
 
 
 def test_default_name():

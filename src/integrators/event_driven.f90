@@ -578,53 +578,10 @@ contains
         type(ed_run_t), intent(inout) :: r
         integer, intent(in) :: i
         real(dp), intent(in) :: t
-        real(dp) :: xi(3), dx(3), dv(3), best, dt, b, rsq
-        integer :: nb(27), c, j, dir, s, ti, tj, nr, best_j, best_code
-        associate (x => r%x, v => r%v, tl => r%tl, typ => r%typ, tab => r%tab, cells => r%cells)
-            xi = x(:, i) + v(:, i)*(t - tl(i))
-            call cells%crossing(i, xi, v(:, i), best, dir)
-            best_j = 0; best_code = dir
-            call neighbour_cells(cells, i, nb)
-            ti = typ(i)
-            do c = 1, 27
-                j = cells%head(nb(c))
-                do while (j > 0)
-                    if (j /= i) then
-                        dx = xi - (x(:, j) + v(:, j)*(t - tl(j)))
-                        dx = dx - r%length*anint(dx*r%inv_len)
-                        dv = v(:, i) - v(:, j)
-                        tj = typ(j)
-                        rsq = dx(1)**2 + dx(2)**2 + dx(3)**2
-                        s = 0
-                        if (tab%has_steps) then
-                            if (rsq <= tab%r2(1, ti, tj)*(1 + 1.0e-8_dp)) s = r%map%get(i, j)
-                        end if
-                        if (s == 0) then
-                            b = dx(1)*dv(1) + dx(2)*dv(2) + dx(3)*dv(3)
-                            if (b < 0) then
-                                dt = inward_time(dx, dv, tab%r2(1, ti, tj))
-                                if (dt < best) then
-                                    best = dt; best_j = j; best_code = 1
-                                end if
-                            end if
-                        else
-                            nr = tab%nr(ti, tj)
-                            if (s < nr) then
-                                dt = inward_time(dx, dv, tab%r2(s + 1, ti, tj))
-                                if (dt < best) then
-                                    best = dt; best_j = j; best_code = s + 1
-                                end if
-                            end if
-                            dt = outward_time(dx, dv, tab%r2(s, ti, tj))
-                            if (dt < best) then
-                                best = dt; best_j = j; best_code = -s
-                            end if
-                        end if
-                    end if
-                    j = cells%nxt(j)
-                end do
-            end do
-        end associate
+        real(dp) :: best
+        integer :: best_j, best_code
+        call earliest_event(r%x, r%v, r%tl, r%typ, r%tab, r%cells, r%map, r%length, r%inv_len, i, t, best, best_j, &
+                            best_code)
         r%ev_code(i) = best_code; r%ev_partner(i) = best_j
         if (best_j > 0) then
             r%ev_kind(i) = kind_pair; r%ev_pcount(i) = r%cnt(best_j)
@@ -634,6 +591,66 @@ contains
         r%ev_t(i) = t + best
         call r%q%set(i, r%ev_t(i))
     end subroutine predict
+
+    !> The search of predict on plain arrays (the hot loop: no derived-type indirection inside it):
+    !> the time from t to atom i's earliest event, its partner (0: a cell crossing) and its code
+    !> (the radius crossed, > 0 inward, < 0 outward; a cell crossing: the face).
+    subroutine earliest_event(x, v, tl, typ, tab, cells, map, length, inv_len, i, t, best, best_j, best_code)
+        real(dp), intent(in), contiguous :: x(:, :), v(:, :), tl(:)
+        integer, intent(in), contiguous :: typ(:)
+        real(dp), intent(in) :: length(3), inv_len(3), t
+        integer, intent(in) :: i
+        type(stepped_table_t), intent(in) :: tab
+        type(event_cells_t), intent(in) :: cells
+        type(pair_map_t), intent(in) :: map
+        real(dp), intent(out) :: best
+        integer, intent(out) :: best_j, best_code
+        real(dp) :: xi(3), dx(3), dv(3), dt, b, rsq
+        integer :: nb(27), c, j, dir, s, ti, tj, nr
+        xi = x(:, i) + v(:, i)*(t - tl(i))
+        call cells%crossing(i, xi, v(:, i), best, dir)
+        best_j = 0; best_code = dir
+        call neighbour_cells(cells, i, nb)
+        ti = typ(i)
+        do c = 1, 27
+            j = cells%head(nb(c))
+            do while (j > 0)
+                if (j /= i) then
+                    dx = xi - (x(:, j) + v(:, j)*(t - tl(j)))
+                    dx = dx - length*anint(dx*inv_len)
+                    dv = v(:, i) - v(:, j)
+                    tj = typ(j)
+                    rsq = dx(1)**2 + dx(2)**2 + dx(3)**2
+                    s = 0
+                    if (tab%has_steps) then
+                        if (rsq <= tab%r2(1, ti, tj)*(1 + 1.0e-8_dp)) s = map%get(i, j)
+                    end if
+                    if (s == 0) then
+                        b = dx(1)*dv(1) + dx(2)*dv(2) + dx(3)*dv(3)
+                        if (b < 0) then
+                            dt = inward_time(dx, dv, tab%r2(1, ti, tj))
+                            if (dt < best) then
+                                best = dt; best_j = j; best_code = 1
+                            end if
+                        end if
+                    else
+                        nr = tab%nr(ti, tj)
+                        if (s < nr) then
+                            dt = inward_time(dx, dv, tab%r2(s + 1, ti, tj))
+                            if (dt < best) then
+                                best = dt; best_j = j; best_code = s + 1
+                            end if
+                        end if
+                        dt = outward_time(dx, dv, tab%r2(s, ti, tj))
+                        if (dt < best) then
+                            best = dt; best_j = j; best_code = -s
+                        end if
+                    end if
+                end if
+                j = cells%nxt(j)
+            end do
+        end do
+    end subroutine earliest_event
 
     !> The pair (i, j) crosses radius |code| at t, inward (code > 0) or outward (code < 0).
     subroutine pair_event(r, i, j, code, t)

@@ -301,9 +301,10 @@ contains
                 cfg%run_time, trim(cfg%units%time)
             call finish_check()
         end if
-        call open_outputs(ed_thermo_header, cfg%run_time)
+        call open_outputs(ed_thermo_header//trim(merge(',ecouple,econserve', '                  ', &
+                                                       cfg%thermostat /= 'none')), cfg%run_time)
         call start_clock()
-        call run_event_driven(eng, p, thermo, traj, ed)
+        call run_event_driven(eng, p, ts, out, ed)
         call close_run(cfg%run_time)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, ed%events, eng%list%builds, 'events')
         if (world%rank == 0) then
@@ -314,8 +315,9 @@ contains
             if (t1 > t0) write (output_unit, '(a,es11.4,a,es11.4,a,es11.4,a)') 'Event rate: ', ed%events/(t1 - t0), &
                 ' events/s, ', ed%pair_events/(t1 - t0), ' pair crossings/s; ', (t1 - t0)/max(1_i8, ed%events)*1.0e6_dp, &
                 ' us per event'
-            write (output_unit, '(a,es17.10,a,es17.10,a,es10.3)') 'Total energy (first, last thermo sample): ', &
-                ed%e_first, ', ', ed%e_last, '; drift ', ed%e_last - ed%e_first
+            write (output_unit, '(a,es17.10,a,es17.10,a,es10.3)') 'Total energy'// &
+                trim(merge(' less ecouple', '             ', cfg%thermostat /= 'none'))// &
+                ' (first, last thermo sample): ', ed%e_first, ', ', ed%e_last, '; drift ', ed%e_last - ed%e_first
         end if
         call summary_put('event_driven/events', ed%events)
         call summary_put('event_driven/pair_crossings', ed%pair_events)

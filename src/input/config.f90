@@ -1309,7 +1309,7 @@ contains
     end subroutine validate_stepped
 
     !> &integrator style = 'event_driven': stepped potentials only, a time-scheduled run in a fully
-    !> periodic 3-D box, no thermostat and no checkpoints (not available with it yet).
+    !> periodic 3-D box, Andersen's thermostat or none; checkpoints by time (checkpoint_interval).
     subroutine validate_event_driven(cfg)
         type(config_t), intent(inout) :: cfg
         if (cfg%potential /= 'hard_sphere' .and. cfg%potential /= 'square_well') call stop_all(cfg%where('potential', &
@@ -1328,13 +1328,17 @@ contains
             ': event-driven integration writes frames at exact times; give trajectory_interval (in '// &
             trim(cfg%units%time)//')')
         if (cfg%nml%find('thermostat', 'style') > 0) then
-            if (cfg%thermostat /= 'none') call stop_all(cfg%where('thermostat', 'style')// &
-                ': not available with event-driven integration (microcanonical runs only)')
+            if (cfg%thermostat /= 'none' .and. cfg%thermostat /= 'andersen') call stop_all(cfg%where('thermostat', &
+                'style')//" = '"//trim(cfg%thermostat)//"': not available with event-driven integration (allowed: "// &
+                "'andersen', collisions at exact times; 'none')")
+            if (cfg%nml%find('thermostat', 'interval') > 0) call stop_all(cfg%where('thermostat', 'interval')// &
+                ': event-driven integration runs Andersen collisions atom by atom at exact times (no interval)')
+            if (cfg%nml%find('thermostat', 'zero_momentum') > 0 .and. cfg%zero_momentum) call stop_all( &
+                cfg%where('thermostat', 'zero_momentum')//': not available with event-driven integration '// &
+                '(allowed: .false.; Andersen collisions do not hold the total momentum)')
         end if
-        if (len_trim(cfg%checkpoint_file) > 0) call stop_all(cfg%where('output', 'checkpoint_file')// &
-            ': checkpoints are not available with event-driven integration')
-        if (len_trim(cfg%read_checkpoint) > 0) call stop_all(cfg%where('system', 'read_checkpoint')// &
-            ': checkpoints are not available with event-driven integration')
+        if (cfg%nml%find('output', 'checkpoint_every') > 0) call stop_all(cfg%where('output', 'checkpoint_every')// &
+            ': event-driven integration has no steps; give checkpoint_interval (a time in '//trim(cfg%units%time)//')')
         if (cfg%dimension /= 3) call stop_all(cfg%where('run', 'dimension')//': event-driven integration is 3-D')
         if (.not. all(cfg%periodic)) call stop_all(cfg%where('system', 'periodic')// &
             ': event-driven integration needs a periodic box in x, y and z')

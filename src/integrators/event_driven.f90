@@ -7,7 +7,8 @@
 !>    by -dU of normal kinetic energy, or reflects the pair when it cannot pay);
 !>  - cell crossings: an atom leaves its cell of the grid (terrace_event_cells; cells of at least
 !>    the largest radius, so that partners are found in the 27 neighbouring cells);
-!>  - the run's schedule (thermo samples, trajectory frames, the end) as one more slot of the queue.
+!>  - the run's calendar (terrace_calendar: thermo samples, trajectory frames, checkpoints, the
+!>    end) as one more slot of the queue, at the calendar's next time.
 !> The queue (terrace_event_queue) holds one slot per atom: the atom's earliest predicted event.
 !> An event re-predicts only its atoms (over their neighbouring cells): O(neighbours + log N). A
 !> slot whose partner has had an event since the prediction (per-atom event counters) is stale;
@@ -17,6 +18,13 @@
 !> at a radius after crossing it is never taken for one outside it (round-off cannot make it cross
 !> twice). Outputs are taken at exact times from the delayed states (x + v (t - tl)).
 !>
+!> Checkpoints: with &output checkpoint_file the thermo samples and the scheduled checkpoints are
+!> safe points. At one, every atom is brought to its time and the whole event state is built again
+!> from the atoms alone (build_state: numbering by cell, regions, energy, predictions), exactly as a
+!> restart builds it from the checkpoint's atoms; the counters and the collision-virial sums of the
+!> current sample interval go into the checkpoint's named values. A restart therefore runs the same
+!> events with the same arithmetic as the uninterrupted run, on any rank count.
+!>
 !> Ranks: every rank holds all atoms and runs the same sequence of events (the same arithmetic in
 !> the same order), so that every rank count gives the same results; rank 0 writes the thermo
 !> CSV, and each rank writes its own atoms' rows of a trajectory frame.
@@ -24,8 +32,10 @@ module terrace_event_driven
     use terrace_kinds, only: dp, i8
     use terrace_text, only: int_text, real_text
     use terrace_engine, only: engine_t
-    use terrace_thermo, only: thermo_writer_t
-    use terrace_trajectory, only: trajectory_t
+    use terrace_run_outputs, only: run_outputs_t
+    use terrace_calendar, only: calendar_t, cal_sample, cal_frame, cal_checkpoint, cal_finish, cal_thermostat
+    use terrace_thermostat, only: thermostat_t
+    use terrace_named_values, only: named_values_t
     use terrace_observables, only: thermo_sample_t
     use terrace_stepped_pair, only: stepped_table_t, inward_time, outward_time, collide, no_event
     use terrace_stepped_potential, only: stepped_table_of
@@ -67,7 +77,39 @@ module terrace_event_driven
         integer(i8) :: seed = 1
         logical :: reverse_velocities = .false.
         character(len=:), allocatable :: where_cells   !< where the deck sets the box (for messages)
+        character(len=:), allocatable :: restart_from  !< the checkpoint a restart read (for messages)
     end type ed_params_t
+
+    !> One run: the atoms (every atom on every rank, numbered in the order of their cells), their
+    !> predicted events, the queue, the cells, the regions of the pairs inside a well, the running
+    !> energies and the sums of the current sample interval.
+    type :: ed_run_t
+        type(engine_t), pointer :: eng => null()
+        type(run_outputs_t), pointer :: out => null()
+        class(thermostat_t), pointer :: ts => null()
+        type(ed_params_t) :: p
+        type(stepped_table_t) :: tab
+        type(event_queue_t) :: q
+        type(event_cells_t) :: cells
+        type(pair_map_t) :: map
+        type(calendar_t) :: cal
+        type(ed_stats_t) :: stats
+        integer :: n = 0, sched_slot = 0
+        real(dp) :: length(3) = 0, inv_len(3) = 0
+        real(dp), allocatable :: x(:, :), v(:, :), tl(:), m(:), ev_t(:)
+        integer, allocatable :: typ(:), img(:, :), ev_kind(:), ev_partner(:), ev_code(:)
+        integer, allocatable :: id_of(:), slot_of_id(:)      !< atom number (cell order) <-> id
+        integer(i8), allocatable :: cnt(:), ev_pcount(:)
+        real(dp) :: pe = 0, ke_run = 0                       !< running potential and kinetic energy
+        !> sample interval sums: time integral of K up to t_ke, collision virial; its start, core count
+        real(dp) :: ke_int = 0, t_ke = 0, virial = 0, t_last = 0
+        integer(i8) :: core_last = 0
+        !> thermostat: the energy it put in (summed over the atoms in id order: the same on every rank
+        !> count), and buffers for the atoms a thermostat event changed (ids, new velocities)
+        real(dp) :: ecouple = 0
+        integer(i8), allocatable :: changed_id(:), mine_id(:)
+        real(dp), allocatable :: changed_v(:, :), mine_v(:, :)
+    end type ed_run_t
 
     public :: run_event_driven, check_event_driven_start
 
@@ -104,100 +146,269 @@ contains
                        ' diameters)')
     end subroutine check_event_driven_start
 
-    !> Run from t = 0 to p%t_end with thermo samples every p%sample_dt and frames every p%frame_dt
-    !> (0: none). Collective (every rank runs the same events).
-    subroutine run_event_driven(eng, p, thermo, traj, stats)
-        type(engine_t), intent(inout) :: eng
+    !> Run from t = 0 (a restart: the checkpoint's time) to p%t_end with thermo samples every
+    !> p%sample_dt, frames every p%frame_dt (0: none), the run control's checkpoints and the
+    !> thermostat's events (Andersen collisions at their exact times), all written through `out`.
+    !> Collective (every rank runs the same events).
+    subroutine run_event_driven(eng, p, ts, out, stats)
+        type(engine_t), intent(inout), target :: eng
         type(ed_params_t), intent(in) :: p
-        type(thermo_writer_t), intent(inout) :: thermo
-        type(trajectory_t), intent(inout) :: traj
+        class(thermostat_t), intent(inout), target :: ts
+        type(run_outputs_t), intent(inout), target :: out
         type(ed_stats_t), intent(out) :: stats
-
-        type(stepped_table_t) :: tab
-        type(event_queue_t) :: q
-        type(event_cells_t) :: cells
-        type(pair_map_t) :: map
-        real(dp), allocatable :: x(:, :), v(:, :), tl(:), m(:), ev_t(:)
-        integer, allocatable :: typ(:), img(:, :), ev_kind(:), ev_partner(:), ev_code(:)
-        integer, allocatable :: id_of(:), slot_of_id(:)      !< atom number (cell order) <-> id
-        integer(i8), allocatable :: cnt(:), ev_pcount(:)
-        real(dp) :: length(3), inv_len(3), t, pe, ke_run, ke_int, t_ke, virial, t_last
-        real(dp) :: t_next_sample, t_next_frame
-        integer(i8) :: n_sample, n_frame, core_last
-        integer :: n, slot, sched_slot, partner, code
-        logical :: found, ok
-
-        call stepped_table_of(eng%pot, tab, found)
+        type(ed_run_t), target :: r
+        logical :: found
+        r%eng => eng; r%out => out; r%ts => ts; r%p = p
+        call stepped_table_of(eng%pot, r%tab, found)
         call check_all(found, 'event_driven: the potential is not a stepped one')
-        length = eng%box%length
-        inv_len = 1/length
-        call gather_atoms()
-        if (p%temperature >= 0 .and. .not. eng%restarted) call same_start_velocities()
-        sched_slot = n + 1
-        call cells%init(eng%box%lo, length, tab%rmax, n, ok)
-        call check_all(ok, p%where_cells//': the box must be at least 3 interaction radii '// &
-                       'long in x, y and z for event-driven integration (largest radius: '//real_text(tab%rmax)//')')
-        call place_atoms()
-        call find_regions()
-        ke_run = kinetic(); ke_int = 0; t_ke = 0; virial = 0; t_last = 0; core_last = 0
-        allocate (ev_t(n), ev_kind(n), ev_partner(n), ev_code(n), ev_pcount(n), cnt(n))
-        cnt = 0; ev_kind = kind_cell; ev_partner = 0; ev_code = 0; ev_pcount = 0
-        call q%init(n + 1)
-        call eng%timers%start(t_pair)
-        do slot = 1, n
-            call predict(slot, 0.0_dp)
-        end do
-        call eng%timers%stop(t_pair)
-        n_sample = 1; n_frame = 1
-        t_next_sample = huge(1.0_dp); t_next_frame = huge(1.0_dp)
-        if (p%sample_dt > 0) t_next_sample = snapped(p%sample_dt, p%sample_dt)
-        if (p%frame_dt > 0) t_next_frame = snapped(p%frame_dt, p%frame_dt)
-        call write_sample(0.0_dp)
-        stats%e_first = stats%e_last
-        if (p%frame_dt > 0) call write_frame(0.0_dp)
-        call q%set(sched_slot, min(t_next_sample, t_next_frame, p%t_end))
+        r%length = eng%box%length
+        r%inv_len = 1/r%length
+        if (eng%restarted) then
+            call restore_state(r)
+        else
+            call start_state(r)
+        end if
+        if (ts%active()) allocate (r%changed_id(r%n), r%changed_v(3, r%n), r%mine_id(r%n), r%mine_v(3, r%n))
+        call event_loop(r)
+        stats = r%stats
+    end subroutine run_event_driven
 
-        call eng%timers%start(t_pair)
+    !> A new run: the atoms (velocities drawn again with &system temperature), the calendar from
+    !> t = 0, the first sample and frame.
+    subroutine start_state(r)
+        type(ed_run_t), intent(inout) :: r
+        call build_state(r, 0.0_dp, r%p%temperature >= 0)
+        r%ke_int = 0; r%t_ke = 0; r%virial = 0; r%t_last = 0; r%core_last = 0
+        call grid(r, cal_sample, r%p%sample_dt, 1_i8)
+        call grid(r, cal_frame, r%p%frame_dt, 1_i8)
+        call grid(r, cal_checkpoint, r%out%ctl%interval, r%out%ctl%written + 1)
+        r%cal%t(cal_finish) = r%p%t_end
+        r%ecouple = 0
+        call r%ts%schedule(r%eng%atoms, 0.0_dp)
+        r%cal%t(cal_thermostat) = r%ts%event_time()
+        call write_sample(r, 0.0_dp)
+        r%stats%e_first = r%stats%e_last
+        if (r%p%frame_dt > 0) call write_frame(r, 0.0_dp)
+    end subroutine start_state
+
+    !> A restart: the event state built from the checkpoint's atoms at its time, as the
+    !> uninterrupted run built it there; counters, sums and calendar from its named values.
+    subroutine restore_state(r)
+        type(ed_run_t), intent(inout) :: r
+        type(named_values_t) :: val
+        real(dp) :: t
+        logical :: ok
+        ok = .true.
+        val = r%eng%restart_values
+        t = val%get_r('time', ok)
+        call exchange(r, val, .false., ok)
+        call check_all(ok, r%p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
+                       '(event-driven state missing)')
+        call build_state(r, t, .false.)
+        r%t_ke = t
+        r%cal%interval(cal_sample) = r%p%sample_dt          ! (the grids' spacings come from the deck)
+        r%cal%interval(cal_frame) = r%p%frame_dt
+        call grid(r, cal_checkpoint, r%out%ctl%interval, r%out%ctl%written + 1)
+        r%cal%t(cal_finish) = r%p%t_end
+        if (r%ts%active()) then
+            call r%ts%restore(val, ok)
+            call check_all(ok, r%p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
+                           '(thermostat state missing)')
+            call r%ts%schedule(r%eng%atoms, t)     ! (Andersen: the first collision of each atom after t)
+        end if
+        r%cal%t(cal_thermostat) = r%ts%event_time()
+    end subroutine restore_state
+
+    !> Calendar entry k on the multiples of interval from the n-th on (0: none), snapped.
+    subroutine grid(r, k, interval, n)
+        type(ed_run_t), intent(inout) :: r
+        integer, intent(in) :: k
+        real(dp), intent(in) :: interval
+        integer(i8), intent(in) :: n
+        call r%cal%on_grid(k, interval, n)
+        call snap(r, k)
+    end subroutine grid
+
+    !> A grid time within 1e-9 intervals of the end is the end (no second sample a rounding error
+    !> after the last one).
+    subroutine snap(r, k)
+        type(ed_run_t), intent(inout) :: r
+        integer, intent(in) :: k
+        if (r%cal%interval(k) <= 0) return
+        if (abs(r%p%t_end - r%cal%t(k)) <= 1.0e-9_dp*r%cal%interval(k)) r%cal%t(k) = r%p%t_end
+    end subroutine snap
+
+    !> Grid entry k is due at t: it moves on to its next point (snapped).
+    logical function reached(r, k, t)
+        type(ed_run_t), intent(inout) :: r
+        integer, intent(in) :: k
+        real(dp), intent(in) :: t
+        reached = r%cal%reached(k, t)
+        if (reached) call snap(r, k)
+    end function reached
+
+    !> Events in time order until the end or an early stop; the final state into the engine.
+    subroutine event_loop(r)
+        type(ed_run_t), intent(inout) :: r
+        integer :: slot, partner, code
+        real(dp) :: t
+        call r%q%set(r%sched_slot, r%cal%next())
+        call r%eng%timers%start(t_pair)
         do
-            slot = q%top()
-            t = q%t(slot)
-            if (slot == sched_slot) then
-                call eng%timers%stop(t_pair)
-                if (schedule(t)) exit
-                call eng%timers%start(t_pair)
+            slot = r%q%top()
+            t = r%q%t(slot)
+            if (slot == r%sched_slot) then
+                call r%eng%timers%stop(t_pair)
+                if (schedule(r, t)) exit
+                call r%eng%timers%start(t_pair)
                 cycle
             end if
-            stats%events = stats%events + 1
-            if (ev_kind(slot) == kind_cell) then
-                call cell_event(slot, t)
-            else if (cnt(ev_partner(slot)) /= ev_pcount(slot)) then
-                stats%stale = stats%stale + 1
-                call predict(slot, t)
+            r%stats%events = r%stats%events + 1
+            if (r%ev_kind(slot) == kind_cell) then
+                call cell_event(r, slot, t)
+            else if (r%cnt(r%ev_partner(slot)) /= r%ev_pcount(slot)) then
+                r%stats%stale = r%stats%stale + 1
+                call predict(r, slot, t)
             else
-                partner = ev_partner(slot); code = ev_code(slot)      ! (copies: predict rewrites the slot)
-                call pair_event(slot, partner, code, t)
+                partner = r%ev_partner(slot); code = r%ev_code(slot)      ! (copies: predict rewrites the slot)
+                call pair_event(r, slot, partner, code, t)
             end if
         end do
-        stats%time = p%t_end
-        call put_state(p%t_end)
-        eng%pe = pe
+        r%stats%time = t
+        if (.not. r%out%ctl%stopped) call put_state(r, t)
+        r%eng%pe = r%pe
+    end subroutine event_loop
 
+    !> The calendar's slot at t: samples, frames, then at a safe point (a sample or a scheduled
+    !> checkpoint, with a checkpoint file) the rebuild, the stop poll and the checkpoint. .true.:
+    !> the run ends here (its end, or an early stop with a checkpoint). Then the slot's next time.
+    logical function schedule(r, t) result(done)
+        type(ed_run_t), intent(inout) :: r
+        real(dp), intent(in) :: t
+        logical :: sampled, ckpt_due, stop_now
+        done = r%cal%due(cal_finish, t)
+        if (.not. done .and. r%cal%due(cal_thermostat, t)) call thermostat_event(r, t)
+        sampled = reached(r, cal_sample, t)
+        if (sampled .or. done) call write_sample(r, t)
+        if (reached(r, cal_frame, t)) call write_frame(r, t)
+        if (.not. done .and. r%out%ctl%active) then
+            ckpt_due = r%cal%due(cal_checkpoint, t)
+            if (sampled .or. ckpt_due) then
+                call rebuild_at(r, t)
+                stop_now = r%out%ctl%stop_requested()
+                if (ckpt_due .or. stop_now) call checkpoint(r, t, ckpt_due)
+                if (ckpt_due) call grid(r, cal_checkpoint, r%out%ctl%interval, r%out%ctl%written + 1)
+                done = stop_now
+            end if
+        end if
+        if (.not. done) call r%q%set(r%sched_slot, r%cal%next())
+    end function schedule
+
+    !> A safe point at t: the sums brought to t, every atom to t (into the engine's atoms), and
+    !> the event state built again from them as a restart builds it.
+    subroutine rebuild_at(r, t)
+        type(ed_run_t), intent(inout) :: r
+        real(dp), intent(in) :: t
+        r%ke_int = r%ke_int + r%ke_run*(t - r%t_ke); r%t_ke = t
+        call put_state(r, t)
+        call build_state(r, t, .false.)
+    end subroutine rebuild_at
+
+    !> A checkpoint at t (the state just built there): counters, sums and calendar as named values.
+    subroutine checkpoint(r, t, scheduled)
+        type(ed_run_t), intent(inout) :: r
+        real(dp), intent(in) :: t
+        logical, intent(in) :: scheduled
+        type(named_values_t) :: val
+        logical :: ok
+        ok = .true.
+        call exchange(r, val, .true., ok)
+        if (r%ts%active()) call r%ts%save(val)
+        call r%out%checkpoint(r%eng, val, r%stats%events, t, scheduled)
+    end subroutine checkpoint
+
+    !> Write the run's counters, sums and calendar to (saving) or read them from a checkpoint's
+    !> named values: every key once. (The time is the checkpoint's own 'time'.)
+    subroutine exchange(r, val, saving, ok)
+        type(ed_run_t), intent(inout) :: r
+        type(named_values_t), intent(inout) :: val
+        logical, intent(in) :: saving
+        logical, intent(inout) :: ok
+        call x1('ed_events', r%stats%events); call x1('ed_pair_events', r%stats%pair_events)
+        call x1('ed_cell_events', r%stats%cell_events); call x1('ed_stale', r%stats%stale)
+        call x1('ed_core', r%stats%core); call x1('ed_bounces', r%stats%bounces)
+        call x1('ed_captures', r%stats%captures); call x1('ed_escapes', r%stats%escapes)
+        call x1('ed_e_first', r%stats%e_first); call x1('ed_e_last', r%stats%e_last)
+        call x1('ed_ke_int', r%ke_int); call x1('ed_virial', r%virial)
+        call x1('ed_t_last', r%t_last); call x1('ed_core_last', r%core_last)
+        call x1('ed_ecouple', r%ecouple)
+        call x1('ed_n_sample', r%cal%n(cal_sample)); call x1('ed_t_next_sample', r%cal%t(cal_sample))
+        call x1('ed_n_frame', r%cal%n(cal_frame)); call x1('ed_t_next_frame', r%cal%t(cal_frame))
     contains
+        subroutine x1(name, x)
+            character(len=*), intent(in) :: name
+            class(*), intent(inout) :: x
+            if (saving) then
+                call val%put(name, x); return
+            end if
+            select type (x)
+            type is (real(dp))
+                x = val%get_r(name, ok)
+            type is (integer(i8))
+                x = val%get_i(name, ok)
+            end select
+        end subroutine x1
+    end subroutine exchange
 
-        !> Every rank gets every atom, in id order (ids 1 .. natoms).
-        subroutine gather_atoms()
-            integer, allocatable :: counts(:), displ(:), ti(:), ii(:, :)
-            integer(i8), allocatable :: ids(:)
-            real(dp), allocatable :: xx(:, :), vv(:, :), mm(:), mm_local(:)
-            integer :: nl, r, k
-            integer(i8) :: g
+    ! ------------------------------------------------------------------ the event state
+
+    !> The event state at t from the engine's atoms alone: every atom on every rank in id order
+    !> (velocities drawn again when draw), numbered by cell, the regions and energy of the pairs,
+    !> the kinetic energy, and every atom's prediction. Collective (the gather).
+    subroutine build_state(r, t, draw)
+        type(ed_run_t), intent(inout) :: r
+        real(dp), intent(in) :: t
+        logical, intent(in) :: draw
+        integer :: slot
+        logical :: ok
+        call gather_atoms(r, t)
+        if (draw) call same_start_velocities(r)
+        r%sched_slot = r%n + 1
+        call r%cells%init(r%eng%box%lo, r%length, r%tab%rmax, r%n, ok)
+        call check_all(ok, r%p%where_cells//': the box must be at least 3 interaction radii '// &
+                       'long in x, y and z for event-driven integration (largest radius: '//real_text(r%tab%rmax)//')')
+        call place_atoms(r)
+        call find_regions(r)
+        r%ke_run = kinetic(r)
+        if (allocated(r%ev_t)) deallocate (r%ev_t, r%ev_kind, r%ev_partner, r%ev_code, r%ev_pcount, r%cnt)
+        allocate (r%ev_t(r%n), r%ev_kind(r%n), r%ev_partner(r%n), r%ev_code(r%n), r%ev_pcount(r%n), r%cnt(r%n))
+        r%cnt = 0; r%ev_kind = kind_cell; r%ev_partner = 0; r%ev_code = 0; r%ev_pcount = 0
+        call r%q%init(r%n + 1)
+        call r%eng%timers%start(t_pair)
+        do slot = 1, r%n
+            call predict(r, slot, t)
+        end do
+        call r%eng%timers%stop(t_pair)
+    end subroutine build_state
+
+    !> Every rank gets every atom, in id order (ids 1 .. natoms), at time t.
+    subroutine gather_atoms(r, t)
+        type(ed_run_t), intent(inout) :: r
+        real(dp), intent(in) :: t
+        integer, allocatable :: counts(:), displ(:), ti(:), ii(:, :)
+        integer(i8), allocatable :: ids(:)
+        real(dp), allocatable :: xx(:, :), vv(:, :), mm(:), mm_local(:)
+        integer :: nl, rk, k, n
+        integer(i8) :: g
+        associate (eng => r%eng)
             nl = eng%atoms%nlocal
             n = int(eng%natoms)
+            r%n = n
             allocate (counts(world%nprocs), displ(world%nprocs))
             call MPI_Allgather(nl, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, world%comm)
             displ(1) = 0
-            do r = 2, world%nprocs
-                displ(r) = displ(r - 1) + counts(r - 1)
+            do rk = 2, world%nprocs
+                displ(rk) = displ(rk - 1) + counts(rk - 1)
             end do
             allocate (ids(n), ti(n), ii(3, n), xx(3, n), vv(3, n), mm(n))
             allocate (mm_local(nl))
@@ -212,29 +423,34 @@ contains
                                 world%comm)
             call MPI_Allgatherv(eng%atoms%v, 3*nl, MPI_DOUBLE_PRECISION, vv, 3*counts, 3*displ, MPI_DOUBLE_PRECISION, &
                                 world%comm)
-            allocate (x(3, n), v(3, n), tl(n), m(n), typ(n), img(3, n))
-            tl = 0
+            if (allocated(r%x)) deallocate (r%x, r%v, r%tl, r%m, r%typ, r%img)
+            allocate (r%x(3, n), r%v(3, n), r%tl(n), r%m(n), r%typ(n), r%img(3, n))
+            r%tl = t
             do k = 1, n
                 g = ids(k)
                 call check_all(g >= 1 .and. g <= n, eng%source//': event-driven integration needs atom ids 1 .. N')
-                x(:, g) = xx(:, k); v(:, g) = vv(:, k); m(g) = mm(k); typ(g) = ti(k); img(:, g) = ii(:, k)
+                r%x(:, g) = xx(:, k); r%v(:, g) = vv(:, k); r%m(g) = mm(k); r%typ(g) = ti(k); r%img(:, g) = ii(:, k)
             end do
-        end subroutine gather_atoms
+        end associate
+    end subroutine gather_atoms
 
-        !> &system temperature: the velocities drawn again as the scene builder draws them (the same
-        !> normal deviates keyed by seed, id and component; drift removed; scaled to T with 3N - 3
-        !> degrees of freedom; reversed with reverse_velocities), but with the sums taken over all
-        !> atoms in id order on every rank: the scene builder's sums over ranks differ in their
-        !> last bits between rank counts, which the dynamics' chaos would amplify.
-        subroutine same_start_velocities()
-            integer :: g, d
-            real(dp) :: u1, u2, ptot(3), mtot, ke, t_now, temp
-            real(dp), parameter :: two_pi = 8*atan(1.0_dp)
-            temp = p%temperature
+    !> &system temperature: the velocities drawn again as the scene builder draws them (the same
+    !> normal deviates keyed by seed, id and component; drift removed; scaled to T with 3N - 3
+    !> degrees of freedom; reversed with reverse_velocities), but with the sums taken over all
+    !> atoms in id order on every rank: the scene builder's sums over ranks differ in their
+    !> last bits between rank counts, which the dynamics' chaos would amplify.
+    subroutine same_start_velocities(r)
+        type(ed_run_t), intent(inout) :: r
+        integer :: g, d, n
+        real(dp) :: u1, u2, ptot(3), mtot, ke, t_now, temp
+        real(dp), parameter :: two_pi = 8*atan(1.0_dp)
+        associate (v => r%v, m => r%m, eng => r%eng)
+            n = r%n
+            temp = r%p%temperature
             do g = 1, n
                 do d = 1, 3
-                    u1 = hash_uniform(p%seed, int(g, i8), 2*d - 1)
-                    u2 = hash_uniform(p%seed, int(g, i8), 2*d)
+                    u1 = hash_uniform(r%p%seed, int(g, i8), 2*d - 1)
+                    u2 = hash_uniform(r%p%seed, int(g, i8), 2*d)
                     v(d, g) = sqrt(-2*log(u1))*cos(two_pi*u2)*sqrt(eng%units%boltz*temp/(m(g)*eng%units%mvv2e))
                 end do
             end do
@@ -255,173 +471,201 @@ contains
                 t_now = 2*ke/((3*real(n, dp) - 3)*eng%units%boltz)
                 v = v*sqrt(temp/t_now)
             end if
-            if (p%reverse_velocities) v = -v
-        end subroutine same_start_velocities
+            if (r%p%reverse_velocities) v = -v
+        end associate
+    end subroutine same_start_velocities
 
-        !> Wrap the positions into the box, number the atoms in the order of their cells (atoms
-        !> that meet sit close in memory; slot_of_id and id_of map between ids and these numbers)
-        !> and put every atom into its cell.
-        subroutine place_atoms()
-            integer :: i, d, k, c(3)
-            integer, allocatable :: cell_of(:), start(:), perm(:), ic(:, :)
-            real(dp) :: s
-            allocate (cell_of(n), ic(3, n), start(product(cells%nc) + 1), perm(n), id_of(n), slot_of_id(n))
-            do i = 1, n
-                do d = 1, 3
-                    s = floor((x(d, i) - eng%box%lo(d))*inv_len(d))
-                    x(d, i) = x(d, i) - s*length(d)
-                    img(d, i) = img(d, i) + int(s)
-                    c(d) = int((x(d, i) - eng%box%lo(d))/cells%w(d))
-                    c(d) = min(max(c(d), 0), cells%nc(d) - 1)
-                end do
-                ic(:, i) = c
-                cell_of(i) = cells%index(c)
+    !> Wrap the positions into the box, number the atoms in the order of their cells (atoms
+    !> that meet sit close in memory; slot_of_id and id_of map between ids and these numbers)
+    !> and put every atom into its cell.
+    subroutine place_atoms(r)
+        type(ed_run_t), intent(inout) :: r
+        integer :: i, d, k, c(3), n
+        integer, allocatable :: cell_of(:), start(:), perm(:), ic(:, :)
+        real(dp) :: s
+        n = r%n
+        if (allocated(r%id_of)) deallocate (r%id_of, r%slot_of_id)
+        allocate (cell_of(n), ic(3, n), start(product(r%cells%nc) + 1), perm(n), r%id_of(n), r%slot_of_id(n))
+        do i = 1, n
+            do d = 1, 3
+                s = floor((r%x(d, i) - r%eng%box%lo(d))*r%inv_len(d))
+                r%x(d, i) = r%x(d, i) - s*r%length(d)
+                r%img(d, i) = r%img(d, i) + int(s)
+                c(d) = int((r%x(d, i) - r%eng%box%lo(d))/r%cells%w(d))
+                c(d) = min(max(c(d), 0), r%cells%nc(d) - 1)
             end do
-            start = 0                                   ! counting sort by cell (stable: by id within a cell)
-            do i = 1, n
-                start(cell_of(i) + 1) = start(cell_of(i) + 1) + 1
-            end do
-            start(1) = 1
-            do k = 2, size(start)
-                start(k) = start(k) + start(k - 1)
-            end do
-            do i = 1, n
-                perm(start(cell_of(i))) = i
-                start(cell_of(i)) = start(cell_of(i)) + 1
-            end do
-            x = x(:, perm); v = v(:, perm); m = m(perm); typ = typ(perm); img = img(:, perm)
-            ic = ic(:, perm)
-            do k = 1, n
-                id_of(k) = perm(k)
-                slot_of_id(perm(k)) = k
-            end do
-            do i = n, 1, -1          ! (inserted last to first: each cell's list runs in id order)
-                call cells%insert(i, ic(:, i))
-            end do
-        end subroutine place_atoms
+            ic(:, i) = c
+            cell_of(i) = r%cells%index(c)
+        end do
+        start = 0                                   ! counting sort by cell (stable: by id within a cell)
+        do i = 1, n
+            start(cell_of(i) + 1) = start(cell_of(i) + 1) + 1
+        end do
+        start(1) = 1
+        do k = 2, size(start)
+            start(k) = start(k) + start(k - 1)
+        end do
+        do i = 1, n
+            perm(start(cell_of(i))) = i
+            start(cell_of(i)) = start(cell_of(i)) + 1
+        end do
+        r%x = r%x(:, perm); r%v = r%v(:, perm); r%m = r%m(perm); r%typ = r%typ(perm); r%img = r%img(:, perm)
+        ic = ic(:, perm)
+        do k = 1, n
+            r%id_of(k) = perm(k)
+            r%slot_of_id(perm(k)) = k
+        end do
+        do i = n, 1, -1          ! (inserted last to first: each cell's list runs in id order)
+            call r%cells%insert(i, ic(:, i))
+        end do
+    end subroutine place_atoms
 
-        !> Regions of the pairs inside a radius at the start (overlaps of hard cores are refused),
-        !> and the potential energy.
-        subroutine find_regions()
-            integer :: i, j, s, c, nb(27)
-            real(dp) :: dx(3)
-            integer(i8) :: inside
-            pe = 0
-            inside = 0
-            if (tab%has_steps) call map%init(int(n, i8), int(n, i8)*4)
-            do i = 1, n
-                call neighbour_cells(i, nb)
-                do c = 1, 27
-                    j = cells%head(nb(c))
-                    do while (j > 0)
-                        if (j > i) then
-                            dx = x(:, i) - x(:, j)
-                            dx = dx - length*anint(dx*inv_len)
-                            s = tab%region_of(typ(i), typ(j), sum(dx**2))
-                            if (s == tab%nr(typ(i), typ(j))) call stop_all(eng%source//': overlapping hard cores '// &
-                                '(atoms '//int_text(id_of(i))//' and '//int_text(id_of(j))//' closer than their diameter)')
-                            if (s > 0) then
-                                call map%put(i, j, s)
-                                pe = pe + tab%u(s, typ(i), typ(j))
-                                inside = inside + 1
-                            end if
-                        end if
-                        j = cells%nxt(j)
-                    end do
-                end do
-            end do
-        end subroutine find_regions
-
-        !> The 27 cells around atom i's cell (periodic).
-        pure subroutine neighbour_cells(i, nb)
-            integer, intent(in) :: i
-            integer, intent(out) :: nb(27)
-            integer :: a, b, c, k, cc(3)
-            k = 0
-            do c = -1, 1
-                do b = -1, 1
-                    do a = -1, 1
-                        cc = cells%ic(:, i) + [a, b, c]
-                        cc = modulo(cc, cells%nc)
-                        k = k + 1
-                        nb(k) = 1 + cc(1) + cells%nc(1)*(cc(2) + cells%nc(2)*cc(3))
-                    end do
-                end do
-            end do
-        end subroutine neighbour_cells
-
-        !> Atom i's earliest event after t (its cell crossing or a crossing of a radius with an atom
-        !> of the 27 cells around it) into its slot.
-        subroutine predict(i, t)
-            integer, intent(in) :: i
-            real(dp), intent(in) :: t
-            real(dp) :: xi(3), dx(3), dv(3), best, dt, b, rsq
-            integer :: nb(27), c, j, dir, s, ti, tj, nr, best_j, best_code
-            xi = x(:, i) + v(:, i)*(t - tl(i))
-            call cells%crossing(i, xi, v(:, i), best, dir)
-            best_j = 0; best_code = dir
-            call neighbour_cells(i, nb)
-            ti = typ(i)
+    !> Regions of the pairs inside a radius (overlaps of hard cores are refused), and the
+    !> potential energy.
+    subroutine find_regions(r)
+        type(ed_run_t), intent(inout) :: r
+        integer :: i, j, s, c, nb(27)
+        real(dp) :: dx(3)
+        r%pe = 0
+        if (r%tab%has_steps) call r%map%init(int(r%n, i8), int(r%n, i8)*4)
+        do i = 1, r%n
+            call neighbour_cells(r%cells, i, nb)
             do c = 1, 27
-                j = cells%head(nb(c))
+                j = r%cells%head(nb(c))
                 do while (j > 0)
-                    if (j /= i) then
-                        dx = xi - (x(:, j) + v(:, j)*(t - tl(j)))
-                        dx = dx - length*anint(dx*inv_len)
-                        dv = v(:, i) - v(:, j)
-                        tj = typ(j)
-                        rsq = dx(1)**2 + dx(2)**2 + dx(3)**2
-                        s = 0
-                        if (tab%has_steps) then
-                            if (rsq <= tab%r2(1, ti, tj)*(1 + 1.0e-8_dp)) s = map%get(i, j)
-                        end if
-                        if (s == 0) then
-                            b = dx(1)*dv(1) + dx(2)*dv(2) + dx(3)*dv(3)
-                            if (b < 0) then
-                                dt = inward_time(dx, dv, tab%r2(1, ti, tj))
-                                if (dt < best) then
-                                    best = dt; best_j = j; best_code = 1
-                                end if
-                            end if
-                        else
-                            nr = tab%nr(ti, tj)
-                            if (s < nr) then
-                                dt = inward_time(dx, dv, tab%r2(s + 1, ti, tj))
-                                if (dt < best) then
-                                    best = dt; best_j = j; best_code = s + 1
-                                end if
-                            end if
-                            dt = outward_time(dx, dv, tab%r2(s, ti, tj))
-                            if (dt < best) then
-                                best = dt; best_j = j; best_code = -s
-                            end if
+                    if (j > i) then
+                        dx = r%x(:, i) - r%x(:, j)
+                        dx = dx - r%length*anint(dx*r%inv_len)
+                        s = r%tab%region_of(r%typ(i), r%typ(j), sum(dx**2))
+                        if (s == r%tab%nr(r%typ(i), r%typ(j))) call stop_all(r%eng%source//': overlapping hard '// &
+                            'cores (atoms '//int_text(r%id_of(i))//' and '//int_text(r%id_of(j))//' closer than their '// &
+                            'diameter)')
+                        if (s > 0) then
+                            call r%map%put(i, j, s)
+                            r%pe = r%pe + r%tab%u(s, r%typ(i), r%typ(j))
                         end if
                     end if
-                    j = cells%nxt(j)
+                    j = r%cells%nxt(j)
                 end do
             end do
-            ev_code(i) = best_code; ev_partner(i) = best_j
-            if (best_j > 0) then
-                ev_kind(i) = kind_pair; ev_pcount(i) = cnt(best_j)
-            else
-                ev_kind(i) = kind_cell
-            end if
-            ev_t(i) = t + best
-            call q%set(i, ev_t(i))
-        end subroutine predict
+        end do
+    end subroutine find_regions
 
-        !> The pair (i, j) crosses radius |code| at t, inward (code > 0) or outward (code < 0).
-        subroutine pair_event(i, j, code, t)
-            integer, intent(in) :: i, j, code
-            real(dp), intent(in) :: t
-            real(dp) :: dx(3), du, w, ke_old
-            integer :: k, nr, s_new, ti, tj
-            logical :: crossed
+    !> The 27 cells around atom i's cell (periodic).
+    pure subroutine neighbour_cells(cells, i, nb)
+        type(event_cells_t), intent(in) :: cells
+        integer, intent(in) :: i
+        integer, intent(out) :: nb(27)
+        integer :: a, b, c, k, cc(3)
+        k = 0
+        do c = -1, 1
+            do b = -1, 1
+                do a = -1, 1
+                    cc = cells%ic(:, i) + [a, b, c]
+                    cc = modulo(cc, cells%nc)
+                    k = k + 1
+                    nb(k) = 1 + cc(1) + cells%nc(1)*(cc(2) + cells%nc(2)*cc(3))
+                end do
+            end do
+        end do
+    end subroutine neighbour_cells
+
+    ! ------------------------------------------------------------------ events
+
+    !> Atom i's earliest event after t (its cell crossing or a crossing of a radius with an atom
+    !> of the 27 cells around it) into its slot.
+    subroutine predict(r, i, t)
+        type(ed_run_t), intent(inout) :: r
+        integer, intent(in) :: i
+        real(dp), intent(in) :: t
+        real(dp) :: best
+        integer :: best_j, best_code
+        call earliest_event(r%x, r%v, r%tl, r%typ, r%tab, r%cells, r%map, r%length, r%inv_len, i, t, best, best_j, &
+                            best_code)
+        r%ev_code(i) = best_code; r%ev_partner(i) = best_j
+        if (best_j > 0) then
+            r%ev_kind(i) = kind_pair; r%ev_pcount(i) = r%cnt(best_j)
+        else
+            r%ev_kind(i) = kind_cell
+        end if
+        r%ev_t(i) = t + best
+        call r%q%set(i, r%ev_t(i))
+    end subroutine predict
+
+    !> The search of predict on plain arrays (the hot loop: no derived-type indirection inside it):
+    !> the time from t to atom i's earliest event, its partner (0: a cell crossing) and its code
+    !> (the radius crossed, > 0 inward, < 0 outward; a cell crossing: the face).
+    subroutine earliest_event(x, v, tl, typ, tab, cells, map, length, inv_len, i, t, best, best_j, best_code)
+        real(dp), intent(in), contiguous :: x(:, :), v(:, :), tl(:)
+        integer, intent(in), contiguous :: typ(:)
+        real(dp), intent(in) :: length(3), inv_len(3), t
+        integer, intent(in) :: i
+        type(stepped_table_t), intent(in) :: tab
+        type(event_cells_t), intent(in) :: cells
+        type(pair_map_t), intent(in) :: map
+        real(dp), intent(out) :: best
+        integer, intent(out) :: best_j, best_code
+        real(dp) :: xi(3), dx(3), dv(3), dt, b, rsq
+        integer :: nb(27), c, j, dir, s, ti, tj, nr
+        xi = x(:, i) + v(:, i)*(t - tl(i))
+        call cells%crossing(i, xi, v(:, i), best, dir)
+        best_j = 0; best_code = dir
+        call neighbour_cells(cells, i, nb)
+        ti = typ(i)
+        do c = 1, 27
+            j = cells%head(nb(c))
+            do while (j > 0)
+                if (j /= i) then
+                    dx = xi - (x(:, j) + v(:, j)*(t - tl(j)))
+                    dx = dx - length*anint(dx*inv_len)
+                    dv = v(:, i) - v(:, j)
+                    tj = typ(j)
+                    rsq = dx(1)**2 + dx(2)**2 + dx(3)**2
+                    s = 0
+                    if (tab%has_steps) then
+                        if (rsq <= tab%r2(1, ti, tj)*(1 + 1.0e-8_dp)) s = map%get(i, j)
+                    end if
+                    if (s == 0) then
+                        b = dx(1)*dv(1) + dx(2)*dv(2) + dx(3)*dv(3)
+                        if (b < 0) then
+                            dt = inward_time(dx, dv, tab%r2(1, ti, tj))
+                            if (dt < best) then
+                                best = dt; best_j = j; best_code = 1
+                            end if
+                        end if
+                    else
+                        nr = tab%nr(ti, tj)
+                        if (s < nr) then
+                            dt = inward_time(dx, dv, tab%r2(s + 1, ti, tj))
+                            if (dt < best) then
+                                best = dt; best_j = j; best_code = s + 1
+                            end if
+                        end if
+                        dt = outward_time(dx, dv, tab%r2(s, ti, tj))
+                        if (dt < best) then
+                            best = dt; best_j = j; best_code = -s
+                        end if
+                    end if
+                end if
+                j = cells%nxt(j)
+            end do
+        end do
+    end subroutine earliest_event
+
+    !> The pair (i, j) crosses radius |code| at t, inward (code > 0) or outward (code < 0).
+    subroutine pair_event(r, i, j, code, t)
+        type(ed_run_t), intent(inout) :: r
+        integer, intent(in) :: i, j, code
+        real(dp), intent(in) :: t
+        real(dp) :: dx(3), du, w, ke_old
+        integer :: k, nr, s_new, ti, tj
+        logical :: crossed
+        associate (x => r%x, v => r%v, tl => r%tl, m => r%m, tab => r%tab, stats => r%stats)
             x(:, i) = x(:, i) + v(:, i)*(t - tl(i)); tl(i) = t
             x(:, j) = x(:, j) + v(:, j)*(t - tl(j)); tl(j) = t
             dx = x(:, i) - x(:, j)
-            dx = dx - length*anint(dx*inv_len)
-            ti = typ(i); tj = typ(j)
+            dx = dx - r%length*anint(dx*r%inv_len)
+            ti = r%typ(i); tj = r%typ(j)
             nr = tab%nr(ti, tj)
             k = abs(code)
             if (code > 0) then
@@ -433,14 +677,14 @@ contains
                 du = tab%u(k - 1, ti, tj) - tab%u(k, ti, tj)
             end if
             ke_old = 0.5_dp*(m(i)*sum(v(:, i)**2) + m(j)*sum(v(:, j)**2))
-            call collide(dx, v(:, i), v(:, j), m(i), m(j), du/eng%units%mvv2e, crossed, w)
-            ke_int = ke_int + ke_run*(t - t_ke); t_ke = t
-            ke_run = ke_run + (0.5_dp*(m(i)*sum(v(:, i)**2) + m(j)*sum(v(:, j)**2)) - ke_old)
-            virial = virial + w
+            call collide(dx, v(:, i), v(:, j), m(i), m(j), du/r%eng%units%mvv2e, crossed, w)
+            r%ke_int = r%ke_int + r%ke_run*(t - r%t_ke); r%t_ke = t
+            r%ke_run = r%ke_run + (0.5_dp*(m(i)*sum(v(:, i)**2) + m(j)*sum(v(:, j)**2)) - ke_old)
+            r%virial = r%virial + w
             stats%pair_events = stats%pair_events + 1
             if (crossed) then
-                pe = pe + du
-                call map%put(i, j, s_new)
+                r%pe = r%pe + du
+                call r%map%put(i, j, s_new)
                 if (code > 0) then
                     stats%captures = stats%captures + 1
                 else
@@ -451,155 +695,215 @@ contains
             else
                 stats%bounces = stats%bounces + 1
             end if
-            cnt(i) = cnt(i) + 1; cnt(j) = cnt(j) + 1
-            call predict(i, t)
-            call predict(j, t)
-        end subroutine pair_event
+        end associate
+        r%cnt(i) = r%cnt(i) + 1; r%cnt(j) = r%cnt(j) + 1
+        call predict(r, i, t)
+        call predict(r, j, t)
+    end subroutine pair_event
 
-        !> Atom i leaves its cell through face ev_code(i) at t (across the box: wrapped, image counted).
-        subroutine cell_event(i, t)
-            integer, intent(in) :: i
-            real(dp), intent(in) :: t
-            integer :: d, c(3)
-            stats%cell_events = stats%cell_events + 1
-            x(:, i) = x(:, i) + v(:, i)*(t - tl(i)); tl(i) = t
-            d = abs(ev_code(i))
-            c = cells%ic(:, i)
-            c(d) = c(d) + sign(1, ev_code(i))
-            if (c(d) >= cells%nc(d)) then
-                c(d) = 0; x(d, i) = x(d, i) - length(d); img(d, i) = img(d, i) + 1
-            else if (c(d) < 0) then
-                c(d) = cells%nc(d) - 1; x(d, i) = x(d, i) + length(d); img(d, i) = img(d, i) - 1
-            end if
-            call cells%remove(i)
-            call cells%insert(i, c)
-            call predict(i, t)
-        end subroutine cell_event
+    !> Atom i leaves its cell through face ev_code(i) at t (across the box: wrapped, image counted).
+    subroutine cell_event(r, i, t)
+        type(ed_run_t), intent(inout) :: r
+        integer, intent(in) :: i
+        real(dp), intent(in) :: t
+        integer :: d, c(3)
+        r%stats%cell_events = r%stats%cell_events + 1
+        r%x(:, i) = r%x(:, i) + r%v(:, i)*(t - r%tl(i)); r%tl(i) = t
+        d = abs(r%ev_code(i))
+        c = r%cells%ic(:, i)
+        c(d) = c(d) + sign(1, r%ev_code(i))
+        if (c(d) >= r%cells%nc(d)) then
+            c(d) = 0; r%x(d, i) = r%x(d, i) - r%length(d); r%img(d, i) = r%img(d, i) + 1
+        else if (c(d) < 0) then
+            c(d) = r%cells%nc(d) - 1; r%x(d, i) = r%x(d, i) + r%length(d); r%img(d, i) = r%img(d, i) - 1
+        end if
+        call r%cells%remove(i)
+        call r%cells%insert(i, c)
+        call predict(r, i, t)
+    end subroutine cell_event
 
-        !> A scheduled time; one within 1e-9 intervals of the end is the end (no second sample
-        !> a rounding error after the last one).
-        pure real(dp) function snapped(time, interval)
-            real(dp), intent(in) :: time, interval
-            snapped = time
-            if (abs(p%t_end - time) <= 1.0e-9_dp*interval) snapped = p%t_end
-        end function snapped
-
-        !> The schedule slot at t: samples, frames, the end (.true.). Then its next time.
-        logical function schedule(t) result(done)
-            real(dp), intent(in) :: t
-            logical :: sample_due, frame_due
-            done = t >= p%t_end
-            sample_due = t >= t_next_sample .or. done
-            frame_due = t >= t_next_frame
-            if (sample_due) then
-                call write_sample(t)
-                if (t >= t_next_sample) then
-                    n_sample = n_sample + 1
-                    t_next_sample = snapped(n_sample*p%sample_dt, p%sample_dt)
+    !> The thermostat's event at t (Andersen: the atoms whose collision time it is get new
+    !> velocities): the hook acts on this rank's atoms in the engine; the atoms it changed are
+    !> gathered and, in id order on every rank, brought to t, given their new velocities and
+    !> predicted again (their partners' predictions go stale by the event counters).
+    subroutine thermostat_event(r, t)
+        type(ed_run_t), intent(inout) :: r
+        real(dp), intent(in) :: t
+        integer :: k, g, nl, nc, i, rk
+        integer :: counts(world%nprocs), displ(world%nprocs)
+        integer(i8) :: id
+        real(dp) :: vnew(3), de
+        associate (atoms => r%eng%atoms)
+            nl = atoms%nlocal
+            do k = 1, nl
+                atoms%v(:, k) = r%v(:, r%slot_of_id(int(atoms%id(k))))
+            end do
+            call r%ts%apply_event(atoms, t)
+            nc = 0
+            do k = 1, nl
+                g = r%slot_of_id(int(atoms%id(k)))
+                if (any(atoms%v(:, k) /= r%v(:, g))) then
+                    nc = nc + 1
+                    r%mine_id(nc) = atoms%id(k); r%mine_v(:, nc) = atoms%v(:, k)
                 end if
-            end if
-            if (frame_due) then
-                call write_frame(t)
-                n_frame = n_frame + 1
-                t_next_frame = snapped(n_frame*p%frame_dt, p%frame_dt)
-            end if
-            if (.not. done) call q%set(sched_slot, min(t_next_sample, t_next_frame, p%t_end))
-        end function schedule
+            end do
+            call MPI_Allgather(nc, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, world%comm)
+            displ(1) = 0
+            do rk = 2, world%nprocs
+                displ(rk) = displ(rk - 1) + counts(rk - 1)
+            end do
+            call MPI_Allgatherv(r%mine_id, nc, MPI_INTEGER8, r%changed_id, counts, displ, MPI_INTEGER8, &
+                                world%comm)
+            call MPI_Allgatherv(r%mine_v, 3*nc, MPI_DOUBLE_PRECISION, r%changed_v, 3*counts, 3*displ, &
+                                MPI_DOUBLE_PRECISION, world%comm)
+        end associate
+        nc = sum(counts)
+        call sort_changed(r%changed_id(1:nc), r%changed_v(:, 1:nc))
+        r%ke_int = r%ke_int + r%ke_run*(t - r%t_ke); r%t_ke = t
+        do k = 1, nc
+            id = r%changed_id(k); vnew = r%changed_v(:, k)
+            i = r%slot_of_id(int(id))
+            r%x(:, i) = r%x(:, i) + r%v(:, i)*(t - r%tl(i)); r%tl(i) = t
+            de = 0.5_dp*r%m(i)*(sum(vnew**2) - sum(r%v(:, i)**2))
+            r%ke_run = r%ke_run + de
+            r%ecouple = r%ecouple + de*r%eng%units%mvv2e
+            r%v(:, i) = vnew
+            r%cnt(i) = r%cnt(i) + 1
+        end do
+        call r%eng%timers%start(t_pair)
+        do k = 1, nc
+            call predict(r, r%slot_of_id(int(r%changed_id(k))), t)
+        end do
+        call r%eng%timers%stop(t_pair)
+        r%cal%t(cal_thermostat) = r%ts%event_time()
+    end subroutine thermostat_event
 
-        subroutine write_sample(t)
-            real(dp), intent(in) :: t
-            type(thermo_sample_t) :: s
-            real(dp) :: tau, rate
+    !> The changed atoms in id order (insertion sort: a thermostat event changes few).
+    pure subroutine sort_changed(id, v)
+        integer(i8), intent(inout) :: id(:)
+        real(dp), intent(inout) :: v(:, :)
+        integer :: a, b
+        integer(i8) :: key
+        real(dp) :: vk(3)
+        do a = 2, size(id)
+            key = id(a); vk = v(:, a)
+            b = a - 1
+            do while (b >= 1)
+                if (id(b) <= key) exit
+                id(b + 1) = id(b); v(:, b + 1) = v(:, b)
+                b = b - 1
+            end do
+            id(b + 1) = key; v(:, b + 1) = vk
+        end do
+    end subroutine sort_changed
+
+    ! ------------------------------------------------------------------ outputs
+
+    !> A thermo line at t: the sample, the pressure from the kinetic energy's time integral and the
+    !> collision virial over the interval since the last line, the event counters.
+    subroutine write_sample(r, t)
+        type(ed_run_t), intent(inout) :: r
+        real(dp), intent(in) :: t
+        type(thermo_sample_t) :: s
+        real(dp) :: tau, rate
+        associate (eng => r%eng, stats => r%stats)
             call eng%timers%start(t_output)
-            s = sample(t)
-            tau = t - t_last
-            ke_int = ke_int + ke_run*(t - t_ke); t_ke = t
+            s = sample(r, t)
+            tau = t - r%t_last
+            r%ke_int = r%ke_int + r%ke_run*(t - r%t_ke); r%t_ke = t
             if (tau > 0) then
-                s%press = (2*ke_int + virial)/tau*eng%units%mvv2e/(3*eng%box%volume())*eng%units%nktv2p
-                rate = 2*real(stats%core - core_last, dp)/(n*tau)
+                s%press = (2*r%ke_int + r%virial)/tau*eng%units%mvv2e/(3*eng%box%volume())*eng%units%nktv2p
+                rate = 2*real(stats%core - r%core_last, dp)/(r%n*tau)
             else
                 s%press = 2*s%ke/(3*eng%box%volume())*eng%units%nktv2p
                 rate = 0
             end if
-            call thermo%write(s, [real(stats%events, dp), real(stats%pair_events, dp), rate, &
-                                  real(stats%bounces, dp), real(stats%captures, dp), real(stats%escapes, dp), &
-                                  real(map_count(), dp)])
-            stats%e_last = s%etotal
-            ke_int = 0; virial = 0; t_last = t; core_last = stats%core
+            if (r%ts%active()) s%ecouple = r%ecouple
+            call r%out%sample(s, s%etotal, [real(stats%events, dp), real(stats%pair_events, dp), rate, &
+                                            real(stats%bounces, dp), real(stats%captures, dp), real(stats%escapes, dp), &
+                                            map_count(r)])
+            stats%e_last = s%etotal - s%ecouple       ! (with a thermostat: econserve)
+            r%ke_int = 0; r%virial = 0; r%t_last = t; r%core_last = stats%core
             call eng%timers%stop(t_output)
-        end subroutine write_sample
+        end associate
+    end subroutine write_sample
 
-        real(dp) function map_count()
-            map_count = 0
-            if (tab%has_steps) map_count = real(map%count(), dp)
-        end function map_count
+    real(dp) function map_count(r)
+        type(ed_run_t), intent(in) :: r
+        map_count = 0
+        if (r%tab%has_steps) map_count = real(r%map%count(), dp)
+    end function map_count
 
-        !> The thermo sample at t from every atom (the same sums on every rank).
-        function sample(t) result(s)
-            real(dp), intent(in) :: t
-            type(thermo_sample_t) :: s
-            real(dp) :: r(3), pl(6), ke, dof
-            integer :: i
-            pl = 0; ke = 0
-            do i = 1, n
-                r = x(:, i) + v(:, i)*(t - tl(i)) + img(:, i)*length
+    !> The thermo sample at t from every atom (the same sums on every rank).
+    function sample(r, t) result(s)
+        type(ed_run_t), intent(in) :: r
+        real(dp), intent(in) :: t
+        type(thermo_sample_t) :: s
+        real(dp) :: rr(3), pl(6), ke, dof
+        integer :: i
+        pl = 0; ke = 0
+        associate (x => r%x, v => r%v, m => r%m)
+            do i = 1, r%n
+                rr = x(:, i) + v(:, i)*(t - r%tl(i)) + r%img(:, i)*r%length
                 ke = ke + m(i)*(v(1, i)**2 + v(2, i)**2 + v(3, i)**2)
                 pl(1:3) = pl(1:3) + m(i)*v(:, i)
-                pl(4:6) = pl(4:6) + m(i)*[r(2)*v(3, i) - r(3)*v(2, i), r(3)*v(1, i) - r(1)*v(3, i), &
-                                          r(1)*v(2, i) - r(2)*v(1, i)]
+                pl(4:6) = pl(4:6) + m(i)*[rr(2)*v(3, i) - rr(3)*v(2, i), rr(3)*v(1, i) - rr(1)*v(3, i), &
+                                          rr(1)*v(2, i) - rr(2)*v(1, i)]
             end do
-            s%step = stats%events; s%time = t
-            s%ke = 0.5_dp*ke*eng%units%mvv2e
-            s%pe = pe
-            s%etotal = s%ke + s%pe
-            s%momentum = pl(1:3); s%angular = pl(4:6)
-            dof = 3*real(n, dp) - 3
-            s%temp = 0
-            if (dof > 0) s%temp = 2*s%ke/(dof*eng%units%boltz)
-        end function sample
+        end associate
+        s%step = r%stats%events; s%time = t
+        s%ke = 0.5_dp*ke*r%eng%units%mvv2e
+        s%pe = r%pe
+        s%etotal = s%ke + s%pe
+        s%momentum = pl(1:3); s%angular = pl(4:6)
+        dof = 3*real(r%n, dp) - 3
+        if (r%ts%active()) dof = r%eng%ndof         ! (Andersen: the total momentum is not held)
+        s%temp = 0
+        if (dof > 0) s%temp = 2*s%ke/(dof*r%eng%units%boltz)
+    end function sample
 
-        subroutine write_frame(t)
-            real(dp), intent(in) :: t
-            type(thermo_sample_t) :: s
-            character(len=512) :: msg
-            character(len=16), parameter :: names(3) = [character(len=16) :: 'events', 'collisions', 'captured_pairs']
-            call eng%timers%start(t_output)
-            call put_state(t)
-            s = sample(t)
-            call traj%write(stats%events, t, eng%atoms, s, ok, msg, names, &
-                            [real(stats%events, dp), real(stats%pair_events, dp), map_count()])
-            call check_all(ok, trim(msg))
-            call eng%timers%stop(t_output)
-        end subroutine write_frame
+    subroutine write_frame(r, t)
+        type(ed_run_t), intent(inout) :: r
+        real(dp), intent(in) :: t
+        type(thermo_sample_t) :: s
+        character(len=16), parameter :: names(3) = [character(len=16) :: 'events', 'collisions', 'captured_pairs']
+        call put_state(r, t)
+        s = sample(r, t)
+        call r%out%frame(r%eng, r%stats%events, t, s, names, &
+                         [real(r%stats%events, dp), real(r%stats%pair_events, dp), map_count(r)])
+    end subroutine write_frame
 
-        !> This rank's atoms in the engine take the state at t (for frames and the final atoms file).
-        subroutine put_state(t)
-            real(dp), intent(in) :: t
-            integer :: k, g, d
-            real(dp) :: xt(3), s
-            do k = 1, eng%atoms%nlocal
-                g = slot_of_id(int(eng%atoms%id(k)))
-                xt = x(:, g) + v(:, g)*(t - tl(g))
-                eng%atoms%image(:, k) = img(:, g)
+    !> This rank's atoms in the engine take the state at t (for frames, checkpoints and the final
+    !> atoms file).
+    subroutine put_state(r, t)
+        type(ed_run_t), intent(inout) :: r
+        real(dp), intent(in) :: t
+        integer :: k, g, d
+        real(dp) :: xt(3), s
+        associate (atoms => r%eng%atoms)
+            do k = 1, atoms%nlocal
+                g = r%slot_of_id(int(atoms%id(k)))
+                xt = r%x(:, g) + r%v(:, g)*(t - r%tl(g))
+                atoms%image(:, k) = r%img(:, g)
                 do d = 1, 3        ! (an atom due to cross the box face at t may lie on it)
-                    s = floor((xt(d) - eng%box%lo(d))*inv_len(d))
-                    xt(d) = xt(d) - s*length(d)
-                    eng%atoms%image(d, k) = eng%atoms%image(d, k) + int(s)
+                    s = floor((xt(d) - r%eng%box%lo(d))*r%inv_len(d))
+                    xt(d) = xt(d) - s*r%length(d)
+                    atoms%image(d, k) = atoms%image(d, k) + int(s)
                 end do
-                eng%atoms%x(:, k) = xt
-                eng%atoms%v(:, k) = v(:, g)
-                eng%atoms%f(:, k) = 0
+                atoms%x(:, k) = xt
+                atoms%v(:, k) = r%v(:, g)
+                atoms%f(:, k) = 0
             end do
-        end subroutine put_state
+        end associate
+    end subroutine put_state
 
-        real(dp) function kinetic()
-            integer :: i
-            kinetic = 0
-            do i = 1, n
-                kinetic = kinetic + 0.5_dp*m(i)*sum(v(:, i)**2)
-            end do
-        end function kinetic
-
-    end subroutine run_event_driven
+    real(dp) function kinetic(r)
+        type(ed_run_t), intent(in) :: r
+        integer :: i
+        kinetic = 0
+        do i = 1, r%n
+            kinetic = kinetic + 0.5_dp*r%m(i)*sum(r%v(:, i)**2)
+        end do
+    end function kinetic
 
 end module terrace_event_driven

@@ -36,11 +36,11 @@ contains
     end function engine_params
 
     !> Checkpoints and stops: steps between checkpoints for velocity Verlet (checkpoint_every, or
-    !> checkpoint_interval / dt), a time for energy stepping.
+    !> checkpoint_interval / dt), a time for energy stepping and event-driven runs.
     type(control_params_t) function control_params(cfg) result(p)
         type(config_t), intent(in) :: cfg
         p%checkpoint_file = trim(cfg%checkpoint_file)
-        if (cfg%integrator == 'energy_stepping') then
+        if (cfg%integrator == 'energy_stepping' .or. cfg%integrator == 'event_driven') then
             if (cfg%checkpoint_interval > 0) p%interval = cfg%checkpoint_interval
         else
             if (cfg%checkpoint_every > 0) p%every = cfg%checkpoint_every
@@ -91,6 +91,7 @@ contains
         p%seed = cfg%seed
         p%reverse_velocities = cfg%reverse_velocities
         p%where_cells = cfg%where('system', 'cells')
+        p%restart_from = trim(cfg%read_checkpoint)
     end function ed_params
 
     !> The deck's thermostat ('none': one that does nothing) for natoms atoms; its temperature ramp
@@ -107,6 +108,8 @@ contains
         if (cfg%integrator == 'energy_stepping') then
             p%ramp_time = merge(sched%t_end, 0.0_dp, sched%t_end < huge(1.0_dp))
             if (cfg%thermostat_interval > 0) p%interval = cfg%thermostat_interval
+        else if (cfg%integrator == 'event_driven') then
+            p%ramp_time = cfg%run_time
         else
             p%ramp_time = sched%n_steps*cfg%dt
         end if

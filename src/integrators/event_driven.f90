@@ -264,6 +264,7 @@ contains
                 cycle
             end if
             r%stats%events = r%stats%events + 1
+            call r%out%thermo%tick(r%stats%events, t)
             if (r%ev_kind(slot) == kind_cell) then
                 call cell_event(r, slot, t)
             else if (r%cnt(r%ev_partner(slot)) /= r%ev_pcount(slot)) then

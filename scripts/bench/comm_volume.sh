@@ -17,7 +17,8 @@
 # displacements at every step). Printed by scripts/bench/comm_volume_report.py.
 #
 # Usage: scripts/bench/comm_volume.sh [TERRACE_BINARY]     (default build/terrace)
-# Environment: RANKS (default "2 4 8"), SCENES ("lj eam argon"; argon: Terrace only, below), S1 (20), S2 (100), THERMO (20), LMP (lmp),
+# Environment: RANKS (default "2 4 8"), SCENES ("lj eam argon"; argon: Terrace only, below),
+#              S1 (20), S2 (100), THERMO (20), LMP (lmp),
 #              KEEP=1 keeps the work directory (the .prof files, logs and summaries).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
@@ -28,6 +29,12 @@ for v in "$s1" "$s2" "$thermo"; do
     [[ "$v" =~ ^[0-9]+$ ]] || { echo "comm_volume.sh: S1, S2 and THERMO must be integers" >&2; exit 2; }
 done
 (( s2 > s1 )) || { echo "comm_volume.sh: S2 must exceed S1" >&2; exit 2; }
+for np in $ranks; do
+    [[ "$np" =~ ^[0-9]+$ ]] && (( np >= 1 )) || { echo "comm_volume.sh: RANKS must be positive integers" >&2; exit 2; }
+    if [[ " $scenes " == *" argon "* ]] && (( (np & (np - 1)) != 0 )); then
+        echo "comm_volume.sh: the argon scene needs power-of-two rank counts (RANKS), got $np" >&2; exit 2
+    fi
+done
 [[ -x "$terrace" ]] || { echo "comm_volume.sh: no Terrace binary at $terrace" >&2; exit 2; }
 work="$(mktemp -d "${TMPDIR:-/tmp}/comm_volume.XXXXXX")"
 if [[ "${KEEP:-0}" == 1 ]]; then echo "work directory: $work"; else trap 'rm -rf "$work"' EXIT; fi
@@ -100,10 +107,7 @@ start=$SECONDS
 for scene in $scenes; do
     for np in $ranks; do
         codes="terrace lammps"
-        if [[ $scene == argon ]]; then
-            codes=terrace
-            (( (np & (np - 1)) == 0 )) || { echo "comm_volume.sh: argon needs a power-of-two rank count" >&2; exit 2; }
-        fi
+        [[ $scene == argon ]] && codes=terrace
         for code in $codes; do
             modes="deck frozen"
             [[ $scene == lj && $code == terrace ]] && modes="deck every20 frozen"

@@ -88,11 +88,17 @@ def main(argv):
     steps = sorted({int(r[4]) for r in rows})
     s1, s2 = steps[0], steps[-1]
     span = s2 - s1
+    for scene, code, mode, np_, n, d in rows:
+        if code == "terrace":
+            sha = summary.get(os.path.join(d, "run.summary.json"), "terrace/git_commit", "unknown")
+            dirty = summary.get(os.path.join(d, "run.summary.json"), "terrace/git_modified", False)
+            print(f"Terrace binary built from commit {sha[:7]}{' (with local changes)' if dirty else ''}")
+            break
     print(f"Per step and rank: point-to-point messages and kB sent by the application (mean / max over ranks);")
     print(f"collective operations per step (all ranks together; over the {span} steps between the {s1}- and "
           f"{s2}-step runs).")
-    print("mean step: the deck's list schedule (code:every20: Terrace with LAMMPS's every 20, check no); ordinary step: a list never rebuilt; per build: the difference "
-          "(mean - ordinary) x steps / builds.")
+    print("mean step: the deck's list schedule (code:every20: Terrace with LAMMPS's every 20, check no);")
+    print("ordinary step: a list never rebuilt; per build: the difference (mean - ordinary) x steps / builds.")
     scene_now = None
     for scene, code, np_, mode in keys:
         label = code if mode == "deck" else f"{code}:{mode}"

@@ -14,6 +14,18 @@ module terrace_lammps_data
 
     public :: read_lammps_data
 
+    !> The state of one read: the open file, the line reached and the line read last (a section's
+    !> header line while its section is read), and which sections have been seen.
+    type :: data_reader_t
+        character(len=:), allocatable :: path
+        integer :: unit = -1, line = 0
+        integer(i8) :: nbytes = 0                    !< the file's size (bounds the atom count)
+        character(len=1024) :: buf = ''
+        character(len=32) :: section = ''           !< the section being read ('' after the last)
+        logical :: seen_masses = .false., seen_atoms = .false., seen_vel = .false., seen_coeffs = .false.
+        logical, allocatable :: vel_set(:)           !< (n) the atoms given a velocity
+    end type data_reader_t
+
 contains
 
     subroutine fail(t, path, line, msg)
@@ -33,263 +45,358 @@ contains
     subroutine read_lammps_data(path, t)
         character(len=*), intent(in) :: path
         type(atom_table_t), intent(out) :: t
-        integer :: unit, ios, line, k, p, ntok, i, j, nbonds
-        integer(i8) :: nbytes, nheader
-        character(len=1024) :: buf
-        character(len=:), allocatable :: s
-        real(dp) :: a, b, vals(8)
-        integer(i8) :: id
+        type(data_reader_t) :: r
         integer(i8), allocatable :: order(:)
-        logical :: have(3), seen_masses, seen_atoms, seen_vel, seen_coeffs, opened
-        logical, allocatable :: vel_set(:)
-        character(len=32) :: section
-        character(len=24) :: cnt
+        logical :: opened
+        integer :: ios, k
 
-        call open_table_file(t, path, 'read_data', 'data file', unit, opened)
+        call open_table_file(t, path, 'read_data', 'data file', r%unit, opened)
         if (.not. opened) return
-        inquire (unit=unit, size=nbytes)
-        have = .false.
-        nbonds = 0
-        seen_masses = .false.; seen_atoms = .false.; seen_vel = .false.; seen_coeffs = .false.
-        line = 1
-        read (unit, '(a)', iostat=ios) buf   ! title line
+        r%path = path
+        inquire (unit=r%unit, size=r%nbytes)
+        r%line = 1
+        read (r%unit, '(a)', iostat=ios) r%buf   ! title line
         if (ios /= 0) then
-            call fail(t, path, line, 'empty data file')
-            close (unit); return
+            call fail(t, path, r%line, 'empty data file')
+            close (r%unit); return
         end if
-        section = ''
-        ! header
+        call read_header(r, t)
+        if (.not. t%ok) then
+            close (r%unit); return
+        end if
+        allocate (t%x(3, t%n), t%v(3, t%n), t%type(t%n), t%image(3, t%n), t%id(t%n), t%mass(t%ntypes))
+        allocate (t%coeff(2, t%ntypes, t%ntypes), t%coeff_given(t%ntypes, t%ntypes))
+        allocate (r%vel_set(t%n))
+        t%x = 0; t%v = 0; t%image = 0; t%mass = -1; r%vel_set = .false.
+        t%coeff = 0; t%coeff_given = .false.
+        call read_sections(r, t)
+        close (r%unit)
+        if (t%ok .and. .not. r%seen_atoms) call fail(t, path, r%line, 'no Atoms section')
+        if (t%ok) then
+            call sort_index(t%id, order)
+            do k = 2, t%n
+                if (t%id(order(k)) == t%id(order(k - 1))) then
+                    call fail(t, path, r%line, 'duplicate atom id in Atoms'); exit
+                end if
+            end do
+        end if
+    end subroutine read_lammps_data
+
+    !> The header lines after the title, up to the first section name (left in r%section); the
+    !> box, the atom count and the number of types must all be there.
+    subroutine read_header(r, t)
+        type(data_reader_t), intent(inout) :: r
+        type(atom_table_t), intent(inout) :: t
+        character(len=:), allocatable :: s
+        logical :: have(3)
+        integer :: ios
+        have = .false.
+        r%section = ''
         do
-            read (unit, '(a)', iostat=ios) buf
+            read (r%unit, '(a)', iostat=ios) r%buf
             if (ios /= 0) exit
-            line = line + 1
-            s = strip(buf)
+            r%line = r%line + 1
+            s = strip(r%buf)
             if (len(s) == 0) cycle
-            if (ends_with(s, 'atoms') .and. scan(s(1:1), '0123456789+-') > 0) then
-                read (s, *, iostat=ios) nheader
-                if (ios /= 0 .or. nheader < 0) call fail(t, path, line, 'cannot read the atom count')
-                ! an Atoms line is at least "1 1 0 0 0" and a line end: 10 bytes
-                if (t%ok .and. nheader > nbytes/10) then
-                    write (cnt, '(i0)') nbytes
-                    call fail(t, path, line, 'the header says '//s//' but the file ('//trim(cnt)// &
-                              ' bytes) can hold at most '//trim(i8_text(nbytes/10))//' Atoms lines')
-                end if
-                if (t%ok) t%n = int(nheader)
-            else if (ends_with(s, 'atom types')) then
-                read (s, *, iostat=ios) nheader
-                if (ios /= 0 .or. nheader < 1) call fail(t, path, line, 'cannot read the number of atom types')
-                if (t%ok .and. nheader > max_types) call fail(t, path, line, trim(s)// &
-                    ': more atom types than Terrace supports (max '//trim(i8_text(int(max_types, i8)))//')')
-                if (t%ok) t%ntypes = int(nheader)
-            else if (index(s, 'xlo xhi') > 0 .or. index(s, 'ylo yhi') > 0 .or. index(s, 'zlo zhi') > 0) then
-                read (s, *, iostat=ios) a, b
-                if (ios == 0) then
-                    if (.not. (ieee_is_finite(a) .and. ieee_is_finite(b))) then
-                        call fail(t, path, line, 'box bounds must be finite numbers (found '//s//')')
-                    else if (.not. (b > a) .or. abs(a) > 1.0e9_dp .or. abs(b) > 1.0e9_dp) then
-                        call fail(t, path, line, 'bad box bounds (need lo < hi, |lo|, |hi| <= 1e9; found '//s//')')
-                    end if
-                else
-                    call fail(t, path, line, 'cannot read box bounds (need lo < hi)')
-                end if
-                k = merge(1, merge(2, 3, index(s, 'ylo') > 0), index(s, 'xlo') > 0)
-                t%lo(k) = a; t%hi(k) = b; have(k) = .true.
-            else if (index(s, 'xy xz yz') > 0) then
-                call fail(t, path, line, 'triclinic boxes are not supported (orthorhombic only)')
-            else if (ends_with(s, 'bonds') .or. ends_with(s, 'angles') .or. ends_with(s, 'dihedrals') .or. &
-                     ends_with(s, 'impropers')) then
-                read (s, *, iostat=ios) k
-                if (ios /= 0 .or. k /= 0) call fail(t, path, line, "'"//s//"': molecular topology is not "// &
-                                                      'supported (atom_style atomic only)')
-            else if (ends_with(s, 'types') .or. index(s, 'per atom') > 0) then
-                ! bond/angle/... types with no bonds (as write_data writes them): nothing to use
-                read (s, *, iostat=ios) k
-                if (ios /= 0) call fail(t, path, line, "cannot read the header line '"//s//"'")
-            else if (scan(s(1:1), '0123456789+-.') > 0) then
-                call fail(t, path, line, "unknown header line '"//s//"' (allowed: N atoms, N atom types, "// &
-                          'xlo xhi, ylo yhi, zlo zhi)')
-            else
-                section = section_name(s)
+            if (.not. header_line(r, t, s, have)) then
+                r%section = section_name(s)
                 exit
             end if
             if (.not. t%ok) exit
         end do
         t%has_box = all(have)
-        if (t%ok .and. .not. t%has_box) call fail(t, path, line, 'missing box bounds (xlo xhi, ylo yhi, zlo zhi)')
-        if (t%ok .and. t%n == 0) call fail(t, path, line, 'the data file has no atoms')
-        if (t%ok .and. t%ntypes == 0) call fail(t, path, line, "missing 'N atom types' header line")
-        if (.not. t%ok) then
-            close (unit); return
+        if (t%ok .and. .not. t%has_box) call fail(t, r%path, r%line, 'missing box bounds (xlo xhi, ylo yhi, zlo zhi)')
+        if (t%ok .and. t%n == 0) call fail(t, r%path, r%line, 'the data file has no atoms')
+        if (t%ok .and. t%ntypes == 0) call fail(t, r%path, r%line, "missing 'N atom types' header line")
+    end subroutine read_header
+
+    !> One non-blank header line s: the counts and box bounds it gives go into t (have: which box
+    !> bounds were given); .false. when s is no header line (a section name).
+    logical function header_line(r, t, s, have) result(is_header)
+        type(data_reader_t), intent(inout) :: r
+        type(atom_table_t), intent(inout) :: t
+        character(len=*), intent(in) :: s
+        logical, intent(inout) :: have(3)
+        integer :: ios, k
+        integer(i8) :: nheader
+        is_header = .true.
+        if (ends_with(s, 'atoms') .and. scan(s(1:1), '0123456789+-') > 0) then
+            call atom_count_line(r, t, s)
+        else if (ends_with(s, 'atom types')) then
+            read (s, *, iostat=ios) nheader
+            if (ios /= 0 .or. nheader < 1) call fail(t, r%path, r%line, 'cannot read the number of atom types')
+            if (t%ok .and. nheader > max_types) call fail(t, r%path, r%line, trim(s)// &
+                ': more atom types than Terrace supports (max '//trim(i8_text(int(max_types, i8)))//')')
+            if (t%ok) t%ntypes = int(nheader)
+        else if (index(s, 'xlo xhi') > 0 .or. index(s, 'ylo yhi') > 0 .or. index(s, 'zlo zhi') > 0) then
+            call box_bounds_line(r, t, s, have)
+        else if (index(s, 'xy xz yz') > 0) then
+            call fail(t, r%path, r%line, 'triclinic boxes are not supported (orthorhombic only)')
+        else if (ends_with(s, 'bonds') .or. ends_with(s, 'angles') .or. ends_with(s, 'dihedrals') .or. &
+                 ends_with(s, 'impropers')) then
+            read (s, *, iostat=ios) k
+            if (ios /= 0 .or. k /= 0) call fail(t, r%path, r%line, "'"//s//"': molecular topology is not "// &
+                                                'supported (atom_style atomic only)')
+        else if (ends_with(s, 'types') .or. index(s, 'per atom') > 0) then
+            ! bond/angle/... types with no bonds (as write_data writes them): nothing to use
+            read (s, *, iostat=ios) k
+            if (ios /= 0) call fail(t, r%path, r%line, "cannot read the header line '"//s//"'")
+        else if (scan(s(1:1), '0123456789+-.') > 0) then
+            call fail(t, r%path, r%line, "unknown header line '"//s//"' (allowed: N atoms, N atom types, "// &
+                      'xlo xhi, ylo yhi, zlo zhi)')
+        else
+            is_header = .false.
         end if
-        allocate (t%x(3, t%n), t%v(3, t%n), t%type(t%n), t%image(3, t%n), t%id(t%n), t%mass(t%ntypes))
-        allocate (t%coeff(2, t%ntypes, t%ntypes), t%coeff_given(t%ntypes, t%ntypes))
-        allocate (vel_set(t%n))
-        t%x = 0; t%v = 0; t%image = 0; t%mass = -1; vel_set = .false.
-        t%coeff = 0; t%coeff_given = .false.
-        ! sections
-        do while (len_trim(section) > 0 .and. t%ok)
-            select case (trim(section))
+    end function header_line
+
+    !> "N atoms": N within what the file's size can hold.
+    subroutine atom_count_line(r, t, s)
+        type(data_reader_t), intent(inout) :: r
+        type(atom_table_t), intent(inout) :: t
+        character(len=*), intent(in) :: s
+        character(len=24) :: cnt
+        integer(i8) :: nheader
+        integer :: ios
+        read (s, *, iostat=ios) nheader
+        if (ios /= 0 .or. nheader < 0) call fail(t, r%path, r%line, 'cannot read the atom count')
+        ! an Atoms line is at least "1 1 0 0 0" and a line end: 10 bytes
+        if (t%ok .and. nheader > r%nbytes/10) then
+            write (cnt, '(i0)') r%nbytes
+            call fail(t, r%path, r%line, 'the header says '//s//' but the file ('//trim(cnt)// &
+                      ' bytes) can hold at most '//trim(i8_text(r%nbytes/10))//' Atoms lines')
+        end if
+        if (t%ok) t%n = int(nheader)
+    end subroutine atom_count_line
+
+    !> "lo hi xlo xhi" (or y, z): finite, lo < hi, within 1e9.
+    subroutine box_bounds_line(r, t, s, have)
+        type(data_reader_t), intent(inout) :: r
+        type(atom_table_t), intent(inout) :: t
+        character(len=*), intent(in) :: s
+        logical, intent(inout) :: have(3)
+        real(dp) :: a, b
+        integer :: ios, k
+        read (s, *, iostat=ios) a, b
+        if (ios == 0) then
+            if (.not. (ieee_is_finite(a) .and. ieee_is_finite(b))) then
+                call fail(t, r%path, r%line, 'box bounds must be finite numbers (found '//s//')')
+            else if (.not. (b > a) .or. abs(a) > 1.0e9_dp .or. abs(b) > 1.0e9_dp) then
+                call fail(t, r%path, r%line, 'bad box bounds (need lo < hi, |lo|, |hi| <= 1e9; found '//s//')')
+            end if
+        else
+            call fail(t, r%path, r%line, 'cannot read box bounds (need lo < hi)')
+        end if
+        k = merge(1, merge(2, 3, index(s, 'ylo') > 0), index(s, 'xlo') > 0)
+        t%lo(k) = a; t%hi(k) = b; have(k) = .true.
+    end subroutine box_bounds_line
+
+    !> The sections, from the one named in r%section to the end of the file or the first failure.
+    subroutine read_sections(r, t)
+        type(data_reader_t), intent(inout) :: r
+        type(atom_table_t), intent(inout) :: t
+        do while (len_trim(r%section) > 0 .and. t%ok)
+            select case (trim(r%section))
             case ('Masses')
-                if (seen_masses) then
-                    call fail(t, path, line, 'a second Masses section'); exit
-                end if
-                seen_masses = .true.
-                do k = 1, t%ntypes
-                    call next_data_line(unit, buf, line, ios)
-                    if (ios /= 0) then
-                        call fail(t, path, line, 'Masses section ends early'); exit
-                    end if
-                    read (buf, *, iostat=ios) i, a
-                    if (ios /= 0) then
-                        call fail(t, path, line, 'bad Masses line (expected: type mass)'); exit
-                    end if
-                    if (i < 1 .or. i > t%ntypes) then
-                        call fail(t, path, line, 'Masses line for type '//trim(i8_text(int(i, i8)))// &
-                                  ', but the header says '//trim(i8_text(int(t%ntypes, i8)))//' atom types'); exit
-                    end if
-                    if (.not. (a > 0 .and. a <= 1.0e9_dp)) then
-                        call fail(t, path, line, 'bad mass (must be a finite number in (0, 1e9]): '//trim(buf)); exit
-                    end if
-                    t%mass(i) = a
-                end do
-                t%has_masses = all(t%mass > 0)
+                call read_masses(r, t)
             case ('Atoms')
-                if (seen_atoms) then
-                    call fail(t, path, line, 'a second Atoms section (a data file has one)'); exit
-                end if
-                seen_atoms = .true.
-                if (index(buf, '#') > 0) then
-                    s = strip(buf(index(buf, '#') + 1:))
-                    if (s /= 'atomic') call fail(t, path, line, "Atoms section style '"//s// &
-                                                 "' is not supported (atomic only)")
-                end if
-                do k = 1, t%n
-                    call next_data_line(unit, buf, line, ios)
-                    if (ios /= 0) then
-                        call fail(t, path, line, 'Atoms section ends early (fewer lines than the atom count)'); exit
-                    end if
-                    ntok = count_tokens(buf)
-                    if (ntok /= 5 .and. ntok /= 8) then
-                        call fail(t, path, line, 'bad Atoms line (expected: id type x y z [ix iy iz])'); exit
-                    end if
-                    vals = 0
-                    read (buf, *, iostat=ios) id, i, vals(1:ntok - 2)
-                    if (ios /= 0 .or. id < 1 .or. i < 1 .or. i > t%ntypes) then
-                        call fail(t, path, line, 'bad Atoms line (expected: id type x y z [ix iy iz], '// &
-                                  '1 <= type <= atom types)'); exit
-                    end if
-                    if (.not. all(ieee_is_finite(vals(1:3)))) then
-                        call fail(t, path, line, 'bad Atoms line: the coordinates must be finite numbers'); exit
-                    end if
-                    if (any(abs(vals(4:6)) > 1.0e9_dp) .or. any(vals(4:6) /= aint(vals(4:6)))) then
-                        call fail(t, path, line, 'bad Atoms line: image flags must be integers of magnitude '// &
-                                  'at most 1e9'); exit
-                    end if
-                    t%id(k) = id; t%type(k) = i; t%x(:, k) = vals(1:3)
-                    t%image(:, k) = nint(vals(4:6))
-                end do
+                call read_atoms(r, t)
             case ('Velocities')
-                if (.not. seen_atoms) then
-                    call fail(t, path, line, 'Velocities section before the Atoms section'); exit
-                end if
-                if (seen_vel) then
-                    call fail(t, path, line, 'a second Velocities section'); exit
-                end if
-                seen_vel = .true.
-                call sort_index(t%id, order)
-                do k = 1, t%n
-                    call next_data_line(unit, buf, line, ios)
-                    if (ios /= 0) then
-                        call fail(t, path, line, 'Velocities section ends early'); exit
-                    end if
-                    read (buf, *, iostat=ios) id, vals(1:3)
-                    if (ios /= 0 .or. count_tokens(buf) /= 4) then
-                        call fail(t, path, line, 'bad Velocities line (expected: id vx vy vz)'); exit
-                    end if
-                    if (.not. all(ieee_is_finite(vals(1:3)))) then
-                        call fail(t, path, line, 'bad Velocities line: the velocities must be finite numbers'); exit
-                    end if
-                    p = find_id(t%id, order, id)
-                    if (p == 0) then
-                        call fail(t, path, line, 'Velocities line for an atom id that is not in Atoms'); exit
-                    end if
-                    if (vel_set(p)) then
-                        call fail(t, path, line, 'Velocities line for an atom id given before (each atom once)'); exit
-                    end if
-                    t%v(:, p) = vals(1:3); vel_set(p) = .true.
-                end do
-                t%has_velocities = all(vel_set)
+                call read_velocities(r, t)
             case ('Pair Coeffs', 'PairIJ Coeffs')
-                if (seen_coeffs) then
-                    call fail(t, path, line, 'a second pair coefficient section'); exit
-                end if
-                seen_coeffs = .true.
-                if (index(buf, '#') > 0) t%coeff_style = strip(buf(index(buf, '#') + 1:))
-                do k = 1, merge(t%ntypes, t%ntypes*(t%ntypes + 1)/2, trim(section) == 'Pair Coeffs')
-                    call next_data_line(unit, buf, line, ios)
-                    if (ios /= 0) then
-                        call fail(t, path, line, trim(section)//' section ends early'); exit
-                    end if
-                    vals = 0
-                    if (trim(section) == 'Pair Coeffs') then
-                        read (buf, *, iostat=ios) i, vals(1:2)
-                        j = i
-                    else
-                        read (buf, *, iostat=ios) i, j, vals(1:2)
-                    end if
-                    if (ios /= 0 .or. i < 1 .or. i > t%ntypes .or. j < 1 .or. j > t%ntypes .or. &
-                        .not. all(ieee_is_finite(vals(1:2)))) then
-                        call fail(t, path, line, 'bad '//trim(section)//' line (expected: '// &
-                                  trim(merge('type epsilon sigma     ', 'type type epsilon sigma', &
-                                             trim(section) == 'Pair Coeffs'))//', finite numbers)'); exit
-                    end if
-                    t%coeff(:, i, j) = vals(1:2); t%coeff(:, j, i) = vals(1:2)
-                    t%coeff_given(i, j) = .true.; t%coeff_given(j, i) = .true.
-                end do
+                call read_pair_coeffs(r, t)
             case ('Bonds', 'Angles', 'Dihedrals', 'Impropers')
-                call fail(t, path, line, "section '"//trim(section)//"': molecular topology is not supported "// &
-                          '(atom_style atomic only)'); exit
+                call fail(t, r%path, r%line, "section '"//trim(r%section)//"': molecular topology is not "// &
+                          'supported (atom_style atomic only)'); exit
             case default
-                if (ends_with(trim(section), 'Coeffs')) then
+                if (ends_with(trim(r%section), 'Coeffs')) then
                     ! Bond Coeffs, Angle Coeffs, ...: nothing to apply in an atomic system
-                    t%notes = trim(t%notes)//" '"//trim(section)//"'"
-                    call skip_section(unit, buf, line)
-                    section = section_name(strip(buf))
+                    t%notes = trim(t%notes)//" '"//trim(r%section)//"'"
+                    call skip_section(r%unit, r%buf, r%line)
+                    r%section = section_name(strip(r%buf))
                     cycle
                 end if
-                call fail(t, path, line, "section '"//trim(section)//"' is not supported (allowed: Masses, Atoms, "// &
-                          'Velocities, Pair Coeffs, PairIJ Coeffs; other Coeffs sections are skipped)')
+                call fail(t, r%path, r%line, "section '"//trim(r%section)//"' is not supported (allowed: Masses, "// &
+                          'Atoms, Velocities, Pair Coeffs, PairIJ Coeffs; other Coeffs sections are skipped)')
             end select
             if (.not. t%ok) exit
-            section = ''
-            do
-                read (unit, '(a)', iostat=ios) buf
-                if (ios /= 0) exit
-                line = line + 1
-                s = strip(buf)
-                if (len(s) > 0) then
-                    if (scan(s(1:1), '0123456789+-.') > 0) then
-                        call fail(t, path, line, 'a data line where a section name was expected (more lines '// &
-                                  'than the header counts? the header says '//trim(i8_text(int(t%n, i8)))// &
-                                  ' atoms, '//trim(i8_text(int(t%ntypes, i8)))//' atom types)')
-                        exit
-                    end if
-                    section = section_name(s)
+            call next_section(r, t)
+        end do
+    end subroutine read_sections
+
+    !> After a section's lines: the next section name (blank at the end of the file) into r%section.
+    subroutine next_section(r, t)
+        type(data_reader_t), intent(inout) :: r
+        type(atom_table_t), intent(inout) :: t
+        character(len=:), allocatable :: s
+        integer :: ios
+        r%section = ''
+        do
+            read (r%unit, '(a)', iostat=ios) r%buf
+            if (ios /= 0) exit
+            r%line = r%line + 1
+            s = strip(r%buf)
+            if (len(s) > 0) then
+                if (scan(s(1:1), '0123456789+-.') > 0) then
+                    call fail(t, r%path, r%line, 'a data line where a section name was expected (more lines '// &
+                              'than the header counts? the header says '//trim(i8_text(int(t%n, i8)))// &
+                              ' atoms, '//trim(i8_text(int(t%ntypes, i8)))//' atom types)')
                     exit
                 end if
-            end do
+                r%section = section_name(s)
+                exit
+            end if
         end do
-        close (unit)
-        if (t%ok .and. .not. seen_atoms) call fail(t, path, line, 'no Atoms section')
-        if (t%ok) then
-            call sort_index(t%id, order)
-            do k = 2, t%n
-                if (t%id(order(k)) == t%id(order(k - 1))) then
-                    call fail(t, path, line, 'duplicate atom id in Atoms'); exit
-                end if
-            end do
+    end subroutine next_section
+
+    subroutine read_masses(r, t)
+        type(data_reader_t), intent(inout) :: r
+        type(atom_table_t), intent(inout) :: t
+        real(dp) :: a
+        integer :: ios, k, i
+        if (r%seen_masses) then
+            call fail(t, r%path, r%line, 'a second Masses section'); return
         end if
-    end subroutine read_lammps_data
+        r%seen_masses = .true.
+        do k = 1, t%ntypes
+            call next_data_line(r%unit, r%buf, r%line, ios)
+            if (ios /= 0) then
+                call fail(t, r%path, r%line, 'Masses section ends early'); exit
+            end if
+            read (r%buf, *, iostat=ios) i, a
+            if (ios /= 0) then
+                call fail(t, r%path, r%line, 'bad Masses line (expected: type mass)'); exit
+            end if
+            if (i < 1 .or. i > t%ntypes) then
+                call fail(t, r%path, r%line, 'Masses line for type '//trim(i8_text(int(i, i8)))// &
+                          ', but the header says '//trim(i8_text(int(t%ntypes, i8)))//' atom types'); exit
+            end if
+            if (.not. (a > 0 .and. a <= 1.0e9_dp)) then
+                call fail(t, r%path, r%line, 'bad mass (must be a finite number in (0, 1e9]): '//trim(r%buf)); exit
+            end if
+            t%mass(i) = a
+        end do
+        t%has_masses = all(t%mass > 0)
+    end subroutine read_masses
+
+    subroutine read_atoms(r, t)
+        type(data_reader_t), intent(inout) :: r
+        type(atom_table_t), intent(inout) :: t
+        character(len=:), allocatable :: s
+        real(dp) :: vals(8)
+        integer(i8) :: id
+        integer :: ios, k, i, ntok
+        if (r%seen_atoms) then
+            call fail(t, r%path, r%line, 'a second Atoms section (a data file has one)'); return
+        end if
+        r%seen_atoms = .true.
+        if (index(r%buf, '#') > 0) then
+            s = strip(r%buf(index(r%buf, '#') + 1:))
+            if (s /= 'atomic') call fail(t, r%path, r%line, "Atoms section style '"//s// &
+                                         "' is not supported (atomic only)")
+        end if
+        do k = 1, t%n
+            call next_data_line(r%unit, r%buf, r%line, ios)
+            if (ios /= 0) then
+                call fail(t, r%path, r%line, 'Atoms section ends early (fewer lines than the atom count)'); exit
+            end if
+            ntok = count_tokens(r%buf)
+            if (ntok /= 5 .and. ntok /= 8) then
+                call fail(t, r%path, r%line, 'bad Atoms line (expected: id type x y z [ix iy iz])'); exit
+            end if
+            vals = 0
+            read (r%buf, *, iostat=ios) id, i, vals(1:ntok - 2)
+            if (ios /= 0 .or. id < 1 .or. i < 1 .or. i > t%ntypes) then
+                call fail(t, r%path, r%line, 'bad Atoms line (expected: id type x y z [ix iy iz], '// &
+                          '1 <= type <= atom types)'); exit
+            end if
+            if (.not. all(ieee_is_finite(vals(1:3)))) then
+                call fail(t, r%path, r%line, 'bad Atoms line: the coordinates must be finite numbers'); exit
+            end if
+            if (any(abs(vals(4:6)) > 1.0e9_dp) .or. any(vals(4:6) /= aint(vals(4:6)))) then
+                call fail(t, r%path, r%line, 'bad Atoms line: image flags must be integers of magnitude '// &
+                          'at most 1e9'); exit
+            end if
+            t%id(k) = id; t%type(k) = i; t%x(:, k) = vals(1:3)
+            t%image(:, k) = nint(vals(4:6))
+        end do
+    end subroutine read_atoms
+
+    !> Velocities matched to the atoms by id, each atom at most once.
+    subroutine read_velocities(r, t)
+        type(data_reader_t), intent(inout) :: r
+        type(atom_table_t), intent(inout) :: t
+        integer(i8), allocatable :: order(:)
+        real(dp) :: vals(3)
+        integer(i8) :: id
+        integer :: ios, k, p
+        if (.not. r%seen_atoms) then
+            call fail(t, r%path, r%line, 'Velocities section before the Atoms section'); return
+        end if
+        if (r%seen_vel) then
+            call fail(t, r%path, r%line, 'a second Velocities section'); return
+        end if
+        r%seen_vel = .true.
+        call sort_index(t%id, order)
+        do k = 1, t%n
+            call next_data_line(r%unit, r%buf, r%line, ios)
+            if (ios /= 0) then
+                call fail(t, r%path, r%line, 'Velocities section ends early'); exit
+            end if
+            read (r%buf, *, iostat=ios) id, vals(1:3)
+            if (ios /= 0 .or. count_tokens(r%buf) /= 4) then
+                call fail(t, r%path, r%line, 'bad Velocities line (expected: id vx vy vz)'); exit
+            end if
+            if (.not. all(ieee_is_finite(vals(1:3)))) then
+                call fail(t, r%path, r%line, 'bad Velocities line: the velocities must be finite numbers'); exit
+            end if
+            p = find_id(t%id, order, id)
+            if (p == 0) then
+                call fail(t, r%path, r%line, 'Velocities line for an atom id that is not in Atoms'); exit
+            end if
+            if (r%vel_set(p)) then
+                call fail(t, r%path, r%line, 'Velocities line for an atom id given before (each atom once)'); exit
+            end if
+            t%v(:, p) = vals(1:3); r%vel_set(p) = .true.
+        end do
+        t%has_velocities = all(r%vel_set)
+    end subroutine read_velocities
+
+    !> Pair Coeffs (type epsilon sigma) or PairIJ Coeffs (type type epsilon sigma), as write_data
+    !> writes them, with the pair style named in the section line's comment.
+    subroutine read_pair_coeffs(r, t)
+        type(data_reader_t), intent(inout) :: r
+        type(atom_table_t), intent(inout) :: t
+        real(dp) :: vals(2)
+        logical :: diagonal
+        integer :: ios, k, i, j
+        if (r%seen_coeffs) then
+            call fail(t, r%path, r%line, 'a second pair coefficient section'); return
+        end if
+        r%seen_coeffs = .true.
+        diagonal = trim(r%section) == 'Pair Coeffs'
+        if (index(r%buf, '#') > 0) t%coeff_style = strip(r%buf(index(r%buf, '#') + 1:))
+        do k = 1, merge(t%ntypes, t%ntypes*(t%ntypes + 1)/2, diagonal)
+            call next_data_line(r%unit, r%buf, r%line, ios)
+            if (ios /= 0) then
+                call fail(t, r%path, r%line, trim(r%section)//' section ends early'); exit
+            end if
+            vals = 0
+            if (diagonal) then
+                read (r%buf, *, iostat=ios) i, vals(1:2)
+                j = i
+            else
+                read (r%buf, *, iostat=ios) i, j, vals(1:2)
+            end if
+            if (ios /= 0 .or. i < 1 .or. i > t%ntypes .or. j < 1 .or. j > t%ntypes .or. &
+                .not. all(ieee_is_finite(vals(1:2)))) then
+                call fail(t, r%path, r%line, 'bad '//trim(r%section)//' line (expected: '// &
+                          trim(merge('type epsilon sigma     ', 'type type epsilon sigma', diagonal))// &
+                          ', finite numbers)'); exit
+            end if
+            t%coeff(:, i, j) = vals(1:2); t%coeff(:, j, i) = vals(1:2)
+            t%coeff_given(i, j) = .true.; t%coeff_given(j, i) = .true.
+        end do
+    end subroutine read_pair_coeffs
 
     !> Skip the lines of a section that does not apply; buf holds the next section's header line
     !> on return (blank at the end of the file).

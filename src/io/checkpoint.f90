@@ -129,10 +129,10 @@ contains
         type(named_values_t), intent(in) :: values
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
-        real(dp), allocatable :: mine(:, :), block(:, :)
+        real(dp), allocatable :: block(:, :)
         integer(i8) :: first, count
-        integer(hid_t) :: dxpl, file, g, gs
-        integer :: err, n, i, k
+        integer(hid_t) :: dxpl, file
+        integer :: err, k
         logical :: good, failed
         character(len=:), allocatable :: tmp, target
         type(h5_status_t) :: st
@@ -140,18 +140,7 @@ contains
         ok = .true.; msg = ''
         target = output_target(path)       ! a symbolic link stays; its target is replaced
         tmp = target//'.tmp'
-        n = atoms%nlocal
-        allocate (mine(ncol, max(n, 1)))
-        do i = 1, n
-            mine(1, i) = real(atoms%type(i), dp)
-            mine(2:4, i) = atoms%x(:, i)
-            mine(5:7, i) = atoms%v(:, i)
-            mine(8:10, i) = atoms%f(:, i)
-            mine(11:13, i) = real(atoms%image(:, i), dp)
-            mine(14, i) = real(world%rank, dp)
-            mine(15, i) = real(i, dp)
-        end do
-        call to_id_blocks(natoms, n, atoms%id(1:n), mine(:, 1:n), first, count, block, good)
+        call gather_id_blocks(atoms, natoms, first, count, block, good)
         if (.not. good) then
             ok = .false.; msg = 'checkpoint: the atom ids are not 1..N over the ranks'; return
         end if
@@ -180,70 +169,74 @@ contains
         call h5_attr_scalar(st, file, 'natoms', natoms)
         call h5_attr_scalar(st, file, 'nprocs', int(world%nprocs, i8))
         call h5_attr_scalar(st, file, 'dimension', int(dimension, i8))
-
-        call h5gcreate_f(file, 'atoms', g, err); call st%check(err, 'create atoms')
-        block
-            integer(i8), allocatable, target :: ids(:), slots(:, :)
-            integer(int32), allocatable, target :: types(:), images(:, :)
-            real(dp), allocatable, target :: r3(:, :)
-            allocate (ids(max(count, 1_i8)), slots(2, max(count, 1_i8)), types(max(count, 1_i8)), &
-                      images(3, max(count, 1_i8)), r3(3, max(count, 1_i8)))
-            do k = 1, int(count)
-                ids(k) = first + k - 1
-                types(k) = int(nint(block(1, k)), int32)
-                images(:, k) = int(nint(block(11:13, k)), int32)
-                slots(:, k) = nint(block(14:15, k), i8)
-            end do
-            call put_rows(g, 'id', H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), 0, 8, c_loc(ids))
-            call put_rows(g, 'type', H5T_STD_I32LE, h5kind_to_type(int32, H5_INTEGER_KIND), 0, 4, c_loc(types))
-            call put_rows(g, 'image', H5T_STD_I32LE, h5kind_to_type(int32, H5_INTEGER_KIND), 3, 4, c_loc(images))
-            call put_rows(g, 'slot', H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), 2, 8, c_loc(slots))
-            r3 = block(2:4, 1:max(count, 1_i8))
-            call put_rows(g, 'position', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, 8, c_loc(r3))
-            r3 = block(5:7, 1:max(count, 1_i8))
-            call put_rows(g, 'velocity', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, 8, c_loc(r3))
-            r3 = block(8:10, 1:max(count, 1_i8))
-            call put_rows(g, 'force', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, 8, c_loc(r3))
-        end block
-        call h5gclose_f(g, err)
-
-        call h5gcreate_f(file, 'state', gs, err); call st%check(err, 'create state')
-        do k = 1, values%n
-            if (values%is_int(k)) then
-                call h5_attr_scalar(st, gs, trim(values%names(k)), values%ival(k))
-            else
-                call h5_attr_scalar(st, gs, trim(values%names(k)), values%rval(k))
-            end if
-        end do
-        call h5gclose_f(gs, err)
+        call write_atom_rows(st, file, dxpl, natoms, first, count, block)
+        call write_state(st, file, values)
         call h5_attr_scalar(st, file, 'state_checksum', state_checksum(natoms, int(world%nprocs, i8), &
                             int(dimension, i8), hash, values))
         call h5pclose_f(dxpl, err)
         call h5_guard_begin('H5Fclose'); call h5fclose_f(file, err); call h5_guard_end()
         call st%check(err, 'H5Fclose')
         call h5_writer_closed()
+        call replace_checkpoint(st, path, tmp, target, ok, msg)
+    end subroutine write_checkpoint
 
-        call h5_agree(world%comm, st, good, msg)
-        failed = .not. good
-        if (failed) then
-            ! a full device: HDF5 cannot end cleanly (terrace_errors); the previous checkpoint stays
-            call note_broken_hdf5_file()
-            call h5_section_end(world%comm)
-            if (world%rank == 0) k = remove_file(tmp)
-            ok = .false.; msg = 'checkpoint: HDF5 failed while writing '//tmp//' (is the device full?)'; return
-        end if
-        ! the file is complete on disk: replace the previous checkpoint
-        call MPI_Barrier(world%comm)
-        if (world%rank == 0) then
-            good = c_rename(tmp//c_null_char, target//c_null_char) == 0
-            call keep_at_exit(tmp)
-        end if
-        failed = .not. good
-        call any_all(failed)
-        call h5_section_end(world%comm)
-        if (failed) then
-            ok = .false.; msg = 'checkpoint: cannot rename '//tmp//' to '//path
-        end if
+    !> This rank's atoms as rows of ncol reals (type, x, v, f, image, slot rank and index), sent to
+    !> the ranks whose id blocks hold them: block(:, 1:count) are the rows of ids first..; good is
+    !> false when the ids are not 1..natoms over the ranks.
+    subroutine gather_id_blocks(atoms, natoms, first, count, block, good)
+        type(atoms_t), intent(in) :: atoms
+        integer(i8), intent(in) :: natoms
+        integer(i8), intent(out) :: first, count
+        real(dp), allocatable, intent(out) :: block(:, :)
+        logical, intent(out) :: good
+        real(dp), allocatable :: mine(:, :)
+        integer :: n, i
+        n = atoms%nlocal
+        allocate (mine(ncol, max(n, 1)))
+        do i = 1, n
+            mine(1, i) = real(atoms%type(i), dp)
+            mine(2:4, i) = atoms%x(:, i)
+            mine(5:7, i) = atoms%v(:, i)
+            mine(8:10, i) = atoms%f(:, i)
+            mine(11:13, i) = real(atoms%image(:, i), dp)
+            mine(14, i) = real(world%rank, dp)
+            mine(15, i) = real(i, dp)
+        end do
+        call to_id_blocks(natoms, n, atoms%id(1:n), mine(:, 1:n), first, count, block, good)
+    end subroutine gather_id_blocks
+
+    !> /atoms: this rank's block of rows (ids first .. first+count-1) of every dataset, each with
+    !> its checksum.
+    subroutine write_atom_rows(st, file, dxpl, natoms, first, count, block)
+        type(h5_status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: file, dxpl
+        integer(i8), intent(in) :: natoms, first, count
+        real(dp), intent(in) :: block(:, :)
+        integer(i8), allocatable, target :: ids(:), slots(:, :)
+        integer(int32), allocatable, target :: types(:), images(:, :)
+        real(dp), allocatable, target :: r3(:, :)
+        integer(hid_t) :: g
+        integer :: err, k
+        call h5gcreate_f(file, 'atoms', g, err); call st%check(err, 'create atoms')
+        allocate (ids(max(count, 1_i8)), slots(2, max(count, 1_i8)), types(max(count, 1_i8)), &
+                  images(3, max(count, 1_i8)), r3(3, max(count, 1_i8)))
+        do k = 1, int(count)
+            ids(k) = first + k - 1
+            types(k) = int(nint(block(1, k)), int32)
+            images(:, k) = int(nint(block(11:13, k)), int32)
+            slots(:, k) = nint(block(14:15, k), i8)
+        end do
+        call put_rows(g, 'id', H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), 0, 8, c_loc(ids))
+        call put_rows(g, 'type', H5T_STD_I32LE, h5kind_to_type(int32, H5_INTEGER_KIND), 0, 4, c_loc(types))
+        call put_rows(g, 'image', H5T_STD_I32LE, h5kind_to_type(int32, H5_INTEGER_KIND), 3, 4, c_loc(images))
+        call put_rows(g, 'slot', H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), 2, 8, c_loc(slots))
+        r3 = block(2:4, 1:max(count, 1_i8))
+        call put_rows(g, 'position', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, 8, c_loc(r3))
+        r3 = block(5:7, 1:max(count, 1_i8))
+        call put_rows(g, 'velocity', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, 8, c_loc(r3))
+        r3 = block(8:10, 1:max(count, 1_i8))
+        call put_rows(g, 'force', H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 3, 8, c_loc(r3))
+        call h5gclose_f(g, err)
 
     contains
 
@@ -270,7 +263,57 @@ contains
             call h5dclose_f(d, err)
         end subroutine put_rows
 
-    end subroutine write_checkpoint
+    end subroutine write_atom_rows
+
+    !> /state: one scalar attribute per named value.
+    subroutine write_state(st, file, values)
+        type(h5_status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: file
+        type(named_values_t), intent(in) :: values
+        integer(hid_t) :: gs
+        integer :: err, k
+        call h5gcreate_f(file, 'state', gs, err); call st%check(err, 'create state')
+        do k = 1, values%n
+            if (values%is_int(k)) then
+                call h5_attr_scalar(st, gs, trim(values%names(k)), values%ival(k))
+            else
+                call h5_attr_scalar(st, gs, trim(values%names(k)), values%rval(k))
+            end if
+        end do
+        call h5gclose_f(gs, err)
+    end subroutine write_state
+
+    !> After the collective close of tmp: if every rank wrote it whole, rank 0 renames it over
+    !> target (the previous checkpoint); else it is removed and the previous checkpoint stays.
+    subroutine replace_checkpoint(st, path, tmp, target, ok, msg)
+        type(h5_status_t), intent(inout) :: st
+        character(len=*), intent(in) :: path, tmp, target
+        logical, intent(inout) :: ok
+        character(len=*), intent(inout) :: msg
+        logical :: good, failed
+        integer :: k
+        call h5_agree(world%comm, st, good, msg)
+        failed = .not. good
+        if (failed) then
+            ! a full device: HDF5 cannot end cleanly (terrace_errors); the previous checkpoint stays
+            call note_broken_hdf5_file()
+            call h5_section_end(world%comm)
+            if (world%rank == 0) k = remove_file(tmp)
+            ok = .false.; msg = 'checkpoint: HDF5 failed while writing '//tmp//' (is the device full?)'; return
+        end if
+        ! the file is complete on disk: replace the previous checkpoint
+        call MPI_Barrier(world%comm)
+        if (world%rank == 0) then
+            good = c_rename(tmp//c_null_char, target//c_null_char) == 0
+            call keep_at_exit(tmp)
+        end if
+        failed = .not. good
+        call any_all(failed)
+        call h5_section_end(world%comm)
+        if (failed) then
+            ok = .false.; msg = 'checkpoint: cannot rename '//tmp//' to '//path
+        end if
+    end subroutine replace_checkpoint
 
     ! ------------------------------------------------------------------ reading
 
@@ -281,101 +324,29 @@ contains
         type(ckpt_data_t), intent(out) :: data
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
-        integer(hid_t) :: file, g, a, t
-        integer :: err, k, na, cls
-        logical :: exists, failed
-        integer(i8), target :: ibuf
-        real(dp), target :: rbuf
-        character(len=64) :: name, fmt
-        integer(size_t) :: nlen
-        type(c_ptr) :: pbuf
+        integer(hid_t) :: file
+        integer :: err
         type(h5_status_t) :: st
-        integer(i8) :: v, stored, ntypes
-        logical :: have
+        integer(i8) :: v, stored
 
         ok = .true.; msg = ''
-        v = 0
-        inquire (file=path, exist=exists)
-        if (.not. exists) then
-            ok = .false.; msg = 'no such file'
-            call agree_fail(); return
-        end if
-        call h5_open_file(st, path, h5_read, file)
-        if (file < 0) then
-            ok = .false.; msg = 'not an HDF5 file (damaged or not a checkpoint)'
-            call agree_fail(); return
-        end if
-        call h5_read_attr_string(file, 'format', fmt)
-        if (fmt /= format_name) then
-            ok = .false.; msg = 'not a Terrace checkpoint (no format = '''//format_name//''' attribute)'
-            call h5aexists_f(file, 'format', have, err)
-            if (err < 0) msg = 'damaged checkpoint: its root object header is unreadable (fails HDF5''s checksum)'
-            call h5fclose_f(file, err)
-            call agree_fail(); return
+        call open_checkpoint(path, file, st, ok, msg)
+        if (.not. ok) then
+            call agree_fail(ok, msg); return
         end if
         v = 0
-        call h5_read_attr_scalar(st, file, 'format_version', v)
-        if (st%ok .and. v /= format_version) then
-            ok = .false.
-            write (msg, '(a,i0,a,i0,a)') 'checkpoint format_version ', v, ' (this Terrace reads version ', &
-                format_version, ', with checksums): start the run again from its deck'
-            call h5fclose_f(file, err)
-            call agree_fail(); return
-        end if
         call h5_read_attr_scalar(st, file, 'natoms', data%natoms)
         call h5_read_attr_scalar(st, file, 'nprocs', v); data%nprocs = int(v)
         call h5_read_attr_scalar(st, file, 'dimension', v); data%dimension = int(v)
         call h5_read_attr_scalar(st, file, 'deck_hash', data%deck_hash)
         ! the atom count must be the datasets' length before anything is allocated with it
-        if (st%ok) call check_length('atoms/id')
+        if (st%ok) call check_length(st, file, 'atoms/id', data%natoms)
         if (st%ok .and. data%natoms > 0) then
-            block
-                integer(i8), allocatable, target :: ids(:), slots(:, :)
-                integer(int32), allocatable, target :: types(:), images(:, :)
-                real(dp), allocatable, target :: r3(:, :)
-                integer(hsize_t) :: nn
-                nn = int(data%natoms, hsize_t)
-                allocate (ids(nn), slots(2, nn), types(nn), images(3, nn), r3(3, nn))
-                call get_rows('atoms/id', h5kind_to_type(i8, H5_INTEGER_KIND), [nn], 8, c_loc(ids))
-                call get_rows('atoms/slot', h5kind_to_type(i8, H5_INTEGER_KIND), [2_hsize_t, nn], 8, c_loc(slots))
-                call get_rows('atoms/type', h5kind_to_type(int32, H5_INTEGER_KIND), [nn], 4, c_loc(types))
-                call get_rows('atoms/image', h5kind_to_type(int32, H5_INTEGER_KIND), [3_hsize_t, nn], 4, c_loc(images))
-                data%id = ids; data%slot = slots; data%type = int(types); data%image = int(images)
-                call get_rows('atoms/position', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], 8, c_loc(r3)); data%x = r3
-                call get_rows('atoms/velocity', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], 8, c_loc(r3)); data%v = r3
-                call get_rows('atoms/force', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], 8, c_loc(r3)); data%f = r3
-            end block
+            call read_atom_rows(st, file, data)
         else
             call st%fail('natoms')
         end if
-        ! the named values of /state
-        call h5gopen_f(file, 'state', g, err); call st%check(err, 'open state')
-        if (st%ok) then
-            call h5aget_num_attrs_f(g, na, err)
-            do k = 0, na - 1
-                call h5aopen_by_idx_f(g, '.', H5_INDEX_NAME_F, H5_ITER_INC_F, int(k, hsize_t), a, err)
-                call st%check(err, 'reading /state (its header fails HDF5''s checksum?)')
-                if (err < 0) exit
-                nlen = len(name)
-                name = ''
-                call h5aget_name_f(a, nlen, name, err)
-                call h5aget_type_f(a, t, err)
-                call h5tget_class_f(t, cls, err)
-                if (cls == H5T_INTEGER_F) then
-                    pbuf = c_loc(ibuf)
-                    call h5aread_f(a, h5kind_to_type(i8, H5_INTEGER_KIND), pbuf, err)
-                    call data%values%put(trim(name), ibuf)
-                else
-                    pbuf = c_loc(rbuf)
-                    call h5aread_f(a, H5T_NATIVE_DOUBLE, pbuf, err)
-                    call data%values%put(trim(name), rbuf)
-                end if
-                call st%check(err, 'read a state attribute')
-                call h5tclose_f(t, err)
-                call h5aclose_f(a, err)
-            end do
-            call h5gclose_f(g, err)
-        end if
+        call read_state(st, file, data%values)
         ! the scalars against their checksum, then the ranges of what was read
         if (st%ok) then
             stored = 0
@@ -384,84 +355,197 @@ contains
                                                      data%deck_hash, data%values)) &
                 call st%fail('the scalars (natoms, nprocs, /state) do not match state_checksum')
         end if
-        if (st%ok) then
-            have = .true.
-            ntypes = data%values%get_i('ntypes', have)
-            if (data%nprocs < 1 .or. (data%dimension /= 2 .and. data%dimension /= 3)) then
-                call st%fail('nprocs or dimension out of range')
-            else if (any(data%type < 1) .or. (have .and. any(data%type > ntypes))) then
-                call st%fail('an atom type outside 1..ntypes')
-            else if (.not. (all(abs(data%x) <= huge(1.0_dp)) .and. all(abs(data%v) <= huge(1.0_dp)) .and. &
-                            all(abs(data%f) <= huge(1.0_dp)))) then
-                call st%fail('a position, velocity or force that is NaN or infinite')
-            else if (any(data%slot(1, :) < 0) .or. any(data%slot(1, :) >= data%nprocs) .or. any(data%slot(2, :) < 1)) then
-                call st%fail('an atom slot outside the ranks that wrote it')
-            end if
-            do k = 1, data%values%n
-                if (.not. data%values%is_int(k)) then
-                    if (.not. abs(data%values%rval(k)) <= huge(1.0_dp)) &
-                        call st%fail('/state '//trim(data%values%names(k))//' is NaN or infinite')
-                end if
-            end do
-        end if
+        if (st%ok) call check_ranges(st, data)
         call h5fclose_f(file, err)
         if (.not. st%ok) then
             ok = .false.; msg = 'damaged checkpoint: '//trim(st%msg)
         end if
-        call agree_fail()
-
-    contains
-
-        subroutine agree_fail()
-            failed = .not. ok
-            call any_all(failed)
-            if (failed .and. ok) then
-                ok = .false.; msg = 'unreadable on another rank'
-            end if
-        end subroutine agree_fail
-
-        !> natoms must be the length of dataset dname (one dimension) before it sizes any array.
-        subroutine check_length(dname)
-            character(len=*), intent(in) :: dname
-            integer(hid_t) :: d
-            integer(hsize_t) :: fd(1)
-            integer :: e
-            call h5dopen_f(file, dname, d, e); call st%check(e, 'open '//dname)
-            if (e < 0) return
-            if (h5_dataset_rank(d) /= 1) call st%fail(dname//' has the wrong rank')
-            if (st%ok) call h5_dataset_dims(st, d, fd)
-            if (st%ok .and. fd(1) /= data%natoms) call st%fail('natoms differs from the length of '//dname)
-            call h5dclose_f(d, e)
-        end subroutine check_length
-
-        !> The whole dataset dname, which must have the Fortran shape dims (elements of elsize
-        !> bytes), and must match its checksum attribute.
-        subroutine get_rows(dname, mtype, dims, elsize, buf)
-            character(len=*), intent(in) :: dname
-            integer(hid_t), intent(in) :: mtype
-            integer(hsize_t), intent(in) :: dims(:)
-            integer, intent(in) :: elsize
-            type(c_ptr), intent(in) :: buf
-            integer(hid_t) :: d
-            integer(hsize_t) :: fd(size(dims))
-            integer(i8) :: sum
-            integer :: e
-            if (.not. st%ok) return
-            call h5dopen_f(file, dname, d, e); call st%check(e, 'open '//dname)
-            if (e < 0) return
-            if (h5_dataset_rank(d) /= size(dims)) call st%fail(dname//' has the wrong rank')
-            if (st%ok) call h5_dataset_dims(st, d, fd)
-            if (st%ok .and. any(fd /= dims)) call st%fail(dname//' has the wrong shape')
-            if (st%ok) call h5_read_whole(st, d, mtype, buf, dname)
-            sum = 0
-            if (st%ok) call h5_read_attr_scalar(st, d, 'checksum', sum)
-            if (st%ok) then
-                if (sum /= checksum_rows(1_i8, int(dims(size(dims)), i8), int(product(dims(1:size(dims) - 1))), &
-                                         elsize, buf)) call st%fail(dname//' does not match its checksum')
-            end if
-            call h5dclose_f(d, e)
-        end subroutine get_rows
-
+        call agree_fail(ok, msg)
     end subroutine read_checkpoint
+
+    !> Open path read-only and check it is a checkpoint of this format version (ok false and msg
+    !> why, the file closed, when not); st holds a failure to read the version.
+    subroutine open_checkpoint(path, file, st, ok, msg)
+        character(len=*), intent(in) :: path
+        integer(hid_t), intent(out) :: file
+        type(h5_status_t), intent(inout) :: st
+        logical, intent(inout) :: ok
+        character(len=*), intent(inout) :: msg
+        character(len=64) :: fmt
+        logical :: exists, have
+        integer(i8) :: v
+        integer :: err
+        file = -1
+        inquire (file=path, exist=exists)
+        if (.not. exists) then
+            ok = .false.; msg = 'no such file'; return
+        end if
+        call h5_open_file(st, path, h5_read, file)
+        if (file < 0) then
+            ok = .false.; msg = 'not an HDF5 file (damaged or not a checkpoint)'; return
+        end if
+        call h5_read_attr_string(file, 'format', fmt)
+        if (fmt /= format_name) then
+            ok = .false.; msg = 'not a Terrace checkpoint (no format = '''//format_name//''' attribute)'
+            call h5aexists_f(file, 'format', have, err)
+            if (err < 0) msg = 'damaged checkpoint: its root object header is unreadable (fails HDF5''s checksum)'
+            call h5fclose_f(file, err); return
+        end if
+        v = 0
+        call h5_read_attr_scalar(st, file, 'format_version', v)
+        if (st%ok .and. v /= format_version) then
+            ok = .false.
+            write (msg, '(a,i0,a,i0,a)') 'checkpoint format_version ', v, ' (this Terrace reads version ', &
+                format_version, ', with checksums): start the run again from its deck'
+            call h5fclose_f(file, err)
+        end if
+    end subroutine open_checkpoint
+
+    !> ok the same on every rank: a failure on one rank is 'unreadable on another rank' on the others.
+    subroutine agree_fail(ok, msg)
+        logical, intent(inout) :: ok
+        character(len=*), intent(inout) :: msg
+        logical :: failed
+        failed = .not. ok
+        call any_all(failed)
+        if (failed .and. ok) then
+            ok = .false.; msg = 'unreadable on another rank'
+        end if
+    end subroutine agree_fail
+
+    !> Every /atoms dataset, whole, checked against its shape and checksum.
+    subroutine read_atom_rows(st, file, data)
+        type(h5_status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: file
+        type(ckpt_data_t), intent(inout) :: data
+        integer(i8), allocatable, target :: ids(:), slots(:, :)
+        integer(int32), allocatable, target :: types(:), images(:, :)
+        real(dp), allocatable, target :: r3(:, :)
+        integer(hsize_t) :: nn
+        nn = int(data%natoms, hsize_t)
+        allocate (ids(nn), slots(2, nn), types(nn), images(3, nn), r3(3, nn))
+        call get_rows(st, file, 'atoms/id', h5kind_to_type(i8, H5_INTEGER_KIND), [nn], 8, c_loc(ids))
+        call get_rows(st, file, 'atoms/slot', h5kind_to_type(i8, H5_INTEGER_KIND), [2_hsize_t, nn], 8, c_loc(slots))
+        call get_rows(st, file, 'atoms/type', h5kind_to_type(int32, H5_INTEGER_KIND), [nn], 4, c_loc(types))
+        call get_rows(st, file, 'atoms/image', h5kind_to_type(int32, H5_INTEGER_KIND), [3_hsize_t, nn], 4, c_loc(images))
+        data%id = ids; data%slot = slots; data%type = int(types); data%image = int(images)
+        call get_rows(st, file, 'atoms/position', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], 8, c_loc(r3)); data%x = r3
+        call get_rows(st, file, 'atoms/velocity', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], 8, c_loc(r3)); data%v = r3
+        call get_rows(st, file, 'atoms/force', H5T_NATIVE_DOUBLE, [3_hsize_t, nn], 8, c_loc(r3)); data%f = r3
+    end subroutine read_atom_rows
+
+    !> The named values of /state: each attribute, int64 or float64.
+    subroutine read_state(st, file, values)
+        type(h5_status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: file
+        type(named_values_t), intent(inout) :: values
+        integer(hid_t) :: g, a, t
+        integer :: err, k, na, cls
+        integer(i8), target :: ibuf
+        real(dp), target :: rbuf
+        character(len=64) :: name
+        integer(size_t) :: nlen
+        type(c_ptr) :: pbuf
+        call h5gopen_f(file, 'state', g, err); call st%check(err, 'open state')
+        if (.not. st%ok) return
+        call h5aget_num_attrs_f(g, na, err)
+        do k = 0, na - 1
+            call h5aopen_by_idx_f(g, '.', H5_INDEX_NAME_F, H5_ITER_INC_F, int(k, hsize_t), a, err)
+            call st%check(err, 'reading /state (its header fails HDF5''s checksum?)')
+            if (err < 0) exit
+            nlen = len(name)
+            name = ''
+            call h5aget_name_f(a, nlen, name, err)
+            call h5aget_type_f(a, t, err)
+            call h5tget_class_f(t, cls, err)
+            if (cls == H5T_INTEGER_F) then
+                pbuf = c_loc(ibuf)
+                call h5aread_f(a, h5kind_to_type(i8, H5_INTEGER_KIND), pbuf, err)
+                call values%put(trim(name), ibuf)
+            else
+                pbuf = c_loc(rbuf)
+                call h5aread_f(a, H5T_NATIVE_DOUBLE, pbuf, err)
+                call values%put(trim(name), rbuf)
+            end if
+            call st%check(err, 'read a state attribute')
+            call h5tclose_f(t, err)
+            call h5aclose_f(a, err)
+        end do
+        call h5gclose_f(g, err)
+    end subroutine read_state
+
+    !> The ranges of what was read: ranks and dimension, types, finite reals, slots, /state values.
+    subroutine check_ranges(st, data)
+        type(h5_status_t), intent(inout) :: st
+        type(ckpt_data_t), intent(in) :: data
+        integer(i8) :: ntypes
+        logical :: have
+        integer :: k
+        have = .true.
+        ntypes = data%values%get_i('ntypes', have)
+        if (data%nprocs < 1 .or. (data%dimension /= 2 .and. data%dimension /= 3)) then
+            call st%fail('nprocs or dimension out of range')
+        else if (any(data%type < 1) .or. (have .and. any(data%type > ntypes))) then
+            call st%fail('an atom type outside 1..ntypes')
+        else if (.not. (all(abs(data%x) <= huge(1.0_dp)) .and. all(abs(data%v) <= huge(1.0_dp)) .and. &
+                        all(abs(data%f) <= huge(1.0_dp)))) then
+            call st%fail('a position, velocity or force that is NaN or infinite')
+        else if (any(data%slot(1, :) < 0) .or. any(data%slot(1, :) >= data%nprocs) .or. any(data%slot(2, :) < 1)) then
+            call st%fail('an atom slot outside the ranks that wrote it')
+        end if
+        do k = 1, data%values%n
+            if (.not. data%values%is_int(k)) then
+                if (.not. abs(data%values%rval(k)) <= huge(1.0_dp)) &
+                    call st%fail('/state '//trim(data%values%names(k))//' is NaN or infinite')
+            end if
+        end do
+    end subroutine check_ranges
+
+    !> natoms must be the length of dataset dname (one dimension) before it sizes any array.
+    subroutine check_length(st, file, dname, natoms)
+        type(h5_status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: file
+        character(len=*), intent(in) :: dname
+        integer(i8), intent(in) :: natoms
+        integer(hid_t) :: d
+        integer(hsize_t) :: fd(1)
+        integer :: e
+        call h5dopen_f(file, dname, d, e); call st%check(e, 'open '//dname)
+        if (e < 0) return
+        if (h5_dataset_rank(d) /= 1) call st%fail(dname//' has the wrong rank')
+        if (st%ok) call h5_dataset_dims(st, d, fd)
+        if (st%ok .and. fd(1) /= natoms) call st%fail('natoms differs from the length of '//dname)
+        call h5dclose_f(d, e)
+    end subroutine check_length
+
+    !> The whole dataset dname, which must have the Fortran shape dims (elements of elsize
+    !> bytes), and must match its checksum attribute.
+    subroutine get_rows(st, file, dname, mtype, dims, elsize, buf)
+        type(h5_status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: file
+        character(len=*), intent(in) :: dname
+        integer(hid_t), intent(in) :: mtype
+        integer(hsize_t), intent(in) :: dims(:)
+        integer, intent(in) :: elsize
+        type(c_ptr), intent(in) :: buf
+        integer(hid_t) :: d
+        integer(hsize_t) :: fd(size(dims))
+        integer(i8) :: sum
+        integer :: e
+        if (.not. st%ok) return
+        call h5dopen_f(file, dname, d, e); call st%check(e, 'open '//dname)
+        if (e < 0) return
+        if (h5_dataset_rank(d) /= size(dims)) call st%fail(dname//' has the wrong rank')
+        if (st%ok) call h5_dataset_dims(st, d, fd)
+        if (st%ok .and. any(fd /= dims)) call st%fail(dname//' has the wrong shape')
+        if (st%ok) call h5_read_whole(st, d, mtype, buf, dname)
+        sum = 0
+        if (st%ok) call h5_read_attr_scalar(st, d, 'checksum', sum)
+        if (st%ok) then
+            if (sum /= checksum_rows(1_i8, int(dims(size(dims)), i8), int(product(dims(1:size(dims) - 1))), &
+                                     elsize, buf)) call st%fail(dname//' does not match its checksum')
+        end if
+        call h5dclose_f(d, e)
+    end subroutine get_rows
 
 end module terrace_checkpoint

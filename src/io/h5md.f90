@@ -59,7 +59,7 @@ module terrace_h5md
                                h5_transfer_list, h5_make_fixed, h5_make_series, h5_extend, h5_dataset_dims, &
                                h5_write_slab, h5_read_slab, h5_attr_int, h5_attr_text, h5_attr_text_list, &
                                h5_attr_vltext
-    use terrace_h5md_reader, only: h5md_read_frame
+    use terrace_h5md_reader, only: h5md_read_frame, h5md_frame_t
     use mpi_f08, only: MPI_Comm, MPI_Comm_dup, MPI_Comm_free, MPI_Comm_rank, MPI_Comm_size, &
                        MPI_Allreduce, MPI_Alltoallv, MPI_Bcast, MPI_IN_PLACE, MPI_LOGICAL, &
                        MPI_LOR, MPI_SUM, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION, &
@@ -71,8 +71,8 @@ module terrace_h5md
     implicit none
     private
 
-    public :: h5md_writer_t
-    public :: h5md_read_frame   ! the reader's, named here for the callers of the writer's module
+    public :: h5md_writer_t, h5md_layout_t
+    public :: h5md_read_frame, h5md_frame_t   ! the reader's, named here for the callers of the writer's module
 
     integer, parameter :: nel = 4                       !< time-dependent particle elements
     integer, parameter :: e_pos = 1, e_vel = 2, e_force = 3, e_image = 4
@@ -85,6 +85,22 @@ module terrace_h5md
     integer, parameter :: max_block_frames = 512            !< and at most this many frames
 
 
+    !> What a new trajectory holds: natoms atoms in `dimension` dimensions, the box (lo, hi,
+    !> periodic), the time-dependent elements wanted (image needs position), masses_by_type(t) the
+    !> mass of atom type t (types run 1..size(masses_by_type)), the unit strings ('': no unit
+    !> attribute), the creator's version, and the author (not allocated: $USER).
+    type :: h5md_layout_t
+        integer(i8) :: natoms = 0
+        integer :: dimension = 3
+        real(dp) :: box_lo(3) = 0, box_hi(3) = 0
+        logical :: periodic(3) = .false.
+        logical :: want_position = .false., want_velocity = .false., want_force = .false., want_image = .false.
+        real(dp), allocatable :: masses_by_type(:)
+        character(len=64) :: unit_length = '', unit_time = '', unit_energy = '', unit_velocity = '', unit_mass = ''
+        character(len=64) :: creator_version = ''
+        character(len=:), allocatable :: author
+    end type h5md_layout_t
+
     !> write_frame's work arrays, kept from frame to frame: for a large system, allocating and
     !> first-touching them anew at every frame cost about as much as the HDF5 write itself.
     type :: frame_work_t
@@ -96,6 +112,14 @@ module terrace_h5md
         real(dp), allocatable :: rbuf(:, :)                 !< one element of this rank's block, in id order
         integer, allocatable :: ibuf(:, :)
     end type frame_work_t
+
+    !> The columns of one atom in write_frame's exchange: reals (position, velocity, force: D each,
+    !> element e from roff(e) + 1; wr in all) and integers (id, the type in row it at the first
+    !> frame (0: not sent), image in rows im+1 .. im+D; wi in all).
+    type :: frame_columns_t
+        integer :: wr = 0, wi = 0, it = 0, im = 0
+        integer :: roff(nel) = 0
+    end type frame_columns_t
 
     type :: observable_t
         character(len=:), allocatable :: name
@@ -162,53 +186,24 @@ contains
 
     ! ============================================================== writer
 
-    !> Create (truncate) `path` and lay out the H5MD structure. masses_by_type(t) is the mass of
-    !> atom type t (types run 1..size(masses_by_type)); species, id and mass are written at the
-    !> first frame. Unit strings may be '' (no unit attribute). `author` defaults to $USER.
-    subroutine writer_create(self, path, comm, natoms, dimension, box_lo, box_hi, periodic, &
-                             want_position, want_velocity, want_force, want_image, masses_by_type, &
-                             unit_length, unit_time, unit_energy, unit_velocity, unit_mass, &
-                             creator_version, ok, msg, author)
+    !> Create (truncate) `path` and lay out the H5MD structure the layout describes (see
+    !> h5md_layout_t); species, id and mass are written at the first frame.
+    subroutine writer_create(self, path, comm, layout, ok, msg)
         class(h5md_writer_t), intent(inout) :: self
         character(len=*), intent(in) :: path
         type(MPI_Comm), intent(in) :: comm
-        integer(i8), intent(in) :: natoms
-        integer, intent(in) :: dimension
-        real(dp), intent(in) :: box_lo(3), box_hi(3)
-        logical, intent(in) :: periodic(3)
-        logical, intent(in) :: want_position, want_velocity, want_force, want_image
-        real(dp), intent(in) :: masses_by_type(:)
-        character(len=*), intent(in) :: unit_length, unit_time, unit_energy, unit_velocity, unit_mass
-        character(len=*), intent(in) :: creator_version
+        type(h5md_layout_t), intent(in) :: layout
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
-        character(len=*), intent(in), optional :: author
         type(h5_status_t) :: st
-        integer(hid_t) :: g, gp, gbox, gel
-        integer :: err, e, k, D_
-        character(len=256) :: who
-        character(len=8) :: boundary(3)
-        character(len=:), allocatable :: unit_force
-        character(len=*), parameter :: shared = pgroup//'/box/edges'
-        integer(hsize_t) :: nchunk, fchunk
-        logical :: any_unit
+        integer(hid_t) :: g, gp
+        integer :: err
 
         ok = .true.; msg = ''
         if (self%opened) then
             ok = .false.; msg = 'h5md: create: the writer is already open ('//self%path//')'; return
         end if
-        ! arguments (identical on every rank)
-        if (natoms < 1) call st%fail('h5md: create: natoms must be at least 1')
-        if (dimension < 1 .or. dimension > 3) call st%fail('h5md: create: dimension must be 1, 2 or 3')
-        if (want_image .and. .not. want_position) &
-            call st%fail('h5md: create: image needs position (H5MD links their step and time)')
-        if (size(masses_by_type) < 1) call st%fail('h5md: create: masses_by_type is empty')
-        if (st%ok) then
-            do k = 1, dimension
-                if (periodic(k) .and. .not. box_hi(k) > box_lo(k)) &
-                    call st%fail('h5md: create: a periodic box edge is not positive')
-            end do
-        end if
+        call check_layout(layout, st)
         if (.not. st%ok) then
             ok = .false.; msg = st%msg; return
         end if
@@ -217,17 +212,16 @@ contains
         if (.not. st%ok) then
             ok = .false.; msg = st%msg; return
         end if
-        self%natoms = natoms
-        self%dimension = dimension
-        D_ = dimension
-        self%want = [want_position, want_velocity, want_force, want_image]
-        self%masses_by_type = masses_by_type
-        self%unit_time = trim(unit_time)
+        self%natoms = layout%natoms
+        self%dimension = layout%dimension
+        self%want = [layout%want_position, layout%want_velocity, layout%want_force, layout%want_image]
+        self%masses_by_type = layout%masses_by_type
+        self%unit_time = trim(layout%unit_time)
         self%nframes = 0; self%last_step = 0; self%nflushed = 0; self%ndisk = 0
         self%nobs = 0
         if (allocated(self%obs)) deallocate (self%obs)
         allocate (self%obs(4))
-        call id_block(natoms, self%nprocs, self%rank, self%first, self%nmine)
+        call id_block(layout%natoms, self%nprocs, self%rank, self%first, self%nmine)
         call set_block(self)
 
         ! file (collective): MPI-IO driver, HDF5 file format version 2 (1.8 object headers)
@@ -244,10 +238,57 @@ contains
         ! skips the collective machinery that costs more than such a value
         call h5_transfer_list(st, .false., self%dxpl_rank0)
 
-        ! h5md metadata
+        call write_h5md_group(self, layout, st)
+        call h5gcreate_f(self%file, 'particles', g, err); call st%check(err, 'create particles')
+        call h5gcreate_f(g, 'all', gp, err); call st%check(err, 'create particles/all')
+        call create_box(self, gp, layout, st)
+        call create_elements(self, gp, layout, st)
+        ! time-independent per-atom data (written at the first frame)
+        call h5_make_fixed(st, gp, 'id', H5T_STD_I64LE, [int(layout%natoms, hsize_t)], self%id)
+        call h5_make_fixed(st, gp, 'species', H5T_STD_I32LE, [int(layout%natoms, hsize_t)], self%species)
+        call h5_make_fixed(st, gp, 'mass', H5T_IEEE_F64LE, [int(layout%natoms, hsize_t)], self%mass)
+        call h5_attr_vltext(st, self%mass, 'unit', trim(layout%unit_mass))
+        call h5gclose_f(gp, err)
+        call h5gclose_f(g, err)
+
+        call end_open(self, st, ok, msg)
+    end subroutine writer_create
+
+    !> The layout's own consistency (the same on every rank, so no agreement is needed).
+    subroutine check_layout(layout, st)
+        type(h5md_layout_t), intent(in) :: layout
+        type(h5_status_t), intent(inout) :: st
+        integer :: k
+        if (layout%natoms < 1) call st%fail('h5md: create: natoms must be at least 1')
+        if (layout%dimension < 1 .or. layout%dimension > 3) call st%fail('h5md: create: dimension must be 1, 2 or 3')
+        if (layout%want_image .and. .not. layout%want_position) &
+            call st%fail('h5md: create: image needs position (H5MD links their step and time)')
+        if (.not. allocated(layout%masses_by_type)) then
+            call st%fail('h5md: create: masses_by_type is empty')
+        else if (size(layout%masses_by_type) < 1) then
+            call st%fail('h5md: create: masses_by_type is empty')
+        end if
+        if (st%ok) then
+            do k = 1, layout%dimension
+                if (layout%periodic(k) .and. .not. layout%box_hi(k) > layout%box_lo(k)) &
+                    call st%fail('h5md: create: a periodic box edge is not positive')
+            end do
+        end if
+    end subroutine check_layout
+
+    !> /h5md: version, author (the layout's, else $USER on rank 0), creator, and the units module
+    !> when any unit is given.
+    subroutine write_h5md_group(self, layout, st)
+        class(h5md_writer_t), intent(inout) :: self
+        type(h5md_layout_t), intent(in) :: layout
+        type(h5_status_t), intent(inout) :: st
+        integer(hid_t) :: g, gp, gu
+        integer :: err
+        character(len=256) :: who
+        logical :: any_unit
         who = 'unknown'
-        if (present(author)) then
-            if (len_trim(author) > 0) who = author
+        if (allocated(layout%author)) then
+            if (len_trim(layout%author) > 0) who = layout%author
         else if (self%rank == 0) then
             call get_environment_variable('USER', who, status=err)
             if (err /= 0 .or. len_trim(who) == 0) who = 'unknown'
@@ -260,62 +301,80 @@ contains
         call h5gclose_f(gp, err)
         call h5gcreate_f(g, 'creator', gp, err); call st%check(err, 'create h5md/creator')
         call h5_attr_text(st, gp, 'name', 'Terrace')
-        call h5_attr_text(st, gp, 'version', trim(creator_version))
+        call h5_attr_text(st, gp, 'version', trim(layout%creator_version))
         call h5gclose_f(gp, err)
-        any_unit = len_trim(unit_length) + len_trim(unit_time) + len_trim(unit_energy) + &
-                   len_trim(unit_velocity) + len_trim(unit_mass) > 0
+        any_unit = len_trim(layout%unit_length) + len_trim(layout%unit_time) + len_trim(layout%unit_energy) + &
+                   len_trim(layout%unit_velocity) + len_trim(layout%unit_mass) > 0
         if (any_unit) then
             call h5gcreate_f(g, 'modules', gp, err); call st%check(err, 'create h5md/modules')
-            call h5gcreate_f(gp, 'units', gbox, err); call st%check(err, 'create h5md/modules/units')
-            call h5_attr_int(st, gbox, 'version', [1, 0], scalar=.false.)
-            call h5_attr_vltext(st, gbox, 'system', 'SI')
-            call h5gclose_f(gbox, err); call h5gclose_f(gp, err)
+            call h5gcreate_f(gp, 'units', gu, err); call st%check(err, 'create h5md/modules/units')
+            call h5_attr_int(st, gu, 'version', [1, 0], scalar=.false.)
+            call h5_attr_vltext(st, gu, 'system', 'SI')
+            call h5gclose_f(gu, err); call h5gclose_f(gp, err)
         end if
         call h5gclose_f(g, err)
+    end subroutine write_h5md_group
 
-        ! particles/all and its box
-        call h5gcreate_f(self%file, 'particles', g, err); call st%check(err, 'create particles')
-        call h5gcreate_f(g, 'all', gp, err); call st%check(err, 'create particles/all')
+    !> particles/all/box (gp: particles/all): dimension, boundary, and box/edges, a time-dependent
+    !> element whose step and time every other element shares.
+    subroutine create_box(self, gp, layout, st)
+        class(h5md_writer_t), intent(inout) :: self
+        integer(hid_t), intent(in) :: gp
+        type(h5md_layout_t), intent(in) :: layout
+        type(h5_status_t), intent(inout) :: st
+        integer(hid_t) :: gbox, gel
+        integer :: err, k, D_
+        character(len=8) :: boundary(3)
+        D_ = layout%dimension
         call h5gcreate_f(gp, 'box', gbox, err); call st%check(err, 'create box')
         call h5_attr_int(st, gbox, 'dimension', [D_], scalar=.true.)
         do k = 1, D_
-            boundary(k) = merge('periodic', 'none    ', periodic(k))
+            boundary(k) = merge('periodic', 'none    ', layout%periodic(k))
         end do
         call h5_attr_text_list(st, gbox, 'boundary', boundary(1:D_))
-        ! box/edges: a time-dependent element whose step and time every other element shares
-        self%edges = box_hi - box_lo
+        self%edges = layout%box_hi - layout%box_lo
         call h5gcreate_f(gbox, 'edges', gel, err); call st%check(err, 'create box/edges')
         call h5_make_series(st, gel, 'step', H5T_STD_I64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], self%step)
         call h5_make_series(st, gel, 'time', H5T_IEEE_F64LE, [integer(hsize_t) ::], [integer(hsize_t) ::], self%time)
-        call h5_attr_vltext(st, self%time, 'unit', unit_time)
+        call h5_attr_vltext(st, self%time, 'unit', trim(layout%unit_time))
         call h5_make_series(st, gel, 'value', H5T_IEEE_F64LE, [int(D_, hsize_t)], [int(D_, hsize_t)], self%edges_value, &
                          chunk_frames=chunk_scalar)
-        call h5_attr_vltext(st, self%edges_value, 'unit', unit_length)
+        call h5_attr_vltext(st, self%edges_value, 'unit', trim(layout%unit_length))
         call h5gclose_f(gel, err)
         call h5gclose_f(gbox, err)
+    end subroutine create_box
 
-        ! time-dependent elements: value [frames][N][D] (Fortran dims (D, N, frames)); a chunk holds up
-        ! to 1 MiB of one frame, or, when a frame is small, the frames of about 64 KiB (one chunk per
-        ! frame of a seven-atom cluster would cost more in chunk index than in data)
-        nchunk = max(1_hsize_t, min(int(natoms, hsize_t), chunk_bytes/(8_hsize_t*D_)))
+    !> The time-dependent particle elements wanted (gp: particles/all): value [frames][N][D]
+    !> (Fortran dims (D, N, frames)), step and time hard links to box/edges'. A chunk holds up to
+    !> 1 MiB of one frame, or, when a frame is small, the frames of about 64 KiB (one chunk per frame
+    !> of a seven-atom cluster would cost more in chunk index than in data).
+    subroutine create_elements(self, gp, layout, st)
+        class(h5md_writer_t), intent(inout) :: self
+        integer(hid_t), intent(in) :: gp
+        type(h5md_layout_t), intent(in) :: layout
+        type(h5_status_t), intent(inout) :: st
+        character(len=*), parameter :: shared = pgroup//'/box/edges'
+        integer(hid_t) :: gel, dtype
+        integer(hsize_t) :: nchunk, fchunk, natoms
+        integer :: err, e, D_
+        character(len=:), allocatable :: unit_force
+        D_ = layout%dimension
+        natoms = int(layout%natoms, hsize_t)
+        nchunk = max(1_hsize_t, min(natoms, chunk_bytes/(8_hsize_t*D_)))
         fchunk = 1
-        if (nchunk == int(natoms, hsize_t)) fchunk = max(1_hsize_t, small_chunk_bytes/(8_hsize_t*D_*nchunk))
+        if (nchunk == natoms) fchunk = max(1_hsize_t, small_chunk_bytes/(8_hsize_t*D_*nchunk))
         unit_force = ''
-        if (len_trim(unit_energy) > 0 .and. len_trim(unit_length) > 0) &
-            unit_force = trim(unit_energy)//' '//trim(unit_length)//'-1'
+        if (len_trim(layout%unit_energy) > 0 .and. len_trim(layout%unit_length) > 0) &
+            unit_force = trim(layout%unit_energy)//' '//trim(layout%unit_length)//'-1'
         do e = 1, nel
             if (.not. self%want(e)) cycle
             call h5gcreate_f(gp, trim(el_name(e)), gel, err); call st%check(err, 'create '//trim(el_name(e)))
-            if (e == e_image) then
-                call h5_make_series(st, gel, 'value', H5T_STD_I32LE, [int(D_, hsize_t), int(natoms, hsize_t)], &
-                                 [int(D_, hsize_t), nchunk], self%value(e), chunk_frames=fchunk)
-            else
-                call h5_make_series(st, gel, 'value', H5T_IEEE_F64LE, [int(D_, hsize_t), int(natoms, hsize_t)], &
-                                 [int(D_, hsize_t), nchunk], self%value(e), chunk_frames=fchunk)
-            end if
+            dtype = merge(H5T_STD_I32LE, H5T_IEEE_F64LE, e == e_image)
+            call h5_make_series(st, gel, 'value', dtype, [int(D_, hsize_t), natoms], [int(D_, hsize_t), nchunk], &
+                                self%value(e), chunk_frames=fchunk)
             select case (e)
-            case (e_pos); call h5_attr_vltext(st, self%value(e), 'unit', unit_length)
-            case (e_vel); call h5_attr_vltext(st, self%value(e), 'unit', unit_velocity)
+            case (e_pos); call h5_attr_vltext(st, self%value(e), 'unit', trim(layout%unit_length))
+            case (e_vel); call h5_attr_vltext(st, self%value(e), 'unit', trim(layout%unit_velocity))
             case (e_force); call h5_attr_vltext(st, self%value(e), 'unit', unit_force)
             end select
             call h5lcreate_hard_f(self%file, shared//'/step', gel, 'step', err)
@@ -324,17 +383,7 @@ contains
             call st%check(err, 'link '//trim(el_name(e))//'/time')
             call h5gclose_f(gel, err)
         end do
-
-        ! time-independent per-atom data (written at the first frame)
-        call h5_make_fixed(st, gp, 'id', H5T_STD_I64LE, [int(natoms, hsize_t)], self%id)
-        call h5_make_fixed(st, gp, 'species', H5T_STD_I32LE, [int(natoms, hsize_t)], self%species)
-        call h5_make_fixed(st, gp, 'mass', H5T_IEEE_F64LE, [int(natoms, hsize_t)], self%mass)
-        call h5_attr_vltext(st, self%mass, 'unit', unit_mass)
-        call h5gclose_f(gp, err)
-        call h5gclose_f(g, err)
-
-        call end_open(self, st, ok, msg)
-    end subroutine writer_create
+    end subroutine create_elements
 
     !> What create and open_append do last: flush the file, then agree on every rank whether all
     !> went well; if not, the writer is released (closed) and msg says why.
@@ -385,14 +434,8 @@ contains
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
         type(h5_status_t) :: st
-        integer(hid_t) :: g
-        integer(hsize_t) :: d3(3), m3(3), d1(1), m1(1), nf
-        integer(i8), target :: step_t
-        real(dp), target :: edges_t(3)
-        integer :: err, e, k, nmembers, otype
-        logical :: exists
-        character(len=256) :: oname
-        character(len=:), allocatable :: first_el
+        integer(hsize_t) :: nf
+        character(len=256) :: text
 
         ok = .true.; msg = ''
         if (self%opened) then
@@ -413,7 +456,34 @@ contains
         call h5_transfer_list(st, .true., self%dxpl)
         call h5_transfer_list(st, .false., self%dxpl_rank0)
 
-        ! per-atom data and the elements present
+        call open_particle_data(self, st, nf)
+        if (st%ok .and. int(nf, i8) < keep) then
+            write (text, '(a,i0,a,i0)') 'the trajectory holds ', nf, ' frames, the checkpoint expects at least ', keep
+            call st%fail(trim(text))
+        end if
+        self%nframes = int(keep, hsize_t)
+        self%nflushed = self%nframes
+        self%ndisk = self%nframes
+        self%last_step = 0
+        if (st%ok) call cut_back_frames(self, st, keep)
+        call open_observables(self, st, keep)
+        self%unit_time = ''
+        self%masses_by_type = [0.0_dp]   ! only read at the first frame, which is written already
+        call id_block(self%natoms, self%nprocs, self%rank, self%first, self%nmine)
+        call set_block(self)
+        call end_open(self, st, ok, msg)
+    end subroutine writer_open_append
+
+    !> The per-atom datasets (natoms) and the particle elements present (dimension; nf: the frames
+    !> they hold, the same in each), with the first one's step and time.
+    subroutine open_particle_data(self, st, nf)
+        class(h5md_writer_t), intent(inout) :: self
+        type(h5_status_t), intent(inout) :: st
+        integer(hsize_t), intent(out) :: nf
+        integer(hsize_t) :: d3(3), m3(3), d1(1), m1(1)
+        character(len=:), allocatable :: first_el
+        logical :: exists
+        integer :: err, e
         call h5dopen_f(self%file, pgroup//'/id', self%id, err); call st%check(err, 'open '//pgroup//'/id')
         call h5dopen_f(self%file, pgroup//'/species', self%species, err); call st%check(err, 'open species')
         call h5dopen_f(self%file, pgroup//'/mass', self%mass, err); call st%check(err, 'open mass')
@@ -442,80 +512,84 @@ contains
             end if
         end do
         if (st%ok .and. len(first_el) == 0) call st%fail('no position, velocity, force or image element')
-        if (st%ok .and. int(nf, i8) < keep) then
-            write (oname, '(a,i0,a,i0)') 'the trajectory holds ', nf, ' frames, the checkpoint expects at least ', keep
-            call st%fail(trim(oname))
-        end if
-        self%nframes = int(keep, hsize_t)
-        self%nflushed = self%nframes
-        self%ndisk = self%nframes
-        if (st%ok) then
-            do e = 1, nel
-                if (self%want(e)) call h5_extend(st, self%value(e), [int(self%dimension, hsize_t), &
-                                                                   int(self%natoms, hsize_t), self%nframes])
-            end do
-            call h5_extend(st, self%step, [self%nframes])
-            call h5_extend(st, self%time, [self%nframes])
-            ! box/edges: a time-dependent element (one row per frame) whose step and time the
-            ! elements share; its rows are cut back too and the (fixed) edges read from row 0
-            call h5dopen_f(self%file, pgroup//'/box/edges/value', self%edges_value, err)
-            call st%check(err, 'open box/edges/value (a trajectory written by this version of Terrace)')
-            if (st%ok) call h5_extend(st, self%edges_value, [int(self%dimension, hsize_t), self%nframes])
-            edges_t = 0
-            if (st%ok .and. keep > 0) call h5_read_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(edges_t), &
-                                                     [0_hsize_t, 0_hsize_t], [int(self%dimension, hsize_t), 1_hsize_t], &
-                                                     .true., self%dxpl)
-            self%edges = edges_t
-        end if
-        self%last_step = 0
+    end subroutine open_particle_data
+
+    !> The particle elements, step, time and box/edges cut back to self%nframes = keep frames; the
+    !> (fixed) edges and the last step read from the last row kept.
+    subroutine cut_back_frames(self, st, keep)
+        class(h5md_writer_t), intent(inout) :: self
+        type(h5_status_t), intent(inout) :: st
+        integer(i8), intent(in) :: keep
+        integer(i8), target :: step_t
+        real(dp), target :: edges_t(3)
+        integer :: err, e
+        do e = 1, nel
+            if (self%want(e)) call h5_extend(st, self%value(e), [int(self%dimension, hsize_t), &
+                                                               int(self%natoms, hsize_t), self%nframes])
+        end do
+        call h5_extend(st, self%step, [self%nframes])
+        call h5_extend(st, self%time, [self%nframes])
+        ! box/edges: a time-dependent element (one row per frame) whose step and time the
+        ! elements share; its rows are cut back too and the (fixed) edges read from row 0
+        call h5dopen_f(self%file, pgroup//'/box/edges/value', self%edges_value, err)
+        call st%check(err, 'open box/edges/value (a trajectory written by this version of Terrace)')
+        if (st%ok) call h5_extend(st, self%edges_value, [int(self%dimension, hsize_t), self%nframes])
+        edges_t = 0
+        if (st%ok .and. keep > 0) call h5_read_slab(st, self%edges_value, H5T_NATIVE_DOUBLE, c_loc(edges_t), &
+                                                 [0_hsize_t, 0_hsize_t], [int(self%dimension, hsize_t), 1_hsize_t], &
+                                                 .true., self%dxpl)
+        self%edges = edges_t
         if (st%ok .and. keep > 0) then
             call h5_read_slab(st, self%step, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(step_t), [self%nframes - 1], &
                            [1_hsize_t], .true., self%dxpl)
             self%last_step = step_t
         end if
+    end subroutine cut_back_frames
 
-        ! observables: every series cut back to `keep` entries
+    !> Every observable of the trajectory reopened, its value series cut back to `keep` entries
+    !> (they are written with every frame: their step and time are box/edges', cut back already).
+    subroutine open_observables(self, st, keep)
+        class(h5md_writer_t), intent(inout) :: self
+        type(h5_status_t), intent(inout) :: st
+        integer(i8), intent(in) :: keep
+        integer(hid_t) :: g
+        integer(hsize_t) :: d1(1), m1(1)
+        integer :: err, k, nmembers, otype
+        logical :: exists
+        character(len=256) :: oname
         self%nobs = 0
         if (allocated(self%obs)) deallocate (self%obs)
         allocate (self%obs(4))
         call h5lexists_f(self%file, 'observables', exists, err)
-        if (st%ok .and. exists) then
-            call h5gn_members_f(self%file, 'observables', nmembers, err); call st%check(err, 'list observables')
-            call h5gopen_f(self%file, 'observables', g, err); call st%check(err, 'open observables')
-            do k = 0, nmembers - 1
-                if (.not. st%ok) exit
-                call h5gget_obj_info_idx_f(self%file, 'observables', k, oname, otype, err)
-                call st%check(err, 'observable name')
-                if (self%nobs == size(self%obs)) call grow_obs(self)
-                self%nobs = self%nobs + 1
-                associate (o => self%obs(self%nobs))
-                    o%name = trim(oname)
-                    ! the trajectory's observables are written with every frame: their step and time
-                    ! are hard links to box/edges/step and time (cut back above), only value grows
-                    o%per_frame = .true.
-                    call h5dopen_f(g, o%name//'/value', o%value, err); call st%check(err, 'open '//o%name//'/value')
-                    if (st%ok) call h5_dataset_dims(st, o%value, d1, m1)
-                    if (st%ok .and. int(d1(1), i8) < keep) call st%fail('observable '//o%name//' holds too few entries')
-                    o%n = int(keep, hsize_t); o%ndisk = o%n
-                    if (st%ok) call h5_extend(st, o%value, [o%n])
-                end associate
-            end do
-            call h5gclose_f(g, err)
-        end if
-        self%unit_time = ''
-        self%masses_by_type = [0.0_dp]   ! only read at the first frame, which is written already
-        call id_block(self%natoms, self%nprocs, self%rank, self%first, self%nmine)
-        call set_block(self)
-        call end_open(self, st, ok, msg)
-    contains
-        subroutine grow_obs(w)
-            type(h5md_writer_t), intent(inout) :: w
-            type(observable_t), allocatable :: grown(:)
-            allocate (grown(2*size(w%obs)))
-            grown(1:w%nobs) = w%obs(1:w%nobs)
-            call move_alloc(grown, w%obs)
-        end subroutine grow_obs
-    end subroutine writer_open_append
+        if (.not. (st%ok .and. exists)) return
+        call h5gn_members_f(self%file, 'observables', nmembers, err); call st%check(err, 'list observables')
+        call h5gopen_f(self%file, 'observables', g, err); call st%check(err, 'open observables')
+        do k = 0, nmembers - 1
+            if (.not. st%ok) exit
+            call h5gget_obj_info_idx_f(self%file, 'observables', k, oname, otype, err)
+            call st%check(err, 'observable name')
+            if (self%nobs == size(self%obs)) call grow_obs(self)
+            self%nobs = self%nobs + 1
+            associate (o => self%obs(self%nobs))
+                o%name = trim(oname)
+                o%per_frame = .true.
+                call h5dopen_f(g, o%name//'/value', o%value, err); call st%check(err, 'open '//o%name//'/value')
+                if (st%ok) call h5_dataset_dims(st, o%value, d1, m1)
+                if (st%ok .and. int(d1(1), i8) < keep) call st%fail('observable '//o%name//' holds too few entries')
+                o%n = int(keep, hsize_t); o%ndisk = o%n
+                if (st%ok) call h5_extend(st, o%value, [o%n])
+            end associate
+        end do
+        call h5gclose_f(g, err)
+    end subroutine open_observables
+
+    subroutine grow_obs(w)
+        class(h5md_writer_t), intent(inout) :: w
+        type(observable_t), allocatable :: grown(:)
+        allocate (grown(2*size(w%obs)))
+        grown(1:w%nobs) = w%obs(1:w%nobs)
+        call move_alloc(grown, w%obs)
+    end subroutine grow_obs
 
     !> Append one frame. ids(1:nlocal) are the global ids (1..natoms) of this rank's atoms; over all
     !> ranks every id must appear exactly once. x, v, f, image are (>= dimension, >= nlocal) and
@@ -535,47 +609,21 @@ contains
         character(len=*), intent(out) :: msg
         logical, intent(in), optional :: flush
         type(h5_status_t) :: st
-        integer :: D_, P, i, j, k, e, r, wr, wi, it, im, nrecv, roff(nel)
-        integer, allocatable :: scount(:), rcount(:), sdisp(:), rdisp(:), cursor(:)
-        real(dp), allocatable, target :: mbuf(:)
-        integer, allocatable, target :: tbuf(:)
-        integer(i8), allocatable, target :: idbuf(:)
-        integer(i8) :: total, kk
+        type(frame_columns_t) :: cols
+        integer :: nrecv
+        integer(i8) :: total
         logical :: bad
 
         ok = .true.; msg = ''
         if (.not. self%opened) then
             ok = .false.; msg = 'h5md: write_frame: the writer is not open'; return
         end if
-        D_ = self%dimension; P = self%nprocs
-
         ! ---- check the arguments on every rank, then agree
-        if (nlocal < 0 .or. size(ids) < nlocal .or. size(types) < nlocal) &
-            call st%fail('h5md: write_frame: nlocal exceeds the size of ids or types')
-        call need_real(self%want(e_pos), x, 'x')
-        call need_real(self%want(e_vel), v, 'v')
-        call need_real(self%want(e_force), f, 'f')
-        if (self%want(e_image)) then
-            if (.not. present(image)) then
-                call st%fail('h5md: write_frame: image is required (want_image)')
-            else if (size(image, 1) < D_ .or. size(image, 2) < nlocal) then
-                call st%fail('h5md: write_frame: image is too small')
-            end if
-        end if
-        if (st%ok) then
-            do i = 1, nlocal
-                if (ids(i) < 1 .or. ids(i) > self%natoms) then
-                    call st%fail('h5md: write_frame: atom id out of range 1..natoms'); exit
-                end if
-                if (types(i) < 1 .or. types(i) > size(self%masses_by_type)) then
-                    call st%fail('h5md: write_frame: atom type outside 1..size(masses_by_type)'); exit
-                end if
-            end do
-        end if
+        call check_frame_args(self, st, nlocal, ids, types, x, v, f, image)
         if (self%nframes > 0 .and. step < self%last_step) call st%fail('h5md: write_frame: step decreases')
         total = merge(int(nlocal, i8), 0_i8, st%ok)
-        if (P > 1) call MPI_Allreduce(MPI_IN_PLACE, total, 1, MPI_INTEGER8, MPI_SUM, self%comm)
-        if (P > 1 .or. .not. st%ok) call h5_agree(self%comm, st, ok, msg)
+        if (self%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, total, 1, MPI_INTEGER8, MPI_SUM, self%comm)
+        if (self%nprocs > 1 .or. .not. st%ok) call h5_agree(self%comm, st, ok, msg)
         if (.not. ok) call note_broken_hdf5_file()
         if (.not. ok) return
         if (total /= self%natoms) then
@@ -584,17 +632,106 @@ contains
             return
         end if
 
-        ! ---- send every atom to the rank owning its id (block distribution of 1..natoms): reals
-        ! (position, velocity, force: D each) and integers (id, the type at the first frame, image)
-        wr = 0; roff = 0
-        do e = e_pos, e_force
-            if (self%want(e)) then
-                roff(e) = wr; wr = wr + D_
+        cols = frame_columns(self)
+        call send_to_owners(self, cols, nlocal, ids, types, x, v, f, image, nrecv)
+        call place_received(self, nrecv, bad)
+        if (bad) then
+            ok = .false.; msg = 'h5md: write_frame: an atom id appears twice (or is missing) over the ranks'
+            return
+        end if
+        call keep_frame(self, st, cols, nrecv, step, time)
+        call flush_unless_told(self, st, flush)
+        if (self%nprocs > 1 .or. .not. st%ok) call h5_agree(self%comm, st, ok, msg)
+        if (.not. ok) call note_broken_hdf5_file()
+        if (ok) then
+            self%nframes = self%nframes + 1
+            self%last_step = step
+        else
+            msg = 'h5md: write_frame: '//trim(msg)
+        end if
+    end subroutine writer_write_frame
+
+    !> write_frame's arguments on this rank: the arrays the elements need, large enough; ids in
+    !> 1..natoms and types in 1..size(masses_by_type).
+    subroutine check_frame_args(self, st, nlocal, ids, types, x, v, f, image)
+        class(h5md_writer_t), intent(in) :: self
+        type(h5_status_t), intent(inout) :: st
+        integer, intent(in) :: nlocal
+        integer(i8), intent(in) :: ids(:)
+        integer, intent(in) :: types(:)
+        real(dp), intent(in), optional :: x(:, :), v(:, :), f(:, :)
+        integer, intent(in), optional :: image(:, :)
+        integer :: i, D_
+        D_ = self%dimension
+        if (nlocal < 0 .or. size(ids) < nlocal .or. size(types) < nlocal) &
+            call st%fail('h5md: write_frame: nlocal exceeds the size of ids or types')
+        call need_real(st, self%want(e_pos), x, 'x', D_, nlocal)
+        call need_real(st, self%want(e_vel), v, 'v', D_, nlocal)
+        call need_real(st, self%want(e_force), f, 'f', D_, nlocal)
+        if (self%want(e_image)) then
+            if (.not. present(image)) then
+                call st%fail('h5md: write_frame: image is required (want_image)')
+            else if (size(image, 1) < D_ .or. size(image, 2) < nlocal) then
+                call st%fail('h5md: write_frame: image is too small')
+            end if
+        end if
+        if (.not. st%ok) return
+        do i = 1, nlocal
+            if (ids(i) < 1 .or. ids(i) > self%natoms) then
+                call st%fail('h5md: write_frame: atom id out of range 1..natoms'); exit
+            end if
+            if (types(i) < 1 .or. types(i) > size(self%masses_by_type)) then
+                call st%fail('h5md: write_frame: atom type outside 1..size(masses_by_type)'); exit
             end if
         end do
-        it = merge(2, 0, self%nframes == 0)          ! row of the type in the integers (0: not sent)
-        im = 1 + merge(1, 0, it > 0)                  ! image: rows im+1 .. im+D
-        wi = im + merge(D_, 0, self%want(e_image))
+    end subroutine check_frame_args
+
+    subroutine need_real(st, wanted, a, what, D_, nlocal)
+        type(h5_status_t), intent(inout) :: st
+        logical, intent(in) :: wanted
+        real(dp), intent(in), optional :: a(:, :)
+        character(len=*), intent(in) :: what
+        integer, intent(in) :: D_, nlocal
+        if (.not. wanted) return
+        if (.not. present(a)) then
+            call st%fail('h5md: write_frame: '//what//' is required by the elements requested in create')
+        else if (size(a, 1) < D_ .or. size(a, 2) < nlocal) then
+            call st%fail('h5md: write_frame: '//what//' is too small')
+        end if
+    end subroutine need_real
+
+    !> What one atom of a frame carries: reals (position, velocity, force: D each, element e from
+    !> roff(e) + 1) and integers (id, the type at the first frame in row it, image in rows im+1..im+D).
+    function frame_columns(self) result(c)
+        class(h5md_writer_t), intent(in) :: self
+        type(frame_columns_t) :: c
+        integer :: e, D_
+        D_ = self%dimension
+        c%wr = 0; c%roff = 0
+        do e = e_pos, e_force
+            if (self%want(e)) then
+                c%roff(e) = c%wr; c%wr = c%wr + D_
+            end if
+        end do
+        c%it = merge(2, 0, self%nframes == 0)          ! row of the type in the integers (0: not sent)
+        c%im = 1 + merge(1, 0, c%it > 0)                ! image: rows im+1 .. im+D
+        c%wi = c%im + merge(D_, 0, self%want(e_image))
+    end function frame_columns
+
+    !> Every atom sent to the rank owning its id (block distribution of 1..natoms), into the work
+    !> arrays rint, rreal (nrecv atoms received).
+    subroutine send_to_owners(self, cols, nlocal, ids, types, x, v, f, image, nrecv)
+        class(h5md_writer_t), intent(inout), target :: self
+        type(frame_columns_t), intent(in) :: cols
+        integer, intent(in) :: nlocal
+        integer(i8), intent(in) :: ids(:)
+        integer, intent(in) :: types(:)
+        real(dp), intent(in), optional :: x(:, :), v(:, :), f(:, :)
+        integer, intent(in), optional :: image(:, :)
+        integer, intent(out) :: nrecv
+        integer, allocatable :: scount(:), rcount(:), sdisp(:), rdisp(:), cursor(:)
+        integer :: P, i, j, r, wr, wi, D_
+        P = self%nprocs; D_ = self%dimension; wr = cols%wr; wi = cols%wi
         associate (w => self%work)
             if (P == 1) then
                 ! one rank: the atoms are its own block already (no exchange)
@@ -622,9 +759,32 @@ contains
             end if
         end associate
 
-        ! ---- row of each received atom in this rank's block (id order); every id exactly once
-        associate (row => self%work%row, seen => self%work%seen, rint => self%work%rint, rreal => self%work%rreal, &
-                   rbuf => self%work%rbuf, ibuf => self%work%ibuf)
+    contains
+
+        !> Atom i's id, type (first frame), image and reals into one column of the integers and reals.
+        subroutine pack(i, ints, reals)
+            integer, intent(in) :: i
+            integer(i8), intent(out) :: ints(:)
+            real(dp), intent(out) :: reals(:)
+            ints(1) = ids(i)
+            if (cols%it > 0) ints(cols%it) = types(i)
+            if (self%want(e_image)) ints(cols%im + 1:cols%im + D_) = image(1:D_, i)
+            if (self%want(e_pos)) reals(cols%roff(e_pos) + 1:cols%roff(e_pos) + D_) = x(1:D_, i)
+            if (self%want(e_vel)) reals(cols%roff(e_vel) + 1:cols%roff(e_vel) + D_) = v(1:D_, i)
+            if (self%want(e_force)) reals(cols%roff(e_force) + 1:cols%roff(e_force) + D_) = f(1:D_, i)
+        end subroutine pack
+
+    end subroutine send_to_owners
+
+    !> The row of each received atom in this rank's block (id order), every id exactly once (bad,
+    !> the same on every rank, when not).
+    subroutine place_received(self, nrecv, bad)
+        class(h5md_writer_t), intent(inout), target :: self
+        integer, intent(in) :: nrecv
+        logical, intent(out) :: bad
+        integer(i8) :: kk
+        integer :: j
+        associate (row => self%work%row, seen => self%work%seen, rint => self%work%rint)
             seen = .false.
             bad = nrecv /= self%nmine
             if (.not. bad) then
@@ -639,81 +799,66 @@ contains
                     seen(kk) = .true.; row(j) = int(kk)
                 end do
             end if
-            if (P > 1) call MPI_Allreduce(MPI_IN_PLACE, bad, 1, MPI_LOGICAL, MPI_LOR, self%comm)
-            if (bad) then
-                ok = .false.; msg = 'h5md: write_frame: an atom id appears twice (or is missing) over the ranks'
-                return
-            end if
+        end associate
+        if (self%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, bad, 1, MPI_LOGICAL, MPI_LOR, self%comm)
+    end subroutine place_received
 
-            ! ---- keep the frame in memory (slot nbuf + 1; a full block goes to the file first)
+    !> The frame kept in memory (slot nbuf + 1; a full block goes to the file first); at the first
+    !> frame, this rank's block of ids, species and masses written.
+    subroutine keep_frame(self, st, cols, nrecv, step, time)
+        class(h5md_writer_t), intent(inout), target :: self
+        type(h5_status_t), intent(inout) :: st
+        type(frame_columns_t), intent(in) :: cols
+        integer, intent(in) :: nrecv
+        integer(i8), intent(in) :: step
+        real(dp), intent(in) :: time
+        integer :: j, k, e, D_
+        D_ = self%dimension
+        associate (row => self%work%row, rint => self%work%rint, rreal => self%work%rreal)
             if (self%nbuf >= self%block) call write_block(self, st)
             k = self%nbuf + 1
             do e = e_pos, e_force
                 if (.not. self%want(e)) cycle
                 do j = 1, nrecv
-                    self%breal(1:D_, row(j), k, e) = rreal(roff(e) + 1:roff(e) + D_, j)
+                    self%breal(1:D_, row(j), k, e) = rreal(cols%roff(e) + 1:cols%roff(e) + D_, j)
                 end do
             end do
             if (self%want(e_image)) then
                 do j = 1, nrecv
-                    self%bimage(1:D_, row(j), k) = int(rint(im + 1:im + D_, j))
+                    self%bimage(1:D_, row(j), k) = int(rint(cols%im + 1:cols%im + D_, j))
                 end do
             end if
             self%bstep(k) = step; self%btime(k) = time; self%bedges(1:D_, k) = self%edges(1:D_)
-            associate (nm => int(self%nmine, hsize_t), f0 => int(self%first - 1, hsize_t))
-                if (self%nframes == 0) then
-                    allocate (idbuf(max(self%nmine, 1_i8)), tbuf(max(self%nmine, 1_i8)), mbuf(max(self%nmine, 1_i8)))
-                    do j = 1, nrecv
-                        idbuf(row(j)) = rint(1, j)
-                        tbuf(row(j)) = int(rint(it, j))
-                        mbuf(row(j)) = self%masses_by_type(tbuf(row(j)))
-                    end do
-                    call h5_write_slab(st, self%id, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(idbuf), [f0], [nm], &
-                                    nm > 0, self%dxpl)
-                    call h5_write_slab(st, self%species, H5T_NATIVE_INTEGER, c_loc(tbuf), [f0], [nm], nm > 0, self%dxpl)
-                    call h5_write_slab(st, self%mass, H5T_NATIVE_DOUBLE, c_loc(mbuf), [f0], [nm], nm > 0, self%dxpl)
-                end if
-            end associate
         end associate
+        if (self%nframes == 0) call write_atom_constants(self, st, cols, nrecv)
         if (st%ok) self%nbuf = k
-        call flush_unless_told(self, st, flush)
-        if (P > 1 .or. .not. st%ok) call h5_agree(self%comm, st, ok, msg)
-        if (.not. ok) call note_broken_hdf5_file()
-        if (ok) then
-            self%nframes = self%nframes + 1
-            self%last_step = step
-        else
-            msg = 'h5md: write_frame: '//trim(msg)
-        end if
+    end subroutine keep_frame
 
-    contains
-
-        !> Atom i's id, type (first frame), image and reals into one column of the integers and reals.
-        subroutine pack(i, ints, reals)
-            integer, intent(in) :: i
-            integer(i8), intent(out) :: ints(:)
-            real(dp), intent(out) :: reals(:)
-            ints(1) = ids(i)
-            if (it > 0) ints(it) = types(i)
-            if (self%want(e_image)) ints(im + 1:im + D_) = image(1:D_, i)
-            if (self%want(e_pos)) reals(roff(e_pos) + 1:roff(e_pos) + D_) = x(1:D_, i)
-            if (self%want(e_vel)) reals(roff(e_vel) + 1:roff(e_vel) + D_) = v(1:D_, i)
-            if (self%want(e_force)) reals(roff(e_force) + 1:roff(e_force) + D_) = f(1:D_, i)
-        end subroutine pack
-
-        subroutine need_real(wanted, a, what)
-            logical, intent(in) :: wanted
-            real(dp), intent(in), optional :: a(:, :)
-            character(len=*), intent(in) :: what
-            if (.not. wanted) return
-            if (.not. present(a)) then
-                call st%fail('h5md: write_frame: '//what//' is required by the elements requested in create')
-            else if (size(a, 1) < D_ .or. size(a, 2) < nlocal) then
-                call st%fail('h5md: write_frame: '//what//' is too small')
-            end if
-        end subroutine need_real
-
-    end subroutine writer_write_frame
+    !> id, species and mass of this rank's block of ids (at the first frame: the types are sent
+    !> with it only).
+    subroutine write_atom_constants(self, st, cols, nrecv)
+        class(h5md_writer_t), intent(inout), target :: self
+        type(h5_status_t), intent(inout) :: st
+        type(frame_columns_t), intent(in) :: cols
+        integer, intent(in) :: nrecv
+        real(dp), allocatable, target :: mbuf(:)
+        integer, allocatable, target :: tbuf(:)
+        integer(i8), allocatable, target :: idbuf(:)
+        integer :: j
+        associate (row => self%work%row, rint => self%work%rint, nm => int(self%nmine, hsize_t), &
+                   f0 => int(self%first - 1, hsize_t))
+            allocate (idbuf(max(self%nmine, 1_i8)), tbuf(max(self%nmine, 1_i8)), mbuf(max(self%nmine, 1_i8)))
+            do j = 1, nrecv
+                idbuf(row(j)) = rint(1, j)
+                tbuf(row(j)) = int(rint(cols%it, j))
+                mbuf(row(j)) = self%masses_by_type(tbuf(row(j)))
+            end do
+            call h5_write_slab(st, self%id, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(idbuf), [f0], [nm], &
+                               nm > 0, self%dxpl)
+            call h5_write_slab(st, self%species, H5T_NATIVE_INTEGER, c_loc(tbuf), [f0], [nm], nm > 0, self%dxpl)
+            call h5_write_slab(st, self%mass, H5T_NATIVE_DOUBLE, c_loc(mbuf), [f0], [nm], nm > 0, self%dxpl)
+        end associate
+    end subroutine write_atom_constants
 
     !> Send arrays for n atoms (wr reals, wi integers each), grown with 25 % headroom when too small
     !> (the number of atoms a rank owns drifts a little from frame to frame).

@@ -91,6 +91,24 @@ module terrace_h5md_reader
 
     public :: h5md_read_frame
 
+    !> One frame as h5md_read_frame reads it: this rank's block of ids (ids, types, and x, v, image
+    !> (3, nlocal), zero beyond the file's dimension; v and image zero when the file has no velocity
+    !> or image: has_velocity, has_image say). types are 1 when the file has no species; ids are
+    !> row+1 without an id element. edges is the box edge vector (hi - lo) at the frame when the
+    !> file has a box. step is the frame's (position/step); time is 0 without a time.
+    type, public :: h5md_frame_t
+        integer(i8) :: natoms = 0
+        integer :: dimension = 0
+        integer(i8), allocatable :: ids(:)
+        integer, allocatable :: types(:)
+        real(dp), allocatable :: x(:, :), v(:, :)
+        integer, allocatable :: image(:, :)
+        integer(i8) :: step = 0
+        real(dp) :: time = 0
+        logical :: has_velocity = .false., has_image = .false.
+        real(dp) :: edges(3) = 0
+    end type h5md_frame_t
+
 contains
 
     !> "FILE: /particles/all/<what>" for messages.
@@ -178,11 +196,9 @@ contains
         character(len=*), intent(in) :: path, group
         logical, intent(in) :: need_position, need_velocity, read_constants
         character(len=*), intent(in) :: why_position, why_velocity
-        integer :: err, e, k
+        integer :: e, k
         logical :: exists
-        integer(hsize_t) :: dims(3), ref(3)
-        character(len=24) :: a, b, c
-        character(len=:), allocatable :: vname
+        integer(hsize_t) :: ref(3)
         integer(i8) :: fsize
 
         self%path = trim(path)
@@ -206,54 +222,11 @@ contains
         ! ---- the elements and their shapes
         ref = 0
         do e = 1, 3
-            associate (el => self%el(e))
-                vname = trim(el_name(e))//'/value'
-                el%present = h5_link_exists(self%file, self%group//'/'//vname)
-                if (.not. el%present) cycle
-                call h5dopen_f(self%file, self%group//'/'//vname, el%value, err)
-                if (failed(st, err >= 0, self%where(vname)//': cannot open the dataset')) return
-                if (failed(st, h5_dataset_rank(el%value) == 3, self%where(vname)// &
-                           ': wrong shape (expected [frames][atoms][dimension])')) return
-                call h5_dataset_dims(st, el%value, dims)
-                if (failed(st, dims(1) >= 1 .and. dims(1) <= 3 .and. dims(2) >= 1, self%where(vname)// &
-                           ': wrong shape (dimension must be 1..3, at least one atom)')) return
-                ! a declared shape costs nothing in the file (chunks never written): every frame and
-                ! every atom takes at least a byte of it, so neither count can exceed its size
-                write (a, '(i0)') dims(3); write (b, '(i0)') dims(2); write (c, '(i0)') fsize
-                if (failed(st, int(dims(3), i8) <= fsize .and. int(dims(2), i8) <= fsize, self%where(vname)// &
-                           ': declares '//trim(a)//' frames of '//trim(b)//' atoms, more than a file of '//trim(c)// &
-                           ' bytes can hold (damaged or not written in full?)')) return
-                if (all(ref == 0)) then
-                    ref = dims
-                else if (any(dims(1:2) /= ref(1:2))) then
-                    write (a, '(i0,a,i0)') ref(2), ' x ', ref(1)
-                    write (b, '(i0,a,i0)') dims(2), ' x ', dims(1)
-                    call st%fail(self%where(vname)//': wrong shape ('//trim(b)// &
-                                 ' atoms x dimension; the other elements have '//trim(a)//')')
-                    return
-                end if
-                el%nframes = int(dims(3), i8)
-                call read_clock(self, st, e, 'time')
-                call read_clock(self, st, e, 'step')
-                if (.not. st%ok) return
-            end associate
+            call open_element(self, st, e, fsize, ref)
+            if (.not. st%ok) return
         end do
-        if (self%el(el_image)%present .and. self%el(el_position)%present) then
-            write (a, '(i0)') self%el(el_position)%nframes
-            write (b, '(i0)') self%el(el_image)%nframes
-            if (failed(st, self%el(el_image)%nframes == self%el(el_position)%nframes, self%where('image/value')// &
-                       ': wrong shape ('//trim(b)//' frames, position/value has '//trim(a)//')')) return
-        end if
-        if (need_position) then
-            if (failed(st, self%el(el_position)%present, self%where('position/value')//': missing ('// &
-                       why_position//')')) return
-        end if
-        if (need_velocity) then
-            if (failed(st, self%el(el_velocity)%present, self%where('velocity/value')//': missing ('// &
-                       why_velocity//')')) return
-        end if
-        if (failed(st, any(self%el(:)%present), self%where('position/value')//': missing (no position or '// &
-                   'velocity element: nothing to analyse)')) return
+        call check_elements(self, st, need_position, need_velocity, why_position, why_velocity)
+        if (.not. st%ok) return
         self%dimension = int(ref(1))
         self%natoms = int(ref(2), i8)
 
@@ -279,6 +252,77 @@ contains
             if (self%el(k)%present) self%unit_time = time_unit(self, k)
         end do
     end subroutine open_file
+
+    !> Element e's value dataset, when there is one: opened, its shape checked against the file's
+    !> size (fsize bytes) and against the elements opened before (ref: the first one's dims, 0 before
+    !> it), and its time and step read.
+    subroutine open_element(self, st, e, fsize, ref)
+        class(h5md_trajectory_t), intent(inout) :: self
+        type(h5_status_t), intent(inout) :: st
+        integer, intent(in) :: e
+        integer(i8), intent(in) :: fsize
+        integer(hsize_t), intent(inout) :: ref(3)
+        integer(hsize_t) :: dims(3)
+        character(len=24) :: a, b, c
+        character(len=:), allocatable :: vname
+        integer :: err
+        associate (el => self%el(e))
+            vname = trim(el_name(e))//'/value'
+            el%present = h5_link_exists(self%file, self%group//'/'//vname)
+            if (.not. el%present) return
+            call h5dopen_f(self%file, self%group//'/'//vname, el%value, err)
+            if (failed(st, err >= 0, self%where(vname)//': cannot open the dataset')) return
+            if (failed(st, h5_dataset_rank(el%value) == 3, self%where(vname)// &
+                       ': wrong shape (expected [frames][atoms][dimension])')) return
+            call h5_dataset_dims(st, el%value, dims)
+            if (failed(st, dims(1) >= 1 .and. dims(1) <= 3 .and. dims(2) >= 1, self%where(vname)// &
+                       ': wrong shape (dimension must be 1..3, at least one atom)')) return
+            ! a declared shape costs nothing in the file (chunks never written): every frame and
+            ! every atom takes at least a byte of it, so neither count can exceed its size
+            write (a, '(i0)') dims(3); write (b, '(i0)') dims(2); write (c, '(i0)') fsize
+            if (failed(st, int(dims(3), i8) <= fsize .and. int(dims(2), i8) <= fsize, self%where(vname)// &
+                       ': declares '//trim(a)//' frames of '//trim(b)//' atoms, more than a file of '//trim(c)// &
+                       ' bytes can hold (damaged or not written in full?)')) return
+            if (all(ref == 0)) then
+                ref = dims
+            else if (any(dims(1:2) /= ref(1:2))) then
+                write (a, '(i0,a,i0)') ref(2), ' x ', ref(1)
+                write (b, '(i0,a,i0)') dims(2), ' x ', dims(1)
+                call st%fail(self%where(vname)//': wrong shape ('//trim(b)// &
+                             ' atoms x dimension; the other elements have '//trim(a)//')')
+                return
+            end if
+            el%nframes = int(dims(3), i8)
+            call read_clock(self, st, e, 'time')
+            call read_clock(self, st, e, 'step')
+        end associate
+    end subroutine open_element
+
+    !> The elements opened: image as long as position; position and velocity there when needed
+    !> (why_*: what needs them); at least one of them.
+    subroutine check_elements(self, st, need_position, need_velocity, why_position, why_velocity)
+        class(h5md_trajectory_t), intent(inout) :: self
+        type(h5_status_t), intent(inout) :: st
+        logical, intent(in) :: need_position, need_velocity
+        character(len=*), intent(in) :: why_position, why_velocity
+        character(len=24) :: a, b
+        if (self%el(el_image)%present .and. self%el(el_position)%present) then
+            write (a, '(i0)') self%el(el_position)%nframes
+            write (b, '(i0)') self%el(el_image)%nframes
+            if (failed(st, self%el(el_image)%nframes == self%el(el_position)%nframes, self%where('image/value')// &
+                       ': wrong shape ('//trim(b)//' frames, position/value has '//trim(a)//')')) return
+        end if
+        if (need_position) then
+            if (failed(st, self%el(el_position)%present, self%where('position/value')//': missing ('// &
+                       why_position//')')) return
+        end if
+        if (need_velocity) then
+            if (failed(st, self%el(el_velocity)%present, self%where('velocity/value')//': missing ('// &
+                       why_velocity//')')) return
+        end if
+        if (failed(st, any(self%el(:)%present), self%where('position/value')//': missing (no position or '// &
+                   'velocity element: nothing to analyse)')) return
+    end subroutine check_elements
 
     !> The size of the file in bytes (0 when it cannot be asked).
     integer(i8) function file_bytes(path) result(n)
@@ -395,13 +439,8 @@ contains
         character(len=:), allocatable :: bname, ename
         character(len=32), allocatable :: boundary(:)
         integer(hid_t) :: g, d
-        integer :: err, rank, k, Dm
-        integer(hsize_t) :: dims(2), sdims(1)
-        real(dp), allocatable, target :: m(:, :), series(:, :)
-        integer(i8), allocatable, target :: steps(:)
-        logical :: is_group, ok
-        character(len=16) :: s1, s2
-        type(h5_status_t) :: lenient
+        integer :: err, k, Dm
+        logical :: ok
 
         Dm = self%dimension
         allocate (self%edges(3, 1))
@@ -415,77 +454,12 @@ contains
         ename = bname//'/edges'
         if (h5_link_exists(self%file, ename)) then
             call h5dopen_f(self%file, ename, d, err)
-            is_group = err < 0
-            if (.not. is_group) then
-                ! time-independent: edges[D] or edges[D][D]
-                rank = h5_dataset_rank(d)
-                if (failed(st, rank == 1 .or. rank == 2, self%where('box/edges')// &
-                           ': wrong shape (expected edges[dimension] or edges[dimension][dimension])')) return
-                call h5_dataset_dims(st, d, dims(1:rank))
-                if (failed(st, all(int(dims(1:rank)) == Dm), self%where('box/edges')// &
-                           ': wrong shape (the box dimension differs from that of the particle data)')) return
-                allocate (m(Dm, merge(Dm, 1, rank == 2)))
-                call h5_read_whole(st, d, H5T_NATIVE_DOUBLE, c_loc(m), 'box/edges')
-                if (failed(st, st%ok, self%where('box/edges')//': cannot read')) return
-                if (rank == 1) then
-                    self%edges(1:Dm, 1) = m(:, 1)
-                else
-                    do k = 1, Dm
-                        self%edges(k, 1) = m(k, k)
-                        m(k, k) = 0
-                    end do
-                    if (failed(st, all(m == 0), self%where('box/edges')// &
-                               ': a triclinic box (off-diagonal edges) is not supported')) return
-                end if
-                call h5dclose_f(d, err)
+            if (err >= 0) then
+                call read_fixed_edges(self, st, d)
             else
-                ! time-dependent: edges/value[frames][D]
-                if (failed(st, h5_link_exists(self%file, ename//'/value'), self%where('box/edges/value')// &
-                           ': missing (box/edges is a group, so it must be a time-dependent element)')) return
-                call h5dopen_f(self%file, ename//'/value', d, err)
-                if (failed(st, err >= 0, self%where('box/edges/value')//': cannot open the dataset')) return
-                if (failed(st, h5_dataset_rank(d) == 2, self%where('box/edges/value')// &
-                           ': wrong shape (expected [frames][dimension])')) return
-                call h5_dataset_dims(st, d, dims)
-                if (failed(st, int(dims(1)) == Dm, self%where('box/edges/value')// &
-                           ': wrong shape (the box dimension differs from that of the particle data)')) return
-                if (failed(st, dims(2) >= 1, self%where('box/edges/value')//': no frames')) return
-                if (failed(st, int(dims(2), i8) <= file_bytes(self%path), self%where('box/edges/value')// &
-                           ': declares more frames than the file can hold (damaged or not written in full?)')) return
-                allocate (series(Dm, dims(2)))
-                call h5_read_whole(st, d, H5T_NATIVE_DOUBLE, c_loc(series), 'box/edges/value')
-                if (failed(st, st%ok, self%where('box/edges/value')//': cannot read')) return
-                call h5dclose_f(d, err)
-                deallocate (self%edges)
-                allocate (self%edges(3, dims(2)))
-                self%edges = 0
-                self%edges(1:Dm, :) = series
-                self%box_series = .true.
-                ! the boxes' own steps, to match a series of another length to the frames
-                if (h5_link_exists(self%file, ename//'/step')) then
-                    call h5dopen_f(self%file, ename//'/step', d, err)
-                    if (err >= 0) then
-                        if (h5_dataset_rank(d) == 1) then
-                            call h5_dataset_dims(lenient, d, sdims)
-                            if (sdims(1) == dims(2)) then
-                                allocate (steps(dims(2)))
-                                call h5_read_whole(lenient, d, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(steps), &
-                                                   'box/edges/step')
-                                if (lenient%ok) call move_alloc(steps, self%box_step)
-                            end if
-                        end if
-                        call h5dclose_f(d, err)
-                    end if
-                end if
-                k = el_position
-                if (.not. self%el(k)%present) k = el_velocity
-                self%box_element = k
-                write (s1, '(i0)') dims(2); write (s2, '(i0)') self%el(k)%nframes
-                if (failed(st, int(dims(2), i8) == self%el(k)%nframes .or. dims(2) == 1 .or. &
-                           (allocated(self%box_step) .and. self%el(k)%has_step), self%where('box/edges/value')// &
-                           ': wrong shape ('//trim(s1)//' frames, '//trim(el_name(k))//'/value has '//trim(s2)// &
-                           ')')) return
+                call read_edges_series(self, st, ename)
             end if
+            if (.not. st%ok) return
         end if
         if (failed(st, all(ieee_is_finite(self%edges(1:Dm, :))), self%where('box/edges')// &
                    ': NaN or infinite value in the file')) return
@@ -517,6 +491,106 @@ contains
         end do
         call h5gclose_f(g, err)
     end subroutine read_box
+
+    !> A time-independent box/edges dataset d (open): edges[D] or the diagonal of edges[D][D].
+    subroutine read_fixed_edges(self, st, d)
+        class(h5md_trajectory_t), intent(inout) :: self
+        type(h5_status_t), intent(inout) :: st
+        integer(hid_t), intent(in) :: d
+        real(dp), allocatable, target :: m(:, :)
+        integer(hsize_t) :: dims(2)
+        integer :: err, rank, k, Dm
+        Dm = self%dimension
+        rank = h5_dataset_rank(d)
+        if (failed(st, rank == 1 .or. rank == 2, self%where('box/edges')// &
+                   ': wrong shape (expected edges[dimension] or edges[dimension][dimension])')) return
+        call h5_dataset_dims(st, d, dims(1:rank))
+        if (failed(st, all(int(dims(1:rank)) == Dm), self%where('box/edges')// &
+                   ': wrong shape (the box dimension differs from that of the particle data)')) return
+        allocate (m(Dm, merge(Dm, 1, rank == 2)))
+        call h5_read_whole(st, d, H5T_NATIVE_DOUBLE, c_loc(m), 'box/edges')
+        if (failed(st, st%ok, self%where('box/edges')//': cannot read')) return
+        if (rank == 1) then
+            self%edges(1:Dm, 1) = m(:, 1)
+        else
+            do k = 1, Dm
+                self%edges(k, 1) = m(k, k)
+                m(k, k) = 0
+            end do
+            if (failed(st, all(m == 0), self%where('box/edges')// &
+                       ': a triclinic box (off-diagonal edges) is not supported')) return
+        end if
+        call h5dclose_f(d, err)
+    end subroutine read_fixed_edges
+
+    !> A time-dependent box/edges element (the group ename): value[frames][D], one row per frame
+    !> (or one for all), and the boxes' own steps when given.
+    subroutine read_edges_series(self, st, ename)
+        class(h5md_trajectory_t), intent(inout) :: self
+        type(h5_status_t), intent(inout) :: st
+        character(len=*), intent(in) :: ename
+        real(dp), allocatable, target :: series(:, :)
+        integer(hid_t) :: d
+        integer(hsize_t) :: dims(2)
+        integer :: err, k, Dm
+        character(len=16) :: s1, s2
+        Dm = self%dimension
+        if (failed(st, h5_link_exists(self%file, ename//'/value'), self%where('box/edges/value')// &
+                   ': missing (box/edges is a group, so it must be a time-dependent element)')) return
+        call h5dopen_f(self%file, ename//'/value', d, err)
+        if (failed(st, err >= 0, self%where('box/edges/value')//': cannot open the dataset')) return
+        if (failed(st, h5_dataset_rank(d) == 2, self%where('box/edges/value')// &
+                   ': wrong shape (expected [frames][dimension])')) return
+        call h5_dataset_dims(st, d, dims)
+        if (failed(st, int(dims(1)) == Dm, self%where('box/edges/value')// &
+                   ': wrong shape (the box dimension differs from that of the particle data)')) return
+        if (failed(st, dims(2) >= 1, self%where('box/edges/value')//': no frames')) return
+        if (failed(st, int(dims(2), i8) <= file_bytes(self%path), self%where('box/edges/value')// &
+                   ': declares more frames than the file can hold (damaged or not written in full?)')) return
+        allocate (series(Dm, dims(2)))
+        call h5_read_whole(st, d, H5T_NATIVE_DOUBLE, c_loc(series), 'box/edges/value')
+        if (failed(st, st%ok, self%where('box/edges/value')//': cannot read')) return
+        call h5dclose_f(d, err)
+        deallocate (self%edges)
+        allocate (self%edges(3, dims(2)))
+        self%edges = 0
+        self%edges(1:Dm, :) = series
+        self%box_series = .true.
+        call read_box_steps(self, ename, dims(2))
+        k = el_position
+        if (.not. self%el(k)%present) k = el_velocity
+        self%box_element = k
+        write (s1, '(i0)') dims(2); write (s2, '(i0)') self%el(k)%nframes
+        if (failed(st, int(dims(2), i8) == self%el(k)%nframes .or. dims(2) == 1 .or. &
+                   (allocated(self%box_step) .and. self%el(k)%has_step), self%where('box/edges/value')// &
+                   ': wrong shape ('//trim(s1)//' frames, '//trim(el_name(k))//'/value has '//trim(s2)// &
+                   ')')) return
+    end subroutine read_edges_series
+
+    !> The boxes' own steps (ename/step, nframes of them), to match a series of another length to
+    !> the frames; left unallocated when they are not there or not readable.
+    subroutine read_box_steps(self, ename, nframes)
+        class(h5md_trajectory_t), intent(inout) :: self
+        character(len=*), intent(in) :: ename
+        integer(hsize_t), intent(in) :: nframes
+        integer(i8), allocatable, target :: steps(:)
+        type(h5_status_t) :: lenient
+        integer(hsize_t) :: sdims(1)
+        integer(hid_t) :: d
+        integer :: err
+        if (.not. h5_link_exists(self%file, ename//'/step')) return
+        call h5dopen_f(self%file, ename//'/step', d, err)
+        if (err < 0) return
+        if (h5_dataset_rank(d) == 1) then
+            call h5_dataset_dims(lenient, d, sdims)
+            if (sdims(1) == nframes) then
+                allocate (steps(nframes))
+                call h5_read_whole(lenient, d, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc(steps), 'box/edges/step')
+                if (lenient%ok) call move_alloc(steps, self%box_step)
+            end if
+        end if
+        call h5dclose_f(d, err)
+    end subroutine read_box_steps
 
     !> Atoms a0+1 .. a0+na (a0 0-based) of the time-independent per-atom dataset `name` (id,
     !> species, mass): into ints (int), longs (int64) or reals.
@@ -728,101 +802,35 @@ contains
     ! ============================================================== the engine's start
 
     !> Read frame `frame` of an H5MD file (1..nframes; -1 is the last frame, -2 the one before, ...),
-    !> for instance to start a run from it. Collective over comm (ok and msg are the same on every
-    !> rank). Each rank receives a contiguous block of ids (a block distribution of 1..natoms over
-    !> the ranks, in id order); the caller then moves the atoms to their domains. x, v, image are
-    !> (3, nlocal), zero beyond the file's dimension; v and image are zero when the file has no
-    !> velocity or image (has_velocity, has_image say). types are 1 when the file has no species;
-    !> ids are row+1 without an id element. edges is the box edge vector (hi - lo) at the frame
-    !> when the file has a box. step is the frame's (position/step); time is 0 without a time.
-    subroutine h5md_read_frame(path, comm, frame, natoms, dimension, ids, types, x, v, image, step, time, &
-                               ok, msg, has_velocity, has_image, edges)
+    !> for instance to start a run from it, into fr (see h5md_frame_t). Collective over comm (ok and
+    !> msg are the same on every rank). Each rank receives a contiguous block of ids (a block
+    !> distribution of 1..natoms over the ranks, in id order); the caller then moves the atoms to
+    !> their domains.
+    subroutine h5md_read_frame(path, comm, frame, fr, ok, msg)
         character(len=*), intent(in) :: path
         type(MPI_Comm), intent(in) :: comm
         integer(i8), intent(in) :: frame
-        integer(i8), intent(out) :: natoms
-        integer, intent(out) :: dimension
-        integer(i8), allocatable, intent(out) :: ids(:)
-        integer, allocatable, intent(out) :: types(:)
-        real(dp), allocatable, intent(out) :: x(:, :), v(:, :)
-        integer, allocatable, intent(out) :: image(:, :)
-        integer(i8), intent(out) :: step
-        real(dp), intent(out) :: time
+        type(h5md_frame_t), intent(out) :: fr
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
-        logical, intent(out), optional :: has_velocity, has_image
-        real(dp), intent(out), optional :: edges(3)
         type(h5md_trajectory_t) :: traj
         type(h5_status_t) :: st
-        integer :: rank, nprocs, k, D_
-        integer(i8) :: nf, fr, first, nmine
+        integer(i8) :: nf
         logical :: opened, hv, hi
-        character(len=24) :: fa, fb
-        real(dp), allocatable, target :: rbuf(:, :, :)
-        integer, allocatable, target :: ibuf(:, :, :)
 
-        natoms = 0; dimension = 0; step = 0; time = 0
-        allocate (ids(0), types(0), x(3, 0), v(3, 0), image(3, 0))
+        allocate (fr%ids(0), fr%types(0), fr%x(3, 0), fr%v(3, 0), fr%image(3, 0))
         hv = .false.; hi = .false.
-        if (present(edges)) edges = 0
-        call MPI_Comm_rank(comm, rank)
-        call MPI_Comm_size(comm, nprocs)
         call traj%open(path, 'all', .true., .false., 'the frame to start from', '', ok=opened, msg=st%msg, &
                        constants=.false., key='read_h5md')
         st%ok = opened
         if (st%ok) then
-            dimension = traj%dimension; natoms = traj%natoms; D_ = dimension
-            nf = traj%frames(el_position)
-            if (nf == 0) then
-                call st%fail('the file has no frames')
-            else if (frame == 0 .or. frame > nf .or. frame < -nf) then
-                write (fa, '(i0)') frame; write (fb, '(i0)') nf
-                call st%fail(trim(path)//': h5md_frame = '//trim(fa)//': the file has '//trim(fb)//' frames (allowed: 1..'// &
-                             trim(fb)//', or -1..-'//trim(fb)//' counting back from the last)')
-            end if
-            hv = traj%has(el_velocity)
-            if (st%ok .and. hv) then
-                if (traj%frames(el_velocity) /= nf) call st%fail(traj%where('velocity/value')// &
-                                                                 ' does not have the shape of position/value')
-            end if
-            hi = traj%has(el_image)
-            if (st%ok .and. .not. traj%el(el_position)%has_step) &
-                call st%fail(traj%where('position/step')//': missing or not one step per frame')
+            fr%dimension = traj%dimension; fr%natoms = traj%natoms
+            call check_frame(traj, st, path, frame, nf, hv, hi)
         end if
-        if (st%ok) then
-            fr = merge(frame, nf + 1 + frame, frame > 0)       ! 1-based
-            call id_block(natoms, nprocs, rank, first, nmine)
-            deallocate (ids, types, x, v, image)
-            allocate (ids(nmine), types(nmine), x(3, nmine), v(3, nmine), image(3, nmine))
-            x = 0; v = 0; image = 0; types = 1
-            allocate (rbuf(D_, max(nmine, 1_i8), 1), ibuf(D_, max(nmine, 1_i8), 1))
-            call read_block(traj, el_position, fr - 1, 1_i8, 1_i8, first - 1, nmine, H5T_NATIVE_DOUBLE, c_loc(rbuf), &
-                            size(rbuf, kind=i8), st)
-            if (nmine > 0) x(1:D_, :) = rbuf(:, 1:nmine, 1)
-            if (hv) then
-                call read_block(traj, el_velocity, fr - 1, 1_i8, 1_i8, first - 1, nmine, H5T_NATIVE_DOUBLE, &
-                                c_loc(rbuf), size(rbuf, kind=i8), st)
-                if (nmine > 0) v(1:D_, :) = rbuf(:, 1:nmine, 1)
-            end if
-            if (hi) then
-                call read_block(traj, el_image, fr - 1, 1_i8, 1_i8, first - 1, nmine, H5T_NATIVE_INTEGER, &
-                                c_loc(ibuf), size(ibuf, kind=i8), st)
-                if (nmine > 0) image(1:D_, :) = ibuf(:, 1:nmine, 1)
-            end if
-            step = traj%el(el_position)%step(fr)
-            if (traj%el(el_position)%has_time) time = traj%el(el_position)%time(fr)
-            do k = 1, int(nmine)
-                ids(k) = first + k - 1
-            end do
-            if (h5_link_exists(traj%file, traj%group//'/id')) &
-                call read_atom_constant(traj, st, 'id', first - 1, nmine, longs=ids)
-            if (h5_link_exists(traj%file, traj%group//'/species')) &
-                call read_atom_constant(traj, st, 'species', first - 1, nmine, ints=types)
-            if (present(edges)) edges = traj%box_edges(fr)
-        end if
+        if (st%ok) call read_frame_block(traj, st, comm, merge(frame, nf + 1 + frame, frame > 0), hv, hi, fr)
         call traj%close()
-        if (present(has_velocity)) has_velocity = hv .and. st%ok
-        if (present(has_image)) has_image = hi .and. st%ok
+        fr%has_velocity = hv .and. st%ok
+        fr%has_image = hi .and. st%ok
         call h5_agree(comm, st, ok, msg)
         if (.not. ok) then
             ! messages that name the file already (traj%where) lose it: the caller names it
@@ -835,5 +843,79 @@ contains
             end if
         end if
     end subroutine h5md_read_frame
+
+    !> The frame asked for is in the file (nf frames), with a step; hv, hi: the file has velocities
+    !> (as many frames as positions) and images.
+    subroutine check_frame(traj, st, path, frame, nf, hv, hi)
+        type(h5md_trajectory_t), intent(in) :: traj
+        type(h5_status_t), intent(inout) :: st
+        character(len=*), intent(in) :: path
+        integer(i8), intent(in) :: frame
+        integer(i8), intent(out) :: nf
+        logical, intent(out) :: hv, hi
+        character(len=24) :: fa, fb
+        nf = traj%frames(el_position)
+        if (nf == 0) then
+            call st%fail('the file has no frames')
+        else if (frame == 0 .or. frame > nf .or. frame < -nf) then
+            write (fa, '(i0)') frame; write (fb, '(i0)') nf
+            call st%fail(trim(path)//': h5md_frame = '//trim(fa)//': the file has '//trim(fb)//' frames (allowed: 1..'// &
+                         trim(fb)//', or -1..-'//trim(fb)//' counting back from the last)')
+        end if
+        hv = traj%has(el_velocity)
+        if (st%ok .and. hv) then
+            if (traj%frames(el_velocity) /= nf) call st%fail(traj%where('velocity/value')// &
+                                                             ' does not have the shape of position/value')
+        end if
+        hi = traj%has(el_image)
+        if (st%ok .and. .not. traj%el(el_position)%has_step) &
+            call st%fail(traj%where('position/step')//': missing or not one step per frame')
+    end subroutine check_frame
+
+    !> This rank's block of ids of frame fr_no (1-based): positions, and velocities (hv) and images
+    !> (hi) when the file has them; ids, species, step, time and the box edges.
+    subroutine read_frame_block(traj, st, comm, fr_no, hv, hi, fr)
+        type(h5md_trajectory_t), intent(inout) :: traj
+        type(h5_status_t), intent(inout) :: st
+        type(MPI_Comm), intent(in) :: comm
+        integer(i8), intent(in) :: fr_no
+        logical, intent(in) :: hv, hi
+        type(h5md_frame_t), intent(inout) :: fr
+        real(dp), allocatable, target :: rbuf(:, :, :)
+        integer, allocatable, target :: ibuf(:, :, :)
+        integer(i8) :: first, nmine
+        integer :: rank, nprocs, k, D_
+        call MPI_Comm_rank(comm, rank)
+        call MPI_Comm_size(comm, nprocs)
+        D_ = fr%dimension
+        call id_block(fr%natoms, nprocs, rank, first, nmine)
+        deallocate (fr%ids, fr%types, fr%x, fr%v, fr%image)
+        allocate (fr%ids(nmine), fr%types(nmine), fr%x(3, nmine), fr%v(3, nmine), fr%image(3, nmine))
+        fr%x = 0; fr%v = 0; fr%image = 0; fr%types = 1
+        allocate (rbuf(D_, max(nmine, 1_i8), 1), ibuf(D_, max(nmine, 1_i8), 1))
+        call read_block(traj, el_position, fr_no - 1, 1_i8, 1_i8, first - 1, nmine, H5T_NATIVE_DOUBLE, c_loc(rbuf), &
+                        size(rbuf, kind=i8), st)
+        if (nmine > 0) fr%x(1:D_, :) = rbuf(:, 1:nmine, 1)
+        if (hv) then
+            call read_block(traj, el_velocity, fr_no - 1, 1_i8, 1_i8, first - 1, nmine, H5T_NATIVE_DOUBLE, &
+                            c_loc(rbuf), size(rbuf, kind=i8), st)
+            if (nmine > 0) fr%v(1:D_, :) = rbuf(:, 1:nmine, 1)
+        end if
+        if (hi) then
+            call read_block(traj, el_image, fr_no - 1, 1_i8, 1_i8, first - 1, nmine, H5T_NATIVE_INTEGER, &
+                            c_loc(ibuf), size(ibuf, kind=i8), st)
+            if (nmine > 0) fr%image(1:D_, :) = ibuf(:, 1:nmine, 1)
+        end if
+        fr%step = traj%el(el_position)%step(fr_no)
+        if (traj%el(el_position)%has_time) fr%time = traj%el(el_position)%time(fr_no)
+        do k = 1, int(nmine)
+            fr%ids(k) = first + k - 1
+        end do
+        if (h5_link_exists(traj%file, traj%group//'/id')) &
+            call read_atom_constant(traj, st, 'id', first - 1, nmine, longs=fr%ids)
+        if (h5_link_exists(traj%file, traj%group//'/species')) &
+            call read_atom_constant(traj, st, 'species', first - 1, nmine, ints=fr%types)
+        fr%edges = traj%box_edges(fr_no)
+    end subroutine read_frame_block
 
 end module terrace_h5md_reader

@@ -17,7 +17,7 @@
 !> the file and &output trajectory_file, whichever rank it is.
 module terrace_trajectory
     use terrace_kinds, only: dp, i8
-    use terrace_h5md, only: h5md_writer_t
+    use terrace_h5md, only: h5md_writer_t, h5md_layout_t
     use terrace_atoms, only: atoms_t
     use terrace_box, only: box_t
     use terrace_units, only: units_t
@@ -76,6 +76,7 @@ contains
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
         character(len=16) :: ul, ut, ue, uv, um
+        type(h5md_layout_t) :: layout
         character(len=:), allocatable :: target
         integer :: rc
         ok = .true.; msg = ''
@@ -98,9 +99,13 @@ contains
         self%comm = comm
         self%natoms = natoms
         call h5_section_begin(label(self), 'creating the file')
-        call self%h5%create(path, comm, natoms, box%dimension, box%lo, box%hi, box%periodic, self%want_position, &
-                            self%want_velocity, self%want_force, self%want_image, masses, trim(ul), trim(ut), &
-                            trim(ue), trim(uv), trim(um), terrace_version_string, ok, msg)
+        layout = h5md_layout_t(natoms=natoms, dimension=box%dimension, box_lo=box%lo, box_hi=box%hi, &
+                               periodic=box%periodic, want_position=self%want_position, &
+                               want_velocity=self%want_velocity, want_force=self%want_force, &
+                               want_image=self%want_image, masses_by_type=masses, unit_length=ul, unit_time=ut, &
+                               unit_energy=ue, unit_velocity=uv, unit_mass=um, &
+                               creator_version=terrace_version_string)
+        call self%h5%create(path, comm, layout, ok, msg)
         call h5_section_end(comm)
         if (world%rank == 0) then
             call keep_at_exit(target)

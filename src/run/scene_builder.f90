@@ -24,7 +24,7 @@ module terrace_scene_builder
     use terrace_checkpoint, only: ckpt_data_t, read_checkpoint
     use terrace_named_values, only: named_values_t
     use terrace_namelist_text, only: deck_hash
-    use terrace_h5md_reader, only: h5md_read_frame
+    use terrace_h5md_reader, only: h5md_read_frame, h5md_frame_t
     use terrace_gmsh_mesh, only: mesh_t, read_gmsh
     use terrace_verlet_buffer, only: buffer_skin
     use, intrinsic :: iso_fortran_env, only: output_unit
@@ -46,9 +46,8 @@ contains
         type(ckpt_data_t) :: ckpt
         logical :: from_table
         type(mesh_t) :: mesh
-        real(dp) :: lo(3), hi(3), cell(3), cutghost, margin
-        integer :: ntypes, d, t, i
-        character(len=64) :: s1, s2
+        real(dp) :: lo(3), hi(3), cell(3), cutghost
+        integer :: ntypes, i
 
         self%restarted = len_trim(cfg%read_checkpoint) > 0
         from_table = (len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0 .or. len_trim(cfg%read_h5md) > 0 &
@@ -63,127 +62,18 @@ contains
             call read_h5md_table(cfg, table)
             ntypes = table%ntypes
         else if (from_table) then
-            if (world%rank == 0) then
-                if (len_trim(cfg%read_data) > 0) then
-                    call read_data_checked(cfg, table)
-                else if (len_trim(cfg%atoms_file) > 0) then
-                    call read_atoms_file(trim(cfg%atoms_file), table)
-                end if
-            end if
-            if (len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0) then
-                call bcast_atom_table(table)
-                if (.not. table%ok) call stop_all(trim(table%error))
-            end if
-            if (len_trim(cfg%mesh_file) > 0) then
-                call mesh_scene(cfg, table, mesh, self%atoms, .false.)
-                self%mesh_hash = mesh_fingerprint(mesh)
-            end if
-            ntypes = table%ntypes
-            if (ntypes > max_types) then
-                write (s1, '(i0)') max_types
-                write (s2, '(i0)') ntypes
-                call stop_all(trim(cfg%scene_source())//': '//trim(s2)//' atom types: more atom types than Terrace supports (max '// &
-                              trim(s1)//')')
-            end if
+            call read_scene_table(cfg, self, table, mesh, ntypes)
         end if
 
-        ! ---- box (free dimensions: the atoms' extent plus a margin, the cutoff or half the mesh's size)
-        margin = max(cfg%cutoff, 1.0_dp)
-        if (len_trim(cfg%mesh_file) > 0 .and. .not. self%restarted) &
-            margin = 0.5_dp*maxval(maxval(table%x, 2) - minval(table%x, 2))
-        if (self%restarted) then
-            continue                         ! lo, hi: the checkpoint's
-        else if (len_trim(cfg%lattice) > 0) then
-            cell = lattice_cell(cfg%lattice, cfg%lattice_constant, cfg%density, cfg%dimension)
-            lo = 0
-            hi = cell*max(cfg%cells, 1)
-        else if (len_trim(cfg%read_data) > 0 .or. len_trim(cfg%read_h5md) > 0) then
-            lo = table%lo; hi = table%hi
-        else
-            do d = 1, cfg%dimension
-                if (.not. is_unset(cfg%box_lo(d)) .and. .not. is_unset(cfg%box_hi(d))) then
-                    lo(d) = cfg%box_lo(d); hi(d) = cfg%box_hi(d)
-                    if (hi(d) <= lo(d)) call stop_all(cfg%where('system', 'box_hi')//': must be > box_lo')
-                else if (cfg%periodic(d)) then
-                    call stop_all(cfg%where('system', 'box_lo')//': a periodic dimension of an atoms_file scene '// &
-                                  'needs box_lo and box_hi')
-                else
-                    lo(d) = minval(table%x(d, :)) - margin
-                    hi(d) = maxval(table%x(d, :)) + margin
-                end if
-            end do
-        end if
-        call self%box%set(lo, hi, cfg%periodic, cfg%dimension)
-
-        if (from_table) then
-            if (cfg%dimension == 2) then
-                if (any(table%x(3, :) /= 0) .or. any(table%v(3, :) /= 0)) &
-                    call stop_all(trim(cfg%scene_source())//': a 2-D run needs z = 0 and vz = 0 for every atom')
-            end if
-            do i = 1, table%n
-                do d = 1, cfg%dimension
-                    if (table%x(d, i) < self%box%lo(d) .or. table%x(d, i) > self%box%hi(d)) then
-                        write (s1, '(i0)') table%id(i)
-                        write (s2, '(es12.5)') table%x(d, i)
-                        call stop_all(trim(cfg%scene_source())//': atom '//trim(s1)//' lies outside the box ('// &
-                                      'xyz'(d:d)//' = '//trim(adjustl(s2))//')')
-                    end if
-                end do
-            end do
-        end if
-
-        ! ---- masses
-        allocate (self%atoms%mass(ntypes))
-        self%atoms%ntypes = ntypes
-        self%atoms%mass = -1
-        if (from_table .or. self%restarted) then
-            if (table%has_masses) self%atoms%mass = table%mass(1:ntypes)
-        end if
-        if (len_trim(cfg%mesh_file) > 0) then
-            self%atoms%mass(1) = table%mass(1)
-            call make_potential(cfg, ntypes, self%atoms%mass, self%pot, mesh, table%x, self%atoms%mass_of_id)
-            self%mesh_tet = mesh%tet
-        else
-            call make_potential(cfg, ntypes, self%atoms%mass, self%pot)
-        end if
-        do t = 1, ntypes
-            if (cfg%mass(t) > 0) self%atoms%mass(t) = cfg%mass(t)
-            if (.not. (self%atoms%mass(t) > 0)) then
-                write (s1, '(i0)') t
-                call stop_all(cfg%path//': &system: mass: type '//trim(s1)//' has no mass (give mass('//trim(s1)// &
-                              ') in '//trim(cfg%units%mass)//', or a Masses section in the data file)')
-            end if
-        end do
+        call scene_box(cfg, self, table, lo, hi, cell)
+        if (from_table) call check_table_in_box(cfg, self%box, table)
+        call scene_masses_and_potential(cfg, self, table, mesh, ntypes, from_table .or. self%restarted)
 
         ! ---- potential range (and the skin a term asks for when the deck gives none)
         if (cfg%nml%find('neighbor', 'skin') == 0 .and. self%pot%preferred_skin() > 0) cfg%skin = self%pot%preferred_skin()
         if (cfg%buffer_tolerance > 0) call size_buffer(self, cfg, table, ckpt, ntypes)
         self%cutmax = self%pot%cutoff()
-        do d = 1, cfg%dimension
-            if (.not. self%box%periodic(d)) cycle
-            if (self%cutmax > 0.5_dp*self%box%length(d)) then
-                write (s1, '(es12.5)') self%cutmax
-                write (s2, '(es12.5)') 0.5_dp*self%box%length(d)
-                if (cfg%nml%find('potential', 'cutoff') > 0 .or. cfg%nml%find('potential', 'pair_cutoff') > 0) then
-                    call stop_all(cfg%where('potential', 'cutoff')//' = '//trim(adjustl(s1))//': beyond half the '// &
-                                  'periodic box along '//'xyz'(d:d)//' ('//trim(adjustl(s2))//'); use a larger box or '// &
-                                  'a smaller cutoff')
-                else      ! (a cutoff the potential's file sets, as EAM's: the box must grow)
-                    call stop_all(cfg%where('potential', 'style')//" = '"//trim(cfg%potential)//"': its cutoff "// &
-                                  trim(adjustl(s1))//' is beyond half the periodic box along '//'xyz'(d:d)//' ('// &
-                                  trim(adjustl(s2))//'); use a larger box (&system cells or box_hi)')
-                end if
-            end if
-            if (self%cutmax + cfg%skin >= self%box%length(d)) then
-                if (cfg%buffer_tolerance > 0) then
-                    write (s1, '(es12.5)') cfg%skin
-                    call stop_all(cfg%where('neighbor', 'buffer_tolerance')//': the skin it needs ('// &
-                                  trim(adjustl(s1))//') makes cutoff + skin reach the periodic box; use a larger '// &
-                                  'tolerance, a smaller every or a larger box')
-                end if
-                call stop_all(cfg%where('neighbor', 'skin')//': cutoff + skin must be smaller than the periodic box')
-            end if
-        end do
+        call check_range(cfg, self)
 
         ! ---- distribute atoms
         cutghost = self%pot%halo_reach() + cfg%skin
@@ -217,6 +107,168 @@ contains
             self%restart_values = ckpt%values
         end if
     end subroutine build_scene
+
+    !> The atoms of a data file or an atoms file (read on rank 0, shared with every rank), or of a
+    !> mesh (its nodes); ntypes: their number of types.
+    subroutine read_scene_table(cfg, self, table, mesh, ntypes)
+        type(config_t), intent(in) :: cfg
+        type(scene_t), intent(inout) :: self
+        type(atom_table_t), intent(inout) :: table
+        type(mesh_t), intent(inout) :: mesh
+        integer, intent(out) :: ntypes
+        character(len=64) :: s1, s2
+        if (world%rank == 0) then
+            if (len_trim(cfg%read_data) > 0) then
+                call read_data_checked(cfg, table)
+            else if (len_trim(cfg%atoms_file) > 0) then
+                call read_atoms_file(trim(cfg%atoms_file), table)
+            end if
+        end if
+        if (len_trim(cfg%read_data) > 0 .or. len_trim(cfg%atoms_file) > 0) then
+            call bcast_atom_table(table)
+            if (.not. table%ok) call stop_all(trim(table%error))
+        end if
+        if (len_trim(cfg%mesh_file) > 0) then
+            call mesh_scene(cfg, table, mesh, self%atoms, .false.)
+            self%mesh_hash = mesh_fingerprint(mesh)
+        end if
+        ntypes = table%ntypes
+        if (ntypes > max_types) then
+            write (s1, '(i0)') max_types
+            write (s2, '(i0)') ntypes
+            call stop_all(trim(cfg%scene_source())//': '//trim(s2)//' atom types: more atom types than Terrace supports (max '// &
+                          trim(s1)//')')
+        end if
+    end subroutine read_scene_table
+
+    !> The box: the checkpoint's (lo, hi as given), the lattice's (cell: its unit cell), the data or
+    !> H5MD file's, or the deck's; free dimensions span the atoms' extent plus a margin (the cutoff,
+    !> or half the mesh's size).
+    subroutine scene_box(cfg, self, table, lo, hi, cell)
+        type(config_t), intent(in) :: cfg
+        type(scene_t), intent(inout) :: self
+        type(atom_table_t), intent(in) :: table
+        real(dp), intent(inout) :: lo(3), hi(3), cell(3)
+        real(dp) :: margin
+        integer :: d
+        margin = max(cfg%cutoff, 1.0_dp)
+        if (len_trim(cfg%mesh_file) > 0 .and. .not. self%restarted) &
+            margin = 0.5_dp*maxval(maxval(table%x, 2) - minval(table%x, 2))
+        if (self%restarted) then
+            continue                         ! lo, hi: the checkpoint's
+        else if (len_trim(cfg%lattice) > 0) then
+            cell = lattice_cell(cfg%lattice, cfg%lattice_constant, cfg%density, cfg%dimension)
+            lo = 0
+            hi = cell*max(cfg%cells, 1)
+        else if (len_trim(cfg%read_data) > 0 .or. len_trim(cfg%read_h5md) > 0) then
+            lo = table%lo; hi = table%hi
+        else
+            do d = 1, cfg%dimension
+                if (.not. is_unset(cfg%box_lo(d)) .and. .not. is_unset(cfg%box_hi(d))) then
+                    lo(d) = cfg%box_lo(d); hi(d) = cfg%box_hi(d)
+                    if (hi(d) <= lo(d)) call stop_all(cfg%where('system', 'box_hi')//': must be > box_lo')
+                else if (cfg%periodic(d)) then
+                    call stop_all(cfg%where('system', 'box_lo')//': a periodic dimension of an atoms_file scene '// &
+                                  'needs box_lo and box_hi')
+                else
+                    lo(d) = minval(table%x(d, :)) - margin
+                    hi(d) = maxval(table%x(d, :)) + margin
+                end if
+            end do
+        end if
+        call self%box%set(lo, hi, cfg%periodic, cfg%dimension)
+    end subroutine scene_box
+
+    !> Every atom read lies in the box (and in the plane z = 0, at rest along z, in 2-D).
+    subroutine check_table_in_box(cfg, box, table)
+        type(config_t), intent(in) :: cfg
+        type(box_t), intent(in) :: box
+        type(atom_table_t), intent(in) :: table
+        character(len=64) :: s1, s2
+        integer :: i, d
+        if (cfg%dimension == 2) then
+            if (any(table%x(3, :) /= 0) .or. any(table%v(3, :) /= 0)) &
+                call stop_all(trim(cfg%scene_source())//': a 2-D run needs z = 0 and vz = 0 for every atom')
+        end if
+        do i = 1, table%n
+            do d = 1, cfg%dimension
+                if (table%x(d, i) < box%lo(d) .or. table%x(d, i) > box%hi(d)) then
+                    write (s1, '(i0)') table%id(i)
+                    write (s2, '(es12.5)') table%x(d, i)
+                    call stop_all(trim(cfg%scene_source())//': atom '//trim(s1)//' lies outside the box ('// &
+                                  'xyz'(d:d)//' = '//trim(adjustl(s2))//')')
+                end if
+            end do
+        end do
+    end subroutine check_table_in_box
+
+    !> The masses per type (the file's when read_masses, then the deck's), the potential, and a
+    !> stop naming the first type without a mass.
+    subroutine scene_masses_and_potential(cfg, self, table, mesh, ntypes, read_masses)
+        type(config_t), intent(in) :: cfg
+        type(scene_t), intent(inout) :: self
+        type(atom_table_t), intent(in) :: table
+        type(mesh_t), intent(in) :: mesh
+        integer, intent(in) :: ntypes
+        logical, intent(in) :: read_masses
+        character(len=64) :: s1
+        integer :: t
+        allocate (self%atoms%mass(ntypes))
+        self%atoms%ntypes = ntypes
+        self%atoms%mass = -1
+        if (read_masses) then
+            if (table%has_masses) self%atoms%mass = table%mass(1:ntypes)
+        end if
+        if (len_trim(cfg%mesh_file) > 0) then
+            self%atoms%mass(1) = table%mass(1)
+            call make_potential(cfg, ntypes, self%atoms%mass, self%pot, mesh, table%x, self%atoms%mass_of_id)
+            self%mesh_tet = mesh%tet
+        else
+            call make_potential(cfg, ntypes, self%atoms%mass, self%pot)
+        end if
+        do t = 1, ntypes
+            if (cfg%mass(t) > 0) self%atoms%mass(t) = cfg%mass(t)
+            if (.not. (self%atoms%mass(t) > 0)) then
+                write (s1, '(i0)') t
+                call stop_all(cfg%path//': &system: mass: type '//trim(s1)//' has no mass (give mass('//trim(s1)// &
+                              ') in '//trim(cfg%units%mass)//', or a Masses section in the data file)')
+            end if
+        end do
+    end subroutine scene_masses_and_potential
+
+    !> Along each periodic dimension: the potential's cutoff within half the box, and cutoff + skin
+    !> within the box.
+    subroutine check_range(cfg, self)
+        type(config_t), intent(in) :: cfg
+        type(scene_t), intent(in) :: self
+        character(len=64) :: s1, s2
+        integer :: d
+        do d = 1, cfg%dimension
+            if (.not. self%box%periodic(d)) cycle
+            if (self%cutmax > 0.5_dp*self%box%length(d)) then
+                write (s1, '(es12.5)') self%cutmax
+                write (s2, '(es12.5)') 0.5_dp*self%box%length(d)
+                if (cfg%nml%find('potential', 'cutoff') > 0 .or. cfg%nml%find('potential', 'pair_cutoff') > 0) then
+                    call stop_all(cfg%where('potential', 'cutoff')//' = '//trim(adjustl(s1))//': beyond half the '// &
+                                  'periodic box along '//'xyz'(d:d)//' ('//trim(adjustl(s2))//'); use a larger box or '// &
+                                  'a smaller cutoff')
+                else      ! (a cutoff the potential's file sets, as EAM's: the box must grow)
+                    call stop_all(cfg%where('potential', 'style')//" = '"//trim(cfg%potential)//"': its cutoff "// &
+                                  trim(adjustl(s1))//' is beyond half the periodic box along '//'xyz'(d:d)//' ('// &
+                                  trim(adjustl(s2))//'); use a larger box (&system cells or box_hi)')
+                end if
+            end if
+            if (self%cutmax + cfg%skin >= self%box%length(d)) then
+                if (cfg%buffer_tolerance > 0) then
+                    write (s1, '(es12.5)') cfg%skin
+                    call stop_all(cfg%where('neighbor', 'buffer_tolerance')//': the skin it needs ('// &
+                                  trim(adjustl(s1))//') makes cutoff + skin reach the periodic box; use a larger '// &
+                                  'tolerance, a smaller every or a larger box')
+                end if
+                call stop_all(cfg%where('neighbor', 'skin')//': cutoff + skin must be smaller than the periodic box')
+            end if
+        end do
+    end subroutine check_range
 
     !> &neighbor buffer_tolerance: cfg%skin from the drift estimate (terrace_verlet_buffer) for the
     !> scene's atom counts per type, masses, box volume and temperature (the largest of &system
@@ -353,24 +405,23 @@ contains
         use mpi_f08, only: MPI_Allgather, MPI_Allgatherv, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION
         type(config_t), intent(in) :: cfg
         type(atom_table_t), intent(out) :: table
-        integer(i8), allocatable :: ids(:)
-        integer, allocatable :: types(:), image(:, :), counts(:), displs(:)
-        real(dp), allocatable :: x(:, :), v(:, :), buf(:, :), mine(:, :)
-        integer(i8) :: natoms, step
+        type(h5md_frame_t) :: fr
+        integer, allocatable :: counts(:), displs(:)
+        real(dp), allocatable :: buf(:, :), mine(:, :)
         integer :: dimension, n, total, r, i
-        real(dp) :: time, edges(3)
-        logical :: ok, has_v, has_image
+        real(dp) :: edges(3)
+        logical :: ok, has_v
         character(len=1024) :: msg
-        call h5md_read_frame(trim(cfg%read_h5md), world%comm, cfg%h5md_frame, natoms, dimension, ids, types, x, v, image, &
-                             step, time, ok, msg, has_velocity=has_v, has_image=has_image, edges=edges)
+        call h5md_read_frame(trim(cfg%read_h5md), world%comm, cfg%h5md_frame, fr, ok, msg)
         call check_all(ok, trim(cfg%read_h5md)//': &system: read_h5md: '//trim(msg))
-        n = size(ids)
+        dimension = fr%dimension; edges = fr%edges; has_v = fr%has_velocity
+        n = size(fr%ids)
         allocate (mine(11, n), counts(world%nprocs), displs(world%nprocs))
         do i = 1, n
-            mine(1, i) = real(ids(i), dp); mine(2, i) = real(types(i), dp)
-            mine(3:5, i) = x(:, i); mine(6:8, i) = 0; mine(9:11, i) = 0
-            if (has_v) mine(6:8, i) = v(:, i)
-            if (has_image) mine(9:11, i) = real(image(:, i), dp)
+            mine(1, i) = real(fr%ids(i), dp); mine(2, i) = real(fr%types(i), dp)
+            mine(3:5, i) = fr%x(:, i); mine(6:8, i) = 0; mine(9:11, i) = 0
+            if (has_v) mine(6:8, i) = fr%v(:, i)
+            if (fr%has_image) mine(9:11, i) = real(fr%image(:, i), dp)
         end do
         call MPI_Allgather(11*n, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, world%comm)
         total = 0
@@ -451,7 +502,6 @@ contains
     !> motion v = V_b + w_b x (x - c_b) about its centre of mass c_b. With masses_only (a restart)
     !> only the mesh and the masses are made: the atoms file and the rigid motion are not used.
     subroutine mesh_scene(cfg, table, mesh, atoms, masses_only)
-        use terrace_neohookean, only: det3
         use terrace_config, only: max_bodies
         type(config_t), intent(in) :: cfg
         type(atom_table_t), intent(inout) :: table
@@ -460,8 +510,7 @@ contains
         logical, intent(in) :: masses_only
         real(dp), allocatable :: xref(:, :)
         integer, allocatable :: node_body(:)
-        real(dp) :: dm(3, 3), v0, com(3, max_bodies), mb(max_bodies), w(3), r(3)
-        integer :: k, a, e, b, n
+        integer :: k, n
         logical :: current
         character(len=32) :: s1
         call read_gmsh(trim(cfg%mesh_file), mesh)
@@ -473,7 +522,7 @@ contains
             call stop_all(trim(cfg%atoms_file)//': &system: atoms_file: '//trim(s1)//' mesh nodes (one line per node, '// &
                           'in node-tag order)')
         end if
-        allocate (xref(3, n), node_body(n))
+        allocate (xref(3, n))
         do k = 1, n
             xref(:, mesh%node_tag(k)) = mesh%x(:, k)
         end do
@@ -483,22 +532,7 @@ contains
             call stop_all(trim(cfg%mesh_file)//': &system: mesh_file: physical volume tag '//trim(s1)// &
                           ' (each physical volume is a body, its tag the body number in &system velocity(:,b))')
         end if
-        allocate (atoms%mass_of_id(n))
-        atoms%mass_of_id = 0
-        node_body = 0
-        do e = 1, mesh%ntet
-            do a = 1, 3
-                dm(:, a) = xref(:, mesh%tet(a + 1, e)) - xref(:, mesh%tet(1, e))
-            end do
-            v0 = abs(det3(dm))/6
-            do a = 1, 4
-                atoms%mass_of_id(mesh%tet(a, e)) = atoms%mass_of_id(mesh%tet(a, e)) + cfg%mass_density*v0/4
-                if (node_body(mesh%tet(a, e)) == 0) node_body(mesh%tet(a, e)) = mesh%body(e)
-            end do
-        end do
-        if (any(node_body == 0)) call stop_all(trim(cfg%mesh_file)//': &system: mesh_file: a node belongs to no '// &
-                                               'tetrahedron (remove unused nodes: gmsh -save_all 0)')
-        atoms%per_atom_mass = .true.
+        call lump_node_masses(cfg, mesh, xref, atoms, node_body)
         if (masses_only) return
         if (.not. current) then
             table%n = n
@@ -514,43 +548,87 @@ contains
         allocate (table%mass(1))
         table%mass(1) = sum(atoms%mass_of_id)/n
         table%has_masses = .true.
-        ! rigid motion of each body about its centre of mass
+        call add_body_motion(cfg, node_body, atoms%mass_of_id, table)
+    end subroutine mesh_scene
+
+    !> Lumped masses (atoms%mass_of_id: a quarter of each tetrahedron's mass_density times its
+    !> reference volume to each of its nodes) and each node's body (that of its first tetrahedron);
+    !> a node in no tetrahedron stops the run.
+    subroutine lump_node_masses(cfg, mesh, xref, atoms, node_body)
+        use terrace_neohookean, only: det3
+        type(config_t), intent(in) :: cfg
+        type(mesh_t), intent(in) :: mesh
+        real(dp), intent(in) :: xref(:, :)
+        type(atoms_t), intent(inout) :: atoms
+        integer, allocatable, intent(out) :: node_body(:)
+        real(dp) :: dm(3, 3), v0
+        integer :: a, e
+        allocate (atoms%mass_of_id(mesh%nnode), node_body(mesh%nnode))
+        atoms%mass_of_id = 0
+        node_body = 0
+        do e = 1, mesh%ntet
+            do a = 1, 3
+                dm(:, a) = xref(:, mesh%tet(a + 1, e)) - xref(:, mesh%tet(1, e))
+            end do
+            v0 = abs(det3(dm))/6
+            do a = 1, 4
+                atoms%mass_of_id(mesh%tet(a, e)) = atoms%mass_of_id(mesh%tet(a, e)) + cfg%mass_density*v0/4
+                if (node_body(mesh%tet(a, e)) == 0) node_body(mesh%tet(a, e)) = mesh%body(e)
+            end do
+        end do
+        if (any(node_body == 0)) call stop_all(trim(cfg%mesh_file)//': &system: mesh_file: a node belongs to no '// &
+                                               'tetrahedron (remove unused nodes: gmsh -save_all 0)')
+        atoms%per_atom_mass = .true.
+    end subroutine lump_node_masses
+
+    !> The deck's rigid motion of each body (velocity(:,b), angular_velocity(:,b) about the body's
+    !> centre of mass) added to the nodes' velocities; a body given a motion must be in the mesh.
+    subroutine add_body_motion(cfg, node_body, mass_of_id, table)
+        use terrace_config, only: max_bodies
+        type(config_t), intent(in) :: cfg
+        integer, intent(in) :: node_body(:)
+        real(dp), intent(in) :: mass_of_id(:)
+        type(atom_table_t), intent(inout) :: table
+        real(dp) :: com(3, max_bodies), mb(max_bodies), w(3), r(3)
+        character(len=32) :: s1
+        integer :: k, b
         com = 0; mb = 0
-        do k = 1, n
+        do k = 1, size(node_body)
             b = node_body(k)
-            com(:, b) = com(:, b) + atoms%mass_of_id(k)*table%x(:, k)
-            mb(b) = mb(b) + atoms%mass_of_id(k)
+            com(:, b) = com(:, b) + mass_of_id(k)*table%x(:, k)
+            mb(b) = mb(b) + mass_of_id(k)
         end do
         do b = 1, max_bodies
             if (mb(b) > 0) com(:, b) = com(:, b)/mb(b)
             if (mb(b) == 0 .and. (any(cfg%body_velocity(:, b) /= 0) .or. any(cfg%body_angular_velocity(:, b) /= 0))) then
                 write (s1, '(i0)') b
                 call stop_all(cfg%where('system', 'velocity')//': body '//trim(s1)//' is given a velocity, but '// &
-                              trim(cfg%mesh_file)//' has no body '//trim(s1)//' (its bodies: '//body_list()//')')
+                              trim(cfg%mesh_file)//' has no body '//trim(s1)//' (its bodies: '//body_list(mb)//')')
             end if
         end do
-        do k = 1, n
+        do k = 1, size(node_body)
             b = node_body(k)
             w = cfg%body_angular_velocity(:, b)
             r = table%x(:, k) - com(:, b)
             table%v(:, k) = table%v(:, k) + cfg%body_velocity(:, b) + [w(2)*r(3) - w(3)*r(2), w(3)*r(1) - w(1)*r(3), &
                                                                         w(1)*r(2) - w(2)*r(1)]
         end do
-    contains
-        !> The bodies the mesh has, '1, 2'.
-        function body_list() result(t)
-            character(len=:), allocatable :: t
-            character(len=8) :: w
-            integer :: j
-            t = ''
-            do j = 1, max_bodies
-                if (mb(j) <= 0) cycle
-                write (w, '(i0)') j
-                if (len(t) > 0) t = t//', '
-                t = t//trim(w)
-            end do
-        end function body_list
-    end subroutine mesh_scene
+    end subroutine add_body_motion
+
+    !> The bodies of a mesh (those of positive mass mb), '1, 2'.
+    function body_list(mb) result(t)
+        real(dp), intent(in) :: mb(:)
+        character(len=:), allocatable :: t
+        character(len=8) :: w
+        integer :: j
+        t = ''
+        do j = 1, size(mb)
+            if (mb(j) <= 0) cycle
+            write (w, '(i0)') j
+            if (len(t) > 0) t = t//', '
+            t = t//trim(w)
+        end do
+    end function body_list
 
     !> A restart of a mesh scene: the mesh file is read again (reference configuration, lumped
     !> masses, connectivity) and must be the mesh the checkpoint was written for: the same nodes

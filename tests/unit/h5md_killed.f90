@@ -3,7 +3,7 @@
 program h5md_killed
     use mpi_f08, only: MPI_Init, MPI_Abort, MPI_Barrier, MPI_Comm_rank, MPI_Comm_size, MPI_COMM_WORLD
     use terrace_kinds, only: dp, i8
-    use terrace_h5md, only: h5md_writer_t
+    use terrace_h5md, only: h5md_writer_t, h5md_layout_t
     implicit none
     integer, parameter :: n = 10
     type(h5md_writer_t) :: w
@@ -17,9 +17,11 @@ program h5md_killed
     call MPI_Comm_rank(MPI_COMM_WORLD, rank)
     call MPI_Comm_size(MPI_COMM_WORLD, nprocs)
     call get_command_argument(1, path)
-    call w%create(trim(path), MPI_COMM_WORLD, int(n, i8), 3, [0.0_dp, -1.0_dp, 2.0_dp], &
-                  [110.0_dp, 40.0_dp, 9.5_dp], [.true., .true., .false.], .true., .false., .false., .false., &
-                  [1.0_dp, 1.0_dp, 1.0_dp], 'Ang', 'ps', 'eV', 'Ang ps-1', 'u', 'test', ok, msg)
+    call w%create(trim(path), MPI_COMM_WORLD, h5md_layout_t(natoms=int(n, i8), dimension=3, &
+        box_lo=[0.0_dp, -1.0_dp, 2.0_dp], box_hi=[110.0_dp, 40.0_dp, 9.5_dp], &
+        periodic=[.true., .true., .false.], want_position=.true., &
+        masses_by_type=[1.0_dp, 1.0_dp, 1.0_dp], unit_length='Ang', unit_time='ps', &
+        unit_energy='eV', unit_velocity='Ang ps-1', unit_mass='u', creator_version='test'), ok, msg)
     if (.not. ok) error stop 'h5md_killed: create failed'
     do k = 0, 1
         nl = 0

@@ -33,6 +33,16 @@ module terrace_output_files
     !> Characters a temporary or lock file adds to an output's path ('.' + '.terrace-partial', ...)
     integer, parameter :: name_room = 26
 
+    type :: name_t
+        character(len=:), allocatable :: s
+    end type name_t
+
+    !> The deck's outputs (by key, path and absolute path: rank 0 resolves them) and its inputs.
+    type :: file_set_t
+        character(len=16) :: out_keys(nout), in_keys(nin), in_groups(nin)
+        type(name_t) :: out_path(nout), out_abs(nout), in_path(nin), in_abs(nin)
+    end type file_set_t
+
 contains
 
     !> Rename the temporary files of the small text outputs (thermo, forces, final atoms) over
@@ -66,150 +76,183 @@ contains
     subroutine check_outputs(cfg, lock)
         type(config_t), intent(in) :: cfg
         logical, intent(in) :: lock
-        character(len=16) :: out_keys(nout), in_keys(nin), in_groups(nin)
+        type(file_set_t) :: files
         character(len=:), allocatable :: msg
-        type :: name_t
-            character(len=:), allocatable :: s
-        end type name_t
-        type(name_t) :: out_path(nout), out_abs(nout), in_path(nin), in_abs(nin)
-        integer :: i, j
+        integer :: i
         logical :: ok
-        out_keys = [character(len=16) :: 'thermo_file', 'forces_file', 'final_atoms_file', 'trajectory_file', &
-                    'checkpoint_file', 'trajectory_file', 'summary_file', 'trajectory_file']
-        out_path(1)%s = trim(cfg%thermo_file); out_path(2)%s = trim(cfg%forces_file)
-        out_path(3)%s = trim(cfg%final_atoms_file); out_path(4)%s = trim(cfg%trajectory_file)
-        out_path(5)%s = trim(cfg%checkpoint_file)
-        out_path(6)%s = ''
-        if (len_trim(cfg%mesh_file) > 0 .and. len_trim(cfg%trajectory_file) > 0) &
-            out_path(6)%s = xdmf_sidecar_path(trim(cfg%trajectory_file))
-        out_path(7)%s = trim(cfg%summary_file)
-        out_path(8)%s = ''
-        if (wants_topology_data(cfg%trajectory_file, cfg%dimension, len_trim(cfg%mesh_file) > 0)) &
-            out_path(8)%s = topology_data_path(trim(cfg%trajectory_file))
-        in_keys = [character(len=16) :: 'input deck', 'read_data', 'atoms_file', 'read_h5md', 'file', 'read_checkpoint', &
-                   'mesh_file']
-        in_groups = [character(len=16) :: '', 'system', 'system', 'system', 'potential', 'system', 'system']
-        in_path(1)%s = cfg%path; in_path(2)%s = trim(cfg%read_data); in_path(3)%s = trim(cfg%atoms_file)
-        in_path(4)%s = trim(cfg%read_h5md); in_path(5)%s = trim(cfg%potential_file)
-        in_path(6)%s = trim(cfg%read_checkpoint); in_path(7)%s = trim(cfg%mesh_file)
+        call list_files(cfg, files)
         msg = ''
         ! a checkpointed run writes its small outputs in place (a killed job is continued)
         call write_in_place(len_trim(cfg%checkpoint_file) > 0 .or. len_trim(cfg%read_checkpoint) > 0)
         if (world%rank == 0) then
             do i = 1, nin
-                in_abs(i)%s = ''
-                if (len(in_path(i)%s) > 0) in_abs(i)%s = resolve_path(in_path(i)%s, ok)
+                files%in_abs(i)%s = ''
+                if (len(files%in_path(i)%s) > 0) files%in_abs(i)%s = resolve_path(files%in_path(i)%s, ok)
             end do
             do i = 1, nout
-                out_abs(i)%s = ''
-                if (len(out_path(i)%s) == 0) cycle
-                call check_one(i)
+                files%out_abs(i)%s = ''
+                if (len(files%out_path(i)%s) == 0) cycle
+                call check_one(cfg, files, i, msg)
                 if (len(msg) > 0) exit
             end do
-            if (len(msg) == 0 .and. lock) then
-                do i = 1, nout
-                    if (len(out_path(i)%s) == 0) cycle
-                    select case (lock_file(lock_name(output_target(out_path(i)%s))))
-                    case (1)
-                        msg = where(i)//": another terrace run is writing this output now (it holds the lock "// &
-                              lock_name(output_target(out_path(i)%s))//'); wait for it to end or choose other output names'
-                    case (2)
-                        msg = where(i)//': cannot write: cannot create the lock file '//lock_name(output_target(out_path(i)%s))
-                    end select
-                    if (len(msg) > 0) exit
-                end do
-            end if
+            if (len(msg) == 0 .and. lock) call lock_outputs(cfg, files, msg)
         end if
         call check_all(len(msg) == 0, msg)
-
-    contains
-
-        function where(i) result(s)
-            integer, intent(in) :: i
-            character(len=:), allocatable :: s
-            s = cfg%where('output', trim(out_keys(i)))//" = '"//out_path(i)%s//"'"
-            if (i == 6) s = cfg%where('output', 'trajectory_file')//" = '"//trim(cfg%trajectory_file)// &
-                            "': its XDMF sidecar '"//out_path(i)%s//"'"
-            if (i == 8) s = cfg%where('output', 'trajectory_file')//" = '"//trim(cfg%trajectory_file)// &
-                            "': its topology for MDAnalysis '"//out_path(i)%s//"'"
-        end function where
-
-        function verb(i) result(s)
-            integer, intent(in) :: i
-            character(len=:), allocatable :: s
-            s = 'cannot write'
-            if (i >= 4 .and. i <= 6) s = 'cannot create'
-        end function verb
-
-        subroutine check_one(i)
-            integer, intent(in) :: i
-            integer :: unit, ios, kind
-            character(len=:), allocatable :: probe, dir
-            character(len=16) :: pid
-            ! a symbolic link is written through: its target's directory must exist and take files
-            out_abs(i)%s = resolve_path(output_target(out_path(i)%s), ok)
-            dir = directory_of(output_target(out_path(i)%s))
-            if (.not. ok) then
-                if (path_kind(dir) == path_directory) then
-                    ! (the directory is there: the absolute path is what cannot be formed)
-                    msg = where(i)//': '//verb(i)//': the path is too long once the current directory is put '// &
-                          'before it (an absolute path has at most 4096 characters; give a shorter name)'
-                else
-                    msg = where(i)//': '//verb(i)//": the directory '"//dir//"' does not exist"
-                end if
-                return
-            end if
-            ! beside each output go its temporary file and its lock ('.NAME.terrace-partial', ...)
-            if (len(out_abs(i)%s) + name_room > 4096) then
-                write (pid, '(i0)') len(out_abs(i)%s)
-                msg = where(i)//': '//verb(i)//': the path has '//trim(pid)//' characters once made absolute; an '// &
-                      'output may have at most 4070 (its temporary and lock files beside it need the rest of 4096)'
-                return
-            end if
-            kind = path_kind(out_path(i)%s)
-            if (kind /= path_missing .and. kind /= path_regular) then
-                msg = where(i)//': '//verb(i)//': the path exists and is not a regular file (a directory, '// &
-                      'device, pipe or socket is never replaced)'
-                return
-            end if
-            if (kind == path_regular .and. .not. is_writable(out_path(i)%s)) then
-                msg = where(i)//': '//verb(i)//': the existing file is read-only'
-                return
-            end if
-            ! the directory must take a new file (the temporary output, the lock file)
-            write (pid, '(i0)') process_id()
-            probe = dir//'/.terrace-probe.'//trim(pid)
-            open (newunit=unit, file=probe, status='replace', action='write', iostat=ios)
-            if (ios /= 0) then
-                msg = where(i)//': '//verb(i)//": cannot create a file in the directory '"//dir//"'"
-                return
-            end if
-            close (unit, status='delete')
-            do j = 1, i - 1
-                if (len(out_abs(j)%s) == 0) cycle
-                if (out_abs(j)%s == out_abs(i)%s) then
-                    msg = where(i)//': the same file as &output '//trim(out_keys(j))//' ('//out_abs(i)%s// &
-                          '); give every output its own name'
-                    return
-                end if
-            end do
-            do j = 1, nin
-                if (len(in_abs(j)%s) == 0) cycle
-                if (i == 5 .and. j == 6) cycle           ! a checkpoint is continued in place
-                if (in_abs(j)%s == out_abs(i)%s) then
-                    if (j == 1) then
-                        msg = where(i)//': the same file as the input deck ('//out_abs(i)%s// &
-                              '); the run would overwrite its own input'
-                    else
-                        msg = where(i)//': the same file as the input &'//trim(in_groups(j))//' '//trim(in_keys(j))// &
-                              ' ('//out_abs(i)%s//'); the run would overwrite its input'
-                    end if
-                    return
-                end if
-            end do
-        end subroutine check_one
-
     end subroutine check_outputs
+
+    !> The deck's outputs and inputs, by key.
+    subroutine list_files(cfg, files)
+        type(config_t), intent(in) :: cfg
+        type(file_set_t), intent(out) :: files
+        files%out_keys = [character(len=16) :: 'thermo_file', 'forces_file', 'final_atoms_file', 'trajectory_file', &
+                          'checkpoint_file', 'trajectory_file', 'summary_file', 'trajectory_file']
+        files%out_path(1)%s = trim(cfg%thermo_file); files%out_path(2)%s = trim(cfg%forces_file)
+        files%out_path(3)%s = trim(cfg%final_atoms_file); files%out_path(4)%s = trim(cfg%trajectory_file)
+        files%out_path(5)%s = trim(cfg%checkpoint_file)
+        files%out_path(6)%s = ''
+        if (len_trim(cfg%mesh_file) > 0 .and. len_trim(cfg%trajectory_file) > 0) &
+            files%out_path(6)%s = xdmf_sidecar_path(trim(cfg%trajectory_file))
+        files%out_path(7)%s = trim(cfg%summary_file)
+        files%out_path(8)%s = ''
+        if (wants_topology_data(cfg%trajectory_file, cfg%dimension, len_trim(cfg%mesh_file) > 0)) &
+            files%out_path(8)%s = topology_data_path(trim(cfg%trajectory_file))
+        files%in_keys = [character(len=16) :: 'input deck', 'read_data', 'atoms_file', 'read_h5md', 'file', &
+                         'read_checkpoint', 'mesh_file']
+        files%in_groups = [character(len=16) :: '', 'system', 'system', 'system', 'potential', 'system', 'system']
+        files%in_path(1)%s = cfg%path; files%in_path(2)%s = trim(cfg%read_data)
+        files%in_path(3)%s = trim(cfg%atoms_file); files%in_path(4)%s = trim(cfg%read_h5md)
+        files%in_path(5)%s = trim(cfg%potential_file); files%in_path(6)%s = trim(cfg%read_checkpoint)
+        files%in_path(7)%s = trim(cfg%mesh_file)
+    end subroutine list_files
+
+    !> Lock every output for the rest of the run (msg: why one cannot be locked).
+    subroutine lock_outputs(cfg, files, msg)
+        type(config_t), intent(in) :: cfg
+        type(file_set_t), intent(in) :: files
+        character(len=:), allocatable, intent(inout) :: msg
+        character(len=:), allocatable :: lock
+        integer :: i
+        do i = 1, nout
+            if (len(files%out_path(i)%s) == 0) cycle
+            lock = lock_name(output_target(files%out_path(i)%s))
+            select case (lock_file(lock))
+            case (1)
+                msg = output_where(cfg, files, i)//": another terrace run is writing this output now (it holds "// &
+                      'the lock '//lock//'); wait for it to end or choose other output names'
+            case (2)
+                msg = output_where(cfg, files, i)//': cannot write: cannot create the lock file '//lock
+            end select
+            if (len(msg) > 0) exit
+        end do
+    end subroutine lock_outputs
+
+    !> Output i named as the deck names it, for messages.
+    function output_where(cfg, files, i) result(s)
+        type(config_t), intent(in) :: cfg
+        type(file_set_t), intent(in) :: files
+        integer, intent(in) :: i
+        character(len=:), allocatable :: s
+        s = cfg%where('output', trim(files%out_keys(i)))//" = '"//files%out_path(i)%s//"'"
+        if (i == 6) s = cfg%where('output', 'trajectory_file')//" = '"//trim(cfg%trajectory_file)// &
+                        "': its XDMF sidecar '"//files%out_path(i)%s//"'"
+        if (i == 8) s = cfg%where('output', 'trajectory_file')//" = '"//trim(cfg%trajectory_file)// &
+                        "': its topology for MDAnalysis '"//files%out_path(i)%s//"'"
+    end function output_where
+
+    !> What cannot be done to output i: written (a file replaced) or created (a trajectory, a
+    !> checkpoint, a sidecar).
+    function output_verb(i) result(s)
+        integer, intent(in) :: i
+        character(len=:), allocatable :: s
+        s = 'cannot write'
+        if (i >= 4 .and. i <= 6) s = 'cannot create'
+    end function output_verb
+
+    !> Output i: its path can be written (msg says why not), and it is neither an output before it
+    !> nor an input (files%out_abs(i): its absolute path).
+    subroutine check_one(cfg, files, i, msg)
+        type(config_t), intent(in) :: cfg
+        type(file_set_t), intent(inout) :: files
+        integer, intent(in) :: i
+        character(len=:), allocatable, intent(inout) :: msg
+        integer :: unit, ios, kind
+        character(len=:), allocatable :: probe, dir, where, verb
+        character(len=16) :: pid
+        logical :: ok
+        where = output_where(cfg, files, i); verb = output_verb(i)
+        ! a symbolic link is written through: its target's directory must exist and take files
+        files%out_abs(i)%s = resolve_path(output_target(files%out_path(i)%s), ok)
+        dir = directory_of(output_target(files%out_path(i)%s))
+        if (.not. ok) then
+            if (path_kind(dir) == path_directory) then
+                ! (the directory is there: the absolute path is what cannot be formed)
+                msg = where//': '//verb//': the path is too long once the current directory is put '// &
+                      'before it (an absolute path has at most 4096 characters; give a shorter name)'
+            else
+                msg = where//': '//verb//": the directory '"//dir//"' does not exist"
+            end if
+            return
+        end if
+        ! beside each output go its temporary file and its lock ('.NAME.terrace-partial', ...)
+        if (len(files%out_abs(i)%s) + name_room > 4096) then
+            write (pid, '(i0)') len(files%out_abs(i)%s)
+            msg = where//': '//verb//': the path has '//trim(pid)//' characters once made absolute; an '// &
+                  'output may have at most 4070 (its temporary and lock files beside it need the rest of 4096)'
+            return
+        end if
+        kind = path_kind(files%out_path(i)%s)
+        if (kind /= path_missing .and. kind /= path_regular) then
+            msg = where//': '//verb//': the path exists and is not a regular file (a directory, '// &
+                  'device, pipe or socket is never replaced)'
+            return
+        end if
+        if (kind == path_regular .and. .not. is_writable(files%out_path(i)%s)) then
+            msg = where//': '//verb//': the existing file is read-only'
+            return
+        end if
+        ! the directory must take a new file (the temporary output, the lock file)
+        write (pid, '(i0)') process_id()
+        probe = dir//'/.terrace-probe.'//trim(pid)
+        open (newunit=unit, file=probe, status='replace', action='write', iostat=ios)
+        if (ios /= 0) then
+            msg = where//': '//verb//": cannot create a file in the directory '"//dir//"'"
+            return
+        end if
+        close (unit, status='delete')
+        call check_not_another(files, i, where, msg)
+    end subroutine check_one
+
+    !> Output i (named `where` in messages) is not the same file as an output before it nor as an
+    !> input (a checkpoint may be continued in place).
+    subroutine check_not_another(files, i, where, msg)
+        type(file_set_t), intent(in) :: files
+        integer, intent(in) :: i
+        character(len=*), intent(in) :: where
+        character(len=:), allocatable, intent(inout) :: msg
+        integer :: j
+        do j = 1, i - 1
+            if (len(files%out_abs(j)%s) == 0) cycle
+            if (files%out_abs(j)%s == files%out_abs(i)%s) then
+                msg = where//': the same file as &output '//trim(files%out_keys(j))//' ('//files%out_abs(i)%s// &
+                      '); give every output its own name'
+                return
+            end if
+        end do
+        do j = 1, nin
+            if (len(files%in_abs(j)%s) == 0) cycle
+            if (i == 5 .and. j == 6) cycle           ! a checkpoint is continued in place
+            if (files%in_abs(j)%s == files%out_abs(i)%s) then
+                if (j == 1) then
+                    msg = where//': the same file as the input deck ('//files%out_abs(i)%s// &
+                          '); the run would overwrite its own input'
+                else
+                    msg = where//': the same file as the input &'//trim(files%in_groups(j))//' '// &
+                          trim(files%in_keys(j))//' ('//files%out_abs(i)%s//'); the run would overwrite its input'
+                end if
+                return
+            end if
+        end do
+    end subroutine check_not_another
 
     !> The lock file of an output: '.NAME.terrace-lock' in its directory (called with the output's
     !> target, so that two names of one file share one lock).

@@ -78,17 +78,43 @@ contains
         type(h5md_trajectory_t), intent(in) :: traj
         type(analysis_config_t), intent(in) :: cfg
         type(msd_plan_t), intent(in) :: plan
-        type(autocorrelation_t) :: full
-        type(autocorrelation_t), allocatable :: blk(:)
-        real(dp), allocatable :: x(:, :, :), s(:), sb(:), a_full(:), a_blk(:, :), c(:), msd(:), msd_b(:, :), cols(:, :)
-        real(dp), allocatable :: edges(:, :), d_blk(:), err(:)
-        integer, allocatable :: img(:, :, :)
-        integer(i8) :: a0, na, i, t
-        integer :: k, b, m, nlag, B_, n, bl, D
-        real(dp) :: L(3), invL(3), step(3), d_full, d_mean, d_err, to_cm2s
-        character(len=:), allocatable :: ll, tl, dl
+        real(dp), allocatable :: x(:, :, :), msd(:), msd_b(:, :), d_blk(:), err(:)
+        integer(i8) :: na
+        integer :: b, m, nlag, B_, D
+        real(dp) :: d_full, d_mean, d_err
 
-        D = traj%dimension; nlag = plan%maxlag; B_ = plan%nblocks; n = int(plan%nsel); bl = plan%block_len
+        D = traj%dimension; nlag = plan%maxlag; B_ = plan%nblocks
+        call read_unwrapped(traj, plan, na, x)
+        allocate (msd(0:nlag), msd_b(0:nlag, B_))
+        call msd_curves(traj, plan, na, x, msd, msd_b)
+        deallocate (x)
+        allocate (d_blk(B_))
+        do b = 1, B_
+            d_blk(b) = fit_slope(msd_b(:, b), plan%dt, plan%fit_lo, plan%fit_hi)/(2*D)
+        end do
+        d_full = fit_slope(msd, plan%dt, plan%fit_lo, plan%fit_hi)/(2*D)
+        d_mean = sum(d_blk)/B_
+        d_err = sqrt(sum((d_blk - d_mean)**2)/(B_ - 1))/sqrt(real(B_, dp))
+        allocate (err(0:nlag))
+        do m = 0, nlag
+            err(m) = sqrt(sum((msd_b(m, :) - sum(msd_b(m, :))/B_)**2)/(B_ - 1))/sqrt(real(B_, dp))
+        end do
+        call report_msd(traj, cfg, plan, msd, err, [d_full, d_err, d_mean])
+    end subroutine run_msd
+
+    !> This rank's block of atoms (na of them), x(D, na, frames): the selected frames' positions,
+    !> unwrapped with the images when the file has them, else by continuity across a periodic box.
+    subroutine read_unwrapped(traj, plan, na, x)
+        type(h5md_trajectory_t), intent(in) :: traj
+        type(msd_plan_t), intent(in) :: plan
+        integer(i8), intent(out) :: na
+        real(dp), allocatable, intent(out) :: x(:, :, :)
+        real(dp), allocatable :: edges(:, :)
+        integer, allocatable :: img(:, :, :)
+        integer(i8) :: a0, i, t
+        integer :: n, D
+        real(dp) :: L(3), invL(3), step(3)
+        D = traj%dimension; n = int(plan%nsel)
         call id_block(traj%natoms, world%nprocs, world%rank, a0, na)
         a0 = a0 - 1          ! 0-based start of this rank's block
         allocate (x(D, max(na, 1_i8), n), edges(3, n))
@@ -118,13 +144,28 @@ contains
                 end do
             end do
         end if
+    end subroutine read_unwrapped
 
+    !> MSD(m), m = 0..maxlag, over the whole selection (msd) and within each block (msd_b), from
+    !> the unwrapped positions x of this rank's na atoms (summed over the ranks).
+    subroutine msd_curves(traj, plan, na, x, msd, msd_b)
+        type(h5md_trajectory_t), intent(in) :: traj
+        type(msd_plan_t), intent(in) :: plan
+        integer(i8), intent(in) :: na
+        real(dp), intent(in) :: x(:, :, :)
+        real(dp), intent(out) :: msd(0:), msd_b(0:, :)
+        type(autocorrelation_t) :: full
+        type(autocorrelation_t), allocatable :: blk(:)
+        real(dp), allocatable :: s(:), sb(:), a_full(:), a_blk(:, :), c(:)
+        integer(i8) :: i
+        integer :: k, b, m, nlag, B_, n, bl, D
+        D = traj%dimension; nlag = plan%maxlag; B_ = plan%nblocks; n = int(plan%nsel); bl = plan%block_len
         call full%setup(n)
         allocate (blk(B_))
         do b = 1, B_
             call blk(b)%setup(bl)
         end do
-        allocate (s(n), sb(bl), a_full(0:nlag), a_blk(0:nlag, B_), c(0:nlag), msd(0:nlag), msd_b(0:nlag, B_))
+        allocate (s(n), sb(bl), a_full(0:nlag), a_blk(0:nlag, B_), c(0:nlag))
         a_full = 0; a_blk = 0
         do i = 1, na
             do k = 1, D
@@ -139,14 +180,12 @@ contains
                 end do
             end do
         end do
-        deallocate (x)
         call full%reduce(); call sum_all(a_full)
         call full%correlation(nlag, c)
         call full%destroy()
         do m = 0, nlag
             msd(m) = (a_full(m) - 2*c(m))/(real(n - m, dp)*traj%natoms)
         end do
-        allocate (d_blk(B_))
         do b = 1, B_
             call blk(b)%reduce()
             call blk(b)%correlation(nlag, c)
@@ -155,21 +194,25 @@ contains
             do m = 0, nlag
                 msd_b(m, b) = (a_blk(m, b) - 2*c(m))/(real(bl - m, dp)*traj%natoms)
             end do
-            d_blk(b) = fit_slope(msd_b(:, b), plan%dt, plan%fit_lo, plan%fit_hi)/(2*D)
         end do
-        d_full = fit_slope(msd, plan%dt, plan%fit_lo, plan%fit_hi)/(2*D)
-        d_mean = sum(d_blk)/B_
-        d_err = sqrt(sum((d_blk - d_mean)**2)/(B_ - 1))/sqrt(real(B_, dp))
-        allocate (err(0:nlag))
-        do m = 0, nlag
-            err(m) = sqrt(sum((msd_b(m, :) - sum(msd_b(m, :))/B_)**2)/(B_ - 1))/sqrt(real(B_, dp))
-        end do
+    end subroutine msd_curves
 
+    !> <prefix>_msd.csv (MSD and its block error per lag), <prefix>_diffusion.csv (d: D, its block
+    !> error, the blocks' mean; in cm^2/s as well for Angstrom or nm and ps) and the summary.
+    subroutine report_msd(traj, cfg, plan, msd, err, d)
+        type(h5md_trajectory_t), intent(in) :: traj
+        type(analysis_config_t), intent(in) :: cfg
+        type(msd_plan_t), intent(in) :: plan
+        real(dp), intent(in) :: msd(0:), err(0:), d(3)
+        real(dp), allocatable :: cols(:, :)
+        real(dp) :: to_cm2s
+        character(len=:), allocatable :: ll, tl, dl
+        integer :: m
         ll = trim(traj%unit_length); tl = trim(traj%unit_time)
         dl = '('//ll//'^2/'//tl//')'
         if (len(ll) == 0 .or. len(tl) == 0) dl = '(reduced)'
-        allocate (cols(nlag + 1, 3))
-        do m = 0, nlag
+        allocate (cols(plan%maxlag + 1, 3))
+        do m = 0, plan%maxlag
             cols(m + 1, :) = [m*plan%dt, msd(m), err(m)]
         end do
         call write_csv(trim(cfg%output_prefix)//'_msd.csv', 'time '//unit_label(tl)//',msd ('//ll//'^2),'// &
@@ -185,34 +228,41 @@ contains
             end select
         end if
         allocate (cols(1, 8))
-        cols(1, :) = [d_full, d_err, d_mean, plan%fit_lo*plan%dt, plan%fit_hi*plan%dt, real(B_, dp), &
-                      d_full*to_cm2s, d_err*to_cm2s]
+        cols(1, :) = [d(1), d(2), d(3), plan%fit_lo*plan%dt, plan%fit_hi*plan%dt, real(plan%nblocks, dp), &
+                      d(1)*to_cm2s, d(2)*to_cm2s]
         call write_csv(trim(cfg%output_prefix)//'_diffusion.csv', 'D '//dl//',D_stderr_blocks '//dl//',D_block_mean '// &
                        dl//',fit_start '//unit_label(tl)//',fit_end '//unit_label(tl)//',blocks (1),D (cm^2/s),'// &
                        'D_stderr (cm^2/s)', cols)
-        if (world%rank == 0) then
-            write (output_unit, '(a)') 'MSD and diffusion:'
-            write (output_unit, '(a,i0,a,es12.5,a,i0,a,i0,a)') '  frames: ', n, ' at dt = ', plan%dt, ' ; ', B_, &
-                ' blocks of ', bl, ' frames'
-            if (plan%use_images) then
-                write (output_unit, '(a)') '  unwrapped with image/value'
-            else if (plan%continuity) then
-                write (output_unit, '(a)') '  no image element: unwrapped by continuity between selected frames'
-            end if
-            write (output_unit, '(a,es12.5,a,es12.5,a)') '  fit window: ', plan%fit_lo*plan%dt, ' .. ', &
-                plan%fit_hi*plan%dt, ' '//unit_label(tl)
-            write (output_unit, '(a,es13.6,a,es10.3,1x,a,a,es13.6,a)') '  D = ', d_full, ' +- ', d_err, dl, &
-                '  (mean of blocks ', d_mean, ')'
-            if (to_cm2s > 0) write (output_unit, '(a,es13.6,a,es10.3,a)') '  D = ', d_full*to_cm2s, ' +- ', &
-                d_err*to_cm2s, ' cm^2/s'
-            if (d_full <= 0 .or. d_err >= abs(d_full)) write (error_unit, '(a)') 'terrace: warning: MSD: D = '// &
-                trim(adjustl(es_text(d_full)))//' +- '//trim(adjustl(es_text(d_err)))//' is not a meaningful '// &
-                'diffusion coefficient (negative, or not larger than its block error): the atoms do not diffuse '// &
-                'over the fit window (a solid or a cluster), or the run is too short'
-            write (output_unit, '(a)') '  wrote '//trim(cfg%output_prefix)//'_msd.csv, '//trim(cfg%output_prefix)// &
-                '_diffusion.csv'
+        if (world%rank == 0) call print_msd_summary(cfg, plan, d, to_cm2s, dl, tl)
+    end subroutine report_msd
+
+    !> The summary on standard output (and a warning when D is not meaningful).
+    subroutine print_msd_summary(cfg, plan, d, to_cm2s, dl, tl)
+        type(analysis_config_t), intent(in) :: cfg
+        type(msd_plan_t), intent(in) :: plan
+        real(dp), intent(in) :: d(3), to_cm2s
+        character(len=*), intent(in) :: dl, tl
+        write (output_unit, '(a)') 'MSD and diffusion:'
+        write (output_unit, '(a,i0,a,es12.5,a,i0,a,i0,a)') '  frames: ', int(plan%nsel), ' at dt = ', plan%dt, ' ; ', &
+            plan%nblocks, ' blocks of ', plan%block_len, ' frames'
+        if (plan%use_images) then
+            write (output_unit, '(a)') '  unwrapped with image/value'
+        else if (plan%continuity) then
+            write (output_unit, '(a)') '  no image element: unwrapped by continuity between selected frames'
         end if
-    end subroutine run_msd
+        write (output_unit, '(a,es12.5,a,es12.5,a)') '  fit window: ', plan%fit_lo*plan%dt, ' .. ', &
+            plan%fit_hi*plan%dt, ' '//unit_label(tl)
+        write (output_unit, '(a,es13.6,a,es10.3,1x,a,a,es13.6,a)') '  D = ', d(1), ' +- ', d(2), dl, &
+            '  (mean of blocks ', d(3), ')'
+        if (to_cm2s > 0) write (output_unit, '(a,es13.6,a,es10.3,a)') '  D = ', d(1)*to_cm2s, ' +- ', &
+            d(2)*to_cm2s, ' cm^2/s'
+        if (d(1) <= 0 .or. d(2) >= abs(d(1))) write (error_unit, '(a)') 'terrace: warning: MSD: D = '// &
+            trim(adjustl(es_text(d(1))))//' +- '//trim(adjustl(es_text(d(2))))//' is not a meaningful '// &
+            'diffusion coefficient (negative, or not larger than its block error): the atoms do not diffuse '// &
+            'over the fit window (a solid or a cluster), or the run is too short'
+        write (output_unit, '(a)') '  wrote '//trim(cfg%output_prefix)//'_msd.csv, '//trim(cfg%output_prefix)// &
+            '_diffusion.csv'
+    end subroutine print_msd_summary
 
     !> a(m) += sum_{t=0}^{n-1-m} s(t)^2 + s(t+m)^2 for m = 0..M (s indexed from 1).
     subroutine add_squares(s, M, a)

@@ -176,11 +176,24 @@ contains
     subroutine nh_on_rebuild(self, atoms)
         class(neohookean_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
-        integer :: i, e, a, n, nall, low, k, nextra, nlocal, c
-        integer(i8) :: maxid
-        logical :: touches
-        nall = atoms%nall()
+        integer :: nlocal
         nlocal = atoms%nlocal
+        call map_node_ids(self, atoms)
+        call classify_elements(self, nlocal)
+        call fill_work_list(self)
+        call fill_node_slots(self, nlocal)
+        self%nlocal = nlocal
+        self%coef_valid = .false.
+    end subroutine nh_on_rebuild
+
+    !> id_map(id): the local index of node id (owned atoms win over a periodic ghost image of the
+    !> same id), 0 where this rank holds no copy.
+    subroutine map_node_ids(self, atoms)
+        class(neohookean_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer :: i, nall
+        integer(i8) :: maxid
+        nall = atoms%nall()
         maxid = maxval(self%node)
         if (allocated(self%id_map)) then
             if (size(self%id_map) < maxid) deallocate (self%id_map)
@@ -191,8 +204,17 @@ contains
         do i = nall, 1, -1
             if (atoms%id(i) >= 1 .and. atoms%id(i) <= maxid) self%id_map(atoms%id(i)) = i
         end do
+    end subroutine map_node_ids
+
+    !> pos(e) > 0: element e is mine (its lowest-id node is owned), its place among mine; pos(e) < 0:
+    !> it touches an owned node only, minus its place among those; 0: neither. Sets nmine, nwork,
+    !> npad.
+    subroutine classify_elements(self, nlocal)
+        class(neohookean_t), intent(inout) :: self
+        integer, intent(in) :: nlocal
+        integer :: i, e, a, n, low, nextra
+        logical :: touches
         if (.not. allocated(self%pos)) allocate (self%pos(self%nelem))
-        ! pass 1: classify (pos > 0: mine, in order; pos < 0: touches an owned node only)
         n = 0; nextra = 0
         do e = 1, self%nelem
             self%pos(e) = 0
@@ -216,6 +238,14 @@ contains
         self%nmine = n
         self%nwork = n + nextra
         self%npad = nblk*((self%nwork + nblk - 1)/nblk)
+    end subroutine classify_elements
+
+    !> The work list as a structure of arrays (element, local node indices, Dm^-1, V0, energy
+    !> weight), mine first, padded to whole blocks of nblk.
+    subroutine fill_work_list(self)
+        class(neohookean_t), intent(inout) :: self
+        integer :: i, e, a, n, k, c
+        n = self%nmine
         if (allocated(self%wl)) then
             if (size(self%wl) < self%npad) deallocate (self%wl, self%lidx, self%rdm, self%rv0, self%wgt, self%hf, self%terms)
         end if
@@ -223,11 +253,6 @@ contains
             k = max(self%npad, nblk)
             allocate (self%wl(k), self%lidx(k, 4), self%rdm(k, 9), self%rv0(k), self%wgt(k), self%hf(12, k), self%terms(k, 4))
         end if
-        if (allocated(self%first_slot)) then
-            if (size(self%first_slot) < nlocal + 1) deallocate (self%first_slot)
-        end if
-        if (.not. allocated(self%first_slot)) allocate (self%first_slot(nlocal + 1))
-        ! pass 2: the structure of arrays
         self%missing_node = .false.
         do e = 1, self%nelem
             if (self%pos(e) == 0) cycle
@@ -256,7 +281,18 @@ contains
             self%rv0(k) = 0
             self%wgt(k) = 0
         end do
-        ! pass 3: per owned node, its slots in element order (CSR)
+    end subroutine fill_work_list
+
+    !> Per owned node, its (work item, corner) slots in element order (CSR: first_slot, slot_k,
+    !> slot_c), the fixed order in which the force pass sums them.
+    subroutine fill_node_slots(self, nlocal)
+        class(neohookean_t), intent(inout) :: self
+        integer, intent(in) :: nlocal
+        integer :: i, e, a, k
+        if (allocated(self%first_slot)) then
+            if (size(self%first_slot) < nlocal + 1) deallocate (self%first_slot)
+        end if
+        if (.not. allocated(self%first_slot)) allocate (self%first_slot(nlocal + 1))
         self%first_slot(1:nlocal + 1) = 0
         do k = 1, self%nwork
             do a = 1, 4
@@ -284,7 +320,7 @@ contains
         do e = 1, self%nelem
             if (self%pos(e) == 0) cycle
             k = self%pos(e)
-            if (k < 0) k = n - k
+            if (k < 0) k = self%nmine - k
             do a = 1, 4
                 i = self%lidx(k, a)
                 if (i > nlocal) cycle
@@ -293,9 +329,7 @@ contains
                 self%fill(i) = self%fill(i) + 1
             end do
         end do
-        self%nlocal = nlocal
-        self%coef_valid = .false.
-    end subroutine nh_on_rebuild
+    end subroutine fill_node_slots
 
     !> Forces, and the energy and virial (always computed: they cost nothing extra here). Blocks of
     !> nblk elements: gather the edge vectors into contiguous rows, the arithmetic branch-free over

@@ -3,7 +3,7 @@ module terrace_text
     use terrace_kinds, only: dp
     implicit none
     private
-    public :: count_tokens, fixed, int_text, real_text, sci_text
+    public :: count_tokens, fixed, int_text, real_text, sci_text, real_in_format
 
 contains
 
@@ -35,19 +35,25 @@ contains
     function real_text(x) result(s)
         real(dp), intent(in) :: x
         character(len=:), allocatable :: s
-        character(len=32) :: b
-        write (b, '(g0.6)') x
-        s = trim(adjustl(b))
+        s = real_in_format(x, '(g0.6)')
     end function real_text
 
     !> A real in scientific notation with four significant digits ('1.000E-12'), no padding.
     function sci_text(x) result(s)
         real(dp), intent(in) :: x
         character(len=:), allocatable :: s
-        character(len=32) :: b
-        write (b, '(es10.3)') x
-        s = trim(adjustl(b))
+        s = real_in_format(x, '(es10.3)')
     end function sci_text
+
+    !> A real written with the edit descriptor fmt (at most 32 characters), no padding.
+    function real_in_format(x, fmt) result(s)
+        real(dp), intent(in) :: x
+        character(len=*), intent(in) :: fmt
+        character(len=:), allocatable :: s
+        character(len=32) :: b
+        write (b, fmt) x
+        s = trim(adjustl(b))
+    end function real_in_format
 
     !> x in fixed notation with d decimals and no padding, with the leading zero that gfortran's
     !> f0.d leaves out ('0.8269', '-0.5', not '.8269', '-.5').

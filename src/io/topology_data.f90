@@ -15,6 +15,7 @@ module terrace_topology_data
     use terrace_mpi_env, only: world
     use terrace_gather_by_id, only: gather_by_id
     use terrace_checked_text, only: checked_text_t
+    use terrace_file_ops, only: trajectory_sibling
     implicit none
     private
 
@@ -26,22 +27,8 @@ contains
     function topology_data_path(trajectory) result(path)
         character(len=*), intent(in) :: trajectory
         character(len=:), allocatable :: path
-        character(len=:), allocatable :: t
-        character(len=5), parameter :: ext(3) = ['.h5  ', '.h5md', '.hdf5']
-        integer :: k, n, m
-        t = trim(trajectory)
-        n = len(t)
         path = ''
-        if (n == 0) return
-        do k = 1, size(ext)
-            m = len_trim(ext(k))
-            if (n <= m) cycle
-            if (t(n - m + 1:n) == ext(k)(1:m) .and. t(n - m:n - m) /= '/') then
-                path = t(1:n - m)//'.topology.data'
-                return
-            end if
-        end do
-        path = t//'.topology.data'
+        if (len_trim(trajectory) > 0) path = trajectory_sibling(trajectory, '.topology.data')
     end function topology_data_path
 
     !> Is a companion written for a trajectory of this run (3-D, not a mesh)?

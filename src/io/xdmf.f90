@@ -19,7 +19,8 @@
 !> half-written sidecar; the caller (rank 0) rewrites it as frames reach the disk.
 module terrace_xdmf
     use terrace_kinds, only: dp, i8
-    use terrace_file_ops, only: rename_file, check_size, output_target
+    use terrace_file_ops, only: rename_file, check_size, output_target, trajectory_sibling
+    use terrace_text, only: real_in_format
     implicit none
     private
 
@@ -32,20 +33,7 @@ contains
     function xdmf_sidecar_path(trajectory) result(path)
         character(len=*), intent(in) :: trajectory
         character(len=:), allocatable :: path
-        character(len=:), allocatable :: t
-        integer :: k, n, m
-        character(len=5), parameter :: ext(3) = ['.h5  ', '.h5md', '.hdf5']
-        t = trim(trajectory)
-        n = len(t)
-        do k = 1, size(ext)
-            m = len_trim(ext(k))
-            if (n <= m) cycle
-            if (t(n - m + 1:n) == ext(k)(1:m) .and. t(n - m:n - m) /= '/') then
-                path = t(1:n - m)//'.xdmf'
-                return
-            end if
-        end do
-        path = t//'.xdmf'
+        path = trajectory_sibling(trajectory, '.xdmf')
     end function xdmf_sidecar_path
 
     !> Write the sidecar `path` for the trajectory `trajectory` (its file name is what the sidecar
@@ -86,7 +74,8 @@ contains
         do k = 1, size(times)
             write (buf, '(i0)') k - 1
             call put('      <Grid Name="frame '//trim(buf)//'" GridType="Uniform">')
-            call put('        <Time Value="'//real_text(times(k))//'"/>')
+            ! the time in full (17 significant digits: the file's float64 time, read back exactly)
+            call put('        <Time Value="'//real_in_format(times(k), '(es24.16e3)')//'"/>')
             call put('  '//topo)
             call put('          <DataItem Dimensions="'//st//' 4" NumberType="Int" Precision="4" Format="HDF">'//h5// &
                      ':/parameters/terrace/tetrahedra_index</DataItem>')
@@ -132,15 +121,6 @@ contains
         end subroutine put
 
     end subroutine write_xdmf_mesh
-
-    !> A real number in full (17 significant digits: the file's float64 time, read back exactly).
-    function real_text(x) result(s)
-        real(dp), intent(in) :: x
-        character(len=:), allocatable :: s
-        character(len=32) :: buf
-        write (buf, '(es24.16e3)') x
-        s = trim(adjustl(buf))
-    end function real_text
 
     !> A file name as XML text (&, <, >, " escaped).
     function xml_escape(text) result(s)

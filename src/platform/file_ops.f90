@@ -10,7 +10,8 @@ module terrace_file_ops
 
     public :: resolve_path, path_kind, is_writable, rename_file, remove_file, lock_file, &
               remove_at_exit, keep_at_exit, process_id, directory_of, &
-              temporary_name, commit_output, check_size, cleanup_now, write_in_place, output_target
+              temporary_name, commit_output, check_size, cleanup_now, write_in_place, output_target, &
+              trajectory_sibling
 
     interface
         integer(c_int) function c_resolve(path, out, outlen) bind(C, name='terrace_resolve_path')
@@ -60,15 +61,11 @@ contains
         logical, intent(out) :: ok
         character(len=:), allocatable :: abs_path
         character(kind=c_char, len=8192) :: buf
-        integer :: n
+        integer(c_int) :: rc
         buf = ''
-        ok = c_resolve(trim(path)//c_null_char, buf, int(len(buf), c_int)) == 0
-        if (.not. ok) then
-            abs_path = trim(path)
-            return
-        end if
-        n = index(buf, c_null_char) - 1
-        abs_path = buf(1:n)
+        rc = c_resolve(trim(path)//c_null_char, buf, int(len(buf), c_int))
+        ok = rc == 0
+        abs_path = c_path_result(rc, buf, path)
     end function resolve_path
 
     !> The file an output is written to: path itself, or the file a symbolic link path points to
@@ -78,15 +75,44 @@ contains
         character(len=*), intent(in) :: path
         character(len=:), allocatable :: target
         character(kind=c_char, len=8192) :: buf
-        integer :: n
         buf = ''
-        if (c_output_target(trim(path)//c_null_char, buf, int(len(buf), c_int)) /= 0) then
-            target = trim(path)
-            return
-        end if
-        n = index(buf, c_null_char) - 1
-        target = buf(1:n)
+        target = c_path_result(c_output_target(trim(path)//c_null_char, buf, int(len(buf), c_int)), buf, path)
     end function output_target
+
+    !> The path a C helper wrote into buf (up to its NUL) when it succeeded (rc = 0), else path
+    !> itself (trimmed).
+    function c_path_result(rc, buf, path) result(s)
+        integer(c_int), intent(in) :: rc
+        character(kind=c_char, len=*), intent(in) :: buf
+        character(len=*), intent(in) :: path
+        character(len=:), allocatable :: s
+        if (rc /= 0) then
+            s = trim(path)
+        else
+            s = buf(1:index(buf, c_null_char) - 1)
+        end if
+    end function c_path_result
+
+    !> A file that goes with a trajectory: its path with a final .h5, .h5md or .hdf5 replaced by
+    !> suffix (cube.h5 -> cube.xdmf), or suffix appended to any other name.
+    function trajectory_sibling(trajectory, suffix) result(path)
+        character(len=*), intent(in) :: trajectory, suffix
+        character(len=:), allocatable :: path
+        character(len=:), allocatable :: t
+        integer :: k, n, m
+        character(len=5), parameter :: ext(3) = ['.h5  ', '.h5md', '.hdf5']
+        t = trim(trajectory)
+        n = len(t)
+        do k = 1, size(ext)
+            m = len_trim(ext(k))
+            if (n <= m) cycle
+            if (t(n - m + 1:n) == ext(k)(1:m) .and. t(n - m:n - m) /= '/') then
+                path = t(1:n - m)//suffix
+                return
+            end if
+        end do
+        path = t//suffix
+    end function trajectory_sibling
 
     !> The directory part of a path ('.' for a bare name).
     function directory_of(path) result(dir)

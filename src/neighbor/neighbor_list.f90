@@ -256,14 +256,11 @@ contains
     subroutine nl_build(self, atoms)
         class(neighbor_list_t), intent(inout) :: self
         type(atoms_t), intent(in) :: atoms
-        integer :: i, b, n, ntot, nall, nlocal, nghost, maxbin, bound, r, m1, m2, m3, cr, c, need, occupied, nt
-        real(dp) :: cutsq, sphere, expect
-        real(dp), parameter :: pi = 3.14159265358979324_dp
+        integer :: i, b, n, ntot, nlocal, bound, m1, m2, m3, nt
+        real(dp) :: cutsq
         nlocal = atoms%nlocal
-        nghost = atoms%nghost
-        nall = nlocal + nghost
         if (self%want_clusters) then
-            call self%clusters%build(atoms%x, nlocal, nall, self%cut)
+            call self%clusters%build(atoms%x, nlocal, nlocal + atoms%nghost, self%cut)
             if (self%builds > 0) then
                 call reserve(self%first, nlocal + 1)
                 self%first(1:nlocal + 1) = 1
@@ -275,76 +272,14 @@ contains
         end if
         ntot = product(self%nbin)
         cutsq = self%cutsq
-        cr = self%center_reach
-        ! ghosts by bin
-        call reserve(self%atom_bin, max(nall, 1))
-        call reserve(self%ghost_atoms, max(nghost, 1))
-        call bin_sort(self, atoms%x, nlocal + 1, nall, self%ghost_start, self%ghost_atoms)
-        maxbin = 0
-        occupied = 0
-        do b = 1, ntot
-            c = self%owned_start(b + 1) - self%owned_start(b) + self%ghost_start(b + 1) - self%ghost_start(b)
-            maxbin = max(maxbin, c)
-            occupied = occupied + min(c, 1)
-        end do
-        bound = max(maxbin*self%stencil_bins, 1)
-        ! expected length: half the atoms within the cutoff sphere at the mean density of the
-        ! occupied bins, with a margin so that the list rarely has to grow (a copy: a memory peak)
-        if (self%dimension == 2) then
-            sphere = pi*cutsq/(self%bin_size(1)*self%bin_size(2))
-        else
-            sphere = 4*pi/3*cutsq*self%cut/product(self%bin_size)
-        end if
-        expect = 0.5_dp*sphere*real(nall, dp)/max(occupied, 1)*nlocal
-        call reserve(self%cx, bound)
-        call reserve(self%cy, bound)
-        call reserve(self%cz, bound)
-        call reserve(self%keep, bound)
-        call reserve(self%cj, bound)
-        call bin_order_columns(self, atoms%x, nlocal, nghost)
-        call reserve(self%first, nlocal + 1)
+        call prepare_build(self, atoms, bound)
         nt = self%type_order
-        if (nt > 1) then
-            ! rows ordered by type: segments, and scratch as long as any row can be (bound)
-            call reserve(self%tfirst, nt*nlocal + 1)
-            if (allocated(self%tscratch)) then
-                if (size(self%tscratch, 1) < bound + 1) deallocate (self%tscratch)
-            end if
-            if (.not. allocated(self%tscratch)) allocate (self%tscratch(bound + bound/4 + 16, 3))
-        end if
-        need = int(min(1.15_dp*expect + bound + 1024, real(huge(1), dp)/2))
-        call reserve(self%neigh, need, exact=.true.)
         n = 0
         self%first(1) = 1
-        associate (owned_start => self%owned_start, ghost_start => self%ghost_start, row_lo => self%row_lo, &
-                   row_hi => self%row_hi, row_dz => self%row_dz, x => atoms%x)
+        associate (owned_start => self%owned_start, x => atoms%x)
         do b = 1, ntot
             if (owned_start(b + 1) == owned_start(b)) cycle
-            ! shared candidates: owned atoms of the rest of the centre row and of the upper rows ...
-            m1 = 0
-            call take_slots(owned_start(b + 1), owned_start(b + cr + 1) - 1, self%sx, self%sy, self%sz, self%sj, &
-                            self%cx, self%cy, self%cz, self%cj, m1)
-            do r = self%first_upper_row, self%nrows
-                call take_slots(owned_start(b + row_lo(r)), owned_start(b + row_hi(r) + 1) - 1, self%sx, self%sy, &
-                                self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m1)
-            end do
-            ! ... and ghosts: those of the rows at the same z (centre row first), tested per atom in
-            ! (z, y, x) order, then those of the rows above in z, all above
-            m2 = m1
-            if (ghost_start(b + cr + 1) > ghost_start(b - cr)) &
-                call take_slots(nlocal + ghost_start(b - cr), nlocal + ghost_start(b + cr + 1) - 1, self%sx, self%sy, &
-                                self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m2)
-            do r = 1, self%nrows
-                if (row_dz(r) /= 0 .or. ghost_start(b + row_hi(r) + 1) == ghost_start(b + row_lo(r))) cycle
-                call take_slots(nlocal + ghost_start(b + row_lo(r)), nlocal + ghost_start(b + row_hi(r) + 1) - 1, &
-                                self%sx, self%sy, self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m2)
-            end do
-            m3 = m2
-            do r = self%first_upper_row, self%nrows
-                if (row_dz(r) <= 0 .or. ghost_start(b + row_hi(r) + 1) == ghost_start(b + row_lo(r))) cycle
-                call take_slots(nlocal + ghost_start(b + row_lo(r)), nlocal + ghost_start(b + row_hi(r) + 1) - 1, &
-                                self%sx, self%sy, self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m3)
-            end do
+            call gather_candidates(self, b, nlocal, m1, m2, m3)
             do i = owned_start(b), owned_start(b + 1) - 1
                 if (n + bound > size(self%neigh)) &
                     call grow_keep(self%neigh, n, n + bound + int(min(1.1_dp*n/max(i - 1, 1)*(nlocal - i + 1), &
@@ -370,6 +305,96 @@ contains
         if (self%want_types) call neighbour_types(self, atoms%type, n)
         self%builds = self%builds + 1
     end subroutine nl_build
+
+    !> Before a build: the ghosts sorted by bin, the positions in bin order, and room for the
+    !> scratch rows (bound: the most candidates a bin's atoms can have), the row offsets, the
+    !> type segments and the list (its expected length: half the atoms within the cutoff sphere at
+    !> the mean density of the occupied bins, with a margin so that the list rarely has to grow, a
+    !> copy and a memory peak).
+    subroutine prepare_build(self, atoms, bound)
+        class(neighbor_list_t), intent(inout) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer, intent(out) :: bound
+        integer :: b, ntot, nall, nlocal, nghost, maxbin, c, need, occupied, nt
+        real(dp) :: sphere, expect
+        real(dp), parameter :: pi = 3.14159265358979324_dp
+        nlocal = atoms%nlocal
+        nghost = atoms%nghost
+        nall = nlocal + nghost
+        ntot = product(self%nbin)
+        call reserve(self%atom_bin, max(nall, 1))
+        call reserve(self%ghost_atoms, max(nghost, 1))
+        call bin_sort(self, atoms%x, nlocal + 1, nall, self%ghost_start, self%ghost_atoms)
+        maxbin = 0
+        occupied = 0
+        do b = 1, ntot
+            c = self%owned_start(b + 1) - self%owned_start(b) + self%ghost_start(b + 1) - self%ghost_start(b)
+            maxbin = max(maxbin, c)
+            occupied = occupied + min(c, 1)
+        end do
+        bound = max(maxbin*self%stencil_bins, 1)
+        if (self%dimension == 2) then
+            sphere = pi*self%cutsq/(self%bin_size(1)*self%bin_size(2))
+        else
+            sphere = 4*pi/3*self%cutsq*self%cut/product(self%bin_size)
+        end if
+        expect = 0.5_dp*sphere*real(nall, dp)/max(occupied, 1)*nlocal
+        call reserve(self%cx, bound)
+        call reserve(self%cy, bound)
+        call reserve(self%cz, bound)
+        call reserve(self%keep, bound)
+        call reserve(self%cj, bound)
+        call bin_order_columns(self, atoms%x, nlocal, nghost)
+        call reserve(self%first, nlocal + 1)
+        nt = self%type_order
+        if (nt > 1) then
+            ! rows ordered by type: segments, and scratch as long as any row can be (bound)
+            call reserve(self%tfirst, nt*nlocal + 1)
+            if (allocated(self%tscratch)) then
+                if (size(self%tscratch, 1) < bound + 1) deallocate (self%tscratch)
+            end if
+            if (.not. allocated(self%tscratch)) allocate (self%tscratch(bound + bound/4 + 16, 3))
+        end if
+        need = int(min(1.15_dp*expect + bound + 1024, real(huge(1), dp)/2))
+        call reserve(self%neigh, need, exact=.true.)
+    end subroutine prepare_build
+
+    !> The candidates all atoms of bin b share, copied into the scratch rows cx, cy, cz, cj: 1..m1
+    !> owned atoms of the rest of the centre row and of the upper rows; m1+1..m2 ghosts of the rows
+    !> at the same z (centre row first), tested per atom in (z, y, x) order; m2+1..m3 ghosts of the
+    !> rows above in z, all above.
+    subroutine gather_candidates(self, b, nlocal, m1, m2, m3)
+        class(neighbor_list_t), intent(inout) :: self
+        integer, intent(in) :: b, nlocal
+        integer, intent(out) :: m1, m2, m3
+        integer :: r, cr
+        cr = self%center_reach
+        associate (owned_start => self%owned_start, ghost_start => self%ghost_start, row_lo => self%row_lo, &
+                   row_hi => self%row_hi, row_dz => self%row_dz)
+            m1 = 0
+            call take_slots(owned_start(b + 1), owned_start(b + cr + 1) - 1, self%sx, self%sy, self%sz, self%sj, &
+                            self%cx, self%cy, self%cz, self%cj, m1)
+            do r = self%first_upper_row, self%nrows
+                call take_slots(owned_start(b + row_lo(r)), owned_start(b + row_hi(r) + 1) - 1, self%sx, self%sy, &
+                                self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m1)
+            end do
+            m2 = m1
+            if (ghost_start(b + cr + 1) > ghost_start(b - cr)) &
+                call take_slots(nlocal + ghost_start(b - cr), nlocal + ghost_start(b + cr + 1) - 1, self%sx, self%sy, &
+                                self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m2)
+            do r = 1, self%nrows
+                if (row_dz(r) /= 0 .or. ghost_start(b + row_hi(r) + 1) == ghost_start(b + row_lo(r))) cycle
+                call take_slots(nlocal + ghost_start(b + row_lo(r)), nlocal + ghost_start(b + row_hi(r) + 1) - 1, &
+                                self%sx, self%sy, self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m2)
+            end do
+            m3 = m2
+            do r = self%first_upper_row, self%nrows
+                if (row_dz(r) <= 0 .or. ghost_start(b + row_hi(r) + 1) == ghost_start(b + row_lo(r))) cycle
+                call take_slots(nlocal + ghost_start(b + row_lo(r)), nlocal + ghost_start(b + row_hi(r) + 1) - 1, &
+                                self%sx, self%sy, self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m3)
+            end do
+        end associate
+    end subroutine gather_candidates
 
     !> ntype(1:n) = type(neigh(1:n)), and eight pad entries of type 1 after them.
     subroutine neighbour_types(self, type, n)

@@ -308,10 +308,9 @@ contains
     subroutine domain_borders(self, atoms)
         class(domain_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
-        integer :: d, hop, nhop, dir, nfirst, cand_lo, cand_hi, i, j, n, s, p, ns
+        integer :: d, hop, nhop, dir, nfirst, cand_lo, cand_hi, s
         integer :: prev(2)
         real(dp) :: width, lim
-        type(swap_t), allocatable :: grown(:)
         atoms%nghost = 0
         self%nswap = 0
         if (.not. allocated(self%swaps)) allocate (self%swaps(6))
@@ -328,100 +327,135 @@ contains
             prev = 0
             do hop = 1, nhop
                 do dir = 1, 2
-                    if (self%nswap == size(self%swaps)) then
-                        allocate (grown(2*self%nswap))
-                        grown(1:self%nswap) = self%swaps
-                        call move_alloc(grown, self%swaps)
-                    end if
-                    self%nswap = self%nswap + 1
+                    call add_swap(self, d, dir)
                     s = self%nswap
-                    associate (sw => self%swaps(s))
-                        sw%dim = d
-                        sw%self_copy = self%dims(d) == 1
-                        sw%shift = 0
-                        if (dir == 1) then
-                            sw%send_to = self%nbr_lo(d); sw%recv_from = self%nbr_hi(d)
-                            if (self%box%periodic(d) .and. self%coords(d) == 0) sw%shift(d) = self%box%length(d)
-                        else
-                            sw%send_to = self%nbr_hi(d); sw%recv_from = self%nbr_lo(d)
-                            if (self%box%periodic(d) .and. self%coords(d) == self%dims(d) - 1) &
-                                sw%shift(d) = -self%box%length(d)
-                        end if
-                        if (hop == 1) then
-                            cand_lo = 1; cand_hi = nfirst
-                        else
-                            cand_lo = self%swaps(prev(dir))%first_recv
-                            cand_hi = cand_lo + self%swaps(prev(dir))%nrecv - 1
-                        end if
-                        ! select
-                        if (.not. allocated(sw%list)) allocate (sw%list(max(64, cand_hi - cand_lo + 1)))
-                        if (size(sw%list) < cand_hi - cand_lo + 1) then
-                            deallocate (sw%list); allocate (sw%list(cand_hi - cand_lo + 1))
-                        end if
-                        ns = 0
-                        if (sw%send_to /= MPI_PROC_NULL) then
-                            if (dir == 1) then
-                                lim = self%sublo(d) + self%cutghost
-                                do i = cand_lo, cand_hi
-                                    if (atoms%x(d, i) < lim) then
-                                        ns = ns + 1; sw%list(ns) = i
-                                    end if
-                                end do
-                            else
-                                lim = self%subhi(d) - self%cutghost
-                                do i = cand_lo, cand_hi
-                                    if (atoms%x(d, i) >= lim) then
-                                        ns = ns + 1; sw%list(ns) = i
-                                    end if
-                                end do
-                            end if
-                        end if
-                        sw%nsend = ns
-                        if (sw%self_copy) then
-                            sw%nrecv = ns
-                        else
-                            call MPI_Sendrecv(ns, 1, MPI_INTEGER, sw%send_to, 10, sw%nrecv, 1, MPI_INTEGER, &
-                                              sw%recv_from, 10, self%cart, MPI_STATUS_IGNORE)
-                            if (sw%recv_from == MPI_PROC_NULL) sw%nrecv = 0
-                        end if
-                        sw%first_recv = atoms%nlocal + atoms%nghost + 1
-                        call atoms%reserve(atoms%nlocal + atoms%nghost + sw%nrecv)
-                        if (sw%self_copy) then
-                            do j = 1, ns
-                                i = sw%list(j); n = sw%first_recv + j - 1
-                                atoms%x(:, n) = atoms%x(:, i) + sw%shift
-                                atoms%v(:, n) = atoms%v(:, i)
-                                atoms%type(n) = atoms%type(i)
-                                atoms%id(n) = atoms%id(i)
-                            end do
-                        else
-                            call reserve(self%sendbuf, border_width*ns, minimum=1024)
-                            call reserve(self%recvbuf, border_width*sw%nrecv, minimum=1024)
-                            do j = 1, ns
-                                i = sw%list(j); p = border_width*(j - 1)
-                                self%sendbuf(p + 1:p + 3) = atoms%x(:, i) + sw%shift
-                                self%sendbuf(p + 4:p + 6) = atoms%v(:, i)
-                                self%sendbuf(p + 7) = real(atoms%type(i), dp)
-                                self%sendbuf(p + 8) = real(atoms%id(i), dp)
-                            end do
-                            call MPI_Sendrecv(self%sendbuf, border_width*ns, MPI_DOUBLE_PRECISION, sw%send_to, 11, &
-                                              self%recvbuf, border_width*sw%nrecv, MPI_DOUBLE_PRECISION, &
-                                              sw%recv_from, 11, self%cart, MPI_STATUS_IGNORE)
-                            do j = 1, sw%nrecv
-                                n = sw%first_recv + j - 1; p = border_width*(j - 1)
-                                atoms%x(:, n) = self%recvbuf(p + 1:p + 3)
-                                atoms%v(:, n) = self%recvbuf(p + 4:p + 6)
-                                atoms%type(n) = nint(self%recvbuf(p + 7))
-                                atoms%id(n) = nint(self%recvbuf(p + 8), i8)
-                            end do
-                        end if
-                        atoms%nghost = atoms%nghost + sw%nrecv
-                    end associate
+                    if (hop == 1) then
+                        cand_lo = 1; cand_hi = nfirst
+                    else
+                        cand_lo = self%swaps(prev(dir))%first_recv
+                        cand_hi = cand_lo + self%swaps(prev(dir))%nrecv - 1
+                    end if
+                    if (dir == 1) then
+                        lim = self%sublo(d) + self%cutghost
+                    else
+                        lim = self%subhi(d) - self%cutghost
+                    end if
+                    call select_borders(self%swaps(s), atoms, dir, lim, cand_lo, cand_hi)
+                    call exchange_borders(self%swaps(s), atoms, self%cart, self%sendbuf, self%recvbuf)
                     prev(dir) = s
                 end do
             end do
         end do
     end subroutine domain_borders
+
+    !> One more swap along dimension d: dir 1 sends down (to nbr_lo) and receives from above, dir 2
+    !> the other way; a periodic image crossing the box's edge is shifted by the box length.
+    subroutine add_swap(self, d, dir)
+        class(domain_t), intent(inout) :: self
+        integer, intent(in) :: d, dir
+        type(swap_t), allocatable :: grown(:)
+        if (self%nswap == size(self%swaps)) then
+            allocate (grown(2*self%nswap))
+            grown(1:self%nswap) = self%swaps
+            call move_alloc(grown, self%swaps)
+        end if
+        self%nswap = self%nswap + 1
+        associate (sw => self%swaps(self%nswap))
+            sw%dim = d
+            sw%self_copy = self%dims(d) == 1
+            sw%shift = 0
+            if (dir == 1) then
+                sw%send_to = self%nbr_lo(d); sw%recv_from = self%nbr_hi(d)
+                if (self%box%periodic(d) .and. self%coords(d) == 0) sw%shift(d) = self%box%length(d)
+            else
+                sw%send_to = self%nbr_hi(d); sw%recv_from = self%nbr_lo(d)
+                if (self%box%periodic(d) .and. self%coords(d) == self%dims(d) - 1) &
+                    sw%shift(d) = -self%box%length(d)
+            end if
+        end associate
+    end subroutine add_swap
+
+    !> The atoms cand_lo..cand_hi within the ghost cutoff of the face the swap sends across
+    !> (dir 1: x < lim, the lower face; dir 2: x >= lim, the upper one) into sw%list(1:nsend).
+    subroutine select_borders(sw, atoms, dir, lim, cand_lo, cand_hi)
+        type(swap_t), intent(inout) :: sw
+        type(atoms_t), intent(in) :: atoms
+        integer, intent(in) :: dir, cand_lo, cand_hi
+        real(dp), intent(in) :: lim
+        integer :: i, ns, d
+        d = sw%dim
+        if (.not. allocated(sw%list)) allocate (sw%list(max(64, cand_hi - cand_lo + 1)))
+        if (size(sw%list) < cand_hi - cand_lo + 1) then
+            deallocate (sw%list); allocate (sw%list(cand_hi - cand_lo + 1))
+        end if
+        ns = 0
+        if (sw%send_to /= MPI_PROC_NULL) then
+            if (dir == 1) then
+                do i = cand_lo, cand_hi
+                    if (atoms%x(d, i) < lim) then
+                        ns = ns + 1; sw%list(ns) = i
+                    end if
+                end do
+            else
+                do i = cand_lo, cand_hi
+                    if (atoms%x(d, i) >= lim) then
+                        ns = ns + 1; sw%list(ns) = i
+                    end if
+                end do
+            end if
+        end if
+        sw%nsend = ns
+    end subroutine select_borders
+
+    !> The swap's selected atoms (x shifted, v, type, id) sent, and as many received appended as
+    !> ghosts (a copy within the rank when the domain is alone along the dimension).
+    subroutine exchange_borders(sw, atoms, cart, sendbuf, recvbuf)
+        type(swap_t), intent(inout) :: sw
+        type(atoms_t), intent(inout) :: atoms
+        type(MPI_Comm), intent(in) :: cart
+        real(dp), allocatable, intent(inout) :: sendbuf(:), recvbuf(:)
+        integer :: i, j, n, p, ns
+        ns = sw%nsend
+        if (sw%self_copy) then
+            sw%nrecv = ns
+        else
+            call MPI_Sendrecv(ns, 1, MPI_INTEGER, sw%send_to, 10, sw%nrecv, 1, MPI_INTEGER, &
+                              sw%recv_from, 10, cart, MPI_STATUS_IGNORE)
+            if (sw%recv_from == MPI_PROC_NULL) sw%nrecv = 0
+        end if
+        sw%first_recv = atoms%nlocal + atoms%nghost + 1
+        call atoms%reserve(atoms%nlocal + atoms%nghost + sw%nrecv)
+        if (sw%self_copy) then
+            do j = 1, ns
+                i = sw%list(j); n = sw%first_recv + j - 1
+                atoms%x(:, n) = atoms%x(:, i) + sw%shift
+                atoms%v(:, n) = atoms%v(:, i)
+                atoms%type(n) = atoms%type(i)
+                atoms%id(n) = atoms%id(i)
+            end do
+        else
+            call reserve(sendbuf, border_width*ns, minimum=1024)
+            call reserve(recvbuf, border_width*sw%nrecv, minimum=1024)
+            do j = 1, ns
+                i = sw%list(j); p = border_width*(j - 1)
+                sendbuf(p + 1:p + 3) = atoms%x(:, i) + sw%shift
+                sendbuf(p + 4:p + 6) = atoms%v(:, i)
+                sendbuf(p + 7) = real(atoms%type(i), dp)
+                sendbuf(p + 8) = real(atoms%id(i), dp)
+            end do
+            call MPI_Sendrecv(sendbuf, border_width*ns, MPI_DOUBLE_PRECISION, sw%send_to, 11, &
+                              recvbuf, border_width*sw%nrecv, MPI_DOUBLE_PRECISION, &
+                              sw%recv_from, 11, cart, MPI_STATUS_IGNORE)
+            do j = 1, sw%nrecv
+                n = sw%first_recv + j - 1; p = border_width*(j - 1)
+                atoms%x(:, n) = recvbuf(p + 1:p + 3)
+                atoms%v(:, n) = recvbuf(p + 4:p + 6)
+                atoms%type(n) = nint(recvbuf(p + 7))
+                atoms%id(n) = nint(recvbuf(p + 8), i8)
+            end do
+        end if
+        atoms%nghost = atoms%nghost + sw%nrecv
+    end subroutine exchange_borders
 
     !> Forward communication: copy owner values of a per-atom quantity with nc components
     !> (a(nc, n): positions with the periodic shift when `shifted`, velocities, F'(rho), ...) into

@@ -199,10 +199,7 @@ contains
         integer(hid_t) :: g, gp
         integer :: err
 
-        ok = .true.; msg = ''
-        if (self%opened) then
-            ok = .false.; msg = 'h5md: create: the writer is already open ('//self%path//')'; return
-        end if
+        if (already_open(self, 'create', ok, msg)) return
         call check_layout(layout, st)
         if (.not. st%ok) then
             ok = .false.; msg = st%msg; return
@@ -405,6 +402,17 @@ contains
         end if
     end subroutine end_open
 
+    !> What create and open_append check first: ok (and msg '') unless the writer is open already.
+    logical function already_open(self, what, ok, msg) result(is_open)
+        class(h5md_writer_t), intent(in) :: self
+        character(len=*), intent(in) :: what
+        logical, intent(out) :: ok
+        character(len=*), intent(out) :: msg
+        is_open = self%opened
+        ok = .not. is_open; msg = ''
+        if (is_open) msg = 'h5md: '//what//': the writer is already open ('//self%path//')'
+    end function already_open
+
     !> What create and open_append do before the file: the HDF5 library, the writer's own
     !> communicator (a duplicate of comm), its rank and size, the path.
     subroutine begin_open(self, path, comm, st)
@@ -437,10 +445,7 @@ contains
         integer(hsize_t) :: nf
         character(len=256) :: text
 
-        ok = .true.; msg = ''
-        if (self%opened) then
-            ok = .false.; msg = 'h5md: open_append: the writer is already open ('//self%path//')'; return
-        end if
+        if (already_open(self, 'open_append', ok, msg)) return
         call begin_open(self, path, comm, st)
         if (.not. st%ok) then
             ok = .false.; msg = st%msg; return

@@ -62,7 +62,8 @@ contains
             call read_h5md_table(cfg, table)
             ntypes = table%ntypes
         else if (from_table) then
-            call read_scene_table(cfg, self, table, mesh, ntypes)
+            call read_scene_table(cfg, self, table, mesh)
+            ntypes = table%ntypes
         end if
 
         call scene_box(cfg, self, table, lo, hi, cell)
@@ -109,13 +110,12 @@ contains
     end subroutine build_scene
 
     !> The atoms of a data file or an atoms file (read on rank 0, shared with every rank), or of a
-    !> mesh (its nodes); ntypes: their number of types.
-    subroutine read_scene_table(cfg, self, table, mesh, ntypes)
+    !> mesh (its nodes), with at most max_types types.
+    subroutine read_scene_table(cfg, self, table, mesh)
         type(config_t), intent(in) :: cfg
         type(scene_t), intent(inout) :: self
         type(atom_table_t), intent(inout) :: table
         type(mesh_t), intent(inout) :: mesh
-        integer, intent(out) :: ntypes
         character(len=64) :: s1, s2
         if (world%rank == 0) then
             if (len_trim(cfg%read_data) > 0) then
@@ -132,10 +132,9 @@ contains
             call mesh_scene(cfg, table, mesh, self%atoms, .false.)
             self%mesh_hash = mesh_fingerprint(mesh)
         end if
-        ntypes = table%ntypes
-        if (ntypes > max_types) then
+        if (table%ntypes > max_types) then
             write (s1, '(i0)') max_types
-            write (s2, '(i0)') ntypes
+            write (s2, '(i0)') table%ntypes
             call stop_all(trim(cfg%scene_source())//': '//trim(s2)//' atom types: more atom types than Terrace supports (max '// &
                           trim(s1)//')')
         end if

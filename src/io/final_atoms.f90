@@ -7,7 +7,7 @@ module terrace_final_atoms
     use terrace_atoms, only: atoms_t
     use terrace_box, only: box_t
     use terrace_mpi_env, only: world
-    use terrace_gather_by_id, only: gather_by_id
+    use terrace_gather_by_id, only: gather_atoms_by_id
     use terrace_checked_text, only: write_table
     implicit none
     private
@@ -23,23 +23,19 @@ contains
         real(dp), intent(in) :: time
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
-        real(dp), allocatable :: mine(:, :), all(:, :)
+        real(dp), allocatable :: all(:, :)
         integer(i8), allocatable :: ids(:)
-        integer :: n, i, d
+        integer :: i, d
         character(len=256) :: line
         ok = .true.; msg = ''
-        n = atoms%nlocal
-        allocate (mine(7, n))
-        do i = 1, n
-            mine(1, i) = real(atoms%type(i), dp)
-            mine(2:4, i) = atoms%x(:, i)
-            do d = 1, box%dimension
-                if (box%periodic(d)) mine(1 + d, i) = box%lo(d) + modulo(atoms%x(d, i) - box%lo(d), box%length(d))
-            end do
-            mine(5:7, i) = atoms%v(:, i)
-        end do
-        call gather_by_id(n, atoms%id(1:n), mine, ids, all)
+        call gather_atoms_by_id(atoms, .true., ids, all)
         if (world%rank /= 0) return
+        ! positions in the periodic box
+        do i = 1, size(ids)
+            do d = 1, box%dimension
+                if (box%periodic(d)) all(1 + d, i) = box%lo(d) + modulo(all(1 + d, i) - box%lo(d), box%length(d))
+            end do
+        end do
         write (line, '(a,es24.16e3)') '# terrace final state at time ', time
         call write_table(path, [character(len=256) :: line, '# type x y z vx vy vz   (one line per atom, in id order)'], &
                          nint(all(1, :), i8), all(2:7, :), ok, msg)

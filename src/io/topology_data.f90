@@ -13,7 +13,7 @@ module terrace_topology_data
     use terrace_atoms, only: atoms_t
     use terrace_box, only: box_t
     use terrace_mpi_env, only: world
-    use terrace_gather_by_id, only: gather_by_id
+    use terrace_gather_by_id, only: gather_atoms_by_id
     use terrace_checked_text, only: checked_text_t
     use terrace_file_ops, only: trajectory_sibling
     implicit none
@@ -46,21 +46,15 @@ contains
         type(box_t), intent(in) :: box
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
-        real(dp), allocatable :: mine(:, :), all(:, :)
+        real(dp), allocatable :: all(:, :)
         integer(i8), allocatable :: ids(:)
         type(checked_text_t) :: out
         character(len=160) :: line
         character(len=:), allocatable :: path, name
-        integer :: n, i, d, p
+        integer :: i, d, p
         character(len=*), parameter :: axes(3) = ['x', 'y', 'z']
         ok = .true.; msg = ''
-        n = atoms%nlocal
-        allocate (mine(4, n))
-        do i = 1, n
-            mine(1, i) = real(atoms%type(i), dp)
-            mine(2:4, i) = atoms%x(:, i)
-        end do
-        call gather_by_id(n, atoms%id(1:n), mine, ids, all)
+        call gather_atoms_by_id(atoms, .false., ids, all)
         if (world%rank /= 0) return
         path = topology_data_path(trajectory)
         p = index(trim(trajectory), '/', back=.true.)

@@ -17,7 +17,8 @@
 !>
 !> A change of the box goes through the engine (engine%scale_box): positions and box scaled about
 !> the origin, the domain's bricks following the box, atoms migrated and the neighbour list
-!> rebuilt. Every random number is drawn from the counter-based generator keyed by (seed, stream,
+!> rebuilt (Monte Carlo), or, for the small changes of every step (C-rescale, MTTK), the list kept
+!> while the skin allows it, measured in positions scaled with the box. Every random number is drawn from the counter-based generator keyed by (seed, stream,
 !> step), the same on every rank: a run gives the same decisions on any rank count and continues
 !> bitwise after a restart.
 !>
@@ -123,8 +124,9 @@ contains
         baro_needs_virial = .false.
     end function baro_needs_virial
 
-    !> After the drift of step `step`, before its force pass (nothing by default). moved: the box
-    !> changed (the neighbour list was rebuilt at the present positions).
+    !> After the drift of step `step`, before its force pass (nothing by default). moved: the
+    !> neighbour list was rebuilt at the present positions (after a change of the box; otherwise
+    !> the integrator decides a build or refreshes the ghosts).
     subroutine baro_before_forces(self, eng, step, moved)
         class(barostat_t), intent(inout) :: self
         type(engine_t), intent(inout) :: eng

@@ -66,8 +66,8 @@ contains
         self%work = self%work + ke*(1/mu**2 - 1) + self%p0*v*(exp(deps) - 1)
         self%w_before = eng%virial
         self%log_mu = deps/self%dimension
-        call eng%scale_box([(merge(mu, 1.0_dp, d <= self%dimension), d = 1, 3)], velocities=.true.)
-        moved = .true.
+        call eng%scale_box([(merge(mu, 1.0_dp, d <= self%dimension), d = 1, 3)], velocities=.true., &
+                           keep_list=.true., rebuilt=moved)
     end subroutine cr_before_forces
 
     subroutine cr_after_step(self, eng, step, moved)

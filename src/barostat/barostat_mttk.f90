@@ -94,15 +94,16 @@ contains
         call drift(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, c)
     end subroutine mttk_first_half
 
-    !> The box and the positions scaled by this step's e^(v_eps dt) (the list rebuilt).
+    !> The box and the positions scaled by this step's e^(v_eps dt) (the list kept while the skin
+    !> test allows: moved only when it was rebuilt here).
     subroutine mttk_before_forces(self, eng, step, moved)
         class(mttk_t), intent(inout) :: self
         type(engine_t), intent(inout) :: eng
         integer(i8), intent(in) :: step
         logical, intent(out) :: moved
         integer :: d
-        call eng%scale_box([(merge(self%mu, 1.0_dp, d <= self%dimension), d = 1, 3)], velocities=.false.)
-        moved = .true.
+        call eng%scale_box([(merge(self%mu, 1.0_dp, d <= self%dimension), d = 1, 3)], velocities=.false., &
+                           keep_list=.true., rebuilt=moved)
     end subroutine mttk_before_forces
 
     !> The scaled half kick with the new forces, then v_eps dt/2 with the new virial. Collective.

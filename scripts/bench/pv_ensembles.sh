@@ -13,7 +13,7 @@
 set -euo pipefail
 terrace=$(readlink -f "$1"); work=${2:-pv_ensembles_work}
 PROD=${PROD:-1000}; EQ=${EQ:-50}; NP=${NP:-1}
-STYLES=${STYLES:-c_rescale mc}; THERMOSTATS=${THERMOSTATS:-langevin csvr nose_hoover andersen}
+STYLES=${STYLES-c_rescale mc}; THERMOSTATS=${THERMOSTATS-langevin csvr nose_hoover andersen}
 here=$(cd "$(dirname "$0")" && pwd)
 venv="${TERRACE_VENV:-$HOME/.cache/terrace-venv}"
 if ! "$venv/bin/python" -c 'import physical_validation' > /dev/null 2>&1; then

@@ -766,9 +766,6 @@ contains
         end select
         if (len_trim(cfg%mesh_file) > 0) call stop_all(style_is//': a barostat changes the box of a periodic '// &
             'scene of atoms; a mesh (&system mesh_file) has free boundaries and no box to scale')
-        if (len_trim(cfg%trajectory_file) > 0) call stop_all(cfg%where('output', 'trajectory_file')// &
-            ': not available with a barostat (&barostat style = '''//trim(cfg%barostat)//"'): the trajectory "// &
-            'holds one box, and a barostat changes it (the thermo file has vol and the box lengths)')
         if (cfg%integrator /= 'velocity_verlet' .and. cfg%barostat /= 'mc') call stop_all(style_is// &
             ": runs with &integrator style = 'velocity_verlet' only (energy stepping: style = 'mc')")
         if (cfg%nml%find('barostat', 'interval') > 0) then

@@ -9,7 +9,8 @@
 # true one. physical-validation is installed from PyPI into the project's virtual environment
 # ($TERRACE_VENV, default ~/.cache/terrace-venv) on first use; exit 77 when that cannot be done.
 # usage: pv_ensembles.sh TERRACE [WORKDIR]     (env: PROD=1000 EQ=50 NP=1 STYLES="c_rescale mc"
-#                                                     THERMOSTATS="langevin csvr nose_hoover andersen")
+#                                                     THERMOSTATS="langevin csvr nose_hoover andersen";
+#                                                     STYLES= or THERMOSTATS= set empty: none of them)
 set -euo pipefail
 terrace=$(readlink -f "$1"); work=${2:-pv_ensembles_work}
 PROD=${PROD:-1000}; EQ=${EQ:-50}; NP=${NP:-1}

@@ -13,6 +13,7 @@ set -euo pipefail
 terrace=$(readlink -f "$1"); out=$2
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
 PYTHON="${PYTHON:-/usr/bin/python3}"; [[ -x "$PYTHON" ]] || PYTHON=python3
+export PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
 rm -rf "$out"; mkdir -p "$out"; cd "$out"
 status=0
@@ -28,7 +29,7 @@ cat > "$1.nml" <<NML
 &output thermo_every=20, thermo_file='$1.csv' /
 NML
 }
-builds() { sed -n 's/^Neighbour list builds: *\([0-9]*\).*/\1/p' "$1"; }
+builds() { "$PYTHON" -m terrace_tools.summary get "$1" neighbor/builds; }   # from the run summary
 for scene in crystal liquid; do
   for style in c_rescale mttk; do
     if [[ $scene == crystal ]]; then t0=0.1; t=0.05; p=20.0; else t0=1.44; t=1.2; p=4.0; fi
@@ -45,7 +46,7 @@ for scene in crystal liquid; do
             timeout 300 mpirun --oversubscribe -np $np "$terrace" "${name}_${v}_np$np.nml" > "${name}_${v}_np$np.log" 2>&1 || {
                 echo "FAIL: $name $v on $np rank(s):"; tail -5 "${name}_${v}_np$np.log"; exit 1; }
         done
-        bk=$(builds "${name}_keep_np$np.log"); be=$(builds "${name}_every_np$np.log")
+        bk=$(builds "${name}_keep_np$np.summary.json"); be=$(builds "${name}_every_np$np.summary.json")
         vols=$("$PYTHON" -c "import csv,sys; v=[float(r['vol']) for r in csv.DictReader(open(sys.argv[1]))]; print(f'{v[0]:.1f} -> {min(v):.1f}')" "${name}_keep_np$np.csv")
         if "$PYTHON" "$repo/scripts/compare_lammps.py" terrace "${name}_every_np$np.csv" "${name}_keep_np$np.csv" \
             --tol "${TOL:-1e-8}" --atol 1e-9 > "compare_${name}_np$np.txt" 2>&1 && (( bk * 5 <= be )); then

@@ -13,7 +13,7 @@ about 10 %) on 2 ranks, a frame and a thermo row every 20 steps. Asserts:
      unwrapped with each frame's box to 1e-9;
   4. a run started from the last frame (&system read_h5md) starts in that frame's box.
 
-usage: npt_trajectory.py TERRACE TERRACE_ANALYZE OUTDIR
+usage: npt_trajectory.py TERRACE TERRACE_ANALYZE OUTDIR   (scripts/ on PYTHONPATH, as CTest sets it)
 """
 import csv
 import os
@@ -24,8 +24,7 @@ import sys
 import h5py
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
-from terrace_tools import h5md  # noqa: E402
+from terrace_tools import h5md
 
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_rmaps_base_oversubscribe="1")

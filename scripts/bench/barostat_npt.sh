@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # Rahman's liquid argon (864 atoms, LJ eps/k_B = 120 K, sigma = 3.4 A, shifted at 2.5 sigma, the
-# potential of input/argon_nvt.nml) at 94.4 K and 1 bar: Terrace's barostats (c_rescale, mc; CSVR
-# thermostat) against LAMMPS's `fix npt` (Nose-Hoover chains, MTTK) on the same scene. Each run
+# potential of input/argon_nvt.nml) at 94.4 K and 1 bar: Terrace's barostats (c_rescale, mc: CSVR
+# thermostat; mttk: its Nose-Hoover chain, tau = 0.5 ps, tau_p = 2 ps as LAMMPS's) against LAMMPS's `fix npt` (Nose-Hoover chains, MTTK) on the same scene. Each run
 # equilibrates EQ ps from the fcc start (melting), then samples the volume every 0.1 ps for PROD ps.
 # Prints the density and the isothermal compressibility kappa_T = <dV^2> / (k T <V>) with standard
 # errors from block averages (BLOCKS blocks), and whether each Terrace style lies within 2 combined
 # standard errors of LAMMPS.
-# Styles (STYLES): c_rescale, mc (velocity Verlet, 10 fs), mc_es (energy stepping, mean event
+# Styles (STYLES): c_rescale, mc, mttk (velocity Verlet, 10 fs), mc_es (energy stepping, mean event
 # interval about 4 fs, Andersen thermostat with zero_momentum, volume moves every 0.25 ps). A LAMMPS
 # log already in WORKDIR is reused (so a later call with STYLES=mc_es and a shorter PROD compares
 # with the same reference).
@@ -62,6 +62,8 @@ NML
 }
 deck c_rescale "style='c_rescale', pressure=1.0, damping=2.0, compressibility=2.0e-4"
 deck mc "style='mc', pressure=1.0"
+deck mttk "style='mttk', pressure=1.0, damping=2.0" "style='velocity_verlet', dt=0.01" \
+    "style='nose_hoover', temperature=94.4, damping=0.5"
 deck mc_es "style='mc', pressure=1.0, interval=0.25" "style='energy_stepping', target_mean_dt=0.01" \
     "style='andersen', temperature=94.4, damping=0.5, zero_momentum=.true."
 [ -s lmp_npt.log ] || mpirun --oversubscribe -np "$NP" lmp -in lmp_npt.in -log lmp_npt.log > /dev/null

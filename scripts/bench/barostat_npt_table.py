@@ -70,7 +70,7 @@ def main():
     lp = os.path.join(a.work, "lmp_npt.log")
     if os.path.exists(lp):
         rows["LAMMPS fix npt"] = stats(lammps_volumes(lp), a.blocks, a.temperature)
-    for style in ("c_rescale", "mc", "mc_es"):
+    for style in ("c_rescale", "mc", "mttk", "mc_es"):
         p = os.path.join(a.work, style + ".csv")
         if os.path.exists(p):
             rows["Terrace " + style] = stats(terrace_volumes(p, a.eq), a.blocks, a.temperature)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # physical-validation's ensemble checks (Merz and Shirts 2018) on Rahman's liquid argon (864 atoms,
-# the potential of input/argon_nvt.nml): the NPT check for each barostat (c_rescale, mc; CSVR
-# thermostat) on two pairs of state points, (94.4 K, 1 bar) against (97 K, 1 bar) (the enthalpy's
+# the potential of input/argon_nvt.nml): the NPT check for each barostat (c_rescale and mc with a
+# CSVR thermostat, mttk with its Nose-Hoover chain) on two pairs of state points, (94.4 K, 1 bar) against (97 K, 1 bar) (the enthalpy's
 # distribution) and (94.4 K, 1 bar) against (94.4 K, 31 bar) (the volume's), and the NVT check for
 # each thermostat (langevin, csvr, nose_hoover, andersen) at 94.4 K against 97 K at 1.374 g/cm^3.
 # Each run equilibrates EQ ps (from fcc, melting) and samples every 0.1 ps for PROD ps. A check
@@ -9,11 +9,12 @@
 # true one. physical-validation is installed from PyPI into the project's virtual environment
 # ($TERRACE_VENV, default ~/.cache/terrace-venv) on first use; exit 77 when that cannot be done.
 # usage: pv_ensembles.sh TERRACE [WORKDIR]     (env: PROD=1000 EQ=50 NP=1 STYLES="c_rescale mc"
-#                                                     THERMOSTATS="langevin csvr nose_hoover andersen")
+#                                                     THERMOSTATS="langevin csvr nose_hoover andersen";
+#                                                     STYLES= or THERMOSTATS= set empty: none of them)
 set -euo pipefail
 terrace=$(readlink -f "$1"); work=${2:-pv_ensembles_work}
 PROD=${PROD:-1000}; EQ=${EQ:-50}; NP=${NP:-1}
-STYLES=${STYLES:-c_rescale mc}; THERMOSTATS=${THERMOSTATS:-langevin csvr nose_hoover andersen}
+STYLES=${STYLES-c_rescale mc}; THERMOSTATS=${THERMOSTATS-langevin csvr nose_hoover andersen}
 here=$(cd "$(dirname "$0")" && pwd)
 venv="${TERRACE_VENV:-$HOME/.cache/terrace-venv}"
 if ! "$venv/bin/python" -c 'import physical_validation' > /dev/null 2>&1; then
@@ -40,13 +41,15 @@ NML
     mpirun --oversubscribe -np "$NP" "$terrace" "$1.nml" > "$1.log"
 }
 for s in $STYLES; do
+    ts=csvr
     case $s in
         c_rescale) b="style='c_rescale', damping=2.0, compressibility=5.0e-4" ;;
+        mttk) b="style='mttk', damping=2.0"; ts=nose_hoover ;;
         *) b="style='$s'" ;;
     esac
-    run "npt_${s}_T94.4_P1" 11 "style='csvr', temperature=94.4, damping=0.5" "&barostat $b, pressure=1.0 /"
-    run "npt_${s}_T97_P1" 12 "style='csvr', temperature=97.0, damping=0.5" "&barostat $b, pressure=1.0 /"
-    run "npt_${s}_T94.4_P31" 13 "style='csvr', temperature=94.4, damping=0.5" "&barostat $b, pressure=31.0 /"
+    run "npt_${s}_T94.4_P1" 11 "style='$ts', temperature=94.4, damping=0.5" "&barostat $b, pressure=1.0 /"
+    run "npt_${s}_T97_P1" 12 "style='$ts', temperature=97.0, damping=0.5" "&barostat $b, pressure=1.0 /"
+    run "npt_${s}_T94.4_P31" 13 "style='$ts', temperature=94.4, damping=0.5" "&barostat $b, pressure=31.0 /"
 done
 for t in $THERMOSTATS; do
     extra=""; [ "$t" = andersen ] && extra=", zero_momentum=.true."

@@ -37,20 +37,21 @@ def _text(a):
 
 def read(path, unwrap=True):
     """Frames of a trajectory: dict with time (F,), step (F,), x (F, N, D) (unwrapped with the
-    images when the file has them and unwrap is true), v (F, N, D) or None, f (F, N, D) or None,
-    edges (D,) of the first frame, boundary (list), species (N,), mass (N,), id (N,)."""
+    images when the file has them and unwrap is true, each frame with its own box), v (F, N, D) or
+    None, f (F, N, D) or None, edges (D,) of the first frame, frame_edges (F, D) (each frame's box:
+    a barostat's run changes it), boundary (list), species (N,), mass (N,), id (N,)."""
     import h5py
     with h5py.File(path, "r") as h:
         p = particles_group(h)
         out = {"time": np.asarray(p["position/time"][()], float), "step": np.asarray(p["position/step"][()])}
         x = np.asarray(p["position/value"][()], float)
-        e = p["box/edges"]
-        edges = np.asarray(e["value"][0] if isinstance(e, h5py.Group) else e[()], float).reshape(-1)
+        frame_edges = box_series(p, out["step"], x.shape[2])
+        edges = frame_edges[0]
         bnd = [_text(b) for b in p["box"].attrs.get("boundary", [])]
         if unwrap and "image" in p:
             per = np.array([b.startswith("periodic") for b in bnd] + [False] * 3)[: x.shape[2]]
-            x = x + p["image/value"][()] * (edges[: x.shape[2]] * per)[None, None, :]
-        out.update(x=x, edges=edges, boundary=bnd)
+            x = x + p["image/value"][()] * (frame_edges * per)[:, None, :]
+        out.update(x=x, edges=edges, frame_edges=frame_edges, boundary=bnd)
         for key, name in (("v", "velocity"), ("f", "force")):
             out[key] = np.asarray(p[f"{name}/value"][()], float) if name in p else None
         for name in ("species", "mass", "id"):
@@ -65,6 +66,27 @@ def connectivity(path, name="tetrahedra"):
     with h5py.File(path, "r") as h:
         key = "connectivity/" + name
         return np.asarray(h[key][()]) if key in h else None
+
+
+def box_series(p, steps, dimension):
+    """Each frame's box edges (F, D) from particles/<group>/box/edges: a fixed dataset ([D] or a
+    diagonal [D][D]) repeated, a series of one row per frame, or a series of another length with its
+    own step matched to each frame by step (the last box not after it), as Terrace's reader does."""
+    import h5py
+    e = p["box/edges"]
+    nf = len(steps)
+    if not isinstance(e, h5py.Group):
+        v = np.asarray(e[()], float)
+        v = np.diag(v) if v.ndim == 2 else v.reshape(-1)
+        return np.tile(v[:dimension], (nf, 1))
+    v = np.asarray(e["value"][()], float).reshape(-1, dimension)
+    if len(v) == 1:
+        return np.tile(v[0], (nf, 1))
+    if len(v) == nf:
+        return v
+    bsteps = np.asarray(e["step"][()])
+    rows = np.maximum(np.searchsorted(bsteps, np.asarray(steps), side="right") - 1, 0)
+    return v[rows]
 
 
 def units(path):

@@ -4,17 +4,21 @@
 !> below and never asks which style it holds:
 !>
 !>   velocity Verlet, one step:   needs_virial (whether this step's force pass must give the virial)
+!>                                replaces_kicks: first_half in place of the first half kick and the
+!>                                drift, second_half in place of the second half kick (MTTK)
 !>                                before_forces (after the drift, before the force pass: a change
 !>                                of the box with the positions and velocities; C-rescale)
 !>                                after_step (after the second half kick: a trial move of the box
 !>                                judged on its energy; Monte Carlo)
 !>   energy stepping:             apply_event (at the multiples of `interval`, a calendar entry:
 !>                                Monte Carlo volume moves)
-!>   both:                        active, pv (the P V term of the conserved quantity), save / restore
+!>   both:                        active, pv (the P V term of the conserved quantity), energy (the
+!>                                barostat's own energy in it), save / restore
 !>
 !> A change of the box goes through the engine (engine%scale_box): positions and box scaled about
 !> the origin, the domain's bricks following the box, atoms migrated and the neighbour list
-!> rebuilt. Every random number is drawn from the counter-based generator keyed by (seed, stream,
+!> rebuilt (Monte Carlo), or, for the small changes of every step (C-rescale, MTTK), the list kept
+!> while the skin allows it, measured in positions scaled with the box. Every random number is drawn from the counter-based generator keyed by (seed, stream,
 !> step), the same on every rank: a run gives the same decisions on any rank count and continues
 !> bitwise after a restart.
 !>
@@ -60,6 +64,10 @@ module terrace_barostat
         procedure :: needs_virial => baro_needs_virial
         procedure :: before_forces => baro_before_forces
         procedure :: after_step => baro_after_step
+        procedure :: replaces_kicks => baro_replaces_kicks
+        procedure :: first_half => baro_half
+        procedure :: second_half => baro_half
+        procedure :: energy => baro_energy
         procedure :: apply_event => baro_apply_event
         procedure, non_overridable :: pv => baro_pv
         procedure :: save => baro_save
@@ -116,8 +124,9 @@ contains
         baro_needs_virial = .false.
     end function baro_needs_virial
 
-    !> After the drift of step `step`, before its force pass (nothing by default). moved: the box
-    !> changed (the neighbour list was rebuilt at the present positions).
+    !> After the drift of step `step`, before its force pass (nothing by default). moved: the
+    !> neighbour list was rebuilt at the present positions (after a change of the box; otherwise
+    !> the integrator decides a build or refreshes the ghosts).
     subroutine baro_before_forces(self, eng, step, moved)
         class(barostat_t), intent(inout) :: self
         type(engine_t), intent(inout) :: eng
@@ -125,6 +134,28 @@ contains
         logical, intent(out) :: moved
         moved = .false.
     end subroutine baro_before_forces
+
+    !> Does the style replace velocity Verlet's half kicks and drift (first_half, second_half)?
+    logical function baro_replaces_kicks(self)
+        class(barostat_t), intent(in) :: self
+        baro_replaces_kicks = .false.
+    end function baro_replaces_kicks
+
+    !> A style's first half kick and drift, or its second half kick (replaces_kicks); dtfm(type) =
+    !> dt/2 ftm2v/m, dtf = dt/2 ftm2v (nothing by default).
+    subroutine baro_half(self, eng, dtfm, dtf, dt, step)
+        class(barostat_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        real(dp), intent(in) :: dtfm(:), dtf, dt
+        integer(i8), intent(in) :: step
+    end subroutine baro_half
+
+    !> Energy held by the barostat's own variables, a term of the conserved quantity (0 by default).
+    real(dp) function baro_energy(self, eng)
+        class(barostat_t), intent(in) :: self
+        type(engine_t), intent(in) :: eng
+        baro_energy = 0
+    end function baro_energy
 
     !> After the second half kick of step `step` (nothing by default); moved as above.
     subroutine baro_after_step(self, eng, step, moved)

@@ -6,12 +6,18 @@
 !> by exp(d eps / d), the velocities by exp(-d eps / d). The noise is one normal number per step,
 !> drawn from the counter-based generator keyed by (seed, step): the same on every rank. The
 !> volume fluctuations are those of the isothermal-isobaric ensemble (unlike Berendsen's).
+!> The effective energy (Bernetti and Bussi's, like CSVR's thermostat energy): each rescaling's work
+!> on the system, dK + dU + P0 dV, is accumulated and taken off the conserved quantity (energy =
+!> -work), so that econserve = etotal + P0 V - work - ecouple changes only by the integration error.
+!> dK = K (mu^-2 - 1) and P0 dV are exact; dU = -int_0^s W(s') ds' (s = ln mu, W the virial) by the
+!> trapezoid rule with the virials of the force passes before and after the rescaling.
 module terrace_barostat_c_rescale
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
     use terrace_barostat, only: barostat_t, barostat_params_t, internal_pressure
     use terrace_counter_rng, only: rng_stream, rng_stream_t
     use terrace_named_values, only: named_values_t
+    use terrace_velocities, only: kinetic_energy
     implicit none
     private
 
@@ -20,10 +26,13 @@ module terrace_barostat_c_rescale
     type, extends(barostat_t), public :: c_rescale_t
         real(dp) :: p_int = 0                    !< the internal pressure at the end of the last step
         logical :: have_p = .false.
+        real(dp) :: work = 0                     !< the rescalings' work on the system so far
+        real(dp) :: w_before = 0, log_mu = 0     !< this step's virial before the rescaling, ln mu
     contains
         procedure :: needs_virial => cr_needs_virial
         procedure :: before_forces => cr_before_forces
         procedure :: after_step => cr_after_step
+        procedure :: energy => cr_energy
         procedure :: save => cr_save
         procedure :: restore => cr_restore
     end type c_rescale_t
@@ -42,7 +51,7 @@ contains
         integer(i8), intent(in) :: step
         logical, intent(out) :: moved
         type(rng_stream_t) :: s
-        real(dp) :: v, deps, mu
+        real(dp) :: v, deps, mu, ke
         integer :: d
         if (.not. self%have_p) then          ! the first step: the pressure of the initial state
             self%p_int = internal_pressure(eng)
@@ -53,8 +62,12 @@ contains
         deps = -(self%beta/self%tau)*(self%p0 - self%p_int - self%kt/v)*self%dt + &
                sqrt(2*self%kt*self%beta*self%dt/(v*self%tau))*s%normal()
         mu = exp(deps/self%dimension)
-        call eng%scale_box([(merge(mu, 1.0_dp, d <= self%dimension), d = 1, 3)], velocities=.true.)
-        moved = .true.
+        ke = kinetic_energy(eng%atoms, eng%units)
+        self%work = self%work + ke*(1/mu**2 - 1) + self%p0*v*(exp(deps) - 1)
+        self%w_before = eng%virial
+        self%log_mu = deps/self%dimension
+        call eng%scale_box([(merge(mu, 1.0_dp, d <= self%dimension), d = 1, 3)], velocities=.true., &
+                           keep_list=.true., rebuilt=moved)
     end subroutine cr_before_forces
 
     subroutine cr_after_step(self, eng, step, moved)
@@ -63,14 +76,23 @@ contains
         integer(i8), intent(in) :: step
         logical, intent(out) :: moved
         moved = .false.
+        self%work = self%work - 0.5_dp*self%log_mu*(self%w_before + eng%virial)
         self%p_int = internal_pressure(eng)
         self%have_p = .true.
     end subroutine cr_after_step
+
+    !> The barostat's term of the conserved quantity: minus the rescalings' work.
+    real(dp) function cr_energy(self, eng)
+        class(c_rescale_t), intent(in) :: self
+        type(engine_t), intent(in) :: eng
+        cr_energy = -self%work
+    end function cr_energy
 
     subroutine cr_save(self, values)
         class(c_rescale_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
         call values%put('baro_p_int', self%p_int)
+        call values%put('baro_work', self%work)
     end subroutine cr_save
 
     subroutine cr_restore(self, values, ok)
@@ -78,6 +100,7 @@ contains
         type(named_values_t), intent(in) :: values
         logical, intent(inout) :: ok
         self%p_int = values%get_r('baro_p_int', ok)
+        self%work = values%get_r('baro_work', ok)
         self%have_p = .true.
     end subroutine cr_restore
 

@@ -4,11 +4,12 @@ module terrace_barostat_factory
     use terrace_barostat, only: barostat_t, barostat_params_t, barostat_none_t
     use terrace_barostat_c_rescale, only: c_rescale_t
     use terrace_barostat_mc, only: mc_barostat_t
+    use terrace_barostat_mttk, only: mttk_t
     implicit none
     private
 
     !> The style names, for messages ("allowed: ...").
-    character(len=*), parameter, public :: barostat_style_list = "'none', 'c_rescale', 'mc'"
+    character(len=*), parameter, public :: barostat_style_list = "'none', 'c_rescale', 'mc', 'mttk'"
 
     public :: new_barostat
 
@@ -24,6 +25,8 @@ contains
             allocate (c_rescale_t :: bs)
         case ('mc')
             allocate (mc_barostat_t :: bs)
+        case ('mttk')
+            allocate (mttk_t :: bs)
         case default
             allocate (barostat_none_t :: bs)
         end select

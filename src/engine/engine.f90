@@ -442,12 +442,22 @@ contains
     !> Scale the box by mu(d) along each dimension about the origin, and with it every owned atom's
     !> position (x = mu x: the unwrapped positions scale too, image flags unchanged); with
     !> velocities also v = v / mu. The domain's bricks follow the box; the atoms are migrated and
-    !> the halo and the neighbour list rebuilt. Collective (every rank passes the same mu).
-    subroutine engine_scale_box(self, mu, velocities)
+    !> the halo and the neighbour list rebuilt. With keep_list, on the cell-list path with the
+    !> displacement check (atom pairs, no inner list), the list and the halo are kept instead (rebuilt = .false.): the list's
+    !> reference positions are scaled with the atoms and its skin test accounts for the scale since
+    !> the build (neighbor_list%scale_reference); the caller then decides a build by that test or
+    !> refreshes the ghosts, as after a drift. Collective (every rank passes the same mu).
+    subroutine engine_scale_box(self, mu, velocities, keep_list, rebuilt)
         class(engine_t), intent(inout) :: self
         real(dp), intent(in) :: mu(3)
         logical, intent(in) :: velocities
+        logical, intent(in), optional :: keep_list
+        logical, intent(out), optional :: rebuilt
         integer :: i, d, n
+        logical :: keep
+        keep = .false.
+        if (present(keep_list)) keep = keep_list .and. self%plan%pair_mode == pair_cells .and. &
+                                       .not. (self%use_inner .or. self%plan%cluster_pairs) .and. self%list%check
         n = self%atoms%nlocal
         do i = 1, n
             do d = 1, self%box%dimension
@@ -467,7 +477,12 @@ contains
         end do
         self%box%length = self%box%hi - self%box%lo
         call self%dom%resize(self%box)
-        call self%rebuild()
+        if (present(rebuilt)) rebuilt = .not. keep
+        if (keep) then
+            call self%list%scale_reference(mu, n)
+        else
+            call self%rebuild()
+        end if
     end subroutine engine_scale_box
 
     !> A copy of what a trial move changes (restore_state returns to it exactly).

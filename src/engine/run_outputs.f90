@@ -61,7 +61,7 @@ contains
     end subroutine out_sample
 
     !> A trajectory frame at step / event `count` and time `time`, with the integrator's named
-    !> values. Collective.
+    !> values and the present box (a barostat changes it). Collective.
     subroutine out_frame(self, eng, count, time, s, names, values)
         class(run_outputs_t), intent(inout) :: self
         type(engine_t), intent(inout) :: eng
@@ -73,7 +73,7 @@ contains
         logical :: ok
         character(len=512) :: msg
         call eng%timers%start(t_output)
-        call self%traj%write(count, time, eng%atoms, s, ok, msg, names, values)
+        call self%traj%write(count, time, eng%atoms, s, ok, msg, names, values, edges=eng%box%length)
         call check_all(ok, trim(msg))
         call eng%timers%stop(t_output)
     end subroutine out_frame

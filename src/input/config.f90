@@ -745,7 +745,7 @@ contains
     !> temperature, a periodic box of atoms).
     subroutine validate_barostat(cfg)
         type(config_t), intent(inout) :: cfg
-        character(len=*), parameter :: styles = "'none', 'c_rescale', 'mc'"
+        character(len=*), parameter :: styles = "'none', 'c_rescale', 'mc', 'mttk'"
         character(len=:), allocatable :: style_is
         logical :: given
         given = cfg%nml%find('barostat', 'style') > 0
@@ -760,17 +760,12 @@ contains
         select case (cfg%barostat)
         case ('none')
             return
-        case ('c_rescale', 'mc')
-        case ('mttk')
-            call stop_all(style_is//': not available (allowed: '//styles//')')
+        case ('c_rescale', 'mc', 'mttk')
         case default
             call stop_all(style_is//': unknown barostat (allowed: '//styles//')')
         end select
         if (len_trim(cfg%mesh_file) > 0) call stop_all(style_is//': a barostat changes the box of a periodic '// &
             'scene of atoms; a mesh (&system mesh_file) has free boundaries and no box to scale')
-        if (len_trim(cfg%trajectory_file) > 0) call stop_all(cfg%where('output', 'trajectory_file')// &
-            ': not available with a barostat (&barostat style = '''//trim(cfg%barostat)//"'): the trajectory "// &
-            'holds one box, and a barostat changes it (the thermo file has vol and the box lengths)')
         if (cfg%integrator /= 'velocity_verlet' .and. cfg%barostat /= 'mc') call stop_all(style_is// &
             ": runs with &integrator style = 'velocity_verlet' only (energy stepping: style = 'mc')")
         if (cfg%nml%find('barostat', 'interval') > 0) then
@@ -796,11 +791,19 @@ contains
             call stop_all(cfg%where('barostat', 'couple')//" = '"//trim(cfg%barostat_couple)// &
                           "': unknown (allowed: 'iso')")
         end select
-        if (cfg%barostat == 'c_rescale') then
+        if (cfg%barostat == 'mttk' .and. cfg%thermostat /= 'nose_hoover') call stop_all(style_is// &
+            ": thermostats its particles with the run's Nose-Hoover chain: &thermostat style = '"// &
+            trim(cfg%thermostat)//"' not allowed with it (allowed: 'nose_hoover')")
+        if (cfg%barostat == 'c_rescale' .or. cfg%barostat == 'mttk') then
             if (cfg%nml%find('barostat', 'damping') == 0) call stop_all(cfg%path//': &barostat: damping: missing '// &
                 '(the relaxation time tau_p, a time in '//trim(cfg%units%time)//')')
             if (.not. (cfg%barostat_damping > 0)) call stop_all(cfg%where('barostat', 'damping')// &
                 ': must be > 0 (a time in '//trim(cfg%units%time)//')')
+        end if
+        if (cfg%barostat == 'mttk') then
+            if (cfg%nml%find('barostat', 'compressibility') > 0) call stop_all(cfg%where('barostat', &
+                'compressibility')//": not used by style 'mttk' (its mass follows from damping and the temperature)")
+        else if (cfg%barostat == 'c_rescale') then
             if (cfg%nml%find('barostat', 'compressibility') == 0) call stop_all(cfg%path//': &barostat: '// &
                 'compressibility: missing (the isothermal compressibility, in 1/('//trim(cfg%units%pressure)//'))')
             if (.not. (cfg%barostat_compressibility > 0)) call stop_all(cfg%where('barostat', 'compressibility')// &

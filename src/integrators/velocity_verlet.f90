@@ -4,7 +4,8 @@
 !> A thermostat (terrace_thermostat) acts through its hooks: pre_kick before the first half kick,
 !> kick_drift in place of the first half kick and the drift where the style replaces them
 !> (Langevin's BAOAB), post_kick after the second half kick, then hold_momentum (zero_momentum).
-!> Thermo gains ecouple and econserve = etotal - ecouple, and the drift report is that of econserve.
+!> Thermo gains ecouple and econserve = etotal - ecouple (with a barostat + P0 V + the barostat's own
+!> energy), and the drift report is that of econserve.
 !> Checkpoints are taken at the end of a step whose positions were just used for a neighbour-list
 !> build (forced at checkpoint_every steps), so that a restart rebuilds the same list
 !> (terrace_run_control); a restart continues with the step after the checkpoint's.
@@ -44,6 +45,7 @@ contains
         type(schedule_t), intent(in) :: sched
         integer(i8) :: step, step0
         real(dp) :: dt, dtfm(size(eng%atoms%mass)), dtf
+        real(dp) :: first_baro, last_baro            !< P0 V + the barostat's energy at first, last
         logical :: sample, frame, scheduled, safe, stop_now, moved
         type(thermo_sample_t) :: first, last
         type(calendar_t) :: cal
@@ -55,20 +57,24 @@ contains
         cal%every(cal_checkpoint) = out%ctl%every
         step0 = 0
         if (eng%restarted) then
-            call restore_state(eng, p, ts, bs, step0, first)
+            call restore_state(eng, p, ts, bs, step0, first, first_baro)
         else
             call eng%timers%start(t_output)
             first = eng%sample(0_i8, 0.0_dp)
             if (ts%active()) first%ecouple = ts%ecouple()
+            first_baro = baro_terms()
             call write_sample(first)
             if (cal%count_due(cal_frame, 0_i8)) call out%frame(eng, 0_i8, 0.0_dp, first)
             call eng%timers%stop(t_output)
         end if
         last = first
+        last_baro = first_baro
         do step = step0 + 1, sched%n_steps
             call ts%pre_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
             if (ts%replaces_kick_drift()) then
                 call ts%kick_drift(eng%atoms, dtfm, dt, step, (step - 0.5_dp)*dt)
+            else if (bs%replaces_kicks()) then
+                call bs%first_half(eng, dtfm, dtf, dt, step)
             else
                 call kick(eng, dtfm, dtf, dt, .true.)
             end if
@@ -83,7 +89,11 @@ contains
             frame = cal%count_due(cal_frame, step)
             call eng%compute_forces(sample .or. frame .or. bs%needs_virial(step))
             if (eng%validity_checks) call eng%check_valid(step, step*dt)
-            call kick(eng, dtfm, dtf, dt, .false.)
+            if (bs%replaces_kicks()) then
+                call bs%second_half(eng, dtfm, dtf, dt, step)
+            else
+                call kick(eng, dtfm, dtf, dt, .false.)
+            end if
             call ts%post_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
             call ts%hold_momentum(eng%atoms)
             call bs%after_step(eng, step, moved)
@@ -92,6 +102,7 @@ contains
                 call eng%timers%start(t_output)
                 last = eng%sample(step, step*dt)
                 if (ts%active()) last%ecouple = ts%ecouple()
+                last_baro = baro_terms()
                 call write_sample(last)
                 call eng%timers%stop(t_output)
             end if
@@ -102,11 +113,13 @@ contains
             if (safe .and. ts%active()) call ts%fold()
             if (safe .and. out%ctl%active) then
                 stop_now = out%ctl%stop_requested()
-                if (stop_now .or. scheduled) call checkpoint(eng, ts, bs, out, first, step, step*dt, scheduled)
+                if (stop_now .or. scheduled) call checkpoint(eng, ts, bs, out, first, first_baro, step, step*dt, &
+                                                            scheduled)
                 if (out%ctl%stopped) exit
             end if
         end do
-        if (.not. out%ctl%stopped) call report_drift(first, last, eng%natoms, ts%active())
+        if (.not. out%ctl%stopped) call report_drift(first, last, eng%natoms, ts%active(), first_baro, last_baro, &
+                                                     bs%active())
 
     contains
 
@@ -115,11 +128,17 @@ contains
         subroutine write_sample(s)
             type(thermo_sample_t), intent(in) :: s
             if (bs%active()) then
-                call out%sample(s, s%etotal + bs%pv(eng), [eng%box%volume(), eng%box%length])
+                call out%sample(s, s%etotal + baro_terms(), [eng%box%volume(), eng%box%length])
             else
                 call out%sample(s, s%etotal)
             end if
         end subroutine write_sample
+
+        !> The barostat's terms of the conserved quantity: P0 V and its own energy (0 without one).
+        real(dp) function baro_terms()
+            baro_terms = 0
+            if (bs%active()) baro_terms = bs%pv(eng) + bs%energy(eng)
+        end function baro_terms
     end subroutine run_velocity_verlet
 
     !> The first half kick and the drift (drift), or the second half kick, of the owned atoms.
@@ -157,45 +176,50 @@ contains
 
     !> A restart: the step the checkpoint was taken at and the run's own keys (exchange_first). (The
     !> energy guard takes its reference at the first sample after the restart.)
-    subroutine restore_state(eng, p, ts, bs, step0, first)
+    subroutine restore_state(eng, p, ts, bs, step0, first, first_baro)
         type(engine_t), intent(inout) :: eng
         type(verlet_params_t), intent(in) :: p
         class(thermostat_t), intent(inout) :: ts
         class(barostat_t), intent(inout) :: bs
         integer(i8), intent(out) :: step0
         type(thermo_sample_t), intent(out) :: first
+        real(dp), intent(out) :: first_baro
         logical :: ok
         ok = .true.
         step0 = eng%restart_values%get_i('step', ok)
         first%step = 0; first%time = 0
-        call exchange_first(eng%restart_values, first, ts, bs, .false., ok)
+        first_baro = 0
+        call exchange_first(eng%restart_values, first, first_baro, ts, bs, .false., ok)
         call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
                        '(velocity Verlet state missing)')
     end subroutine restore_state
 
     !> A checkpoint of the run's own keys (exchange_first) through the run's outputs.
-    subroutine checkpoint(eng, ts, bs, out, first, step, time, scheduled)
+    subroutine checkpoint(eng, ts, bs, out, first, first_baro, step, time, scheduled)
         type(engine_t), intent(inout) :: eng
         class(thermostat_t), intent(inout) :: ts
         class(barostat_t), intent(inout) :: bs
         type(run_outputs_t), intent(inout) :: out
         type(thermo_sample_t), intent(inout) :: first
+        real(dp), intent(inout) :: first_baro
         integer(i8), intent(in) :: step
         real(dp), intent(in) :: time
         logical, intent(in) :: scheduled
         type(named_values_t) :: values
         logical :: ok
         ok = .true.
-        call exchange_first(values, first, ts, bs, .true., ok)
+        call exchange_first(values, first, first_baro, ts, bs, .true., ok)
         call out%checkpoint(eng, values, step, time, scheduled)
     end subroutine checkpoint
 
     !> The Verlet run's own restart keys, in one place: the first sample's energy and momentum (the
     !> drift report of a continued run), with a thermostat its ecouple and the thermostat's state,
-    !> with a barostat the barostat's; written to (saving) or read from a checkpoint's values.
-    subroutine exchange_first(values, first, ts, bs, saving, ok)
+    !> with a barostat the barostat's and its first terms of the conserved quantity (first_baro);
+    !> written to (saving) or read from a checkpoint's values.
+    subroutine exchange_first(values, first, first_baro, ts, bs, saving, ok)
         type(named_values_t), intent(inout) :: values
         type(thermo_sample_t), intent(inout) :: first
+        real(dp), intent(inout) :: first_baro
         class(thermostat_t), intent(inout) :: ts
         class(barostat_t), intent(inout) :: bs
         logical, intent(in) :: saving
@@ -211,6 +235,7 @@ contains
             end do
             if (ts%active()) call values%put('first_ecouple', first%ecouple)
             if (ts%active()) call ts%save(values)
+            if (bs%active()) call values%put('first_baro', first_baro)
             if (bs%active()) call bs%save(values)
             return
         end if
@@ -220,6 +245,7 @@ contains
         first%etotal = vals(1); first%momentum = vals(2:4)
         if (ts%active()) first%ecouple = values%get_r('first_ecouple', ok)
         if (ts%active()) call ts%restore(values, ok)
+        if (bs%active()) first_baro = values%get_r('first_baro', ok)
         if (bs%active()) call bs%restore(values, ok)
     end subroutine exchange_first
 
@@ -268,38 +294,49 @@ contains
         end if
     end subroutine kick_masses
 
-    !> Energy drift per atom per time unit (of econserve = etotal - ecouple with a thermostat) and
-    !> the change of total momentum over the run.
-    subroutine report_drift(first, last, natoms, thermostat)
+    !> Energy drift per atom per time unit (of econserve = etotal - ecouple with a thermostat, plus
+    !> P0 V and the barostat's own energy with a barostat: first_baro, last_baro) and the change of
+    !> total momentum over the run.
+    subroutine report_drift(first, last, natoms, thermostat, first_baro, last_baro, barostat)
         use terrace_mpi_env, only: world
         use, intrinsic :: iso_fortran_env, only: output_unit
         type(thermo_sample_t), intent(in) :: first, last
         integer(i8), intent(in) :: natoms
-        logical, intent(in) :: thermostat
+        logical, intent(in) :: thermostat, barostat
+        real(dp), intent(in) :: first_baro, last_baro
+        real(dp) :: drift
         if (world%rank /= 0 .or. last%time <= first%time) return
-        call summary_drift(first, last, natoms, thermostat)
+        drift = ((last%etotal + last_baro - last%ecouple) - (first%etotal + first_baro - first%ecouple))/ &
+                (real(natoms, dp)*(last%time - first%time))
+        call summary_drift(first, last, natoms, thermostat, drift)
+        if (barostat) call summary_put_baro(last_baro - first_baro)
         if (thermostat) then
-            write (output_unit, '(a,es12.4,a,es12.4,a)') 'Energy drift (econserve): ', &
-                ((last%etotal - last%ecouple) - (first%etotal - first%ecouple))/(real(natoms, dp)*(last%time - first%time)), &
+            write (output_unit, '(a,es12.4,a,es12.4,a)') 'Energy drift (econserve): ', drift, &
                 ' energy/atom/time;  energy put in by the thermostat: ', last%ecouple - first%ecouple, ' energy'
             return
         end if
-        write (output_unit, '(a,es12.4,a,es12.4,a)') 'Energy drift: ', &
-            (last%etotal - first%etotal)/(real(natoms, dp)*(last%time - first%time)), &
+        write (output_unit, '(a,es12.4,a,es12.4,a)') 'Energy drift: ', drift, &
             ' energy/atom/time;  |P_end - P_0| = ', norm2(last%momentum - first%momentum), ' (mass*velocity)'
     end subroutine report_drift
 
     !> report_drift's figures in the run summary.
-    subroutine summary_drift(first, last, natoms, thermostat)
+    subroutine summary_drift(first, last, natoms, thermostat, drift)
         use terrace_run_summary, only: summary_put
         type(thermo_sample_t), intent(in) :: first, last
         integer(i8), intent(in) :: natoms
         logical, intent(in) :: thermostat
-        call summary_put('conservation/energy_drift_per_atom_time', ((last%etotal - last%ecouple) - &
-                         (first%etotal - first%ecouple))/(real(natoms, dp)*(last%time - first%time)))
+        real(dp), intent(in) :: drift
+        call summary_put('conservation/energy_drift_per_atom_time', drift)
         call summary_put('conservation/energy_drift_of', trim(merge('econserve', 'etotal   ', thermostat)))
         call summary_put('conservation/momentum_change', norm2(last%momentum - first%momentum))
         if (thermostat) call summary_put('conservation/thermostat_energy', last%ecouple - first%ecouple)
     end subroutine summary_drift
+
+    !> The change of the barostat's terms of econserve (P0 V and its own energy) in the run summary.
+    subroutine summary_put_baro(change)
+        use terrace_run_summary, only: summary_put
+        real(dp), intent(in) :: change
+        call summary_put('conservation/barostat_energy', change)
+    end subroutine summary_put_baro
 
 end module terrace_velocity_verlet

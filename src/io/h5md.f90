@@ -29,9 +29,9 @@
 !>                                                       id-ordered particle arrays, int32: what
 !>                                                       an XDMF Topology reads)
 !>
-!> The box does not change during a run, but edges is written as a time-dependent element (one
-!> row per frame) because readers such as MDAnalysis read box/edges/value[frame] unconditionally;
-!> the reader (h5md_reader.f90) accepts both forms (a fixed edges dataset, as earlier Terrace
+!> edges is a time-dependent element (one row per frame: the box of that frame, set by set_edges
+!> before write_frame when a barostat changes it; readers such as MDAnalysis read
+!> box/edges/value[frame] unconditionally, so a fixed box is written per frame too); the reader (h5md_reader.f90) accepts both forms (a fixed edges dataset, as earlier Terrace
 !> files have, or the time-dependent group).
 !>
 !> Atoms are stored in global id order (row id - 1) on any number of ranks: write_frame sends every
@@ -168,6 +168,7 @@ module terrace_h5md
         procedure :: create => writer_create
         procedure :: open_append => writer_open_append
         procedure :: write_frame => writer_write_frame
+        procedure :: set_edges => writer_set_edges
         procedure :: write_observable => writer_write_observable
         procedure :: write_frame_observables => writer_write_frame_observables
         procedure :: flush => writer_flush
@@ -595,6 +596,13 @@ contains
         grown(1:w%nobs) = w%obs(1:w%nobs)
         call move_alloc(grown, w%obs)
     end subroutine grow_obs
+
+    !> The box edges (hi - lo) of the frames written from now on (a box a barostat changes).
+    subroutine writer_set_edges(self, edges)
+        class(h5md_writer_t), intent(inout) :: self
+        real(dp), intent(in) :: edges(3)
+        self%edges = edges
+    end subroutine writer_set_edges
 
     !> Append one frame. ids(1:nlocal) are the global ids (1..natoms) of this rank's atoms; over all
     !> ranks every id must appear exactly once. x, v, f, image are (>= dimension, >= nlocal) and

@@ -210,8 +210,9 @@ contains
     end function trajectory_frames
 
     !> One frame at (step, time), with the thermo sample s as observables; extra(:) are written as
-    !> further observables named by extra_names (energy stepping: events, e_terraced, ...).
-    subroutine trajectory_write(self, step, time, atoms, s, ok, msg, extra_names, extra)
+    !> further observables named by extra_names (energy stepping: events, e_terraced, ...); edges:
+    !> the box's edges at this frame (a barostat's box; otherwise the box of the file's creation).
+    subroutine trajectory_write(self, step, time, atoms, s, ok, msg, extra_names, extra, edges)
         class(trajectory_t), intent(inout) :: self
         integer(i8), intent(in) :: step
         real(dp), intent(in) :: time
@@ -221,6 +222,7 @@ contains
         character(len=*), intent(out) :: msg
         character(len=*), intent(in), optional :: extra_names(:)
         real(dp), intent(in), optional :: extra(:)
+        real(dp), intent(in), optional :: edges(3)
         integer :: n, k, nobs
         logical :: io, flush_due
         character(len=64) :: names(32)
@@ -234,6 +236,7 @@ contains
         ! a frame moves at most 3 fields of 3 reals per atom over all ranks (the watchdog's limit; a
         ! block of small frames is at most about 256 KiB)
         if (io .or. flush_due) call h5_section_begin(label(self), 'writing a frame', bytes=72*self%natoms + 262144)
+        if (present(edges)) call self%h5%set_edges(edges)
         call self%h5%write_frame(step, time, n, atoms%id(1:n), atoms%type(1:n), x=atoms%x(:, 1:n), &
                                  v=atoms%v(:, 1:n), f=atoms%f(:, 1:n), image=atoms%image(:, 1:n), ok=ok, msg=msg, &
                                  flush=.false.)

@@ -37,6 +37,9 @@ module terrace_neighbor_list
         integer :: stencil_bins = 0
         integer, allocatable :: first(:), neigh(:)
         real(dp), allocatable :: xhold(:, :)
+        !> The box's scale since the last build (per dimension; a barostat's rescalings that kept the
+        !> list): xhold is scaled with the positions, and the skin left is min(1, scaled) (rc + skin) - rc.
+        real(dp) :: scaled(3) = 1
         integer, allocatable :: perm(:), counts(:)
         real(dp), allocatable :: cx(:), cy(:), cz(:)    !< build scratch: candidates shared by a bin's atoms
         integer, allocatable :: cj(:), keep(:)
@@ -87,6 +90,7 @@ module terrace_neighbor_list
         procedure :: build => nl_build
         procedure :: hold => nl_hold
         procedure :: needs_rebuild => nl_needs_rebuild
+        procedure :: scale_reference => nl_scale_reference
         procedure :: rebuild_due => nl_rebuild_due
         procedure :: prune => nl_prune
         procedure :: exact => nl_exact
@@ -482,7 +486,23 @@ contains
         end if
         if (.not. allocated(self%xhold)) allocate (self%xhold(3, max(nlocal, 1) + nlocal/4))
         self%xhold(:, 1:nlocal) = atoms%x(:, 1:nlocal)
+        self%scaled = 1
     end subroutine nl_hold
+
+    !> The box and the positions were scaled by mu(d) about the origin, the list kept: the
+    !> displacement reference follows (the owned atoms are those of the last build).
+    subroutine nl_scale_reference(self, mu, nlocal)
+        class(neighbor_list_t), intent(inout) :: self
+        real(dp), intent(in) :: mu(3)
+        integer, intent(in) :: nlocal
+        integer :: i, d
+        do i = 1, nlocal
+            do d = 1, self%dimension
+                self%xhold(d, i) = mu(d)*self%xhold(d, i)
+            end do
+        end do
+        self%scaled = self%scaled*mu
+    end subroutine nl_scale_reference
 
     !> The complement of the half list's ghost pairs: for each owned atom, the ghosts of the
     !> stencil rows below in z (all of them) and of the rows at the same z and the centre row
@@ -646,7 +666,15 @@ contains
     logical function nl_needs_rebuild(self, atoms) result(flag)
         class(neighbor_list_t), intent(in) :: self
         type(atoms_t), intent(in) :: atoms
-        flag = moved_too_far(atoms%nlocal, atoms%x, self%xhold, (0.5_dp*self%skin)**2)
+        real(dp) :: half_skin
+        ! a pair beyond rc + skin at the build is now beyond min(scaled) (rc + skin) less the two
+        ! atoms' displacements from their scaled reference positions
+        half_skin = 0.5_dp*(min(1.0_dp, minval(self%scaled(1:self%dimension)))*self%cut - (self%cut - self%skin))
+        if (half_skin > 0) then
+            flag = moved_too_far(atoms%nlocal, atoms%x, self%xhold, half_skin**2)
+        else
+            flag = .true.
+        end if
         call any_all(flag)
     end function nl_needs_rebuild
 

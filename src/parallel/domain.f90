@@ -112,18 +112,29 @@ contains
     end subroutine domain_setup
 
     !> The same processor grid over a box of new extent (a barostat's or a box relaxation's
-    !> change): the box and this rank's brick; no communication. The caller migrates and rebuilds
-    !> the halo next (borders reads the box and the brick).
+    !> change): the box, this rank's brick and the halo's periodic shifts; no communication. The
+    !> caller migrates and rebuilds the halo next (borders reads the box and the brick), or keeps
+    !> the halo and refreshes the ghosts.
     subroutine domain_resize(self, box)
         class(domain_t), intent(inout) :: self
         type(box_t), intent(in) :: box
         integer :: d
+        integer :: k
         self%box = box
         do d = 1, 3
             self%sublo(d) = box%lo(d) + self%coords(d)*box%length(d)/self%dims(d)
             self%subhi(d) = box%lo(d) + (self%coords(d) + 1)*box%length(d)/self%dims(d)
             if (self%coords(d) == self%dims(d) - 1) self%subhi(d) = box%hi(d)
         end do
+        ! the halo's periodic shifts follow the box (a halo kept until the next build: a forward
+        ! refresh places the ghosts at their owners' images in the new box)
+        if (allocated(self%swaps)) then
+            do k = 1, size(self%swaps)
+                do d = 1, 3
+                    if (self%swaps(k)%shift(d) /= 0) self%swaps(k)%shift(d) = sign(box%length(d), self%swaps(k)%shift(d))
+                end do
+            end do
+        end if
     end subroutine domain_resize
 
     pure integer function domain_owner_coord(self, d, xd) result(c)

@@ -1,0 +1,268 @@
+!> The isotropic Martyna-Tobias-Klein barostat in the time-reversible Trotter splitting of
+!> Tuckerman, Alejandre, Lopez-Rendon, Jochim & Martyna (J. Phys. A 39, 5629 (2006)), the scheme of
+!> LAMMPS fix npt. With eps = ln(V/V0)/d and its velocity v_eps (p_eps = W v_eps):
+!>   dr/dt = v + v_eps r,   dv/dt = F/m - alpha v_eps v - (particle chain),   dV/dt = d V v_eps,
+!>   dv_eps/dt = G_eps - v_xi'1 v_eps,   G_eps = (alpha 2K + W_vir - d V P0) / W,   alpha = 1 + d/Nf,
+!> W = (Nf + d) k T tau_p^2 (tau_p: `damping`; the same mass as LAMMPS's Pdamp: d (N+1) k T Pdamp^2
+!> over d strains), the barostat's own Nose-Hoover chain (three links, Q = k T tau_p^2) on v_eps,
+!> the particles' chain the run's &thermostat style = 'nose_hoover'. One velocity Verlet step:
+!>   [barostat chain dt/2] [particle chain dt/2] v_eps += dt/2 G_eps
+!>   v <- v e^(-alpha v_eps h) + h F/m e^(-alpha v_eps h/2) sinhc(alpha v_eps h/2)        (h = dt/2)
+!>   x <- x e^(v_eps dt) + dt v e^(v_eps dt/2) sinhc(v_eps dt/2),  box edges * e^(v_eps dt)
+!>   forces;  the same kick;  v_eps += dt/2 G_eps;  [particle chain dt/2] [barostat chain dt/2]
+!> The two chains act on different variables and commute, so the step is its own reverse. The
+!> conserved quantity is K + U + P0 V + W v_eps^2/2 + (barostat chain's energy) + (particle
+!> chain's energy); the particle chain's is booked by the thermostat as ecouple, the rest here
+!> (energy). The barostat is deterministic: every rank holds the same v_eps and chain from global
+!> sums, and a checkpoint holds them and the last virial.
+module terrace_barostat_mttk
+    use terrace_kinds, only: dp, i8
+    use terrace_engine, only: engine_t
+    use terrace_velocities, only: kinetic_energy
+    use terrace_barostat, only: barostat_t, barostat_params_t
+    use terrace_named_values, only: named_values_t
+    implicit none
+    private
+
+    integer, parameter :: chain_length = 3
+
+    type, extends(barostat_t), public :: mttk_t
+        real(dp) :: w = 1                        !< the barostat's mass W
+        real(dp) :: q = 1                        !< the chain's masses
+        real(dp) :: alpha = 1                    !< 1 + d/Nf
+        real(dp) :: v_eps = 0
+        real(dp) :: eta(chain_length) = 0, v_eta(chain_length) = 0
+        real(dp) :: virial = 0                   !< the virial at the present positions
+        logical :: have_virial = .false.
+        real(dp) :: mu = 1                       !< this step's box scale, applied by before_forces
+    contains
+        procedure :: setup => mttk_setup
+        procedure :: needs_virial => mttk_needs_virial
+        procedure :: replaces_kicks => mttk_replaces_kicks
+        procedure :: first_half => mttk_first_half
+        procedure :: before_forces => mttk_before_forces
+        procedure :: second_half => mttk_second_half
+        procedure :: after_step => mttk_after_step
+        procedure :: energy => mttk_energy
+        procedure :: save => mttk_save
+        procedure :: restore => mttk_restore
+    end type mttk_t
+
+contains
+
+    subroutine mttk_setup(self, p)
+        class(mttk_t), intent(inout) :: self
+        type(barostat_params_t), intent(in) :: p
+        real(dp) :: nf
+        nf = max(real(p%dimension, dp)*real(p%natoms, dp) - p%dimension, 1.0_dp)
+        self%alpha = 1 + p%dimension/nf
+        self%w = (nf + p%dimension)*self%kt*self%tau**2
+        self%q = self%kt*self%tau**2
+        self%v_eps = 0; self%eta = 0; self%v_eta = 0
+        self%have_virial = .false.
+    end subroutine mttk_setup
+
+    logical function mttk_needs_virial(self, step)
+        class(mttk_t), intent(in) :: self
+        integer(i8), intent(in) :: step
+        mttk_needs_virial = .true.
+    end function mttk_needs_virial
+
+    logical function mttk_replaces_kicks(self)
+        class(mttk_t), intent(in) :: self
+        mttk_replaces_kicks = .true.
+    end function mttk_replaces_kicks
+
+    !> The barostat's chain dt/2, v_eps dt/2, the scaled half kick and the drift (the box and the
+    !> positions' scaling by e^(v_eps dt) left to before_forces). Collective.
+    subroutine mttk_first_half(self, eng, dtfm, dtf, dt, step)
+        class(mttk_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        real(dp), intent(in) :: dtfm(:), dtf, dt
+        integer(i8), intent(in) :: step
+        real(dp) :: c
+        if (.not. self%have_virial) then         ! the first step: the initial force pass's virial
+            self%virial = eng%virial
+            self%have_virial = .true.
+        end if
+        call chain(self, 0.5_dp*dt)
+        call push(self, eng, 0.5_dp*dt)
+        call scaled_kick(self, eng, dtfm, dtf, dt)
+        ! x e^(v_eps dt) + dt v e^(v_eps dt/2) sinhc(v_eps dt/2) = e^(v_eps dt) (x + c v)
+        self%mu = exp(self%v_eps*dt)
+        c = dt*exp(-0.5_dp*self%v_eps*dt)*sinhc(0.5_dp*self%v_eps*dt)
+        call drift(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, c)
+    end subroutine mttk_first_half
+
+    !> The box and the positions scaled by this step's e^(v_eps dt) (the list kept while the skin
+    !> test allows: moved only when it was rebuilt here).
+    subroutine mttk_before_forces(self, eng, step, moved)
+        class(mttk_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        integer(i8), intent(in) :: step
+        logical, intent(out) :: moved
+        integer :: d
+        call eng%scale_box([(merge(self%mu, 1.0_dp, d <= self%dimension), d = 1, 3)], velocities=.false., &
+                           keep_list=.true., rebuilt=moved)
+    end subroutine mttk_before_forces
+
+    !> The scaled half kick with the new forces, then v_eps dt/2 with the new virial. Collective.
+    subroutine mttk_second_half(self, eng, dtfm, dtf, dt, step)
+        class(mttk_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        real(dp), intent(in) :: dtfm(:), dtf, dt
+        integer(i8), intent(in) :: step
+        call scaled_kick(self, eng, dtfm, dtf, dt)
+        self%virial = eng%virial
+        call push(self, eng, 0.5_dp*dt)
+    end subroutine mttk_second_half
+
+    !> The barostat's chain dt/2 (after the particles' chain).
+    subroutine mttk_after_step(self, eng, step, moved)
+        class(mttk_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        integer(i8), intent(in) :: step
+        logical, intent(out) :: moved
+        moved = .false.
+        call chain(self, 0.5_dp*self%dt)
+    end subroutine mttk_after_step
+
+    !> v_eps += span G_eps, G_eps = (alpha 2K + W_vir - d V P0)/W (collective: the kinetic energy).
+    subroutine push(self, eng, span)
+        class(mttk_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        real(dp), intent(in) :: span
+        real(dp) :: ke
+        ke = kinetic_energy(eng%atoms, eng%units)
+        self%v_eps = self%v_eps + span*(self%alpha*2*ke + self%virial - &
+                                        self%dimension*eng%box%volume()*self%p0)/self%w
+    end subroutine push
+
+    !> The barostat's Nose-Hoover chain over a span: three Suzuki-Yoshida sub-steps of the Trotter
+    !> factorisation, the chain's first link driven by W v_eps^2 - k T (one degree of freedom).
+    subroutine chain(self, span)
+        class(mttk_t), intent(inout) :: self
+        real(dp), intent(in) :: span
+        real(dp) :: w(3), d, e, g(chain_length), ke2
+        integer :: k, j, m
+        m = chain_length
+        w(1) = 1/(2 - 2**(1.0_dp/3)); w(3) = w(1); w(2) = 1 - 2*w(1)
+        do k = 1, 3
+            d = w(k)*span
+            ke2 = self%w*self%v_eps**2
+            g(1) = (ke2 - self%kt)/self%q
+            do j = 2, m
+                g(j) = (self%q*self%v_eta(j - 1)**2 - self%kt)/self%q
+            end do
+            self%v_eta(m) = self%v_eta(m) + 0.5_dp*d*g(m)
+            do j = m - 1, 1, -1
+                e = exp(-0.25_dp*d*self%v_eta(j + 1))
+                self%v_eta(j) = (self%v_eta(j)*e + 0.5_dp*d*g(j))*e
+            end do
+            self%v_eps = self%v_eps*exp(-d*self%v_eta(1))
+            self%eta = self%eta + d*self%v_eta
+            g(1) = (self%w*self%v_eps**2 - self%kt)/self%q
+            do j = 1, m - 1
+                e = exp(-0.25_dp*d*self%v_eta(j + 1))
+                self%v_eta(j) = (self%v_eta(j)*e + 0.5_dp*d*g(j))*e
+                g(j + 1) = (self%q*self%v_eta(j)**2 - self%kt)/self%q
+            end do
+            self%v_eta(m) = self%v_eta(m) + 0.5_dp*d*g(m)
+        end do
+    end subroutine chain
+
+    !> The barostat's own energy: W v_eps^2/2 + its chain's sum Q v_j^2/2 + k T eta_j.
+    real(dp) function mttk_energy(self, eng)
+        class(mttk_t), intent(in) :: self
+        type(engine_t), intent(in) :: eng
+        mttk_energy = 0.5_dp*self%w*self%v_eps**2 + sum(0.5_dp*self%q*self%v_eta**2 + self%kt*self%eta)
+    end function mttk_energy
+
+    !> v <- v e^(-alpha v_eps h) + h F/m e^(-alpha v_eps h/2) sinhc(alpha v_eps h/2), h = dt/2
+    !> (dtfm(type) = h ftm2v/m, or dtf/rmass).
+    subroutine scaled_kick(self, eng, dtfm, dtf, dt)
+        class(mttk_t), intent(in) :: self
+        type(engine_t), intent(inout) :: eng
+        real(dp), intent(in) :: dtfm(:), dtf, dt
+        real(dp) :: a, s_v, s_f
+        a = self%alpha*self%v_eps*0.5_dp*dt
+        s_v = exp(-a)
+        s_f = exp(-0.5_dp*a)*sinhc(0.5_dp*a)
+        if (eng%atoms%per_atom_mass) then
+            call kick_masses(eng%atoms%nlocal, eng%atoms%v, eng%atoms%f, eng%atoms%rmass, dtf, s_v, s_f)
+        else
+            call kick_types(eng%atoms%nlocal, eng%atoms%v, eng%atoms%f, eng%atoms%type, dtfm, s_v, s_f)
+        end if
+    end subroutine scaled_kick
+
+    subroutine kick_types(n, v, f, type, dtfm, s_v, s_f)
+        integer, intent(in) :: n, type(n)
+        real(dp), intent(inout) :: v(3, n)
+        real(dp), intent(in) :: f(3, n), dtfm(:), s_v, s_f
+        integer :: i
+        do i = 1, n
+            v(:, i) = s_v*v(:, i) + (s_f*dtfm(type(i)))*f(:, i)
+        end do
+    end subroutine kick_types
+
+    subroutine kick_masses(n, v, f, rmass, dtf, s_v, s_f)
+        integer, intent(in) :: n
+        real(dp), intent(inout) :: v(3, n)
+        real(dp), intent(in) :: f(3, n), rmass(n), dtf, s_v, s_f
+        integer :: i
+        do i = 1, n
+            v(:, i) = s_v*v(:, i) + (s_f*dtf/rmass(i))*f(:, i)
+        end do
+    end subroutine kick_masses
+
+    subroutine drift(n, x, v, c)
+        integer, intent(in) :: n
+        real(dp), intent(inout) :: x(3, n)
+        real(dp), intent(in) :: v(3, n), c
+        integer :: i
+        do i = 1, n
+            x(:, i) = x(:, i) + c*v(:, i)
+        end do
+    end subroutine drift
+
+    !> sinh(z)/z, by its series near 0 (to round-off for |z| < 1e-3).
+    pure real(dp) function sinhc(z)
+        real(dp), intent(in) :: z
+        if (abs(z) < 1.0e-3_dp) then
+            sinhc = 1 + z*z/6*(1 + z*z/20)
+        else
+            sinhc = sinh(z)/z
+        end if
+    end function sinhc
+
+    subroutine mttk_save(self, values)
+        class(mttk_t), intent(inout) :: self
+        type(named_values_t), intent(inout) :: values
+        character(len=16) :: tag
+        integer :: j
+        call values%put('baro_v_eps', self%v_eps)
+        call values%put('baro_virial', self%virial)
+        do j = 1, chain_length
+            write (tag, '(i0)') j
+            call values%put('baro_eta_'//trim(tag), self%eta(j))
+            call values%put('baro_v_eta_'//trim(tag), self%v_eta(j))
+        end do
+    end subroutine mttk_save
+
+    subroutine mttk_restore(self, values, ok)
+        class(mttk_t), intent(inout) :: self
+        type(named_values_t), intent(in) :: values
+        logical, intent(inout) :: ok
+        character(len=16) :: tag
+        integer :: j
+        self%v_eps = values%get_r('baro_v_eps', ok)
+        self%virial = values%get_r('baro_virial', ok)
+        self%have_virial = .true.
+        do j = 1, chain_length
+            write (tag, '(i0)') j
+            self%eta(j) = values%get_r('baro_eta_'//trim(tag), ok)
+            self%v_eta(j) = values%get_r('baro_v_eta_'//trim(tag), ok)
+        end do
+    end subroutine mttk_restore
+
+end module terrace_barostat_mttk

@@ -23,40 +23,33 @@ module terrace_lj_cluster
 contains
 
     !> Forces added to f (owned and ghost atoms), and with want_energy the energy and virial
-    !> W = sum r.F of the listed pairs. xrep: the replicated positions (cl%replicate_positions,
-    !> formed by the caller); frep: scratch of (16, 3, ncl) or more, zero on entry and zero again on
-    !> return (allocate it zeroed).
-    subroutine cluster_forces(cl, nall, f, want_energy, lj1, lj2, lj3, lj4, cutsq, offset, xrep, frep, energy, virial)
+    !> W = sum r.F of the listed pairs. coeffs: the pair's (lj1, lj2, lj3, lj4, cutsq, offset) in
+    !> single precision. xrep: the replicated positions (cl%replicate_positions, formed by the
+    !> caller); frep: scratch of (16, 3, ncl) or more, zero on entry and zero again on return
+    !> (allocate it zeroed).
+    subroutine cluster_forces(cl, nall, f, want_energy, coeffs, xrep, frep, energy, virial)
         type(cluster_list_t), intent(in) :: cl
         integer, intent(in) :: nall           !< atoms held (owned and ghost): all are in clusters
         real(dp), intent(inout) :: f(:, :)
         logical, intent(in) :: want_energy
-        real(sp), intent(in) :: lj1, lj2, lj3, lj4, cutsq, offset
+        real(sp), intent(in) :: coeffs(6)
         real(sp), intent(in), contiguous :: xrep(:, :, :)
         real(sp), intent(inout), contiguous :: frep(:, :, :)
         real(dp), intent(out) :: energy, virial
         integer :: ci, ii, a
         real(dp) :: net(3), fi(4, 3), ew(2)
-        associate (pairs => cl%pairs)
         net = 0
         energy = 0; virial = 0
         do ci = 1, cl%nowned
-            if (want_energy) then
-                call pairs_energy(ci, cl%nmem(ci), pairs%first(ci), pairs%masked_first(ci), pairs%first(ci + 1) - 1, &
-                                  pairs%cj, pairs%mask, pairs%offset, cl%masks, xrep, frep, lj1, lj2, lj3, lj4, cutsq, &
-                                  offset, fi, ew)
-                energy = energy + ew(1); virial = virial + ew(2)
-            else
-                call pairs_forces(ci, cl%nmem(ci), pairs%first(ci), pairs%masked_first(ci), pairs%first(ci + 1) - 1, &
-                                  pairs%cj, pairs%mask, pairs%offset, cl%masks, xrep, frep, lj1, lj2, cutsq, fi)
-            end if
+            call cluster_pairs(ci, cl%nmem(ci), [cl%pairs%first(ci), cl%pairs%masked_first(ci), cl%pairs%first(ci + 1) - 1], &
+                               cl%pairs%cj, cl%pairs%mask, cl%pairs%offset, cl%masks, xrep, frep, coeffs, want_energy, fi, ew)
+            energy = energy + ew(1); virial = virial + ew(2)
             do ii = 1, cl%nmem(ci)
                 a = cl%member(ii, ci)
                 f(:, a) = f(:, a) + fi(ii, :)
                 net = net + fi(ii, :)
             end do
         end do
-        end associate
         call add_replicas(cl, frep, f, net)
         ! Newton's third law: every pair adds one single-precision force to i and its negative to
         ! j, but the single-precision lane sums round differently on the two sides and leave a
@@ -74,55 +67,48 @@ contains
     end subroutine cluster_forces
 
     !> The pairs of owned cluster ci (nmem atoms): its slots spread over the lanes (lane l: slot
-    !> (l - 1)/4 + 1, empty slots at -far_slot), then its listed pairs p1..p3 (from p2 on through
-    !> their mask rows), j forces into frep, and the four i sums in double (fi).
-    subroutine pairs_forces(ci, nmem, p1, p2, p3, cjs, mask, offs, masks, xrep, frep, lj1, lj2, cutsq, fi)
-        integer, intent(in) :: ci, nmem, p1, p2, p3, cjs(*), mask(*)
-        real(sp), intent(in) :: offs(3, *), masks(16, *), xrep(16, 3, *), lj1, lj2, cutsq
+    !> (l - 1)/4 + 1, empty slots at -far_slot), then its listed pairs prange(1)..prange(3) (from
+    !> prange(2) on through their mask rows; cjs, mask, offs: the list's cj, mask, offset), j forces
+    !> into frep, and the four i sums in double (fi); with want_energy also each lane's pair energy
+    !> and virial, summed: ew = (energy, virial) (else 0). The test of want_energy is outside the
+    !> lane loops: each of the two loops is the one vectorised pass. (Explicit arrays, not the
+    !> list's components: through them the kernel ran 0.7 % more instructions.)
+    subroutine cluster_pairs(ci, nmem, prange, cjs, mask, offs, masks, xrep, frep, coeffs, want_energy, fi, ew)
+        integer, intent(in) :: ci, nmem, prange(3), cjs(*), mask(*)
+        real(sp), intent(in) :: offs(3, *), masks(16, *), xrep(16, 3, *), coeffs(6)
         real(sp), intent(inout) :: frep(16, 3, *)
-        real(dp), intent(out) :: fi(4, 3)
-        integer :: p, cj, l
-        real(sp) :: xi(16, 3), ax(16, 3), ox, oy, oz, dx, dy, dz, r2, r2i, r6, fp, madd(16)
-        include 'lj_cluster_spread.inc'
-        madd = 0
-        ax = 0
-        do p = p1, p3
-            cj = cjs(p)
-            if (p >= p2) madd = masks(:, mask(p))
-            ox = offs(1, p); oy = offs(2, p); oz = offs(3, p)
-            do l = 1, 16
-                include 'lj_cluster_lanes.inc'
-            end do
-        end do
-        include 'lj_cluster_isum.inc'
-    end subroutine pairs_forces
-
-    !> pairs_forces with each lane's pair energy and virial summed too: ew = (energy, virial).
-    subroutine pairs_energy(ci, nmem, p1, p2, p3, cjs, mask, offs, masks, xrep, frep, lj1, lj2, lj3, lj4, cutsq, offset, &
-                            fi, ew)
-        integer, intent(in) :: ci, nmem, p1, p2, p3, cjs(*), mask(*)
-        real(sp), intent(in) :: offs(3, *), masks(16, *), xrep(16, 3, *), lj1, lj2, lj3, lj4, cutsq, offset
-        real(sp), intent(inout) :: frep(16, 3, *)
+        logical, intent(in) :: want_energy
         real(dp), intent(out) :: fi(4, 3), ew(2)
         integer :: p, cj, l
         real(sp) :: xi(16, 3), ax(16, 3), el(16), wl(16), ox, oy, oz, dx, dy, dz, r2, r2i, r6, fp, inside, madd(16)
+        real(sp) :: lj1, lj2, lj3, lj4, cutsq, offset
+        lj1 = coeffs(1); lj2 = coeffs(2); lj3 = coeffs(3); lj4 = coeffs(4); cutsq = coeffs(5); offset = coeffs(6)
         include 'lj_cluster_spread.inc'
         madd = 0
         ax = 0; el = 0; wl = 0
-        do p = p1, p3
+        do p = prange(1), prange(3)
             cj = cjs(p)
-            if (p >= p2) madd = masks(:, mask(p))
+            if (p >= prange(2)) madd = masks(:, mask(p))
             ox = offs(1, p); oy = offs(2, p); oz = offs(3, p)
-            do l = 1, 16
-                include 'lj_cluster_lanes.inc'
-                inside = merge(1.0_sp, 0.0_sp, r2 < cutsq)
-                el(l) = el(l) + r6*(lj3*r6 - lj4) - inside*offset
-                wl(l) = wl(l) + fp*r2
-            end do
+            if (want_energy) then
+                do l = 1, 16
+                    include 'lj_cluster_lanes.inc'
+                    inside = merge(1.0_sp, 0.0_sp, r2 < cutsq)
+                    el(l) = el(l) + r6*(lj3*r6 - lj4) - inside*offset
+                    wl(l) = wl(l) + fp*r2
+                end do
+            else
+                do l = 1, 16
+                    include 'lj_cluster_lanes.inc'
+                end do
+            end if
         end do
         include 'lj_cluster_isum.inc'
-        ew(1) = sum(real(el, dp)); ew(2) = sum(real(wl, dp))
-    end subroutine pairs_energy
+        ew = 0
+        if (want_energy) then
+            ew(1) = sum(real(el, dp)); ew(2) = sum(real(wl, dp))
+        end if
+    end subroutine cluster_pairs
 
     !> Every cluster's four j replicas (lanes s, s + 4, s + 8, s + 12) added in double to its atoms.
     subroutine add_replicas(cl, frep, f, net)

@@ -188,3 +188,11 @@ int terrace_path_op(int op, const char *path)
     default: return -1;
     }
 }
+
+/* Open MPI's MPI-IO layer (ompio) prepares a shared file pointer at every file open, which Terrace
+ * never uses; its default component (sharedfp/sm) guards it with a POSIX semaphore named after the
+ * file's base name only (/dev/shm/sem.OMPIO_<name>). A process killed while it holds that semaphore
+ * leaves it locked, and every later open of a file of that name on the node waits forever (two jobs
+ * writing restart.h5 on one node also share it). Select the component that keeps no state outside
+ * the process (sharedfp/individual), unless the user's environment chose one. Before MPI_Init. */
+void terrace_mpi_io_defaults(void) { setenv("OMPI_MCA_sharedfp", "individual", 0); }

@@ -3,7 +3,7 @@ module terrace_text
     use terrace_kinds, only: dp
     implicit none
     private
-    public :: count_tokens, fixed, int_text, real_text, sci_text, real_in_format
+    public :: count_tokens, fixed, int_text, real_text, sci_text, real_in_format, quoted_list
 
 contains
 
@@ -71,5 +71,19 @@ contains
             if (s(1:2) == '-.') s = '-0'//s(2:)
         end if
     end function fixed
+
+    !> The non-blank names quoted and joined by sep: quoted_list(['a', 'b'], ', ') is "'a', 'b'"
+    !> (lists of allowed values in messages).
+    pure function quoted_list(names, sep) result(s)
+        character(len=*), intent(in) :: names(:), sep
+        character(len=:), allocatable :: s
+        integer :: k
+        s = ''
+        do k = 1, size(names)
+            if (len_trim(names(k)) == 0) cycle
+            if (len(s) > 0) s = s//sep
+            s = s//"'"//trim(names(k))//"'"
+        end do
+    end function quoted_list
 
 end module terrace_text

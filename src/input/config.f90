@@ -20,12 +20,12 @@ module terrace_config
     use terrace_files, only: read_input_text
     use terrace_mpi_env, only: world
     use terrace_file_ops, only: path_kind, resolve_path, directory_of, path_regular, path_directory, path_special
-    use terrace_text, only: int_text, sci_text, quoted_list
-    use terrace_potential_styles, only: potential_style_t, potential_style, takes_potential_key, &
-                                        default_potential_style, pots => potential_table
-    use terrace_integrator_styles, only: integrator_style_t, integrator_style, takes_integrator_key, &
-                                         default_integrator_style, integs => integrator_table
-    use terrace_minimize_styles, only: minimize_style_t, minimize_style, takes_minimize_key, mins => minimize_table
+    use terrace_text, only: int_text, sci_text, quoted_list, has_word
+    use terrace_potential_styles, only: potential_style_t, potential_style, default_potential_style, &
+                                        pots => potential_table
+    use terrace_integrator_styles, only: integrator_style_t, integrator_style, default_integrator_style, &
+                                         integs => integrator_table
+    use terrace_minimize_styles, only: minimize_style_t, minimize_style, mins => minimize_table
     use terrace_thermostat, only: thermostat_t, thermostat_params_t
     use terrace_thermostat_factory, only: is_thermostat_style, new_thermostat, thermostat_styles, &
                                           thermostat_styles_for_events, thermostat_styles_with_chain
@@ -835,7 +835,7 @@ contains
         any_key = .false.
         do k = 1, cfg%nml%count
             if (cfg%nml%items(k)%group == 'minimize') any_key = any_key .or. &
-                any(takes_minimize_key(mins, trim(cfg%nml%items(k)%key)))
+                any(has_word(mins%keys, cfg%nml%items(k)%key))
         end do
         allowed = quoted_list(mins%name, ', ')
         if (cfg%nml%find('minimize', 'style') == 0) then
@@ -1013,7 +1013,7 @@ contains
                 " = 'mixed': not available with energy stepping, whose root finding needs double-precision "// &
                 "energies and forces (allowed with energy stepping: 'double')")
             if (.not. cfg%pot_style%mixed_precision) call stop_all(cfg%where('potential', 'precision')// &
-                " = 'mixed': only for style = "//potential_names(pots%mixed_precision, ' or ')// &
+                " = 'mixed': only for style = "//quoted_list(pots%name, ' or ', pots%mixed_precision)// &
                 " (the one-type Lennard-Jones kernel; allowed for style = '"//trim(cfg%potential)//"': 'double')")
         case default
             call stop_all(cfg%where('potential', 'precision')//" = '"//trim(cfg%precision)// &
@@ -1021,7 +1021,7 @@ contains
         end select
         if (len_trim(cfg%pot_style%name) == 0) then
             call stop_all(cfg%where('potential', 'style')//" = '"//trim(cfg%potential)// &
-                          "': unknown potential (allowed: "//potential_names(pots%name /= '', ', ')//')')
+                          "': unknown potential (allowed: "//quoted_list(pots%name, ', ')//')')
         else if (cfg%pot_style%needs_file) then
             call validate_eam(cfg)
         else if (cfg%pot_style%mesh) then
@@ -1035,22 +1035,6 @@ contains
         end if
     end subroutine validate
 
-    !> The names of the potential styles where mask (over potential_table) holds, quoted, joined by sep.
-    function potential_names(mask, sep) result(s)
-        logical, intent(in) :: mask(:)
-        character(len=*), intent(in) :: sep
-        character(len=:), allocatable :: s
-        s = quoted_list(pack(pots%name, mask), sep)
-    end function potential_names
-
-    !> The names of the integrator styles where mask (over integrator_table) holds, quoted, joined by sep.
-    function integrator_names(mask, sep) result(s)
-        logical, intent(in) :: mask(:)
-        character(len=*), intent(in) :: sep
-        character(len=:), allocatable :: s
-        s = quoted_list(pack(integs%name, mask), sep)
-    end function integrator_names
-
     !> &potential keys of one style given to a style that does not take them (contact: a mesh's).
     subroutine check_potential_keys(cfg)
         type(config_t), intent(in) :: cfg
@@ -1059,9 +1043,9 @@ contains
         integer :: k
         do k = 1, size(contact_keys)
             if (cfg%nml%find('potential', trim(contact_keys(k))) > 0 .and. &
-                .not. takes_potential_key(cfg%pot_style, contact_keys(k))) call stop_all(cfg%where('potential', &
+                .not. has_word(cfg%pot_style%keys, contact_keys(k))) call stop_all(cfg%where('potential', &
                 trim(contact_keys(k)))//': contact is between the bodies of a mesh (style = '// &
-                potential_names(takes_potential_key(pots, contact_keys(k)), ' or ')//')')
+                quoted_list(pots%name, ' or ', has_word(pots%keys, contact_keys(k)))//')')
         end do
     end subroutine check_potential_keys
 
@@ -1069,7 +1053,7 @@ contains
     subroutine validate_mesh(cfg)
         type(config_t), intent(inout) :: cfg
         if (.not. cfg%pot_style%mesh) call stop_all(cfg%where('potential', 'style')//" = '"// &
-            trim(cfg%potential)//"': a mesh needs style = "//potential_names(pots%mesh, ' or '))
+            trim(cfg%potential)//"': a mesh needs style = "//quoted_list(pots%name, ' or ', pots%mesh))
         if (.not. (cfg%mass_density > 0)) call stop_all(cfg%where('system', 'mass_density')//': missing or <= 0 '// &
             '(the solid''s density in '//trim(cfg%units%mass)//'/'//trim(cfg%units%length)//'^3)')
         if (is_unset(cfg%mu)) call stop_all(cfg%path//': &potential: mu: missing (the shear modulus, Lame''s mu, in '// &
@@ -1148,7 +1132,7 @@ contains
                           'dimension (set periodic = .false., .false., .false. or give a cutoff)')
         if (cfg%cutoff == 0 .and. .not. cfg%pot_style%no_cutoff) &
             call stop_all(cfg%where('potential', 'cutoff')//' = 0 (no cutoff): only with style = '// &
-                          potential_names(pots%no_cutoff, ' or '))
+                          quoted_list(pots%name, ' or ', pots%no_cutoff))
         call validate_run_settings(cfg)
     end subroutine validate_lj
 
@@ -1156,7 +1140,7 @@ contains
     subroutine validate_integrator(cfg)
         type(config_t), intent(inout) :: cfg
         character(len=:), allocatable :: es_styles
-        es_styles = integrator_names(takes_integrator_key(integs, 'terrace_height'), ' or ')
+        es_styles = quoted_list(integs%name, ' or ', has_word(integs%keys, 'terrace_height'))
         if (cfg%integ_style%time_stepped) then
             if (cfg%nml%find('integrator', 'terrace_height') > 0 .or. cfg%nml%find('integrator', 'target_mean_dt') > 0) &
                 call stop_all(cfg%where('integrator', 'style')//': terrace_height and target_mean_dt are for '// &
@@ -1181,13 +1165,13 @@ contains
             if (cfg%pot_style%jumps_at_cutoff .and. .not. cfg%shift .and. cfg%cutoff > 0) &
                 call stop_all(cfg%where('potential', 'shift')//": energy stepping needs a continuous potential: the "// &
                               "truncated, unshifted '"//trim(cfg%potential)//"' jumps at the cutoff (set shift = "// &
-                              '.true., use style = '//potential_names(pots%pair .and. .not. pots%jumps_at_cutoff &
-                              .and. .not. pots%stepped, ' or ')//', or cutoff = 0 in a free scene)')
+                              '.true., use style = '//quoted_list(pots%name, ' or ', pots%pair .and. &
+                              .not. (pots%jumps_at_cutoff .or. pots%stepped))//', or cutoff = 0 in a free scene)')
         else if (cfg%integ_style%event_driven) then
             call validate_event_driven(cfg)
         else
             call stop_all(cfg%where('integrator', 'style')//" = '"//trim(cfg%integrator)// &
-                          "': unknown integrator (allowed: "//integrator_names(integs%name /= '', ', ')//')')
+                          "': unknown integrator (allowed: "//quoted_list(integs%name, ', ')//')')
         end if
         if (cfg%nml%find('integrator', 'dt') > 0 .and. cfg%dt <= 0) &
             call stop_all(cfg%where('integrator', 'dt')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
@@ -1311,10 +1295,11 @@ contains
         type(config_t), intent(inout) :: cfg
         integer :: i, j
         logical :: sw
-        sw = takes_potential_key(cfg%pot_style, 'well_depth')
+        sw = has_word(cfg%pot_style%keys, 'well_depth')
         if (.not. cfg%integ_style%stepped_potentials) call stop_all(cfg%where('integrator', 'style')//" = '"// &
             trim(cfg%integrator)//"': cannot run &potential style = '"//trim(cfg%potential)//"' (its forces are "// &
-            'impulses at the steps); use &integrator style='//integrator_names(integs%stepped_potentials, ' or '))
+            'impulses at the steps); use &integrator style='// &
+            quoted_list(integs%name, ' or ', integs%stepped_potentials))
         if (cfg%nml%find('potential', 'epsilon') > 0 .or. cfg%nml%find('potential', 'sigma') > 0 .or. &
             cfg%nml%find('potential', 'cutoff') > 0 .or. cfg%nml%find('potential', 'pair_cutoff') > 0 .or. &
             cfg%nml%find('potential', 'shift') > 0) call stop_all(cfg%where('potential', 'style')//" = '"// &
@@ -1360,7 +1345,7 @@ contains
         subroutine only_for(key)
             character(len=*), intent(in) :: key
             if (cfg%nml%find('potential', key) > 0) call stop_all(cfg%where('potential', key)//': only for style = '// &
-                potential_names(takes_potential_key(pots, key), ' or '))
+                quoted_list(pots%name, ' or ', has_word(pots%keys, key)))
         end subroutine only_for
     end subroutine validate_stepped
 
@@ -1370,14 +1355,14 @@ contains
         type(config_t), intent(inout) :: cfg
         if (.not. cfg%pot_style%stepped) call stop_all(cfg%where('potential', &
             'style')//" = '"//trim(cfg%potential)//"': event-driven integration runs stepped potentials only "// &
-            '('//potential_names(pots%stepped, ', ')//'); use &integrator style='// &
-            integrator_names(integs%smooth_potentials, ' or ')//' for it')
+            '('//quoted_list(pots%name, ', ', pots%stepped)//'); use &integrator style='// &
+            quoted_list(integs%name, ' or ', integs%smooth_potentials)//' for it')
         if (cfg%nml%find('integrator', 'dt') > 0) call stop_all(cfg%where('integrator', 'dt')// &
             ': event-driven integration has no time step (it moves from event to event)')
         if (cfg%nml%find('integrator', 'terrace_height') > 0 .or. cfg%nml%find('integrator', 'target_mean_dt') > 0 &
             .or. cfg%nml%find('integrator', 'root_tolerance') > 0) call stop_all(cfg%where('integrator', 'style')// &
             ': terrace_height, target_mean_dt and root_tolerance are for style = '// &
-            integrator_names(takes_integrator_key(integs, 'terrace_height'), ' or '))
+            quoted_list(integs%name, ' or ', has_word(integs%keys, 'terrace_height')))
         if (cfg%n_steps >= 0) call stop_all(cfg%where('run', 'n_steps')//': event-driven integration has no steps; '// &
             'give run_time (in '//trim(cfg%units%time)//')')
         if (cfg%nml%find('output', 'thermo_every') > 0) call stop_all(cfg%where('output', 'thermo_every')// &

@@ -10,7 +10,7 @@ module terrace_integrator_styles
     !> What one &integrator style is and takes.
     type, public :: integrator_style_t
         character(len=24) :: name = ''              !< '' for a name no style has
-        !> its own keys, each between blanks (style is every style's)
+        !> its own keys, separated by blanks (style is every style's)
         character(len=64) :: keys = ''
         logical :: time_stepped = .false.           !< a fixed time step dt; outputs counted in steps
         !> between events atoms move on straight lines, forces act as jumps, outputs at exact times:
@@ -24,10 +24,10 @@ module terrace_integrator_styles
         character(len=80) :: plan_note = ''
     end type integrator_style_t
 
-    !> Every style, in the order the messages list them.
-    type(integrator_style_t), parameter, public :: integrator_table(3) = [ &
-        integrator_style_t('velocity_verlet', ' dt ', time_stepped=.true., smooth_potentials=.true.), &
-        integrator_style_t('energy_stepping', ' terrace_height target_mean_dt root_tolerance ', exact_time=.true., &
+    !> Every style, in the order the messages list them; row 0 stands for a name no style has.
+    type(integrator_style_t), parameter, public :: integrator_table(0:3) = [integrator_style_t(), &
+        integrator_style_t('velocity_verlet', 'dt', time_stepped=.true., smooth_potentials=.true.), &
+        integrator_style_t('energy_stepping', 'terrace_height target_mean_dt root_tolerance', exact_time=.true., &
                            smooth_potentials=.true., &
                            plan_note='no time step: the next event decides; terrace height below'), &
         integrator_style_t('event_driven', '', event_driven=.true., stepped_potentials=.true., &
@@ -36,24 +36,14 @@ module terrace_integrator_styles
     !> The style of a deck without &integrator style.
     character(len=*), parameter, public :: default_integrator_style = 'velocity_verlet'
 
-    public :: integrator_style, takes_integrator_key
+    public :: integrator_style
 
 contains
 
-    !> The record of the named style; one with name '' (and no capabilities) for an unknown name.
-    pure function integrator_style(name) result(s)
+    !> The record of the named style (row 0, with name '' and no capabilities, for an unknown name).
+    pure type(integrator_style_t) function integrator_style(name) result(s)
         character(len=*), intent(in) :: name
-        type(integrator_style_t) :: s
-        integer :: k
-        k = findloc(integrator_table%name, name, dim=1)
-        if (k > 0) s = integrator_table(k)
+        s = integrator_table(findloc(integrator_table(1:)%name, name, dim=1))
     end function integrator_style
-
-    !> Whether style s takes &integrator key as its own.
-    elemental logical function takes_integrator_key(s, key)
-        type(integrator_style_t), intent(in) :: s
-        character(len=*), intent(in) :: key
-        takes_integrator_key = index(s%keys, ' '//trim(key)//' ') > 0
-    end function takes_integrator_key
 
 end module terrace_integrator_styles

@@ -10,7 +10,7 @@ module terrace_potential_styles
     !> What one &potential style is and takes.
     type, public :: potential_style_t
         character(len=24) :: name = ''              !< '' for a name no style has
-        !> its own keys, each between blanks (the keys every style takes, style and precision, are not listed)
+        !> its own keys, separated by blanks (the keys every style takes, style and precision, are not listed)
         character(len=96) :: keys = ''
         logical :: pair = .false.                   !< a pair potential with per-type-pair coefficients in the deck
         logical :: many_body = .false.              !< energy not a sum over pairs (embedding terms)
@@ -27,11 +27,11 @@ module terrace_potential_styles
         character(len=8) :: data_coeffs = ''
     end type potential_style_t
 
-    character(len=*), parameter :: lj_keys = ' epsilon sigma cutoff pair_cutoff shift '
-    character(len=*), parameter :: eam_keys = ' file elements '
+    character(len=*), parameter :: lj_keys = 'epsilon sigma cutoff pair_cutoff shift'
+    character(len=*), parameter :: eam_keys = 'file elements'
 
-    !> Every style, in the order the messages list them.
-    type(potential_style_t), parameter, public :: potential_table(8) = [ &
+    !> Every style, in the order the messages list them; row 0 stands for a name no style has.
+    type(potential_style_t), parameter, public :: potential_table(0:8) = [potential_style_t(), &
         potential_style_t('lj', lj_keys, pair=.true., jumps_at_cutoff=.true., no_cutoff=.true., &
                           mixed_precision=.true., data_coeffs='lj'), &
         potential_style_t('lj/smooth/linear', lj_keys, pair=.true., data_coeffs='lj'), &
@@ -41,31 +41,21 @@ module terrace_potential_styles
                           needs_metal_units=.true., all_pairs=.false.), &
         potential_style_t('eam/fs', eam_keys, many_body=.true., needs_file=.true., needs_elements=.true., &
                           needs_metal_units=.true., all_pairs=.false.), &
-        potential_style_t('neohookean', ' lambda mu contact_stiffness contact_distance contact_model ', mesh=.true.), &
-        potential_style_t('hard_sphere', ' diameter ', pair=.true., stepped=.true.), &
-        potential_style_t('square_well', ' diameter well_depth well_lambda well_radius ', pair=.true., stepped=.true.)]
+        potential_style_t('neohookean', 'lambda mu contact_stiffness contact_distance contact_model', mesh=.true.), &
+        potential_style_t('hard_sphere', 'diameter', pair=.true., stepped=.true.), &
+        potential_style_t('square_well', 'diameter well_depth well_lambda well_radius', pair=.true., stepped=.true.)]
 
     !> The style of a deck without &potential style.
     character(len=*), parameter, public :: default_potential_style = 'lj'
 
-    public :: potential_style, takes_potential_key
+    public :: potential_style
 
 contains
 
-    !> The record of the named style; one with name '' (and no capabilities) for an unknown name.
-    pure function potential_style(name) result(s)
+    !> The record of the named style (row 0, with name '' and no capabilities, for an unknown name).
+    pure type(potential_style_t) function potential_style(name) result(s)
         character(len=*), intent(in) :: name
-        type(potential_style_t) :: s
-        integer :: k
-        k = findloc(potential_table%name, name, dim=1)
-        if (k > 0) s = potential_table(k)
+        s = potential_table(findloc(potential_table(1:)%name, name, dim=1))
     end function potential_style
-
-    !> Whether style s takes &potential key as its own.
-    elemental logical function takes_potential_key(s, key)
-        type(potential_style_t), intent(in) :: s
-        character(len=*), intent(in) :: key
-        takes_potential_key = index(s%keys, ' '//trim(key)//' ') > 0
-    end function takes_potential_key
 
 end module terrace_potential_styles

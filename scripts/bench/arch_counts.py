@@ -3,8 +3,9 @@
 
   - modules outside the input, run, analysis and app layers that name config_t;
   - `select case` on a thermostat style, and tests of a thermostat style, in integrators/;
-  - quoted style names (potential, thermostat, integrator) outside their factories and the styles'
-    own files, by file;
+  - quoted style names (potential, thermostat, integrator) outside their factories, their style
+    registries (the tables of each family's names, keys and capabilities: potentials/potential_styles.f90,
+    integrators/integrator_styles.f90, minimize/minimize_styles.f90) and the styles' own files, by file;
   - the longest procedure in integrators/; procedures over 100 lines (each listed);
   - the largest argument count (the procedures over 14 listed).
 
@@ -25,7 +26,9 @@ POTENTIALS = ["lj", "lj/smooth/linear", "eam", "eam/alloy", "eam/fs", "neohookea
               "stepped"]
 THERMOSTATS = ["langevin", "csvr", "nose_hoover", "andersen"]
 INTEGRATORS = ["velocity_verlet", "energy_stepping", "event_driven"]
-FACTORIES = {"run/potential_factory.f90", "thermostat/thermostat_factory.f90"}
+# the places that may name styles: the factories and the style registries
+FACTORIES = {"run/potential_factory.f90", "thermostat/thermostat_factory.f90", "potentials/potential_styles.f90",
+             "integrators/integrator_styles.f90", "minimize/minimize_styles.f90"}
 # a style's own files may name its variants (EAM's file formats 'eam/alloy', 'eam/fs'); units.f90's
 # 'lj' is the unit system, not the potential
 OWN = ("potentials/", "thermostat/", "core/units.f90")

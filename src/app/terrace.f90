@@ -98,9 +98,9 @@ program terrace
     if (world%rank == 0) call eng%plan%print(output_unit)
     if (len_trim(cfg%minimize) > 0 .and. .not. check_only .and. .not. eng%restarted) call minimize_run()
 
-    if (cfg%integrator == 'energy_stepping') then
+    if (cfg%integ_style%exact_time) then
         call energy_stepping_run()
-    else if (cfg%integrator == 'event_driven') then
+    else if (cfg%integ_style%event_driven) then
         call event_driven_run()
     else
         call verlet_run()

@@ -3,7 +3,7 @@ module terrace_text
     use terrace_kinds, only: dp
     implicit none
     private
-    public :: count_tokens, fixed, int_text, real_text, sci_text, real_in_format
+    public :: count_tokens, fixed, int_text, real_text, sci_text, real_in_format, quoted_list, has_word
 
 contains
 
@@ -71,5 +71,29 @@ contains
             if (s(1:2) == '-.') s = '-0'//s(2:)
         end if
     end function fixed
+
+    !> The non-blank names (where mask holds) quoted and joined by sep: quoted_list(['a', 'b'], ', ')
+    !> is "'a', 'b'" (lists of allowed values in messages).
+    pure function quoted_list(names, sep, mask) result(s)
+        character(len=*), intent(in) :: names(:), sep
+        logical, intent(in), optional :: mask(:)
+        character(len=:), allocatable :: s
+        integer :: k
+        s = ''
+        do k = 1, size(names)
+            if (len_trim(names(k)) == 0) cycle
+            if (present(mask)) then
+                if (.not. mask(k)) cycle
+            end if
+            if (len(s) > 0) s = s//sep
+            s = s//"'"//trim(names(k))//"'"
+        end do
+    end function quoted_list
+
+    !> Whether word is one of the blank-separated words of list.
+    elemental logical function has_word(list, word)
+        character(len=*), intent(in) :: list, word
+        has_word = index(' '//trim(list)//' ', ' '//trim(word)//' ') > 0 .and. len_trim(word) > 0
+    end function has_word
 
 end module terrace_text

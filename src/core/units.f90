@@ -21,6 +21,9 @@ module terrace_units
         real(dp) :: nktv2p = 1.6021765e6_dp    !< energy/volume -> pressure
         character(len=16) :: energy = 'eV', length = 'Angstrom', time = 'ps', mass = 'amu', &
                              temperature = 'K', pressure = 'bar', velocity = 'Angstrom/ps'
+        ! defaults where the deck gives none: the time step, the neighbour list's skin, and the bulk
+        ! modulus (energy/volume) of a box relaxation's first volume step
+        real(dp) :: default_dt = 0.001_dp, default_skin = 2.0_dp, bulk_modulus_guess = 1.0_dp
     end type units_t
 
     public :: make_units, unit_names_allowed
@@ -43,11 +46,13 @@ contains
             u%boltz = 1.0_dp; u%mvv2e = 1.0_dp; u%ftm2v = 1.0_dp; u%nktv2p = 1.0_dp
             u%energy = 'epsilon'; u%length = 'sigma'; u%time = 'tau'; u%mass = 'm'
             u%temperature = 'epsilon/k_B'; u%pressure = 'epsilon/sigma^3'; u%velocity = 'sigma/tau'
+            u%default_dt = 0.005_dp; u%default_skin = 0.3_dp; u%bulk_modulus_guess = 100.0_dp
         case ('si')
             u%name = 'si'
             u%boltz = 1.380649e-23_dp; u%mvv2e = 1.0_dp; u%ftm2v = 1.0_dp; u%nktv2p = 1.0_dp
             u%energy = 'J'; u%length = 'm'; u%time = 's'; u%mass = 'kg'
             u%temperature = 'K'; u%pressure = 'Pa'; u%velocity = 'm/s'
+            u%bulk_modulus_guess = 1.0e11_dp
         case default
             ok = .false.
         end select

@@ -20,7 +20,12 @@ module terrace_config
     use terrace_files, only: read_input_text
     use terrace_mpi_env, only: world
     use terrace_file_ops, only: path_kind, resolve_path, directory_of, path_regular, path_directory, path_special
-    use terrace_text, only: int_text, sci_text
+    use terrace_text, only: int_text, sci_text, quoted_list, has_word
+    use terrace_potential_styles, only: potential_style_t, potential_style, default_potential_style, &
+                                        pots => potential_table
+    use terrace_integrator_styles, only: integrator_style_t, integrator_style, default_integrator_style, &
+                                         integs => integrator_table
+    use terrace_minimize_styles, only: minimize_style_t, minimize_style, mins => minimize_table
     use terrace_thermostat, only: thermostat_t, thermostat_params_t
     use terrace_thermostat_factory, only: is_thermostat_style, new_thermostat, thermostat_styles, &
                                           thermostat_styles_for_events, thermostat_styles_with_chain
@@ -73,7 +78,8 @@ module terrace_config
         real(dp) :: contact_stiffness = unset, contact_distance = unset  !< contact between mesh bodies (N/m, m)
         character(len=16) :: contact_model = 'node_face'                 !< 'node_face' or 'node_node'
         ! &potential
-        character(len=24) :: potential = 'lj'
+        character(len=24) :: potential = default_potential_style
+        type(potential_style_t) :: pot_style = potential_style_t()   !< what the style is and takes (set with it)
         character(len=path_max) :: potential_file = ''   !< EAM: the LAMMPS potential file
         character(len=8) :: elements(max_types) = ''  !< eam/alloy, eam/fs: element of each atom type
         real(dp) :: epsilon(max_types, max_types) = unset
@@ -89,7 +95,8 @@ module terrace_config
         real(dp) :: well_lambda(max_types, max_types) = unset
         real(dp) :: well_radius(max_types, max_types) = unset
         ! &integrator
-        character(len=24) :: integrator = 'velocity_verlet'
+        character(len=24) :: integrator = default_integrator_style
+        type(integrator_style_t) :: integ_style = integrator_style_t()   !< how it integrates (set with it)
         real(dp) :: dt = -1.0_dp
         real(dp) :: terrace_height = -1.0_dp        !< energy stepping: h (energy)
         real(dp) :: target_mean_dt = -1.0_dp        !< energy stepping: pick h for this mean event interval
@@ -538,7 +545,8 @@ contains
             'cutoff:a real number', 'pair_cutoff:pair_cutoff(i,j) = a real number', 'shift:a logical', &
             'precision:a quoted string', 'file:a quoted file name', 'elements:quoted element names, one per atom type']
         type(item_reader_t) :: it
-        style = 'lj'; epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
+        style = default_potential_style
+        epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
         file = ''; elements = ''; lambda = unset; mu = unset; contact_stiffness = unset; contact_distance = unset
         contact_model = 'node_face'; precision = 'double'
         diameter = unset; well_depth = unset; well_lambda = unset; well_radius = unset
@@ -546,7 +554,8 @@ contains
             read (it%buf, nml=potential, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
         end do
-        cfg%potential = lower(style); cfg%epsilon = epsilon; cfg%sigma = sigma; cfg%cutoff = cutoff
+        cfg%potential = lower(style); cfg%pot_style = potential_style(cfg%potential)
+        cfg%epsilon = epsilon; cfg%sigma = sigma; cfg%cutoff = cutoff
         cfg%pair_cutoff = pair_cutoff; cfg%shift = shift
         cfg%potential_file = file; cfg%elements = elements
         cfg%lambda = lambda; cfg%mu = mu
@@ -565,12 +574,12 @@ contains
         character(len=*), parameter :: keys(5) = [character(len=40) :: 'style:a quoted string', 'dt:a real number', &
             'terrace_height:a real number', 'target_mean_dt:a real number', 'root_tolerance:a real number']
         type(item_reader_t) :: it
-        style = 'velocity_verlet'; dt = -1; terrace_height = -1; target_mean_dt = -1; root_tolerance = 1.0e-9_dp
+        style = default_integrator_style; dt = -1; terrace_height = -1; target_mean_dt = -1; root_tolerance = 1.0e-9_dp
         do while (it%next(cfg, 'integrator', keys))
             read (it%buf, nml=integrator, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
         end do
-        cfg%integrator = lower(style); cfg%dt = dt
+        cfg%integrator = lower(style); cfg%integ_style = integrator_style(cfg%integrator); cfg%dt = dt
         cfg%terrace_height = terrace_height; cfg%target_mean_dt = target_mean_dt; cfg%root_tolerance = root_tolerance
     end subroutine read_integrator
 
@@ -820,19 +829,22 @@ contains
     subroutine validate_minimize(cfg)
         type(config_t), intent(inout) :: cfg
         logical :: any_key
-        any_key = cfg%nml%find('minimize', 'etol') > 0 .or. cfg%nml%find('minimize', 'ftol') > 0 .or. &
-                  cfg%nml%find('minimize', 'max_iterations') > 0 .or. cfg%nml%find('minimize', 'max_evaluations') > 0 &
-                  .or. cfg%nml%find('minimize', 'box_relax') > 0 .or. cfg%nml%find('minimize', 'pressure') > 0
+        character(len=:), allocatable :: allowed
+        type(minimize_style_t) :: style
+        integer :: k
+        any_key = .false.
+        do k = 1, cfg%nml%count
+            if (cfg%nml%items(k)%group == 'minimize') any_key = any_key .or. &
+                any(has_word(mins%keys, cfg%nml%items(k)%key))
+        end do
+        allowed = quoted_list(mins%name, ', ')
         if (cfg%nml%find('minimize', 'style') == 0) then
-            if (any_key) call stop_all(cfg%path//": &minimize: style: missing (allowed: 'fire', 'cg')")
+            if (any_key) call stop_all(cfg%path//': &minimize: style: missing (allowed: '//allowed//')')
             return
         end if
-        select case (cfg%minimize)
-        case ('fire', 'cg')
-        case default
-            call stop_all(cfg%where('minimize', 'style')//" = '"//trim(cfg%minimize)// &
-                          "': unknown minimizer (allowed: 'fire', 'cg')")
-        end select
+        style = minimize_style(cfg%minimize)
+        if (len_trim(style%name) == 0) call stop_all(cfg%where('minimize', 'style')//" = '"//trim(cfg%minimize)// &
+            "': unknown minimizer (allowed: "//allowed//')')
         if (.not. (cfg%etol >= 0)) call stop_all(cfg%where('minimize', 'etol')// &
             ': must be >= 0 (relative change of the energy between iterations)')
         if (.not. (cfg%ftol >= 0)) call stop_all(cfg%where('minimize', 'ftol')// &
@@ -855,7 +867,7 @@ contains
             call stop_all(cfg%where('minimize', 'box_relax')//" = '"//trim(cfg%box_relax)// &
                           "': unknown (allowed: 'none', 'iso')")
         end select
-        if (cfg%barostat /= 'none' .and. len_trim(cfg%barostat) > 0 .and. cfg%integrator /= 'velocity_verlet') &
+        if (cfg%barostat /= 'none' .and. len_trim(cfg%barostat) > 0 .and. .not. cfg%integ_style%time_stepped) &
             call stop_all(cfg%where('minimize', 'style')//': dynamics after a minimization run with velocity Verlet')
     end subroutine validate_minimize
 
@@ -880,7 +892,7 @@ contains
             call stop_all(style_is//': unknown thermostat (allowed: '//thermostat_styles()//')')
         call new_thermostat(cfg%thermostat, thermostat_params_t(), proto)
         if (.not. proto%active()) return
-        if (cfg%integrator == 'energy_stepping' .and. len(proto%event_note()) == 0) &
+        if (cfg%integ_style%exact_time .and. len(proto%event_note()) == 0) &
             call stop_all(style_is//': not available with energy stepping, whose trajectory is straight lines and '// &
                           'jumps between events (allowed there: '//thermostat_styles_for_events()//')')
         if (cfg%nml%find('thermostat', 'temperature') == 0) &
@@ -888,7 +900,7 @@ contains
                           trim(cfg%units%temperature)//')')
         if (.not. (cfg%thermostat_temperature > 0)) &
             call stop_all(cfg%where('thermostat', 'temperature')//': must be > 0 (in '//trim(cfg%units%temperature)//')')
-        if (cfg%nml%find('thermostat', 'temperature_end') > 0 .and. cfg%integrator == 'energy_stepping' .and. &
+        if (cfg%nml%find('thermostat', 'temperature_end') > 0 .and. cfg%integ_style%exact_time .and. &
             .not. (cfg%run_time > 0)) call stop_all(cfg%where('thermostat', 'temperature_end')// &
             ': a temperature ramp with energy stepping needs &run run_time (the ramp runs over that time)')
         if (cfg%nml%find('thermostat', 'temperature_end') > 0) then
@@ -911,17 +923,17 @@ contains
         ! energy stepping: CSVR acts at multiples of interval (default damping/10); Andersen with an
         ! interval is the global variant (every atom at multiples of interval)
         if (cfg%nml%find('thermostat', 'interval') > 0) then
-            if (cfg%integrator /= 'energy_stepping') call stop_all(cfg%where('thermostat', 'interval')// &
+            if (.not. cfg%integ_style%exact_time) call stop_all(cfg%where('thermostat', 'interval')// &
                 ': only for energy stepping (the time between scheduled thermostat actions; allowed there: '// &
                 thermostat_styles_for_events()//'); velocity Verlet acts at every step')
             if (.not. (cfg%thermostat_interval > 0)) call stop_all(cfg%where('thermostat', 'interval')// &
                 ': must be > 0 (a time in '//trim(cfg%units%time)//')')
-        else if (cfg%integrator == 'energy_stepping') then
+        else if (cfg%integ_style%exact_time) then
             cfg%thermostat_interval = proto%default_interval(cfg%thermostat_damping)
         end if
         ! with energy stepping the thermostat's actions are calendar entries: at most max_events of them
         ! (per atom, for Andersen's collisions at rate 1/damping) in run_time
-        if (cfg%integrator == 'energy_stepping' .and. cfg%run_time > 0) then
+        if (cfg%integ_style%exact_time .and. cfg%run_time > 0) then
             if (cfg%thermostat_interval > 0 .and. cfg%run_time/cfg%thermostat_interval > max_events) &
                 call stop_all(cfg%where('thermostat', 'interval')//': more than 1e12 thermostat actions in run_time '// &
                               '(the run would not finish; allowed: at least '//sci_text(cfg%run_time/max_events)//' '// &
@@ -986,60 +998,62 @@ contains
                               ': give exactly one of lattice_constant and density, and it must be > 0')
             if (any(cfg%cells(1:cfg%dimension) <= 0)) call stop_all(cfg%where('system', 'cells')// &
                 ': must be positive integers, one per dimension')
-            if (cfg%mass(1) <= 0 .and. cfg%potential(1:3) /= 'eam') call stop_all(cfg%where('system', 'mass')// &
+            if (cfg%mass(1) <= 0 .and. .not. cfg%pot_style%needs_file) call stop_all(cfg%where('system', 'mass')// &
                 ': missing or <= 0 (mass of type 1 in '//trim(cfg%units%mass)//')')
         end if
         if (cfg%dimension == 2) cfg%periodic(3) = .true.
         if (cfg%nml%find('system', 'temperature') > 0 .and. cfg%temperature < 0) &
             call stop_all(cfg%where('system', 'temperature')//': must be >= 0 (in '//trim(cfg%units%temperature)//')')
 
-        if (cfg%potential /= 'neohookean') then
-            if (cfg%nml%find('potential', 'contact_stiffness') > 0) call stop_all(cfg%where('potential', &
-                'contact_stiffness')//": contact is between the bodies of a mesh (style = 'neohookean')")
-            if (cfg%nml%find('potential', 'contact_distance') > 0) call stop_all(cfg%where('potential', &
-                'contact_distance')//": contact is between the bodies of a mesh (style = 'neohookean')")
-            if (cfg%nml%find('potential', 'contact_model') > 0) call stop_all(cfg%where('potential', &
-                'contact_model')//": contact is between the bodies of a mesh (style = 'neohookean')")
-        end if
+        call check_potential_keys(cfg)
         select case (cfg%precision)
         case ('double')
         case ('mixed')
-            if (cfg%integrator == 'energy_stepping') call stop_all(cfg%where('potential', 'precision')// &
+            if (cfg%integ_style%exact_time) call stop_all(cfg%where('potential', 'precision')// &
                 " = 'mixed': not available with energy stepping, whose root finding needs double-precision "// &
                 "energies and forces (allowed with energy stepping: 'double')")
-            if (cfg%potential /= 'lj') call stop_all(cfg%where('potential', 'precision')//" = 'mixed': only for "// &
-                "style = 'lj' (the one-type Lennard-Jones kernel; allowed for style = '"//trim(cfg%potential)// &
-                "': 'double')")
+            if (.not. cfg%pot_style%mixed_precision) call stop_all(cfg%where('potential', 'precision')// &
+                " = 'mixed': only for style = "//quoted_list(pots%name, ' or ', pots%mixed_precision)// &
+                " (the one-type Lennard-Jones kernel; allowed for style = '"//trim(cfg%potential)//"': 'double')")
         case default
             call stop_all(cfg%where('potential', 'precision')//" = '"//trim(cfg%precision)// &
                           "': unknown precision (allowed: 'double', 'mixed')")
         end select
-        select case (cfg%potential)
-        case ('lj', 'lj/smooth/linear')
-        case ('eam', 'eam/alloy', 'eam/fs')
-            call validate_eam(cfg)
-            return
-        case ('neohookean')
-            if (len_trim(cfg%mesh_file) == 0) call stop_all(cfg%where('potential', 'style')// &
-                " = 'neohookean': needs a mesh (&system mesh_file, a Gmsh MSH file of tetrahedra)")
-            call validate_run_settings(cfg)
-            return
-        case ('hard_sphere', 'square_well')
-            call validate_stepped(cfg)
-            return
-        case default
+        if (len_trim(cfg%pot_style%name) == 0) then
             call stop_all(cfg%where('potential', 'style')//" = '"//trim(cfg%potential)// &
-                          "': unknown potential (allowed: 'lj', 'lj/smooth/linear', 'eam', 'eam/alloy', 'eam/fs', "// &
-                          "'neohookean', 'hard_sphere', 'square_well')")
-        end select
-        call validate_lj(cfg)
+                          "': unknown potential (allowed: "//quoted_list(pots%name, ', ')//')')
+        else if (cfg%pot_style%needs_file) then
+            call validate_eam(cfg)
+        else if (cfg%pot_style%mesh) then
+            if (len_trim(cfg%mesh_file) == 0) call stop_all(cfg%where('potential', 'style')//" = '"// &
+                trim(cfg%potential)//"': needs a mesh (&system mesh_file, a Gmsh MSH file of tetrahedra)")
+            call validate_run_settings(cfg)
+        else if (cfg%pot_style%stepped) then
+            call validate_stepped(cfg)
+        else
+            call validate_lj(cfg)
+        end if
     end subroutine validate
+
+    !> &potential keys of one style given to a style that does not take them (contact: a mesh's).
+    subroutine check_potential_keys(cfg)
+        type(config_t), intent(in) :: cfg
+        character(len=*), parameter :: contact_keys(3) = [character(len=20) :: 'contact_stiffness', &
+                                                          'contact_distance', 'contact_model']
+        integer :: k
+        do k = 1, size(contact_keys)
+            if (cfg%nml%find('potential', trim(contact_keys(k))) > 0 .and. &
+                .not. has_word(cfg%pot_style%keys, contact_keys(k))) call stop_all(cfg%where('potential', &
+                trim(contact_keys(k)))//': contact is between the bodies of a mesh (style = '// &
+                quoted_list(pots%name, ' or ', has_word(pots%keys, contact_keys(k)))//')')
+        end do
+    end subroutine check_potential_keys
 
     !> A mesh scene: the neo-Hookean potential with its Lame constants, a mass density, free boundaries.
     subroutine validate_mesh(cfg)
         type(config_t), intent(inout) :: cfg
-        if (cfg%potential /= 'neohookean') call stop_all(cfg%where('potential', 'style')//" = '"// &
-            trim(cfg%potential)//"': a mesh needs style = 'neohookean'")
+        if (.not. cfg%pot_style%mesh) call stop_all(cfg%where('potential', 'style')//" = '"// &
+            trim(cfg%potential)//"': a mesh needs style = "//quoted_list(pots%name, ' or ', pots%mesh))
         if (.not. (cfg%mass_density > 0)) call stop_all(cfg%where('system', 'mass_density')//': missing or <= 0 '// &
             '(the solid''s density in '//trim(cfg%units%mass)//'/'//trim(cfg%units%length)//'^3)')
         if (is_unset(cfg%mu)) call stop_all(cfg%path//': &potential: mu: missing (the shear modulus, Lame''s mu, in '// &
@@ -1078,15 +1092,16 @@ contains
         type(config_t), intent(inout) :: cfg
         if (len_trim(cfg%potential_file) == 0) call stop_all(cfg%path//': &potential: file: missing (the LAMMPS '// &
             "potential file, e.g. file = '/usr/share/lammps/potentials/Cu_u3.eam')")
-        if (cfg%potential /= 'eam' .and. len_trim(cfg%elements(1)) == 0) call stop_all(cfg%path// &
+        if (cfg%pot_style%needs_elements .and. len_trim(cfg%elements(1)) == 0) call stop_all(cfg%path// &
             ": &potential: elements: missing (element names of atom types 1, 2, ..., e.g. elements = 'Cu', 'Ni')")
         if (cfg%nml%find('potential', 'epsilon') > 0 .or. cfg%nml%find('potential', 'sigma') > 0 .or. &
             cfg%nml%find('potential', 'cutoff') > 0) call stop_all(cfg%where('potential', 'style')// &
             ': epsilon, sigma and cutoff are for the LJ styles (an EAM file sets its own cutoff)')
-        if (cfg%units%name /= 'metal') call stop_all(cfg%where('run', 'units')//" = '"//trim(cfg%units%name)// &
+        if (cfg%pot_style%needs_metal_units .and. cfg%units%name /= 'metal') &
+            call stop_all(cfg%where('run', 'units')//" = '"//trim(cfg%units%name)// &
             "': the EAM styles need units = 'metal' (LAMMPS EAM files are in eV and Angstrom)")
         call validate_run_settings(cfg)
-        if (cfg%list == 'all_pairs') call stop_all(cfg%where('neighbor', 'list')// &
+        if (cfg%list == 'all_pairs' .and. .not. cfg%pot_style%all_pairs) call stop_all(cfg%where('neighbor', 'list')// &
             ": 'all_pairs' is not available with EAM (use 'auto' or 'cells')")
     end subroutine validate_eam
 
@@ -1115,22 +1130,22 @@ contains
         if (cfg%cutoff == 0 .and. any(cfg%periodic(1:cfg%dimension))) &
             call stop_all(cfg%where('potential', 'cutoff')//' = 0 (no cutoff): only for scenes with no periodic '// &
                           'dimension (set periodic = .false., .false., .false. or give a cutoff)')
-        if (cfg%cutoff == 0 .and. cfg%potential /= 'lj') &
-            call stop_all(cfg%where('potential', 'cutoff')//' = 0 (no cutoff): only with style = ''lj''')
+        if (cfg%cutoff == 0 .and. .not. cfg%pot_style%no_cutoff) &
+            call stop_all(cfg%where('potential', 'cutoff')//' = 0 (no cutoff): only with style = '// &
+                          quoted_list(pots%name, ' or ', pots%no_cutoff))
         call validate_run_settings(cfg)
     end subroutine validate_lj
 
-    !> Integrator, neighbour and output settings (any potential).
-    subroutine validate_run_settings(cfg)
+    !> &integrator: the style's own keys, and the time step (given or the units' default).
+    subroutine validate_integrator(cfg)
         type(config_t), intent(inout) :: cfg
-        character(len=16) :: key
-
-        select case (cfg%integrator)
-        case ('velocity_verlet')
+        character(len=:), allocatable :: es_styles
+        es_styles = quoted_list(integs%name, ' or ', has_word(integs%keys, 'terrace_height'))
+        if (cfg%integ_style%time_stepped) then
             if (cfg%nml%find('integrator', 'terrace_height') > 0 .or. cfg%nml%find('integrator', 'target_mean_dt') > 0) &
-                call stop_all(cfg%where('integrator', 'style')//": terrace_height and target_mean_dt are for "// &
-                              "style = 'energy_stepping'")
-        case ('energy_stepping')
+                call stop_all(cfg%where('integrator', 'style')//': terrace_height and target_mean_dt are for '// &
+                              'style = '//es_styles)
+        else if (cfg%integ_style%exact_time) then
             if (cfg%nml%find('integrator', 'dt') > 0) call stop_all(cfg%where('integrator', 'dt')// &
                 ': energy stepping chooses its own time steps (give terrace_height or target_mean_dt instead)')
             if (cfg%nml%find('integrator', 'terrace_height') > 0 .and. cfg%nml%find('integrator', 'target_mean_dt') > 0) &
@@ -1147,55 +1162,51 @@ contains
             if (.not. (cfg%root_tolerance > 0 .and. cfg%root_tolerance <= 1.0e-2_dp)) &
                 call stop_all(cfg%where('integrator', 'root_tolerance')//': must be in (0, 1e-2] (relative to the '// &
                               'terrace height)')
-            if (cfg%potential == 'lj' .and. .not. cfg%shift .and. cfg%cutoff > 0) &
+            if (cfg%pot_style%jumps_at_cutoff .and. .not. cfg%shift .and. cfg%cutoff > 0) &
                 call stop_all(cfg%where('potential', 'shift')//": energy stepping needs a continuous potential: the "// &
-                              "truncated, unshifted 'lj' jumps at the cutoff (set shift = .true., use style = "// &
-                              "'lj/smooth/linear', or cutoff = 0 in a free scene)")
-        case ('event_driven')
+                              "truncated, unshifted '"//trim(cfg%potential)//"' jumps at the cutoff (set shift = "// &
+                              '.true., use style = '//quoted_list(pots%name, ' or ', pots%pair .and. &
+                              .not. (pots%jumps_at_cutoff .or. pots%stepped))//', or cutoff = 0 in a free scene)')
+        else if (cfg%integ_style%event_driven) then
             call validate_event_driven(cfg)
-        case default
+        else
             call stop_all(cfg%where('integrator', 'style')//" = '"//trim(cfg%integrator)// &
-                          "': unknown integrator (allowed: 'velocity_verlet', 'energy_stepping', 'event_driven')")
-        end select
+                          "': unknown integrator (allowed: "//quoted_list(integs%name, ', ')//')')
+        end if
         if (cfg%nml%find('integrator', 'dt') > 0 .and. cfg%dt <= 0) &
             call stop_all(cfg%where('integrator', 'dt')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
-        if (cfg%dt <= 0) then
-            cfg%dt = merge(0.005_dp, 0.001_dp, cfg%units%name == 'lj')
-        end if
+        if (cfg%dt <= 0) cfg%dt = cfg%units%default_dt
+    end subroutine validate_integrator
+
+    !> &neighbor skin, buffer_tolerance, every and check: the list's skin and rebuild schedule.
+    subroutine validate_list_schedule(cfg)
+        type(config_t), intent(inout) :: cfg
+        character(len=16) :: key
         if (cfg%nml%find('neighbor', 'skin') > 0 .and. cfg%skin < 0) &
             call stop_all(cfg%where('neighbor', 'skin')//': must be >= 0 (a length in '//trim(cfg%units%length)//')')
-        if (cfg%nml%find('neighbor', 'skin') > 0 .and. cfg%skin == 0 .and. cfg%integrator == 'energy_stepping' .and. &
+        if (cfg%nml%find('neighbor', 'skin') > 0 .and. cfg%skin == 0 .and. cfg%integ_style%exact_time .and. &
             .not. (cfg%cutoff == 0 .and. len_trim(cfg%mesh_file) == 0)) &
             call stop_all(cfg%where('neighbor', 'skin')//' = 0: energy stepping needs a skin > 0 (its events are '// &
                           'timed by the list''s expiry, which a zero skin puts at every instant; a length in '// &
                           trim(cfg%units%length)//')')
         if (cfg%nml%find('neighbor', 'buffer_tolerance') > 0) call check_buffer_tolerance(cfg)
-        if (cfg%skin < 0) cfg%skin = merge(0.3_dp, 2.0_dp, cfg%units%name == 'lj')
+        if (cfg%skin < 0) cfg%skin = cfg%units%default_skin
         if (cfg%list_every < 1) call stop_all(cfg%where('neighbor', 'every')// &
                                               ': must be >= 1 (steps between list checks, or rebuilds with check = .false.)')
         if (cfg%list_every > 1 .or. .not. cfg%list_check) then
             key = merge('every', 'check', cfg%list_every > 1)
             if (cfg%buffer_tolerance > 0) key = 'buffer_tolerance'     ! (the key that set this schedule)
-            if (cfg%integrator == 'energy_stepping') call stop_all(cfg%where('neighbor', trim(key))// &
+            if (cfg%integ_style%exact_time) call stop_all(cfg%where('neighbor', trim(key))// &
                 ': energy stepping needs the exact list (its events are timed by the list''s expiry; allowed with '// &
                 'energy stepping: every = 1, check = .true.)')
             if (len_trim(cfg%mesh_file) > 0) call stop_all(cfg%where('neighbor', trim(key))// &
                 ': a mesh scene needs the exact list (contact and the element halo; allowed: every = 1, check = .true.)')
         end if
-        if (cfg%integrator == 'velocity_verlet') then
-            call check_steps('run', 'run_time', cfg%run_time)
-            call check_steps('output', 'thermo_interval', cfg%thermo_interval)
-            call check_steps('output', 'trajectory_interval', cfg%trajectory_interval)
-            call check_steps('output', 'checkpoint_interval', cfg%checkpoint_interval)
-        else
-            ! energy stepping and event-driven runs: every interval is a calendar entry; one that
-            ! puts more than max_events entries into run_time would never let the run finish
-            call check_events('output', 'thermo_interval', cfg%thermo_interval, 'thermo samples')
-            call check_events('output', 'trajectory_interval', cfg%trajectory_interval, 'frames')
-            call check_events('output', 'checkpoint_interval', cfg%checkpoint_interval, 'checkpoints')
-            call check_events('integrator', 'target_mean_dt', cfg%target_mean_dt, 'events')
-            call check_events('barostat', 'interval', cfg%barostat_interval, 'volume moves')
-        end if
+    end subroutine validate_list_schedule
+
+    !> &neighbor list: the kind of pair search.
+    subroutine validate_list_kind(cfg)
+        type(config_t), intent(in) :: cfg
         select case (cfg%list)
         case ('auto', 'cells', 'all_pairs')
         case ('clusters')
@@ -1210,6 +1221,28 @@ contains
             call stop_all(cfg%where('neighbor', 'list')//" = 'all_pairs': only for scenes with no periodic dimension")
         if (cfg%cutoff == 0 .and. (cfg%list == 'cells' .or. cfg%list == 'clusters')) &
             call stop_all(cfg%where('neighbor', 'list')//" = '"//trim(cfg%list)//"': needs a cutoff (&potential cutoff > 0)")
+    end subroutine validate_list_kind
+
+    !> Integrator, neighbour and output settings (any potential).
+    subroutine validate_run_settings(cfg)
+        type(config_t), intent(inout) :: cfg
+        call validate_integrator(cfg)
+        call validate_list_schedule(cfg)
+        if (cfg%integ_style%time_stepped) then
+            call check_steps('run', 'run_time', cfg%run_time)
+            call check_steps('output', 'thermo_interval', cfg%thermo_interval)
+            call check_steps('output', 'trajectory_interval', cfg%trajectory_interval)
+            call check_steps('output', 'checkpoint_interval', cfg%checkpoint_interval)
+        else
+            ! energy stepping and event-driven runs: every interval is a calendar entry; one that
+            ! puts more than max_events entries into run_time would never let the run finish
+            call check_events('output', 'thermo_interval', cfg%thermo_interval, 'thermo samples')
+            call check_events('output', 'trajectory_interval', cfg%trajectory_interval, 'frames')
+            call check_events('output', 'checkpoint_interval', cfg%checkpoint_interval, 'checkpoints')
+            call check_events('integrator', 'target_mean_dt', cfg%target_mean_dt, 'events')
+            call check_events('barostat', 'interval', cfg%barostat_interval, 'volume moves')
+        end if
+        call validate_list_kind(cfg)
 
         if (cfg%nml%find('output', 'thermo_every') > 0 .and. cfg%thermo_every <= 0) &
             call stop_all(cfg%where('output', 'thermo_every')//': must be > 0 (steps)')
@@ -1262,10 +1295,11 @@ contains
         type(config_t), intent(inout) :: cfg
         integer :: i, j
         logical :: sw
-        sw = cfg%potential == 'square_well'
-        if (cfg%integrator /= 'event_driven') call stop_all(cfg%where('integrator', 'style')//" = '"// &
+        sw = has_word(cfg%pot_style%keys, 'well_depth')
+        if (.not. cfg%integ_style%stepped_potentials) call stop_all(cfg%where('integrator', 'style')//" = '"// &
             trim(cfg%integrator)//"': cannot run &potential style = '"//trim(cfg%potential)//"' (its forces are "// &
-            "impulses at the steps); use &integrator style='event_driven'")
+            'impulses at the steps); use &integrator style='// &
+            quoted_list(integs%name, ' or ', integs%stepped_potentials))
         if (cfg%nml%find('potential', 'epsilon') > 0 .or. cfg%nml%find('potential', 'sigma') > 0 .or. &
             cfg%nml%find('potential', 'cutoff') > 0 .or. cfg%nml%find('potential', 'pair_cutoff') > 0 .or. &
             cfg%nml%find('potential', 'shift') > 0) call stop_all(cfg%where('potential', 'style')//" = '"// &
@@ -1275,12 +1309,9 @@ contains
         if (is_unset(cfg%diameter(1, 1))) call stop_all(cfg%path//': &potential: diameter: missing (the hard-core '// &
             'diameter of type pair (1,1) in '//trim(cfg%units%length)//')')
         if (.not. sw) then
-            if (cfg%nml%find('potential', 'well_depth') > 0) call stop_all(cfg%where('potential', 'well_depth')// &
-                ": only for style = 'square_well'")
-            if (cfg%nml%find('potential', 'well_lambda') > 0) call stop_all(cfg%where('potential', 'well_lambda')// &
-                ": only for style = 'square_well'")
-            if (cfg%nml%find('potential', 'well_radius') > 0) call stop_all(cfg%where('potential', 'well_radius')// &
-                ": only for style = 'square_well'")
+            call only_for('well_depth')
+            call only_for('well_lambda')
+            call only_for('well_radius')
         else
             if (is_unset(cfg%well_depth(1, 1))) call stop_all(cfg%path//': &potential: well_depth: missing (the '// &
                 'depth eps > 0 of the well of type pair (1,1) in '//trim(cfg%units%energy)//')')
@@ -1309,20 +1340,29 @@ contains
             end do
         end do
         call validate_run_settings(cfg)
+    contains
+        !> A key of another stepped style: refused with the styles that take it.
+        subroutine only_for(key)
+            character(len=*), intent(in) :: key
+            if (cfg%nml%find('potential', key) > 0) call stop_all(cfg%where('potential', key)//': only for style = '// &
+                quoted_list(pots%name, ' or ', has_word(pots%keys, key)))
+        end subroutine only_for
     end subroutine validate_stepped
 
     !> &integrator style = 'event_driven': stepped potentials only, a time-scheduled run in a fully
     !> periodic 3-D box, Andersen's thermostat or none; checkpoints by time (checkpoint_interval).
     subroutine validate_event_driven(cfg)
         type(config_t), intent(inout) :: cfg
-        if (cfg%potential /= 'hard_sphere' .and. cfg%potential /= 'square_well') call stop_all(cfg%where('potential', &
+        if (.not. cfg%pot_style%stepped) call stop_all(cfg%where('potential', &
             'style')//" = '"//trim(cfg%potential)//"': event-driven integration runs stepped potentials only "// &
-            "('hard_sphere', 'square_well'); use &integrator style='velocity_verlet' or 'energy_stepping' for it")
+            '('//quoted_list(pots%name, ', ', pots%stepped)//'); use &integrator style='// &
+            quoted_list(integs%name, ' or ', integs%smooth_potentials)//' for it')
         if (cfg%nml%find('integrator', 'dt') > 0) call stop_all(cfg%where('integrator', 'dt')// &
             ': event-driven integration has no time step (it moves from event to event)')
         if (cfg%nml%find('integrator', 'terrace_height') > 0 .or. cfg%nml%find('integrator', 'target_mean_dt') > 0 &
             .or. cfg%nml%find('integrator', 'root_tolerance') > 0) call stop_all(cfg%where('integrator', 'style')// &
-            ": terrace_height, target_mean_dt and root_tolerance are for style = 'energy_stepping'")
+            ': terrace_height, target_mean_dt and root_tolerance are for style = '// &
+            quoted_list(integs%name, ' or ', has_word(integs%keys, 'terrace_height')))
         if (cfg%n_steps >= 0) call stop_all(cfg%where('run', 'n_steps')//': event-driven integration has no steps; '// &
             'give run_time (in '//trim(cfg%units%time)//')')
         if (cfg%nml%find('output', 'thermo_every') > 0) call stop_all(cfg%where('output', 'thermo_every')// &
@@ -1403,7 +1443,7 @@ contains
         if (cfg%checkpoint_every > 0 .and. cfg%checkpoint_interval > 0) &
             call stop_all(cfg%where('output', 'checkpoint_interval')//': give either checkpoint_every or '// &
                           'checkpoint_interval')
-        if (cfg%checkpoint_every > 0 .and. cfg%integrator == 'energy_stepping') &
+        if (cfg%checkpoint_every > 0 .and. cfg%integ_style%exact_time) &
             call stop_all(cfg%where('output', 'checkpoint_every')//': energy stepping has no fixed steps; give '// &
                           'checkpoint_interval (a time in '//trim(cfg%units%time)//')')
         if ((cfg%checkpoint_every > 0 .or. cfg%checkpoint_interval > 0) .and. .not. has_file) &

@@ -34,7 +34,7 @@ contains
         if (len_trim(t%notes) > 0) write (output_unit, '(a)') 'read_data: skipped the sections'//trim(t%notes)// &
             ' of '//trim(cfg%read_data)//' (they do not apply to an atomic system)'
         if (.not. any(t%coeff_given)) return
-        lj_style = cfg%potential == 'lj' .or. cfg%potential == 'lj/smooth/linear'
+        lj_style = len_trim(cfg%pot_style%data_coeffs) > 0     ! the style reads LAMMPS pair coefficients
         if (.not. lj_style) then
             t%ok = .false.
             t%error = trim(cfg%read_data)//': &system: read_data: the file holds pair coefficients ('// &
@@ -42,7 +42,7 @@ contains
                       ''' (remove the Pair Coeffs section, or use an LJ style with the same coefficients)'
             return
         end if
-        if (len_trim(t%coeff_style) > 0 .and. index(t%coeff_style, 'lj') /= 1) then
+        if (len_trim(t%coeff_style) > 0 .and. index(t%coeff_style, trim(cfg%pot_style%data_coeffs)) /= 1) then
             t%ok = .false.
             t%error = trim(cfg%read_data)//': &system: read_data: the pair coefficients are for pair style '''// &
                       trim(t%coeff_style)//''', not an LJ style like &potential style = '''//trim(cfg%potential)//''''

@@ -123,9 +123,7 @@ contains
         integer :: k, d
         integer(i8) :: done
         p0 = p%pressure/eng%units%nktv2p
-        b0 = 1.0_dp
-        if (eng%units%name == 'lj') b0 = 100.0_dp
-        if (eng%units%name == 'si') b0 = 1.0e11_dp
+        b0 = eng%units%bulk_modulus_guess
         q = p
         done = 0
         g_old = 0; eps_old = 0

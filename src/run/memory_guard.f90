@@ -91,7 +91,7 @@ contains
             call data_header(trim(cfg%read_data), cfg%dimension, natoms, rho)
         end if
         reach = cfg%skin
-        if (cfg%potential(1:3) == 'eam') then
+        if (cfg%pot_style%needs_file) then       ! the cutoff is in the file: a typical metal's
             reach = reach + 6.0_dp
         else if (cfg%cutoff > 0) then
             reach = reach + max(cfg%cutoff, maxval(cfg%pair_cutoff))

@@ -32,7 +32,7 @@ contains
         p%skin = cfg%skin
         p%list_every = cfg%list_every
         p%list_check = cfg%list_check
-        p%straight_lines = cfg%integrator == 'energy_stepping'
+        p%straight_lines = cfg%integ_style%exact_time
     end function engine_params
 
     !> Checkpoints and stops: steps between checkpoints for velocity Verlet (checkpoint_every, or
@@ -40,7 +40,7 @@ contains
     type(control_params_t) function control_params(cfg) result(p)
         type(config_t), intent(in) :: cfg
         p%checkpoint_file = trim(cfg%checkpoint_file)
-        if (cfg%integrator == 'energy_stepping' .or. cfg%integrator == 'event_driven') then
+        if (.not. cfg%integ_style%time_stepped) then      ! energy stepping, event-driven: by time
             if (cfg%checkpoint_interval > 0) p%interval = cfg%checkpoint_interval
         else
             if (cfg%checkpoint_every > 0) p%every = cfg%checkpoint_every
@@ -105,10 +105,10 @@ contains
         type(thermostat_params_t) :: p
         p%temperature = cfg%thermostat_temperature
         p%temperature_end = cfg%thermostat_temperature_end
-        if (cfg%integrator == 'energy_stepping') then
+        if (cfg%integ_style%exact_time) then
             p%ramp_time = merge(sched%t_end, 0.0_dp, sched%t_end < huge(1.0_dp))
             if (cfg%thermostat_interval > 0) p%interval = cfg%thermostat_interval
-        else if (cfg%integrator == 'event_driven') then
+        else if (cfg%integ_style%event_driven) then
             p%ramp_time = cfg%run_time
         else
             p%ramp_time = sched%n_steps*cfg%dt
@@ -141,7 +141,7 @@ contains
         p%dimension = cfg%dimension
         p%boltz = cfg%units%boltz
         p%nktv2p = cfg%units%nktv2p
-        if (cfg%integrator == 'energy_stepping' .and. cfg%barostat_interval > 0) p%interval = cfg%barostat_interval
+        if (cfg%integ_style%exact_time .and. cfg%barostat_interval > 0) p%interval = cfg%barostat_interval
         call new_barostat(cfg%barostat, p, bs)
     end subroutine make_barostat
 

@@ -3,6 +3,7 @@ module terrace_run_schedule
     use terrace_kinds, only: dp, i8
     use terrace_config, only: config_t
     use terrace_schedule, only: schedule_t
+    use terrace_integrator_styles, only: integrator_style_t, integrator_style
     implicit none
     private
 
@@ -14,7 +15,9 @@ contains
     function make_schedule(cfg) result(s)
         type(config_t), intent(in) :: cfg
         type(schedule_t) :: s
-        if (cfg%integrator == 'energy_stepping') then
+        type(integrator_style_t) :: integ
+        integ = integrator_style(cfg%integrator)
+        if (integ%exact_time) then          ! by time
             if (cfg%run_time > 0) s%t_end = cfg%run_time
             s%n_steps = huge(1_i8)
             if (cfg%n_steps >= 0) s%n_steps = cfg%n_steps
@@ -47,7 +50,7 @@ contains
             if (cfg%trajectory_interval > 0) s%traj_every = max(1_i8, nint(cfg%trajectory_interval/cfg%dt, i8))
             if (cfg%trajectory_every <= 0 .and. .not. cfg%trajectory_interval > 0) s%traj_every = s%thermo_every
         end if
-        if (cfg%integrator == 'energy_stepping') then
+        if (integ%exact_time) then
             s%covered = merge(s%t_end, 0.0_dp, cfg%run_time > 0)
         else
             s%covered = s%n_steps*cfg%dt

@@ -43,13 +43,43 @@ contains
         call describe_plan(self, cfg, box, pot)
     end subroutine plan_scene
 
+    !> The plan's lines: halo and pairs, potential, integrator (with thermostat, barostat and
+    !> minimization), outputs and box.
     subroutine describe_plan(self, cfg, box, pot)
         type(plan_t), intent(inout) :: self
         type(config_t), intent(in) :: cfg
         type(box_t), intent(in) :: box
         class(potential_t), intent(in) :: pot
-        character(len=512) :: s, rule
+        character(len=512) :: s
         integer :: d
+        call describe_pairs(self, cfg, box, pot)
+        self%potential = pot%describe()
+        call describe_integrator(self, cfg)
+        self%outputs = 'screen'
+        if (len_trim(cfg%thermo_file) > 0) self%outputs = self%outputs//', thermo CSV '//trim(cfg%thermo_file)
+        if (len_trim(cfg%thermo_file) > 0 .and. len_trim(cfg%minimize) > 0) self%outputs = self%outputs// &
+            ' (and the minimization rows beside it, .min before the extension)'
+        if (len_trim(cfg%forces_file) > 0) self%outputs = self%outputs//', forces at step 0 '//trim(cfg%forces_file)
+        if (len_trim(cfg%trajectory_file) > 0) self%outputs = self%outputs//', H5MD trajectory '// &
+            trim(cfg%trajectory_file)//' ('//trim(cfg%trajectory_fields)//')'
+        if (len_trim(cfg%checkpoint_file) > 0) self%outputs = self%outputs//', checkpoint '//trim(cfg%checkpoint_file)
+        if (len_trim(cfg%final_atoms_file) > 0) self%outputs = self%outputs//', final atoms '// &
+            trim(cfg%final_atoms_file)
+        self%box = ''
+        do d = 1, box%dimension
+            write (s, '(a,1x,g0.8,a,g0.8,a)') 'xyz'(d:d)//':', box%lo(d), ' .. ', box%hi(d), &
+                merge(' periodic;', ' free;    ', box%periodic(d))
+            self%box = self%box//trim(s)//' '
+        end do
+    end subroutine describe_plan
+
+    !> The halo and pairs lines: all pairs, no pair list, or cells + list (atom pairs or cluster pairs).
+    subroutine describe_pairs(self, cfg, box, pot)
+        type(plan_t), intent(inout) :: self
+        type(config_t), intent(in) :: cfg
+        type(box_t), intent(in) :: box
+        class(potential_t), intent(in) :: pot
+        character(len=512) :: s, rule
         if (self%pair_mode == pair_all) then
             self%pairs = 'all pairs, no neighbour list (small or cutoff-free scene)'
             if (self%nprocs == 1) then
@@ -83,7 +113,7 @@ contains
             end if
             write (s, '(a,g0.6,a,g0.6,a)') 'cell lists + half Verlet list, cutoff ', pot%cutoff(), ' + skin ', cfg%skin, &
                 ', '//trim(rule)//', atoms sorted by cell at each rebuild'
-            self%inner_list = cfg%integrator == 'energy_stepping' .and. cfg%skin > 0 .and. &
+            self%inner_list = cfg%integ_style%exact_time .and. cfg%skin > 0 .and. &
                               pot%runs_on_pruned_list() .and. .not. pot%needs_full_neighbourhood(.true.)
             if (self%inner_list) s = trim(s)//'; force and ray passes over the pairs within cutoff + skin/4, '// &
                                      'pruned from it when an atom has moved skin/8'
@@ -113,11 +143,16 @@ contains
                 self%halo = '6-way staged halo exchange with reverse force sums (Newton across ghosts)'
             end if
         end if
-        self%potential = pot%describe()
-        if (cfg%integrator == 'energy_stepping') then
-            s = 'energy_stepping (no time step: the next event decides; terrace height below)'
-        else if (cfg%integrator == 'event_driven') then
-            s = 'event_driven (no time step: exact pair and cell-crossing events, outputs at exact times)'
+    end subroutine describe_pairs
+
+    !> The integrator line: the style (its time step, or how it advances without one), then the
+    !> thermostat, barostat and minimization.
+    subroutine describe_integrator(self, cfg)
+        type(plan_t), intent(inout) :: self
+        type(config_t), intent(in) :: cfg
+        character(len=512) :: s
+        if (len_trim(cfg%integ_style%plan_note) > 0) then
+            s = trim(cfg%integrator)//' ('//trim(cfg%integ_style%plan_note)//')'
         else
             write (s, '(a,a,g0.6,1x,a)') trim(cfg%integrator), ', dt = ', cfg%dt, trim(cfg%units%time)
         end if
@@ -140,22 +175,6 @@ contains
             if (cfg%box_relax == 'iso') s = trim(s)//'; box relaxed (iso)'
             self%integrator = self%integrator//trim(s)//')'
         end if
-        self%outputs = 'screen'
-        if (len_trim(cfg%thermo_file) > 0) self%outputs = self%outputs//', thermo CSV '//trim(cfg%thermo_file)
-        if (len_trim(cfg%thermo_file) > 0 .and. len_trim(cfg%minimize) > 0) self%outputs = self%outputs// &
-            ' (and the minimization rows beside it, .min before the extension)'
-        if (len_trim(cfg%forces_file) > 0) self%outputs = self%outputs//', forces at step 0 '//trim(cfg%forces_file)
-        if (len_trim(cfg%trajectory_file) > 0) self%outputs = self%outputs//', H5MD trajectory '// &
-            trim(cfg%trajectory_file)//' ('//trim(cfg%trajectory_fields)//')'
-        if (len_trim(cfg%checkpoint_file) > 0) self%outputs = self%outputs//', checkpoint '//trim(cfg%checkpoint_file)
-        if (len_trim(cfg%final_atoms_file) > 0) self%outputs = self%outputs//', final atoms '// &
-            trim(cfg%final_atoms_file)
-        self%box = ''
-        do d = 1, box%dimension
-            write (s, '(a,1x,g0.8,a,g0.8,a)') 'xyz'(d:d)//':', box%lo(d), ' .. ', box%hi(d), &
-                merge(' periodic;', ' free;    ', box%periodic(d))
-            self%box = self%box//trim(s)//' '
-        end do
-    end subroutine describe_plan
+    end subroutine describe_integrator
 
 end module terrace_scene_planner

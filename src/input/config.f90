@@ -28,7 +28,8 @@ module terrace_config
     use terrace_minimize_styles, only: minimize_style_t, minimize_style, mins => minimize_table
     use terrace_thermostat, only: thermostat_t, thermostat_params_t
     use terrace_thermostat_factory, only: is_thermostat_style, new_thermostat, thermostat_styles, &
-                                          thermostat_styles_for_events, thermostat_styles_with_chain
+                                          thermostat_styles_for_events, thermostat_styles_with_chain, &
+                                          thermostat_styles_colliding, thermostat_names_with_chain
     implicit none
     private
 
@@ -756,6 +757,7 @@ contains
         type(config_t), intent(inout) :: cfg
         character(len=*), parameter :: styles = "'none', 'c_rescale', 'mc', 'mttk'"
         character(len=:), allocatable :: style_is
+        class(thermostat_t), allocatable :: proto
         logical :: given
         given = cfg%nml%find('barostat', 'style') > 0
         if (.not. given) then
@@ -775,14 +777,15 @@ contains
         end select
         if (len_trim(cfg%mesh_file) > 0) call stop_all(style_is//': a barostat changes the box of a periodic '// &
             'scene of atoms; a mesh (&system mesh_file) has free boundaries and no box to scale')
-        if (cfg%integrator /= 'velocity_verlet' .and. cfg%barostat /= 'mc') call stop_all(style_is// &
-            ": runs with &integrator style = 'velocity_verlet' only (energy stepping: style = 'mc')")
+        if (.not. cfg%integ_style%time_stepped .and. cfg%barostat /= 'mc') call stop_all(style_is// &
+            ': runs with &integrator style = '//quoted_list(integs%name, ' or ', integs%time_stepped)// &
+            " only (energy stepping: style = 'mc')")
         if (cfg%nml%find('barostat', 'interval') > 0) then
-            if (cfg%integrator /= 'energy_stepping') call stop_all(cfg%where('barostat', 'interval')// &
+            if (.not. cfg%integ_style%exact_time) call stop_all(cfg%where('barostat', 'interval')// &
                 ': for energy stepping only (velocity Verlet tries a volume move every 25 steps)')
             if (.not. (cfg%barostat_interval > 0)) call stop_all(cfg%where('barostat', 'interval')// &
                 ': must be > 0 (a time in '//trim(cfg%units%time)//')')
-        else if (cfg%integrator == 'energy_stepping') then
+        else if (cfg%integ_style%exact_time) then
             call stop_all(cfg%path//': &barostat: interval: missing (energy stepping: the time between volume '// &
                           'moves, in '//trim(cfg%units%time)//')')
         end if
@@ -800,9 +803,12 @@ contains
             call stop_all(cfg%where('barostat', 'couple')//" = '"//trim(cfg%barostat_couple)// &
                           "': unknown (allowed: 'iso')")
         end select
-        if (cfg%barostat == 'mttk' .and. cfg%thermostat /= 'nose_hoover') call stop_all(style_is// &
-            ": thermostats its particles with the run's Nose-Hoover chain: &thermostat style = '"// &
-            trim(cfg%thermostat)//"' not allowed with it (allowed: 'nose_hoover')")
+        if (cfg%barostat == 'mttk') then
+            call new_thermostat(cfg%thermostat, thermostat_params_t(), proto)
+            if (.not. proto%takes_chain()) call stop_all(style_is// &
+                ": thermostats its particles with the run's Nose-Hoover chain: &thermostat style = '"// &
+                trim(cfg%thermostat)//"' not allowed with it (allowed: "//thermostat_names_with_chain()//')')
+        end if
         if (cfg%barostat == 'c_rescale' .or. cfg%barostat == 'mttk') then
             if (cfg%nml%find('barostat', 'damping') == 0) call stop_all(cfg%path//': &barostat: damping: missing '// &
                 '(the relaxation time tau_p, a time in '//trim(cfg%units%time)//')')
@@ -1349,10 +1355,11 @@ contains
         end subroutine only_for
     end subroutine validate_stepped
 
-    !> &integrator style = 'event_driven': stepped potentials only, a time-scheduled run in a fully
+    !> Event-driven integration: stepped potentials only, a time-scheduled run in a fully
     !> periodic 3-D box, Andersen's thermostat or none; checkpoints by time (checkpoint_interval).
     subroutine validate_event_driven(cfg)
         type(config_t), intent(inout) :: cfg
+        class(thermostat_t), allocatable :: proto
         if (.not. cfg%pot_style%stepped) call stop_all(cfg%where('potential', &
             'style')//" = '"//trim(cfg%potential)//"': event-driven integration runs stepped potentials only "// &
             '('//quoted_list(pots%name, ', ', pots%stepped)//'); use &integrator style='// &
@@ -1371,9 +1378,10 @@ contains
             ': event-driven integration writes frames at exact times; give trajectory_interval (in '// &
             trim(cfg%units%time)//')')
         if (cfg%nml%find('thermostat', 'style') > 0) then
-            if (cfg%thermostat /= 'none' .and. cfg%thermostat /= 'andersen') call stop_all(cfg%where('thermostat', &
+            call new_thermostat(cfg%thermostat, thermostat_params_t(), proto)
+            if (proto%active() .and. .not. proto%collides_atoms()) call stop_all(cfg%where('thermostat', &
                 'style')//" = '"//trim(cfg%thermostat)//"': not available with event-driven integration (allowed: "// &
-                "'andersen', collisions at exact times; 'none')")
+                thermostat_styles_colliding()//"'none')")
             if (cfg%nml%find('thermostat', 'interval') > 0) call stop_all(cfg%where('thermostat', 'interval')// &
                 ': event-driven integration runs Andersen collisions atom by atom at exact times (no interval)')
             if (cfg%nml%find('thermostat', 'zero_momentum') > 0 .and. cfg%zero_momentum) call stop_all( &

@@ -66,6 +66,7 @@ module terrace_thermostat
         ! what the deck may ask of the style (the deck reader checks the keys against these)
         procedure :: event_note => ts_event_note
         procedure :: takes_chain => ts_false
+        procedure :: collides_atoms => ts_false   !< atoms collide one by one at exact times (event-driven runs)
         procedure :: default_interval => ts_default_interval
         procedure, non_overridable :: target => ts_target
         procedure, non_overridable :: ecouple => ts_ecouple

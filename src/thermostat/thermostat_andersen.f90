@@ -37,6 +37,7 @@ module terrace_thermostat_andersen
     contains
         procedure :: setup => andersen_setup
         procedure :: event_note => andersen_event_note
+        procedure :: collides_atoms => andersen_collides_atoms
         procedure :: post_kick => andersen_step
         procedure :: event_time => andersen_event_time
         procedure :: apply_event => andersen_apply_event
@@ -59,6 +60,12 @@ contains
         character(len=:), allocatable :: note
         note = 'collisions at exact times'
     end function andersen_event_note
+
+    !> Its collisions are atom by atom at exact times: event-driven runs can take them.
+    pure logical function andersen_collides_atoms(self)
+        class(andersen_t), intent(in) :: self
+        andersen_collides_atoms = .true.
+    end function andersen_collides_atoms
 
     !> Maxwell-Boltzmann velocity at temperature temp for mass m (dimension 2: vz = 0), from one
     !> block keyed by (seed, stream, id, event, sub).

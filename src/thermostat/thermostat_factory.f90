@@ -13,7 +13,7 @@ module terrace_thermostat_factory
                                                                       'andersen']
 
     public :: is_thermostat_style, new_thermostat, thermostat_styles, thermostat_styles_for_events, &
-              thermostat_styles_with_chain
+              thermostat_styles_with_chain, thermostat_styles_colliding, thermostat_names_with_chain
 
 contains
 
@@ -65,6 +65,19 @@ contains
         list = styles_that('chain')
     end function thermostat_styles_with_chain
 
+    !> The styles whose atoms collide one by one at exact times, each with how it acts (event-driven
+    !> runs; for messages): "'name', how it acts; ".
+    function thermostat_styles_colliding() result(list)
+        character(len=:), allocatable :: list
+        list = styles_that('collisions')
+    end function thermostat_styles_colliding
+
+    !> The names of the styles that take chain_length, quoted and joined by ' or ' (for messages).
+    function thermostat_names_with_chain() result(list)
+        character(len=:), allocatable :: list
+        list = styles_that('chain names')
+    end function thermostat_names_with_chain
+
     !> The active styles whose prototype answers yes: 'events' (runs with energy stepping: "'name',
     !> how it acts; " each) or 'chain' (takes chain_length: "style = 'name'", joined by ' or ').
     function styles_that(what) result(list)
@@ -78,9 +91,14 @@ contains
             if (.not. ts%active()) cycle
             if (what == 'events' .and. len(ts%event_note()) > 0) then
                 list = list//"'"//trim(names(k))//"', "//ts%event_note()//'; '
+            else if (what == 'collisions' .and. ts%collides_atoms()) then
+                list = list//"'"//trim(names(k))//"', "//ts%event_note()//'; '
             else if (what == 'chain' .and. ts%takes_chain()) then
                 if (len(list) > 0) list = list//' or '
                 list = list//"style = '"//trim(names(k))//"'"
+            else if (what == 'chain names' .and. ts%takes_chain()) then
+                if (len(list) > 0) list = list//' or '
+                list = list//"'"//trim(names(k))//"'"
             end if
         end do
     end function styles_that

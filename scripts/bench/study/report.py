@@ -17,6 +17,7 @@ import matplotlib.ticker  # noqa: E402
 from terrace_tools import plotting  # noqa: E402
 
 from . import scenes as S  # noqa: E402
+from . import sweep  # noqa: E402
 
 STYLE, METHODS = plotting.STYLE, plotting.METHODS
 
@@ -312,6 +313,7 @@ def load(ctx, keys):
             rows.append({kk: (_num(v) if kk not in ('scene', 'method', 'param_label', 'status', 'gr_method') else v)
                          for kk, v in r.items()})
         res['sweeps'][k] = rows
+        res['curves'][k] = sweep.read_energy_curves(os.path.join(ctx.data, 'curves_%s.csv' % k))
         sc = S.get(k)
         sc.natoms = int(rows[0]['natoms']) if rows and rows[0].get('natoms') else 0
     p = os.path.join(ctx.data, 'stress.csv')

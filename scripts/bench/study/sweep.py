@@ -156,6 +156,7 @@ def run_scene(scene, ctx):
             if row['status'] != 'ok':
                 print('             %s' % row['status'], flush=True)
     write_csv(os.path.join(ctx.data, 'sweep_%s.csv' % scene.key), rows)
+    write_energy_curves(os.path.join(ctx.data, 'curves_%s.csv' % scene.key), curves)
     return rows, curves
 
 
@@ -165,6 +166,36 @@ def fmt(v):
     if isinstance(v, float):
         return '' if not np.isfinite(v) and np.isnan(v) else '%.6g' % v
     return str(v)
+
+
+def write_energy_curves(path, curves):
+    """The energy-error curves (E(t) - E0)/N of the runs the energy figure draws (the finest and the
+    coarsest parameter of each method), one row per sample: method, param, time, de; --report-only
+    draws the figure from them."""
+    energy = {k: v for k, v in curves.items() if k[2] == 'energy'}
+    keep = set()
+    for m in {k[0] for k in energy}:
+        params = sorted(k[1] for k in energy if k[0] == m)
+        keep.update({(m, params[0], 'energy'), (m, params[-1], 'energy')})
+    with open(path, 'w', newline='') as f:
+        w = csv.writer(f)
+        w.writerow(['method', 'param', 'time', 'de'])
+        for (method, param, kind), value in sorted(energy.items(), key=lambda kv: (kv[0][0], kv[0][1])):
+            if (method, param, kind) not in keep:
+                continue
+            for t, de in zip(*value):
+                w.writerow([method, repr(float(param)), repr(float(t)), repr(float(de))])
+
+
+def read_energy_curves(path):
+    """The curves write_energy_curves wrote: {(method, param, 'energy'): (time, de)} ({} if none)."""
+    if not os.path.exists(path):
+        return {}
+    runs = {}
+    with open(path, newline='') as f:
+        for r in csv.DictReader(f):
+            runs.setdefault((r['method'], float(r['param']), 'energy'), []).append((float(r['time']), float(r['de'])))
+    return {k: (np.array([a for a, _ in v]), np.array([b for _, b in v])) for k, v in runs.items()}
 
 
 def write_csv(path, rows):

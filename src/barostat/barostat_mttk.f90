@@ -238,31 +238,21 @@ contains
     subroutine mttk_save(self, values)
         class(mttk_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
-        character(len=16) :: tag
-        integer :: j
         call values%put('baro_v_eps', self%v_eps)
         call values%put('baro_virial', self%virial)
-        do j = 1, chain_length
-            write (tag, '(i0)') j
-            call values%put('baro_eta_'//trim(tag), self%eta(j))
-            call values%put('baro_v_eta_'//trim(tag), self%v_eta(j))
-        end do
+        call values%put_reals('baro_eta_', self%eta(1:chain_length))
+        call values%put_reals('baro_v_eta_', self%v_eta(1:chain_length))
     end subroutine mttk_save
 
     subroutine mttk_restore(self, values, ok)
         class(mttk_t), intent(inout) :: self
         type(named_values_t), intent(in) :: values
         logical, intent(inout) :: ok
-        character(len=16) :: tag
-        integer :: j
         self%v_eps = values%get_r('baro_v_eps', ok)
         self%virial = values%get_r('baro_virial', ok)
         self%have_virial = .true.
-        do j = 1, chain_length
-            write (tag, '(i0)') j
-            self%eta(j) = values%get_r('baro_eta_'//trim(tag), ok)
-            self%v_eta(j) = values%get_r('baro_v_eta_'//trim(tag), ok)
-        end do
+        call values%get_reals('baro_eta_', self%eta(1:chain_length), ok)
+        call values%get_reals('baro_v_eta_', self%v_eta(1:chain_length), ok)
     end subroutine mttk_restore
 
 end module terrace_barostat_mttk

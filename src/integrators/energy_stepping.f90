@@ -799,17 +799,7 @@ contains
         subroutine x1(name, x)
             character(len=*), intent(in) :: name
             class(*), intent(inout) :: x
-            if (saving) then
-                call val%put(name, x); return
-            end if
-            select type (x)
-            type is (real(dp))
-                x = val%get_r(name, ok)
-            type is (integer(i8))
-                x = val%get_i(name, ok)
-            type is (logical)
-                x = val%get_l(name, ok)
-            end select
+            call val%exchange(name, x, saving, ok)
         end subroutine x1
     end subroutine es_state_exchange
 

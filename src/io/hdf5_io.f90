@@ -18,6 +18,7 @@ module terrace_hdf5_io
     use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Comm_size, MPI_Allreduce, MPI_Bcast, MPI_IN_PLACE, &
                        MPI_INTEGER, MPI_MIN, MPI_CHARACTER, MPI_INFO_NULL, MPI_COMM_WORLD, MPI_Barrier
     use terrace_signals, only: watchdog_arm, watchdog_disarm, test_stall
+    use terrace_file_ops, only: clear_mpiio_semaphore
     use hdf5
     implicit none
     private
@@ -271,6 +272,9 @@ contains
         if (.not. st%ok) return
         call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err); call st%check(err, 'H5Pcreate(fapl)')
         if (present(comm)) then
+            ! a semaphore a killed job left locked would hold up the open forever (file_ops)
+            call clear_mpiio_semaphore(path)
+            call MPI_Barrier(comm)
             call h5pset_fapl_mpio_f(fapl, comm%MPI_VAL, MPI_INFO_NULL%MPI_VAL, err)
             call st%check(err, 'H5Pset_fapl_mpio')
         end if

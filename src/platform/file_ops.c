@@ -9,6 +9,7 @@
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <semaphore.h>
 #include <string.h>
 #include <sys/file.h>
 #include <sys/stat.h>
@@ -174,8 +175,25 @@ int terrace_lock_file(const char *path)
 /* The process id (for messages). */
 int terrace_pid(void) { return (int)getpid(); }
 
+/* Open MPI's MPI-IO layer (ompio) prepares a shared file pointer at every collective open, which
+ * Terrace never uses; its default component (sharedfp/sm) guards it with a POSIX semaphore named
+ * after the file's base name only (/dev/shm/sem.OMPIO_<name>), created if absent and waited on. A
+ * process killed while it held that semaphore leaves it locked, and every later open of a file of
+ * that name on the node would wait forever. Called on every rank before a collective open (and a
+ * barrier): the name is removed, so the open creates a fresh one; a job that has the old one open
+ * keeps it (an unlinked semaphore lives on for its holders). No-op where there is none. */
+void terrace_mpiio_clear_semaphore(const char *path)
+{
+    const char *base = strrchr(path, '/');
+    char name[300];
+    base = base ? base + 1 : path;
+    snprintf(name, sizeof name, "OMPIO_%s", base);
+    (void)sem_unlink(name);
+}
+
 /* One entry for the operations on a single path, so that Fortran binds one C function:
- * 1 path kind, 2 writable, 3 unlink, 4 lock, 5 register for removal at exit, 6 forget it. */
+ * 1 path kind, 2 writable, 3 unlink, 4 lock, 5 register for removal at exit, 6 forget it,
+ * 7 clear the MPI-IO semaphore of its name. */
 int terrace_path_op(int op, const char *path)
 {
     switch (op) {
@@ -185,14 +203,7 @@ int terrace_path_op(int op, const char *path)
     case 4: return terrace_lock_file(path);
     case 5: return terrace_cleanup_register(path);
     case 6: terrace_cleanup_forget(path); return 0;
+    case 7: terrace_mpiio_clear_semaphore(path); return 0;
     default: return -1;
     }
 }
-
-/* Open MPI's MPI-IO layer (ompio) prepares a shared file pointer at every file open, which Terrace
- * never uses; its default component (sharedfp/sm) guards it with a POSIX semaphore named after the
- * file's base name only (/dev/shm/sem.OMPIO_<name>). A process killed while it holds that semaphore
- * leaves it locked, and every later open of a file of that name on the node waits forever (two jobs
- * writing restart.h5 on one node also share it). Select the component that keeps no state outside
- * the process (sharedfp/individual), unless the user's environment chose one. Before MPI_Init. */
-void terrace_mpi_io_defaults(void) { setenv("OMPI_MCA_sharedfp", "individual", 0); }

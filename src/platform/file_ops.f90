@@ -11,7 +11,7 @@ module terrace_file_ops
     public :: resolve_path, path_kind, is_writable, rename_file, remove_file, lock_file, &
               remove_at_exit, keep_at_exit, process_id, directory_of, &
               temporary_name, commit_output, check_size, cleanup_now, write_in_place, output_target, &
-              trajectory_sibling
+              trajectory_sibling, clear_mpiio_semaphore
 
     interface
         integer(c_int) function c_resolve(path, out, outlen) bind(C, name='terrace_resolve_path')
@@ -30,7 +30,8 @@ module terrace_file_ops
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: from(*), to(*)
         end function c_rename
-        !> 1 kind, 2 writable, 3 unlink, 4 lock, 5 remove at exit, 6 keep at exit (file_ops.c)
+        !> 1 kind, 2 writable, 3 unlink, 4 lock, 5 remove at exit, 6 keep at exit, 7 clear the MPI-IO
+        !> semaphore of the name (file_ops.c)
         integer(c_int) function c_path_op(op, path) bind(C, name='terrace_path_op')
             import :: c_int, c_char
             integer(c_int), value :: op
@@ -233,5 +234,14 @@ contains
     integer function process_id()
         process_id = int(c_pid())
     end function process_id
+
+    !> Before a collective MPI-IO open of path (on every rank, then a barrier): remove the
+    !> semaphore Open MPI's shared-file-pointer component keeps per file name, which a killed job
+    !> may have left locked (file_ops.c, terrace_mpiio_clear_semaphore).
+    subroutine clear_mpiio_semaphore(path)
+        character(len=*), intent(in) :: path
+        integer(c_int) :: rc
+        rc = c_path_op(7_c_int, trim(path)//c_null_char)
+    end subroutine clear_mpiio_semaphore
 
 end module terrace_file_ops

@@ -29,11 +29,6 @@ module terrace_mpi_env
 contains
 
     subroutine start_mpi()
-        interface
-            subroutine mpi_io_defaults() bind(C, name='terrace_mpi_io_defaults')
-            end subroutine mpi_io_defaults
-        end interface
-        call mpi_io_defaults()          ! (platform/file_ops.c: MPI-IO without node-wide semaphores)
         call MPI_Init()
         call use_communicator(MPI_COMM_WORLD)
     end subroutine start_mpi

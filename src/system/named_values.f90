@@ -19,6 +19,9 @@ module terrace_named_values
         procedure :: get_r => values_get_r
         procedure :: get_l => values_get_l
         procedure :: has => values_has
+        procedure :: exchange => values_exchange
+        procedure :: put_reals => values_put_reals
+        procedure :: get_reals => values_get_reals
         procedure, private :: slot => values_slot
         procedure, private :: find => values_find
     end type named_values_t
@@ -64,6 +67,59 @@ contains
             self%ival(k) = merge(1_i8, 0_i8, v); self%is_int(k) = .true.
         end select
     end subroutine values_put
+
+    !> One value of a checkpoint's state, real(dp), integer(i8) or logical: put when saving, else
+    !> read back into x (ok false when it is missing), so that one list of names serves both ways.
+    subroutine values_exchange(self, name, x, saving, ok)
+        class(named_values_t), intent(inout) :: self
+        character(len=*), intent(in) :: name
+        class(*), intent(inout) :: x
+        logical, intent(in) :: saving
+        logical, intent(inout) :: ok
+        if (saving) then
+            call self%put(name, x)
+            return
+        end if
+        select type (x)
+        type is (real(dp))
+            x = self%get_r(name, ok)
+        type is (integer(i8))
+            x = self%get_i(name, ok)
+        type is (logical)
+            x = self%get_l(name, ok)
+        end select
+    end subroutine values_exchange
+
+    !> x(1), x(2), ... under prefix//'1', prefix//'2', ... (a chain's positions, say).
+    subroutine values_put_reals(self, prefix, x)
+        class(named_values_t), intent(inout) :: self
+        character(len=*), intent(in) :: prefix
+        real(dp), intent(in) :: x(:)
+        integer :: j
+        do j = 1, size(x)
+            call self%put(prefix//index_text(j), x(j))
+        end do
+    end subroutine values_put_reals
+
+    !> x(:) back from the names values_put_reals gave them (ok false when one is missing).
+    subroutine values_get_reals(self, prefix, x, ok)
+        class(named_values_t), intent(in) :: self
+        character(len=*), intent(in) :: prefix
+        real(dp), intent(inout) :: x(:)
+        logical, intent(inout) :: ok
+        integer :: j
+        do j = 1, size(x)
+            x(j) = self%get_r(prefix//index_text(j), ok)
+        end do
+    end subroutine values_get_reals
+
+    pure function index_text(j) result(s)
+        integer, intent(in) :: j
+        character(len=:), allocatable :: s
+        character(len=16) :: b
+        write (b, '(i0)') j
+        s = trim(b)
+    end function index_text
 
     logical function values_has(self, name)
         class(named_values_t), intent(in) :: self

@@ -129,26 +129,16 @@ contains
     subroutine nhc_save(self, values)
         class(nose_hoover_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
-        character(len=16) :: tag
-        integer :: j
-        do j = 1, self%chain_length
-            write (tag, '(i0)') j
-            call values%put('ts_eta_'//trim(tag), self%eta(j))
-            call values%put('ts_v_eta_'//trim(tag), self%v_eta(j))
-        end do
+        call values%put_reals('ts_eta_', self%eta(1:self%chain_length))
+        call values%put_reals('ts_v_eta_', self%v_eta(1:self%chain_length))
     end subroutine nhc_save
 
     subroutine nhc_restore(self, values, ok)
         class(nose_hoover_t), intent(inout) :: self
         type(named_values_t), intent(in) :: values
         logical, intent(inout) :: ok
-        character(len=16) :: tag
-        integer :: j
-        do j = 1, self%chain_length
-            write (tag, '(i0)') j
-            self%eta(j) = values%get_r('ts_eta_'//trim(tag), ok)
-            self%v_eta(j) = values%get_r('ts_v_eta_'//trim(tag), ok)
-        end do
+        call values%get_reals('ts_eta_', self%eta(1:self%chain_length), ok)
+        call values%get_reals('ts_v_eta_', self%v_eta(1:self%chain_length), ok)
     end subroutine nhc_restore
 
 end module terrace_thermostat_nose_hoover

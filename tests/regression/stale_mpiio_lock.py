@@ -3,8 +3,8 @@
 
 Open MPI's MPI-IO (ompio) by default guards a shared file pointer with a POSIX semaphore named
 after the file's base name only (/dev/shm/sem.OMPIO_<name>); a job killed while it held it leaves
-it locked, and every later open of a file of that name waits forever. Terrace selects the
-component that keeps no such state (platform/file_ops.c, terrace_mpi_io_defaults). Checked: with a
+it locked, and every later open of a file of that name waits forever. Terrace removes that name
+before each collective open (platform/file_ops.c, terrace_mpiio_clear_semaphore). Checked: with a
 locked semaphore planted for the checkpoint's and the trajectory's temporary names, a run that
 writes both finishes (exit 0) on NPROCS ranks, and its thermo file equals that of a run in a
 clean directory. The planted semaphores are removed afterwards.

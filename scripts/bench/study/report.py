@@ -174,8 +174,9 @@ def fig_curves(scene, curves, path):
     ax.set_ylabel('(E − E0)/N [%s/atom]' % scene.eunit)
     ax.set_yscale('symlog', linthresh=1e-8)
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
-    ax.set_title('%s: energy error, finest and coarsest parameter of each method' % scene.title, fontsize=9)
+    ax.legend(fontsize=7, ncol=3, loc='upper center', bbox_to_anchor=(0.5, -0.16))
+    ax.set_title(textwrap.fill('%s: energy error, finest and coarsest parameter of each method' % scene.title, 90),
+                 fontsize=9)
     save(fig, path, dpi=110)
 
 
@@ -520,7 +521,7 @@ def write(ctx, results):
                  for r in c7 if ok(r)]))
         w('')
     w('What the engine detects (each with a regression test, `ctest -R "fail_|bad_inputs|es_"`):\n')
-    w('- **Energy blow-up** (new, `src/integrators/run_checks.f90`): at every thermo sample, a '
+    w('- **Energy blow-up** (new, `src/engine/run_checks.f90`): at every thermo sample, a '
       'non-finite energy, or |E − E0| > |K0| + |V0|, stops every rank with `terrace: error: energy '
       'blow-up: ...` or `... became NaN or infinite ...` (exit 1). Tests `fail_energy_blowup`, '
       '`fail_energy_blowup_np4`. Before this check such a run finished with exit status 0 and garbage '

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Analysis of a two-ball collision run (issue 13) from its H5MD trajectory (positions and
+"""Analysis of a two-ball collision run from its H5MD trajectory (positions and
 velocities of every node) and its mesh (MSH 2.2, one physical volume per ball).
 
 Per frame: each ball's mass, centre of mass, centre-of-mass velocity, angular momentum about its

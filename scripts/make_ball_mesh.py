@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Two identical tetrahedral balls for the contact scene (issue 13), written as Gmsh MSH 2.2.
+"""Two identical tetrahedral balls for the contact scene, written as Gmsh MSH 2.2.
 
 One ball is meshed by Gmsh (its Python package, from PyPI) with target element size R / refine;
 the second is the same mesh translated, so both balls have exactly the same nodes and elements.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Terrace against its CPU anchors on one rank, one thread (issue 16). Parts (PARTS, default all):
+# Terrace against its CPU anchors on one rank, one thread. Parts (PARTS, default all):
 #   lj     LAMMPS's LJ benchmark scene (scripts/bench/in.lj_bench, input/lj_bench.nml): 32,000 atoms,
 #          fcc rho* = 0.8442, T* = 1.44, rc 2.5 sigma, skin 0.3 sigma, NVE, dt 0.005 tau. Runs Terrace
 #          (velocity Verlet, double; and with &potential precision = 'mixed', the mixed-precision

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Contact duration and restitution of the two rubber balls against Hertz (issue 13): mesh
+"""Contact duration and restitution of the two rubber balls against Hertz: mesh
 refinements x approach speeds, velocity Verlet and energy stepping, and Verlet's largest stable
 step on each mesh. Set-up of input/balls_*.nml (R = 0.1 m, rho 1100 kg/m^3, lambda 2.7 MPa,
 mu 0.3 MPa, ball 2 thrown at ball 1 along -x, default contact: node_face), without spin by

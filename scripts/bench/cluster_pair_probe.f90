@@ -1,4 +1,4 @@
-!> Probe for issue 16's mixed-precision goal: what a cluster-pair LJ force pass (GROMACS's nbnxm
+!> Probe for the mixed-precision goal: what a cluster-pair LJ force pass (GROMACS's nbnxm
 !> idea: clusters of four atoms, one list of neighbouring clusters per cluster, all 4 x 4 pairs of
 !> a cluster pair computed, 16 singles per AVX-512 vector) costs on LAMMPS's LJ bench scene, next to
 !> the atom-pair list that Terrace's kernels use. Not part of the engine; built and run by

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# EAM cost per pair of the multi-type paths against the one-type path, in CPU time (issue 16): the
+# EAM cost per pair of the multi-type paths against the one-type path, in CPU time: the
 # scenes of anchors.sh part "types" (fcc Cu with Cu_u3.eam; random 50/50 Cu-Ni, all-Cu fcc with
 # CuNi.eam.alloy, with one element and with both declared; 5 % Ni at random; bcc Fe with Fe_mm.eam.fs; fcc Cu with
 # Cu_mishin1.eam.alloy), each Terrace binary

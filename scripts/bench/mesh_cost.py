@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Cost of the neo-Hookean element kernel on the talk's cube (issue 12) against a brute estimate.
+"""Cost of the neo-Hookean element kernel on the talk's cube against a brute estimate.
 
 Scene: the talk's 8 x 8 x 8-cell cube (scripts/make_cube_mesh.py: 2,969 nodes, 12,288 tetrahedra),
 the decks input/cube_spin_verlet.nml (dt 2.5e-5 s) and input/cube_spin_es.nml (h = 1e-3 J), one rank.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Speed of two builds side by side (issue 11: a refactoring must not slow the engine): the LAMMPS LJ
+# Speed of two builds side by side (a refactoring must not slow the engine): the LAMMPS LJ
 # benchmark scene (input/lj_bench.nml, 32,000 atoms) and the LAMMPS EAM scene (Cu_u3, 32,000 atoms,
 # the in.eam set-up of scripts/bench/eam_bench.sh), one rank, OLD and NEW alternating, REPEAT times
 # each; prints each loop time, the best of each build and new/old.

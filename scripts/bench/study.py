@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Run time against error: the benchmark and stability study of Terrace (issue #7).
+"""Run time against error: the benchmark and stability study of Terrace.
 
 One command runs the whole study from a built tree and writes doc/benchmarks.md, the PNG figures
 doc/figures/bench_*.png and the tables behind them (CSV, doc/bench_data/):
@@ -10,7 +10,7 @@ doc/figures/bench_*.png and the tables behind them (CSV, doc/bench_data/):
      with a much finer step: wall time against (a) max energy error per atom, (b) energy drift and
      momentum change, (c) trajectory error at a short horizon, (d) long-run observables with
      error bars;
-     and on two mesh scenes (issues 12, 13: `cube`, the talk's spinning neo-Hookean cube; `balls`,
+     and on two mesh scenes (`cube`, the talk's spinning neo-Hookean cube; `balls`,
      two colliding rubber balls with contact; study/solids.py): both integrators against a fine
      Verlet reference, Verlet's largest stable dt by bisection, energy stepping's event intervals;
   2. stability stress tests (dt and h raised until each method fails, a hot collision to 0.8 sigma,

@@ -139,7 +139,7 @@ contains
             write (output_unit, '(a)') '  wrote '//trim(cfg%output_prefix)//'_vacf.csv, '//trim(cfg%output_prefix)// &
                 '_vdos.csv'
         end if
-        ! what the sampling cannot resolve (issue 15): a peak below the resolution 1/(M dt), or a
+        ! what the sampling cannot resolve: a peak below the resolution 1/(M dt), or a
         ! spectrum still high at the Nyquist frequency 1/(2 dt) (frames too far apart: aliased)
         if (ipeak/(L*plan%dt) < 1/(M*plan%dt)) call warn('VDOS: the highest peak ('// &
             fixed(ipeak/(L*plan%dt), 6)//' '//trim(fl)//') lies below the resolution 1/(M dt) = '// &

@@ -85,7 +85,7 @@ program terrace
 
     call read_config(path, cfg)
     call summary_start(path)
-    call check_memory(cfg)                              ! issue 15: refuse a scene that cannot fit
+    call check_memory(cfg)                              ! refuse a scene that cannot fit
     if (.not. check_only) call ctl%init_signals(trim(cfg%checkpoint_file))
     call build_scene(cfg, scene)
     call eng%setup(engine_params(cfg), scene)
@@ -437,7 +437,7 @@ contains
     !> The run stopped early with a checkpoint (walltime_limit or a signal): say so and exit with
     !> exit_stopped on every rank, so that a batch script can resubmit it with read_checkpoint.
     subroutine stop_early()
-        call commit_small_outputs(cfg)                  ! issue 15: what was written so far is kept
+        call commit_small_outputs(cfg)                  ! what was written so far is kept
         call write_summary(trim(merge('walltime_limit', 'signal        ', ctl%stop_signal == 0)))
         if (world%rank == 0) then
             write (output_unit, '(a)') 'terrace: stopped early ('//ctl%reason//') with a checkpoint in '//ctl%path// &

@@ -168,7 +168,7 @@ contains
         end if
     end subroutine arm_on_rank
 
-    !> Guard the opening of a file to read and the reading of its metadata (issue 15, class 9):
+    !> Guard the opening of a file to read and the reading of its metadata:
     !> on some files with one damaged byte (in HDF5's global heap) HDF5 1.10 spins forever. If
     !> h5_watch_end is not reached within write_watchdog_s seconds, one line
     !> 'terrace: error: <path>: <key>: ...' and exit status 1. Inside a section: nothing (the

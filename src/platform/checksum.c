@@ -1,4 +1,4 @@
-/* Order-independent checksums of per-atom data (checkpoints, issue 15 class 7).
+/* Order-independent checksums of per-atom data (checkpoints).
  *
  * The checksum of a table of N rows (row k belongs to atom id k, ncol values of 4 or 8 bytes each)
  * is the sum modulo 2^64 of mix(id, column, bits of the value) over every value. A sum does not

@@ -28,7 +28,7 @@ int terrace_stop_signal(void) { return (int)terrace_signal_flag; }
 int terrace_sigterm_number(void) { return SIGTERM; }
 int terrace_sigusr1_number(void) { return SIGUSR1; }
 
-/* Watchdog (issue 15, classes 8 and 9): alarm() with a handler that writes a prepared message,
+/* Watchdog: alarm() with a handler that writes a prepared message,
  * removes the registered temporary files (terrace_cleanup_signal_safe, unlink only) and ends the
  * process with _exit(status). Used where a library call may never return: a parallel HDF5 write
  * that failed on this rank while the others wait in a collective inside HDF5 (mpirun then ends

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# terrace-analyze says when the sampling cannot give the asked quantity (issue 15, newcomer list):
+# terrace-analyze says when the sampling cannot give the asked quantity:
 # solid argon (fcc, 80 K) with frames 400 fs apart (Nyquist 1.25 THz, below argon's vibrations)
 # must warn that the VDOS is aliased and that the (negative) D is not meaningful; 0.8 ps of frames
 # 4 fs apart must warn that the peak lies below the resolution 1/(M dt); 6 ps of frames 10 fs apart

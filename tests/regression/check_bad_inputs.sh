@@ -4,7 +4,7 @@
 # every substring the manifest lists, and no file written into the working directory.
 #
 # usage: check_bad_inputs.sh [--hostile] TERRACE_BIN [NPROCS...]      (default NPROCS: 1 4)
-#   --hostile: run the cases that bad_inputs/generate_hostile.py generates (issue 15: NaN and Inf,
+#   --hostile: run the cases that bad_inputs/generate_hostile.py generates (NaN and Inf,
 #   counts beyond the file, scenes beyond memory, long paths, colliding and special outputs, locks,
 #   ...) instead of bad_inputs/cases.txt. The generator needs numpy and h5py (damaged H5MD
 #   trajectories): it runs with $TERRACE_PYTHON, else the first of /usr/bin/python3 and python3 that

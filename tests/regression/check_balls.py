@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Two colliding rubber balls with contact (issue 13), coarse mesh (scripts/make_ball_mesh.py
+"""Two colliding rubber balls with contact, coarse mesh (scripts/make_ball_mesh.py
 --refine 3: 208 nodes and 672 tetrahedra per ball, R = 0.1 m, gap 35 mm; rho 1100 kg/m^3,
 lambda 2.7 MPa, mu 0.3 MPa; ball 2 at 1 m/s along -x with 10 rad/s about z; default contact,
 node_face):

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Bitwise restart through the contact (issue 13, must-show 6).
+"""Bitwise restart through the contact.
 
 The two colliding rubber balls on the coarse mesh (scripts/make_ball_mesh.py --refine 3 --gap 0.02:
 208 nodes and 672 tetrahedra per ball; ball 2 at 1 m/s with 10 rad/s; default contact (node_face,

@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
-"""Spinning neo-Hookean cube (issue 12), small mesh (2 x 2 x 2 cells of the talk's subdivision,
+"""Spinning neo-Hookean cube, small mesh (2 x 2 x 2 cells of the talk's subdivision,
 71 nodes, 192 tetrahedra, 0.1 m, rubber-like: rho 1100 kg/m^3, lambda 2.7 MPa, mu 0.3 MPa, spin
 100 rad/s about z):
   - energy stepping (h = 1e-3 J, 1000 events): K + k h constant to 1e-12 relative, |E - E0| <= h,
     linear momentum and angular momentum conserved to round-off; the same 1000 events on 2 and 4
-    ranks (issue 12, must-show 4): events, time and pe identical to 1 rank's (the element forces
+    ranks: events, time and pe identical to 1 rank's (the element forces
     are summed per node in element order and the energies, ray sums and kick sums are exact sums,
     so the dynamics has the same bits on any number of ranks), etotal and lz within 1e-10 relative
     (their kinetic and angular-momentum sums are plain sums: round-off only);

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Checkpoint and bitwise restart of a mesh scene (issue 12, must-show 5).
+"""Checkpoint and bitwise restart of a mesh scene.
 
 The spinning cube on the small mesh (2 x 2 x 2 cells of the talk's subdivision: 71 nodes, 192
 tetrahedra; rubber-like, 100 rad/s), with both integrators, on 1 and 2 ranks:

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The XDMF sidecar of a mesh trajectory, read by meshio (issue 12, must-show 6).
+"""The XDMF sidecar of a mesh trajectory, read by meshio.
 
 A short run of the talk's spinning cube (input/cube_spin_es.nml: 2,969 nodes, 12,288 tetrahedra,
 energy stepping, cut to 4 ms with a frame every millisecond) on 2 ranks writes cube.h5 and its

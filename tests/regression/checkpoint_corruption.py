@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Damaged checkpoints are refused on restart (issue 15, class 7; must-show 3).
+"""Damaged checkpoints are refused on restart.
 
 usage: checkpoint_corruption.py TERRACE OUTDIR NPROCS [--dataset-flips 1|3] [--attribute-stride J]
                                 [--names] [--metadata-stride K]

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Damaged H5MD files (issue 15, classes 5 and 9): non-finite numbers, and one damaged byte that
+"""Damaged H5MD files: non-finite numbers, and one damaged byte that
 makes HDF5 spin.
 
 usage: damaged_h5md.py TERRACE TERRACE_ANALYZE OUTDIR

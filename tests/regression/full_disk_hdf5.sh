@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Full disk for the HDF5 outputs (issue 15, class 8; must-show 2 for the trajectory and the
+# Full disk for the HDF5 outputs (the trajectory and the
 # checkpoint; full_disk_small.sh covers thermo, forces and final atoms). A 64 KiB tmpfs the test
 # mounts holds the output, in two ways:
 #   full   the device is full before the run (a filler file); a previous checkpoint is there

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Full disk for the small text outputs (issue 15, class 8; must-show 2 for thermo, forces and
+# Full disk for the small text outputs (thermo, forces and
 # final atoms): each output in turn is put on a 64 KiB tmpfs the test mounts and fills, holding the
 # previous run's file. On 1 and 3 ranks the run must exit non-zero within the time limit with one
 # 'terrace: error:' line naming the file and the &output key, leave no new file on the device, and

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The I/O watchdog whichever rank is stuck (issue 15, class 8): on 3 ranks, the test hook
+# The I/O watchdog whichever rank is stuck: on 3 ranks, the test hook
 # TERRACE_TEST_STALL_RANK=k makes rank k stop inside its first HDF5 slab write, as a rank stuck on
 # a full device or a file system that does not answer would; the other ranks wait for it in HDF5's
 # collectives or at the end of the section. For k = 0, 1 and 2, writing the trajectory and writing

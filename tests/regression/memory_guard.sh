@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Memory guard (issue 15, must-show 6): a scene far too large for the node (an fcc lattice of
+# Memory guard: a scene far too large for the node (an fcc lattice of
 # 2000^3 cells, 3.2e10 atoms) is refused within one second, on 1 and 3 ranks, with one error line
 # that names the deck, &system cells, the estimate in GiB and the memory available; nothing written.
 # usage: memory_guard.sh TERRACE_BIN OUTPUT_DIR

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Files users really have (issue 15, must-show 4): a LAMMPS data file as write_data writes it by
+# Files users really have: a LAMMPS data file as write_data writes it by
 # default ('Pair Coeffs' section) and with 'pair ij' ('PairIJ Coeffs') is read, its coefficients are
 # checked against &potential, and the run gives the same step-0 energy and forces as the 'nocoeff'
 # file (byte-identical thermo line and forces file); coefficients that disagree with the deck are

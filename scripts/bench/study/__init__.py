@@ -1,1 +1,1 @@
-"""Modules of scripts/bench/study.py (the benchmark and stability study, issue #7)."""
+"""Modules of scripts/bench/study.py (the benchmark and stability study)."""

@@ -1,4 +1,4 @@
-"""The mesh scenes of the study (issues 12 and 13): the talk's spinning neo-Hookean cube and the two
+"""The mesh scenes of the study: the talk's spinning neo-Hookean cube and the two
 colliding rubber balls, both integrators.
 
 Per scene:

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Hostile-input cases for check_bad_inputs.sh --hostile (issue 15), generated from small valid
+"""Hostile-input cases for check_bad_inputs.sh --hostile, generated from small valid
 decks and files: NaN, Inf, overflowing and subnormal numbers for every real key and in every file
 format, counts beyond what a file can hold, scenes too large for memory, over-long paths,
 non-finite boxes and coordinates, ids the trajectory cannot take, colliding and special output

@@ -424,13 +424,6 @@ contains
                                              st%c_guess)
             end if
             r%stats%ray_evals = r%stats%ray_evals + r%ray%evals
-            if (res%stalled) call check_all(.false., 'energy stepping: the search for the next level crossing '// &
-                'took '//sci_text(real(r%solver%max_search_evals, dp))//' evaluations without reaching it (time '// &
-                sci_text(st%t)//' '//r%out%thermo%time_unit//', the energy changing at '// &
-                sci_text(abs(res%fdc(2)))//' per '//r%out%thermo%time_unit//' against a terrace of '// &
-                sci_text(r%h)//'): &integrator terrace_height (or target_mean_dt) is far too small for '// &
-                'the energies this motion meets, or the motion is beyond the potential (an element turned '// &
-                'inside out, a contact overrun); give a larger one')
         end associate
     end subroutine search
 

@@ -44,7 +44,6 @@ module terrace_event_solver
         logical :: evaluated = .false.     !< fdc holds f, f', f'' at s
         real(dp) :: fdc(3) = 0
         real(dp) :: c_near = 0             !< f'' at the evaluated point nearest to s (a guess for later)
-        logical :: stalled = .false.       !< gave up after max_search_evals evaluations short of s_max
     end type crossing_t
 
     type, public :: event_solver_t
@@ -52,10 +51,6 @@ module terrace_event_solver
         real(dp) :: band_safety = 16       !< widening of the Hermite error band (4 until 2026-11-27: scripts/bench/solver_random_rays.sh stepped over twice as many excursions)
         integer :: samples = 16            !< points at which the band is checked per interval
         integer :: max_evals = 400
-        !> ray evaluations of one search (from the ray's evals) before it gives up (stalled): a
-        !> legitimate search takes a few; a terrace far too fine for the energies met takes steps
-        !> that barely move
-        integer :: max_search_evals = 100000
     contains
         procedure :: first_crossing => solver_first_crossing
     end type event_solver_t
@@ -233,7 +228,7 @@ contains
         type(crossing_t), intent(out) :: res
         real(dp), intent(in), optional :: c0_guess
         real(dp) :: s0, p0(3), s1, p1(3), sa, pa(3), sb, pb(3), step, trust, su, sl, h
-        integer :: status, e0
+        integer :: status
         logical :: c0_unknown
         s0 = 0
         p0 = p0_in
@@ -249,9 +244,7 @@ contains
         end if
         trust = max(trust_in, tiny(1.0_dp))
 
-        e0 = ray%evals
         do
-            if (ray%evals - e0 > self%max_search_evals) exit
             step = min(taylor_step(p0(1), p0(2), p0(3), upper), taylor_step(p0(1), p0(2), p0(3), lower))
             step = min(step, trust, s_max - s0)
             s1 = min(s0 + step, s_max)
@@ -300,7 +293,6 @@ contains
             if (s0 >= s_max) exit
         end do
         res%found = .false.; res%s = s0; res%evaluated = .true.; res%fdc = p0; res%c_near = p0(3)
-        res%stalled = ray%evals - e0 > self%max_search_evals
     end subroutine solver_first_crossing
 
     !> Root of f = level in the bracket [sa, sb] (f(sa) inside, f(sb) beyond): Halley steps from

@@ -50,6 +50,31 @@ module terrace_cluster_list
         real(sp), allocatable :: offset(:, :)
     end type cluster_pairs_t
 
+    !> The column grid of one build, as scan_columns reads it: the region's low corner in x and y,
+    !> the columns' widths, the list cutoff and its square in single as the atom check compares it.
+    type :: column_grid_t
+        real(dp) :: lo(2), w(2), rlist
+        real(sp) :: r2s
+    end type column_grid_t
+
+    !> One column of an owned column's stencil: its clusters first..last (first moves up to the
+    !> first whose top is above the current owned cluster's bottom - rlist: the owned clusters
+    !> ascend in z), its place (tx, ty) in the grid, whether its clusters are ghosts, whether it is
+    !> the owned cluster's own column (only the clusters after it).
+    type :: stencil_column_t
+        integer :: first, last, tx, ty
+        logical :: ghost, same
+    end type stencil_column_t
+
+    !> The owned cluster whose candidates scan_columns finds: its index, its slots spread over the
+    !> 16 lanes relative to its centre (single; empty slots at -far_slot), its bounding box and the
+    !> z extent of its atoms.
+    type :: owned_cluster_t
+        integer :: ci
+        real(sp) :: xi(16, 3)
+        real(dp) :: box_lo(3), box_hi(3), zlo, zhi
+    end type owned_cluster_t
+
     type, public :: cluster_list_t
         integer :: nowned = 0          !< clusters of owned atoms (1 .. nowned); ghost clusters after them
         integer :: ncl = 0             !< all clusters
@@ -237,14 +262,14 @@ contains
         real(dp), intent(in) :: x(:, :), rlist, lo(3), w(2)
         integer, intent(in) :: ncx, ncy, rx, ry
         integer :: ci, c, ix, iy, jx, jy, m, n, nt
-        integer :: k1(2*(2*rx + 1)*(2*ry + 1)), k2(size(k1)), ptr(size(k1))
-        logical :: ghost(size(k1)), same(size(k1))
-        integer :: tx(size(k1)), ty(size(k1))
+        type(stencil_column_t) :: cols(2*(2*rx + 1)*(2*ry + 1))
+        type(column_grid_t) :: grid
+        type(owned_cluster_t) :: own
         real(dp) :: r2list, xd(4, 3)
-        real(sp) :: r2s
         integer :: bound, nsplit, l
         r2list = rlist*rlist
-        r2s = real(r2list, sp)*(1 + 8*epsilon(1.0_sp))   ! single rounding never drops a pair
+        grid%lo = lo(1:2); grid%w = w; grid%rlist = rlist
+        grid%r2s = real(r2list, sp)*(1 + 8*epsilon(1.0_sp))   ! single rounding never drops a pair
         call replicate_positions(self, x, self%xq)
         call reserve(self%split, max(self%ncl, 1))   ! (a cluster is a split candidate of ci at most once)
         n = 0
@@ -263,27 +288,25 @@ contains
                     m = 1 + jx + ncx*jy
                     if (m >= c .and. self%ofirst(m + 1) > self%ofirst(m)) then     ! owned: the half ahead
                         nt = nt + 1
-                        k1(nt) = self%ofirst(m); k2(nt) = self%ofirst(m + 1) - 1
-                        ghost(nt) = .false.; same(nt) = m == c
-                        tx(nt) = jx; ty(nt) = jy
+                        cols(nt) = stencil_column_t(self%ofirst(m), self%ofirst(m + 1) - 1, jx, jy, .false., m == c)
                     end if
                     if (self%gfirst(m + 1) > self%gfirst(m)) then
                         nt = nt + 1
-                        k1(nt) = self%gfirst(m); k2(nt) = self%gfirst(m + 1) - 1
-                        ghost(nt) = .true.; same(nt) = .false.
-                        tx(nt) = jx; ty(nt) = jy
+                        cols(nt) = stencil_column_t(self%gfirst(m), self%gfirst(m + 1) - 1, jx, jy, .true., .false.)
                     end if
                 end do
             end do
-            ptr(1:nt) = k1(1:nt)
-            bound = sum(k2(1:nt) - k1(1:nt) + 1) + 1
+            bound = 1
+            do l = 1, nt
+                bound = bound + cols(l)%last - cols(l)%first + 1
+            end do
             do ci = self%ofirst(c), self%ofirst(c + 1) - 1
                 self%pairs%first(ci) = n + 1
                 call room(self, n + bound)
                 nsplit = 0
-                call scan_columns(ci, nt, k2, ghost, same, tx, ty, ptr, lo, w, rlist, r2s, self%member, self%centre, &
-                                  self%half, self%zlo, self%zhi, self%xq, self%pairs%cj, self%pairs%mask, &
-                                  self%pairs%offset, n, self%split, nsplit)
+                call owned_cluster(self, ci, own)
+                call scan_columns(own, grid, nt, cols, self%centre, self%zlo, self%zhi, self%xq, self%pairs%cj, &
+                                  self%pairs%mask, self%pairs%offset, n, self%split, nsplit)
                 self%pairs%masked_first(ci) = n + 1
                 if (self%nmem(ci) > 1) call add(self, ci, ci, 2, n)   ! its own pairs (i < j)
                 if (nsplit > 0) then
@@ -301,53 +324,72 @@ contains
         self%pairs%npairs = n
     end subroutine list_pairs
 
-    !> The candidates of owned cluster ci in its nt stencil columns (clusters ptr(t)..k2(t) of
-    !> column t, at tx(t), ty(t); ghost(t): ghost clusters; same(t): ci's own column, only the
-    !> clusters after ci): the columns within rlist of ci's box in x and y, in each the clusters
-    !> whose z extent meets ci's widened by rlist, then the atom check (any of the 16 pairs within
-    !> rlist, in singles as the kernel forms them).
+    !> Owned cluster ci as scan_columns reads it: its slots over the 16 lanes (i0 i0 i0 i0 i1 ...,
+    !> from the replicated positions; an empty slot at -far_slot), its box and its z extent.
+    subroutine owned_cluster(self, ci, own)
+        type(cluster_list_t), intent(in) :: self
+        integer, intent(in) :: ci
+        type(owned_cluster_t), intent(out) :: own
+        integer :: l
+        own%ci = ci
+        do l = 1, 16
+            own%xi(l, :) = self%xq(ishft(l - 1, -2) + 1, :, ci)
+            if (self%member(ishft(l - 1, -2) + 1, ci) == 0) own%xi(l, :) = -far_slot
+        end do
+        own%box_lo = self%centre(:, ci) - self%half(:, ci); own%box_hi = self%centre(:, ci) + self%half(:, ci)
+        own%zlo = self%zlo(ci); own%zhi = self%zhi(ci)
+    end subroutine owned_cluster
+
+    !> The candidates of owned cluster own%ci in its nt stencil columns (clusters first..last of
+    !> column t; ghost clusters or owned; in ci's own column only the clusters after ci): the
+    !> columns within rlist of ci's box in x and y, in each the clusters whose z extent meets ci's
+    !> widened by rlist, then the atom check (any of the 16 pairs within rlist, in singles as the
+    !> kernel forms them).
     !> A kept pair is written in slot n + 1 and kept by advancing n (no branch); ghost clusters whose
     !> z extent overlaps ci's go to split (the (z, y, x) rule decides per pair, split_pair).
-    !> ptr(t) moves up to the first cluster whose top is above ci's bottom - rlist (ci ascend in z).
+    !> cols(t)%first moves up to the first cluster whose top is above ci's bottom - rlist.
     !> Explicit arrays, not the list's components: GCC then keeps their addresses in registers.
-    subroutine scan_columns(ci, nt, k2, ghost, same, tx, ty, ptr, lo, w, rlist, r2s, member, centre, half, zlo, zhi, &
-                            xq, cjs, mask, offset, n, split, nsplit)
-        integer, intent(in) :: ci, nt, k2(nt), tx(nt), ty(nt), member(4, *)
-        logical, intent(in) :: ghost(nt), same(nt)
-        integer, intent(inout) :: ptr(nt), cjs(*), mask(*), n, split(*), nsplit
-        real(dp), intent(in) :: lo(3), w(2), rlist, centre(3, *), half(3, *), zlo(*), zhi(*)
-        real(sp), intent(in) :: r2s, xq(16, 3, *)
+    subroutine scan_columns(own, grid, nt, cols, centre, zlo, zhi, xq, cjs, mask, offset, n, split, nsplit)
+        type(owned_cluster_t), intent(in) :: own
+        type(column_grid_t), intent(in) :: grid
+        integer, intent(in) :: nt
+        type(stencil_column_t), intent(inout) :: cols(nt)
+        real(dp), intent(in) :: centre(3, *), zlo(*), zhi(*)
+        real(sp), intent(in) :: xq(16, 3, *)
+        integer, intent(inout) :: cjs(*), mask(*), n, split(*), nsplit
         real(sp), intent(inout) :: offset(3, *)
-        integer :: t, cj, l, near, j1, j2
-        real(dp) :: za, zb, e(2), r2list, ci_lo(3), ci_hi(3)
-        real(sp) :: xi(16, 3), o(3), q
+        integer :: t, ci, cj, l, near, j1, j2, ptr, last
+        real(dp) :: za, zb, e(2), r2list, rlist, ci_lo(3), ci_hi(3), ci_zlo, ci_zhi, lo(2), w(2)
+        real(sp) :: xi(16, 3), o(3), q, r2s
+        ci = own%ci
+        rlist = grid%rlist; r2s = grid%r2s; lo = grid%lo; w = grid%w
         r2list = rlist*rlist
-        ci_lo = centre(:, ci) - half(:, ci); ci_hi = centre(:, ci) + half(:, ci)
-        do l = 1, 16
-            xi(l, :) = xq(ishft(l - 1, -2) + 1, :, ci)
-            if (member(ishft(l - 1, -2) + 1, ci) == 0) xi(l, :) = -far_slot
-        end do
-        za = zlo(ci) - rlist; zb = zhi(ci) + rlist
+        ci_lo = own%box_lo; ci_hi = own%box_hi
+        xi = own%xi
+        ci_zlo = own%zlo; ci_zhi = own%zhi
+        za = ci_zlo - rlist; zb = ci_zhi + rlist
         do t = 1, nt
-            do while (ptr(t) <= k2(t))
-                if (zhi(ptr(t)) > za) exit
-                ptr(t) = ptr(t) + 1
+            ptr = cols(t)%first; last = cols(t)%last
+            do while (ptr <= last)
+                if (zhi(ptr) > za) exit
+                ptr = ptr + 1
             end do
+            cols(t)%first = ptr
             ! columns whose rectangle in x and y lies beyond rlist from ci's box hold no pair (a
             ! tighter z window from this distance cost more, by its square root, than it saved)
-            e(1) = max(lo(1) + tx(t)*w(1) - ci_hi(1), ci_lo(1) - (lo(1) + (tx(t) + 1)*w(1)), 0.0_dp)
-            e(2) = max(lo(2) + ty(t)*w(2) - ci_hi(2), ci_lo(2) - (lo(2) + (ty(t) + 1)*w(2)), 0.0_dp)
+            e(1) = max(lo(1) + cols(t)%tx*w(1) - ci_hi(1), ci_lo(1) - (lo(1) + (cols(t)%tx + 1)*w(1)), 0.0_dp)
+            e(2) = max(lo(2) + cols(t)%ty*w(2) - ci_hi(2), ci_lo(2) - (lo(2) + (cols(t)%ty + 1)*w(2)), 0.0_dp)
             if (e(1)*e(1) + e(2)*e(2) >= r2list*(1 + 1e-9_dp)) cycle
             ! the window j1..j2 (no box check: the atom check decides, and the branch of a box
             ! check cost more than the atom checks it saved)
-            j1 = ptr(t)
-            if (same(t)) j1 = max(j1, ci + 1)
+            j1 = ptr
+            if (cols(t)%same) j1 = max(j1, ci + 1)
             j2 = j1 - 1
-            do while (j2 < k2(t))
+            do while (j2 < last)
                 if (zlo(j2 + 1) >= zb) exit
                 j2 = j2 + 1
             end do
-            if (.not. ghost(t)) then
+            if (.not. cols(t)%ghost) then
                 do cj = j1, j2
                     include 'cluster_atom_check.inc'
                     cjs(n + 1) = cj; mask(n + 1) = 1; offset(:, n + 1) = o
@@ -355,9 +397,9 @@ contains
                 end do
             else
                 do cj = j1, j2
-                    if (zhi(cj) < zlo(ci)) cycle       ! every ghost below every atom of ci
+                    if (zhi(cj) < ci_zlo) cycle       ! every ghost below every atom of ci
                     include 'cluster_atom_check.inc'
-                    if (near > 0 .and. zlo(cj) <= zhi(ci)) then      ! the (z, y, x) rule may split it
+                    if (near > 0 .and. zlo(cj) <= ci_zhi) then      ! the (z, y, x) rule may split it
                         nsplit = nsplit + 1
                         split(nsplit) = cj
                         cycle

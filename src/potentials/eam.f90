@@ -133,6 +133,13 @@ module terrace_eam
         procedure :: warning_local => eam_warning
     end type eam_t
 
+    !> The several-types density pass's sizes and grid (density_types): the owned atoms, the atom
+    !> types, the knots of the r tables and 1/dr, the squared cutoff.
+    type :: density_pass_t
+        integer :: nlocal, ntypes, nr
+        real(dp) :: rdr, cutsq
+    end type density_pass_t
+
     interface
         !> src/potentials/eam_simd.c: gather_inside with AVX-512 (-1: not in this build)
         integer(c_int) function c_gather_inside(xi, yi, zi, x, neigh, nn, cutsq, cj, pp) &

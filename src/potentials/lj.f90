@@ -50,6 +50,14 @@ module terrace_lj
     !> Pairs per block of the mixed kernel's single-precision pass (16 singles: one AVX-512 vector).
     integer, parameter :: block = 16
 
+    !> The coefficient tables of the fused several-types pass (lj_simd.c's struct terrace_lj_tables):
+    !> each table's type pairs at (1:ntypes, 1:ntypes) of an 8 x 8 array (column-major, the rest 0),
+    !> filled in setup for 2 to 8 types (ntypes is set for any count; the C pass declines above 8).
+    type, bind(c) :: lj_simd_tables_t
+        real(c_double) :: lj1(8, 8) = 0, lj2(8, 8) = 0, lj3(8, 8) = 0, lj4(8, 8) = 0, cutsq(8, 8) = 0, offset(8, 8) = 0
+        integer(c_int) :: ntypes = 0
+    end type lj_simd_tables_t
+
     type, extends(potential_t), public :: lj_t
         integer :: ntypes = 1
         logical :: smooth = .false.
@@ -60,6 +68,7 @@ module terrace_lj
         real(dp), allocatable :: fc(:, :)        !< smooth: -E_LJ'(rc) (force magnitude at rc)
         real(dp), allocatable :: rc(:, :)
         real(dp) :: cutmax = 0
+        type(lj_simd_tables_t) :: simd           !< several types: the tables as the fused C pass reads them
         real(dp), allocatable :: work(:, :)      !< per-atom rows of pair forces (grown at rebuilds)
         integer, allocatable :: type_row(:)      !< several types, a list without types: its neighbours' types
         !> per owned atom, the sum of its pairs' energy (and, in the ray pass, V' and V'' terms):
@@ -116,11 +125,12 @@ module terrace_lj
             real(c_double), value :: lj1, lj2, lj3, lj4, cutsq, offset
         end function c_lj_one_type
         !> src/potentials/lj_simd.c: the same pass for 2 to 8 types (0: not in this build, or more types)
-        integer(c_int) function c_lj_types(nlocal, x, f, first, neigh, type, ntype, ntypes, lj1, lj2, lj3, lj4, cutsq, &
-                                           offset, want_energy, atom_e, virial) bind(C, name='terrace_lj_types')
-            import :: c_int, c_double
-            integer(c_int), value :: nlocal, ntypes, want_energy
-            real(c_double), intent(in) :: x(*), lj1(*), lj2(*), lj3(*), lj4(*), cutsq(*), offset(*)
+        integer(c_int) function c_lj_types(nlocal, x, f, first, neigh, type, ntype, tables, want_energy, atom_e, &
+                                           virial) bind(C, name='terrace_lj_types')
+            import :: c_int, c_double, lj_simd_tables_t
+            integer(c_int), value :: nlocal, want_energy
+            real(c_double), intent(in) :: x(*)
+            type(lj_simd_tables_t), intent(in) :: tables
             real(c_double), intent(inout) :: f(*), atom_e(*), virial
             integer(c_int), intent(in) :: first(*), neigh(*), type(*), ntype(*)
         end function c_lj_types
@@ -175,6 +185,13 @@ contains
             end do
         end do
         self%cutmax = maxval(cut(1:ntypes, 1:ntypes))
+        self%simd = lj_simd_tables_t()
+        self%simd%ntypes = ntypes
+        if (ntypes <= 8) then
+            self%simd%lj1(1:ntypes, 1:ntypes) = self%lj1; self%simd%lj2(1:ntypes, 1:ntypes) = self%lj2
+            self%simd%lj3(1:ntypes, 1:ntypes) = self%lj3; self%simd%lj4(1:ntypes, 1:ntypes) = self%lj4
+            self%simd%cutsq(1:ntypes, 1:ntypes) = self%cutsq; self%simd%offset(1:ntypes, 1:ntypes) = self%offset
+        end if
     end subroutine lj_setup
 
     !> The mixed-precision kernel exists for one atom type and style 'lj' (shifted or not).

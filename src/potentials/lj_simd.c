@@ -125,10 +125,18 @@ void terrace_ray_rows(int i, const double *xv, const int *nbrs, int nn, double *
  * AVX-512 (AVX512F, AVX512VL) and FMA.
  *
  * lj_pass: the pass for one type (multi = 0: the coefficients lj1[0] ... broadcast) or for up to
- * eight types (multi = 1: the coefficient tables, ntypes x ntypes and column-major as terrace_lj holds them; per
- * atom i its type's column in a register, per block the neighbours' types from ntype (the list's row
- * of neighbour types) and each lane's coefficients by a register permute, vpermpd, not a gather).
- * Inlined with a constant multi into the two entry points, so the one-type pass has no type work. */
+ * eight types (multi = 1: the coefficient tables of struct terrace_lj_tables, column-major with a
+ * leading dimension of 8; per atom i its type's column in a register, per block the neighbours' types
+ * from ntype (the list's row of neighbour types) and each lane's coefficients by a register permute,
+ * vpermpd, not a gather). Inlined with a constant multi into the two entry points, so the one-type
+ * pass has no type work. */
+
+/* The several-types pass's coefficient tables, as terrace_lj's lj_simd_tables_t (bind(C)) holds
+ * them: entry (a, b) of each table at [(b - 1) * 8 + a - 1] for types a, b in 1..ntypes. */
+struct terrace_lj_tables {
+    double lj1[64], lj2[64], lj3[64], lj4[64], cutsq[64], offset[64];
+    int ntypes;
+};
 #if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
 static inline __attribute__((always_inline)) void lj_pass(const int multi, int nlocal, const double *x, double *f,
                                                           const int *first, const int *neigh, const int *type,
@@ -149,7 +157,7 @@ static inline __attribute__((always_inline)) void lj_pass(const int multi, int n
         const double *a = x + 3 * (long)i;
         const __m512d xi = _mm512_set1_pd(a[0]), yi = _mm512_set1_pd(a[1]), zi = _mm512_set1_pd(a[2]);
         if (multi) {      /* column type(i) of each table */
-            const long col = (long)(type[i] - 1) * ntypes;
+            const long col = (long)(type[i] - 1) * 8;
             t1 = _mm512_maskz_loadu_pd(tmask, lj1 + col); t2 = _mm512_maskz_loadu_pd(tmask, lj2 + col);
             ts = _mm512_maskz_loadu_pd(tmask, cutsq + col);
             if (want_energy) {
@@ -221,22 +229,21 @@ int terrace_lj_one_type(int nlocal, const double *x, double *f, const int *first
 }
 
 /* The same pass for 2 to 8 atom types (style 'lj', not smooth): type(nlocal) the owned atoms' types,
- * ntype the list's neighbour types (list%ntype: eight valid entries past the last row), the six
- * coefficient tables ntypes x ntypes, column-major. Returns 0 (nothing done: the Fortran kernel runs)
+ * ntype the list's neighbour types (list%ntype: eight valid entries past the last row), t the six
+ * coefficient tables and the type count. Returns 0 (nothing done: the Fortran kernel runs)
  * where this build has no AVX-512 or ntypes is outside 2..8. */
 int terrace_lj_types(int nlocal, const double *x, double *f, const int *first, const int *neigh, const int *type,
-                     const int *ntype, int ntypes, const double *lj1, const double *lj2, const double *lj3,
-                     const double *lj4, const double *cutsq, const double *offset, int want_energy, double *atom_e,
+                     const int *ntype, const struct terrace_lj_tables *t, int want_energy, double *atom_e,
                      double *virial)
 {
 #if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
-    if (ntypes < 2 || ntypes > 8) return 0;
-    lj_pass(1, nlocal, x, f, first, neigh, type, ntype, ntypes, lj1, lj2, lj3, lj4, cutsq, offset, want_energy, atom_e,
-            virial);
+    if (t->ntypes < 2 || t->ntypes > 8) return 0;
+    lj_pass(1, nlocal, x, f, first, neigh, type, ntype, t->ntypes, t->lj1, t->lj2, t->lj3, t->lj4, t->cutsq, t->offset,
+            want_energy, atom_e, virial);
     return 1;
 #else
-    (void)nlocal; (void)x; (void)f; (void)first; (void)neigh; (void)type; (void)ntype; (void)ntypes; (void)lj1;
-    (void)lj2; (void)lj3; (void)lj4; (void)cutsq; (void)offset; (void)want_energy; (void)atom_e; (void)virial;
+    (void)nlocal; (void)x; (void)f; (void)first; (void)neigh; (void)type; (void)ntype; (void)t; (void)want_energy;
+    (void)atom_e; (void)virial;
     return 0;
 #endif
 }

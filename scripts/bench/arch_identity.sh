@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Bitwise identity of two builds on a fixed set of runs (a refactoring changes no behaviour):
 # LJ liquid with velocity Verlet (1000 steps), Rahman argon with energy stepping (2000 events, from
-# a Verlet-equilibrated state), Cu EAM with velocity Verlet and with energy stepping, a free
-# seven-atom cluster (all-pairs path, energy stepping), each thermostat with velocity Verlet
+# a Verlet-equilibrated state), Cu EAM with velocity Verlet and with energy stepping, the 256-atom
+# Cu-Ni alloy (eam/alloy: the several-types EAM passes) with both, a free seven-atom cluster (all-pairs path, energy stepping), each thermostat with velocity Verlet
 # (Langevin, CSVR, Nose-Hoover chains, Andersen with zero_momentum) and energy stepping's three
 # (Andersen at exact times, CSVR and Andersen's global variant at intervals), a three-type LJ
 # mixture with both integrators, mixed precision over cluster pairs and over the atom list, the spinning cube and
@@ -40,6 +40,11 @@ cat > cu_vv.nml <<NML
 NML
 sed -e 's/run_time=5.0/n_steps=1000/' -e 's/thermo_interval=0.05/thermo_every=100/' \
     -e "s/thermo_file='cu_eam_es.csv'/thermo_file='thermo.csv'/" "$repo/input/cu_eam_es.nml" > cu_es.nml
+# the several-types EAM passes: the Cu-Ni alloy of the energy-stepping tests, with both integrators
+sed -e "s#@REPO@#$repo#" -e 's/run_time=0.04/run_time=0.02/' "$repo/tests/regression/decks/es_cuni_eam.nml" > cuni_es.nml
+sed -e "s/style='energy_stepping', target_mean_dt=5.0e-4/style='velocity_verlet', dt=0.002/" \
+    -e 's/run_time=0.02/run_time=0.4/' -e 's/thermo_interval=0.002/thermo_interval=0.02/' cuni_es.nml > cuni_vv.nml
+grep -q "velocity_verlet" cuni_vv.nml || { echo "arch_identity: could not edit es_cuni_eam.nml" >&2; exit 1; }
 cat > cluster_es.nml <<NML
 &run units='metal', dimension=2, run_time=2.0e4, seed=1 /
 &system atoms_file='$repo/input/argon_frozen_2d.atoms', periodic=.false.,.false., mass=39.951 /
@@ -112,7 +117,7 @@ restart() {   # build np deck dir
   (cd "$dir" && "${mpi[@]}" "$exe" "$deck" > log.txt 2>&1) || { echo "restart failed: $exe $deck np=$np ($dir/log.txt)"; return 1; }
 }
 fail=0
-for deck in lj_vv rahman_es cu_vv cu_es cluster_es mix3_vv mix3_es lj_mixed lj_mixed_cells vv_langevin vv_csvr vv_nose_hoover vv_andersen \
+for deck in lj_vv rahman_es cu_vv cu_es cuni_vv cuni_es cluster_es mix3_vv mix3_es lj_mixed lj_mixed_cells vv_langevin vv_csvr vv_nose_hoover vv_andersen \
             es_andersen es_csvr es_andersen_global $meshes restart_vv restart_es; do
   [[ -n ${ONLY:-} && ! $deck =~ $ONLY ]] && continue
   for np in ${NPROCS:-1 4}; do

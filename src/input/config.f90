@@ -805,7 +805,7 @@ contains
         end select
         if (cfg%barostat == 'mttk') then
             call new_thermostat(cfg%thermostat, thermostat_params_t(), proto)
-            if (.not. proto%takes_chain()) call stop_all(style_is// &
+            if (.not. proto%traits%takes_chain) call stop_all(style_is// &
                 ": thermostats its particles with the run's Nose-Hoover chain: &thermostat style = '"// &
                 trim(cfg%thermostat)//"' not allowed with it (allowed: "//thermostat_names_with_chain()//')')
         end if
@@ -898,7 +898,7 @@ contains
             call stop_all(style_is//': unknown thermostat (allowed: '//thermostat_styles()//')')
         call new_thermostat(cfg%thermostat, thermostat_params_t(), proto)
         if (.not. proto%active()) return
-        if (cfg%integ_style%exact_time .and. len(proto%event_note()) == 0) &
+        if (cfg%integ_style%exact_time .and. len_trim(proto%traits%event_note) == 0) &
             call stop_all(style_is//': not available with energy stepping, whose trajectory is straight lines and '// &
                           'jumps between events (allowed there: '//thermostat_styles_for_events()//')')
         if (cfg%nml%find('thermostat', 'temperature') == 0) &
@@ -921,7 +921,7 @@ contains
         if (.not. (cfg%thermostat_damping > 0)) &
             call stop_all(cfg%where('thermostat', 'damping')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
         if (cfg%nml%find('thermostat', 'chain_length') > 0) then
-            if (.not. proto%takes_chain()) call stop_all(cfg%where('thermostat', 'chain_length')// &
+            if (.not. proto%traits%takes_chain) call stop_all(cfg%where('thermostat', 'chain_length')// &
                 ': only for '//thermostat_styles_with_chain())
             if (cfg%chain_length < 1 .or. cfg%chain_length > max_chain) call stop_all(cfg%where('thermostat', &
                 'chain_length')//': must be between 1 and 100 (3 to 10 is usual)')
@@ -1379,7 +1379,7 @@ contains
             trim(cfg%units%time)//')')
         if (cfg%nml%find('thermostat', 'style') > 0) then
             call new_thermostat(cfg%thermostat, thermostat_params_t(), proto)
-            if (proto%active() .and. .not. proto%collides_atoms()) call stop_all(cfg%where('thermostat', &
+            if (proto%active() .and. .not. proto%traits%collides_atoms) call stop_all(cfg%where('thermostat', &
                 'style')//" = '"//trim(cfg%thermostat)//"': not available with event-driven integration (allowed: "// &
                 thermostat_styles_colliding()//"'none')")
             if (cfg%nml%find('thermostat', 'interval') > 0) call stop_all(cfg%where('thermostat', 'interval')// &

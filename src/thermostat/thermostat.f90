@@ -15,6 +15,10 @@
 !>                                schedule (after a list build or at the start: per-atom times)
 !>   both:                        active, dof, ecouple / fold, chain_energy, save / restore
 !>
+!> What a style is (whether it holds the total momentum, replaces Verlet's kick and drift, takes a
+!> chain, collides atoms at exact times, how it acts with energy stepping) is data: the record
+!> its style_traits() returns, kept in `traits` from init on.
+!>
 !> Every random number is drawn from the counter-based generator keyed by (seed, stream, atom id,
 !> step or event), never by rank or by order of atoms: a run gives the same trajectory on any rank
 !> count and continues bitwise after a restart.
@@ -47,7 +51,20 @@ module terrace_thermostat
         real(dp) :: interval = 0
     end type thermostat_params_t
 
+    !> What a style is and what the deck may ask of it.
+    type, public :: thermostat_traits_t
+        logical :: active = .true.                 !< .false.: no thermostat (NVE)
+        logical :: holds_momentum = .false.        !< keeps a zero total momentum zero (dof less d)
+        logical :: replaces_kick_drift = .false.   !< Verlet: kick_drift for the first half kick and drift
+        logical :: takes_chain = .false.           !< takes &thermostat chain_length
+        logical :: collides_atoms = .false.        !< atoms collide one by one at exact times (event-driven runs)
+        !> with energy stepping, how the style acts (for messages; '': it cannot, its operators
+        !> need the steps of velocity Verlet)
+        character(len=32) :: event_note = ''
+    end type thermostat_traits_t
+
     type, abstract, public :: thermostat_t
+        type(thermostat_traits_t) :: traits     !< the style's style_traits(), from init on
         real(dp) :: t_start = 0, t_end = 0      !< target temperature at time 0 and at run_time
         real(dp) :: run_time = 0                !< length of the ramp
         real(dp) :: damping = 1
@@ -61,12 +78,8 @@ module terrace_thermostat
     contains
         procedure, non_overridable :: init => ts_init
         procedure :: setup => ts_setup
-        procedure :: holds_momentum => ts_holds_momentum
-        procedure :: active => ts_active
-        ! what the deck may ask of the style (the deck reader checks the keys against these)
-        procedure :: event_note => ts_event_note
-        procedure :: takes_chain => ts_false
-        procedure :: collides_atoms => ts_false   !< atoms collide one by one at exact times (event-driven runs)
+        procedure, nopass :: style_traits => ts_traits
+        procedure, non_overridable :: active => ts_active
         procedure :: default_interval => ts_default_interval
         procedure, non_overridable :: target => ts_target
         procedure, non_overridable :: ecouple => ts_ecouple
@@ -80,7 +93,6 @@ module terrace_thermostat
         procedure :: restore_own => ts_restore_own
         ! velocity Verlet
         procedure :: pre_kick => ts_no_step
-        procedure :: replaces_kick_drift => ts_false
         procedure :: kick_drift => ts_kick_drift
         procedure :: post_kick => ts_no_step
         ! energy stepping
@@ -105,8 +117,7 @@ module terrace_thermostat
     !> No thermostat: every hook does nothing (NVE).
     type, extends(thermostat_t), public :: thermostat_none_t
     contains
-        procedure :: active => none_active
-        procedure :: holds_momentum => none_holds_momentum
+        procedure, nopass :: style_traits => none_traits
     end type thermostat_none_t
 
     public :: thermostat_dof, total_ke, scale_velocities
@@ -129,12 +140,13 @@ contains
     subroutine ts_init(self, p)
         class(thermostat_t), intent(inout) :: self
         type(thermostat_params_t), intent(in) :: p
+        self%traits = self%style_traits()
         self%t_start = p%temperature; self%t_end = p%temperature_end; self%run_time = p%ramp_time
         self%damping = p%damping
         self%seed = p%seed; self%zero_momentum = p%zero_momentum
         self%dimension = p%dimension
         self%boltz = p%boltz; self%mvv2e = p%mvv2e
-        self%dof = thermostat_dof(self%holds_momentum(), p%zero_momentum, p%dimension, p%natoms)
+        self%dof = thermostat_dof(self%traits%holds_momentum, p%zero_momentum, p%dimension, p%natoms)
         self%ecouple_global = 0; self%ecouple_local = 0
         call self%setup(p)
     end subroutine ts_init
@@ -171,19 +183,15 @@ contains
         if (self%interval > 0) self%n_rescale = values%get_i('ts_n_rescale', ok)
     end subroutine interval_restore
 
-    !> Does the style keep a zero total momentum zero (its dof then loses d)?
-    pure logical function ts_holds_momentum(self)
-        class(thermostat_t), intent(in) :: self
-        ts_holds_momentum = .false.
-    end function ts_holds_momentum
+    !> A style's traits (a style overrides this with its own; the default: active, nothing else).
+    pure type(thermostat_traits_t) function ts_traits() result(t)
+        t = thermostat_traits_t()
+    end function ts_traits
 
-    !> With energy stepping, how the style acts (for messages; '': it cannot, its operators need
-    !> the steps of velocity Verlet).
-    function ts_event_note(self) result(note)
-        class(thermostat_t), intent(in) :: self
-        character(len=:), allocatable :: note
-        note = ''
-    end function ts_event_note
+    !> No thermostat: nothing acts, and a zero total momentum stays zero.
+    pure type(thermostat_traits_t) function none_traits() result(t)
+        t = thermostat_traits_t(active=.false., holds_momentum=.true.)
+    end function none_traits
 
     !> With energy stepping: the interval of the style's scheduled action when the deck gives none
     !> (0: none).
@@ -193,25 +201,11 @@ contains
         interval = 0
     end function ts_default_interval
 
+    !> Is there a thermostat (traits%active)?
     pure logical function ts_active(self)
         class(thermostat_t), intent(in) :: self
-        ts_active = .true.
+        ts_active = self%traits%active
     end function ts_active
-
-    pure logical function none_active(self)
-        class(thermostat_none_t), intent(in) :: self
-        none_active = .false.
-    end function none_active
-
-    pure logical function none_holds_momentum(self)
-        class(thermostat_none_t), intent(in) :: self
-        none_holds_momentum = .true.
-    end function none_holds_momentum
-
-    pure logical function ts_false(self)
-        class(thermostat_t), intent(in) :: self
-        ts_false = .false.
-    end function ts_false
 
     !> Target temperature at time t (linear ramp from t_start at 0 to t_end at run_time).
     pure real(dp) function ts_target(self, t) result(temp)
@@ -232,7 +226,7 @@ contains
         integer(i8), intent(in) :: step
     end subroutine ts_no_step
 
-    !> The first half kick and the drift, for a style that replaces them (replaces_kick_drift);
+    !> The first half kick and the drift, for a style that replaces them (traits%replaces_kick_drift);
     !> dtfm(type) = dt/2 ftm2v/m.
     subroutine ts_kick_drift(self, atoms, dtfm, dt, step, t_mid)
         class(thermostat_t), intent(inout) :: self

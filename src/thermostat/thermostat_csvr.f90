@@ -11,7 +11,7 @@ module terrace_thermostat_csvr
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
     use terrace_counter_rng, only: rng_stream, rng_stream_t
-    use terrace_thermostat, only: interval_thermostat_t, total_ke, scale_velocities
+    use terrace_thermostat, only: interval_thermostat_t, thermostat_traits_t, total_ke, scale_velocities
     implicit none
     private
 
@@ -21,8 +21,7 @@ module terrace_thermostat_csvr
     !> by n_rescale.
     type, extends(interval_thermostat_t), public :: csvr_t
     contains
-        procedure :: holds_momentum => csvr_holds_momentum
-        procedure :: event_note => csvr_event_note
+        procedure, nopass :: style_traits => csvr_traits
         procedure :: default_interval => csvr_default_interval
         procedure :: csvr => csvr_apply
         procedure :: pre_kick => csvr_pre_kick
@@ -32,16 +31,10 @@ module terrace_thermostat_csvr
 
 contains
 
-    pure logical function csvr_holds_momentum(self)
-        class(csvr_t), intent(in) :: self
-        csvr_holds_momentum = .true.
-    end function csvr_holds_momentum
-
-    function csvr_event_note(self) result(note)
-        class(csvr_t), intent(in) :: self
-        character(len=:), allocatable :: note
-        note = 'rescaling at fixed intervals'
-    end function csvr_event_note
+    !> A uniform rescale keeps a zero total momentum zero; with energy stepping, at intervals.
+    pure type(thermostat_traits_t) function csvr_traits() result(t)
+        t = thermostat_traits_t(holds_momentum=.true., event_note='rescaling at fixed intervals')
+    end function csvr_traits
 
     !> Energy stepping: a rescaling every damping/10 unless &thermostat interval says otherwise.
     pure real(dp) function csvr_default_interval(self, damping) result(interval)

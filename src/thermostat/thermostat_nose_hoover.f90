@@ -9,7 +9,8 @@ module terrace_thermostat_nose_hoover
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
     use terrace_named_values, only: named_values_t
-    use terrace_thermostat, only: thermostat_t, thermostat_params_t, total_ke, scale_velocities
+    use terrace_thermostat, only: thermostat_t, thermostat_params_t, thermostat_traits_t, total_ke, &
+                                  scale_velocities
     implicit none
     private
 
@@ -18,8 +19,7 @@ module terrace_thermostat_nose_hoover
         real(dp), allocatable :: eta(:), v_eta(:)   !< chain positions and velocities
     contains
         procedure :: setup => nhc_setup
-        procedure :: holds_momentum => nhc_holds_momentum
-        procedure :: takes_chain => nhc_takes_chain
+        procedure, nopass :: style_traits => nhc_traits
         procedure :: nose_hoover => nhc_half_step
         procedure :: pre_kick => nhc_step_hook
         procedure :: post_kick => nhc_step_hook
@@ -39,15 +39,10 @@ contains
         self%eta = 0; self%v_eta = 0
     end subroutine nhc_setup
 
-    pure logical function nhc_holds_momentum(self)
-        class(nose_hoover_t), intent(in) :: self
-        nhc_holds_momentum = .true.
-    end function nhc_holds_momentum
-
-    pure logical function nhc_takes_chain(self)
-        class(nose_hoover_t), intent(in) :: self
-        nhc_takes_chain = .true.
-    end function nhc_takes_chain
+    !> The chain scales every velocity alike: a zero total momentum stays zero.
+    pure type(thermostat_traits_t) function nhc_traits() result(t)
+        t = thermostat_traits_t(holds_momentum=.true., takes_chain=.true.)
+    end function nhc_traits
 
     subroutine nhc_step_hook(self, atoms, dt, step, t_mid)
         class(nose_hoover_t), intent(inout) :: self

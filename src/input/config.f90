@@ -761,9 +761,7 @@ contains
         logical :: given
         given = cfg%nml%find('barostat', 'style') > 0
         if (.not. given) then
-            if (cfg%nml%find('barostat', 'pressure') > 0 .or. cfg%nml%find('barostat', 'damping') > 0 .or. &
-                cfg%nml%find('barostat', 'compressibility') > 0 .or. cfg%nml%find('barostat', 'couple') > 0 .or. &
-                cfg%nml%find('barostat', 'interval') > 0) &
+            if (cfg%nml%gives_any('barostat', 'pressure damping compressibility couple interval')) &
                 call stop_all(cfg%path//': &barostat: style: missing (allowed: '//styles//')')
             return
         end if
@@ -886,10 +884,8 @@ contains
         logical :: given
         given = cfg%nml%find('thermostat', 'style') > 0
         if (.not. given) then
-            if (cfg%nml%find('thermostat', 'temperature') > 0 .or. cfg%nml%find('thermostat', 'damping') > 0 .or. &
-                cfg%nml%find('thermostat', 'temperature_end') > 0 .or. cfg%nml%find('thermostat', 'chain_length') > 0 &
-                .or. cfg%nml%find('thermostat', 'seed') > 0 .or. cfg%nml%find('thermostat', 'zero_momentum') > 0 &
-                .or. cfg%nml%find('thermostat', 'interval') > 0) &
+            if (cfg%nml%gives_any('thermostat', 'temperature damping temperature_end chain_length seed '// &
+                                  'zero_momentum interval')) &
                 call stop_all(cfg%path//': &thermostat: style: missing (allowed: '//thermostat_styles()//')')
             return
         end if
@@ -1100,8 +1096,7 @@ contains
             "potential file, e.g. file = '/usr/share/lammps/potentials/Cu_u3.eam')")
         if (cfg%pot_style%needs_elements .and. len_trim(cfg%elements(1)) == 0) call stop_all(cfg%path// &
             ": &potential: elements: missing (element names of atom types 1, 2, ..., e.g. elements = 'Cu', 'Ni')")
-        if (cfg%nml%find('potential', 'epsilon') > 0 .or. cfg%nml%find('potential', 'sigma') > 0 .or. &
-            cfg%nml%find('potential', 'cutoff') > 0) call stop_all(cfg%where('potential', 'style')// &
+        if (cfg%nml%gives_any('potential', 'epsilon sigma cutoff')) call stop_all(cfg%where('potential', 'style')// &
             ': epsilon, sigma and cutoff are for the LJ styles (an EAM file sets its own cutoff)')
         if (cfg%pot_style%needs_metal_units .and. cfg%units%name /= 'metal') &
             call stop_all(cfg%where('run', 'units')//" = '"//trim(cfg%units%name)// &
@@ -1148,7 +1143,7 @@ contains
         character(len=:), allocatable :: es_styles
         es_styles = quoted_list(integs%name, ' or ', has_word(integs%keys, 'terrace_height'))
         if (cfg%integ_style%time_stepped) then
-            if (cfg%nml%find('integrator', 'terrace_height') > 0 .or. cfg%nml%find('integrator', 'target_mean_dt') > 0) &
+            if (cfg%nml%gives_any('integrator', 'terrace_height target_mean_dt')) &
                 call stop_all(cfg%where('integrator', 'style')//': terrace_height and target_mean_dt are for '// &
                               'style = '//es_styles)
         else if (cfg%integ_style%exact_time) then
@@ -1306,9 +1301,7 @@ contains
             trim(cfg%integrator)//"': cannot run &potential style = '"//trim(cfg%potential)//"' (its forces are "// &
             'impulses at the steps); use &integrator style='// &
             quoted_list(integs%name, ' or ', integs%stepped_potentials))
-        if (cfg%nml%find('potential', 'epsilon') > 0 .or. cfg%nml%find('potential', 'sigma') > 0 .or. &
-            cfg%nml%find('potential', 'cutoff') > 0 .or. cfg%nml%find('potential', 'pair_cutoff') > 0 .or. &
-            cfg%nml%find('potential', 'shift') > 0) call stop_all(cfg%where('potential', 'style')//" = '"// &
+        if (cfg%nml%gives_any('potential', 'epsilon sigma cutoff pair_cutoff shift')) call stop_all(cfg%where('potential', 'style')//" = '"// &
             trim(cfg%potential)//"': epsilon, sigma, cutoff, pair_cutoff and shift are for the LJ styles (give "// &
             'diameter'//trim(merge(', well_depth and well_lambda or well_radius', '                                           ', &
             sw))//')')
@@ -1366,8 +1359,7 @@ contains
             quoted_list(integs%name, ' or ', integs%smooth_potentials)//' for it')
         if (cfg%nml%find('integrator', 'dt') > 0) call stop_all(cfg%where('integrator', 'dt')// &
             ': event-driven integration has no time step (it moves from event to event)')
-        if (cfg%nml%find('integrator', 'terrace_height') > 0 .or. cfg%nml%find('integrator', 'target_mean_dt') > 0 &
-            .or. cfg%nml%find('integrator', 'root_tolerance') > 0) call stop_all(cfg%where('integrator', 'style')// &
+        if (cfg%nml%gives_any('integrator', 'terrace_height target_mean_dt root_tolerance')) call stop_all(cfg%where('integrator', 'style')// &
             ': terrace_height, target_mean_dt and root_tolerance are for style = '// &
             quoted_list(integs%name, ' or ', has_word(integs%keys, 'terrace_height')))
         if (cfg%n_steps >= 0) call stop_all(cfg%where('run', 'n_steps')//': event-driven integration has no steps; '// &

@@ -247,7 +247,7 @@ contains
             if (self%cutmax > 0.5_dp*self%box%length(d)) then
                 write (s1, '(es12.5)') self%cutmax
                 write (s2, '(es12.5)') 0.5_dp*self%box%length(d)
-                if (cfg%nml%find('potential', 'cutoff') > 0 .or. cfg%nml%find('potential', 'pair_cutoff') > 0) then
+                if (cfg%nml%gives_any('potential', 'cutoff pair_cutoff')) then
                     call stop_all(cfg%where('potential', 'cutoff')//' = '//trim(adjustl(s1))//': beyond half the '// &
                                   'periodic box along '//'xyz'(d:d)//' ('//trim(adjustl(s2))//'); use a larger box or '// &
                                   'a smaller cutoff')

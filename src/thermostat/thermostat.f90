@@ -5,9 +5,10 @@
 !> thermostat_csvr, thermostat_nose_hoover, thermostat_andersen); thermostat_factory maps a style
 !> name to its type. The integrators call the hooks below and never ask which style they hold:
 !>
-!>   velocity Verlet, one step:   pre_kick (dt/2 before the first half kick: CSVR, Nose-Hoover)
+!>   velocity Verlet, one step:   pre_kick (dt/2 before the first half kick: CSVR, Nose-Hoover,
+!>                                through their half_step)
 !>                                kick_drift in place of the first half kick and drift, when
-!>                                replaces_kick_drift() (Langevin's B A O A)
+!>                                traits%replaces_kick_drift (Langevin's B A O A)
 !>                                post_kick (after the second half kick: CSVR, Nose-Hoover, Andersen)
 !>                                hold_momentum (zero_momentum: remove the total momentum)
 !>   energy stepping, events:     event_time (the next thermostat event, the same on every rank),
@@ -89,12 +90,12 @@ module terrace_thermostat
         procedure :: chain_energy => ts_chain_energy
         procedure, non_overridable :: save => ts_save
         procedure, non_overridable :: restore => ts_restore
-        procedure :: save_own => ts_save_own
-        procedure :: restore_own => ts_restore_own
+        procedure :: exchange_own => ts_exchange_own
         ! velocity Verlet
-        procedure :: pre_kick => ts_no_step
+        procedure :: pre_kick => ts_pre_kick
         procedure :: kick_drift => ts_kick_drift
-        procedure :: post_kick => ts_no_step
+        procedure :: post_kick => ts_post_kick
+        procedure :: half_step => ts_half_step
         ! energy stepping
         procedure :: event_time => ts_event_time
         procedure :: apply_event => ts_at_time
@@ -110,8 +111,7 @@ module terrace_thermostat
     contains
         procedure :: setup => interval_setup
         procedure :: event_time => interval_event_time
-        procedure :: save_own => interval_save
-        procedure :: restore_own => interval_restore
+        procedure :: exchange_own => interval_exchange
     end type interval_thermostat_t
 
     !> No thermostat: every hook does nothing (NVE).
@@ -170,18 +170,14 @@ contains
         if (self%interval > 0) t = real(self%n_rescale, dp)*self%interval
     end function interval_event_time
 
-    subroutine interval_save(self, values)
+    !> The index of the next action, with an interval.
+    subroutine interval_exchange(self, values, saving, ok)
         class(interval_thermostat_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
-        if (self%interval > 0) call values%put('ts_n_rescale', self%n_rescale)
-    end subroutine interval_save
-
-    subroutine interval_restore(self, values, ok)
-        class(interval_thermostat_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
+        logical, intent(in) :: saving
         logical, intent(inout) :: ok
-        if (self%interval > 0) self%n_rescale = values%get_i('ts_n_rescale', ok)
-    end subroutine interval_restore
+        if (self%interval > 0) call values%exchange('ts_n_rescale', self%n_rescale, saving, ok)
+    end subroutine interval_exchange
 
     !> A style's traits (a style overrides this with its own; the default: active, nothing else).
     pure type(thermostat_traits_t) function ts_traits() result(t)
@@ -217,14 +213,34 @@ contains
         temp = self%t_start + (self%t_end - self%t_start)*f
     end function ts_target
 
-    !> A Verlet hook that does nothing (styles override the ones they act in). Step `step` spans
-    !> ((step - 1) dt, step dt]; t_mid is its middle.
-    subroutine ts_no_step(self, atoms, dt, step, t_mid)
+    !> Velocity Verlet's hooks around the kicks of step `step` (spanning ((step - 1) dt, step dt],
+    !> t_mid its middle): by default the style's half_step over dt/2 before the first half kick
+    !> (its draws keyed by the event 2 step) and after the second (event 2 step + 1). A style that
+    !> acts otherwise overrides the hook itself (Andersen's post_kick).
+    subroutine ts_pre_kick(self, atoms, dt, step, t_mid)
         class(thermostat_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
         real(dp), intent(in) :: dt, t_mid
         integer(i8), intent(in) :: step
-    end subroutine ts_no_step
+        call self%half_step(atoms, 0.5_dp*dt, 2*step, t_mid)
+    end subroutine ts_pre_kick
+
+    subroutine ts_post_kick(self, atoms, dt, step, t_mid)
+        class(thermostat_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: dt, t_mid
+        integer(i8), intent(in) :: step
+        call self%half_step(atoms, 0.5_dp*dt, 2*step + 1, t_mid)
+    end subroutine ts_post_kick
+
+    !> The style's operator over a span of time (half a step) at time `time`, its random draws
+    !> keyed by `event` (nothing by default; CSVR, Nose-Hoover).
+    subroutine ts_half_step(self, atoms, span, event, time)
+        class(thermostat_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: span, time
+        integer(i8), intent(in) :: event
+    end subroutine ts_half_step
 
     !> The first half kick and the drift, for a style that replaces them (traits%replaces_kick_drift);
     !> dtfm(type) = dt/2 ftm2v/m.
@@ -257,36 +273,36 @@ contains
     end function ts_chain_energy
 
     !> The thermostat's state for a checkpoint: ecouple (folded: collective), then the style's own
-    !> (save_own).
+    !> (exchange_own).
     subroutine ts_save(self, values)
         class(thermostat_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
         real(dp) :: e
+        logical :: ok
         e = self%ecouple()
         call values%put('ts_ecouple', e)
-        call self%save_own(values)
+        ok = .true.
+        call self%exchange_own(values, .true., ok)
     end subroutine ts_save
 
+    !> The state ts_save wrote (ok false when some of it is missing).
     subroutine ts_restore(self, values, ok)
         class(thermostat_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
+        type(named_values_t), intent(inout) :: values
         logical, intent(inout) :: ok
         self%ecouple_global = values%get_r('ts_ecouple', ok)
         self%ecouple_local = 0
-        call self%restore_own(values, ok)
+        call self%exchange_own(values, .false., ok)
     end subroutine ts_restore
 
-    !> A style's own variables in a checkpoint (none by default).
-    subroutine ts_save_own(self, values)
+    !> A style's own variables, written to (saving) or read from a checkpoint's values (none by
+    !> default).
+    subroutine ts_exchange_own(self, values, saving, ok)
         class(thermostat_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
-    end subroutine ts_save_own
-
-    subroutine ts_restore_own(self, values, ok)
-        class(thermostat_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
+        logical, intent(in) :: saving
         logical, intent(inout) :: ok
-    end subroutine ts_restore_own
+    end subroutine ts_exchange_own
 
     !> Global kinetic energy (collective). One type (the common case): m sum v^2 over the contiguous
     !> velocities, a loop that vectorises; otherwise the sum of m v^2 that kinetic_energy takes.

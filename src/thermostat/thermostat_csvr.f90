@@ -23,9 +23,7 @@ module terrace_thermostat_csvr
     contains
         procedure, nopass :: style_traits => csvr_traits
         procedure :: default_interval => csvr_default_interval
-        procedure :: csvr => csvr_apply
-        procedure :: pre_kick => csvr_pre_kick
-        procedure :: post_kick => csvr_post_kick
+        procedure :: half_step => csvr_apply
         procedure :: apply_event => csvr_apply_event
     end type csvr_t
 
@@ -43,24 +41,9 @@ contains
         interval = damping/10
     end function csvr_default_interval
 
-    subroutine csvr_pre_kick(self, atoms, dt, step, t_mid)
-        class(csvr_t), intent(inout) :: self
-        type(atoms_t), intent(inout) :: atoms
-        real(dp), intent(in) :: dt, t_mid
-        integer(i8), intent(in) :: step
-        call self%csvr(atoms, 0.5_dp*dt, 2*step, t_mid)
-    end subroutine csvr_pre_kick
-
-    subroutine csvr_post_kick(self, atoms, dt, step, t_mid)
-        class(csvr_t), intent(inout) :: self
-        type(atoms_t), intent(inout) :: atoms
-        real(dp), intent(in) :: dt, t_mid
-        integer(i8), intent(in) :: step
-        call self%csvr(atoms, 0.5_dp*dt, 2*step + 1, t_mid)
-    end subroutine csvr_post_kick
-
     !> CSVR over a time span: one global kinetic-energy draw keyed by `event`, then a uniform
-    !> rescale of the owned velocities. Collective.
+    !> rescale of the owned velocities (velocity Verlet: half steps around the kicks, through
+    !> the default pre_kick and post_kick). Collective.
     subroutine csvr_apply(self, atoms, span, event, time)
         class(csvr_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
@@ -79,7 +62,7 @@ contains
         class(csvr_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
         real(dp), intent(in) :: t
-        call self%csvr(atoms, self%interval, self%n_rescale, t)
+        call self%half_step(atoms, self%interval, self%n_rescale, t)
         self%n_rescale = self%n_rescale + 1
         call self%hold_momentum(atoms)
     end subroutine csvr_apply_event

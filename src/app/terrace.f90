@@ -319,14 +319,10 @@ contains
                 trim(merge(' less ecouple', '             ', cfg%thermostat /= 'none'))// &
                 ' (first, last thermo sample): ', ed%e_first, ', ', ed%e_last, '; drift ', ed%e_last - ed%e_first
         end if
-        call summary_put('event_driven/events', ed%events)
-        call summary_put('event_driven/pair_crossings', ed%pair_events)
-        call summary_put('event_driven/cell_crossings', ed%cell_events)
-        call summary_put('event_driven/stale_predictions', ed%stale)
-        call summary_put('event_driven/hard_core_collisions', ed%core)
-        call summary_put('event_driven/captures', ed%captures)
-        call summary_put('event_driven/escapes', ed%escapes)
-        call summary_put('event_driven/bounces', ed%bounces)
+        call summary_put('event_driven/', [character(len=20) :: 'events', 'pair_crossings', 'cell_crossings', &
+                         'stale_predictions', 'hard_core_collisions', 'captures', 'escapes', 'bounces'], &
+                         [ed%events, ed%pair_events, ed%cell_events, ed%stale, ed%core, ed%captures, ed%escapes, &
+                          ed%bounces])
         if (t1 > t0) call summary_put('event_driven/events_per_second', ed%events/(t1 - t0))
         call summary_put('conservation/energy_first', ed%e_first)
         call summary_put('conservation/energy_last', ed%e_last)

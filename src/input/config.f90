@@ -761,9 +761,7 @@ contains
         logical :: given
         given = cfg%nml%find('barostat', 'style') > 0
         if (.not. given) then
-            if (cfg%nml%find('barostat', 'pressure') > 0 .or. cfg%nml%find('barostat', 'damping') > 0 .or. &
-                cfg%nml%find('barostat', 'compressibility') > 0 .or. cfg%nml%find('barostat', 'couple') > 0 .or. &
-                cfg%nml%find('barostat', 'interval') > 0) &
+            if (cfg%nml%gives_any('barostat', 'pressure damping compressibility couple interval')) &
                 call stop_all(cfg%path//': &barostat: style: missing (allowed: '//styles//')')
             return
         end if
@@ -805,7 +803,7 @@ contains
         end select
         if (cfg%barostat == 'mttk') then
             call new_thermostat(cfg%thermostat, thermostat_params_t(), proto)
-            if (.not. proto%takes_chain()) call stop_all(style_is// &
+            if (.not. proto%traits%takes_chain) call stop_all(style_is// &
                 ": thermostats its particles with the run's Nose-Hoover chain: &thermostat style = '"// &
                 trim(cfg%thermostat)//"' not allowed with it (allowed: "//thermostat_names_with_chain()//')')
         end if
@@ -886,10 +884,8 @@ contains
         logical :: given
         given = cfg%nml%find('thermostat', 'style') > 0
         if (.not. given) then
-            if (cfg%nml%find('thermostat', 'temperature') > 0 .or. cfg%nml%find('thermostat', 'damping') > 0 .or. &
-                cfg%nml%find('thermostat', 'temperature_end') > 0 .or. cfg%nml%find('thermostat', 'chain_length') > 0 &
-                .or. cfg%nml%find('thermostat', 'seed') > 0 .or. cfg%nml%find('thermostat', 'zero_momentum') > 0 &
-                .or. cfg%nml%find('thermostat', 'interval') > 0) &
+            if (cfg%nml%gives_any('thermostat', 'temperature damping temperature_end chain_length seed '// &
+                                  'zero_momentum interval')) &
                 call stop_all(cfg%path//': &thermostat: style: missing (allowed: '//thermostat_styles()//')')
             return
         end if
@@ -898,7 +894,7 @@ contains
             call stop_all(style_is//': unknown thermostat (allowed: '//thermostat_styles()//')')
         call new_thermostat(cfg%thermostat, thermostat_params_t(), proto)
         if (.not. proto%active()) return
-        if (cfg%integ_style%exact_time .and. len(proto%event_note()) == 0) &
+        if (cfg%integ_style%exact_time .and. len_trim(proto%traits%event_note) == 0) &
             call stop_all(style_is//': not available with energy stepping, whose trajectory is straight lines and '// &
                           'jumps between events (allowed there: '//thermostat_styles_for_events()//')')
         if (cfg%nml%find('thermostat', 'temperature') == 0) &
@@ -921,7 +917,7 @@ contains
         if (.not. (cfg%thermostat_damping > 0)) &
             call stop_all(cfg%where('thermostat', 'damping')//': must be > 0 (a time in '//trim(cfg%units%time)//')')
         if (cfg%nml%find('thermostat', 'chain_length') > 0) then
-            if (.not. proto%takes_chain()) call stop_all(cfg%where('thermostat', 'chain_length')// &
+            if (.not. proto%traits%takes_chain) call stop_all(cfg%where('thermostat', 'chain_length')// &
                 ': only for '//thermostat_styles_with_chain())
             if (cfg%chain_length < 1 .or. cfg%chain_length > max_chain) call stop_all(cfg%where('thermostat', &
                 'chain_length')//': must be between 1 and 100 (3 to 10 is usual)')
@@ -1100,8 +1096,7 @@ contains
             "potential file, e.g. file = '/usr/share/lammps/potentials/Cu_u3.eam')")
         if (cfg%pot_style%needs_elements .and. len_trim(cfg%elements(1)) == 0) call stop_all(cfg%path// &
             ": &potential: elements: missing (element names of atom types 1, 2, ..., e.g. elements = 'Cu', 'Ni')")
-        if (cfg%nml%find('potential', 'epsilon') > 0 .or. cfg%nml%find('potential', 'sigma') > 0 .or. &
-            cfg%nml%find('potential', 'cutoff') > 0) call stop_all(cfg%where('potential', 'style')// &
+        if (cfg%nml%gives_any('potential', 'epsilon sigma cutoff')) call stop_all(cfg%where('potential', 'style')// &
             ': epsilon, sigma and cutoff are for the LJ styles (an EAM file sets its own cutoff)')
         if (cfg%pot_style%needs_metal_units .and. cfg%units%name /= 'metal') &
             call stop_all(cfg%where('run', 'units')//" = '"//trim(cfg%units%name)// &
@@ -1148,7 +1143,7 @@ contains
         character(len=:), allocatable :: es_styles
         es_styles = quoted_list(integs%name, ' or ', has_word(integs%keys, 'terrace_height'))
         if (cfg%integ_style%time_stepped) then
-            if (cfg%nml%find('integrator', 'terrace_height') > 0 .or. cfg%nml%find('integrator', 'target_mean_dt') > 0) &
+            if (cfg%nml%gives_any('integrator', 'terrace_height target_mean_dt')) &
                 call stop_all(cfg%where('integrator', 'style')//': terrace_height and target_mean_dt are for '// &
                               'style = '//es_styles)
         else if (cfg%integ_style%exact_time) then
@@ -1306,9 +1301,7 @@ contains
             trim(cfg%integrator)//"': cannot run &potential style = '"//trim(cfg%potential)//"' (its forces are "// &
             'impulses at the steps); use &integrator style='// &
             quoted_list(integs%name, ' or ', integs%stepped_potentials))
-        if (cfg%nml%find('potential', 'epsilon') > 0 .or. cfg%nml%find('potential', 'sigma') > 0 .or. &
-            cfg%nml%find('potential', 'cutoff') > 0 .or. cfg%nml%find('potential', 'pair_cutoff') > 0 .or. &
-            cfg%nml%find('potential', 'shift') > 0) call stop_all(cfg%where('potential', 'style')//" = '"// &
+        if (cfg%nml%gives_any('potential', 'epsilon sigma cutoff pair_cutoff shift')) call stop_all(cfg%where('potential', 'style')//" = '"// &
             trim(cfg%potential)//"': epsilon, sigma, cutoff, pair_cutoff and shift are for the LJ styles (give "// &
             'diameter'//trim(merge(', well_depth and well_lambda or well_radius', '                                           ', &
             sw))//')')
@@ -1366,8 +1359,7 @@ contains
             quoted_list(integs%name, ' or ', integs%smooth_potentials)//' for it')
         if (cfg%nml%find('integrator', 'dt') > 0) call stop_all(cfg%where('integrator', 'dt')// &
             ': event-driven integration has no time step (it moves from event to event)')
-        if (cfg%nml%find('integrator', 'terrace_height') > 0 .or. cfg%nml%find('integrator', 'target_mean_dt') > 0 &
-            .or. cfg%nml%find('integrator', 'root_tolerance') > 0) call stop_all(cfg%where('integrator', 'style')// &
+        if (cfg%nml%gives_any('integrator', 'terrace_height target_mean_dt root_tolerance')) call stop_all(cfg%where('integrator', 'style')// &
             ': terrace_height, target_mean_dt and root_tolerance are for style = '// &
             quoted_list(integs%name, ' or ', has_word(integs%keys, 'terrace_height')))
         if (cfg%n_steps >= 0) call stop_all(cfg%where('run', 'n_steps')//': event-driven integration has no steps; '// &
@@ -1379,7 +1371,7 @@ contains
             trim(cfg%units%time)//')')
         if (cfg%nml%find('thermostat', 'style') > 0) then
             call new_thermostat(cfg%thermostat, thermostat_params_t(), proto)
-            if (proto%active() .and. .not. proto%collides_atoms()) call stop_all(cfg%where('thermostat', &
+            if (proto%active() .and. .not. proto%traits%collides_atoms) call stop_all(cfg%where('thermostat', &
                 'style')//" = '"//trim(cfg%thermostat)//"': not available with event-driven integration (allowed: "// &
                 thermostat_styles_colliding()//"'none')")
             if (cfg%nml%find('thermostat', 'interval') > 0) call stop_all(cfg%where('thermostat', 'interval')// &

@@ -6,7 +6,7 @@
 !> value out of range is reported with file, line, group and key.
 module terrace_namelist_text
     use terrace_kinds, only: i8
-    use terrace_text, only: int_text
+    use terrace_text, only: int_text, has_word
     implicit none
     private
 
@@ -28,6 +28,7 @@ module terrace_namelist_text
         character(len=:), allocatable :: syntax_error  !< empty when the file parsed
     contains
         procedure :: find => nl_find
+        procedure :: gives_any => nl_gives_any
         procedure :: where => nl_where
         procedure :: has_group => nl_has_group
     end type namelist_file_t
@@ -70,6 +71,17 @@ contains
             if (self%items(i)%group == group .and. self%items(i)%key == key) k = i
         end do
     end function nl_find
+
+    !> Does the group give any of the keys (base names, blank-separated: 'pressure damping')?
+    logical function nl_gives_any(self, group, keys)
+        class(namelist_file_t), intent(in) :: self
+        character(len=*), intent(in) :: group, keys
+        integer :: i
+        nl_gives_any = .false.
+        do i = 1, self%count
+            if (self%items(i)%group == group .and. has_word(keys, self%items(i)%key)) nl_gives_any = .true.
+        end do
+    end function nl_gives_any
 
     !> "file:line: &group: key" for messages (line of the key when it was given).
     function nl_where(self, group, key) result(s)

@@ -43,10 +43,10 @@ module terrace_event_driven
     use terrace_event_cells, only: event_cells_t
     use terrace_pair_map, only: pair_map_t
     use terrace_velocities, only: atom_mass, hash_uniform
-    use terrace_mpi_env, only: world, min_all
+    use terrace_mpi_env, only: world, min_all, gather_counts
     use terrace_errors, only: stop_all, check_all
     use terrace_timers, only: t_pair, t_output
-    use mpi_f08, only: MPI_Allgatherv, MPI_Allgather, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION
+    use mpi_f08, only: MPI_Allgatherv, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION
     implicit none
     private
 
@@ -391,18 +391,14 @@ contains
         integer, allocatable :: counts(:), displ(:), ti(:), ii(:, :)
         integer(i8), allocatable :: ids(:)
         real(dp), allocatable :: xx(:, :), vv(:, :), mm(:), mm_local(:)
-        integer :: nl, rk, k, n
+        integer :: nl, k, n
         integer(i8) :: g
         associate (eng => r%eng)
             nl = eng%atoms%nlocal
             n = int(eng%natoms)
             r%n = n
             allocate (counts(world%nprocs), displ(world%nprocs))
-            call MPI_Allgather(nl, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, world%comm)
-            displ(1) = 0
-            do rk = 2, world%nprocs
-                displ(rk) = displ(rk - 1) + counts(rk - 1)
-            end do
+            call gather_counts(nl, counts, displ)
             allocate (ids(n), ti(n), ii(3, n), xx(3, n), vv(3, n), mm(n))
             allocate (mm_local(nl))
             do k = 1, nl
@@ -722,7 +718,7 @@ contains
     subroutine thermostat_event(r, t)
         type(ed_run_t), intent(inout) :: r
         real(dp), intent(in) :: t
-        integer :: k, g, nl, nc, i, rk
+        integer :: k, g, nl, nc, i
         integer :: counts(world%nprocs), displ(world%nprocs)
         integer(i8) :: id
         real(dp) :: vnew(3), de
@@ -740,11 +736,7 @@ contains
                     r%mine_id(nc) = atoms%id(k); r%mine_v(:, nc) = atoms%v(:, k)
                 end if
             end do
-            call MPI_Allgather(nc, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, world%comm)
-            displ(1) = 0
-            do rk = 2, world%nprocs
-                displ(rk) = displ(rk - 1) + counts(rk - 1)
-            end do
+            call gather_counts(nc, counts, displ)
             call MPI_Allgatherv(r%mine_id, nc, MPI_INTEGER8, r%changed_id, counts, displ, MPI_INTEGER8, &
                                 world%comm)
             call MPI_Allgatherv(r%mine_v, 3*nc, MPI_DOUBLE_PRECISION, r%changed_v, 3*counts, 3*displ, &

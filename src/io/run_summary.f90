@@ -23,9 +23,11 @@ module terrace_run_summary
     public :: summary_put, summary_put_raw, summary_text, summary_write, summary_reset
     public :: summary_start, json_string, crc32_hex
 
-    !> Put a value under a key ('group/name'): a real, an integer, a logical or a string.
+    !> Put a value under a key ('group/name'): a real, an integer, a logical or a string; or a list
+    !> of reals or of integer(i8) under the keys group//names(k), in that order
+    !> (summary_put('group/', names, values)).
     interface summary_put
-        module procedure put_r, put_i8, put_i4, put_l, put_s
+        module procedure put_r, put_i8, put_i4, put_l, put_s, put_list
     end interface summary_put
 
     type :: record_t
@@ -83,6 +85,20 @@ contains
         write (buf, '(i0)') n
         call summary_put_raw(key, trim(buf))
     end subroutine put_i8
+
+    subroutine put_list(group, names, values)
+        character(len=*), intent(in) :: group, names(:)
+        class(*), intent(in) :: values(size(names))
+        integer :: k
+        do k = 1, size(names)
+            select type (values)
+            type is (real(dp))
+                call put_r(group//trim(names(k)), values(k))
+            type is (integer(i8))
+                call put_i8(group//trim(names(k)), values(k))
+            end select
+        end do
+    end subroutine put_list
 
     subroutine put_i4(key, n)
         character(len=*), intent(in) :: key

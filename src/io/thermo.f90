@@ -40,6 +40,7 @@ module terrace_thermo
     contains
         procedure :: open => thermo_open
         procedure :: open_append => thermo_open_append
+        procedure, private :: start => thermo_start
         procedure, nopass :: check_append => thermo_check_append
         procedure :: write => thermo_write
         procedure :: tick => thermo_tick
@@ -61,11 +62,7 @@ contains
         logical, intent(in), optional :: mesh
         integer :: ios
         ok = .true.; msg = ''
-        self%end_time = end_time
-        self%time_unit = time_unit
-        self%extra_header = extra_header
-        self%wall_start = MPI_Wtime()
-        self%last_line = self%wall_start; self%last_read = self%wall_start
+        call self%start(end_time, time_unit, extra_header)
         if (world%rank /= 0) return
         if (len_trim(path) > 0) then
             self%path = path
@@ -89,6 +86,19 @@ contains
         end if
         call screen_header(units, mesh)
     end subroutine thermo_open
+
+    !> What thermo_open and thermo_open_append share: the run's end, the time unit, the extra
+    !> columns' header and the wall clock's start (progress and the lines' pacing).
+    subroutine thermo_start(self, end_time, time_unit, extra_header)
+        class(thermo_writer_t), intent(inout) :: self
+        real(dp), intent(in) :: end_time
+        character(len=*), intent(in) :: time_unit, extra_header
+        self%end_time = end_time
+        self%time_unit = time_unit
+        self%extra_header = extra_header
+        self%wall_start = MPI_Wtime()
+        self%last_line = self%wall_start; self%last_read = self%wall_start
+    end subroutine thermo_start
 
     !> The screen's column names, with the units on a second line (and, for a mesh, what its temp
     !> column is: the nodes' kinetic energy per degree of freedom over k_B, whatever the units).
@@ -121,11 +131,7 @@ contains
         character(len=:), allocatable :: text
         integer :: ios, pos
         ok = .true.; msg = ''
-        self%end_time = end_time
-        self%time_unit = time_unit
-        self%extra_header = extra_header
-        self%wall_start = MPI_Wtime()
-        self%last_line = self%wall_start; self%last_read = self%wall_start
+        call self%start(end_time, time_unit, extra_header)
         self%lines = keep
         if (world%rank /= 0) return
         if (len_trim(path) > 0) then
@@ -297,12 +303,8 @@ contains
         use terrace_run_summary, only: summary_put
         type(thermo_sample_t), intent(in) :: s
         call summary_put('thermo_last/step', s%step)
-        call summary_put('thermo_last/time', s%time)
-        call summary_put('thermo_last/temp', s%temp)
-        call summary_put('thermo_last/pe', s%pe)
-        call summary_put('thermo_last/ke', s%ke)
-        call summary_put('thermo_last/etotal', s%etotal)
-        call summary_put('thermo_last/press', s%press)
+        call summary_put('thermo_last/', [character(len=6) :: 'time', 'temp', 'pe', 'ke', 'etotal', 'press'], &
+                         [s%time, s%temp, s%pe, s%ke, s%etotal, s%press])
     end subroutine summary_sample
 
     !> Close and delete the CSV (a run that stops before its first step leaves no file).

@@ -25,7 +25,7 @@ module terrace_minimize
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
     use terrace_scene_plan, only: pair_all
-    use terrace_mpi_env, only: world, sum_all, max_all
+    use terrace_mpi_env, only: world, sum_all, max_all, gather_counts
     implicit none
     private
 
@@ -330,20 +330,16 @@ contains
 
     !> Every rank's ids and rows (m numbers per atom), concatenated in rank order. Collective.
     subroutine gather_rows(id, rows, all_id, all_rows)
-        use mpi_f08, only: MPI_Allgather, MPI_Allgatherv, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION
+        use mpi_f08, only: MPI_Allgatherv, MPI_INTEGER8, MPI_DOUBLE_PRECISION
         integer(i8), intent(in) :: id(:)
         real(dp), intent(in) :: rows(:, :)
         integer(i8), allocatable, intent(out) :: all_id(:)
         real(dp), allocatable, intent(out) :: all_rows(:, :)
         integer, allocatable :: counts(:), displs(:)
-        integer :: n, m, k
+        integer :: n, m
         n = size(id); m = size(rows, 1)
         allocate (counts(world%nprocs), displs(world%nprocs))
-        call MPI_Allgather(n, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, world%comm)
-        displs(1) = 0
-        do k = 2, world%nprocs
-            displs(k) = displs(k - 1) + counts(k - 1)
-        end do
+        call gather_counts(n, counts, displs)
         allocate (all_id(sum(counts)), all_rows(m, sum(counts)))
         call MPI_Allgatherv(id, n, MPI_INTEGER8, all_id, counts, displs, MPI_INTEGER8, world%comm)
         call MPI_Allgatherv(rows, m*n, MPI_DOUBLE_PRECISION, all_rows, m*counts, m*displs, MPI_DOUBLE_PRECISION, &

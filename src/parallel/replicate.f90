@@ -3,8 +3,8 @@
 module terrace_replicate
     use terrace_kinds, only: dp
     use terrace_atoms, only: atoms_t
-    use terrace_mpi_env, only: world
-    use mpi_f08, only: MPI_Allgather, MPI_Allgatherv, MPI_INTEGER, MPI_DOUBLE_PRECISION
+    use terrace_mpi_env, only: world, gather_counts
+    use mpi_f08, only: MPI_Allgatherv, MPI_DOUBLE_PRECISION
     implicit none
     private
 
@@ -25,12 +25,8 @@ contains
         type(atoms_t), intent(inout) :: atoms
         integer :: r, k, j, n
         if (.not. allocated(self%counts)) allocate (self%counts(world%nprocs), self%displs(world%nprocs))
-        call MPI_Allgather(atoms%nlocal, 1, MPI_INTEGER, self%counts, 1, MPI_INTEGER, world%comm)
-        self%total = 0
-        do r = 1, world%nprocs
-            self%displs(r) = self%total
-            self%total = self%total + self%counts(r)
-        end do
+        call gather_counts(atoms%nlocal, self%counts, self%displs)
+        self%total = sum(self%counts)
         if (allocated(self%buf)) deallocate (self%buf)
         allocate (self%buf(3*max(self%total, 1)))
         atoms%nghost = 0

@@ -5,7 +5,7 @@ module terrace_mpi_env
     use mpi_f08, only: MPI_Comm, MPI_Op, MPI_Datatype, MPI_COMM_WORLD, MPI_Init, MPI_Comm_rank, MPI_Comm_size, &
                        MPI_Allreduce, MPI_IN_PLACE, MPI_DOUBLE_PRECISION, MPI_INTEGER8, &
                        MPI_LOGICAL, MPI_SUM, MPI_MAX, MPI_MIN, MPI_LOR, MPI_Bcast, &
-                       MPI_CHARACTER, MPI_INTEGER, MPI_Finalize
+                       MPI_CHARACTER, MPI_INTEGER, MPI_Finalize, MPI_Allgather
     implicit none
     private
 
@@ -17,14 +17,8 @@ module terrace_mpi_env
 
     type(mpi_env_t), public, protected :: world
 
-    public :: start_mpi, end_mpi, use_communicator, sum_all, max_all, min_all, any_all, sum_all_i8, bcast_text
-
-    interface sum_all
-        module procedure sum_all_scalar, sum_all_array
-    end interface sum_all
-    interface min_all
-        module procedure min_all_scalar, min_all_array
-    end interface min_all
+    public :: start_mpi, end_mpi, use_communicator, sum_all, max_all, min_all, any_all, sum_all_i8, bcast_text, &
+              gather_counts
 
 contains
 
@@ -55,15 +49,12 @@ contains
         if (world%nprocs > 1) call MPI_Allreduce(MPI_IN_PLACE, x, n, datatype, op, world%comm)
     end subroutine reduce_in_place
 
-    subroutine sum_all_scalar(x)
-        real(dp), intent(inout) :: x
-        call reduce_in_place(x, 1, MPI_DOUBLE_PRECISION, MPI_SUM)
-    end subroutine sum_all_scalar
-
-    subroutine sum_all_array(x)
-        real(dp), intent(inout) :: x(:)
+    !> The reductions below take a scalar or a contiguous array (assumed rank: size(x) is 1 for a
+    !> scalar).
+    subroutine sum_all(x)
+        real(dp), intent(inout) :: x(..)
         call reduce_in_place(x, size(x), MPI_DOUBLE_PRECISION, MPI_SUM)
-    end subroutine sum_all_array
+    end subroutine sum_all
 
     subroutine sum_all_i8(n)
         integer(i8), intent(inout) :: n
@@ -75,20 +66,29 @@ contains
         call reduce_in_place(x, 1, MPI_DOUBLE_PRECISION, MPI_MAX)
     end subroutine max_all
 
-    subroutine min_all_scalar(x)
-        real(dp), intent(inout) :: x
-        call reduce_in_place(x, 1, MPI_DOUBLE_PRECISION, MPI_MIN)
-    end subroutine min_all_scalar
-
-    subroutine min_all_array(x)
-        real(dp), intent(inout) :: x(:)
+    subroutine min_all(x)
+        real(dp), intent(inout) :: x(..)
         call reduce_in_place(x, size(x), MPI_DOUBLE_PRECISION, MPI_MIN)
-    end subroutine min_all_array
+    end subroutine min_all
 
     subroutine any_all(flag)
         logical, intent(inout) :: flag
         call reduce_in_place(flag, 1, MPI_LOGICAL, MPI_LOR)
     end subroutine any_all
+
+    !> Every rank's count n, in rank order (counts), and where each rank's part starts in their
+    !> concatenation (displs: the sum of the counts before it), as MPI_Allgatherv wants them.
+    !> counts and displs hold one entry per rank. Collective.
+    subroutine gather_counts(n, counts, displs)
+        integer, intent(in) :: n
+        integer, intent(out) :: counts(:), displs(:)
+        integer :: k
+        call MPI_Allgather(n, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, world%comm)
+        displs(1) = 0
+        do k = 2, world%nprocs
+            displs(k) = displs(k - 1) + counts(k - 1)
+        end do
+    end subroutine gather_counts
 
     !> Broadcast an allocatable string from rank 0.
     subroutine bcast_text(text)

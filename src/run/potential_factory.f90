@@ -60,12 +60,7 @@ contains
                 end if
             end block
         else if (cfg%potential == 'hard_sphere' .or. cfg%potential == 'square_well') then
-            block
-                type(stepped_potential_t), allocatable :: sp
-                allocate (sp)
-                call setup_stepped(sp, cfg, ntypes)
-                call move_alloc(sp, pot)
-            end block
+            call new_stepped(cfg, ntypes, pot)
         else if (cfg%potential(1:3) == 'eam') then
             block
                 type(eam_t), allocatable :: eam
@@ -80,12 +75,7 @@ contains
                 call move_alloc(eam, pot)
             end block
         else
-            block
-                type(lj_t), allocatable :: lj
-                allocate (lj)
-                call setup_lj(lj, cfg, ntypes)
-                call move_alloc(lj, pot)
-            end block
+            call new_lj(cfg, ntypes, pot)
         end if
     end subroutine make_potential
 
@@ -155,14 +145,17 @@ contains
         end do
     end function count_bodies
 
-    !> LJ tables: per-pair epsilon, sigma (geometric mixing where a pair is not given) and cutoff.
-    subroutine setup_lj(lj, cfg, ntypes)
-        type(lj_t), intent(inout) :: lj
+    !> An LJ potential with its tables: per-pair epsilon, sigma (geometric mixing where a pair is not
+    !> given) and cutoff.
+    subroutine new_lj(cfg, ntypes, pot)
         type(config_t), intent(in) :: cfg
         integer, intent(in) :: ntypes
+        class(potential_t), allocatable, intent(out) :: pot
+        type(lj_t), allocatable :: lj
         real(dp) :: cut(max_types, max_types), eps(max_types, max_types), sig(max_types, max_types)
         integer :: t, i
         character(len=64) :: s1
+        allocate (lj)
         do t = 1, ntypes
             if (is_unset(cfg%epsilon(t, t)) .or. is_unset(cfg%sigma(t, t))) then
                 write (s1, '(i0)') t
@@ -184,18 +177,21 @@ contains
         end if
         call lj%setup(ntypes, eps, sig, cut, cfg%shift, cfg%potential == 'lj/smooth/linear', &
                       mixed=cfg%precision == 'mixed')
-    end subroutine setup_lj
+        call move_alloc(lj, pot)
+    end subroutine new_lj
 
-    !> Hard-sphere and square-well tables: per-pair diameter (arithmetic mean of the two types'
-    !> where a pair is not given, additive spheres), well depth (geometric mean) and outer radius
-    !> (well_radius, or well_lambda x diameter, lambda the arithmetic mean).
-    subroutine setup_stepped(sp, cfg, ntypes)
-        type(stepped_potential_t), intent(inout) :: sp
+    !> A hard-sphere or square-well potential with its tables: per-pair diameter (arithmetic mean
+    !> of the two types' where a pair is not given, additive spheres), well depth (geometric mean)
+    !> and outer radius (well_radius, or well_lambda x diameter, lambda the arithmetic mean).
+    subroutine new_stepped(cfg, ntypes, pot)
         type(config_t), intent(in) :: cfg
         integer, intent(in) :: ntypes
+        class(potential_t), allocatable, intent(out) :: pot
+        type(stepped_potential_t), allocatable :: sp
         integer :: t, i
         real(dp) :: d, eps, rw, lam
         character(len=16) :: s1
+        allocate (sp)
         sp%style = trim(cfg%potential)
         do t = 1, ntypes
             write (s1, '(i0)') t
@@ -228,6 +224,7 @@ contains
                 call sp%table%set_pair(i, t, [rw, d], [-eps])
             end do
         end do
+        call move_alloc(sp, pot)
     contains
         real(dp) function lambda_of(k)
             integer, intent(in) :: k
@@ -237,7 +234,7 @@ contains
                 lambda_of = cfg%well_radius(k, k)/cfg%diameter(k, k)
             end if
         end function lambda_of
-    end subroutine setup_stepped
+    end subroutine new_stepped
 
     pure real(dp) function pick(table, i, j, fallback) result(v)
         real(dp), intent(in) :: table(:, :), fallback

@@ -19,7 +19,7 @@ module terrace_scene_builder
     use terrace_potential_factory, only: make_potential
     use terrace_scene_planner, only: plan_scene
     use terrace_scene, only: scene_t
-    use terrace_mpi_env, only: world, sum_all_i8
+    use terrace_mpi_env, only: world, sum_all_i8, gather_counts
     use terrace_errors, only: stop_all, check_all
     use terrace_checkpoint, only: ckpt_data_t, read_checkpoint
     use terrace_named_values, only: named_values_t
@@ -247,7 +247,7 @@ contains
             if (self%cutmax > 0.5_dp*self%box%length(d)) then
                 write (s1, '(es12.5)') self%cutmax
                 write (s2, '(es12.5)') 0.5_dp*self%box%length(d)
-                if (cfg%nml%find('potential', 'cutoff') > 0 .or. cfg%nml%find('potential', 'pair_cutoff') > 0) then
+                if (cfg%nml%gives_any('potential', 'cutoff pair_cutoff')) then
                     call stop_all(cfg%where('potential', 'cutoff')//' = '//trim(adjustl(s1))//': beyond half the '// &
                                   'periodic box along '//'xyz'(d:d)//' ('//trim(adjustl(s2))//'); use a larger box or '// &
                                   'a smaller cutoff')
@@ -401,13 +401,13 @@ contains
     !> then shared with every rank, which keeps the atoms it owns. The box is box_lo (default 0)
     !> plus the file's edges.
     subroutine read_h5md_table(cfg, table)
-        use mpi_f08, only: MPI_Allgather, MPI_Allgatherv, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION
+        use mpi_f08, only: MPI_Allgatherv, MPI_DOUBLE_PRECISION
         type(config_t), intent(in) :: cfg
         type(atom_table_t), intent(out) :: table
         type(h5md_frame_t) :: fr
         integer, allocatable :: counts(:), displs(:)
         real(dp), allocatable :: buf(:, :), mine(:, :)
-        integer :: dimension, n, total, r, i
+        integer :: dimension, n, total, i
         real(dp) :: edges(3)
         logical :: ok, has_v
         character(len=1024) :: msg
@@ -422,11 +422,8 @@ contains
             if (has_v) mine(6:8, i) = fr%v(:, i)
             if (fr%has_image) mine(9:11, i) = real(fr%image(:, i), dp)
         end do
-        call MPI_Allgather(11*n, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, world%comm)
-        total = 0
-        do r = 1, world%nprocs
-            displs(r) = total; total = total + counts(r)
-        end do
+        call gather_counts(11*n, counts, displs)
+        total = sum(counts)
         allocate (buf(11, total/11))
         call MPI_Allgatherv(mine, 11*n, MPI_DOUBLE_PRECISION, buf, counts, displs, MPI_DOUBLE_PRECISION, world%comm)
         table%n = total/11

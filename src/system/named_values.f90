@@ -3,6 +3,7 @@
 !> writer stores them as attributes of /state (terrace_checkpoint); nothing here knows the file.
 module terrace_named_values
     use terrace_kinds, only: dp, i8
+    use terrace_text, only: int_text
     implicit none
     private
 
@@ -97,7 +98,7 @@ contains
         real(dp), intent(in) :: x(:)
         integer :: j
         do j = 1, size(x)
-            call self%put(prefix//index_text(j), x(j))
+            call self%put(prefix//int_text(j), x(j))
         end do
     end subroutine values_put_reals
 
@@ -109,17 +110,9 @@ contains
         logical, intent(inout) :: ok
         integer :: j
         do j = 1, size(x)
-            x(j) = self%get_r(prefix//index_text(j), ok)
+            x(j) = self%get_r(prefix//int_text(j), ok)
         end do
     end subroutine values_get_reals
-
-    pure function index_text(j) result(s)
-        integer, intent(in) :: j
-        character(len=:), allocatable :: s
-        character(len=16) :: b
-        write (b, '(i0)') j
-        s = trim(b)
-    end function index_text
 
     logical function values_has(self, name)
         class(named_values_t), intent(in) :: self

@@ -5,15 +5,20 @@
 !> thermostat_csvr, thermostat_nose_hoover, thermostat_andersen); thermostat_factory maps a style
 !> name to its type. The integrators call the hooks below and never ask which style they hold:
 !>
-!>   velocity Verlet, one step:   pre_kick (dt/2 before the first half kick: CSVR, Nose-Hoover)
+!>   velocity Verlet, one step:   pre_kick (dt/2 before the first half kick: CSVR, Nose-Hoover,
+!>                                through their half_step)
 !>                                kick_drift in place of the first half kick and drift, when
-!>                                replaces_kick_drift() (Langevin's B A O A)
+!>                                traits%replaces_kick_drift (Langevin's B A O A)
 !>                                post_kick (after the second half kick: CSVR, Nose-Hoover, Andersen)
 !>                                hold_momentum (zero_momentum: remove the total momentum)
 !>   energy stepping, events:     event_time (the next thermostat event, the same on every rank),
 !>                                apply_event (at that time: Andersen collisions, CSVR rescaling),
 !>                                schedule (after a list build or at the start: per-atom times)
 !>   both:                        active, dof, ecouple / fold, chain_energy, save / restore
+!>
+!> What a style is (whether it holds the total momentum, replaces Verlet's kick and drift, takes a
+!> chain, collides atoms at exact times, how it acts with energy stepping) is data: the record
+!> its style_traits() returns, kept in `traits` from init on.
 !>
 !> Every random number is drawn from the counter-based generator keyed by (seed, stream, atom id,
 !> step or event), never by rank or by order of atoms: a run gives the same trajectory on any rank
@@ -47,7 +52,20 @@ module terrace_thermostat
         real(dp) :: interval = 0
     end type thermostat_params_t
 
+    !> What a style is and what the deck may ask of it.
+    type, public :: thermostat_traits_t
+        logical :: active = .true.                 !< .false.: no thermostat (NVE)
+        logical :: holds_momentum = .false.        !< keeps a zero total momentum zero (dof less d)
+        logical :: replaces_kick_drift = .false.   !< Verlet: kick_drift for the first half kick and drift
+        logical :: takes_chain = .false.           !< takes &thermostat chain_length
+        logical :: collides_atoms = .false.        !< atoms collide one by one at exact times (event-driven runs)
+        !> with energy stepping, how the style acts (for messages; '': it cannot, its operators
+        !> need the steps of velocity Verlet)
+        character(len=32) :: event_note = ''
+    end type thermostat_traits_t
+
     type, abstract, public :: thermostat_t
+        type(thermostat_traits_t) :: traits     !< the style's style_traits(), from init on
         real(dp) :: t_start = 0, t_end = 0      !< target temperature at time 0 and at run_time
         real(dp) :: run_time = 0                !< length of the ramp
         real(dp) :: damping = 1
@@ -61,12 +79,8 @@ module terrace_thermostat
     contains
         procedure, non_overridable :: init => ts_init
         procedure :: setup => ts_setup
-        procedure :: holds_momentum => ts_holds_momentum
-        procedure :: active => ts_active
-        ! what the deck may ask of the style (the deck reader checks the keys against these)
-        procedure :: event_note => ts_event_note
-        procedure :: takes_chain => ts_false
-        procedure :: collides_atoms => ts_false   !< atoms collide one by one at exact times (event-driven runs)
+        procedure, nopass :: style_traits => ts_traits
+        procedure, non_overridable :: active => ts_active
         procedure :: default_interval => ts_default_interval
         procedure, non_overridable :: target => ts_target
         procedure, non_overridable :: ecouple => ts_ecouple
@@ -76,13 +90,12 @@ module terrace_thermostat
         procedure :: chain_energy => ts_chain_energy
         procedure, non_overridable :: save => ts_save
         procedure, non_overridable :: restore => ts_restore
-        procedure :: save_own => ts_save_own
-        procedure :: restore_own => ts_restore_own
+        procedure :: exchange_own => ts_exchange_own
         ! velocity Verlet
-        procedure :: pre_kick => ts_no_step
-        procedure :: replaces_kick_drift => ts_false
+        procedure :: pre_kick => ts_pre_kick
         procedure :: kick_drift => ts_kick_drift
-        procedure :: post_kick => ts_no_step
+        procedure :: post_kick => ts_post_kick
+        procedure :: half_step => ts_half_step
         ! energy stepping
         procedure :: event_time => ts_event_time
         procedure :: apply_event => ts_at_time
@@ -98,15 +111,13 @@ module terrace_thermostat
     contains
         procedure :: setup => interval_setup
         procedure :: event_time => interval_event_time
-        procedure :: save_own => interval_save
-        procedure :: restore_own => interval_restore
+        procedure :: exchange_own => interval_exchange
     end type interval_thermostat_t
 
     !> No thermostat: every hook does nothing (NVE).
     type, extends(thermostat_t), public :: thermostat_none_t
     contains
-        procedure :: active => none_active
-        procedure :: holds_momentum => none_holds_momentum
+        procedure, nopass :: style_traits => none_traits
     end type thermostat_none_t
 
     public :: thermostat_dof, total_ke, scale_velocities
@@ -129,12 +140,13 @@ contains
     subroutine ts_init(self, p)
         class(thermostat_t), intent(inout) :: self
         type(thermostat_params_t), intent(in) :: p
+        self%traits = self%style_traits()
         self%t_start = p%temperature; self%t_end = p%temperature_end; self%run_time = p%ramp_time
         self%damping = p%damping
         self%seed = p%seed; self%zero_momentum = p%zero_momentum
         self%dimension = p%dimension
         self%boltz = p%boltz; self%mvv2e = p%mvv2e
-        self%dof = thermostat_dof(self%holds_momentum(), p%zero_momentum, p%dimension, p%natoms)
+        self%dof = thermostat_dof(self%traits%holds_momentum, p%zero_momentum, p%dimension, p%natoms)
         self%ecouple_global = 0; self%ecouple_local = 0
         call self%setup(p)
     end subroutine ts_init
@@ -158,32 +170,24 @@ contains
         if (self%interval > 0) t = real(self%n_rescale, dp)*self%interval
     end function interval_event_time
 
-    subroutine interval_save(self, values)
+    !> The index of the next action, with an interval.
+    subroutine interval_exchange(self, values, saving, ok)
         class(interval_thermostat_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
-        if (self%interval > 0) call values%put('ts_n_rescale', self%n_rescale)
-    end subroutine interval_save
-
-    subroutine interval_restore(self, values, ok)
-        class(interval_thermostat_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
+        logical, intent(in) :: saving
         logical, intent(inout) :: ok
-        if (self%interval > 0) self%n_rescale = values%get_i('ts_n_rescale', ok)
-    end subroutine interval_restore
+        if (self%interval > 0) call values%exchange('ts_n_rescale', self%n_rescale, saving, ok)
+    end subroutine interval_exchange
 
-    !> Does the style keep a zero total momentum zero (its dof then loses d)?
-    pure logical function ts_holds_momentum(self)
-        class(thermostat_t), intent(in) :: self
-        ts_holds_momentum = .false.
-    end function ts_holds_momentum
+    !> A style's traits (a style overrides this with its own; the default: active, nothing else).
+    pure type(thermostat_traits_t) function ts_traits() result(t)
+        t = thermostat_traits_t()
+    end function ts_traits
 
-    !> With energy stepping, how the style acts (for messages; '': it cannot, its operators need
-    !> the steps of velocity Verlet).
-    function ts_event_note(self) result(note)
-        class(thermostat_t), intent(in) :: self
-        character(len=:), allocatable :: note
-        note = ''
-    end function ts_event_note
+    !> No thermostat: nothing acts, and a zero total momentum stays zero.
+    pure type(thermostat_traits_t) function none_traits() result(t)
+        t = thermostat_traits_t(active=.false., holds_momentum=.true.)
+    end function none_traits
 
     !> With energy stepping: the interval of the style's scheduled action when the deck gives none
     !> (0: none).
@@ -193,25 +197,11 @@ contains
         interval = 0
     end function ts_default_interval
 
+    !> Is there a thermostat (traits%active)?
     pure logical function ts_active(self)
         class(thermostat_t), intent(in) :: self
-        ts_active = .true.
+        ts_active = self%traits%active
     end function ts_active
-
-    pure logical function none_active(self)
-        class(thermostat_none_t), intent(in) :: self
-        none_active = .false.
-    end function none_active
-
-    pure logical function none_holds_momentum(self)
-        class(thermostat_none_t), intent(in) :: self
-        none_holds_momentum = .true.
-    end function none_holds_momentum
-
-    pure logical function ts_false(self)
-        class(thermostat_t), intent(in) :: self
-        ts_false = .false.
-    end function ts_false
 
     !> Target temperature at time t (linear ramp from t_start at 0 to t_end at run_time).
     pure real(dp) function ts_target(self, t) result(temp)
@@ -223,16 +213,36 @@ contains
         temp = self%t_start + (self%t_end - self%t_start)*f
     end function ts_target
 
-    !> A Verlet hook that does nothing (styles override the ones they act in). Step `step` spans
-    !> ((step - 1) dt, step dt]; t_mid is its middle.
-    subroutine ts_no_step(self, atoms, dt, step, t_mid)
+    !> Velocity Verlet's hooks around the kicks of step `step` (spanning ((step - 1) dt, step dt],
+    !> t_mid its middle): by default the style's half_step over dt/2 before the first half kick
+    !> (its draws keyed by the event 2 step) and after the second (event 2 step + 1). A style that
+    !> acts otherwise overrides the hook itself (Andersen's post_kick).
+    subroutine ts_pre_kick(self, atoms, dt, step, t_mid)
         class(thermostat_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
         real(dp), intent(in) :: dt, t_mid
         integer(i8), intent(in) :: step
-    end subroutine ts_no_step
+        call self%half_step(atoms, 0.5_dp*dt, 2*step, t_mid)
+    end subroutine ts_pre_kick
 
-    !> The first half kick and the drift, for a style that replaces them (replaces_kick_drift);
+    subroutine ts_post_kick(self, atoms, dt, step, t_mid)
+        class(thermostat_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: dt, t_mid
+        integer(i8), intent(in) :: step
+        call self%half_step(atoms, 0.5_dp*dt, 2*step + 1, t_mid)
+    end subroutine ts_post_kick
+
+    !> The style's operator over a span of time (half a step) at time `time`, its random draws
+    !> keyed by `event` (nothing by default; CSVR, Nose-Hoover).
+    subroutine ts_half_step(self, atoms, span, event, time)
+        class(thermostat_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: span, time
+        integer(i8), intent(in) :: event
+    end subroutine ts_half_step
+
+    !> The first half kick and the drift, for a style that replaces them (traits%replaces_kick_drift);
     !> dtfm(type) = dt/2 ftm2v/m.
     subroutine ts_kick_drift(self, atoms, dtfm, dt, step, t_mid)
         class(thermostat_t), intent(inout) :: self
@@ -263,36 +273,36 @@ contains
     end function ts_chain_energy
 
     !> The thermostat's state for a checkpoint: ecouple (folded: collective), then the style's own
-    !> (save_own).
+    !> (exchange_own).
     subroutine ts_save(self, values)
         class(thermostat_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
         real(dp) :: e
+        logical :: ok
         e = self%ecouple()
         call values%put('ts_ecouple', e)
-        call self%save_own(values)
+        ok = .true.
+        call self%exchange_own(values, .true., ok)
     end subroutine ts_save
 
+    !> The state ts_save wrote (ok false when some of it is missing).
     subroutine ts_restore(self, values, ok)
         class(thermostat_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
+        type(named_values_t), intent(inout) :: values
         logical, intent(inout) :: ok
         self%ecouple_global = values%get_r('ts_ecouple', ok)
         self%ecouple_local = 0
-        call self%restore_own(values, ok)
+        call self%exchange_own(values, .false., ok)
     end subroutine ts_restore
 
-    !> A style's own variables in a checkpoint (none by default).
-    subroutine ts_save_own(self, values)
+    !> A style's own variables, written to (saving) or read from a checkpoint's values (none by
+    !> default).
+    subroutine ts_exchange_own(self, values, saving, ok)
         class(thermostat_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
-    end subroutine ts_save_own
-
-    subroutine ts_restore_own(self, values, ok)
-        class(thermostat_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
+        logical, intent(in) :: saving
         logical, intent(inout) :: ok
-    end subroutine ts_restore_own
+    end subroutine ts_exchange_own
 
     !> Global kinetic energy (collective). One type (the common case): m sum v^2 over the contiguous
     !> velocities, a loop that vectorises; otherwise the sum of m v^2 that kinetic_energy takes.

@@ -18,7 +18,7 @@ module terrace_thermostat_andersen
     use terrace_velocities, only: atom_mass
     use terrace_mpi_env, only: min_all
     use terrace_counter_rng, only: rng_block, rng_stream, rng_stream_t, unit_from_word, box_muller
-    use terrace_thermostat, only: interval_thermostat_t, thermostat_params_t
+    use terrace_thermostat, only: interval_thermostat_t, thermostat_params_t, thermostat_traits_t
     implicit none
     private
 
@@ -36,8 +36,7 @@ module terrace_thermostat_andersen
         real(dp) :: t_first = huge(1.0_dp)
     contains
         procedure :: setup => andersen_setup
-        procedure :: event_note => andersen_event_note
-        procedure :: collides_atoms => andersen_collides_atoms
+        procedure, nopass :: style_traits => andersen_traits
         procedure :: post_kick => andersen_step
         procedure :: event_time => andersen_event_time
         procedure :: apply_event => andersen_apply_event
@@ -55,17 +54,11 @@ contains
         self%t_first = huge(1.0_dp)
     end subroutine andersen_setup
 
-    function andersen_event_note(self) result(note)
-        class(andersen_t), intent(in) :: self
-        character(len=:), allocatable :: note
-        note = 'collisions at exact times'
-    end function andersen_event_note
-
-    !> Its collisions are atom by atom at exact times: event-driven runs can take them.
-    pure logical function andersen_collides_atoms(self)
-        class(andersen_t), intent(in) :: self
-        andersen_collides_atoms = .true.
-    end function andersen_collides_atoms
+    !> Its collisions are atom by atom at exact times: energy stepping and event-driven runs can
+    !> take them.
+    pure type(thermostat_traits_t) function andersen_traits() result(t)
+        t = thermostat_traits_t(collides_atoms=.true., event_note='collisions at exact times')
+    end function andersen_traits
 
     !> Maxwell-Boltzmann velocity at temperature temp for mass m (dimension 2: vz = 0), from one
     !> block keyed by (seed, stream, id, event, sub).

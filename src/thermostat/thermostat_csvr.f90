@@ -11,7 +11,7 @@ module terrace_thermostat_csvr
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
     use terrace_counter_rng, only: rng_stream, rng_stream_t
-    use terrace_thermostat, only: interval_thermostat_t, total_ke, scale_velocities
+    use terrace_thermostat, only: interval_thermostat_t, thermostat_traits_t, total_ke, scale_velocities
     implicit none
     private
 
@@ -21,27 +21,18 @@ module terrace_thermostat_csvr
     !> by n_rescale.
     type, extends(interval_thermostat_t), public :: csvr_t
     contains
-        procedure :: holds_momentum => csvr_holds_momentum
-        procedure :: event_note => csvr_event_note
+        procedure, nopass :: style_traits => csvr_traits
         procedure :: default_interval => csvr_default_interval
-        procedure :: csvr => csvr_apply
-        procedure :: pre_kick => csvr_pre_kick
-        procedure :: post_kick => csvr_post_kick
+        procedure :: half_step => csvr_apply
         procedure :: apply_event => csvr_apply_event
     end type csvr_t
 
 contains
 
-    pure logical function csvr_holds_momentum(self)
-        class(csvr_t), intent(in) :: self
-        csvr_holds_momentum = .true.
-    end function csvr_holds_momentum
-
-    function csvr_event_note(self) result(note)
-        class(csvr_t), intent(in) :: self
-        character(len=:), allocatable :: note
-        note = 'rescaling at fixed intervals'
-    end function csvr_event_note
+    !> A uniform rescale keeps a zero total momentum zero; with energy stepping, at intervals.
+    pure type(thermostat_traits_t) function csvr_traits() result(t)
+        t = thermostat_traits_t(holds_momentum=.true., event_note='rescaling at fixed intervals')
+    end function csvr_traits
 
     !> Energy stepping: a rescaling every damping/10 unless &thermostat interval says otherwise.
     pure real(dp) function csvr_default_interval(self, damping) result(interval)
@@ -50,24 +41,9 @@ contains
         interval = damping/10
     end function csvr_default_interval
 
-    subroutine csvr_pre_kick(self, atoms, dt, step, t_mid)
-        class(csvr_t), intent(inout) :: self
-        type(atoms_t), intent(inout) :: atoms
-        real(dp), intent(in) :: dt, t_mid
-        integer(i8), intent(in) :: step
-        call self%csvr(atoms, 0.5_dp*dt, 2*step, t_mid)
-    end subroutine csvr_pre_kick
-
-    subroutine csvr_post_kick(self, atoms, dt, step, t_mid)
-        class(csvr_t), intent(inout) :: self
-        type(atoms_t), intent(inout) :: atoms
-        real(dp), intent(in) :: dt, t_mid
-        integer(i8), intent(in) :: step
-        call self%csvr(atoms, 0.5_dp*dt, 2*step + 1, t_mid)
-    end subroutine csvr_post_kick
-
     !> CSVR over a time span: one global kinetic-energy draw keyed by `event`, then a uniform
-    !> rescale of the owned velocities. Collective.
+    !> rescale of the owned velocities (velocity Verlet: half steps around the kicks, through
+    !> the default pre_kick and post_kick). Collective.
     subroutine csvr_apply(self, atoms, span, event, time)
         class(csvr_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
@@ -86,7 +62,7 @@ contains
         class(csvr_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
         real(dp), intent(in) :: t
-        call self%csvr(atoms, self%interval, self%n_rescale, t)
+        call self%half_step(atoms, self%interval, self%n_rescale, t)
         self%n_rescale = self%n_rescale + 1
         call self%hold_momentum(atoms)
     end subroutine csvr_apply_event

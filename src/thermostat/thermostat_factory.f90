@@ -89,14 +89,14 @@ contains
         do k = 1, size(names)
             call new_thermostat(names(k), thermostat_params_t(), ts)
             if (.not. ts%active()) cycle
-            if (what == 'events' .and. len(ts%event_note()) > 0) then
-                list = list//"'"//trim(names(k))//"', "//ts%event_note()//'; '
-            else if (what == 'collisions' .and. ts%collides_atoms()) then
-                list = list//"'"//trim(names(k))//"', "//ts%event_note()//'; '
-            else if (what == 'chain' .and. ts%takes_chain()) then
+            if (what == 'events' .and. len_trim(ts%traits%event_note) > 0) then
+                list = list//"'"//trim(names(k))//"', "//trim(ts%traits%event_note)//'; '
+            else if (what == 'collisions' .and. ts%traits%collides_atoms) then
+                list = list//"'"//trim(names(k))//"', "//trim(ts%traits%event_note)//'; '
+            else if (what == 'chain' .and. ts%traits%takes_chain) then
                 if (len(list) > 0) list = list//' or '
                 list = list//"style = '"//trim(names(k))//"'"
-            else if (what == 'chain names' .and. ts%takes_chain()) then
+            else if (what == 'chain names' .and. ts%traits%takes_chain) then
                 if (len(list) > 0) list = list//' or '
                 list = list//"'"//trim(names(k))//"'"
             end if

@@ -7,7 +7,7 @@ module terrace_thermostat_langevin
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
     use terrace_counter_rng, only: normals3_many, rng_batch
-    use terrace_thermostat, only: thermostat_t
+    use terrace_thermostat, only: thermostat_t, thermostat_traits_t
     implicit none
     private
 
@@ -15,16 +15,16 @@ module terrace_thermostat_langevin
 
     type, extends(thermostat_t), public :: langevin_t
     contains
-        procedure :: replaces_kick_drift => langevin_replaces
+        procedure, nopass :: style_traits => langevin_traits
         procedure :: kick_drift => langevin_kick_drift
     end type langevin_t
 
 contains
 
-    pure logical function langevin_replaces(self)
-        class(langevin_t), intent(in) :: self
-        langevin_replaces = .true.
-    end function langevin_replaces
+    !> Its B A O A replaces velocity Verlet's first half kick and drift; no energy-stepping form.
+    pure type(thermostat_traits_t) function langevin_traits() result(t)
+        t = thermostat_traits_t(replaces_kick_drift=.true.)
+    end function langevin_traits
 
     !> BAOAB's B A O A for every owned atom: v += dtfm f, x += dt/2 v, v <- c1 v + c2 sqrt(kT/m) z,
     !> x += dt/2 v, z from (seed, id, step); dtfm(type) = dt/2 ftm2v/m. `t_mid` is the middle of the

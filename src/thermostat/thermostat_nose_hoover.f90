@@ -9,7 +9,8 @@ module terrace_thermostat_nose_hoover
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
     use terrace_named_values, only: named_values_t
-    use terrace_thermostat, only: thermostat_t, thermostat_params_t, total_ke, scale_velocities
+    use terrace_thermostat, only: thermostat_t, thermostat_params_t, thermostat_traits_t, total_ke, &
+                                  scale_velocities
     implicit none
     private
 
@@ -18,14 +19,10 @@ module terrace_thermostat_nose_hoover
         real(dp), allocatable :: eta(:), v_eta(:)   !< chain positions and velocities
     contains
         procedure :: setup => nhc_setup
-        procedure :: holds_momentum => nhc_holds_momentum
-        procedure :: takes_chain => nhc_takes_chain
-        procedure :: nose_hoover => nhc_half_step
-        procedure :: pre_kick => nhc_step_hook
-        procedure :: post_kick => nhc_step_hook
+        procedure, nopass :: style_traits => nhc_traits
+        procedure :: half_step => nhc_half_step
         procedure :: chain_energy => nhc_chain_energy
-        procedure :: save_own => nhc_save
-        procedure :: restore_own => nhc_restore
+        procedure :: exchange_own => nhc_exchange
     end type nose_hoover_t
 
 contains
@@ -39,30 +36,19 @@ contains
         self%eta = 0; self%v_eta = 0
     end subroutine nhc_setup
 
-    pure logical function nhc_holds_momentum(self)
-        class(nose_hoover_t), intent(in) :: self
-        nhc_holds_momentum = .true.
-    end function nhc_holds_momentum
+    !> The chain scales every velocity alike: a zero total momentum stays zero.
+    pure type(thermostat_traits_t) function nhc_traits() result(t)
+        t = thermostat_traits_t(holds_momentum=.true., takes_chain=.true.)
+    end function nhc_traits
 
-    pure logical function nhc_takes_chain(self)
-        class(nose_hoover_t), intent(in) :: self
-        nhc_takes_chain = .true.
-    end function nhc_takes_chain
-
-    subroutine nhc_step_hook(self, atoms, dt, step, t_mid)
-        class(nose_hoover_t), intent(inout) :: self
-        type(atoms_t), intent(inout) :: atoms
-        real(dp), intent(in) :: dt, t_mid
-        integer(i8), intent(in) :: step
-        call self%nose_hoover(atoms, 0.5_dp*dt, t_mid)
-    end subroutine nhc_step_hook
-
-    !> The chain over a time span (a half step of the integrator): the Trotter factorisation of
-    !> exp(iL_NHC span), three Suzuki-Yoshida sub-steps. Collective (one sum).
-    subroutine nhc_half_step(self, atoms, span, time)
+    !> The chain over a time span (a half step of the integrator, through the default pre_kick and
+    !> post_kick; it draws nothing: `event` unused): the Trotter factorisation of exp(iL_NHC span),
+    !> three Suzuki-Yoshida sub-steps. Collective (one sum).
+    subroutine nhc_half_step(self, atoms, span, event, time)
         class(nose_hoover_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
         real(dp), intent(in) :: span, time
+        integer(i8), intent(in) :: event
         real(dp) :: ke, ke0, kt, q(self%chain_length), g(self%chain_length), w(3), d, scale, total_scale, e
         integer :: m, j, k
         m = self%chain_length
@@ -126,19 +112,19 @@ contains
         end do
     end function nhc_chain_energy
 
-    subroutine nhc_save(self, values)
+    !> The chain's positions and velocities.
+    subroutine nhc_exchange(self, values, saving, ok)
         class(nose_hoover_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
-        call values%put_reals('ts_eta_', self%eta(1:self%chain_length))
-        call values%put_reals('ts_v_eta_', self%v_eta(1:self%chain_length))
-    end subroutine nhc_save
-
-    subroutine nhc_restore(self, values, ok)
-        class(nose_hoover_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
+        logical, intent(in) :: saving
         logical, intent(inout) :: ok
-        call values%get_reals('ts_eta_', self%eta(1:self%chain_length), ok)
-        call values%get_reals('ts_v_eta_', self%v_eta(1:self%chain_length), ok)
-    end subroutine nhc_restore
+        if (saving) then
+            call values%put_reals('ts_eta_', self%eta(1:self%chain_length))
+            call values%put_reals('ts_v_eta_', self%v_eta(1:self%chain_length))
+        else
+            call values%get_reals('ts_eta_', self%eta(1:self%chain_length), ok)
+            call values%get_reals('ts_v_eta_', self%v_eta(1:self%chain_length), ok)
+        end if
+    end subroutine nhc_exchange
 
 end module terrace_thermostat_nose_hoover

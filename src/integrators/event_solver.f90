@@ -109,12 +109,18 @@ contains
     end function hermite_value
 
     !> Classify [s0, s1]: 0 clear, 1 crossing certain (f1 beyond a level), 2 unsure (probe at sp).
+    !> The band p +- e is sampled at `samples` interior points. Two shortcuts leave the answer
+    !> unchanged: with f1 beyond a level the answer is 1 or 2 from the second scan alone (the first
+    !> one's worst point is not used), and a scan is skipped when a bound on the whole interval shows
+    !> that no sample can violate its test. The bound: the cubic lies between the smallest and largest
+    !> of its Bernstein coefficients f0, f0 + h f0'/3, f1 - h f1'/3, f1, and the band is at most
+    !> band h^4/16; a margin of 32 eps of the values' size covers the sampled values' round-off.
     subroutine classify(self, s0, p0, s1, p1, lower, upper, status, sp)
         class(event_solver_t), intent(in) :: self
         real(dp), intent(in) :: s0, p0(3), s1, p1(3), lower, upper
         integer, intent(out) :: status
         real(dp), intent(out) :: sp
-        real(dp) :: h, c0h, c1h, m, band, s, p, e, worst, viol
+        real(dp) :: h, c0h, c1h, m, band, s, p, e, worst, viol, b1, b2, pmin, pmax, emax, margin
         integer :: k
         h = s1 - s0
         sp = 0.5_dp*(s0 + s1)
@@ -131,20 +137,21 @@ contains
             status = 2; sp = 0.5_dp*(s0 + s1)
             if (.not. beyond_tol(p1(1), lower, upper, self%tol)) return
         end if
-        do k = 1, self%samples
-            s = s0 + h*k/real(self%samples + 1, dp)
-            p = hermite_value(s0, p0(1), p0(2), s1, p1(1), p1(2), s)
-            e = band*(s - s0)**2*(s1 - s)**2
-            ! an excursion by less than the tolerance is within the accuracy contract: not a crossing
-            viol = max(p + e - upper, lower - (p - e)) - self%tol
-            if (viol > worst) then
-                worst = viol; sp = s
-                status = 2
-            end if
-        end do
+        ! the range of the cubic and the band's largest value, with the round-off margin
+        b1 = p0(1) + h*p0(2)/3
+        b2 = p1(1) - h*p1(2)/3
+        pmin = min(p0(1), b1, b2, p1(1)); pmax = max(p0(1), b1, b2, p1(1))
+        emax = band*h**4/16
+        margin = 32*epsilon(1.0_dp)*(abs(p0(1)) + abs(p1(1)) + abs(h*p0(2)) + abs(h*p1(2)) + abs(lower) + &
+                                     abs(upper) + emax + self%tol)
         if (beyond_tol(p1(1), lower, upper, self%tol)) then
             ! a crossing is certain; unsure only if the other level may be crossed first
             status = 1
+            if (p1(1) > upper) then
+                if (pmin - emax - margin >= lower) return
+            else
+                if (pmax + emax + margin <= upper) return
+            end if
             do k = 1, self%samples
                 s = s0 + h*k/real(self%samples + 1, dp)
                 p = hermite_value(s0, p0(1), p0(2), s1, p1(1), p1(2), s)
@@ -154,7 +161,20 @@ contains
                     exit
                 end if
             end do
+            return
         end if
+        ! an excursion by less than the tolerance is within the accuracy contract: not a crossing
+        if (pmax + emax + margin <= upper + self%tol .and. pmin - emax - margin >= lower - self%tol) return
+        do k = 1, self%samples
+            s = s0 + h*k/real(self%samples + 1, dp)
+            p = hermite_value(s0, p0(1), p0(2), s1, p1(1), p1(2), s)
+            e = band*(s - s0)**2*(s1 - s)**2
+            viol = max(p + e - upper, lower - (p - e)) - self%tol
+            if (viol > worst) then
+                worst = viol; sp = s
+                status = 2
+            end if
+        end do
     end subroutine classify
 
     !> f beyond a level by more than tol: the exact complement of |f - level| <= tol near a level (the

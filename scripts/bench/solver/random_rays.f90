@@ -4,7 +4,9 @@
 !> cap (the engine caps each step by its trust length; this does not). Each ray's first crossing is
 !> compared with a brute-force reference (200,000 grid points; a crossing counts when f leaves the
 !> levels by more than 10 tol). Prints every ray where the solver returns a later crossing or none,
-!> with the largest excursion it stepped over, then the count and the mean ray evaluations per ray.
+!> with the largest excursion it stepped over, then the count and the mean ray evaluations per ray,
+!> and a checksum of every ray's answer (found, level, the bits of s) and evaluation count: two
+!> versions of the solver that decide alike print the same checksum.
 !> Usage: random_rays [NRAYS [SEED]]   (defaults 20000, 12345)
 module random_rays_mod
     use terrace_kinds, only: dp
@@ -46,7 +48,7 @@ contains
 end module random_rays_mod
 
 program random_rays
-    use terrace_kinds, only: dp
+    use terrace_kinds, only: dp, i8
     use terrace_event_solver, only: event_solver_t, crossing_t
     use random_rays_mod, only: mix_t
     implicit none
@@ -56,6 +58,7 @@ program random_rays
     type(event_solver_t) :: solver
     type(crossing_t) :: res
     integer :: i, j, k, nbad, nrays, n_missed, n_later
+    integer(i8) :: checksum
     integer(8) :: seed, nev
     real(dp) :: f0(3), lower, upper, fs(3), s_ref, s_end, x, excursion
     character(len=32) :: arg
@@ -67,7 +70,7 @@ program random_rays
         call get_command_argument(2, arg); read (arg, *) seed
     end if
     solver%tol = 1.0e-9_dp
-    nbad = 0; nev = 0; n_missed = 0; n_later = 0
+    nbad = 0; nev = 0; n_missed = 0; n_later = 0; checksum = 0
     do i = 1, nrays
         r = mix_t()
         r%c(1) = 2*u01() - 1; r%c(2) = 2*(2*u01() - 1); r%c(3) = 0.5_dp*(2*u01() - 1)
@@ -84,6 +87,8 @@ program random_rays
         r%evals = 0
         call solver%first_crossing(r, lower, upper, s_max, f0, .true., huge(1.0_dp), res)
         nev = nev + r%evals
+        checksum = ieor(ishftc(checksum, 7), transfer(res%s, 0_i8))
+        checksum = ieor(ishftc(checksum, 7), int(merge(1, 0, res%found) + 4*res%level + 16*r%evals, i8))
         s_ref = -1
         do k = 1, n_grid
             x = k*(s_max/n_grid)
@@ -115,6 +120,7 @@ program random_rays
     end do
     write (*, '(i0, a, i0, a, i0, a, i0, a, f6.3, a)') nbad, ' of ', nrays, ' rays wrong (', n_later, ' a later crossing, ', &
         n_missed, ' none); ', real(nev, dp)/nrays, ' ray evaluations per ray'
+    write (*, '(a, z16.16)') 'checksum of the answers: ', checksum
 contains
     real(dp) function u01()
         seed = mod(16807_8*seed, 2147483647_8)

@@ -40,6 +40,7 @@ module terrace_config
 
     integer, parameter, public :: max_types = 8
     integer, parameter, public :: max_bodies = 16  !< physical volumes of a mesh with their own rigid motion
+    integer, parameter, public :: max_walls = 16   !< planes of &potential wall_planes
     !> Longest file name a key may hold (Linux PATH_MAX); a longer one is refused, never truncated.
     integer, parameter, public :: path_max = 4096
     real(dp), parameter :: unset = -huge(1.0_dp)
@@ -78,6 +79,11 @@ module terrace_config
         real(dp) :: lambda = unset, mu = unset      !< neohookean: Lame constants
         real(dp) :: contact_stiffness = unset, contact_distance = unset  !< contact between mesh bodies (N/m, m)
         character(len=16) :: contact_model = 'node_face'                 !< 'node_face' or 'node_node'
+        !> rigid walls for a mesh's boundary nodes: 'none', 'box' (the box's six faces) or 'planes'
+        character(len=16) :: walls = 'none'
+        real(dp) :: wall_planes(6, max_walls) = unset   !< walls = 'planes': a point and a normal per plane
+        integer :: nwall_planes = 0                     !< planes given in wall_planes
+        real(dp) :: wall_stiffness = unset, wall_distance = unset   !< the walls' barrier (N/m, m)
         ! &potential
         character(len=24) :: potential = default_potential_style
         type(potential_style_t) :: pot_style = potential_style_t()   !< what the style is and takes (set with it)
@@ -422,7 +428,7 @@ contains
             real_limit = 1.0e9_dp
         case ('run_time', 'thermo_interval', 'trajectory_interval', 'checkpoint_interval')
             real_limit = 1.0e12_dp
-        case ('lambda', 'mu', 'contact_stiffness')   ! Pa; N/m: up to diamond's moduli with room
+        case ('lambda', 'mu', 'contact_stiffness', 'wall_stiffness')   ! Pa; N/m: up to diamond's moduli with room
             real_limit = 1.0e13_dp
         case default            ! lengths, densities, dt, target_mean_dt, root_tolerance
             real_limit = 1.0e6_dp
@@ -530,18 +536,23 @@ contains
         real(dp) :: pair_cutoff(max_types, max_types)
         logical :: shift
         real(dp) :: lambda, mu, contact_stiffness, contact_distance
-        character(len=16) :: contact_model
+        character(len=16) :: contact_model, walls
+        real(dp) :: wall_planes(6, max_walls), wall_stiffness, wall_distance
         character(len=8) :: precision
         real(dp), dimension(max_types, max_types) :: diameter, well_depth, well_lambda, well_radius
         namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements, lambda, mu, &
-            contact_stiffness, contact_distance, contact_model, precision, diameter, well_depth, well_lambda, well_radius
-        character(len=*), parameter :: keys(18) = [character(len=60) :: 'style:a quoted string', &
+            contact_stiffness, contact_distance, contact_model, precision, diameter, well_depth, well_lambda, well_radius, &
+            walls, wall_planes, wall_stiffness, wall_distance
+        character(len=*), parameter :: keys(22) = [character(len=60) :: 'style:a quoted string', &
             'diameter:a real number (or diameter(i,j) = ...)', 'well_depth:a real number (or well_depth(i,j) = ...)', &
             'well_lambda:a real number (or well_lambda(i,j) = ...)', &
             'well_radius:a real number (or well_radius(i,j) = ...)', &
             'lambda:a real number (Pa)', 'mu:a real number (Pa)', &
             'contact_stiffness:a real number (N/m)', 'contact_distance:a real number (m)', &
             'contact_model:a quoted string', &
+            "walls:a quoted string ('none', 'box' or 'planes')", &
+            'wall_planes:six reals per plane (point, normal)', &
+            'wall_stiffness:a real number (N/m)', 'wall_distance:a real number (m)', &
             'epsilon:a real number (or epsilon(i,j) = ...)', 'sigma:a real number (or sigma(i,j) = ...)', &
             'cutoff:a real number', 'pair_cutoff:pair_cutoff(i,j) = a real number', 'shift:a logical', &
             'precision:a quoted string', 'file:a quoted file name', 'elements:quoted element names, one per atom type']
@@ -550,6 +561,7 @@ contains
         epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
         file = ''; elements = ''; lambda = unset; mu = unset; contact_stiffness = unset; contact_distance = unset
         contact_model = 'node_face'; precision = 'double'
+        walls = 'none'; wall_planes = unset; wall_stiffness = unset; wall_distance = unset
         diameter = unset; well_depth = unset; well_lambda = unset; well_radius = unset
         do while (it%next(cfg, 'potential', keys))
             read (it%buf, nml=potential, iostat=it%ios, iomsg=it%msg)
@@ -562,6 +574,9 @@ contains
         cfg%lambda = lambda; cfg%mu = mu
         cfg%contact_stiffness = contact_stiffness; cfg%contact_distance = contact_distance
         cfg%contact_model = lower(contact_model)
+        cfg%walls = lower(walls); cfg%wall_planes = wall_planes
+        cfg%nwall_planes = count(.not. is_unset(wall_planes))
+        cfg%wall_stiffness = wall_stiffness; cfg%wall_distance = wall_distance
         cfg%precision = lower(precision)
         cfg%diameter = diameter; cfg%well_depth = well_depth; cfg%well_lambda = well_lambda
         cfg%well_radius = well_radius
@@ -1042,12 +1057,20 @@ contains
         type(config_t), intent(in) :: cfg
         character(len=*), parameter :: contact_keys(3) = [character(len=20) :: 'contact_stiffness', &
                                                           'contact_distance', 'contact_model']
+        character(len=*), parameter :: wall_keys(4) = [character(len=20) :: 'walls', 'wall_planes', &
+                                                       'wall_stiffness', 'wall_distance']
         integer :: k
         do k = 1, size(contact_keys)
             if (cfg%nml%find('potential', trim(contact_keys(k))) > 0 .and. &
                 .not. has_word(cfg%pot_style%keys, contact_keys(k))) call stop_all(cfg%where('potential', &
                 trim(contact_keys(k)))//': contact is between the bodies of a mesh (style = '// &
                 quoted_list(pots%name, ' or ', has_word(pots%keys, contact_keys(k)))//')')
+        end do
+        do k = 1, size(wall_keys)
+            if (cfg%nml%find('potential', trim(wall_keys(k))) > 0 .and. &
+                .not. has_word(cfg%pot_style%keys, wall_keys(k))) call stop_all(cfg%where('potential', &
+                trim(wall_keys(k)))//': walls hold the boundary nodes of a mesh (style = '// &
+                quoted_list(pots%name, ' or ', has_word(pots%keys, wall_keys(k)))//')')
         end do
     end subroutine check_potential_keys
 
@@ -1080,6 +1103,7 @@ contains
                           "': unknown contact model (allowed: 'node_face' (boundary nodes against the other "// &
                           "body's boundary triangles, the default), 'node_node' (boundary node pairs))")
         end select
+        call validate_walls(cfg)
         if (any(cfg%periodic(1:cfg%dimension))) call stop_all(cfg%where('system', 'periodic')// &
             ': a mesh has free boundaries (set periodic = .false., .false., .false.)')
         if (cfg%dimension /= 3) call stop_all(cfg%where('run', 'dimension')//': meshes of tetrahedra are 3-D')
@@ -1088,6 +1112,49 @@ contains
         if (cfg%temperature >= 0) call stop_all(cfg%where('system', 'temperature')// &
             ': a mesh starts from its rigid motion (velocity, angular_velocity), not a temperature')
     end subroutine validate_mesh
+
+    !> A mesh's walls: the kind, the planes (six numbers each, a normal of nonzero length), the barrier.
+    subroutine validate_walls(cfg)
+        type(config_t), intent(inout) :: cfg
+        real(dp) :: flat(6*max_walls)
+        integer :: w
+        select case (cfg%walls)
+        case ('none', 'box', 'planes')
+        case default
+            call stop_all(cfg%where('potential', 'walls')//" = '"//trim(cfg%walls)//"': unknown walls (allowed: "// &
+                "'none' (the default), 'box' (the six faces of the box, &system box_lo and box_hi), "// &
+                "'planes' (the planes of wall_planes))")
+        end select
+        if (cfg%walls == 'planes' .and. cfg%nwall_planes == 0) call stop_all(cfg%where('potential', 'walls')// &
+            " = 'planes': needs wall_planes (six reals per plane: a point x, y, z, then the normal nx, ny, nz "// &
+            'pointing to the side the mesh is on)')
+        if (cfg%nwall_planes > 0 .and. cfg%walls /= 'planes') call stop_all(cfg%where('potential', 'wall_planes')// &
+            ": only with walls = 'planes' (walls = '"//trim(cfg%walls)//"')")
+        if (cfg%nwall_planes > 0) then
+            flat = reshape(cfg%wall_planes, [6*max_walls])
+            if (mod(cfg%nwall_planes, 6) /= 0 .or. any(is_unset(flat(1:cfg%nwall_planes)))) &
+                call stop_all(cfg%where('potential', 'wall_planes')//': '//int_text(cfg%nwall_planes)// &
+                ' numbers; allowed: six reals per plane, one plane after the other (a point x, y, z, then the '// &
+                'normal nx, ny, nz pointing to the side the mesh is on), at most '//int_text(max_walls)//' planes')
+            do w = 1, cfg%nwall_planes/6
+                if (.not. (norm2(cfg%wall_planes(4:6, w)) > 0)) call stop_all(cfg%where('potential', 'wall_planes')// &
+                    ': plane '//int_text(w)//' has a zero normal (allowed: a normal nx, ny, nz of nonzero length, '// &
+                    'pointing to the side the mesh is on)')
+            end do
+        end if
+        if (cfg%walls == 'none') then
+            if (cfg%nml%find('potential', 'wall_stiffness') > 0) call stop_all(cfg%where('potential', 'wall_stiffness')// &
+                ": only with walls = 'box' or 'planes'")
+            if (cfg%nml%find('potential', 'wall_distance') > 0) call stop_all(cfg%where('potential', 'wall_distance')// &
+                ": only with walls = 'box' or 'planes'")
+        end if
+        if (cfg%nml%find('potential', 'wall_stiffness') > 0 .and. .not. (cfg%wall_stiffness > 0)) &
+            call stop_all(cfg%where('potential', 'wall_stiffness')//': must be > 0 (a spring constant in N/m; '// &
+                          'leave it out for the default E h_b, h_b the mean boundary edge)')
+        if (cfg%nml%find('potential', 'wall_distance') > 0 .and. .not. (cfg%wall_distance > 0)) &
+            call stop_all(cfg%where('potential', 'wall_distance')//': must be > 0 (a length in '// &
+                          trim(cfg%units%length)//'; leave it out for the default: half the mean boundary edge)')
+    end subroutine validate_walls
 
     !> The rest of the checks for an EAM scene (no LJ keys).
     subroutine validate_eam(cfg)

@@ -11,7 +11,7 @@ module terrace_potential_styles
     type, public :: potential_style_t
         character(len=24) :: name = ''              !< '' for a name no style has
         !> its own keys, separated by blanks (the keys every style takes, style and precision, are not listed)
-        character(len=96) :: keys = ''
+        character(len=128) :: keys = ''
         logical :: pair = .false.                   !< a pair potential with per-type-pair coefficients in the deck
         logical :: many_body = .false.              !< energy not a sum over pairs (embedding terms)
         logical :: mesh = .false.                   !< elastic elements of a mesh: needs &system mesh_file
@@ -41,7 +41,8 @@ module terrace_potential_styles
                           needs_metal_units=.true., all_pairs=.false.), &
         potential_style_t('eam/fs', eam_keys, many_body=.true., needs_file=.true., needs_elements=.true., &
                           needs_metal_units=.true., all_pairs=.false.), &
-        potential_style_t('neohookean', 'lambda mu contact_stiffness contact_distance contact_model', mesh=.true.), &
+        potential_style_t('neohookean', 'lambda mu contact_stiffness contact_distance contact_model '// &
+                          'walls wall_planes wall_stiffness wall_distance', mesh=.true.), &
         potential_style_t('hard_sphere', 'diameter', pair=.true., stepped=.true.), &
         potential_style_t('square_well', 'diameter well_depth well_lambda well_radius', pair=.true., stepped=.true.)]
 

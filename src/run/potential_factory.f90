@@ -11,6 +11,7 @@ module terrace_potential_factory
     use terrace_neohookean, only: neohookean_t
     use terrace_contact, only: contact_t, model_node_face, model_node_node
     use terrace_potential_sum, only: potential_sum_t
+    use terrace_walls, only: walls_t
     use terrace_gmsh_mesh, only: mesh_t
     use terrace_stepped_potential, only: stepped_potential_t
     use terrace_errors, only: stop_all, check_all
@@ -23,7 +24,7 @@ contains
 
     !> pot for the deck's &potential with ntypes atom types; mass(t) <= 0 is filled from the
     !> potential file where it has masses (EAM). Collective (errors stop every rank).
-    subroutine make_potential(cfg, ntypes, mass, pot, mesh, xstart, node_mass)
+    subroutine make_potential(cfg, ntypes, mass, pot, mesh, xstart, node_mass, box_lo, box_hi)
         type(config_t), intent(in) :: cfg
         integer, intent(in) :: ntypes
         real(dp), intent(inout) :: mass(:)
@@ -31,6 +32,7 @@ contains
         type(mesh_t), intent(in), optional :: mesh      !< neohookean: the elements and reference nodes
         real(dp), intent(in), optional :: xstart(:, :)  !< mesh: starting positions by node id (overlap check)
         real(dp), intent(in), optional :: node_mass(:)  !< mesh: lumped node masses by id (contact's time scale)
+        real(dp), intent(in), optional :: box_lo(3), box_hi(3)   !< mesh: the box (walls = 'box')
         integer :: t
         if (cfg%potential == 'neohookean') then
             block
@@ -53,10 +55,22 @@ contains
                     if (cfg%nml%find('potential', 'contact_model') > 0) call stop_all(cfg%where('potential', &
                         'contact_model')//': contact needs two or more bodies (physical volumes); '// &
                         trim(cfg%mesh_file)//' has one')
-                    nh%global_sums = .true.     ! alone: it sums its energies over the ranks itself, exactly
-                    call move_alloc(nh, pot)
+                    if (cfg%walls == 'none') then
+                        nh%global_sums = .true.     ! alone: it sums its energies over the ranks itself, exactly
+                        call move_alloc(nh, pot)
+                    else
+                        block
+                            type(potential_sum_t), allocatable :: total
+                            class(potential_t), allocatable :: term
+                            allocate (total)
+                            call move_alloc(nh, term)
+                            call total%add(term)
+                            call add_walls(cfg, mesh, xref, xstart, node_mass, box_lo, box_hi, total)
+                            call move_alloc(total, pot)
+                        end block
+                    end if
                 else
-                    call add_contact(cfg, mesh, xref, xstart, node_mass, nh, pot)
+                    call add_contact(cfg, mesh, xref, xstart, node_mass, box_lo, box_hi, nh, pot)
                 end if
             end block
         else if (cfg%potential == 'hard_sphere' .or. cfg%potential == 'square_well') then
@@ -81,12 +95,13 @@ contains
 
     !> Several bodies: the elements plus the contact between the bodies (potential_sum_t). Checks the
     !> contact parameters against the mesh and the start for bodies that already touch.
-    subroutine add_contact(cfg, mesh, xref, xstart, node_mass, nh, pot)
+    subroutine add_contact(cfg, mesh, xref, xstart, node_mass, box_lo, box_hi, nh, pot)
         type(config_t), intent(in) :: cfg
         type(mesh_t), intent(in) :: mesh
         real(dp), intent(in) :: xref(:, :)
         real(dp), intent(in), optional :: xstart(:, :)
         real(dp), intent(in) :: node_mass(:)
+        real(dp), intent(in), optional :: box_lo(3), box_hi(3)
         type(neohookean_t), allocatable, intent(inout) :: nh
         class(potential_t), allocatable, intent(out) :: pot
         type(contact_t), allocatable :: ct
@@ -133,8 +148,53 @@ contains
         call total%add(term)
         call move_alloc(ct, term)
         call total%add(term)
+        if (cfg%walls /= 'none') call add_walls(cfg, mesh, xref, xstart, node_mass, box_lo, box_hi, total)
         call move_alloc(total, pot)
     end subroutine add_contact
+
+    !> The deck's walls (&potential walls: the box's six faces, or wall_planes) as a term of total;
+    !> a start with a boundary node within wall_distance of a wall is refused.
+    subroutine add_walls(cfg, mesh, xref, xstart, node_mass, box_lo, box_hi, total)
+        type(config_t), intent(in) :: cfg
+        type(mesh_t), intent(in) :: mesh
+        real(dp), intent(in) :: xref(:, :)
+        real(dp), intent(in), optional :: xstart(:, :)
+        real(dp), intent(in) :: node_mass(:)
+        real(dp), intent(in), optional :: box_lo(3), box_hi(3)
+        type(potential_sum_t), intent(inout) :: total
+        type(walls_t), allocatable :: wl
+        class(potential_t), allocatable :: term
+        real(dp), allocatable :: planes(:, :)
+        real(dp) :: k, d0, youngs
+        integer :: d
+        logical :: ok
+        character(len=512) :: msg
+        if (cfg%walls == 'box') then
+            if (.not. (present(box_lo) .and. present(box_hi))) call stop_all(cfg%where('potential', 'walls')// &
+                " = 'box': the box is not known here")
+            allocate (planes(6, 6))
+            do d = 1, 3            ! the lower face's normal points up, the upper face's down
+                planes(:, 2*d - 1) = 0; planes(d, 2*d - 1) = box_lo(d); planes(3 + d, 2*d - 1) = 1
+                planes(:, 2*d) = 0; planes(d, 2*d) = box_hi(d); planes(3 + d, 2*d) = -1
+            end do
+        else
+            planes = cfg%wall_planes(:, 1:cfg%nwall_planes/6)
+        end if
+        k = -1; d0 = -1
+        if (.not. is_unset(cfg%wall_stiffness)) k = cfg%wall_stiffness
+        if (.not. is_unset(cfg%wall_distance)) d0 = cfg%wall_distance
+        youngs = cfg%mu*(3*cfg%lambda + 2*cfg%mu)/(cfg%lambda + cfg%mu)
+        allocate (wl)
+        call wl%setup(planes, k, d0, youngs, mesh%tet(:, 1:mesh%ntet), xref, node_mass)
+        if (present(xstart)) then
+            call wl%check_start(xstart, ok, msg)
+        else
+            call wl%check_start(xref, ok, msg)
+        end if
+        call check_all(ok, cfg%where('potential', 'walls')//': '//trim(cfg%mesh_file)//': '//trim(msg))
+        call move_alloc(wl, term)
+        call total%add(term)
+    end subroutine add_walls
 
     pure integer function count_bodies(body) result(n)
         integer, intent(in) :: body(:)

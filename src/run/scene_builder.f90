@@ -220,7 +220,8 @@ contains
         end if
         if (len_trim(cfg%mesh_file) > 0) then
             self%atoms%mass(1) = table%mass(1)
-            call make_potential(cfg, ntypes, self%atoms%mass, self%pot, mesh, table%x, self%atoms%mass_of_id)
+            call make_potential(cfg, ntypes, self%atoms%mass, self%pot, mesh, table%x, self%atoms%mass_of_id, &
+                                self%box%lo, self%box%hi)
             self%mesh_tet = mesh%tet
         else
             call make_potential(cfg, ntypes, self%atoms%mass, self%pot)

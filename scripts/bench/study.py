@@ -13,6 +13,8 @@ doc/figures/bench_*.png and the tables behind them (CSV, doc/bench_data/):
      and on two mesh scenes (`cube`, the talk's spinning neo-Hookean cube; `balls`,
      two colliding rubber balls with contact; study/solids.py): both integrators against a fine
      Verlet reference, Verlet's largest stable dt by bisection, energy stepping's event intervals;
+     and the many-collision run (`bounce`, study/bounce.py): a rubber ball in a closed box of walls,
+     10^2 to 10^3 collisions, energy and restitution against time for both integrators;
   2. stability stress tests (dt and h raised until each method fails, a hot collision to 0.8 sigma,
      more ranks than atoms, an evaporating cluster);
   Parallel scaling is not part of the study: scripts/bench/scaling.sh (doc/performance.md).
@@ -22,6 +24,8 @@ Usage:
   /usr/bin/python3 scripts/bench/study.py --full             # hours: 100 ns cluster, 32,000-atom LJ, ...
   /usr/bin/python3 scripts/bench/study.py --quick --scenes cube,balls
                            # the mesh scenes only (4 min on the 2-vCPU box), spliced into the page
+  /usr/bin/python3 scripts/bench/study.py --quick --scenes bounce
+                           # the many-collision run alone (9 min 50 s on the 2-vCPU box, load 8-15)
   options: --build DIR (default build/), --scenes a,b, --skip-sweep, --skip-stress, --no-lammps,
            --work DIR, --keep, --doc DIR, --no-report
 Timings: each sweep point is run twice, once with thermo samples and trajectory frames for the error
@@ -36,7 +40,7 @@ import sys
 import tempfile
 
 
-from study import common, scenes as S, sweep, stress, report, analysis, solids, stiffness  # noqa: E402
+from study import common, scenes as S, sweep, stress, report, analysis, solids, stiffness, bounce  # noqa: E402
 
 
 class Ctx:
@@ -49,10 +53,10 @@ def main():
     g.add_argument('--quick', action='store_true', help='minutes (default)')
     g.add_argument('--full', action='store_true', help='hours')
     ap.add_argument('--build', default=os.path.join(common.REPO, 'build'), help='build directory (terrace binary)')
-    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness']),
+    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness', 'bounce']),
                     help='default: all; the mesh scenes alone: --scenes cube,balls (their section is '
                          'spliced into the existing page); the stiffness sweeps of the mesh scenes: '
-                         '--scenes stiffness')
+                         '--scenes stiffness; the many-collision run: --scenes bounce')
     ap.add_argument('--skip-sweep', action='store_true')
     ap.add_argument('--skip-stress', action='store_true')
     ap.add_argument('--no-lammps', action='store_true')
@@ -100,11 +104,13 @@ def main():
     ctx.env['analyze'] = ctx.analyzer.exe or 'not in this build (numpy fallback)'
     keys = [k.strip() for k in a.scenes.split(',') if k.strip()]
     for k in keys:
-        if k not in S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness']:
-            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness'])))
+        if k not in S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness', 'bounce']:
+            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS + solids.SOLID_KEYS
+                                                                  + ['stiffness', 'bounce'])))
     stiff = 'stiffness' in keys
+    bouncing = 'bounce' in keys
     solid_keys = [k for k in keys if k in solids.SOLID_KEYS]
-    keys = [k for k in keys if k not in solids.SOLID_KEYS + ['stiffness']]
+    keys = [k for k in keys if k not in solids.SOLID_KEYS + ['stiffness', 'bounce']]
 
     e = ctx.env
     print('Terrace benchmark study, %s mode' % ctx.mode)
@@ -121,6 +127,7 @@ def main():
             report.write(ctx, results)
         solids.splice(page, solids.write_report(ctx, {}, e))      # the mesh scenes' saved results
         stiffness.splice(page, stiffness.write_report(ctx))
+        bounce.splice(page, bounce.write_report(ctx))
         return
     sw = common.Stopwatch()
     results = {'env': e, 'sweeps': {}, 'curves': {}, 'stress': None}
@@ -149,6 +156,13 @@ def main():
                 results['stiffness'] = stiffness.run(ctx)
             except RuntimeError as err:
                 print('    stiffness: FAILED: %s' % err, flush=True)
+    results['bounce'] = None
+    if not a.skip_sweep and bouncing:
+        with sw.part('many-collision run'):
+            try:
+                results['bounce'] = bounce.run(ctx)
+            except RuntimeError as err:
+                print('    bounce: FAILED: %s' % err, flush=True)
     if not a.skip_stress and keys:
         with sw.part('stress tests'):
             results['stress'] = stress.run_all(ctx)
@@ -159,6 +173,7 @@ def main():
                 report.write(ctx, results)
             solids.splice(page, solids.write_report(ctx, results['solids'], e))   # this run's or saved
             stiffness.splice(page, stiffness.write_report(ctx, results['stiffness']))   # likewise
+            bounce.splice(page, bounce.write_report(ctx, results['bounce']))   # likewise
     results['timing'] = sw.parts
     print()
     print('Time per part:')
@@ -166,7 +181,7 @@ def main():
         print('  %-32s %7.1f s' % (name, dt))
     print('  %-32s %7.1f s' % ('total', sw.total()))
     tfile = ('timing_%s.json' % ctx.mode if keys else 'timing_solids_%s.json' % ctx.mode if solid_keys
-             else 'timing_stiffness_%s.json' % ctx.mode)
+             else 'timing_stiffness_%s.json' % ctx.mode if stiff else 'timing_bounce_%s.json' % ctx.mode)
     with open(os.path.join(ctx.data, tfile), 'w') as f:
         json.dump({'parts': sw.parts, 'total': sw.total(), 'env': e}, f, indent=1)
 

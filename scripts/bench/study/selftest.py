@@ -10,6 +10,9 @@
   - energy_metrics: a linear energy ramp gives its slope as the drift;
   - exact_dt: dt = t_end / N ends every run at t_end and is never above the requested step;
   - convergence (the mesh scenes' order-of-convergence fit): errors 0.02 h^(1/2) give slope 1/2;
+  - collisions (the many-collision run's restitution, bounce.py): a momentum history with three
+    bounces of known restitution, one interrupted by a 20 ms gap before it reverses, one by a 1 ms
+    gap, and a contact still on at the end, gives the three restitutions;
   - with a build directory as argument that holds terrace-analyze: the study's adapter (Analyzer,
     which runs terrace-analyze on H5MD files written by write_h5md) on the same fcc lattice, Brownian
     paths and harmonic velocities: same first-peak position and height, D within 10 % and within
@@ -48,6 +51,22 @@ def main():
                       'stepping', 'pos_err', n=None)
     good &= check('convergence', abs(fit['slope'] - 0.5) < 1e-9 and fit['lo'] == 1e-5 and fit['hi'] == 3e-4,
                   'slope %.3f over [%g, %g] (expect 0.5 over [1e-05, 0.0003])' % (fit['slope'], fit['lo'], fit['hi']))
+
+    from .bounce import collisions
+    mass, ms = 2.0, 1e-3
+    t = np.arange(2000) * ms
+    knots = [(0, 1.0), (100, 1.0), (120, -0.9), (500, -0.9), (520, -0.8), (540, -0.8), (560, 0.72), (1000, 0.72),
+             (1009, 0.0), (1010, 0.0), (1020, -0.72), (1900, -0.72), (1999, 0.5)]
+    vx = np.interp(np.arange(2000), [k for k, _ in knots], [v for _, v in knots])
+    P = np.zeros((len(t), 3))
+    P[:, 0] = mass * vx
+    got = collisions(t, P, mass, dict(merge=5e-3, v_min=0.1))
+    want = [(0.1, 1.0, 0.9), (0.5, 0.9, 0.8), (1.0, 0.72, 1.0)]
+    good &= check('collisions', len(got) == 3 and all(
+        g[1] == 0 and abs(g[0] - w[0]) < 1.5 * ms and abs(g[2] - w[1]) < 1e-9 and abs(g[3] - w[2]) < 1e-9
+        for g, w in zip(got, want)),
+        '%s (expect e = 0.9, 0.8 for a touch joined with its bounce 20 ms later, 1.0 across a 1 ms gap; '
+        'the contact still on at the end left out)' % [tuple(round(v, 4) for v in g) for g in got])
 
     m, se = A.block_mean(rng.normal(size=10000))
     good &= check('block_mean', abs(se - 0.01) < 0.003 and abs(m) < 0.05, 'mean %.4f, SE %.4f (expect 0.01)' % (m, se))

@@ -22,6 +22,8 @@ Usage:
   /usr/bin/python3 scripts/bench/study.py --full             # hours: 100 ns cluster, 32,000-atom LJ, ...
   /usr/bin/python3 scripts/bench/study.py --quick --scenes cube,balls
                            # the mesh scenes only (4 min on the 2-vCPU box), spliced into the page
+  /usr/bin/python3 scripts/bench/study.py --quick --scenes minority
+                           # the stiff-minority meshes (study/minority.py; needs the gmsh command)
   options: --build DIR (default build/), --scenes a,b, --skip-sweep, --skip-stress, --no-lammps,
            --work DIR, --keep, --doc DIR, --no-report
 Timings: each sweep point is run twice, once with thermo samples and trajectory frames for the error
@@ -36,7 +38,9 @@ import sys
 import tempfile
 
 
-from study import common, scenes as S, sweep, stress, report, analysis, solids, stiffness  # noqa: E402
+from study import common, scenes as S, sweep, stress, report, analysis, solids, stiffness, minority  # noqa: E402
+
+EXTRA_KEYS = ['stiffness', 'minority']      # mesh studies with a section of their own
 
 
 class Ctx:
@@ -49,10 +53,10 @@ def main():
     g.add_argument('--quick', action='store_true', help='minutes (default)')
     g.add_argument('--full', action='store_true', help='hours')
     ap.add_argument('--build', default=os.path.join(common.REPO, 'build'), help='build directory (terrace binary)')
-    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness']),
+    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS + solids.SOLID_KEYS + EXTRA_KEYS),
                     help='default: all; the mesh scenes alone: --scenes cube,balls (their section is '
                          'spliced into the existing page); the stiffness sweeps of the mesh scenes: '
-                         '--scenes stiffness')
+                         '--scenes stiffness; the stiff-minority meshes: --scenes minority')
     ap.add_argument('--skip-sweep', action='store_true')
     ap.add_argument('--skip-stress', action='store_true')
     ap.add_argument('--no-lammps', action='store_true')
@@ -100,11 +104,12 @@ def main():
     ctx.env['analyze'] = ctx.analyzer.exe or 'not in this build (numpy fallback)'
     keys = [k.strip() for k in a.scenes.split(',') if k.strip()]
     for k in keys:
-        if k not in S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness']:
-            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness'])))
+        if k not in S.SCENE_KEYS + solids.SOLID_KEYS + EXTRA_KEYS:
+            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS + solids.SOLID_KEYS + EXTRA_KEYS)))
     stiff = 'stiffness' in keys
+    mino = 'minority' in keys
     solid_keys = [k for k in keys if k in solids.SOLID_KEYS]
-    keys = [k for k in keys if k not in solids.SOLID_KEYS + ['stiffness']]
+    keys = [k for k in keys if k not in solids.SOLID_KEYS + EXTRA_KEYS]
 
     e = ctx.env
     print('Terrace benchmark study, %s mode' % ctx.mode)
@@ -121,6 +126,7 @@ def main():
             report.write(ctx, results)
         solids.splice(page, solids.write_report(ctx, {}, e))      # the mesh scenes' saved results
         stiffness.splice(page, stiffness.write_report(ctx))
+        minority.splice(page, minority.write_report(ctx))
         return
     sw = common.Stopwatch()
     results = {'env': e, 'sweeps': {}, 'curves': {}, 'stress': None}
@@ -149,6 +155,13 @@ def main():
                 results['stiffness'] = stiffness.run(ctx)
             except RuntimeError as err:
                 print('    stiffness: FAILED: %s' % err, flush=True)
+    results['minority'] = None
+    if not a.skip_sweep and mino:
+        with sw.part('stiff-minority meshes'):
+            try:
+                results['minority'] = minority.run(ctx)
+            except RuntimeError as err:
+                print('    minority: FAILED: %s' % err, flush=True)
     if not a.skip_stress and keys:
         with sw.part('stress tests'):
             results['stress'] = stress.run_all(ctx)
@@ -159,6 +172,7 @@ def main():
                 report.write(ctx, results)
             solids.splice(page, solids.write_report(ctx, results['solids'], e))   # this run's or saved
             stiffness.splice(page, stiffness.write_report(ctx, results['stiffness']))   # likewise
+            minority.splice(page, minority.write_report(ctx, results['minority']))       # likewise
     results['timing'] = sw.parts
     print()
     print('Time per part:')
@@ -166,7 +180,7 @@ def main():
         print('  %-32s %7.1f s' % (name, dt))
     print('  %-32s %7.1f s' % ('total', sw.total()))
     tfile = ('timing_%s.json' % ctx.mode if keys else 'timing_solids_%s.json' % ctx.mode if solid_keys
-             else 'timing_stiffness_%s.json' % ctx.mode)
+             else 'timing_stiffness_%s.json' % ctx.mode if stiff else 'timing_minority_%s.json' % ctx.mode)
     with open(os.path.join(ctx.data, tfile), 'w') as f:
         json.dump({'parts': sw.parts, 'total': sw.total(), 'env': e}, f, indent=1)
 

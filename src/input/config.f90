@@ -545,7 +545,8 @@ contains
             'well_lambda:a real number (or well_lambda(i,j) = ...)', &
             'well_radius:a real number (or well_radius(i,j) = ...)', &
             'lambda:a real number (Pa)', 'mu:a real number (Pa)', &
-            'volume_lambda:volume_lambda(v) = a real number (Pa)', 'volume_mu:volume_mu(v) = a real number (Pa)', &
+            'volume_lambda:volume_lambda(v) = a real (Pa), v = 1..64', &
+            'volume_mu:volume_mu(v) = a real (Pa), v = 1..64', &
             'contact_stiffness:a real number (N/m)', 'contact_distance:a real number (m)', &
             'contact_model:a quoted string', &
             'epsilon:a real number (or epsilon(i,j) = ...)', 'sigma:a real number (or sigma(i,j) = ...)', &

@@ -38,12 +38,12 @@ SHORT = {'band': '(a) refinement band', 'slivers': '(b) slivers', 'inclusion': '
 
 PARAMS = {
     'quick': dict(t_long=0.03, thermo=0.0005, ref_factor=16, vv_fractions=[0.9, 0.5, 0.25],
-                  hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4], es_timeout=240,
+                  hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4], h_base=1e-3, es_timeout=240,
                   band=dict(size=0.0125, band_size=0.0025, half_width=0.0008, grade=0.004),
                   slivers=dict(size=0.0125, hole=0.02),
                   inclusion=dict(size=0.0125, side=0.009, corner=(0.01, 0.005, -0.02))),
     'full': dict(t_long=0.05, thermo=0.0005, ref_factor=32, vv_fractions=[0.9, 0.5, 0.25, 0.125],
-                 hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5], es_timeout=3600,
+                 hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5], h_base=1e-3, es_timeout=3600,
                  band=dict(size=0.01, band_size=0.002, half_width=0.0006, grade=0.003),
                  slivers=dict(size=0.01, hole=0.02),
                  inclusion=dict(size=0.01, side=0.0072, corner=(0.01, 0.005, -0.02))),
@@ -53,10 +53,18 @@ _BOX = 'Box(1) = {-0.05, -0.05, -0.05, 0.1, 0.1, 0.1};\n'
 
 
 # ------------------------------------------------------------------------------------ meshes
-def geo_text(variant, q):
-    """The Gmsh script of one variant (OpenCASCADE kernel; one physical volume, body 1)."""
+def geo_text(variant, q, baseline=False):
+    """The Gmsh script of one variant (OpenCASCADE kernel; one physical volume, body 1). BASELINE: the
+    same shape without its minority (band: no size field; slivers: Gmsh's default optimization; the
+    inclusion's mesh is the same, only its material differs)."""
     g = 'SetFactory("OpenCASCADE");\n' + _BOX
-    if variant == 'band':
+    if variant == 'band' and baseline:
+        g += 'Physical Volume(1) = {1};\nMesh.MeshSizeMax = %r;\n' % q['size']
+    elif variant == 'slivers' and baseline:
+        g += ('Cylinder(2) = {0.0, 0.0, -0.06, 0, 0, 0.12, %r};\n'
+              'BooleanDifference{ Volume{1}; Delete; }{ Volume{2}; Delete; }\n'
+              'Physical Volume(1) = Volume{:};\nMesh.MeshSizeMax = %r;\n' % (q['hole'], q['size']))
+    elif variant == 'band':
         g += ('Physical Volume(1) = {1};\n'
               'Field[1] = Box;\nField[1].VIn = %r; Field[1].VOut = %r;\n'
               'Field[1].XMin = %r; Field[1].XMax = %r;\n'
@@ -86,12 +94,12 @@ def gmsh_exe():
     return exe
 
 
-def make_mesh(variant, q, work):
+def make_mesh(variant, q, work, baseline=False):
     """Writes <variant>.geo and meshes it with the gmsh command (MSH 2.2: physical and elementary tags
     on each element line). Returns the file name and the Gmsh version."""
-    name = 'minority_%s' % variant
+    name = 'minority_%s%s' % (variant, '_baseline' if baseline else '')
     with open(os.path.join(work, name + '.geo'), 'w') as f:
-        f.write(geo_text(variant, q))
+        f.write(geo_text(variant, q, baseline))
     exe = gmsh_exe()
     r = subprocess.run([exe, '-3', '-format', 'msh22', '-save_all', '0', name + '.geo', '-o', name + '.msh'],
                        cwd=work, capture_output=True, text=True, timeout=600)
@@ -154,7 +162,7 @@ def inclusion_volume(x, tets, elem, q):
     return tags[0]
 
 
-def mesh_facts(variant, q, work, mesh):
+def mesh_facts(variant, q, work, mesh, baseline=False):
     x, tets, phys, elem = read_msh22(os.path.join(work, mesh))
     vol, alt, rr = quality(x, tets)
     if np.any(vol <= 0):
@@ -165,7 +173,7 @@ def mesh_facts(variant, q, work, mesh):
                  entities=sorted(set(elem.tolist())))
     material = "&potential style='neohookean', lambda=%r, mu=%r /" % (LAM, MU)
     minority = np.zeros(len(tets), bool)
-    if variant == 'inclusion':
+    if variant == 'inclusion' and not baseline:
         v = inclusion_volume(x, tets, elem, q)
         minority = elem == v
         lam[minority] *= STIFF
@@ -175,7 +183,9 @@ def mesh_facts(variant, q, work, mesh):
         facts['inclusion_entity'] = int(v)
     cd = np.sqrt((lam + 2 * mu) / RHO)
     dte = alt / cd                                   # per-element CFL estimate
-    if variant == 'band':
+    if baseline:
+        minority[:] = False
+    elif variant == 'band':
         cen = x[tets].mean(1)
         minority = np.abs(cen[:, 0]) < q['half_width'] + 0.5 * q['band_size']
     elif variant == 'slivers':
@@ -214,16 +224,7 @@ def run_variant(ctx, variant, P, work):
     solids.MATERIAL = material
     try:
         p = dict(t_long=P['t_long'], thermo=P['thermo'], dt_ref=facts['dte_stiff'])
-        lo, hi = 0.5 * facts['dte_stiff'], min(4.0 * facts['dte_soft'], P['thermo'])   # thermo: at least dt/2
-        for _ in range(4):
-            try:
-                bs = solids.bisect_dt(ctx, 'cube', work, mesh, p, lo, hi, P['t_long'])
-                break
-            except RuntimeError:
-                lo *= 0.25
-        else:
-            raise RuntimeError('minority %s: no stable Verlet step found down to %g s' % (variant, lo))
-        bs['fail_why'] = solids.short_why(bs.get('fail_why', '-') or '-')
+        bs = _bisect(ctx, variant, work, mesh, p, facts, P)
         res['bisect'] = bs
         stable = bs['stable']
         p['dt_ref'] = stable / P['ref_factor']
@@ -259,12 +260,49 @@ def run_variant(ctx, variant, P, work):
             else:
                 print('    minority %-9s %-9s %-10.3g FAILED: %s' % (variant, method, v, row['error']), flush=True)
         res['rows'] = rows
+        # the same shape without its minority: Verlet's stable step and energy stepping at one h
+        if variant == 'inclusion':
+            bmesh, bfacts = mesh, mesh_facts(variant, q, work, mesh, baseline=True)[0]
+        else:
+            bmesh = make_mesh(variant, q, work, baseline=True)[0]
+            bfacts = mesh_facts(variant, q, work, bmesh, baseline=True)[0]
+        solids.MATERIAL = "&potential style='neohookean', lambda=%r, mu=%r /" % (LAM, MU)
+        bb = _bisect(ctx, variant, work, bmesh, dict(p, dt_ref=bfacts['dte_stiff']), bfacts, P)
+        base = dict(mesh=bmesh, geo=geo_text(variant, q, True), facts=bfacts, bisect=bb)
+        old = ctx.timeout
+        ctx.timeout = P['es_timeout']
+        try:
+            row, _ = solids.one_run(ctx, 'cube', work, bmesh, 'stepping', P['h_base'], dict(p, dt_ref=bfacts['dte_stiff']))
+        finally:
+            ctx.timeout = old
+        base['es'] = {k: v for k, v in row.items() if k not in ('x', 'k_hist')}
+        res['es_base'] = next((r for r in rows if r['method'] == 'stepping' and r['param'] == P['h_base']), {})
+        res['baseline'] = base
+        print('    minority %-9s without the minority (%d tetrahedra): stable Verlet dt %.3g s (with: %.3g s); energy '
+              'stepping at h = %g J: %s events (with: %s)' % (variant, bfacts['elements'], bb['stable'], bs['stable'],
+                                                             P['h_base'], base['es'].get('events'),
+                                                             res['es_base'].get('events')), flush=True)
     finally:
         solids.MATERIAL = saved
     for f in os.listdir(work):
         if f.endswith('.h5') or f.endswith('.final'):
             os.remove(os.path.join(work, f))
     return res
+
+
+def _bisect(ctx, variant, work, mesh, p, facts, P):
+    """Verlet's largest stable step on MESH (solids.bisect_dt), bracketed by the CFL estimates."""
+    lo, hi = 0.5 * facts['dte_stiff'], min(4.0 * facts['dte_soft'], P['thermo'])   # thermo: at least dt/2
+    for _ in range(4):
+        try:
+            bs = solids.bisect_dt(ctx, 'cube', work, mesh, p, lo, hi, P['t_long'])
+            break
+        except RuntimeError:
+            lo *= 0.25
+    else:
+        raise RuntimeError('minority %s: no stable Verlet step found on %s down to %g s' % (variant, mesh, lo))
+    bs['fail_why'] = solids.short_why(bs.get('fail_why', '-') or '-')
+    return bs
 
 
 def run(ctx):
@@ -339,9 +377,9 @@ def figure(res, path):
         ax.set_ylabel('CPU time [s] (run less a zero-length run)')
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.grid(True, which='both', alpha=0.3)
-        ax.legend(fontsize=7, loc='lower left')
-    fig.suptitle("Stiff minority: the talk's spinning rubber cube (0.1 m, 100 rad/s) on Gmsh meshes whose stable "
-                 "Verlet step a few elements set", fontsize=10)
+        ax.legend(fontsize=7, loc='lower right')
+    fig.suptitle("Stiff minority: the talk's spinning rubber cube (0.1 m, 100 rad/s) on Gmsh meshes with a minority "
+                 "of small, flat or stiff elements", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.93))
     save_figure(fig, path, dpi=110, tight=False)
 
@@ -378,7 +416,7 @@ def section(ctx, res):
          % (LAM, MU, RHO, res['mode'], PARAMS[res['mode']]['ref_factor'],
             ', '.join('%g' % f for f in PARAMS[res['mode']]['vv_fractions']),
             ', '.join('%g' % h for h in PARAMS[res['mode']]['hs']))]
-    L.append('| variant | mesh (Gmsh %s) | minority: elements (share of volume) | radius ratio min / median / max '
+    L.append('| variant | mesh (Gmsh %s) | minority: elements (share of elements; of the volume) | radius ratio min / median / max '
              '(elements < 0.1) | CFL estimate: stiffest element [s] | softest element [s] | Verlet largest stable dt '
              '[s] | stable dt / stiffest estimate | fails at [s] |'
              % (next((r['gmsh'] for r in res['variants'].values() if r.get('gmsh')), '?')))
@@ -391,14 +429,37 @@ def section(ctx, res):
             L.append('| %s | failed: %s |%s' % (SHORT[v], r['failed'].replace('|', '\\|'), ' |' * 7))
             continue
         f, b = r['facts'], r['bisect']
-        L.append('| %s | %d nodes, %d tetrahedra | %d (%.2g %%) | %.3g / %.3g / %.3g (%d) | %.3g | %.3g | **%.3g** | '
-                 '%.2g | %.3g: %s |' % (SHORT[v], f['nodes'], f['elements'], f['minority'], 100 * f['minority_volume'],
+        L.append('| %s | %d nodes, %d tetrahedra | %d (%.2g %%; %.2g %%) | %.3g / %.3g / %.3g (%d) | %.3g | %.3g | **%.3g** | '
+                 '%.2g | %.3g: %s |' % (SHORT[v], f['nodes'], f['elements'], f['minority'],
+                                       100.0 * f['minority'] / f['elements'], 100 * f['minority_volume'],
                                        f['quality']['min'], f['quality']['median'], f['quality']['max'],
                                        f['quality']['below_01'], f['dte_stiff'], f['dte_soft'], b['stable'],
                                        b['stable'] / f['dte_stiff'], b['fail'] or float('nan'), b.get('fail_why', '-')))
     L.append('')
     L.append('Minority: (a) the elements whose centroid lies in the refined layer, (b) those of radius ratio below '
              '0.1, (c) the inclusion\'s elements.\n')
+    L.append('What the minority costs each method: the same shape without it ((a) the cube meshed at the base size, '
+             'no size field; (b) the same geometry with Gmsh\'s default optimization; (c) the same mesh, one '
+             'material): Verlet\'s largest stable step (bisection as above) and energy stepping at h = %g J over '
+             'the same %g s.\n' % (PARAMS[res['mode']]['h_base'], PARAMS[res['mode']]['t_long']))
+    L.append('| variant | without: mesh | without: radius ratio min | without: Verlet stable dt [s] | with: Verlet '
+             'stable dt [s] | Verlet steps, with / without | without: energy stepping events (reflections), CPU [s] | '
+             'with: events (reflections), CPU [s] | energy stepping events, with / without |')
+    L.append('|---' * 9 + '|')
+    for v in VARIANTS:
+        r = res['variants'].get(v)
+        if not r or r.get('failed') or not r.get('baseline'):
+            continue
+        b, eb, ew = r['baseline'], r['baseline']['es'], r.get('es_base') or {}
+
+        def ev(x):
+            return ('%d (%.1f %%), %.3g' % (x['events'], 100.0 * (x.get('refl') or 0) / x['events'], x['cpu'])
+                    if x.get('rc') == 0 and x.get('events') else 'failed: %s' % x.get('error', '-'))
+        L.append('| %s | %d tetrahedra | %.3g | %.3g | %.3g | **%.2g** | %s | %s | **%s** |' % (
+            SHORT[v], b['facts']['elements'], b['facts']['quality']['min'], b['bisect']['stable'], r['bisect']['stable'],
+            b['bisect']['stable'] / r['bisect']['stable'], ev(eb), ev(ew),
+            '%.2g' % (ew['events'] / eb['events']) if ew.get('events') and eb.get('events') else '–'))
+    L.append('')
     L.append('| variant | method | dt [s] or h [J] | CPU [s] | steps or events | events per Verlet step at the stable dt '
              '| reflections | max \\|E − E0\\| [J] | max position error [m] | max \\|K − K_ref\\| [J] |')
     L.append('|---' * 10 + '|')

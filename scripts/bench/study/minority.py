@@ -377,10 +377,11 @@ def figure(res, path):
         ax.set_ylabel('CPU time [s] (run less a zero-length run)')
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.grid(True, which='both', alpha=0.3)
-        ax.legend(fontsize=7, loc='lower right')
+    h, lab = axs[0][0].get_legend_handles_labels()
+    fig.legend(h, lab, loc='lower center', ncol=2, fontsize=8)
     fig.suptitle("Stiff minority: the talk's spinning rubber cube (0.1 m, 100 rad/s) on Gmsh meshes with a minority "
                  "of small, flat or stiff elements", fontsize=10)
-    fig.tight_layout(rect=(0, 0, 1, 0.93))
+    fig.tight_layout(rect=(0, 0.06, 1, 0.93))
     save_figure(fig, path, dpi=110, tight=False)
 
 
@@ -461,8 +462,8 @@ def section(ctx, res):
             '%.2g' % (ew['events'] / eb['events']) if ew.get('events') and eb.get('events') else '–'))
     L.append('')
     L.append('| variant | method | dt [s] or h [J] | CPU [s] | steps or events | events per Verlet step at the stable dt '
-             '| reflections | max \\|E − E0\\| [J] | max position error [m] | max \\|K − K_ref\\| [J] |')
-    L.append('|---' * 10 + '|')
+             '| reflections | max \\|E − E0\\| [J] | max position error [m] |')
+    L.append('|---' * 9 + '|')
     for v in VARIANTS:
         r = res['variants'].get(v)
         if not r or r.get('failed'):
@@ -473,13 +474,13 @@ def section(ctx, res):
             if row['rc'] != 0:
                 L.append('| %s | %s | %.3g | failed: %s |%s' % (SHORT[v], 'energy stepping' if es else 'velocity Verlet',
                                                               row['param'], row['error'].replace('|', '\\|')[:80],
-                                                              ' |' * 6))
+                                                              ' |' * 5))
                 continue
-            L.append('| %s | %s | %.3g | %.3g | %d | %s | %s | %.2g | %.3g | %.3g |' % (
+            L.append('| %s | %s | %.3g | %.3g | %d | %s | %s | %.2g | %.3g |' % (
                 SHORT[v], 'energy stepping' if es else 'velocity Verlet', row['param'], row['cpu'],
                 row['events'] if es else row['n'], '%.2g' % (row['events'] / nst) if es else '–',
                 ('%.1f %%' % (100.0 * (row.get('refl') or 0) / row['events'])) if es else '–',
-                row['max_de'], row['pos_err'], row.get('ke_err') or float('nan')))
+                row['max_de'], row['pos_err']))
     L.append('')
     L.append('| variant | energy stepping h [J] | its position error [m], CPU [s] | cheapest Verlet run with no larger '
              'position error: dt [s], CPU [s] | CPU ratio energy stepping / Verlet | events / steps |')
@@ -504,9 +505,15 @@ def section(ctx, res):
         if v not in ratios:
             continue
         rs = ratios[v]
+        r = res['variants'][v]
+        best_es = min(x['pos_err'] for x in _ok(r['rows'], 'stepping'))
+        vv_top = max(_ok(r['rows'], 'verlet'), key=lambda x: x['param'])
         if min(rs) >= 1:
-            words.append('%s: Verlet is %.2g to %.2g times cheaper at no larger position error' % (SHORT[v], min(rs),
-                                                                                                    max(rs)))
+            words.append('%s: Verlet is %.2g to %.2g times cheaper at no larger position error, and its run at '
+                         '%.2g s (0.9 of its stable step) is %.2g times more accurate than energy stepping\'s most '
+                         'accurate run (h = %g J)' % (SHORT[v], min(rs), max(rs), vv_top['param'],
+                                                    best_es / vv_top['pos_err'],
+                                                    min(_ok(r['rows'], 'stepping'), key=lambda x: x['pos_err'])['param']))
         elif max(rs) < 1:
             words.append('%s: energy stepping is %.2g to %.2g times cheaper at no larger position error'
                          % (SHORT[v], 1 / max(rs), 1 / min(rs)))
@@ -514,7 +521,9 @@ def section(ctx, res):
             words.append('%s: mixed, CPU ratios energy stepping / Verlet from %.2g to %.2g' % (SHORT[v], min(rs),
                                                                                                 max(rs)))
     if words:
-        L.append('**What it shows:** ' + '; '.join(words) + '.\n')
+        L.append('**What it shows:** ' + '; '.join(words) + '. The CPU ratios are lower bounds where that Verlet run '
+                 'is the more accurate of the two. Energy stepping\'s events grow with the '
+                 'minority as Verlet\'s steps do (the table of the shapes without it).\n')
     L.append('![run time against position error, three stiff-minority meshes](figures/bench_minority.png)\n')
     L.append('<!-- minority:end -->')
     return L

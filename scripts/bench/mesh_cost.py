@@ -36,6 +36,8 @@ import sys
 import tempfile
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..'))
+sys.path.insert(0, os.path.join(REPO, 'scripts'))
+from terrace_tools import summary  # noqa: E402
 
 # Floating-point operations per element (add, sub, mul; an FMA = 2), from src/potentials/neohookean.f90.
 FORCE_FLOPS = {

@@ -133,7 +133,7 @@ def read_msh22(path):
 
 
 def quality(x, tets):
-    """Per element: volume, smallest altitude, radius ratio 3 r_in / R_circ."""
+    """Per element: signed volume (> 0: positively oriented), smallest altitude, radius ratio 3 r_in / R_circ."""
     p = x[tets]                                     # (ne, 4, 3)
     a, b, c = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]
     det = np.einsum('ij,ij->i', a, np.cross(b, c))
@@ -141,8 +141,8 @@ def quality(x, tets):
     faces = [(1, 2, 3), (0, 2, 3), (0, 1, 3), (0, 1, 2)]
     areas = np.stack([0.5 * np.linalg.norm(np.cross(p[:, j] - p[:, i], p[:, k] - p[:, i]), axis=1)
                       for i, j, k in faces], 1)
-    alt = 3.0 * vol / areas.max(1)                  # the smallest altitude: over the largest face
-    r_in = 3.0 * vol / areas.sum(1)
+    alt = 3.0 * np.abs(vol) / areas.max(1)          # the smallest altitude: over the largest face
+    r_in = 3.0 * np.abs(vol) / areas.sum(1)
     # circumradius: |a|^2 (b x c) + |b|^2 (c x a) + |c|^2 (a x b) over 2 det
     cc = (np.sum(a * a, 1)[:, None] * np.cross(b, c) + np.sum(b * b, 1)[:, None] * np.cross(c, a)
           + np.sum(c * c, 1)[:, None] * np.cross(a, b)) / (2.0 * det[:, None])

@@ -41,7 +41,7 @@ module terrace_neohookean
     private
 
     integer, parameter :: nblk = 32                              !< elements per vectorised block
-    integer, parameter :: ncoef = 11                             !< ray coefficients per element
+    integer, parameter :: ncoef = 9                              !< ray coefficients per element
     real(dp), parameter, public :: inverted_energy = 1.0e30_dp   !< wall height past an inversion, per V0 (lambda + mu)
 
     type, extends(potential_t), public :: neohookean_t
@@ -523,7 +523,7 @@ contains
                 k0 = (b - 1)*nblk
                 call gather_edges(atoms%x, self%lidx, k0, ds)
                 call gather_edges(atoms%v, self%lidx, k0, dv)
-                call ray_coef_block(k0, ds, dv, self%rdm, self%rv0, self%wgt, self%rlam, self%rmu, self%coef)
+                call ray_coef_block(k0, ds, dv, self%rdm, self%rv0, self%wgt, self%coef)
             end do
             self%xcoef(:, 1:nall) = atoms%x(:, 1:nall)
             self%vcoef(:, 1:nall) = atoms%v(:, 1:nall)
@@ -531,18 +531,18 @@ contains
             self%coef_valid = .true.
         end if
         do b = 1, nb
-            call ray_eval_block((b - 1)*nblk, s, self%coef, self%terms)
+            call ray_eval_block((b - 1)*nblk, s, self%coef, self%rlam, self%rmu, self%terms)
         end do
         call exact_sum_all(self%terms, nmine_pad, int(self%nelem, i8), out, self%global_sums)
     end subroutine nh_ray
 
     !> The search origin's part of one block of the ray pass: F0 = Ds Dm^-1, G = Dv Dm^-1,
     !> A = F0^-1 G = adj(F0) G / J0, and p(s) = det(I + s A) = 1 + c1 s + c2 s^2 + c3 s^3:
-    !> coef(:, k) = (c1, c2, c3, ln J0, |F0|^2, F0:G, |G|^2, weighted V0, 1 if J0 <= 0, lambda, mu).
-    subroutine ray_coef_block(k0, ds, dv, rdm, rv0, wgt, rlam, rmu, coef)
+    !> coef(:, k) = (c1, c2, c3, ln J0, |F0|^2, F0:G, |G|^2, weighted V0, 1 if J0 <= 0).
+    subroutine ray_coef_block(k0, ds, dv, rdm, rv0, wgt, coef)
         integer, intent(in) :: k0
         real(dp), intent(in) :: ds(nblk, 9), dv(nblk, 9)
-        real(dp), intent(in), contiguous :: rdm(:, :), rv0(:), wgt(:), rlam(:), rmu(:)
+        real(dp), intent(in), contiguous :: rdm(:, :), rv0(:), wgt(:)
         real(dp), intent(inout), contiguous :: coef(:, :)
         integer :: j, k
         real(dp) :: f11, f21, f31, f12, f22, f32, f13, f23, f33, g11, g21, g31, g12, g22, g32, g13, g23, g33, &
@@ -590,17 +590,16 @@ contains
             coef(5, k) = t0; coef(6, k) = fg; coef(7, k) = gg
             coef(8, k) = wgt(k)*rv0(k)
             coef(9, k) = merge(1.0_dp, 0.0_dp, inv0)
-            coef(10, k) = rlam(k); coef(11, k) = rmu(k)
         end do
     end subroutine ray_coef_block
 
     !> The s-dependent part of one block of the ray pass, from coef: p(s), p', p'', ln J = ln J0 +
     !> ln p, W, W', W'' and the virial term at s. Past an inversion (J0 <= 0, or p(s) <= 0) the wall
-    !> energy and no derivatives.
-    subroutine ray_eval_block(k0, s, coef, terms)
+    !> energy and no derivatives. Each element's lambda and mu from the work list (rlam, rmu).
+    subroutine ray_eval_block(k0, s, coef, rlam, rmu, terms)
         integer, intent(in) :: k0
         real(dp), intent(in) :: s
-        real(dp), intent(in), contiguous :: coef(:, :)
+        real(dp), intent(in), contiguous :: coef(:, :), rlam(:), rmu(:)
         real(dp), intent(inout), contiguous :: terms(:, :)
         integer :: j, k
         real(dp) :: q1, q2, q3, pp, ps, p1, p2, lnj, l1, l2, t0, fg, gg, trf, w, w1, w2, v0, wall, lm, vir, lambda, mu
@@ -618,7 +617,7 @@ contains
             q1 = cb(j, 1); q2 = cb(j, 2); q3 = cb(j, 3)
             t0 = cb(j, 5); fg = cb(j, 6); gg = cb(j, 7); v0 = cb(j, 8)
             inv0 = cb(j, 9) > 0
-            lambda = cb(j, 10); mu = cb(j, 11)
+            lambda = rlam(k); mu = rmu(k)
             pp = 1 + s*(q1 + s*(q2 + s*q3))
             okp = pp > 0
             ok = okp .and. .not. inv0

@@ -38,7 +38,7 @@ SHORT = {'band': '(a) refinement band', 'slivers': '(b) slivers', 'inclusion': '
 
 PARAMS = {
     'quick': dict(t_long=0.03, thermo=0.0005, ref_factor=16, vv_fractions=[0.9, 0.5, 0.25],
-                  hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4], h_base=1e-3, es_timeout=240,
+                  hs=[1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5], h_base=1e-3, es_timeout=240,
                   band=dict(size=0.0125, band_size=0.0025, half_width=0.0008, grade=0.004),
                   slivers=dict(size=0.0125, hole=0.02),
                   inclusion=dict(size=0.0125, side=0.009, corner=(0.01, 0.005, -0.02))),

@@ -496,7 +496,7 @@ def section(ctx, res):
                                                                                es['cpu']))
                 continue
             ratios.setdefault(v, []).append(es['cpu'] / q['cpu'])
-            L.append('| %s | %g | %.3g, %.3g | %.3g, %.3g | **%.2g** | %d / %d = %.2g |'
+            L.append('| %s | %g | %.3g, %.3g | %.3g, %.3g | **%.3g** | %d / %d = %.3g |'
                      % (SHORT[v], es['param'], es['pos_err'], es['cpu'], q['param'], q['cpu'], es['cpu'] / q['cpu'],
                         es['events'], q['n'], es['events'] / q['n']))
     L.append('')
@@ -509,7 +509,7 @@ def section(ctx, res):
         best_es = min(x['pos_err'] for x in _ok(r['rows'], 'stepping'))
         vv_top = max(_ok(r['rows'], 'verlet'), key=lambda x: x['param'])
         if min(rs) >= 1:
-            words.append('%s: Verlet is %.2g to %.2g times cheaper at no larger position error, and its run at '
+            words.append('%s: Verlet is %.3g to %.3g times cheaper at no larger position error, and its run at '
                          '%.2g s (0.9 of its stable step) is %.2g times more accurate than energy stepping\'s most '
                          'accurate run (h = %g J)' % (SHORT[v], min(rs), max(rs), vv_top['param'],
                                                     best_es / vv_top['pos_err'],

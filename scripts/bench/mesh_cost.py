@@ -21,7 +21,7 @@ of divisions and one of logarithms; the best of 5 CPU-timed trials). Estimate pe
 nelem (flops / vector rate + divisions x division time + logs x log time); per event the same with
 the log's force passes and ray evaluations per event. Printed: measured / estimate.
 
-Usage:  /usr/bin/python3 scripts/bench/mesh_cost.py [--terrace build/terrace] [--repeat 3]
+Usage:  PYTHONPATH=scripts /usr/bin/python3 scripts/bench/mesh_cost.py [--terrace build/terrace] [--repeat 3]
         [--steps 200] [--events 100] [--callgrind] [--label TEXT]
 Run time on the 2-vCPU AMD EPYC (shared): ~1-2 min, plus ~1-2 min with --callgrind.
 """
@@ -34,6 +34,8 @@ import statistics
 import subprocess
 import sys
 import tempfile
+
+from terrace_tools import summary
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..'))
 

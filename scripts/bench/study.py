@@ -26,6 +26,8 @@ Usage:
                            # the mesh scenes only (4 min on the 2-vCPU box), spliced into the page
   /usr/bin/python3 scripts/bench/study.py --quick --scenes bounce
                            # the many-collision run alone (9 min 50 s on the 2-vCPU box, load 8-15)
+  /usr/bin/python3 scripts/bench/study.py --quick --scenes minority
+                           # the stiff-minority meshes (study/minority.py; needs the gmsh command)
   options: --build DIR (default build/), --scenes a,b, --skip-sweep, --skip-stress, --no-lammps,
            --work DIR, --keep, --doc DIR, --no-report
 Timings: each sweep point is run twice, once with thermo samples and trajectory frames for the error
@@ -40,7 +42,9 @@ import sys
 import tempfile
 
 
-from study import common, scenes as S, sweep, stress, report, analysis, solids, stiffness, bounce  # noqa: E402
+from study import common, scenes as S, sweep, stress, report, analysis, solids, stiffness, bounce, minority  # noqa: E402
+
+EXTRA_KEYS = ['stiffness', 'bounce', 'minority']      # mesh studies with a section of their own
 
 
 class Ctx:
@@ -53,10 +57,11 @@ def main():
     g.add_argument('--quick', action='store_true', help='minutes (default)')
     g.add_argument('--full', action='store_true', help='hours')
     ap.add_argument('--build', default=os.path.join(common.REPO, 'build'), help='build directory (terrace binary)')
-    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness', 'bounce']),
+    ap.add_argument('--scenes', default=','.join(S.SCENE_KEYS + solids.SOLID_KEYS + EXTRA_KEYS),
                     help='default: all; the mesh scenes alone: --scenes cube,balls (their section is '
                          'spliced into the existing page); the stiffness sweeps of the mesh scenes: '
-                         '--scenes stiffness; the many-collision run: --scenes bounce')
+                         '--scenes stiffness; the many-collision run: --scenes bounce; the stiff-minority '
+                         'meshes: --scenes minority')
     ap.add_argument('--skip-sweep', action='store_true')
     ap.add_argument('--skip-stress', action='store_true')
     ap.add_argument('--no-lammps', action='store_true')
@@ -104,13 +109,13 @@ def main():
     ctx.env['analyze'] = ctx.analyzer.exe or 'not in this build (numpy fallback)'
     keys = [k.strip() for k in a.scenes.split(',') if k.strip()]
     for k in keys:
-        if k not in S.SCENE_KEYS + solids.SOLID_KEYS + ['stiffness', 'bounce']:
-            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS + solids.SOLID_KEYS
-                                                                  + ['stiffness', 'bounce'])))
+        if k not in S.SCENE_KEYS + solids.SOLID_KEYS + EXTRA_KEYS:
+            sys.exit('unknown scene %r (have %s)' % (k, ', '.join(S.SCENE_KEYS + solids.SOLID_KEYS + EXTRA_KEYS)))
     stiff = 'stiffness' in keys
     bouncing = 'bounce' in keys
+    mino = 'minority' in keys
     solid_keys = [k for k in keys if k in solids.SOLID_KEYS]
-    keys = [k for k in keys if k not in solids.SOLID_KEYS + ['stiffness', 'bounce']]
+    keys = [k for k in keys if k not in solids.SOLID_KEYS + EXTRA_KEYS]
 
     e = ctx.env
     print('Terrace benchmark study, %s mode' % ctx.mode)
@@ -128,6 +133,7 @@ def main():
         solids.splice(page, solids.write_report(ctx, {}, e))      # the mesh scenes' saved results
         stiffness.splice(page, stiffness.write_report(ctx))
         bounce.splice(page, bounce.write_report(ctx))
+        minority.splice(page, minority.write_report(ctx))
         return
     sw = common.Stopwatch()
     results = {'env': e, 'sweeps': {}, 'curves': {}, 'stress': None}
@@ -163,6 +169,13 @@ def main():
                 results['bounce'] = bounce.run(ctx)
             except RuntimeError as err:
                 print('    bounce: FAILED: %s' % err, flush=True)
+    results['minority'] = None
+    if not a.skip_sweep and mino:
+        with sw.part('stiff-minority meshes'):
+            try:
+                results['minority'] = minority.run(ctx)
+            except RuntimeError as err:
+                print('    minority: FAILED: %s' % err, flush=True)
     if not a.skip_stress and keys:
         with sw.part('stress tests'):
             results['stress'] = stress.run_all(ctx)
@@ -174,6 +187,7 @@ def main():
             solids.splice(page, solids.write_report(ctx, results['solids'], e))   # this run's or saved
             stiffness.splice(page, stiffness.write_report(ctx, results['stiffness']))   # likewise
             bounce.splice(page, bounce.write_report(ctx, results['bounce']))   # likewise
+            minority.splice(page, minority.write_report(ctx, results['minority']))       # likewise
     results['timing'] = sw.parts
     print()
     print('Time per part:')
@@ -181,7 +195,8 @@ def main():
         print('  %-32s %7.1f s' % (name, dt))
     print('  %-32s %7.1f s' % ('total', sw.total()))
     tfile = ('timing_%s.json' % ctx.mode if keys else 'timing_solids_%s.json' % ctx.mode if solid_keys
-             else 'timing_stiffness_%s.json' % ctx.mode if stiff else 'timing_bounce_%s.json' % ctx.mode)
+             else 'timing_stiffness_%s.json' % ctx.mode if stiff else 'timing_bounce_%s.json' % ctx.mode
+             if bouncing else 'timing_minority_%s.json' % ctx.mode)
     with open(os.path.join(ctx.data, tfile), 'w') as f:
         json.dump({'parts': sw.parts, 'total': sw.total(), 'env': e}, f, indent=1)
 

@@ -41,6 +41,7 @@ module terrace_config
     integer, parameter, public :: max_types = 8
     integer, parameter, public :: max_bodies = 16  !< physical volumes of a mesh with their own rigid motion
     integer, parameter, public :: max_walls = 16   !< planes of &potential wall_planes
+    integer, parameter, public :: max_volumes = 64 !< volume entities of a mesh with a material of their own
     !> Longest file name a key may hold (Linux PATH_MAX); a longer one is refused, never truncated.
     integer, parameter, public :: path_max = 4096
     real(dp), parameter :: unset = -huge(1.0_dp)
@@ -77,6 +78,8 @@ module terrace_config
         real(dp) :: mass_density = -1.0_dp          !< mesh: lumped nodal masses rho V0 / 4 per element
         real(dp) :: body_velocity(3, max_bodies) = 0, body_angular_velocity(3, max_bodies) = 0  !< per body
         real(dp) :: lambda = unset, mu = unset      !< neohookean: Lame constants
+        !> neohookean: the Lame constants of the elements of Gmsh volume entity v (unset: lambda, mu)
+        real(dp) :: volume_lambda(max_volumes) = unset, volume_mu(max_volumes) = unset
         real(dp) :: contact_stiffness = unset, contact_distance = unset  !< contact between mesh bodies (N/m, m)
         character(len=16) :: contact_model = 'node_face'                 !< 'node_face' or 'node_node'
         !> rigid walls for a mesh's boundary nodes: 'none', 'box' (the box's six faces) or 'planes'
@@ -428,7 +431,7 @@ contains
             real_limit = 1.0e9_dp
         case ('run_time', 'thermo_interval', 'trajectory_interval', 'checkpoint_interval')
             real_limit = 1.0e12_dp
-        case ('lambda', 'mu', 'contact_stiffness', 'wall_stiffness')   ! Pa; N/m: up to diamond's moduli with room
+        case ('lambda', 'mu', 'volume_lambda', 'volume_mu', 'contact_stiffness', 'wall_stiffness')   ! Pa; N/m: up to diamond's moduli with room
             real_limit = 1.0e13_dp
         case default            ! lengths, densities, dt, target_mean_dt, root_tolerance
             real_limit = 1.0e6_dp
@@ -538,16 +541,19 @@ contains
         real(dp) :: lambda, mu, contact_stiffness, contact_distance
         character(len=16) :: contact_model, walls
         real(dp) :: wall_planes(6, max_walls), wall_stiffness, wall_distance
+        real(dp) :: volume_lambda(max_volumes), volume_mu(max_volumes)
         character(len=8) :: precision
         real(dp), dimension(max_types, max_types) :: diameter, well_depth, well_lambda, well_radius
         namelist /potential/ style, epsilon, sigma, cutoff, pair_cutoff, shift, file, elements, lambda, mu, &
             contact_stiffness, contact_distance, contact_model, precision, diameter, well_depth, well_lambda, well_radius, &
-            walls, wall_planes, wall_stiffness, wall_distance
-        character(len=*), parameter :: keys(22) = [character(len=60) :: 'style:a quoted string', &
+            walls, wall_planes, wall_stiffness, wall_distance, volume_lambda, volume_mu
+        character(len=*), parameter :: keys(24) = [character(len=60) :: 'style:a quoted string', &
             'diameter:a real number (or diameter(i,j) = ...)', 'well_depth:a real number (or well_depth(i,j) = ...)', &
             'well_lambda:a real number (or well_lambda(i,j) = ...)', &
             'well_radius:a real number (or well_radius(i,j) = ...)', &
             'lambda:a real number (Pa)', 'mu:a real number (Pa)', &
+            'volume_lambda:volume_lambda(v) = a real (Pa), v = 1..64', &
+            'volume_mu:volume_mu(v) = a real (Pa), v = 1..64', &
             'contact_stiffness:a real number (N/m)', 'contact_distance:a real number (m)', &
             'contact_model:a quoted string', &
             "walls:a quoted string ('none', 'box' or 'planes')", &
@@ -560,6 +566,7 @@ contains
         style = default_potential_style
         epsilon = unset; sigma = unset; cutoff = -1; pair_cutoff = unset; shift = .false.
         file = ''; elements = ''; lambda = unset; mu = unset; contact_stiffness = unset; contact_distance = unset
+        volume_lambda = unset; volume_mu = unset
         contact_model = 'node_face'; precision = 'double'
         walls = 'none'; wall_planes = unset; wall_stiffness = unset; wall_distance = unset
         diameter = unset; well_depth = unset; well_lambda = unset; well_radius = unset
@@ -572,6 +579,7 @@ contains
         cfg%pair_cutoff = pair_cutoff; cfg%shift = shift
         cfg%potential_file = file; cfg%elements = elements
         cfg%lambda = lambda; cfg%mu = mu
+        cfg%volume_lambda = volume_lambda; cfg%volume_mu = volume_mu
         cfg%contact_stiffness = contact_stiffness; cfg%contact_distance = contact_distance
         cfg%contact_model = lower(contact_model)
         cfg%walls = lower(walls); cfg%wall_planes = wall_planes
@@ -1059,6 +1067,7 @@ contains
                                                           'contact_distance', 'contact_model']
         character(len=*), parameter :: wall_keys(4) = [character(len=20) :: 'walls', 'wall_planes', &
                                                        'wall_stiffness', 'wall_distance']
+        character(len=*), parameter :: material_keys(2) = [character(len=20) :: 'volume_lambda', 'volume_mu']
         integer :: k
         do k = 1, size(contact_keys)
             if (cfg%nml%find('potential', trim(contact_keys(k))) > 0 .and. &
@@ -1072,7 +1081,34 @@ contains
                 trim(wall_keys(k)))//': walls hold the boundary nodes of a mesh (style = '// &
                 quoted_list(pots%name, ' or ', has_word(pots%keys, wall_keys(k)))//')')
         end do
+        do k = 1, size(material_keys)
+            if (cfg%nml%find('potential', trim(material_keys(k))) > 0 .and. &
+                .not. has_word(cfg%pot_style%keys, material_keys(k))) call stop_all(cfg%where('potential', &
+                trim(material_keys(k)))//': a material of a mesh''s volume (style = '// &
+                quoted_list(pots%name, ' or ', has_word(pots%keys, material_keys(k)))//')')
+        end do
     end subroutine check_potential_keys
+
+    !> The materials of volume entities: volume_lambda(v) and volume_mu(v) given together, mu > 0,
+    !> lambda >= 0. (Whether the mesh has volume v is checked when it is read.)
+    subroutine validate_volume_materials(cfg)
+        type(config_t), intent(in) :: cfg
+        integer :: v
+        character(len=16) :: sv
+        do v = 1, max_volumes
+            write (sv, '(a,i0,a)') '(', v, ')'
+            if (is_unset(cfg%volume_lambda(v)) .neqv. is_unset(cfg%volume_mu(v))) call stop_all(cfg%where('potential', &
+                trim(merge('volume_mu    ', 'volume_lambda', is_unset(cfg%volume_mu(v)))))//trim(sv)// &
+                ': missing (give volume_lambda'//trim(sv)//' and volume_mu'//trim(sv)//' together: the Lame '// &
+                'constants of the elements of volume '//trim(sv(2:len_trim(sv) - 1))//', in '// &
+                trim(cfg%units%pressure)//')')
+            if (is_unset(cfg%volume_mu(v))) cycle
+            if (.not. (cfg%volume_mu(v) > 0)) call stop_all(cfg%where('potential', 'volume_mu')//trim(sv)// &
+                ': must be > 0 (a shear modulus in '//trim(cfg%units%pressure)//')')
+            if (cfg%volume_lambda(v) < 0) call stop_all(cfg%where('potential', 'volume_lambda')//trim(sv)// &
+                ': must be >= 0 (in '//trim(cfg%units%pressure)//')')
+        end do
+    end subroutine validate_volume_materials
 
     !> A mesh scene: the neo-Hookean potential with its Lame constants, a mass density, free boundaries.
     subroutine validate_mesh(cfg)
@@ -1089,6 +1125,7 @@ contains
                                               trim(cfg%units%pressure)//')')
         if (cfg%lambda < 0) call stop_all(cfg%where('potential', 'lambda')//': must be >= 0 (in '// &
                                           trim(cfg%units%pressure)//')')
+        call validate_volume_materials(cfg)
         if (cfg%nml%find('potential', 'contact_stiffness') > 0 .and. .not. (cfg%contact_stiffness > 0)) &
             call stop_all(cfg%where('potential', 'contact_stiffness')//': must be > 0 (a spring constant in N/m; '// &
                           'leave it out for the default E h_b, h_b the mean boundary edge)')

@@ -4,6 +4,9 @@
 !> $Entities section (several entities in one physical volume are one body; a file without
 !> $Entities takes the entity tag); in MSH 2.2 the first element tag is the physical tag. A mesh
 !> without physical volumes (tag 0, or no physical tag on any volume entity) is one body, 1.
+!> Each tetrahedron also keeps its volume entity's tag (Gmsh's elementary tag: the 4.1 block's
+!> entity, the second tag in 2.2; 0 where a 2.2 line has none): the regions of a body that may have
+!> materials of their own.
 !> Points, lines and triangles (types 15, 1, 2: physical points, curves and surfaces) are skipped;
 !> any other element type is refused. Every count the file declares is bounded by the file's size
 !> before anything is allocated; a second $Nodes or $Elements section, a tetrahedron that repeats
@@ -20,6 +23,7 @@ module terrace_gmsh_mesh
         real(dp), allocatable :: x(:, :)            !< (3, nnode) reference positions
         integer(i8), allocatable :: tet(:, :)       !< (4, ntet) node tags
         integer, allocatable :: body(:)             !< (ntet) physical volume tag (1 if none)
+        integer, allocatable :: volume(:)           !< (ntet) volume entity (elementary) tag (0 if none)
         logical :: ok = .true.
         character(len=1024) :: error = ''
     end type mesh_t
@@ -64,6 +68,7 @@ contains
             ! room was made for every element the header declared; keep the tetrahedra only
             r%mesh%tet = r%mesh%tet(:, 1:r%mesh%ntet)
             r%mesh%body = r%mesh%body(1:r%mesh%ntet)
+            r%mesh%volume = r%mesh%volume(1:r%mesh%ntet)
             call assign_bodies(r)
         end if
         if (r%mesh%ok) call check_nodes(r)
@@ -80,6 +85,7 @@ contains
         if (allocated(from%x)) call move_alloc(from%x, to%x)
         if (allocated(from%tet)) call move_alloc(from%tet, to%tet)
         if (allocated(from%body)) call move_alloc(from%body, to%body)
+        if (allocated(from%volume)) call move_alloc(from%volume, to%volume)
     end subroutine take_mesh
 
     !> The first two lines: $MeshFormat, then "version file-type data-size" (ASCII 4.1 or 2.2).
@@ -408,7 +414,7 @@ contains
         end if
         ok = count_fits(r, nelem, 4, '$Elements declares')
         if (.not. ok) return
-        allocate (r%mesh%tet(4, nelem), r%mesh%body(nelem), r%tet_line(nelem))
+        allocate (r%mesh%tet(4, nelem), r%mesh%body(nelem), r%mesh%volume(nelem), r%tet_line(nelem))
     end function elements_start
 
     !> An element type the reader knows: 4 (tetrahedra) read; 15, 1, 2 (points, lines, triangles)
@@ -421,14 +427,15 @@ contains
                                 'tetrahedron; points, lines and triangles are skipped)')
     end function element_type_ok
 
-    !> One more tetrahedron (nodes, body tag as read) at the current line.
-    subroutine add_tet(r, nodes, body)
+    !> One more tetrahedron (nodes, body tag as read, volume entity tag) at the current line.
+    subroutine add_tet(r, nodes, body, volume)
         type(gmsh_reader_t), intent(inout) :: r
         integer(i8), intent(in) :: nodes(4)
-        integer, intent(in) :: body
+        integer, intent(in) :: body, volume
         r%mesh%ntet = r%mesh%ntet + 1
         r%mesh%tet(:, r%mesh%ntet) = nodes
         r%mesh%body(r%mesh%ntet) = body
+        r%mesh%volume(r%mesh%ntet) = volume
         r%tet_line(r%mesh%ntet) = r%line_no
     end subroutine add_tet
 
@@ -475,7 +482,7 @@ contains
                     call fail(r, r%line_no, 'more elements than the $Elements header says'); return
                 end if
                 if (.not. distinct_nodes(r, tags(2:5), tags(1))) return
-                call add_tet(r, tags(2:5), tag)
+                call add_tet(r, tags(2:5), tag, tag)
             else
                 call next_line(r, line)
                 if (r%ios /= 0) then
@@ -489,7 +496,7 @@ contains
         type(gmsh_reader_t), intent(inout) :: r
         character(len=4096) :: line
         integer(i8) :: nelem
-        integer :: k, etype, ntags, n, ios2, body
+        integer :: k, etype, ntags, n, ios2, body, volume
         integer(i8) :: vals(64)
         read (r%u, *, iostat=r%ios) nelem
         if (.not. elements_start(r, nelem, 'bad $Elements count')) return
@@ -515,7 +522,9 @@ contains
             if (.not. distinct_nodes(r, vals(n - 3:n), vals(1))) return
             body = 0                                      ! no physical tag
             if (ntags >= 1) body = int(vals(4))
-            call add_tet(r, vals(n - 3:n), body)
+            volume = 0                                    ! no elementary tag
+            if (ntags >= 2) volume = int(vals(5))
+            call add_tet(r, vals(n - 3:n), body, volume)
         end do
     end subroutine elements22
 

@@ -15,6 +15,8 @@
 !>   W'' = lambda L'^2 + (lambda L - mu) L'' + mu |G|^2,  L'' = p''/p - (p'/p)^2.
 !> Where p(s) <= 0 (an element turned inside out) the energy is infinite: the ray returns a huge
 !> value there, so the event solver meets a level crossing (a reflection) before it.
+!> Each element has its own lambda and mu (a mesh of several materials); setup's scalars are the
+!> material of every element not given one.
 !>
 !> Elements are given by the global ids of their nodes. An element's energy counts on the rank that
 !> owns its node of lowest id; its forces are computed on every rank owning one of its nodes, and each
@@ -43,8 +45,11 @@ module terrace_neohookean
     real(dp), parameter, public :: inverted_energy = 1.0e30_dp   !< wall height past an inversion, per V0 (lambda + mu)
 
     type, extends(potential_t), public :: neohookean_t
-        real(dp) :: lambda = 0, mu = 0
+        real(dp) :: lambda = 0, mu = 0              !< the default material (elements not given their own)
         integer :: nelem = 0
+        integer :: nmaterials = 1                   !< distinct (lambda, mu) pairs among the elements
+        real(dp) :: stiffest = 0                    !< largest lambda + 2 mu (the fastest wave, stability)
+        real(dp), allocatable :: elam(:), emu(:)    !< (nelem) each element's lambda and mu
         integer(i8), allocatable :: node(:, :)      !< (4, nelem) global node ids
         real(dp), allocatable :: dminv(:, :)        !< (9, nelem) Dm^-1, column major
         real(dp), allocatable :: v0(:)              !< reference volumes
@@ -60,6 +65,7 @@ module terrace_neohookean
         integer, allocatable :: lidx(:, :)          !< (k, corner) local atom index
         real(dp), allocatable :: rdm(:, :)          !< (k, 1:9) Dm^-1, column major
         real(dp), allocatable :: rv0(:)             !< V0
+        real(dp), allocatable :: rlam(:), rmu(:)    !< lambda, mu
         real(dp), allocatable :: wgt(:)             !< 1: its energy counts here; 0: forces only
         real(dp), allocatable :: hf(:, :)           !< (3 (corner - 1) + r, k) nodal forces of the last pass
         real(dp), allocatable :: terms(:, :)        !< (k, 1:4) per-element energy terms, for the exact sums
@@ -94,20 +100,29 @@ module terrace_neohookean
 
 contains
 
-    !> Elements from node ids tets(4, ne) and the reference positions xref(3, id) of the nodes.
+    !> Elements from node ids tets(4, ne) and the reference positions xref(3, id) of the nodes, all
+    !> of material (lambda, mu), or each of its own (elem_lambda(e), elem_mu(e)) where those are given.
     !> ok = .false. with a message for a degenerate or inverted reference element.
-    subroutine nh_setup(self, lambda, mu, tets, xref, ok, msg)
+    subroutine nh_setup(self, lambda, mu, tets, xref, ok, msg, elem_lambda, elem_mu)
         class(neohookean_t), intent(inout) :: self
         real(dp), intent(in) :: lambda, mu
         integer(i8), intent(in) :: tets(:, :)
         real(dp), intent(in) :: xref(:, :)       !< (3, max id): reference position of node id
         logical, intent(out) :: ok
         character(len=*), intent(out) :: msg
+        real(dp), intent(in), optional :: elem_lambda(:), elem_mu(:)   !< (ne) per-element material
         real(dp) :: dm(3, 3), minv(3, 3), det, size3
         integer :: e, a
         self%lambda = lambda; self%mu = mu
         self%nelem = size(tets, 2)
         allocate (self%node(4, self%nelem), self%dminv(9, self%nelem), self%v0(self%nelem))
+        allocate (self%elam(self%nelem), self%emu(self%nelem))
+        self%elam = lambda; self%emu = mu
+        if (present(elem_lambda) .and. present(elem_mu)) then
+            self%elam = elem_lambda; self%emu = elem_mu
+        end if
+        self%stiffest = maxval(self%elam + 2*self%emu)
+        self%nmaterials = count_pairs(self%elam, self%emu)
         self%node = tets
         ok = .true.; msg = ''
         self%reach = 0
@@ -134,6 +149,25 @@ contains
                              norm2(dm(:, 2) - dm(:, 1)), norm2(dm(:, 3) - dm(:, 1)), norm2(dm(:, 3) - dm(:, 2)))
         end do
     end subroutine nh_setup
+
+    !> The number of distinct (a(e), b(e)) pairs (each element compared with the first element of
+    !> each pair found so far).
+    pure integer function count_pairs(a, b) result(n)
+        real(dp), intent(in) :: a(:), b(:)
+        integer :: e, q
+        integer, allocatable :: first(:)
+        allocate (first(size(a)))
+        n = 0
+        do e = 1, size(a)
+            do q = 1, n
+                if (a(first(q)) == a(e) .and. b(first(q)) == b(e)) exit
+            end do
+            if (q > n) then
+                n = n + 1
+                first(n) = e
+            end if
+        end do
+    end function count_pairs
 
     pure real(dp) function det3(m)
         real(dp), intent(in) :: m(3, 3)
@@ -247,11 +281,13 @@ contains
         integer :: i, e, a, n, k, c
         n = self%nmine
         if (allocated(self%wl)) then
-            if (size(self%wl) < self%npad) deallocate (self%wl, self%lidx, self%rdm, self%rv0, self%wgt, self%hf, self%terms)
+            if (size(self%wl) < self%npad) deallocate (self%wl, self%lidx, self%rdm, self%rv0, self%wgt, self%hf, self%terms, &
+                                                       self%rlam, self%rmu)
         end if
         if (.not. allocated(self%wl)) then
             k = max(self%npad, nblk)
-            allocate (self%wl(k), self%lidx(k, 4), self%rdm(k, 9), self%rv0(k), self%wgt(k), self%hf(12, k), self%terms(k, 4))
+            allocate (self%wl(k), self%lidx(k, 4), self%rdm(k, 9), self%rv0(k), self%wgt(k), self%hf(12, k), self%terms(k, 4), &
+                      self%rlam(k), self%rmu(k))
         end if
         self%missing_node = .false.
         do e = 1, self%nelem
@@ -271,6 +307,7 @@ contains
                 self%rdm(k, c) = self%dminv(c, e)
             end do
             self%rv0(k) = self%v0(e)
+            self%rlam(k) = self%elam(e); self%rmu(k) = self%emu(e)
             self%wgt(k) = merge(1.0_dp, 0.0_dp, k <= n)
         end do
         ! padding (only when there is work): copies of the first element, weight 0, never scattered
@@ -279,6 +316,7 @@ contains
             self%lidx(k, :) = self%lidx(1, :)
             self%rdm(k, :) = self%rdm(1, :)
             self%rv0(k) = 0
+            self%rlam(k) = self%rlam(1); self%rmu(k) = self%rmu(1)
             self%wgt(k) = 0
         end do
     end subroutine fill_work_list
@@ -350,7 +388,7 @@ contains
         do b = 1, self%npad/nblk
             k0 = (b - 1)*nblk
             call gather_edges(atoms%x, self%lidx, k0, ds)
-            call force_block(k0, ds, self%rdm, self%rv0, self%wgt, self%lambda, self%mu, self%hf, self%terms, bad)
+            call force_block(k0, ds, self%rdm, self%rv0, self%wgt, self%rlam, self%rmu, self%hf, self%terms, bad)
             if (self%first_inverted == 0 .and. any(bad > 0)) then
                 do j = 1, nblk
                     if (bad(j) > 0 .and. k0 + j <= self%nwork) then
@@ -398,20 +436,21 @@ contains
     !> (The nodal forces go to hf(12, k): with hf(k, 12), twelve separate store streams, GCC 12 does
     !> not vectorise the loop.)
     !> An inverted element (J <= 0) gets no force and no energy and is flagged.
-    subroutine force_block(k0, ds, rdm, rv0, wgt, lambda, mu, hf, terms, bad)
+    subroutine force_block(k0, ds, rdm, rv0, wgt, rlam, rmu, hf, terms, bad)
         integer, intent(in) :: k0
-        real(dp), intent(in) :: ds(nblk, 9), lambda, mu
-        real(dp), intent(in), contiguous :: rdm(:, :), rv0(:), wgt(:)
+        real(dp), intent(in) :: ds(nblk, 9)
+        real(dp), intent(in), contiguous :: rdm(:, :), rv0(:), wgt(:), rlam(:), rmu(:)
         real(dp), intent(inout), contiguous :: hf(:, :), terms(:, :)
         real(dp), intent(out) :: bad(nblk)       !< 1: inverted
         integer :: j, k
         logical :: okj
         real(dp) :: f11, f21, f31, f12, f22, f32, f13, f23, f33, c11, c21, c31, c12, c22, c32, c13, c23, c33, &
                     jac, js, rj, lnj, v0, p11, p21, p31, p12, p22, p32, p13, p23, p33, h11, h21, h31, h12, h22, h32, &
-                    h13, h23, h33, ff, w, m11, m21, m31, m12, m22, m32, m13, m23, m33
+                    h13, h23, h33, ff, w, m11, m21, m31, m12, m22, m32, m13, m23, m33, lambda, mu
         do j = 1, nblk
             k = k0 + j
             include 'neohookean_f.inc'
+            lambda = rlam(k); mu = rmu(k)
             ! cofactors: F^-T = C / J
             c11 = f22*f33 - f23*f32; c12 = f23*f31 - f21*f33; c13 = f21*f32 - f22*f31
             c21 = f13*f32 - f12*f33; c22 = f11*f33 - f13*f31; c23 = f12*f31 - f11*f32
@@ -492,7 +531,7 @@ contains
             self%coef_valid = .true.
         end if
         do b = 1, nb
-            call ray_eval_block((b - 1)*nblk, s, self%coef, self%lambda, self%mu, self%terms)
+            call ray_eval_block((b - 1)*nblk, s, self%coef, self%rlam, self%rmu, self%terms)
         end do
         call exact_sum_all(self%terms, nmine_pad, int(self%nelem, i8), out, self%global_sums)
     end subroutine nh_ray
@@ -556,14 +595,14 @@ contains
 
     !> The s-dependent part of one block of the ray pass, from coef: p(s), p', p'', ln J = ln J0 +
     !> ln p, W, W', W'' and the virial term at s. Past an inversion (J0 <= 0, or p(s) <= 0) the wall
-    !> energy and no derivatives.
-    subroutine ray_eval_block(k0, s, coef, lambda, mu, terms)
+    !> energy and no derivatives. Each element's lambda and mu from the work list (rlam, rmu).
+    subroutine ray_eval_block(k0, s, coef, rlam, rmu, terms)
         integer, intent(in) :: k0
-        real(dp), intent(in) :: s, lambda, mu
-        real(dp), intent(in), contiguous :: coef(:, :)
+        real(dp), intent(in) :: s
+        real(dp), intent(in), contiguous :: coef(:, :), rlam(:), rmu(:)
         real(dp), intent(inout), contiguous :: terms(:, :)
         integer :: j, k
-        real(dp) :: q1, q2, q3, pp, ps, p1, p2, lnj, l1, l2, t0, fg, gg, trf, w, w1, w2, v0, wall, lm, vir
+        real(dp) :: q1, q2, q3, pp, ps, p1, p2, lnj, l1, l2, t0, fg, gg, trf, w, w1, w2, v0, wall, lm, vir, lambda, mu
         real(dp) :: cb(nblk, ncoef)
         logical :: inv0, ok, okp
         integer :: c
@@ -578,6 +617,7 @@ contains
             q1 = cb(j, 1); q2 = cb(j, 2); q3 = cb(j, 3)
             t0 = cb(j, 5); fg = cb(j, 6); gg = cb(j, 7); v0 = cb(j, 8)
             inv0 = cb(j, 9) > 0
+            lambda = rlam(k); mu = rmu(k)
             pp = 1 + s*(q1 + s*(q2 + s*q3))
             okp = pp > 0
             ok = okp .and. .not. inv0
@@ -606,12 +646,13 @@ contains
     end subroutine ray_eval_block
 
     !> The engine prints 0.005 tau as a stable velocity-Verlet step: tau = 100 l_min / c_d makes that
-    !> l_min / (2 c_d), half the element's dilatational transit time (c_d = sqrt((lambda + 2 mu)/rho)).
+    !> l_min / (2 c_d), half the element's dilatational transit time (c_d = sqrt((lambda + 2 mu)/rho)),
+    !> with the smallest element and the stiffest material (a bound when they are different elements).
     pure real(dp) function nh_time_scale(self, mass, mvv2e)
         class(neohookean_t), intent(in) :: self
         real(dp), intent(in) :: mass, mvv2e
         nh_time_scale = 0
-        if (self%density > 0) nh_time_scale = 100*self%min_height/sqrt((self%lambda + 2*self%mu)/self%density)
+        if (self%density > 0) nh_time_scale = 100*self%min_height/sqrt(self%stiffest/self%density)
     end function nh_time_scale
 
 
@@ -666,8 +707,14 @@ contains
         class(neohookean_t), intent(in) :: self
         character(len=:), allocatable :: text
         character(len=200) :: s
-        write (s, '(a,i0,a,es11.4,a,es11.4,a)') 'neohookean, ', self%nelem, ' tetrahedra, lambda = ', self%lambda, &
-            ', mu = ', self%mu, '; no pair list, no density pass'
+        if (self%nmaterials > 1) then
+            write (s, '(a,i0,a,i0,a,es11.4,a,es11.4,a)') 'neohookean, ', self%nelem, ' tetrahedra of ', self%nmaterials, &
+                ' materials (lambda + 2 mu from ', minval(self%elam + 2*self%emu), ' to ', self%stiffest, &
+                '); no pair list, no density pass'
+        else
+            write (s, '(a,i0,a,es11.4,a,es11.4,a)') 'neohookean, ', self%nelem, ' tetrahedra, lambda = ', self%lambda, &
+                ', mu = ', self%mu, '; no pair list, no density pass'
+        end if
         text = trim(s)
     end function nh_describe
 

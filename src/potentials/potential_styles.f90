@@ -41,8 +41,8 @@ module terrace_potential_styles
                           needs_metal_units=.true., all_pairs=.false.), &
         potential_style_t('eam/fs', eam_keys, many_body=.true., needs_file=.true., needs_elements=.true., &
                           needs_metal_units=.true., all_pairs=.false.), &
-        potential_style_t('neohookean', 'lambda mu contact_stiffness contact_distance contact_model '// &
-                          'walls wall_planes wall_stiffness wall_distance', mesh=.true.), &
+        potential_style_t('neohookean', 'lambda mu volume_lambda volume_mu contact_stiffness contact_distance '// &
+                          'contact_model walls wall_planes wall_stiffness wall_distance', mesh=.true.), &
         potential_style_t('hard_sphere', 'diameter', pair=.true., stepped=.true.), &
         potential_style_t('square_well', 'diameter well_depth well_lambda well_radius', pair=.true., stepped=.true.)]
 

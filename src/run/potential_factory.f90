@@ -4,7 +4,7 @@
 !> setfl or Finnis-Sinclair file; types without a mass take the file's.
 module terrace_potential_factory
     use terrace_kinds, only: dp
-    use terrace_config, only: config_t, max_types, is_unset
+    use terrace_config, only: config_t, max_types, max_volumes, is_unset
     use terrace_potential, only: potential_t
     use terrace_lj, only: lj_t
     use terrace_eam, only: eam_t
@@ -44,7 +44,15 @@ contains
                 do t = 1, mesh%nnode
                     xref(:, mesh%node_tag(t)) = mesh%x(:, t)
                 end do
-                call nh%setup(cfg%lambda, cfg%mu, mesh%tet(:, 1:mesh%ntet), xref, ok, msg)
+                if (any(.not. is_unset(cfg%volume_mu))) then
+                    block
+                        real(dp), allocatable :: elam(:), emu(:)
+                        call volume_materials(cfg, mesh, elam, emu)
+                        call nh%setup(cfg%lambda, cfg%mu, mesh%tet(:, 1:mesh%ntet), xref, ok, msg, elam, emu)
+                    end block
+                else
+                    call nh%setup(cfg%lambda, cfg%mu, mesh%tet(:, 1:mesh%ntet), xref, ok, msg)
+                end if
                 call check_all(ok, trim(cfg%mesh_file)//': &system: mesh_file: '//trim(msg))
                 nh%density = cfg%mass_density
                 if (count_bodies(mesh%body(1:mesh%ntet)) < 2) then
@@ -195,6 +203,42 @@ contains
         call move_alloc(wl, term)
         call total%add(term)
     end subroutine add_walls
+
+    !> Each element's Lame constants: those of its volume entity where &potential volume_lambda(v),
+    !> volume_mu(v) give them, else lambda and mu. A volume the mesh does not have is refused with
+    !> the volumes it has.
+    subroutine volume_materials(cfg, mesh, elam, emu)
+        type(config_t), intent(in) :: cfg
+        type(mesh_t), intent(in) :: mesh
+        real(dp), allocatable, intent(out) :: elam(:), emu(:)
+        integer :: e, v
+        character(len=16) :: sv
+        character(len=:), allocatable :: have
+        allocate (elam(mesh%ntet), emu(mesh%ntet))
+        elam = cfg%lambda; emu = cfg%mu
+        do e = 1, mesh%ntet
+            v = mesh%volume(e)
+            if (v < 1 .or. v > max_volumes) cycle
+            if (is_unset(cfg%volume_mu(v))) cycle
+            elam(e) = cfg%volume_lambda(v); emu(e) = cfg%volume_mu(v)
+        end do
+        do v = 1, max_volumes
+            if (is_unset(cfg%volume_mu(v))) cycle
+            if (any(mesh%volume(1:mesh%ntet) == v)) cycle
+            have = ''
+            do e = 1, max_volumes
+                if (.not. any(mesh%volume(1:mesh%ntet) == e)) cycle
+                write (sv, '(i0)') e
+                if (len(have) > 0) have = have//', '
+                have = have//trim(sv)
+            end do
+            if (len(have) == 0) have = 'none: its tetrahedra carry no volume entity tag'
+            write (sv, '(a,i0,a)') '(', v, ')'
+            call stop_all(cfg%where('potential', 'volume_mu')//trim(sv)//': '//trim(cfg%mesh_file)// &
+                          ' has no tetrahedra in volume entity '//trim(sv(2:len_trim(sv) - 1))//' (its volumes: '// &
+                          have//')')
+        end do
+    end subroutine volume_materials
 
     pure integer function count_bodies(body) result(n)
         integer, intent(in) :: body(:)

@@ -13,6 +13,9 @@
   - collisions (the many-collision run's restitution, bounce.py): a momentum history with three
     bounces of known restitution, one interrupted by a 20 ms gap before it reverses, one by a 1 ms
     gap, and a contact still on at the end, gives the three restitutions;
+  - quality (the stiff-minority meshes): radius ratio 1 for a regular tetrahedron, ~0 for a flat
+    one of altitude 1e-3 over its base (which it gives back); the unit right corner: V = 1/6,
+    smallest altitude 1/sqrt(3);
   - with a build directory as argument that holds terrace-analyze: the study's adapter (Analyzer,
     which runs terrace-analyze on H5MD files written by write_h5md) on the same fcc lattice, Brownian
     paths and harmonic velocities: same first-peak position and height, D within 10 % and within
@@ -67,6 +70,15 @@ def main():
         for g, w in zip(got, want)),
         '%s (expect e = 0.9, 0.8 for a touch joined with its bounce 20 ms later, 1.0 across a 1 ms gap; '
         'the contact still on at the end left out)' % [tuple(round(v, 4) for v in g) for g in got])
+    from .minority import quality          # the stiff-minority study's element quality
+    reg = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float)
+    right = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    flat = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1 / 3, 1 / 3, 1e-3]], float)     # altitude 1e-3 over the base
+    vol, alt, rr = quality(np.vstack([reg, right, flat]), np.array([[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11]]))
+    good &= check('quality', abs(rr[0] - 1) < 1e-12 and abs(vol[1] - 1 / 6) < 1e-15
+                  and abs(alt[1] - 1 / np.sqrt(3)) < 1e-12 and rr[2] < 0.01 and abs(alt[2] - 1e-3) < 1e-12,
+                  'radius ratio of a regular tetrahedron %.15f, of a flat one %.2g (altitude %.3g, expect 1e-3); right '
+                  'corner: V = %.6f, smallest altitude %.6f (1/sqrt 3)' % (rr[0], rr[2], alt[2], vol[1], alt[1]))
 
     m, se = A.block_mean(rng.normal(size=10000))
     good &= check('block_mean', abs(se - 0.01) < 0.003 and abs(m) < 0.05, 'mean %.4f, SE %.4f (expect 0.01)' % (m, se))

@@ -11,7 +11,7 @@ module terrace_potential_styles
     type, public :: potential_style_t
         character(len=24) :: name = ''              !< '' for a name no style has
         !> its own keys, separated by blanks (the keys every style takes, style and precision, are not listed)
-        character(len=128) :: keys = ''
+        character(len=256) :: keys = ''
         logical :: pair = .false.                   !< a pair potential with per-type-pair coefficients in the deck
         logical :: many_body = .false.              !< energy not a sum over pairs (embedding terms)
         logical :: mesh = .false.                   !< elastic elements of a mesh: needs &system mesh_file

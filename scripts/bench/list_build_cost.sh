@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Cost of one neighbour-list rebuild per atom on a small and a large system, counted by callgrind
+# (instruction counts repeat exactly on a shared machine): Rahman's liquid argon (864 atoms, the
+# liquid input/argon_nvt.nml leaves, run as input/argon_nvt_100ns.nml: skin 1 A, exact list,
+# ARGON_PS ps, default 20 = 2000 steps) and the LJ bench scene (input/lj_bench.nml, 32,000 atoms,
+# skin 0.3 sigma, LJ_STEPS steps, default 100). Per build and per owned atom: the whole rebuild
+# (engine_rebuild: migration, bins, the owned sort, the halo's border exchange, the list, the
+# potential's rebuild hook), the list build alone (nl_build), and its parts; per step and atom the
+# ghost refresh (domain_forward). Needs a -DTERRACE_PORTABLE=ON build (valgrind stops on AVX-512).
+# Usage: scripts/bench/list_build_cost.sh PORTABLE_TERRACE [PORTABLE_TERRACE_2 ...]
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
+figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
+[[ $# -ge 1 ]] || { echo "usage: $0 PORTABLE_TERRACE [MORE ...]" >&2; exit 2; }
+for c in valgrind callgrind_annotate; do command -v $c > /dev/null || { echo "list_build_cost: $c not found" >&2; exit 2; }; done
+ps="${ARGON_PS:-20}"; nlj="${LJ_STEPS:-100}"
+work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
+bins=(); for b in "$@"; do [[ -x $b ]] || { echo "list_build_cost: $b is not executable" >&2; exit 2; }; bins+=("$(realpath "$b")"); done
+cd "$work"
+cp "$repo/input/argon_nvt.nml" .
+"${bins[0]}" argon_nvt.nml > eq.log 2>&1 || { tail eq.log >&2; exit 1; }     # argon_nvt_eq.atoms
+sed -e "s/run_time=100000.0/run_time=$ps/" "$repo/input/argon_nvt_100ns.nml" > argon.nml
+sed -E "s/n_steps=[0-9]+/n_steps=$nlj/" "$repo/input/lj_bench.nml" > lj.nml
+echo "list build cost per atom, callgrind instruction counts; $(date -u '+%Y-%m-%d %H:%M UTC'); commit $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
+echo "argon: 864 atoms, $ps ps (skin 1 A, exact list); lj: 32,000 atoms, $nlj steps (skin 0.3 sigma, exact list)"
+printf '%-6s %-6s %6s | %9s %9s %9s %9s %9s %9s %9s | %9s\n' build scene builds rebuild nl_build \
+    bins sort borders migrate scan 'fwd/step'
+printf '%-6s %-6s %6s | %s | %s\n' '' '' '' 'instructions per build per owned atom (rebuild = all of engine_rebuild)' \
+    'ghost refresh per step per owned atom'
+k=0
+for b in "${bins[@]}"; do
+    k=$((k + 1))
+    for scene in argon lj; do
+        rm -f $scene.summary.json argon_nvt_100ns.csv argon_nvt_100ns.h5 argon_nvt_100ns.ckpt.h5
+        valgrind --tool=callgrind --callgrind-out-file=cg.$k.$scene "$b" $scene.nml > $scene.$k.log 2> cg.err \
+            || { echo "list_build_cost: $b failed under valgrind (a -march=native build? use -DTERRACE_PORTABLE=ON)" >&2; tail -3 cg.err >&2; exit 2; }
+        callgrind_annotate --inclusive=yes --threshold=100 cg.$k.$scene > ann.txt 2> /dev/null
+        ir() { awk -v pat="$1" '$0 ~ pat { gsub(/,/, "", $1); print $1; exit }' ann.txt; }
+        builds=$(figure $scene.summary.json neighbor/builds)
+        natoms=$(figure $scene.summary.json run/atoms)
+        steps=$(awk '/^Loop time:/ {for (i = 1; i <= NF; i++) if ($(i+1) == "steps") print $i}' $scene.$k.log | tail -1)
+        printf '%-6s %-6s %6d | ' "$k" $scene "$builds"
+        for f in 'engine_MOD_engine_rebuild ' 'neighbor_list_MOD_nl_build ' 'neighbor_list_MOD_nl_setup_bins ' \
+                 'neighbor_list_MOD_nl_sort_owned ' 'domain_MOD_domain_borders ' 'domain_MOD_domain_migrate ' \
+                 'neighbor_list_MOD_scan[ .]'; do
+            v=$(ir "$f"); printf '%9.1f ' "$(awk -v v="${v:-0}" -v b="$builds" -v n="$natoms" 'BEGIN { print v / b / n }')"
+        done
+        v=$(ir 'domain_MOD_domain_forward '); printf '| %9.1f\n' "$(awk -v v="${v:-0}" -v s="${steps:-1}" -v n="$natoms" 'BEGIN { print v / s / n }')"
+    done
+done
+echo "builds: rebuilds in the run (with the one before the first step); binaries:"
+k=0; for b in "${bins[@]}"; do k=$((k + 1)); echo "  $k: $b"; done

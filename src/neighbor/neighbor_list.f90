@@ -43,13 +43,6 @@ module terrace_neighbor_list
         integer, allocatable :: perm(:), counts(:)
         real(dp), allocatable :: cx(:), cy(:), cz(:)    !< build scratch: candidates shared by a bin's atoms
         integer, allocatable :: cj(:), keep(:)
-        !> Build scratch: the shared candidates in segments, one per stencil row (seg_end(s): the
-        !> segment's last slot, its first the previous segment's last + 1 within its group; groups end
-        !> at segments nseg(1:3)), with the bounding box of each segment's candidates in seg_box(6*s-5 :
-        !> 6*s) (x, y, z lowest and highest): an atom skips the segments its box puts beyond the cutoff.
-        integer, allocatable :: seg_end(:)
-        real(dp), allocatable :: seg_box(:)
-        integer :: nseg(3) = 0
         !> Build scratch: the positions in bin order, columns of contiguous rows (owned slot k is atom
         !> k, sorted by bin; ghost slot nlocal + s is atom ghost_atoms(s)), so that the candidates of a
         !> stencil row are copied as contiguous blocks; sj(slot) is the atom.
@@ -296,9 +289,12 @@ contains
                     call grow_keep(self%neigh, n, n + bound + int(min(1.1_dp*n/max(i - 1, 1)*(nlocal - i + 1), &
                                                                      real(huge(1), dp)/4)))
                 call owned_after(i, owned_start(b + 1) - 1, x, cutsq, self%neigh, n)
-                call scan_segments(self, x(1, i), x(2, i), x(3, i), 1, self%nseg(1), 0, cutsq, .false., n)
-                call scan_segments(self, x(1, i), x(2, i), x(3, i), self%nseg(1) + 1, self%nseg(2), m1, cutsq, .true., n)
-                call scan_segments(self, x(1, i), x(2, i), x(3, i), self%nseg(2) + 1, self%nseg(3), m2, cutsq, .false., n)
+                call scan(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, 1, m1, cutsq, &
+                          .false., self%neigh, n)
+                if (m2 > m1) call scan(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, m1 + 1, &
+                                       m2, cutsq, .true., self%neigh, n)
+                if (m3 > m2) call scan(x(1, i), x(2, i), x(3, i), self%cx, self%cy, self%cz, self%cj, self%keep, m2 + 1, &
+                                       m3, cutsq, .false., self%neigh, n)
                 self%first(i + 1) = n + 1
                 ! ordered by type while the row is in cache
                 if (nt > 1) call order_row(self%neigh, self%first(i) - 1, n + 1 - self%first(i), atoms%type, nt, &
@@ -352,8 +348,6 @@ contains
         call reserve(self%cz, bound)
         call reserve(self%keep, bound)
         call reserve(self%cj, bound)
-        call reserve(self%seg_end, 3*self%nrows + 2)
-        call reserve(self%seg_box, 6*(3*self%nrows + 2))
         call bin_order_columns(self, atoms%x, nlocal, nghost)
         call reserve(self%first, nlocal + 1)
         nt = self%type_order
@@ -377,45 +371,33 @@ contains
         class(neighbor_list_t), intent(inout) :: self
         integer, intent(in) :: b, nlocal
         integer, intent(out) :: m1, m2, m3
-        integer :: r, cr, ns
+        integer :: r, cr
         cr = self%center_reach
         associate (owned_start => self%owned_start, ghost_start => self%ghost_start, row_lo => self%row_lo, &
                    row_hi => self%row_hi, row_dz => self%row_dz)
-            ns = 0
             m1 = 0
-            call take_row(owned_start(b + 1), owned_start(b + cr + 1) - 1, m1)
+            call take_slots(owned_start(b + 1), owned_start(b + cr + 1) - 1, self%sx, self%sy, self%sz, self%sj, &
+                            self%cx, self%cy, self%cz, self%cj, m1)
             do r = self%first_upper_row, self%nrows
-                call take_row(owned_start(b + row_lo(r)), owned_start(b + row_hi(r) + 1) - 1, m1)
+                call take_slots(owned_start(b + row_lo(r)), owned_start(b + row_hi(r) + 1) - 1, self%sx, self%sy, &
+                                self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m1)
             end do
-            self%nseg(1) = ns
             m2 = m1
-            call take_row(nlocal + ghost_start(b - cr), nlocal + ghost_start(b + cr + 1) - 1, m2)
+            if (ghost_start(b + cr + 1) > ghost_start(b - cr)) &
+                call take_slots(nlocal + ghost_start(b - cr), nlocal + ghost_start(b + cr + 1) - 1, self%sx, self%sy, &
+                                self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m2)
             do r = 1, self%nrows
-                if (row_dz(r) /= 0) cycle
-                call take_row(nlocal + ghost_start(b + row_lo(r)), nlocal + ghost_start(b + row_hi(r) + 1) - 1, m2)
+                if (row_dz(r) /= 0 .or. ghost_start(b + row_hi(r) + 1) == ghost_start(b + row_lo(r))) cycle
+                call take_slots(nlocal + ghost_start(b + row_lo(r)), nlocal + ghost_start(b + row_hi(r) + 1) - 1, &
+                                self%sx, self%sy, self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m2)
             end do
-            self%nseg(2) = ns
             m3 = m2
             do r = self%first_upper_row, self%nrows
-                if (row_dz(r) <= 0) cycle
-                call take_row(nlocal + ghost_start(b + row_lo(r)), nlocal + ghost_start(b + row_hi(r) + 1) - 1, m3)
+                if (row_dz(r) <= 0 .or. ghost_start(b + row_hi(r) + 1) == ghost_start(b + row_lo(r))) cycle
+                call take_slots(nlocal + ghost_start(b + row_lo(r)), nlocal + ghost_start(b + row_hi(r) + 1) - 1, &
+                                self%sx, self%sy, self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m3)
             end do
-            self%nseg(3) = ns
         end associate
-    contains
-        !> Slots first..last (a stencil row) appended to the shared rows as segment ns + 1, with its
-        !> bounding box; nothing when the row is empty.
-        subroutine take_row(first, last, m)
-            integer, intent(in) :: first, last
-            integer, intent(inout) :: m
-            integer :: m0
-            if (last < first) return
-            m0 = m
-            call take_slots(first, last, self%sx, self%sy, self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m)
-            ns = ns + 1
-            self%seg_end(ns) = m
-            call segment_box(self%cx, self%cy, self%cz, m0 + 1, m, self%seg_box(6*ns - 5:6*ns))
-        end subroutine take_row
     end subroutine gather_candidates
 
     !> ntype(1:n) = type(neigh(1:n)), and eight pad entries of type 1 after them.
@@ -600,54 +582,6 @@ contains
             if (rsq < cutsq) n = n + 1
         end do
     end subroutine owned_after
-
-    !> The bounding box (x, y, z lowest, then highest... as lo_x, hi_x, lo_y, hi_y, lo_z, hi_z) of the
-    !> candidates k1..k2 of the shared rows.
-    pure subroutine segment_box(cx, cy, cz, k1, k2, box)
-        real(dp), intent(in) :: cx(:), cy(:), cz(:)
-        integer, intent(in) :: k1, k2
-        real(dp), intent(out) :: box(6)
-        box(1) = minval(cx(k1:k2)); box(2) = maxval(cx(k1:k2))
-        box(3) = minval(cy(k1:k2)); box(4) = maxval(cy(k1:k2))
-        box(5) = minval(cz(k1:k2)); box(6) = maxval(cz(k1:k2))
-    end subroutine segment_box
-
-    !> The scan of the segments s1..s2 of the shared rows (their first slot k0 + 1) for the atom at
-    !> (xi, yi, zi), leaving out every segment whose bounding box lies beyond the cutoff of the atom:
-    !> none of its candidates could pass (a box's distance is at most any of its points' in floating
-    !> point too, the differences being monotone; the margin of 1e-10 covers the order of the
-    !> additions), so the list is the one a scan of all of them makes, in the same order. The
-    !> segments kept in a row are contiguous slots and go to one scan.
-    subroutine scan_segments(self, xi, yi, zi, s1, s2, k0, cutsq, above, n)
-        type(neighbor_list_t), intent(inout) :: self
-        real(dp), intent(in) :: xi, yi, zi, cutsq
-        integer, intent(in) :: s1, s2, k0
-        logical, intent(in) :: above
-        integer, intent(inout) :: n
-        integer :: s, k1, kfirst, klast
-        real(dp) :: dx, dy, dz, far
-        far = cutsq*(1 + 1.0e-10_dp)
-        kfirst = 0
-        klast = k0
-        do s = s1, s2
-            k1 = klast + 1
-            klast = self%seg_end(s)
-            associate (box => self%seg_box(6*s - 5:6*s))
-                dx = max(0.0_dp, box(1) - xi, xi - box(2))
-                dy = max(0.0_dp, box(3) - yi, yi - box(4))
-                dz = max(0.0_dp, box(5) - zi, zi - box(6))
-            end associate
-            if (dx*dx + dy*dy + dz*dz >= far) then
-                if (kfirst > 0) call scan(xi, yi, zi, self%cx, self%cy, self%cz, self%cj, self%keep, kfirst, k1 - 1, &
-                                          cutsq, above, self%neigh, n)
-                kfirst = 0
-            else if (kfirst == 0) then
-                kfirst = k1
-            end if
-        end do
-        if (kfirst > 0) call scan(xi, yi, zi, self%cx, self%cy, self%cz, self%cj, self%keep, kfirst, klast, cutsq, &
-                                  above, self%neigh, n)
-    end subroutine scan_segments
 
     !> Candidates k1..k2 of the shared rows within the cutoff of (xi, yi, zi) and, when above, also
     !> above it in (z, y, x) order (ghosts of the rows at the same z): with AVX-512 scan_simd.c's

@@ -7,12 +7,19 @@
 # (engine_rebuild: migration, bins, the owned sort, the halo's border exchange, the list, the
 # potential's rebuild hook), the list build alone (nl_build), and its parts; per step and atom the
 # ghost refresh (domain_forward). Needs a -DTERRACE_PORTABLE=ON build (valgrind stops on AVX-512).
-# Usage: scripts/bench/list_build_cost.sh PORTABLE_TERRACE [PORTABLE_TERRACE_2 ...]
+# WALL=N: no callgrind; any build (native too), N alternating rounds of both scenes, and per build
+# and atom the run log's Neigh phase (wall time), per step and atom its Comm phase; median and range.
+# Both: the ghost shell's volume over the box's, ((L + 2 c)^3 - L^3) / L^3 with c = rc + skin (one
+# rank: the ghosts per owned atom at uniform density; the bins, sort and halo work grow with it).
+# Usage: [WALL=N] scripts/bench/list_build_cost.sh TERRACE [TERRACE_2 ...]
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
 figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 [[ $# -ge 1 ]] || { echo "usage: $0 PORTABLE_TERRACE [MORE ...]" >&2; exit 2; }
-for c in valgrind callgrind_annotate; do command -v $c > /dev/null || { echo "list_build_cost: $c not found" >&2; exit 2; }; done
+wall="${WALL:-0}"; [[ "$wall" =~ ^[0-9]+$ ]] || { echo "list_build_cost: WALL must be a number of rounds" >&2; exit 2; }
+if [[ $wall == 0 ]]; then
+    for c in valgrind callgrind_annotate; do command -v $c > /dev/null || { echo "list_build_cost: $c not found" >&2; exit 2; }; done
+fi
 ps="${ARGON_PS:-20}"; nlj="${LJ_STEPS:-100}"
 work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
 bins=(); for b in "$@"; do [[ -x $b ]] || { echo "list_build_cost: $b is not executable" >&2; exit 2; }; bins+=("$(realpath "$b")"); done
@@ -21,8 +28,43 @@ cp "$repo/input/argon_nvt.nml" .
 "${bins[0]}" argon_nvt.nml > eq.log 2>&1 || { tail eq.log >&2; exit 1; }     # argon_nvt_eq.atoms
 sed -e "s/run_time=100000.0/run_time=$ps/" "$repo/input/argon_nvt_100ns.nml" > argon.nml
 sed -E "s/n_steps=[0-9]+/n_steps=$nlj/" "$repo/input/lj_bench.nml" > lj.nml
-echo "list build cost per atom, callgrind instruction counts; $(date -u '+%Y-%m-%d %H:%M UTC'); commit $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
+echo "list build cost per atom; $(date -u '+%Y-%m-%d %H:%M UTC'); commit $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
+echo "machine: $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(env -u OMP_NUM_THREADS nproc) cores visible, load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "argon: 864 atoms, $ps ps (skin 1 A, exact list); lj: 32,000 atoms, $nlj steps (skin 0.3 sigma, exact list)"
+/usr/bin/python3 -c "
+for name, l, c in (('argon', 34.6809019, 9.5), ('lj', 20 * (4 / 0.8442) ** (1 / 3), 2.8)):
+    print('  %-6s ghost shell / box volume: %.3f (box %.4g, rc + skin %.3g)' % (name, ((l + 2 * c) ** 3 - l ** 3) / l ** 3, l, c))"
+if [[ $wall != 0 ]]; then
+    : > wall.txt
+    for ((r = 1; r <= wall; r++)); do
+        k=0
+        for b in "${bins[@]}"; do
+            k=$((k + 1))
+            for scene in argon lj; do
+                rm -f $scene.summary.json argon_nvt_100ns.csv argon_nvt_100ns.h5 argon_nvt_100ns.ckpt.h5
+                "$b" $scene.nml > $scene.log 2>&1 || { echo "list_build_cost: $b $scene.nml failed" >&2; tail -3 $scene.log >&2; exit 1; }
+                echo "$k $scene $(figure $scene.summary.json run/atoms) $(figure $scene.summary.json neighbor/builds)" \
+                     "$(figure $scene.summary.json timing/phases/Neigh/avg_s) $(figure $scene.summary.json timing/phases/Comm/avg_s)" \
+                     "$(awk '/^Loop time:/ {for (i = 1; i <= NF; i++) if ($(i+1) == "steps") print $i}' $scene.log | tail -1)" >> wall.txt
+            done
+        done
+    done
+    /usr/bin/python3 - wall.txt <<'PY'
+import statistics as st, sys
+rows = [l.split() for l in open(sys.argv[1])]
+print('%-6s %-6s %6s %6s | %-30s | %-30s' % ('build', 'scene', 'atoms', 'builds', 'Neigh ns per build per atom', 'Comm ns per step per atom'))
+for key in dict.fromkeys((r[0], r[1]) for r in rows):
+    rs = [r for r in rows if (r[0], r[1]) == key]
+    n, b, steps = int(rs[0][2]), int(rs[0][3]), int(rs[0][6])
+    ne = sorted(1e9 * float(r[4]) / int(r[3]) / n for r in rs)
+    co = sorted(1e9 * float(r[5]) / int(r[6]) / n for r in rs)
+    print('%-6s %-6s %6d %6d | %7.1f [%7.1f, %7.1f] (%d) | %7.1f [%7.1f, %7.1f]' % (key[0], key[1], n, b, st.median(ne), ne[0], ne[-1],
+          len(ne), st.median(co), co[0], co[-1]))
+print('median [lowest, highest] over the rounds; binaries:')
+PY
+    k=0; for b in "${bins[@]}"; do k=$((k + 1)); echo "  $k: $b"; done
+    exit 0
+fi
 printf '%-6s %-6s %6s | %9s %9s %9s %9s %9s %9s %9s | %9s\n' build scene builds rebuild nl_build \
     bins sort borders migrate scan 'fwd/step'
 printf '%-6s %-6s %6s | %s | %s\n' '' '' '' 'instructions per build per owned atom (rebuild = all of engine_rebuild)' \

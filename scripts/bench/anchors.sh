@@ -623,12 +623,12 @@ for ref in ('ar_terrace', 'ar_terrace_mixed_tol', 'ar_terrace_mixed_tol40'):
     if ref not in runs:
         continue
     print('ratios code / %s, round by round (> 1: %s is faster): median [lowest, highest] of %d rounds' % (ref, ref, n))
-    print('  %-22s %-24s %-24s' % ('code', 'loop times', 'whole-process wall'))
+    print('  %-22s %-24s %-24s %-24s' % ('code', 'loop times', 'whole-process wall', 'user CPU (load-robust)'))
     for l in rows:
         if l == ref:
             continue
-        q = [sorted(runs[l][k][c] / runs[ref][k][c] for k in range(n)) for c in (0, 1)]
-        print('  %-22s %-24s %-24s' % (l, *('%.3f [%.3f, %.3f]' % (st.median(v), v[0], v[-1]) for v in q)))
+        q = [sorted(runs[l][k][c] / runs[ref][k][c] for k in range(n)) for c in (0, 1, 2)]
+        print('  %-22s %-24s %-24s %-24s' % (l, *('%.3f [%.3f, %.3f]' % (st.median(v), v[0], v[-1]) for v in q)))
 PY
     echo "Terrace's phases (best runs):"
     for v in ar_terrace ar_terrace_mixed_tol ar_terrace_mixed_tol40; do

@@ -52,7 +52,7 @@ if [[ $wall != 0 ]]; then
                 "$b" $scene.nml > $scene.log 2>&1 || { echo "list_build_cost: $b $scene.nml failed" >&2; tail -3 $scene.log >&2; exit 1; }
                 echo "$k $scene $(figure $scene.summary.json run/atoms) $(figure $scene.summary.json neighbor/builds)" \
                      "$(figure $scene.summary.json timing/phases/Neigh/avg_s) $(figure $scene.summary.json timing/phases/Comm/avg_s)" \
-                     "$(awk '/^Loop time:/ {for (i = 1; i <= NF; i++) if ($(i+1) == "steps") print $i}' $scene.log | tail -1)" >> wall.txt
+                     "$(figure $scene.summary.json timing/steps)" >> wall.txt
             done
         done
     done
@@ -87,7 +87,7 @@ for b in "${bins[@]}"; do
         ir() { awk -v pat="$1" '$0 ~ pat { gsub(/,/, "", $1); print $1; exit }' ann.txt; }
         builds=$(figure $scene.summary.json neighbor/builds)
         natoms=$(figure $scene.summary.json run/atoms)
-        steps=$(awk '/^Loop time:/ {for (i = 1; i <= NF; i++) if ($(i+1) == "steps") print $i}' $scene.$k.log | tail -1)
+        steps=$(figure $scene.summary.json timing/steps)
         printf '%-6s %-6s %6d | ' "$k" $scene "$builds"
         for f in 'engine_MOD_engine_rebuild ' 'neighbor_list_MOD_nl_build ' 'neighbor_list_MOD_nl_setup_bins ' \
                  'neighbor_list_MOD_nl_sort_owned ' 'domain_MOD_domain_borders ' 'domain_MOD_domain_migrate ' \

@@ -39,10 +39,20 @@
 #          10 ps, 10,001 frames; CLUSTER_NS sets a shorter run): loop time, time per event, the phases
 #          and the cost of a frame (the Output phase over the frames). CLUSTER_BASELINE=BINARY runs
 #          that build too, alternating, with the ratio of the loop times.
+#   argon  a slice of the 100 ns argon job (input/argon_nvt_100ns.nml: Rahman's liquid, 864 atoms,
+#          shifted LJ at 2.5 sigma, CSVR at 94.4 K, 10 fs, thermo and a frame of x and v every 10 ps, a
+#          checkpoint every 1 ns), ARGON_PS ps (default 1000: 100,000 steps) from the liquid that
+#          input/argon_nvt.nml leaves: Terrace's deck as it is (ar_terrace: double, exact list), the
+#          mixed kernel with &neighbor buffer_tolerance = GROMACS's default 0.005 kJ/mol/ps per atom
+#          every 10 steps (ar_terrace_mixed_tol) and every 40 (ar_terrace_mixed_tol40), GROMACS mixed
+#          and double at its defaults (v-rescale, its own buffer and nstlist) and LAMMPS (Berendsen:
+#          this LAMMPS has no temp/csvr) on the same state (scripts/bench/argon_anchors.py writes
+#          their inputs); loop and whole-process wall times, ratios round by round.
 # Every timed code runs once per round, in the same order, REPEAT rounds (alternating); the script
 # prints the best and the median loop time of each, the time per atom-step and the ratios
 # anchor/Terrace (> 1: Terrace is faster). Loop times are each code's own: LAMMPS "Loop time of",
-# Terrace "Loop time:", GROMACS md.log "Time: ... wall t" (the MD loop; set-up and grompp excluded).
+# Terrace "Loop time:", GROMACS md.log "Time: ... wall t" (the MD loop; set-up and grompp excluded);
+# whole-process wall times are GNU time's.
 #
 # Differences of the GROMACS run from the other two (as close as GROMACS allows):
 #   - leap-frog (integrator = md), not velocity Verlet: the same one force evaluation per step;
@@ -55,7 +65,7 @@
 #   - energies every 100 steps like the thermo output of the other two, no trajectory output.
 #
 # Usage: scripts/bench/anchors.sh [NSTEPS_LJ [NSTEPS_EAM [TERRACE_BINARY]]]   (defaults 1000 200, $TERRACE or build/terrace)
-# Environment: REPEAT (rounds, default 3), PARTS (comma list, default lj,eam,types,ljtypes,es,cluster), INSTALL=0 to
+# Environment: REPEAT (rounds, default 3), PARTS (comma list, default lj,eam,types,ljtypes,es,argon,cluster), INSTALL=0 to
 # skip installing missing Debian packages (lammps, lammps-data, gromacs, time; as root with apt-get,
 # otherwise the command is printed and the missing anchor skipped), ES_REPEAT (default 1), KEEP=1,
 # GNU_TIME (GNU time's binary, default /usr/bin/time) and LAMMPS_POTENTIALS (the EAM files' folder, default
@@ -67,7 +77,7 @@ export PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}"
 figure() { /usr/bin/python3 -m terrace_tools.summary get "$@"; }
 phases() { /usr/bin/python3 -m terrace_tools.summary phases "$1.best.summary.json" | sed 's/^/    /'; }   # LABEL's best run
 nlj="${1:-1000}"; neam="${2:-200}"; terrace="$(realpath "${3:-${TERRACE:-$repo/build/terrace}}")"
-repeat="${REPEAT:-3}"; parts=",${PARTS:-lj,eam,types,ljtypes,es,cluster},"
+repeat="${REPEAT:-3}"; parts=",${PARTS:-lj,eam,types,ljtypes,es,argon,cluster},"
 for v in "$nlj" "$neam" "$repeat"; do
     [[ "$v" =~ ^[1-9][0-9]*$ ]] || { echo "usage: $0 [NSTEPS_LJ [NSTEPS_EAM [TERRACE]]] (positive integers; REPEAT too)" >&2; exit 2; }
 done
@@ -80,7 +90,7 @@ need=()
 command -v lmp > /dev/null || need+=(lammps)
 [[ -r $pot/Cu_u3.eam ]] || need+=(lammps-data)
 [[ -x "${GNU_TIME:-/usr/bin/time}" ]] || need+=(time)
-if [[ "$parts" == *,lj,* ]]; then
+if [[ "$parts" == *,lj,* || "$parts" == *,argon,* ]]; then
     { command -v gmx > /dev/null && command -v gmx_d > /dev/null; } || need+=(gromacs)
 fi
 if [[ ${#need[@]} -gt 0 && "${INSTALL:-1}" != 0 ]]; then
@@ -102,7 +112,7 @@ if [[ "${KEEP:-0}" != 1 ]]; then trap 'rm -rf "$work"' EXIT; fi
 cd "$work"
 cp "$terrace" ./terrace     # a private copy: a rebuild meanwhile must not mix versions
 echo "Terrace against its CPU anchors, 1 rank, 1 thread, $repeat alternating rounds"
-echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1) ($(nproc) cores visible; flags:$(grep -o -w -E 'avx2|fma|avx512f' /proc/cpuinfo | sort -u | tr '\n' ' '))"
+echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1) ($(env -u OMP_NUM_THREADS nproc) cores visible; flags:$(grep -o -w -E 'avx2|fma|avx512f' /proc/cpuinfo | sort -u | tr '\n' ' '))"
 echo "date    : $(date -u '+%Y-%m-%d %H:%M UTC')"
 echo "commit  : ${BUNDLE_COMMIT:-$(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)$(git -C "$repo" status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo ' (+ uncommitted changes)')}"
 echo "load    : $(cut -d' ' -f1-3 /proc/loadavg) (load average at start)"
@@ -115,8 +125,9 @@ done
 echo
 
 # ---- timing --------------------------------------------------------------------------------------
-# run LABEL KIND LOG cmd...: runs cmd in $work, appends "LABEL loop user pair" to runs.txt, where
-# loop is the code's own loop time and pair its pair-force time (LAMMPS and Terrace; 0 if none).
+# run LABEL KIND LOG cmd...: runs cmd in $work, appends "LABEL loop user pair wall" to runs.txt, where
+# loop is the code's own loop time, user the process's user CPU time, pair its pair-force time
+# (LAMMPS and Terrace; 0 if none) and wall the whole process's wall time (GNU time).
 : > runs.txt
 loop_of() {   # KIND LOG [SUMMARY]
     case $1 in
@@ -134,13 +145,14 @@ pair_of() {
 }
 run() {
     local label=$1 kind=$2 log=$3; shift 3
-    if ! "${GNU_TIME:-/usr/bin/time}" -f '%U' -o user.txt "$@" > "$label.out" 2>&1; then
+    if ! "${GNU_TIME:-/usr/bin/time}" -f '%U %e' -o user.txt "$@" > "$label.out" 2>&1; then
         echo "anchors: $label failed: $*" >&2; tail -n 15 "$label.out" >&2; [[ -f "$log" ]] && tail -n 15 "$log" >&2; exit 1
     fi
     local sum=""; [[ $kind == terrace ]] && { sum="${*: -1}"; sum="${sum%.nml}.summary.json"; }   # the deck's
     local t; t="$(loop_of "$kind" "$log" "$sum")"
     [[ -n "$t" ]] || { echo "anchors: no loop time for $label in $log" >&2; exit 1; }
-    echo "$label $t $(tail -1 user.txt) $(pair_of "$kind" "$log" "$sum")" >> runs.txt
+    local user wall; read -r user wall < <(tail -1 user.txt)
+    echo "$label $t $user $(pair_of "$kind" "$log" "$sum") $wall" >> runs.txt
     if [[ ! -f $label.best ]] || awk -v a="$t" -v b="$(cat "$label.best")" 'BEGIN { exit !(a < b) }'; then
         echo "$t" > "$label.best"; cp "$log" "$label.best.log"
         [[ -z $sum ]] || cp "$sum" "$label.best.summary.json"
@@ -165,6 +177,12 @@ launch() {
         eam_terrace)    run eam_terrace terrace eam_terrace.out ./terrace eam.nml ;;
         eam_lammps)     run eam_lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$neam" -var potdir "$pot" -in "$here/in.eam_bench" ;;
         eam_lammps_opt) run eam_lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$neam" -var potdir "$pot" -in "$here/in.eam_bench" ;;
+        ar_terrace|ar_terrace_mixed_tol|ar_terrace_mixed_tol40)
+                        rm -f argon_nvt_100ns.csv argon_nvt_100ns.h5 argon_nvt_100ns.ckpt.h5   # the decks' outputs, fresh
+                        run $1 terrace $1.out ./terrace $1.nml ;;
+        ar_gromacs_mix) run ar_gromacs_mix gromacs md.log gmx "${gargs[@]}" -s argon_gmx.tpr ;;
+        ar_gromacs_dbl) run ar_gromacs_dbl gromacs md.log gmx_d "${gargs[@]}" -s argon_gmx_d.tpr ;;
+        ar_lammps)      run ar_lammps lammps lammps.log lmp -screen none -log lammps.log -in argon.in ;;
     esac
 }
 # rounds LABEL...: REPEAT rounds, each code once per round in the given order (alternating)
@@ -543,6 +561,90 @@ if [[ "$parts" == *,es,* ]]; then
     echo "== energy stepping: cost of one event in Verlet steps (scripts/bench/es_cost.py)"
     python3 "$here/es_cost.py" --terrace ./terrace --scenes rahman,lj32k,cluster7 --repeat "${ES_REPEAT:-1}" \
         | sed -n '/^scene /,$p'
+fi
+
+# ---- the 100 ns argon job, a slice of it --------------------------------------------------------------
+if [[ "$parts" == *,argon,* ]]; then
+    ps="${ARGON_PS:-1000}"
+    [[ "$ps" =~ ^[1-9][0-9]*$ ]] || { echo "anchors: ARGON_PS must be a positive integer (ps)" >&2; exit 2; }
+    nar=$((ps * 100))                                     # steps of 10 fs
+    echo "== Rahman's liquid argon, 864 atoms, the 100 ns job (input/argon_nvt_100ns.nml) for $ps ps = $nar steps:"
+    echo "   CSVR at 94.4 K (damping 1 ps), thermo and a frame of x and v every 10 ps, a checkpoint every 1 ns"
+    cp "$repo/input/argon_nvt.nml" .
+    ./terrace argon_nvt.nml > argon_nvt.log 2>&1 || { echo "anchors: input/argon_nvt.nml failed" >&2; tail argon_nvt.log >&2; exit 1; }
+    sed -e "s/run_time=100000.0/run_time=$ps.0/" "$repo/input/argon_nvt_100ns.nml" > ar_terrace.nml
+    grep -q "run_time=$ps.0" ar_terrace.nml || { echo "anchors: could not set run_time in ar_terrace.nml" >&2; exit 1; }
+    # GROMACS's default drift tolerance, 0.005 kJ/mol/ps per atom, in eV/ps
+    tol_ev="$(python3 -c "print('%.6g' % (0.005 / 96.48533212331))")"
+    sed -E -e "s#shift=.true. /#shift=.true., precision='mixed' /#" -e "s#skin=1.0 /#buffer_tolerance=$tol_ev /#" \
+        ar_terrace.nml > ar_terrace_mixed_tol.nml
+    sed -E "s#buffer_tolerance=$tol_ev /#buffer_tolerance=$tol_ev, every=40 /#" ar_terrace_mixed_tol.nml > ar_terrace_mixed_tol40.nml
+    for f in ar_terrace_mixed_tol ar_terrace_mixed_tol40; do
+        grep -q "precision='mixed'" $f.nml && ! cmp -s $f.nml ar_terrace.nml && grep -q buffer_tolerance $f.nml \
+            || { echo "anchors: could not edit $f.nml" >&2; exit 1; }
+    done
+    [[ $(grep -c 'every=40' ar_terrace_mixed_tol40.nml) == 1 ]] || { echo "anchors: could not set every=40" >&2; exit 1; }
+    boxl="$(sed -n "s/.*box_hi=\([0-9.]*\),.*/\1/p" ar_terrace.nml | head -1)"
+    python3 "$here/argon_anchors.py" argon_nvt_eq.atoms "$boxl" "$nar" 1000 94.4 1.0
+    labels=(ar_terrace ar_terrace_mixed_tol ar_terrace_mixed_tol40)
+    for g in gmx gmx_d; do
+        have $g || continue
+        $g grompp -f argon.mdp -c argon.gro -p argon.top -o argon_$g.tpr -po argon_$g.mdout.mdp -maxwarn 10 \
+            > argon_$g.grompp.log 2>&1 || { echo "anchors: $g grompp (argon) failed:" >&2; tail -30 argon_$g.grompp.log >&2; exit 1; }
+        if [[ $g == gmx ]]; then labels+=(ar_gromacs_mix); else labels+=(ar_gromacs_dbl); fi
+    done
+    have lmp && labels+=(ar_lammps)
+    echo "   codes: ${labels[*]}"
+    echo "   ar_terrace: the deck as it is (double, exact list, skin 1 A); ar_terrace_mixed_tol: precision='mixed'"
+    echo "   (cluster-pair list), &neighbor buffer_tolerance=$tol_ev eV/ps (GROMACS's default 0.005 kJ/mol/ps),"
+    echo "   every 10 steps (the key's default); ar_terrace_mixed_tol40: the same every 40 steps; GROMACS: leap-frog,"
+    echo "   v-rescale (tau-t 1 ps), its Verlet buffer at its default tolerance, nstcalcenergy 100, energies and"
+    echo "   a trr frame (x, v) every 1000 steps; LAMMPS: velocity Verlet, fix temp/berendsen (1 ps; this"
+    echo "   LAMMPS has no temp/csvr), skin 1 A checked every step, thermo and a dump (x, v) every 1000 steps"
+    rounds "${labels[@]}"
+    /usr/bin/python3 - "$nar" "${labels[@]}" <<'PY'
+import statistics as st, sys
+nsteps, labels = int(sys.argv[1]), sys.argv[2:]
+runs = {}
+for line in open('runs.txt'):
+    f = line.split()
+    if f[0] in labels:
+        runs.setdefault(f[0], []).append((float(f[1]), float(f[4]), float(f[2])))   # loop, wall, user
+rows = [l for l in labels if l in runs]
+print('%-22s %4s %9s %9s %9s %9s %9s  %s' % ('code', 'runs', 'loop best', 'loop med', 'wall med', 'user med',
+                                             'us/step', 'all loop times (s)'))
+for l in rows:
+    rs = runs[l]
+    print('%-22s %4d %9.3f %9.3f %9.3f %9.3f %9.2f  %s' % (l, len(rs), min(r[0] for r in rs),
+          st.median(r[0] for r in rs), st.median(r[1] for r in rs), st.median(r[2] for r in rs),
+          1e6 * st.median(r[0] for r in rs) / nsteps, ' '.join('%.2f' % r[0] for r in rs)))
+n = min(len(runs[l]) for l in rows)
+for ref in ('ar_terrace', 'ar_terrace_mixed_tol', 'ar_terrace_mixed_tol40'):
+    if ref not in runs:
+        continue
+    print('ratios code / %s, round by round (> 1: %s is faster): median [lowest, highest] of %d rounds' % (ref, ref, n))
+    print('  %-22s %-24s %-24s %-24s' % ('code', 'loop times', 'whole-process wall', 'user CPU (load-robust)'))
+    for l in rows:
+        if l == ref:
+            continue
+        q = [sorted(runs[l][k][c] / runs[ref][k][c] for k in range(n)) for c in (0, 1, 2)]
+        print('  %-22s %-24s %-24s %-24s' % (l, *('%.3f [%.3f, %.3f]' % (st.median(v), v[0], v[-1]) for v in q)))
+PY
+    echo "Terrace's phases (best runs):"
+    for v in ar_terrace ar_terrace_mixed_tol ar_terrace_mixed_tol40; do
+        echo "  $v: builds $(figure $v.best.summary.json neighbor/builds), skin $(figure $v.best.summary.json neighbor/skin) A"
+        phases $v
+    done
+    for v in ar_gromacs_mix ar_gromacs_dbl; do
+        [[ -f $v.best.log ]] || continue
+        echo "  $v: $(grep -m1 -E 'Changing nstlist' $v.best.log | sed 's/^ *//'); $(grep -E 'list: updated every' $v.best.log | head -2 | sed 's/^ *//' | tr '\n' ';')"
+        echo "    neighbour search: $(awk '/^ Neighbor search/ {print $5 " calls, " $6 " s"}' $v.best.log | tail -1), force: $(awk '/^ Force  / {print $5 " s"}' $v.best.log | tail -1)"
+    done
+    if [[ -f ar_lammps.best.log ]]; then
+        echo "  ar_lammps: $(grep -m1 '^Neighbor list builds' ar_lammps.best.log), Pair $(awk -F'|' '/^Pair /{gsub(/ /,"",$3); print $3}' ar_lammps.best.log | tail -1) s, Neigh $(awk -F'|' '/^Neigh /{gsub(/ /,"",$3); print $3}' ar_lammps.best.log | tail -1) s"
+    fi
+    echo "  temperature (mean over the thermo samples): Terrace $(awk -F, 'NR > 1 && $0 !~ /^#/ {s += $3; n++} END {if (n) printf "%.2f K", s / n}' argon_nvt_100ns.csv 2> /dev/null) (last run, ar_terrace_mixed_tol40)"
+    echo
 fi
 
 # ---- the seven-atom cluster with its trajectory -----------------------------------------------------

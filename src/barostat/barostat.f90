@@ -22,12 +22,17 @@
 !> step), the same on every rank: a run gives the same decisions on any rank count and continues
 !> bitwise after a restart.
 !>
+!> couple = 'aniso' (aniso): the box edges move independently, edge a driven by its own diagonal
+!> pressure component P_aa = (2 K_aa + W_aa) / V (K_aa = sum m v_a^2 / 2, W_aa the virial's diagonal
+!> that engine%compute_forces gives when engine%want_virial_diag is set; pressure_diagonal).
+!>
 !> Units: the pressure and compressibility arrive in the run's units (bar and 1/bar for metal) and
 !> are held internally as energy/volume and volume/energy (divided and multiplied by nktv2p).
 module terrace_barostat
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
-    use terrace_velocities, only: kinetic_energy
+    use terrace_velocities, only: kinetic_energy, atom_mass
+    use terrace_mpi_env, only: sum_all
     use terrace_named_values, only: named_values_t
     implicit none
     private
@@ -42,6 +47,7 @@ module terrace_barostat
         integer(i8) :: seed = 1
         integer(i8) :: natoms = 0
         integer :: dimension = 3
+        logical :: aniso = .false.               !< couple = 'aniso': each edge on its own
         integer :: every = 25                    !< Monte Carlo: steps between trial moves
         real(dp) :: interval = 0                 !< energy stepping: time between events (0: none)
         real(dp) :: boltz = 1, nktv2p = 1
@@ -55,6 +61,7 @@ module terrace_barostat
         real(dp) :: dt = 0
         integer(i8) :: seed = 1, natoms = 0
         integer :: dimension = 3, every = 25
+        logical :: aniso = .false.               !< couple = 'aniso': each edge on its own
         real(dp) :: interval = 0                 !< energy stepping: events at its multiples (0: none)
         real(dp) :: nktv2p = 1
     contains
@@ -80,7 +87,7 @@ module terrace_barostat
         procedure :: active => none_active
     end type barostat_none_t
 
-    public :: internal_pressure
+    public :: internal_pressure, kinetic_diagonal, pressure_diagonal
 
 contains
 
@@ -96,6 +103,7 @@ contains
         self%seed = p%seed
         self%natoms = p%natoms
         self%dimension = p%dimension
+        self%aniso = p%aniso
         self%every = p%every
         self%interval = p%interval
         call self%setup(p)
@@ -201,5 +209,26 @@ contains
         type(engine_t), intent(inout) :: eng
         p = (2*kinetic_energy(eng%atoms, eng%units) + eng%virial)/(eng%box%dimension*eng%box%volume())
     end function internal_pressure
+
+    !> (K_xx, K_yy, K_zz), K_aa = mvv2e/2 sum m v_a^2 over every rank's atoms. Collective.
+    function kinetic_diagonal(eng) result(k)
+        type(engine_t), intent(in) :: eng
+        real(dp) :: k(3)
+        integer :: i
+        k = 0
+        do i = 1, eng%atoms%nlocal
+            k = k + atom_mass(eng%atoms, i)*eng%atoms%v(:, i)**2
+        end do
+        call sum_all(k)
+        k = 0.5_dp*eng%units%mvv2e*k
+    end function kinetic_diagonal
+
+    !> The diagonal of the instantaneous pressure tensor (energy/volume), P_aa = (2 K_aa + W_aa) / V,
+    !> from the velocities and the last force pass's virial diagonal. Collective.
+    function pressure_diagonal(eng) result(p)
+        type(engine_t), intent(in) :: eng
+        real(dp) :: p(3)
+        p = (2*kinetic_diagonal(eng) + eng%virial_diag)/eng%box%volume()
+    end function pressure_diagonal
 
 end module terrace_barostat

@@ -12,7 +12,9 @@
 !>                                judged on its energy; Monte Carlo)
 !>   energy stepping:             apply_event (at the multiples of `interval`, a calendar entry:
 !>                                Monte Carlo volume moves)
-!>   both:                        active, pv (the P V term of the conserved quantity), energy (the
+!>   both:                        follow (the thermostat's present target temperature, before the
+!>                                step's hooks: a ramp moves the barostat's k T with it),
+!>                                active, pv (the P V term of the conserved quantity), energy (the
 !>                                barostat's own energy in it), save / restore
 !>
 !> A change of the box goes through the engine (engine%scale_box): positions and box scaled about
@@ -67,6 +69,8 @@ module terrace_barostat
     contains
         procedure, non_overridable :: init => baro_init
         procedure :: setup => baro_setup
+        procedure, non_overridable :: follow => baro_follow
+        procedure :: retarget => baro_retarget
         procedure :: active => baro_active
         procedure :: needs_virial => baro_needs_virial
         procedure :: before_forces => baro_before_forces
@@ -114,6 +118,21 @@ contains
         class(barostat_t), intent(inout) :: self
         type(barostat_params_t), intent(in) :: p
     end subroutine baro_setup
+
+    !> The thermostat's present target temperature (k T, energy) becomes the barostat's: the Monte
+    !> Carlo acceptance, C-rescale's noise and k T / V, MTTK's masses and chain all use self%kt.
+    subroutine baro_follow(self, kt)
+        class(barostat_t), intent(inout) :: self
+        real(dp), intent(in) :: kt
+        if (kt == self%kt) return
+        self%kt = kt
+        call self%retarget()
+    end subroutine baro_follow
+
+    !> What a style derives from k T, set again after it changed (nothing by default).
+    subroutine baro_retarget(self)
+        class(barostat_t), intent(inout) :: self
+    end subroutine baro_retarget
 
     logical function baro_active(self)
         class(barostat_t), intent(in) :: self

@@ -49,6 +49,7 @@ module terrace_barostat_mttk
         real(dp) :: nf = 1                       !< the particles' degrees of freedom d N - d
     contains
         procedure :: setup => mttk_setup
+        procedure :: retarget => mttk_masses
         procedure :: needs_virial => mttk_needs_virial
         procedure :: replaces_kicks => mttk_replaces_kicks
         procedure :: first_half => mttk_first_half
@@ -74,7 +75,7 @@ contains
         self%have_virial = .false.
     end subroutine mttk_setup
 
-    !> The barostat's masses from k T.
+    !> The barostat's masses from k T (again when a temperature ramp moves it: the same frequencies).
     subroutine mttk_masses(self)
         class(mttk_t), intent(inout) :: self
         self%w = (self%nf + self%dimension)*self%kt*self%tau**2

@@ -16,9 +16,9 @@
 !> with a third of the volume's mobility each, so that sum_a eps_a = ln V moves as above):
 !>   d eps_a = -(beta_T / (d tau_p)) (P0 - P_aa - k T / V) dt + sqrt(2 k T beta_T / (d V tau_p)) dW_a
 !> with P_aa = (2 K_aa + W_aa) / V. Its stationary distribution is exp(-(U + P0 V)/kT) V^N in
-!> (L_x, L_y, L_z) (the Jacobian V of the logarithms gives the k T / V term of each edge). The edge,
-!> the positions and the velocities of axis a are scaled by exp(d eps_a), exp(-d eps_a); the work
-!> is sum_a K_aa (mu_a^-2 - 1) + P0 dV - sum_a int W_aa d ln L_a (trapezoid rule as above).
+!> (L_x, L_y, L_z) (the Jacobian V of the logarithms gives the k T / V term of each edge). The edge
+!> and the positions of axis a are scaled by mu_a = exp(step of eps_a), its velocities by 1/mu_a; the
+!> work is sum_a K_aa (mu_a^-2 - 1) + P0 dV - sum_a int W_aa d ln L_a (trapezoid rule as above).
 module terrace_barostat_c_rescale
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t

@@ -17,13 +17,13 @@
 !> sums, and a checkpoint holds them and the last virial.
 !>
 !> couple = 'aniso' (the diagonal MTK of Shinoda, Shiga & Mikami, Phys. Rev. B 69, 134103 (2004), as
-!> LAMMPS fix npt aniso): a strain rate v_a per edge, L_a' = v_a L_a, each of mass
+!> LAMMPS fix npt aniso): a strain rate nu_a per edge (v_axis), dL_a/dt = nu_a L_a, each of mass
 !> W_a = (Nf + d)/d k T tau_p^2 (LAMMPS: (N+1) k T Pdamp^2),
-!>   dr_a/dt = v_a + v_a r_a,   dv_a/dt = F_a/m - (v_a + sum_b v_b / Nf) v_a - (particle chain),
-!>   dv_a/dt = G_a - v_xi'1 v_a,   G_a = (2 K_aa + W_aa - V P0 + 2 K / Nf) / W_a,
+!>   dr_a/dt = v_a + nu_a r_a,   dv_a/dt = F_a/m - (nu_a + sum_b nu_b / Nf) v_a - (particle chain),
+!>   dnu_a/dt = G_a - v_xi'1 nu_a,   G_a = (2 K_aa + W_aa - V P0 + 2 K / Nf) / W_a,
 !> (W_aa the virial's diagonal), the same splitting edge by edge: the kick's rate and the drift's
-!> scale per axis; the barostat chain driven by sum_a W_a v_a^2 - d k T (its first link's energy
-!> d k T eta_1). Conserved: K + U + P0 V + sum_a W_a v_a^2/2 + the chains' energies.
+!> scale per axis; the barostat chain driven by sum_a W_a nu_a^2 - d k T (its first link's energy
+!> d k T eta_1). Conserved: K + U + P0 V + sum_a W_a nu_a^2/2 + the chains' energies.
 module terrace_barostat_mttk
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
@@ -154,7 +154,7 @@ contains
     end subroutine mttk_after_step
 
     !> v_eps += span G_eps, G_eps = (alpha 2K + W_vir - d V P0)/W (collective: the kinetic energy);
-    !> aniso: v_a += span G_a, G_a = (2 K_aa + W_aa - V P0 + 2 K / Nf) / W_a.
+    !> aniso: nu_a += span G_a, G_a = (2 K_aa + W_aa - V P0 + 2 K / Nf) / W_a.
     subroutine push(self, eng, span)
         class(mttk_t), intent(inout) :: self
         type(engine_t), intent(inout) :: eng
@@ -176,7 +176,7 @@ contains
 
     !> The barostat's Nose-Hoover chain over a span: three Suzuki-Yoshida sub-steps of the Trotter
     !> factorisation, the chain's first link driven by W v_eps^2 - k T (one degree of freedom; aniso:
-    !> sum_a W_a v_a^2 - d k T).
+    !> sum_a W_a nu_a^2 - d k T).
     subroutine chain(self, span)
         class(mttk_t), intent(inout) :: self
         real(dp), intent(in) :: span
@@ -211,7 +211,7 @@ contains
         end do
     end subroutine chain
 
-    !> Twice the barostat's kinetic energy: W v_eps^2 (aniso: sum_a W_a v_a^2).
+    !> Twice the barostat's kinetic energy: W v_eps^2 (aniso: sum_a W_a nu_a^2).
     pure real(dp) function barostat_ke2(self) result(ke2)
         class(mttk_t), intent(in) :: self
         if (self%aniso) then
@@ -231,7 +231,7 @@ contains
     end function mttk_energy
 
     !> v <- v e^(-alpha v_eps h) + h F/m e^(-alpha v_eps h/2) sinhc(alpha v_eps h/2), h = dt/2
-    !> (dtfm(type) = h ftm2v/m, or dtf/rmass); aniso: per axis, the rate v_a + sum_b v_b / Nf.
+    !> (dtfm(type) = h ftm2v/m, or dtf/rmass); aniso: per axis, the rate nu_a + sum_b nu_b / Nf.
     subroutine scaled_kick(self, eng, dtfm, dtf, dt)
         class(mttk_t), intent(in) :: self
         type(engine_t), intent(inout) :: eng

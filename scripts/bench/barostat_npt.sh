@@ -10,12 +10,20 @@
 # interval about 4 fs, Andersen thermostat with zero_momentum, volume moves every 0.25 ps). A LAMMPS
 # log already in WORKDIR is reused (so a later call with STYLES=mc_es and a shorter PROD compares
 # with the same reference).
-# usage: barostat_npt.sh TERRACE [WORKDIR]   (env: PROD=2000 EQ=100 BLOCKS=20 NP=1 STYLES="c_rescale mc")
+# COUPLE=aniso: every box edge on its own (LAMMPS `fix npt ... aniso`, Terrace `couple = 'aniso'`);
+# a WORKDIR holds the runs of one coupling (it records it in couple.txt and refuses the other).
+# usage: barostat_npt.sh TERRACE [WORKDIR]   (env: PROD=2000 EQ=100 BLOCKS=20 NP=1 STYLES="c_rescale mc" COUPLE=iso)
 set -euo pipefail
 terrace=$(readlink -f "$1"); work=${2:-barostat_npt_work}
 PROD=${PROD:-2000}; EQ=${EQ:-100}; BLOCKS=${BLOCKS:-20}; NP=${NP:-1}; STYLES=${STYLES:-c_rescale mc}
+COUPLE=${COUPLE:-iso}
+case "$COUPLE" in iso|aniso) ;; *) echo "barostat_npt.sh: COUPLE=$COUPLE: unknown (allowed: iso, aniso)" >&2; exit 2;; esac
 here=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$work"; cd "$work"
+if [ -s couple.txt ] && [ "$(cat couple.txt)" != "$COUPLE" ]; then
+    echo "barostat_npt.sh: $work holds COUPLE=$(cat couple.txt) runs (use another WORKDIR for COUPLE=$COUPLE)" >&2; exit 2
+fi
+echo "$COUPLE" > couple.txt
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 nsteps_eq=$(python3 -c "print(int(round($EQ/0.01)))")
 nsteps_prod=$(python3 -c "print(int(round($PROD/0.01)))")
@@ -35,7 +43,7 @@ pair_modify shift yes
 neighbor 1.0 bin
 velocity all create 184.0 1964 dist gaussian mom yes
 timestep 0.01
-fix 1 all npt temp 94.4 94.4 0.5 iso 1.0 1.0 2.0
+fix 1 all npt temp 94.4 94.4 0.5 $COUPLE 1.0 1.0 2.0
 thermo 10
 thermo_style custom step temp pe vol press
 thermo_modify format float %.10g
@@ -56,7 +64,7 @@ cat > "$1.nml" <<NML
 &integrator $integ /
 &neighbor skin=1.0 /
 &thermostat $thermo /
-&barostat $2 /
+&barostat $2, couple='$COUPLE' /
 &output thermo_interval=0.1, thermo_file='$1.csv', overwrite=.true. /
 NML
 }

@@ -10,11 +10,15 @@
 # ($TERRACE_VENV, default ~/.cache/terrace-venv) on first use; exit 77 when that cannot be done.
 # usage: pv_ensembles.sh TERRACE [WORKDIR]     (env: PROD=1000 EQ=50 NP=1 STYLES="c_rescale mc"
 #                                                     THERMOSTATS="langevin csvr nose_hoover andersen";
-#                                                     STYLES= or THERMOSTATS= set empty: none of them)
+#                                                     STYLES= or THERMOSTATS= set empty: none of them;
+#                                                     COUPLE=aniso: the barostats with couple = 'aniso',
+#                                                     a WORKDIR of its own, recorded in couple.txt)
 set -euo pipefail
 terrace=$(readlink -f "$1"); work=${2:-pv_ensembles_work}
 PROD=${PROD:-1000}; EQ=${EQ:-50}; NP=${NP:-1}
 STYLES=${STYLES-c_rescale mc}; THERMOSTATS=${THERMOSTATS-langevin csvr nose_hoover andersen}
+COUPLE=${COUPLE:-iso}
+case "$COUPLE" in iso|aniso) ;; *) echo "pv_ensembles.sh: COUPLE=$COUPLE: unknown (allowed: iso, aniso)" >&2; exit 2;; esac
 here=$(cd "$(dirname "$0")" && pwd)
 venv="${TERRACE_VENV:-$HOME/.cache/terrace-venv}"
 if ! "$venv/bin/python" -c 'import physical_validation' > /dev/null 2>&1; then
@@ -23,6 +27,10 @@ if ! "$venv/bin/python" -c 'import physical_validation' > /dev/null 2>&1; then
         || { echo "SKIPPED: physical-validation could not be installed (offline?)"; exit 77; }
 fi
 mkdir -p "$work"; cd "$work"
+if [ -s couple.txt ] && [ "$(cat couple.txt)" != "$COUPLE" ]; then
+    echo "pv_ensembles.sh: $work holds COUPLE=$(cat couple.txt) runs (use another WORKDIR for COUPLE=$COUPLE)" >&2; exit 2
+fi
+echo "$COUPLE" > couple.txt
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 total=$(python3 -c "print($EQ + $PROD)")
 run() {   # run NAME SEED THERMOSTAT_LINE BAROSTAT_LINE
@@ -47,6 +55,7 @@ for s in $STYLES; do
         mttk) b="style='mttk', damping=2.0"; ts=nose_hoover ;;
         *) b="style='$s'" ;;
     esac
+    b="$b, couple='$COUPLE'"
     run "npt_${s}_T94.4_P1" 11 "style='$ts', temperature=94.4, damping=0.5" "&barostat $b, pressure=1.0 /"
     run "npt_${s}_T97_P1" 12 "style='$ts', temperature=97.0, damping=0.5" "&barostat $b, pressure=1.0 /"
     run "npt_${s}_T94.4_P31" 13 "style='$ts', temperature=94.4, damping=0.5" "&barostat $b, pressure=31.0 /"

@@ -12,7 +12,9 @@
 !>                                judged on its energy; Monte Carlo)
 !>   energy stepping:             apply_event (at the multiples of `interval`, a calendar entry:
 !>                                Monte Carlo volume moves)
-!>   both:                        active, pv (the P V term of the conserved quantity), energy (the
+!>   both:                        follow (the thermostat's present target temperature, before the
+!>                                step's hooks: a ramp moves the barostat's k T with it),
+!>                                active, pv (the P V term of the conserved quantity), energy (the
 !>                                barostat's own energy in it), save / restore
 !>
 !> A change of the box goes through the engine (engine%scale_box): positions and box scaled about
@@ -22,12 +24,17 @@
 !> step), the same on every rank: a run gives the same decisions on any rank count and continues
 !> bitwise after a restart.
 !>
+!> couple = 'aniso' (aniso): the box edges move independently, edge a driven by its own diagonal
+!> pressure component P_aa = (2 K_aa + W_aa) / V (K_aa = sum m v_a^2 / 2, W_aa the virial's diagonal
+!> that engine%compute_forces gives when engine%want_virial_diag is set; pressure_diagonal).
+!>
 !> Units: the pressure and compressibility arrive in the run's units (bar and 1/bar for metal) and
 !> are held internally as energy/volume and volume/energy (divided and multiplied by nktv2p).
 module terrace_barostat
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
-    use terrace_velocities, only: kinetic_energy
+    use terrace_velocities, only: kinetic_energy, atom_mass
+    use terrace_mpi_env, only: sum_all
     use terrace_named_values, only: named_values_t
     implicit none
     private
@@ -42,6 +49,7 @@ module terrace_barostat
         integer(i8) :: seed = 1
         integer(i8) :: natoms = 0
         integer :: dimension = 3
+        logical :: aniso = .false.               !< couple = 'aniso': each edge on its own
         integer :: every = 25                    !< Monte Carlo: steps between trial moves
         real(dp) :: interval = 0                 !< energy stepping: time between events (0: none)
         real(dp) :: boltz = 1, nktv2p = 1
@@ -55,11 +63,14 @@ module terrace_barostat
         real(dp) :: dt = 0
         integer(i8) :: seed = 1, natoms = 0
         integer :: dimension = 3, every = 25
+        logical :: aniso = .false.               !< couple = 'aniso': each edge on its own
         real(dp) :: interval = 0                 !< energy stepping: events at its multiples (0: none)
         real(dp) :: nktv2p = 1
     contains
         procedure, non_overridable :: init => baro_init
         procedure :: setup => baro_setup
+        procedure, non_overridable :: follow => baro_follow
+        procedure :: retarget => baro_retarget
         procedure :: active => baro_active
         procedure :: needs_virial => baro_needs_virial
         procedure :: before_forces => baro_before_forces
@@ -80,7 +91,7 @@ module terrace_barostat
         procedure :: active => none_active
     end type barostat_none_t
 
-    public :: internal_pressure
+    public :: internal_pressure, kinetic_diagonal, pressure_diagonal
 
 contains
 
@@ -96,6 +107,7 @@ contains
         self%seed = p%seed
         self%natoms = p%natoms
         self%dimension = p%dimension
+        self%aniso = p%aniso
         self%every = p%every
         self%interval = p%interval
         call self%setup(p)
@@ -106,6 +118,21 @@ contains
         class(barostat_t), intent(inout) :: self
         type(barostat_params_t), intent(in) :: p
     end subroutine baro_setup
+
+    !> The thermostat's present target temperature (k T, energy) becomes the barostat's: the Monte
+    !> Carlo acceptance, C-rescale's noise and k T / V, MTTK's masses and chain all use self%kt.
+    subroutine baro_follow(self, kt)
+        class(barostat_t), intent(inout) :: self
+        real(dp), intent(in) :: kt
+        if (kt == self%kt) return
+        self%kt = kt
+        call self%retarget()
+    end subroutine baro_follow
+
+    !> What a style derives from k T, set again after it changed (nothing by default).
+    subroutine baro_retarget(self)
+        class(barostat_t), intent(inout) :: self
+    end subroutine baro_retarget
 
     logical function baro_active(self)
         class(barostat_t), intent(in) :: self
@@ -201,5 +228,26 @@ contains
         type(engine_t), intent(inout) :: eng
         p = (2*kinetic_energy(eng%atoms, eng%units) + eng%virial)/(eng%box%dimension*eng%box%volume())
     end function internal_pressure
+
+    !> (K_xx, K_yy, K_zz), K_aa = mvv2e/2 sum m v_a^2 over every rank's atoms. Collective.
+    function kinetic_diagonal(eng) result(k)
+        type(engine_t), intent(in) :: eng
+        real(dp) :: k(3)
+        integer :: i
+        k = 0
+        do i = 1, eng%atoms%nlocal
+            k = k + atom_mass(eng%atoms, i)*eng%atoms%v(:, i)**2
+        end do
+        call sum_all(k)
+        k = 0.5_dp*eng%units%mvv2e*k
+    end function kinetic_diagonal
+
+    !> The diagonal of the instantaneous pressure tensor (energy/volume), P_aa = (2 K_aa + W_aa) / V,
+    !> from the velocities and the last force pass's virial diagonal. Collective.
+    function pressure_diagonal(eng) result(p)
+        type(engine_t), intent(in) :: eng
+        real(dp) :: p(3)
+        p = (2*kinetic_diagonal(eng) + eng%virial_diag)/eng%box%volume()
+    end function pressure_diagonal
 
 end module terrace_barostat

@@ -8,6 +8,10 @@
 !> of the volume and is adapted every 10 trials to keep the acceptance between 25 % and 75 %
 !> (times 1.1 or 1/1.1, at most a third of the volume). The uniform number is drawn from the
 !> counter-based generator keyed by (seed, step): the same on every rank.
+!> couple = 'aniso' (as OpenMM's MonteCarloAnisotropicBarostat): each trial changes the volume by
+!> the same rule through one edge, drawn at random among the d (a third number of the same stream),
+!> the other edges kept; the acceptance rule is unchanged (the ensemble's measure dL_x dL_y dL_z
+!> with V^N from the scaled positions: a move uniform in V along one edge is uniform in that edge).
 module terrace_barostat_mc
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t, engine_state_t
@@ -67,20 +71,28 @@ contains
         integer(i8), intent(in) :: key
         logical, intent(out) :: moved
         type(rng_stream_t) :: s
-        real(dp) :: v, v_new, u_old, dh, mu, ua, ub
-        integer :: d
+        real(dp) :: v, v_new, u_old, dh, mu, ua, ub, scale(3)
+        integer :: d, axis
         moved = .false.
         v = eng%box%volume()
         if (self%dv_max < 0) self%dv_max = 0.01_dp*v
         s = rng_stream(self%seed, stream_mc_barostat, 0_i8, key)
         ua = s%uniform()
         ub = s%uniform()
+        axis = 0
+        if (self%aniso) axis = min(1 + int(self%dimension*s%uniform()), self%dimension)
         v_new = v + self%dv_max*(2*ua - 1)
         if (v_new <= 0) return
         u_old = eng%pe
         call eng%save_state(self%saved)
-        mu = (v_new/v)**(1.0_dp/self%dimension)
-        call eng%scale_box([(merge(mu, 1.0_dp, d <= self%dimension), d = 1, 3)], velocities=.false.)
+        if (axis > 0) then
+            scale = 1
+            scale(axis) = v_new/v
+        else
+            mu = (v_new/v)**(1.0_dp/self%dimension)
+            scale = [(merge(mu, 1.0_dp, d <= self%dimension), d = 1, 3)]
+        end if
+        call eng%scale_box(scale, velocities=.false.)
         call eng%compute_forces(.true.)
         dh = eng%pe - u_old + self%p0*(v_new - v) - self%natoms*self%kt*log(v_new/v)
         self%attempted = self%attempted + 1

@@ -15,11 +15,20 @@
 !> chain's energy); the particle chain's is booked by the thermostat as ecouple, the rest here
 !> (energy). The barostat is deterministic: every rank holds the same v_eps and chain from global
 !> sums, and a checkpoint holds them and the last virial.
+!>
+!> couple = 'aniso' (the diagonal MTK of Shinoda, Shiga & Mikami, Phys. Rev. B 69, 134103 (2004), as
+!> LAMMPS fix npt aniso): a strain rate nu_a per edge (v_axis), dL_a/dt = nu_a L_a, each of mass
+!> W_a = (Nf + d)/d k T tau_p^2 (LAMMPS: (N+1) k T Pdamp^2),
+!>   dr_a/dt = v_a + nu_a r_a,   dv_a/dt = F_a/m - (nu_a + sum_b nu_b / Nf) v_a - (particle chain),
+!>   dnu_a/dt = G_a - v_xi'1 nu_a,   G_a = (2 K_aa + W_aa - V P0 + 2 K / Nf) / W_a,
+!> (W_aa the virial's diagonal), the same splitting edge by edge: the kick's rate and the drift's
+!> scale per axis; the barostat chain driven by sum_a W_a nu_a^2 - d k T (its first link's energy
+!> d k T eta_1). Conserved: K + U + P0 V + sum_a W_a nu_a^2/2 + the chains' energies.
 module terrace_barostat_mttk
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
     use terrace_velocities, only: kinetic_energy
-    use terrace_barostat, only: barostat_t, barostat_params_t
+    use terrace_barostat, only: barostat_t, barostat_params_t, kinetic_diagonal
     use terrace_named_values, only: named_values_t
     implicit none
     private
@@ -34,9 +43,13 @@ module terrace_barostat_mttk
         real(dp) :: eta(chain_length) = 0, v_eta(chain_length) = 0
         real(dp) :: virial = 0                   !< the virial at the present positions
         logical :: have_virial = .false.
-        real(dp) :: mu = 1                       !< this step's box scale, applied by before_forces
+        real(dp) :: mu(3) = 1                    !< this step's box scale, applied by before_forces
+        !> aniso: each edge's strain rate, its mass, the virial's diagonal at the present positions
+        real(dp) :: v_axis(3) = 0, w_axis = 1, virial_axis(3) = 0
+        real(dp) :: nf = 1                       !< the particles' degrees of freedom d N - d
     contains
         procedure :: setup => mttk_setup
+        procedure :: retarget => mttk_masses
         procedure :: needs_virial => mttk_needs_virial
         procedure :: replaces_kicks => mttk_replaces_kicks
         procedure :: first_half => mttk_first_half
@@ -56,11 +69,19 @@ contains
         real(dp) :: nf
         nf = max(real(p%dimension, dp)*real(p%natoms, dp) - p%dimension, 1.0_dp)
         self%alpha = 1 + p%dimension/nf
-        self%w = (nf + p%dimension)*self%kt*self%tau**2
-        self%q = self%kt*self%tau**2
-        self%v_eps = 0; self%eta = 0; self%v_eta = 0
+        self%nf = nf
+        call mttk_masses(self)
+        self%v_eps = 0; self%eta = 0; self%v_eta = 0; self%v_axis = 0
         self%have_virial = .false.
     end subroutine mttk_setup
+
+    !> The barostat's masses from k T (again when a temperature ramp moves it: the same frequencies).
+    subroutine mttk_masses(self)
+        class(mttk_t), intent(inout) :: self
+        self%w = (self%nf + self%dimension)*self%kt*self%tau**2
+        self%q = self%kt*self%tau**2
+        self%w_axis = self%w/self%dimension
+    end subroutine mttk_masses
 
     logical function mttk_needs_virial(self, step)
         class(mttk_t), intent(in) :: self
@@ -80,17 +101,23 @@ contains
         type(engine_t), intent(inout) :: eng
         real(dp), intent(in) :: dtfm(:), dtf, dt
         integer(i8), intent(in) :: step
-        real(dp) :: c
+        real(dp) :: c(3), rate(3)
+        integer :: a
         if (.not. self%have_virial) then         ! the first step: the initial force pass's virial
             self%virial = eng%virial
+            self%virial_axis = eng%virial_diag
             self%have_virial = .true.
         end if
         call chain(self, 0.5_dp*dt)
         call push(self, eng, 0.5_dp*dt)
         call scaled_kick(self, eng, dtfm, dtf, dt)
-        ! x e^(v_eps dt) + dt v e^(v_eps dt/2) sinhc(v_eps dt/2) = e^(v_eps dt) (x + c v)
-        self%mu = exp(self%v_eps*dt)
-        c = dt*exp(-0.5_dp*self%v_eps*dt)*sinhc(0.5_dp*self%v_eps*dt)
+        ! x e^(v_eps dt) + dt v e^(v_eps dt/2) sinhc(v_eps dt/2) = e^(v_eps dt) (x + c v), per axis
+        rate = self%v_eps
+        if (self%aniso) rate = self%v_axis
+        do a = 1, 3
+            self%mu(a) = merge(exp(rate(a)*dt), 1.0_dp, a <= self%dimension)
+            c(a) = dt*exp(-0.5_dp*rate(a)*dt)*sinhc(0.5_dp*rate(a)*dt)
+        end do
         call drift(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, c)
     end subroutine mttk_first_half
 
@@ -101,9 +128,7 @@ contains
         type(engine_t), intent(inout) :: eng
         integer(i8), intent(in) :: step
         logical, intent(out) :: moved
-        integer :: d
-        call eng%scale_box([(merge(self%mu, 1.0_dp, d <= self%dimension), d = 1, 3)], velocities=.false., &
-                           keep_list=.true., rebuilt=moved)
+        call eng%scale_box(self%mu, velocities=.false., keep_list=.true., rebuilt=moved)
     end subroutine mttk_before_forces
 
     !> The scaled half kick with the new forces, then v_eps dt/2 with the new virial. Collective.
@@ -114,6 +139,7 @@ contains
         integer(i8), intent(in) :: step
         call scaled_kick(self, eng, dtfm, dtf, dt)
         self%virial = eng%virial
+        self%virial_axis = eng%virial_diag
         call push(self, eng, 0.5_dp*dt)
     end subroutine mttk_second_half
 
@@ -127,30 +153,43 @@ contains
         call chain(self, 0.5_dp*self%dt)
     end subroutine mttk_after_step
 
-    !> v_eps += span G_eps, G_eps = (alpha 2K + W_vir - d V P0)/W (collective: the kinetic energy).
+    !> v_eps += span G_eps, G_eps = (alpha 2K + W_vir - d V P0)/W (collective: the kinetic energy);
+    !> aniso: nu_a += span G_a, G_a = (2 K_aa + W_aa - V P0 + 2 K / Nf) / W_a.
     subroutine push(self, eng, span)
         class(mttk_t), intent(inout) :: self
         type(engine_t), intent(inout) :: eng
         real(dp), intent(in) :: span
-        real(dp) :: ke
+        real(dp) :: ke, kd(3), v
+        integer :: d
+        if (self%aniso) then
+            d = self%dimension
+            kd = kinetic_diagonal(eng)
+            v = eng%box%volume()
+            self%v_axis(1:d) = self%v_axis(1:d) + span*(2*kd(1:d) + self%virial_axis(1:d) - v*self%p0 + &
+                                                        2*sum(kd)/self%nf)/self%w_axis
+            return
+        end if
         ke = kinetic_energy(eng%atoms, eng%units)
         self%v_eps = self%v_eps + span*(self%alpha*2*ke + self%virial - &
                                         self%dimension*eng%box%volume()*self%p0)/self%w
     end subroutine push
 
     !> The barostat's Nose-Hoover chain over a span: three Suzuki-Yoshida sub-steps of the Trotter
-    !> factorisation, the chain's first link driven by W v_eps^2 - k T (one degree of freedom).
+    !> factorisation, the chain's first link driven by W v_eps^2 - k T (one degree of freedom; aniso:
+    !> sum_a W_a nu_a^2 - d k T).
     subroutine chain(self, span)
         class(mttk_t), intent(inout) :: self
         real(dp), intent(in) :: span
-        real(dp) :: w(3), d, e, g(chain_length), ke2
+        real(dp) :: w(3), d, e, g(chain_length), ke2, lkt
         integer :: k, j, m
         m = chain_length
         w(1) = 1/(2 - 2**(1.0_dp/3)); w(3) = w(1); w(2) = 1 - 2*w(1)
+        lkt = self%kt
+        if (self%aniso) lkt = self%dimension*self%kt
         do k = 1, 3
             d = w(k)*span
-            ke2 = self%w*self%v_eps**2
-            g(1) = (ke2 - self%kt)/self%q
+            ke2 = barostat_ke2(self)
+            g(1) = (ke2 - lkt)/self%q
             do j = 2, m
                 g(j) = (self%q*self%v_eta(j - 1)**2 - self%kt)/self%q
             end do
@@ -160,8 +199,9 @@ contains
                 self%v_eta(j) = (self%v_eta(j)*e + 0.5_dp*d*g(j))*e
             end do
             self%v_eps = self%v_eps*exp(-d*self%v_eta(1))
+            self%v_axis = self%v_axis*exp(-d*self%v_eta(1))
             self%eta = self%eta + d*self%v_eta
-            g(1) = (self%w*self%v_eps**2 - self%kt)/self%q
+            g(1) = (barostat_ke2(self) - lkt)/self%q
             do j = 1, m - 1
                 e = exp(-0.25_dp*d*self%v_eta(j + 1))
                 self%v_eta(j) = (self%v_eta(j)*e + 0.5_dp*d*g(j))*e
@@ -171,23 +211,42 @@ contains
         end do
     end subroutine chain
 
-    !> The barostat's own energy: W v_eps^2/2 + its chain's sum Q v_j^2/2 + k T eta_j.
+    !> Twice the barostat's kinetic energy: W v_eps^2 (aniso: sum_a W_a nu_a^2).
+    pure real(dp) function barostat_ke2(self) result(ke2)
+        class(mttk_t), intent(in) :: self
+        if (self%aniso) then
+            ke2 = self%w_axis*sum(self%v_axis**2)
+        else
+            ke2 = self%w*self%v_eps**2
+        end if
+    end function barostat_ke2
+
+    !> The barostat's own energy: W v_eps^2/2 + its chain's sum Q v_j^2/2 + k T eta_j (aniso: the
+    !> first link's d k T eta_1).
     real(dp) function mttk_energy(self, eng)
         class(mttk_t), intent(in) :: self
         type(engine_t), intent(in) :: eng
-        mttk_energy = 0.5_dp*self%w*self%v_eps**2 + sum(0.5_dp*self%q*self%v_eta**2 + self%kt*self%eta)
+        mttk_energy = 0.5_dp*barostat_ke2(self) + sum(0.5_dp*self%q*self%v_eta**2 + self%kt*self%eta)
+        if (self%aniso) mttk_energy = mttk_energy + (self%dimension - 1)*self%kt*self%eta(1)
     end function mttk_energy
 
     !> v <- v e^(-alpha v_eps h) + h F/m e^(-alpha v_eps h/2) sinhc(alpha v_eps h/2), h = dt/2
-    !> (dtfm(type) = h ftm2v/m, or dtf/rmass).
+    !> (dtfm(type) = h ftm2v/m, or dtf/rmass); aniso: per axis, the rate nu_a + sum_b nu_b / Nf.
     subroutine scaled_kick(self, eng, dtfm, dtf, dt)
         class(mttk_t), intent(in) :: self
         type(engine_t), intent(inout) :: eng
         real(dp), intent(in) :: dtfm(:), dtf, dt
-        real(dp) :: a, s_v, s_f
-        a = self%alpha*self%v_eps*0.5_dp*dt
+        real(dp) :: a(3), s_v(3), s_f(3)
+        integer :: k
+        if (self%aniso) then
+            a = (self%v_axis + sum(self%v_axis)/self%nf)*0.5_dp*dt
+        else
+            a = self%alpha*self%v_eps*0.5_dp*dt
+        end if
         s_v = exp(-a)
-        s_f = exp(-0.5_dp*a)*sinhc(0.5_dp*a)
+        do k = 1, 3
+            s_f(k) = exp(-0.5_dp*a(k))*sinhc(0.5_dp*a(k))
+        end do
         if (eng%atoms%per_atom_mass) then
             call kick_masses(eng%atoms%nlocal, eng%atoms%v, eng%atoms%f, eng%atoms%rmass, dtf, s_v, s_f)
         else
@@ -198,7 +257,7 @@ contains
     subroutine kick_types(n, v, f, type, dtfm, s_v, s_f)
         integer, intent(in) :: n, type(n)
         real(dp), intent(inout) :: v(3, n)
-        real(dp), intent(in) :: f(3, n), dtfm(:), s_v, s_f
+        real(dp), intent(in) :: f(3, n), dtfm(:), s_v(3), s_f(3)
         integer :: i
         do i = 1, n
             v(:, i) = s_v*v(:, i) + (s_f*dtfm(type(i)))*f(:, i)
@@ -208,7 +267,7 @@ contains
     subroutine kick_masses(n, v, f, rmass, dtf, s_v, s_f)
         integer, intent(in) :: n
         real(dp), intent(inout) :: v(3, n)
-        real(dp), intent(in) :: f(3, n), rmass(n), dtf, s_v, s_f
+        real(dp), intent(in) :: f(3, n), rmass(n), dtf, s_v(3), s_f(3)
         integer :: i
         do i = 1, n
             v(:, i) = s_v*v(:, i) + (s_f*dtf/rmass(i))*f(:, i)
@@ -218,7 +277,7 @@ contains
     subroutine drift(n, x, v, c)
         integer, intent(in) :: n
         real(dp), intent(inout) :: x(3, n)
-        real(dp), intent(in) :: v(3, n), c
+        real(dp), intent(in) :: v(3, n), c(3)
         integer :: i
         do i = 1, n
             x(:, i) = x(:, i) + c*v(:, i)
@@ -238,8 +297,13 @@ contains
     subroutine mttk_save(self, values)
         class(mttk_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
-        call values%put('baro_v_eps', self%v_eps)
-        call values%put('baro_virial', self%virial)
+        if (self%aniso) then
+            call values%put_reals('baro_v_axis_', self%v_axis)
+            call values%put_reals('baro_virial_axis_', self%virial_axis)
+        else
+            call values%put('baro_v_eps', self%v_eps)
+            call values%put('baro_virial', self%virial)
+        end if
         call values%put_reals('baro_eta_', self%eta(1:chain_length))
         call values%put_reals('baro_v_eta_', self%v_eta(1:chain_length))
     end subroutine mttk_save
@@ -248,8 +312,13 @@ contains
         class(mttk_t), intent(inout) :: self
         type(named_values_t), intent(in) :: values
         logical, intent(inout) :: ok
-        self%v_eps = values%get_r('baro_v_eps', ok)
-        self%virial = values%get_r('baro_virial', ok)
+        if (self%aniso) then
+            call values%get_reals('baro_v_axis_', self%v_axis, ok)
+            call values%get_reals('baro_virial_axis_', self%virial_axis, ok)
+        else
+            self%v_eps = values%get_r('baro_v_eps', ok)
+            self%virial = values%get_r('baro_virial', ok)
+        end if
         self%have_virial = .true.
         call values%get_reals('baro_eta_', self%eta(1:chain_length), ok)
         call values%get_reals('baro_v_eta_', self%v_eta(1:chain_length), ok)

@@ -15,7 +15,7 @@ module terrace_engine
     use terrace_domain, only: domain_t
     use terrace_replicate, only: replicate_t
     use terrace_neighbor_list, only: neighbor_list_t
-    use terrace_potential, only: potential_t, halo_ops_t, max_warning_flags
+    use terrace_potential, only: potential_t, halo_ops_t, max_warning_flags, virial_diagonal
     use terrace_timers, only: timers_t, t_pair, t_neigh, t_comm, t_search
     use terrace_observables, only: thermo_sample_t
     use terrace_scene_plan, only: plan_t, pair_all, pair_cells, pair_none
@@ -35,6 +35,7 @@ module terrace_engine
         integer :: list_every = 1                !< build the list at most every this many steps
         logical :: list_check = .true.           !< and only when an atom has moved skin/2
         logical :: straight_lines = .false.      !< the integrator moves atoms on rays (energy stepping)
+        logical :: virial_diagonal = .false.     !< force passes with energy also give the virial's diagonal
     end type engine_params_t
 
     type, public :: engine_t
@@ -63,6 +64,10 @@ module terrace_engine
         type(timers_t) :: timers
         integer(i8) :: natoms = 0
         real(dp) :: pe = 0, virial = 0          !< global, from the last energy evaluation
+        !> want_virial_diag: the force passes with energy also give the virial's diagonal
+        !> virial_diag = (W_xx, W_yy, W_zz), global (an anisotropic barostat asks for it)
+        logical :: want_virial_diag = .false.
+        real(dp) :: virial_diag(3) = 0
         integer(i8) :: force_evaluations = 0
         character(len=:), allocatable :: source  !< where the atoms came from (for messages)
         logical :: restarted = .false.           !< started from &system read_checkpoint
@@ -97,7 +102,7 @@ module terrace_engine
         type(neighbor_list_t) :: list, inner
         type(domain_t) :: dom
         type(box_t) :: box
-        real(dp) :: pe = 0, virial = 0
+        real(dp) :: pe = 0, virial = 0, virial_diag(3) = 0
         logical :: built_covered = .false.
     end type engine_state_t
 
@@ -120,6 +125,7 @@ contains
         integer :: i
         self%units = p%units
         self%dimension = p%dimension
+        self%want_virial_diag = p%virial_diagonal
         self%box = scene%box
         self%atoms = scene%atoms
         self%dom = scene%dom
@@ -217,17 +223,19 @@ contains
     end subroutine engine_refresh_ghosts
 
     !> Forces on owned atoms (ghost contributions summed back); with want_energy also the global
-    !> potential energy and virial. Halo calls made by the potential between its passes are timed as
-    !> communication.
+    !> potential energy and virial, and with want_virial_diag the virial's diagonal (from the rows'
+    !> x_a f_a before the reverse sum: terrace_potential's virial_diagonal). Halo calls made by the
+    !> potential between its passes are timed as communication.
     subroutine engine_compute_forces(self, want_energy, partial)
         class(engine_t), intent(inout), target :: self
         logical, intent(in) :: want_energy
         !> .true.: pe and virial are left as this rank's parts where the potential does not sum them
-        !> over ranks itself (the caller sums them with its own sums: one reduction instead of two)
+        !> over ranks itself (the caller sums them with its own sums: one reduction instead of two;
+        !> virial_diag, when wanted, is summed here all the same)
         logical, intent(in), optional :: partial
-        real(dp) :: ew(2)
+        real(dp) :: ew(5)
         integer :: nall
-        logical :: sum_here
+        logical :: sum_here, diag
         type(engine_halo_t) :: halo
         halo%eng => self
         call self%timers%start(t_pair)
@@ -238,6 +246,8 @@ contains
         else
             call self%pot%forces(self%atoms, self%list, halo, want_energy, ew(1), ew(2))
         end if
+        diag = want_energy .and. self%want_virial_diag
+        if (diag) ew(3:5) = virial_diagonal(self%atoms%x, self%atoms%f, nall)
         call self%timers%stop(t_pair)
         if (self%validity_checks) call check_list_problem(self)
         if (self%plan%pair_mode /= pair_all) then
@@ -248,12 +258,19 @@ contains
         sum_here = .not. self%pot%sums_global()
         if (present(partial)) sum_here = sum_here .and. .not. partial
         if (want_energy) then
-            if (sum_here .and. world%nprocs > 1) then
+            if (world%nprocs > 1 .and. (sum_here .or. diag)) then
                 call self%timers%start(t_comm)
-                call sum_all(ew)
+                if (sum_here .and. diag) then
+                    call sum_all(ew)
+                else if (sum_here) then
+                    call sum_all(ew(1:2))
+                else
+                    call sum_all(ew(3:5))
+                end if
                 call self%timers%stop(t_comm)
             end if
             self%pe = ew(1); self%virial = ew(2)
+            if (diag) self%virial_diag = ew(3:5)
         end if
         self%force_evaluations = self%force_evaluations + 1
     end subroutine engine_compute_forces
@@ -494,7 +511,7 @@ contains
         st%inner = self%inner
         st%dom = self%dom
         st%box = self%box
-        st%pe = self%pe; st%virial = self%virial
+        st%pe = self%pe; st%virial = self%virial; st%virial_diag = self%virial_diag
         st%built_covered = self%built_covered
     end subroutine engine_save_state
 
@@ -508,7 +525,7 @@ contains
         self%inner = st%inner
         self%dom = st%dom
         self%box = st%box
-        self%pe = st%pe; self%virial = st%virial
+        self%pe = st%pe; self%virial = st%virial; self%virial_diag = st%virial_diag
         self%built_covered = st%built_covered
         call self%atoms%refresh_rmass()
         call self%pot%on_rebuild(self%atoms)

@@ -160,6 +160,7 @@ contains
             write (tag, '(i0)') d
             call values%put('box_lo_'//trim(tag), eng%box%lo(d))
             call values%put('box_hi_'//trim(tag), eng%box%hi(d))
+            call values%put('domain_grid_'//trim(tag), int(eng%dom%dims(d), i8))   ! (the restart's grid)
         end do
         call values%put('ntypes', int(size(eng%atoms%mass), i8))
         do t = 1, size(eng%atoms%mass)

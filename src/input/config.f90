@@ -817,12 +817,10 @@ contains
         if (cfg%nml%find('barostat', 'pressure') == 0) call stop_all(cfg%path//': &barostat: pressure: missing '// &
             '(the target pressure in '//trim(cfg%units%pressure)//')')
         select case (cfg%barostat_couple)
-        case ('iso')
-        case ('aniso')
-            call stop_all(cfg%where('barostat', 'couple')//" = 'aniso': not available (allowed: 'iso')")
+        case ('iso', 'aniso')
         case default
             call stop_all(cfg%where('barostat', 'couple')//" = '"//trim(cfg%barostat_couple)// &
-                          "': unknown (allowed: 'iso')")
+                          "': unknown (allowed: 'iso', 'aniso')")
         end select
         if (cfg%barostat == 'mttk') then
             call new_thermostat(cfg%thermostat, thermostat_params_t(), proto)

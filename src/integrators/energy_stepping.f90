@@ -460,6 +460,7 @@ contains
             ! move rebuilt the list; the terrace is that of the new V
             box_moved = .false.
             if (cal%due(cal_barostat, st%t)) then
+                call r%bs%follow(eng%units%boltz*r%ts%target(st%t))     ! (a temperature ramp)
                 call r%bs%apply_event(eng, cal%n(cal_barostat), box_moved)
                 grid_next = cal%reached(cal_barostat, st%t)       ! on to the next grid point
                 if (box_moved) then

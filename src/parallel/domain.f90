@@ -64,11 +64,13 @@ module terrace_domain
 contains
 
     !> Choose the processor grid and this rank's brick. The factors from MPI_Dims_create are
-    !> assigned largest to the longest box edge.
-    subroutine domain_setup(self, box, cutghost)
+    !> assigned largest to the longest box edge; grid (a restart: the interrupted run's grid, which
+    !> an anisotropic barostat's box may no longer give) is taken instead when it fits the ranks.
+    subroutine domain_setup(self, box, cutghost, grid)
         class(domain_t), intent(inout) :: self
         type(box_t), intent(in) :: box
         real(dp), intent(in) :: cutghost
+        integer, intent(in), optional :: grid(3)
         integer :: dims(3), nd, d, k, order(3), tmp
         logical :: periods(3)
         real(dp) :: len_sorted(3)
@@ -99,6 +101,9 @@ contains
         do d = 1, 3
             self%dims(order(d)) = dims(d)
         end do
+        if (present(grid)) then
+            if (product(grid) == world%nprocs .and. all(grid >= 1) .and. (nd == 3 .or. grid(3) == 1)) self%dims = grid
+        end if
         periods = box%periodic
         call MPI_Cart_create(world%comm, 3, self%dims, periods, .false., self%cart)
         call MPI_Comm_rank(self%cart, k)

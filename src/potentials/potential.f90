@@ -12,6 +12,12 @@
 !> A many-body term that needs per-atom fields completed across ranks between its passes (EAM:
 !> the densities summed into their owners, F'(rho) copied to the ghosts) asks the halo_ops_t the
 !> engine hands it. Potentials hold no MPI: the engine owns the domain and the communication.
+!>
+!> The virial tensor's diagonal (virial_diagonal): W_aa = sum_i x_ai F_ai over the owned and ghost
+!> rows after a force pass, before the ghost rows are summed into their owners. Every force a pass
+!> adds acts between rows it holds (F_ij on i, -F_ij on the row of the image of j it used), so the
+!> sum is sum over pairs of (x_i - x_j)_a (F_ij)_a, the virial of every term whatever its kernel;
+!> a many-body term (EAM) adds its forces by pairs too. W_xx + W_yy + W_zz is the scalar virial.
 module terrace_potential
     use terrace_kinds, only: dp
     use terrace_atoms, only: atoms_t
@@ -20,6 +26,8 @@ module terrace_potential
     private
 
     integer, parameter, public :: max_warning_flags = 8
+
+    public :: virial_diagonal
 
     !> Per-atom field exchange between passes of a many-body potential, implemented by the engine.
     !> buf(ncomp, nall): reverse_sum adds each ghost row into its owner's row; forward copies each
@@ -117,6 +125,20 @@ module terrace_potential
     end interface
 
 contains
+
+    !> (W_xx, W_yy, W_zz) = sum over rows 1..n of x_a f_a: the diagonal of the virial of the forces
+    !> in f, when f holds the pass's forces on owned and ghost rows before the reverse sum. (One
+    !> pass over contiguous rows, only when the diagonal is asked for.)
+    pure function virial_diagonal(x, f, n) result(w)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: x(:, :), f(:, :)
+        real(dp) :: w(3)
+        integer :: i
+        w = 0
+        do i = 1, n
+            w = w + x(:, i)*f(:, i)
+        end do
+    end function virial_diagonal
 
     !> How far beyond its sub-domain a rank needs ghost atoms (without the neighbour skin): the
     !> cutoff for pair terms; a mesh returns its largest element extent.

@@ -33,6 +33,7 @@ contains
         p%list_every = cfg%list_every
         p%list_check = cfg%list_check
         p%straight_lines = cfg%integ_style%exact_time
+        p%virial_diagonal = cfg%barostat_couple == 'aniso'      ! (only a barostat takes couple)
     end function engine_params
 
     !> Checkpoints and stops: steps between checkpoints for velocity Verlet (checkpoint_every, or
@@ -139,6 +140,7 @@ contains
         p%seed = cfg%thermostat_seed
         p%natoms = natoms
         p%dimension = cfg%dimension
+        p%aniso = cfg%barostat_couple == 'aniso'
         p%boltz = cfg%units%boltz
         p%nktv2p = cfg%units%nktv2p
         if (cfg%integ_style%exact_time .and. cfg%barostat_interval > 0) p%interval = cfg%barostat_interval

@@ -78,7 +78,13 @@ contains
 
         ! ---- distribute atoms
         cutghost = self%pot%halo_reach() + cfg%skin
-        call self%dom%setup(self%box, cutghost)
+        if (self%restarted .and. ckpt%values%has('domain_grid_1')) then
+            ! the interrupted run's processor grid (on as many ranks), so that it continues bitwise
+            ! although a barostat may have changed which box edge is the longest
+            call self%dom%setup(self%box, cutghost, grid=checkpoint_grid(ckpt))
+        else
+            call self%dom%setup(self%box, cutghost)
+        end if
         if (self%restarted) then
             call place_checkpoint_atoms(self, cfg, ckpt)
         else if (len_trim(cfg%lattice) > 0) then
@@ -327,6 +333,17 @@ contains
                          self%atoms%mass(1:ntypes), product(self%box%hi - self%box%lo), deriv, skin, drift)
         cfg%skin = skin; cfg%buffer_drift = drift; cfg%buffer_temperature = t_ref
     end subroutine size_buffer
+
+    !> The processor grid a checkpoint was written with.
+    function checkpoint_grid(ckpt) result(grid)
+        type(ckpt_data_t), intent(in) :: ckpt
+        integer :: grid(3)
+        logical :: ok
+        ok = .true.
+        grid = int([ckpt%values%get_i('domain_grid_1', ok), ckpt%values%get_i('domain_grid_2', ok), &
+                    ckpt%values%get_i('domain_grid_3', ok)])
+        if (.not. ok) grid = 0
+    end function checkpoint_grid
 
     !> Read &system read_checkpoint (every rank), check that it belongs to this deck, and return
     !> the number of atom types, the box and the masses (in table). Collective.

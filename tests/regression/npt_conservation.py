@@ -8,7 +8,8 @@ it is small at dt (--max-err, energy per atom) and, unless --no-ratio, that it f
 ratio of the two excursions within [--ratio-lo, --ratio-hi] (4 for a second-order integrator and a
 complete conserved quantity; a term missing from econserve leaves a part that does not shrink with
 dt). Also asserts that the box did change (the barostat acted): the volume's range over the run is
-more than 0.1 % of its mean.
+more than 0.1 % of its mean; with --aniso (couple = 'aniso') also that the edges moved apart: lx/ly
+differs from its first value by more than 1e-3 somewhere in the run.
 
 usage: npt_conservation.py TERRACE OUTDIR THERMOSTAT_LINE BAROSTAT_LINE [--dt 0.005] [--max-err ...]
 """
@@ -40,7 +41,9 @@ def run(terrace, outdir, dt, n, every, thermostat, barostat):
     rows = list(csv.DictReader(open(os.path.join(outdir, "thermo.csv"))))
     ec = [float(row["econserve"]) for row in rows]
     vol = [float(row["vol"]) for row in rows]
-    return max(abs(e - ec[0]) for e in ec) / 256.0, (max(vol) - min(vol)) / (sum(vol) / len(vol))
+    shape = [float(row["box_lx"]) / float(row["box_ly"]) for row in rows]
+    return (max(abs(e - ec[0]) for e in ec) / 256.0, (max(vol) - min(vol)) / (sum(vol) / len(vol)),
+            max(abs(q / shape[0] - 1) for q in shape))
 
 
 def main():
@@ -55,14 +58,18 @@ def main():
     ap.add_argument("--ratio-lo", type=float, default=3.0)
     ap.add_argument("--ratio-hi", type=float, default=5.5)
     ap.add_argument("--no-ratio", action="store_true")
+    ap.add_argument("--aniso", action="store_true")
     a = ap.parse_args()
     a.terrace = os.path.abspath(a.terrace)
     n = int(round(a.time / a.dt))
-    err1, vr1 = run(a.terrace, os.path.join(a.outdir, "dt"), a.dt, n, 10, a.thermostat, a.barostat)
-    print(f"dt = {a.dt}: max |econserve - econserve(0)| / N = {err1:.3e}; volume range / mean = {vr1:.3e}")
+    err1, vr1, sh1 = run(a.terrace, os.path.join(a.outdir, "dt"), a.dt, n, 10, a.thermostat, a.barostat)
+    print(f"dt = {a.dt}: max |econserve - econserve(0)| / N = {err1:.3e}; volume range / mean = {vr1:.3e}; "
+          f"max |(lx/ly) / (lx/ly)(0) - 1| = {sh1:.3e}")
     ok = err1 <= a.max_err and vr1 > 1e-3
+    if a.aniso:
+        ok = ok and sh1 > 1e-3
     if not a.no_ratio:
-        err2, vr2 = run(a.terrace, os.path.join(a.outdir, "dt2"), a.dt / 2, 2 * n, 20, a.thermostat, a.barostat)
+        err2, vr2, sh2 = run(a.terrace, os.path.join(a.outdir, "dt2"), a.dt / 2, 2 * n, 20, a.thermostat, a.barostat)
         ratio = err1 / err2 if err2 > 0 else float("inf")
         print(f"dt = {a.dt / 2}: max |econserve - econserve(0)| / N = {err2:.3e}; ratio {ratio:.2f} "
               f"(allowed [{a.ratio_lo}, {a.ratio_hi}])")

@@ -57,7 +57,7 @@ contains
         cal%every(cal_checkpoint) = out%ctl%every
         step0 = 0
         if (eng%restarted) then
-            call restore_state()
+            call restore_state(eng, p, ts, bs, step0, first, first_baro)
         else
             call eng%timers%start(t_output)
             first = eng%sample(0_i8, 0.0_dp)
@@ -72,7 +72,7 @@ contains
         do step = step0 + 1, sched%n_steps
             call bs%follow(eng%units%boltz*ts%target((step - 0.5_dp)*dt))   ! the thermostat's target (a ramp)
             call ts%pre_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
-            if (ts%traits%replaces_kick_drift) then
+            if (ts%replaces_kick_drift()) then
                 call ts%kick_drift(eng%atoms, dtfm, dt, step, (step - 0.5_dp)*dt)
             else if (bs%replaces_kicks()) then
                 call bs%first_half(eng, dtfm, dtf, dt, step)
@@ -114,7 +114,8 @@ contains
             if (safe .and. ts%active()) call ts%fold()
             if (safe .and. out%ctl%active) then
                 stop_now = out%ctl%stop_requested()
-                if (stop_now .or. scheduled) call checkpoint()
+                if (stop_now .or. scheduled) call checkpoint(eng, ts, bs, out, first, first_baro, step, step*dt, &
+                                                            scheduled)
                 if (out%ctl%stopped) exit
             end if
         end do
@@ -139,63 +140,6 @@ contains
             baro_terms = 0
             if (bs%active()) baro_terms = bs%pv(eng) + bs%energy(eng)
         end function baro_terms
-
-        !> A restart: the step the checkpoint was taken at (step0) and the run's own keys
-        !> (exchange_first). (The energy guard takes its reference at the first sample after the
-        !> restart.)
-        subroutine restore_state()
-            logical :: ok
-            ok = .true.
-            step0 = eng%restart_values%get_i('step', ok)
-            first%step = 0; first%time = 0
-            first_baro = 0
-            call exchange_first(eng%restart_values, .false., ok)
-            call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
-                           '(velocity Verlet state missing)')
-        end subroutine restore_state
-
-        !> A checkpoint at the end of this step, of the run's own keys (exchange_first), through the
-        !> run's outputs.
-        subroutine checkpoint()
-            type(named_values_t) :: values
-            logical :: ok
-            ok = .true.
-            call exchange_first(values, .true., ok)
-            call out%checkpoint(eng, values, step, step*dt, scheduled)
-        end subroutine checkpoint
-
-        !> The Verlet run's own restart keys, in one place: the first sample's energy and momentum
-        !> (the drift report of a continued run), with a thermostat its ecouple and the thermostat's
-        !> state, with a barostat the barostat's and its first terms of the conserved quantity
-        !> (first_baro); written to (saving) or read from a checkpoint's values.
-        subroutine exchange_first(values, saving, ok)
-            type(named_values_t), intent(inout) :: values
-            logical, intent(in) :: saving
-            logical, intent(inout) :: ok
-            character(len=12), parameter :: keys(4) = [character(len=12) :: 'first_etotal', 'first_px', &
-                                                       'first_py', 'first_pz']
-            real(dp) :: vals(4)
-            integer :: k
-            if (saving) then
-                vals = [first%etotal, first%momentum]
-                do k = 1, 4
-                    call values%put(trim(keys(k)), vals(k))
-                end do
-                if (ts%active()) call values%put('first_ecouple', first%ecouple)
-                if (ts%active()) call ts%save(values)
-                if (bs%active()) call values%put('first_baro', first_baro)
-                if (bs%active()) call bs%save(values)
-                return
-            end if
-            do k = 1, 4
-                vals(k) = values%get_r(trim(keys(k)), ok)
-            end do
-            first%etotal = vals(1); first%momentum = vals(2:4)
-            if (ts%active()) first%ecouple = values%get_r('first_ecouple', ok)
-            if (ts%active()) call ts%restore(values, ok)
-            if (bs%active()) first_baro = values%get_r('first_baro', ok)
-            if (bs%active()) call bs%restore(values, ok)
-        end subroutine exchange_first
     end subroutine run_velocity_verlet
 
     !> The first half kick and the drift (drift), or the second half kick, of the owned atoms.
@@ -230,6 +174,81 @@ contains
             safe = scheduled .or. mod(step, poll_all_pairs) == 0
         end if
     end function move_ghosts
+
+    !> A restart: the step the checkpoint was taken at and the run's own keys (exchange_first). (The
+    !> energy guard takes its reference at the first sample after the restart.)
+    subroutine restore_state(eng, p, ts, bs, step0, first, first_baro)
+        type(engine_t), intent(inout) :: eng
+        type(verlet_params_t), intent(in) :: p
+        class(thermostat_t), intent(inout) :: ts
+        class(barostat_t), intent(inout) :: bs
+        integer(i8), intent(out) :: step0
+        type(thermo_sample_t), intent(out) :: first
+        real(dp), intent(out) :: first_baro
+        logical :: ok
+        ok = .true.
+        step0 = eng%restart_values%get_i('step', ok)
+        first%step = 0; first%time = 0
+        first_baro = 0
+        call exchange_first(eng%restart_values, first, first_baro, ts, bs, .false., ok)
+        call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
+                       '(velocity Verlet state missing)')
+    end subroutine restore_state
+
+    !> A checkpoint of the run's own keys (exchange_first) through the run's outputs.
+    subroutine checkpoint(eng, ts, bs, out, first, first_baro, step, time, scheduled)
+        type(engine_t), intent(inout) :: eng
+        class(thermostat_t), intent(inout) :: ts
+        class(barostat_t), intent(inout) :: bs
+        type(run_outputs_t), intent(inout) :: out
+        type(thermo_sample_t), intent(inout) :: first
+        real(dp), intent(inout) :: first_baro
+        integer(i8), intent(in) :: step
+        real(dp), intent(in) :: time
+        logical, intent(in) :: scheduled
+        type(named_values_t) :: values
+        logical :: ok
+        ok = .true.
+        call exchange_first(values, first, first_baro, ts, bs, .true., ok)
+        call out%checkpoint(eng, values, step, time, scheduled)
+    end subroutine checkpoint
+
+    !> The Verlet run's own restart keys, in one place: the first sample's energy and momentum (the
+    !> drift report of a continued run), with a thermostat its ecouple and the thermostat's state,
+    !> with a barostat the barostat's and its first terms of the conserved quantity (first_baro);
+    !> written to (saving) or read from a checkpoint's values.
+    subroutine exchange_first(values, first, first_baro, ts, bs, saving, ok)
+        type(named_values_t), intent(inout) :: values
+        type(thermo_sample_t), intent(inout) :: first
+        real(dp), intent(inout) :: first_baro
+        class(thermostat_t), intent(inout) :: ts
+        class(barostat_t), intent(inout) :: bs
+        logical, intent(in) :: saving
+        logical, intent(inout) :: ok
+        character(len=12), parameter :: keys(4) = [character(len=12) :: 'first_etotal', 'first_px', 'first_py', &
+                                                                          'first_pz']
+        real(dp) :: vals(4)
+        integer :: k
+        if (saving) then
+            vals = [first%etotal, first%momentum]
+            do k = 1, 4
+                call values%put(trim(keys(k)), vals(k))
+            end do
+            if (ts%active()) call values%put('first_ecouple', first%ecouple)
+            if (ts%active()) call ts%save(values)
+            if (bs%active()) call values%put('first_baro', first_baro)
+            if (bs%active()) call bs%save(values)
+            return
+        end if
+        do k = 1, 4
+            vals(k) = values%get_r(trim(keys(k)), ok)
+        end do
+        first%etotal = vals(1); first%momentum = vals(2:4)
+        if (ts%active()) first%ecouple = values%get_r('first_ecouple', ok)
+        if (ts%active()) call ts%restore(values, ok)
+        if (bs%active()) first_baro = values%get_r('first_baro', ok)
+        if (bs%active()) call bs%restore(values, ok)
+    end subroutine exchange_first
 
     !> Half kick v += dtfm(type) f of the n owned atoms and, when drift, the drift x += dt v.
     !> Explicit shapes: the compiler sees contiguous, unaliased columns and vectorises (through the

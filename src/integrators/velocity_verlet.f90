@@ -72,7 +72,7 @@ contains
         do step = step0 + 1, sched%n_steps
             call bs%follow(eng%units%boltz*ts%target((step - 0.5_dp)*dt))   ! the thermostat's target (a ramp)
             call ts%pre_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
-            if (ts%replaces_kick_drift()) then
+            if (ts%traits%replaces_kick_drift) then
                 call ts%kick_drift(eng%atoms, dtfm, dt, step, (step - 0.5_dp)*dt)
             else if (bs%replaces_kicks()) then
                 call bs%first_half(eng, dtfm, dtf, dt, step)

@@ -160,7 +160,10 @@ contains
             write (output_unit, '(a,es12.5,1x,es12.5)') '  force two-norm, max component = ', res%fnorm2, res%fmax
             if (len_trim(cfg%box_relax) > 0 .and. cfg%box_relax /= 'none') &
                 write (output_unit, '(a,i0,a,es24.16,a,3es24.16)') '  box relaxed: ', res%box_steps, &
-                ' volume steps; pressure ', res%pressure, ' ; box lengths ', eng%box%length
+                trim(merge(' volume steps; pressure ', ' box steps; pressure    ', cfg%box_relax == 'iso'))//' ', &
+                res%pressure, ' ; box lengths ', eng%box%length
+            if (cfg%box_relax == 'aniso') write (output_unit, '(a,3es24.16)') &
+                '  pressure diagonal ', res%pressure_diag
             flush (output_unit)
         end if
     end subroutine minimize_run

@@ -155,7 +155,7 @@ module terrace_config
         character(len=8) :: minimize = ''           !< '' (none), fire, cg
         real(dp) :: etol = 0, ftol = 0              !< LAMMPS minimize's stopping tolerances
         integer(i8) :: max_iterations = 10000, max_evaluations = 100000
-        character(len=8) :: box_relax = 'none'      !< none, iso: the box's volume relaxed too
+        character(len=8) :: box_relax = 'none'      !< none; iso, aniso: the box relaxed too
         real(dp) :: min_pressure = 0                !< box_relax: target pressure
     contains
         procedure :: where => cfg_where
@@ -880,17 +880,15 @@ contains
         select case (cfg%box_relax)
         case ('none')
             if (cfg%nml%find('minimize', 'pressure') > 0) call stop_all(cfg%where('minimize', 'pressure')// &
-                ": the target pressure of box_relax (give box_relax = 'iso')")
-        case ('iso')
+                ": the target pressure of box_relax (give box_relax = 'iso' or 'aniso')")
+        case ('iso', 'aniso')
             if (len_trim(cfg%mesh_file) > 0) call stop_all(cfg%where('minimize', 'box_relax')// &
                 ': a mesh (&system mesh_file) has free boundaries and no box to relax')
             if (.not. all(cfg%periodic(1:cfg%dimension))) call stop_all(cfg%where('minimize', 'box_relax')// &
                 ': needs a box periodic in every dimension (&system periodic)')
-        case ('aniso')
-            call stop_all(cfg%where('minimize', 'box_relax')//" = 'aniso': not available (allowed: 'none', 'iso')")
         case default
             call stop_all(cfg%where('minimize', 'box_relax')//" = '"//trim(cfg%box_relax)// &
-                          "': unknown (allowed: 'none', 'iso')")
+                          "': unknown (allowed: 'none', 'iso', 'aniso')")
         end select
         if (cfg%barostat /= 'none' .and. len_trim(cfg%barostat) > 0 .and. .not. cfg%integ_style%time_stepped) &
             call stop_all(cfg%where('minimize', 'style')//': dynamics after a minimization run with velocity Verlet')

@@ -36,7 +36,9 @@ module terrace_minimize
         integer(i8) :: max_iterations = 10000, max_evaluations = 100000
         real(dp) :: dt = 0.001_dp                !< FIRE's first time step
         real(dp) :: dmax = 0.1_dp                !< largest move of a coordinate in one step (length)
-        logical :: box_relax = .false.           !< also the box's volume (isotropic), to pressure
+        !> 'none'; 'iso': also the box's volume (isotropically); 'aniso': also the box's edges, each
+        !> driven by its own diagonal pressure; both to pressure
+        character(len=8) :: box_relax = 'none'
         real(dp) :: pressure = 0                 !< box_relax: target pressure (the run's unit)
     end type minimize_params_t
 
@@ -45,8 +47,9 @@ module terrace_minimize
         character(len=:), allocatable :: criterion
         integer(i8) :: iterations = 0, evaluations = 0
         real(dp) :: e_initial = 0, e_final = 0, fnorm2 = 0, fmax = 0
-        integer :: box_steps = 0                 !< box_relax: volume changes made
+        integer :: box_steps = 0                 !< box_relax: box changes made
         real(dp) :: pressure = 0                 !< box_relax: the final virial pressure (the run's unit)
+        real(dp) :: pressure_diag(3) = 0         !< box_relax = 'aniso': the final static P_aa (the run's unit)
     end type minimize_result_t
 
     real(dp), parameter :: eps_energy = 1.0e-8_dp
@@ -71,20 +74,27 @@ contains
         integer, intent(in) :: unit
         type(minimize_result_t), intent(out) :: res
         integer(i8) :: ev0
+        logical :: diag_wanted
         ev0 = eng%force_evaluations
+        diag_wanted = eng%want_virial_diag         ! box_relax = 'aniso' needs the virial's diagonal
+        eng%want_virial_diag = diag_wanted .or. p%box_relax == 'aniso'
         call eng%compute_forces(.true.)
         res%e_initial = eng%pe
         if (unit /= no_unit .and. world%rank == 0) write (unit, '(a)') 'iteration,pe,fmax,fnorm'
         call write_row(eng, 0_i8, unit)
-        if (p%box_relax) then
+        select case (trim(p%box_relax))
+        case ('iso')
             call relax_box(eng, p, unit, ev0, res)
-        else
+        case ('aniso')
+            call relax_box_aniso(eng, p, unit, ev0, res)
+        case default
             call relax_atoms(eng, p, unit, ev0, res)
-        end if
+        end select
         res%e_final = eng%pe
         res%evaluations = eng%force_evaluations - ev0
         res%fnorm2 = sqrt(dot_ff(eng))
         res%fmax = fmax_all(eng)
+        eng%want_virial_diag = diag_wanted
     end subroutine run_minimize
 
     subroutine relax_atoms(eng, p, unit, ev0, res)
@@ -152,6 +162,101 @@ contains
         end do
         res%pressure = eng%virial/(eng%box%dimension*eng%box%volume())*eng%units%nktv2p
     end subroutine relax_box
+
+    !> box_relax = 'aniso': as relax_box, with the box's edges as independent degrees of freedom
+    !> (LAMMPS's fix box/relax aniso): after each atom relaxation the static diagonal pressure
+    !> g_a = W_aa / V - P0 (W_aa the virial's diagonal, which the force passes give while this runs),
+    !> and the edges' log-strains eps_a = ln L_a take a quasi-Newton step deps = -J^-1 g, J the
+    !> Jacobian dg/deps: first -b0 I (the bulk-modulus guess), then Broyden's update after each step,
+    !> J += (dg - J ds) ds^T / ds.ds (in one dimension: relax_box's secant). Steps at most 0.05 per
+    !> edge; each edge scaled through engine%scale_box (positions and the domain with it). Stops when
+    !> the force on the log-strains, V |g| (2-norm), is below ftol, or the step below 1e-15.
+    subroutine relax_box_aniso(eng, p, unit, ev0, res)
+        type(engine_t), intent(inout) :: eng
+        type(minimize_params_t), intent(in) :: p
+        integer, intent(in) :: unit
+        integer(i8), intent(in) :: ev0
+        type(minimize_result_t), intent(inout) :: res
+        type(minimize_params_t) :: q
+        real(dp) :: p0, b0, v, g(3), g_old(3), deps(3), jac(3, 3), dg(3), jd(3), mu(3), ds2
+        integer :: k, nd
+        integer(i8) :: done
+        logical :: ok
+        nd = eng%box%dimension
+        p0 = p%pressure/eng%units%nktv2p
+        b0 = eng%units%bulk_modulus_guess
+        call guess(jac)
+        q = p
+        done = 0
+        g = 0; g_old = 0; deps = 0
+        do k = 1, 200
+            q%max_iterations = max(1_i8, p%max_iterations - done)
+            call relax_atoms(eng, q, unit, ev0, res)
+            done = done + res%iterations
+            res%iterations = done
+            v = eng%box%volume()
+            g(1:nd) = eng%virial_diag(1:nd)/v - p0          ! > 0: the box wants to grow along a
+            if (norm2(g(1:nd))*v < max(p%ftol, 1.0e-300_dp) .or. res%criterion == 'max iterations' .or. &
+                res%criterion == 'max force evaluations') exit
+            if (k > 1) then                                   ! Broyden's update from the last step
+                dg = g - g_old
+                jd = matmul(jac, deps)
+                ds2 = sum(deps(1:nd)**2)
+                if (ds2 > 0) jac = jac + spread(dg - jd, 2, 3)*spread(deps, 1, 3)/ds2
+            end if
+            deps = 0
+            call solve(jac(1:nd, 1:nd), -g(1:nd), deps(1:nd), ok)
+            if (.not. ok) then                                ! start again from the guess
+                call guess(jac)
+                deps(1:nd) = g(1:nd)/b0
+            end if
+            deps = max(-0.05_dp, min(0.05_dp, deps))
+            if (maxval(abs(deps)) < 1.0e-15_dp) exit
+            g_old = g
+            mu = exp(deps)
+            call eng%scale_box(mu, velocities=.false.)
+            call eng%compute_forces(.true.)
+            res%box_steps = res%box_steps + 1
+        end do
+        res%pressure = eng%virial/(nd*eng%box%volume())*eng%units%nktv2p
+        res%pressure_diag = 0
+        res%pressure_diag(1:nd) = eng%virial_diag(1:nd)/eng%box%volume()*eng%units%nktv2p
+    contains
+        subroutine guess(j)
+            real(dp), intent(out) :: j(3, 3)
+            integer :: a
+            j = 0
+            do a = 1, 3
+                j(a, a) = -b0
+            end do
+        end subroutine guess
+    end subroutine relax_box_aniso
+
+    !> x with a x = b for a small dense matrix (Gaussian elimination, partial pivoting); ok = .false.
+    !> for a singular matrix.
+    subroutine solve(a, b, x, ok)
+        real(dp), intent(in) :: a(:, :), b(:)
+        real(dp), intent(out) :: x(:)
+        logical, intent(out) :: ok
+        real(dp) :: m(size(b), size(b) + 1), row(size(b) + 1)
+        integer :: n, i, j, piv
+        n = size(b)
+        m(:, 1:n) = a; m(:, n + 1) = b
+        x = 0
+        ok = .false.
+        do i = 1, n
+            piv = i - 1 + maxloc(abs(m(i:n, i)), 1)
+            if (.not. (abs(m(piv, i)) > 0)) return
+            row = m(i, :); m(i, :) = m(piv, :); m(piv, :) = row
+            do j = i + 1, n
+                m(j, :) = m(j, :) - m(j, i)/m(i, i)*m(i, :)
+            end do
+        end do
+        do i = n, 1, -1
+            x(i) = (m(i, n + 1) - sum(m(i, i + 1:n)*x(i + 1:n)))/m(i, i)
+        end do
+        ok = all(abs(x) <= huge(1.0_dp))
+    end subroutine solve
 
     !> Positions moved: ghosts refreshed or the list rebuilt when due, then forces and energy.
     subroutine evaluate(eng, iter)

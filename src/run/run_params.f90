@@ -159,7 +159,7 @@ contains
         p%dt = merge(0.001_dp, 0.005_dp, cfg%units%name == 'metal')
         if (cfg%dt > 0) p%dt = cfg%dt
         p%dmax = 0.1_dp
-        p%box_relax = cfg%box_relax == 'iso'
+        p%box_relax = cfg%box_relax
         p%pressure = cfg%min_pressure
     end function minimize_params
 

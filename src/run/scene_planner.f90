@@ -172,7 +172,8 @@ contains
             write (s, '(a,g0.6,a,g0.6,a,i0,a,i0)') '; first minimized ('//trim(cfg%minimize)//', etol ', cfg%etol, &
                 ', ftol ', cfg%ftol, ', at most ', cfg%max_iterations, ' iterations, ', cfg%max_evaluations
             s = trim(s)//' force evaluations'
-            if (cfg%box_relax == 'iso') s = trim(s)//'; box relaxed (iso)'
+            if (cfg%box_relax == 'iso' .or. cfg%box_relax == 'aniso') s = trim(s)//'; box relaxed ('// &
+                                                                          trim(cfg%box_relax)//')'
             self%integrator = self%integrator//trim(s)//')'
         end if
     end subroutine describe_integrator

@@ -33,7 +33,7 @@ import sys
 
 import numpy as np
 
-from .common import REPO, exact_dt, read_thermo
+from .common import REPO, exact_dt, read_thermo, splice_section
 from . import solids
 
 PARAMS = {
@@ -361,17 +361,4 @@ def write_report(ctx, res=None):
 
 
 def splice(path, lines):
-    if not lines:
-        return
-    text = open(path).read() if os.path.exists(path) else ''
-    block = '\n'.join(lines)
-    b, e = '<!-- bounce:begin -->', '<!-- bounce:end -->'
-    if b in text and e in text:
-        text = text[:text.index(b)] + block + text[text.index(e) + len(e):]
-    elif '<!-- stiffness:end -->' in text:
-        i = text.index('<!-- stiffness:end -->') + len('<!-- stiffness:end -->')
-        text = text[:i] + '\n\n' + block + text[i:]
-    else:
-        text = text.rstrip('\n') + '\n\n' + block + '\n'
-    with open(path, 'w') as f:
-        f.write(text)
+    splice_section(path, lines, 'bounce', 'stiffness')

@@ -222,3 +222,22 @@ def read_lammps_dump(path, dt):
     if not c:
         return times, np.array([]), np.array([])
     return times, np.stack([c['xu'], c['yu'], c['zu']], axis=-1), np.stack([c['vx'], c['vy'], c['vz']], axis=-1)
+
+
+def splice_section(path, lines, name, after):
+    """Put a study section (lines, from '<!-- NAME:begin -->' to '<!-- NAME:end -->') into the page at
+    path: in place of the section's old text, else after the section AFTER's end marker, else at the end."""
+    if not lines:
+        return
+    text = open(path).read() if os.path.exists(path) else ''
+    block = '\n'.join(lines)
+    b, e, a = '<!-- %s:begin -->' % name, '<!-- %s:end -->' % name, '<!-- %s:end -->' % after
+    if b in text and e in text:
+        text = text[:text.index(b)] + block + text[text.index(e) + len(e):]
+    elif a in text:
+        i = text.index(a) + len(a)
+        text = text[:i] + '\n\n' + block + text[i:]
+    else:
+        text = text.rstrip('\n') + '\n\n' + block + '\n'
+    with open(path, 'w') as f:
+        f.write(text)

@@ -27,6 +27,7 @@ import subprocess
 import numpy as np
 
 from . import solids
+from .common import splice_section
 
 LAM, MU, RHO = 2.7e6, 3.0e5, 1100.0
 STIFF = 100.0                 # the inclusion's moduli: x 100 (the same Poisson's ratio)
@@ -538,17 +539,4 @@ def write_report(ctx, res=None):
 
 
 def splice(path, lines):
-    if not lines:
-        return
-    text = open(path).read() if os.path.exists(path) else ''
-    block = '\n'.join(lines)
-    b, e = '<!-- minority:begin -->', '<!-- minority:end -->'
-    if b in text and e in text:
-        text = text[:text.index(b)] + block + text[text.index(e) + len(e):]
-    elif '<!-- stiffness:end -->' in text:
-        i = text.index('<!-- stiffness:end -->') + len('<!-- stiffness:end -->')
-        text = text[:i] + '\n\n' + block + text[i:]
-    else:
-        text = text.rstrip('\n') + '\n\n' + block + '\n'
-    with open(path, 'w') as f:
-        f.write(text)
+    splice_section(path, lines, 'minority', 'stiffness')

@@ -19,6 +19,7 @@ import re
 import numpy as np
 
 from . import solids
+from .common import splice_section
 
 PARAMS = {
     'quick': dict(k_factors=[1, 4, 16, 64, 256, 1024], nus=[0.3, 0.4, 0.45, 0.49, 0.499, 0.4999], h=1e-3,
@@ -217,17 +218,4 @@ def write_report(ctx, res=None):
 
 
 def splice(path, lines):
-    if not lines:
-        return
-    text = open(path).read() if os.path.exists(path) else ''
-    block = '\n'.join(lines)
-    b, e = '<!-- stiffness:begin -->', '<!-- stiffness:end -->'
-    if b in text and e in text:
-        text = text[:text.index(b)] + block + text[text.index(e) + len(e):]
-    elif '<!-- solids:end -->' in text:
-        i = text.index('<!-- solids:end -->') + len('<!-- solids:end -->')
-        text = text[:i] + '\n\n' + block + text[i:]
-    else:
-        text = text.rstrip('\n') + '\n\n' + block + '\n'
-    with open(path, 'w') as f:
-        f.write(text)
+    splice_section(path, lines, 'stiffness', 'solids')

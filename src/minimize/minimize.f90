@@ -116,6 +116,26 @@ contains
         end select
     end subroutine relax_atoms
 
+    !> One atom relaxation of a box relaxation, with what is left of the iteration budget: done counts
+    !> the iterations across the relaxations (and res%iterations reports it); spent: the budget ran
+    !> out (max iterations or max force evaluations).
+    subroutine relax_atoms_within(eng, p, unit, ev0, res, done, spent)
+        type(engine_t), intent(inout) :: eng
+        type(minimize_params_t), intent(in) :: p
+        integer, intent(in) :: unit
+        integer(i8), intent(in) :: ev0
+        type(minimize_result_t), intent(inout) :: res
+        integer(i8), intent(inout) :: done
+        logical, intent(out) :: spent
+        type(minimize_params_t) :: q
+        q = p
+        q%max_iterations = max(1_i8, p%max_iterations - done)
+        call relax_atoms(eng, q, unit, ev0, res)
+        done = done + res%iterations
+        res%iterations = done
+        spent = res%criterion == 'max iterations' .or. res%criterion == 'max force evaluations'
+    end subroutine relax_atoms_within
+
     !> box_relax: the atoms relaxed at a fixed box, then the volume changed (isotropically, through
     !> engine%scale_box) towards the target pressure, until the static pressure W / (d V) is
     !> within ftol / V of the target (the force on ln V below ftol) after an atom relaxation.
@@ -128,25 +148,20 @@ contains
         integer, intent(in) :: unit
         integer(i8), intent(in) :: ev0
         type(minimize_result_t), intent(inout) :: res
-        type(minimize_params_t) :: q
+        logical :: spent
         real(dp) :: p0, g, g_old, eps, eps_old, deps, b0, v, mu
         integer :: k, d
         integer(i8) :: done
         p0 = p%pressure/eng%units%nktv2p
         b0 = eng%units%bulk_modulus_guess
-        q = p
         done = 0
         g_old = 0; eps_old = 0
         do k = 1, 200
-            q%max_iterations = max(1_i8, p%max_iterations - done)
-            call relax_atoms(eng, q, unit, ev0, res)
-            done = done + res%iterations
-            res%iterations = done
+            call relax_atoms_within(eng, p, unit, ev0, res, done, spent)
             v = eng%box%volume()
             g = eng%virial/(eng%box%dimension*v) - p0         ! > 0: the box wants to grow
             eps = log(v)
-            if (abs(g)*v < max(p%ftol, 1.0e-300_dp) .or. res%criterion == 'max iterations' .or. &
-                res%criterion == 'max force evaluations') exit
+            if (abs(g)*v < max(p%ftol, 1.0e-300_dp) .or. spent) exit
             if (k == 1 .or. g == g_old) then
                 deps = g/b0
             else
@@ -177,7 +192,7 @@ contains
         integer, intent(in) :: unit
         integer(i8), intent(in) :: ev0
         type(minimize_result_t), intent(inout) :: res
-        type(minimize_params_t) :: q
+        logical :: spent
         real(dp) :: p0, b0, v, g(3), g_old(3), deps(3), jac(3, 3), dg(3), jd(3), mu(3), ds2
         integer :: k, nd
         integer(i8) :: done
@@ -186,18 +201,13 @@ contains
         p0 = p%pressure/eng%units%nktv2p
         b0 = eng%units%bulk_modulus_guess
         call guess(jac)
-        q = p
         done = 0
         g = 0; g_old = 0; deps = 0
         do k = 1, 200
-            q%max_iterations = max(1_i8, p%max_iterations - done)
-            call relax_atoms(eng, q, unit, ev0, res)
-            done = done + res%iterations
-            res%iterations = done
+            call relax_atoms_within(eng, p, unit, ev0, res, done, spent)
             v = eng%box%volume()
             g(1:nd) = eng%virial_diag(1:nd)/v - p0          ! > 0: the box wants to grow along a
-            if (norm2(g(1:nd))*v < max(p%ftol, 1.0e-300_dp) .or. res%criterion == 'max iterations' .or. &
-                res%criterion == 'max force evaluations') exit
+            if (norm2(g(1:nd))*v < max(p%ftol, 1.0e-300_dp) .or. spent) exit
             if (k > 1) then                                   ! Broyden's update from the last step
                 dg = g - g_old
                 jd = matmul(jac, deps)

@@ -3,7 +3,8 @@ module terrace_text
     use terrace_kinds, only: dp
     implicit none
     private
-    public :: count_tokens, fixed, int_text, real_text, sci_text, real_in_format, quoted_list, has_word
+    public :: count_tokens, fixed, int_text, real_text, sci_text, real_in_format, quoted_list, has_word, &
+              style_row
 
 contains
 
@@ -89,6 +90,13 @@ contains
             s = s//"'"//trim(names(k))//"'"
         end do
     end function quoted_list
+
+    !> The row of name in a style table whose row 0 stands for a name no style has: the first k >= 1
+    !> with names(k) == name, else 0; a table's record is table(style_row(table%name, name)).
+    pure integer function style_row(names, name) result(k)
+        character(len=*), intent(in) :: names(0:), name
+        k = findloc(names(1:), name, dim=1)
+    end function style_row
 
     !> Whether word is one of the blank-separated words of list.
     elemental logical function has_word(list, word)

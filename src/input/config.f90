@@ -20,12 +20,12 @@ module terrace_config
     use terrace_files, only: read_input_text
     use terrace_mpi_env, only: world
     use terrace_file_ops, only: path_kind, resolve_path, directory_of, path_regular, path_directory, path_special
-    use terrace_text, only: int_text, sci_text, quoted_list, has_word
-    use terrace_potential_styles, only: potential_style_t, potential_style, default_potential_style, &
+    use terrace_text, only: int_text, sci_text, quoted_list, has_word, style_row
+    use terrace_potential_styles, only: potential_style_t, default_potential_style, &
                                         pots => potential_table
-    use terrace_integrator_styles, only: integrator_style_t, integrator_style, default_integrator_style, &
+    use terrace_integrator_styles, only: integrator_style_t, default_integrator_style, &
                                          integs => integrator_table
-    use terrace_minimize_styles, only: minimize_style_t, minimize_style, mins => minimize_table
+    use terrace_minimize_styles, only: minimize_style_t, mins => minimize_table
     use terrace_thermostat, only: thermostat_t, thermostat_params_t
     use terrace_thermostat_factory, only: is_thermostat_style, new_thermostat, thermostat_styles, &
                                           thermostat_styles_for_events, thermostat_styles_with_chain, &
@@ -574,7 +574,7 @@ contains
             read (it%buf, nml=potential, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
         end do
-        cfg%potential = lower(style); cfg%pot_style = potential_style(cfg%potential)
+        cfg%potential = lower(style); cfg%pot_style = pots(style_row(pots%name, cfg%potential))
         cfg%epsilon = epsilon; cfg%sigma = sigma; cfg%cutoff = cutoff
         cfg%pair_cutoff = pair_cutoff; cfg%shift = shift
         cfg%potential_file = file; cfg%elements = elements
@@ -603,7 +603,7 @@ contains
             read (it%buf, nml=integrator, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
         end do
-        cfg%integrator = lower(style); cfg%integ_style = integrator_style(cfg%integrator); cfg%dt = dt
+        cfg%integrator = lower(style); cfg%integ_style = integs(style_row(integs%name, cfg%integrator)); cfg%dt = dt
         cfg%terrace_height = terrace_height; cfg%target_mean_dt = target_mean_dt; cfg%root_tolerance = root_tolerance
     end subroutine read_integrator
 
@@ -867,7 +867,7 @@ contains
             if (any_key) call stop_all(cfg%path//': &minimize: style: missing (allowed: '//allowed//')')
             return
         end if
-        style = minimize_style(cfg%minimize)
+        style = mins(style_row(mins%name, cfg%minimize))
         if (len_trim(style%name) == 0) call stop_all(cfg%where('minimize', 'style')//" = '"//trim(cfg%minimize)// &
             "': unknown minimizer (allowed: "//allowed//')')
         if (.not. (cfg%etol >= 0)) call stop_all(cfg%where('minimize', 'etol')// &

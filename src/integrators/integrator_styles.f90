@@ -36,14 +36,4 @@ module terrace_integrator_styles
     !> The style of a deck without &integrator style.
     character(len=*), parameter, public :: default_integrator_style = 'velocity_verlet'
 
-    public :: integrator_style
-
-contains
-
-    !> The record of the named style (row 0, with name '' and no capabilities, for an unknown name).
-    pure type(integrator_style_t) function integrator_style(name) result(s)
-        character(len=*), intent(in) :: name
-        s = integrator_table(findloc(integrator_table(1:)%name, name, dim=1))
-    end function integrator_style
-
 end module terrace_integrator_styles

@@ -19,14 +19,4 @@ module terrace_minimize_styles
         minimize_style_t('fire', common_keys), &
         minimize_style_t('cg', common_keys)]
 
-    public :: minimize_style
-
-contains
-
-    !> The record of the named style (row 0, with name '' and no capabilities, for an unknown name).
-    pure type(minimize_style_t) function minimize_style(name) result(s)
-        character(len=*), intent(in) :: name
-        s = minimize_table(findloc(minimize_table(1:)%name, name, dim=1))
-    end function minimize_style
-
 end module terrace_minimize_styles

@@ -49,14 +49,4 @@ module terrace_potential_styles
     !> The style of a deck without &potential style.
     character(len=*), parameter, public :: default_potential_style = 'lj'
 
-    public :: potential_style
-
-contains
-
-    !> The record of the named style (row 0, with name '' and no capabilities, for an unknown name).
-    pure type(potential_style_t) function potential_style(name) result(s)
-        character(len=*), intent(in) :: name
-        s = potential_table(findloc(potential_table(1:)%name, name, dim=1))
-    end function potential_style
-
 end module terrace_potential_styles

@@ -3,7 +3,8 @@ module terrace_run_schedule
     use terrace_kinds, only: dp, i8
     use terrace_config, only: config_t
     use terrace_schedule, only: schedule_t
-    use terrace_integrator_styles, only: integrator_style_t, integrator_style
+    use terrace_text, only: style_row
+    use terrace_integrator_styles, only: integrator_style_t, integrator_table
     implicit none
     private
 
@@ -16,7 +17,7 @@ contains
         type(config_t), intent(in) :: cfg
         type(schedule_t) :: s
         type(integrator_style_t) :: integ
-        integ = integrator_style(cfg%integrator)
+        integ = integrator_table(style_row(integrator_table%name, cfg%integrator))
         if (integ%exact_time) then          ! by time
             if (cfg%run_time > 0) s%t_end = cfg%run_time
             s%n_steps = huge(1_i8)

@@ -1064,26 +1064,24 @@ contains
         character(len=*), parameter :: wall_keys(4) = [character(len=20) :: 'walls', 'wall_planes', &
                                                        'wall_stiffness', 'wall_distance']
         character(len=*), parameter :: material_keys(2) = [character(len=20) :: 'volume_lambda', 'volume_mu']
-        integer :: k
-        do k = 1, size(contact_keys)
-            if (cfg%nml%find('potential', trim(contact_keys(k))) > 0 .and. &
-                .not. has_word(cfg%pot_style%keys, contact_keys(k))) call stop_all(cfg%where('potential', &
-                trim(contact_keys(k)))//': contact is between the bodies of a mesh (style = '// &
-                quoted_list(pots%name, ' or ', has_word(pots%keys, contact_keys(k)))//')')
-        end do
-        do k = 1, size(wall_keys)
-            if (cfg%nml%find('potential', trim(wall_keys(k))) > 0 .and. &
-                .not. has_word(cfg%pot_style%keys, wall_keys(k))) call stop_all(cfg%where('potential', &
-                trim(wall_keys(k)))//': walls hold the boundary nodes of a mesh (style = '// &
-                quoted_list(pots%name, ' or ', has_word(pots%keys, wall_keys(k)))//')')
-        end do
-        do k = 1, size(material_keys)
-            if (cfg%nml%find('potential', trim(material_keys(k))) > 0 .and. &
-                .not. has_word(cfg%pot_style%keys, material_keys(k))) call stop_all(cfg%where('potential', &
-                trim(material_keys(k)))//': a material of a mesh''s volume (style = '// &
-                quoted_list(pots%name, ' or ', has_word(pots%keys, material_keys(k)))//')')
-        end do
+        call refuse_keys(cfg, contact_keys, 'contact is between the bodies of a mesh')
+        call refuse_keys(cfg, wall_keys, 'walls hold the boundary nodes of a mesh')
+        call refuse_keys(cfg, material_keys, 'a material of a mesh''s volume')
     end subroutine check_potential_keys
+
+    !> The first of keys given in &potential whose style does not take it: refused with what the key
+    !> is for (what) and the styles that take it.
+    subroutine refuse_keys(cfg, keys, what)
+        type(config_t), intent(in) :: cfg
+        character(len=*), intent(in) :: keys(:), what
+        integer :: k
+        do k = 1, size(keys)
+            if (cfg%nml%find('potential', trim(keys(k))) > 0 .and. &
+                .not. has_word(cfg%pot_style%keys, keys(k))) call stop_all(cfg%where('potential', &
+                trim(keys(k)))//': '//what//' (style = '// &
+                quoted_list(pots%name, ' or ', has_word(pots%keys, keys(k)))//')')
+        end do
+    end subroutine refuse_keys
 
     !> The materials of volume entities: volume_lambda(v) and volume_mu(v) given together, mu > 0,
     !> lambda >= 0. (Whether the mesh has volume v is checked when it is read.)

@@ -18,6 +18,15 @@ module terrace_potential_factory
     implicit none
     private
 
+    !> What the terms of a mesh's potential are set up from and checked against, besides the mesh.
+    type :: mesh_start_t
+        real(dp), allocatable :: xref(:, :)       !< reference positions by node id
+        real(dp), allocatable :: x(:, :)          !< starting positions by node id (xref when not given)
+        real(dp), allocatable :: node_mass(:)     !< lumped node masses by id
+        logical :: box_known = .false.            !< box_lo, box_hi given (walls = 'box')
+        real(dp) :: box_lo(3) = 0, box_hi(3) = 0
+    end type mesh_start_t
+
     public :: make_potential
 
 contains
@@ -37,21 +46,31 @@ contains
         if (cfg%potential == 'neohookean') then
             block
                 type(neohookean_t), allocatable :: nh
-                real(dp), allocatable :: xref(:, :)
+                type(mesh_start_t) :: st
                 logical :: ok
                 character(len=512) :: msg
-                allocate (nh, xref(3, mesh%nnode))
+                allocate (nh, st%xref(3, mesh%nnode))
                 do t = 1, mesh%nnode
-                    xref(:, mesh%node_tag(t)) = mesh%x(:, t)
+                    st%xref(:, mesh%node_tag(t)) = mesh%x(:, t)
                 end do
+                if (present(xstart)) then
+                    st%x = xstart
+                else
+                    st%x = st%xref
+                end if
+                if (present(node_mass)) st%node_mass = node_mass
+                st%box_known = present(box_lo) .and. present(box_hi)
+                if (st%box_known) then
+                    st%box_lo = box_lo; st%box_hi = box_hi
+                end if
                 if (any(.not. is_unset(cfg%volume_mu))) then
                     block
                         real(dp), allocatable :: elam(:), emu(:)
                         call volume_materials(cfg, mesh, elam, emu)
-                        call nh%setup(cfg%lambda, cfg%mu, mesh%tet(:, 1:mesh%ntet), xref, ok, msg, elam, emu)
+                        call nh%setup(cfg%lambda, cfg%mu, mesh%tet(:, 1:mesh%ntet), st%xref, ok, msg, elam, emu)
                     end block
                 else
-                    call nh%setup(cfg%lambda, cfg%mu, mesh%tet(:, 1:mesh%ntet), xref, ok, msg)
+                    call nh%setup(cfg%lambda, cfg%mu, mesh%tet(:, 1:mesh%ntet), st%xref, ok, msg)
                 end if
                 call check_all(ok, trim(cfg%mesh_file)//': &system: mesh_file: '//trim(msg))
                 nh%density = cfg%mass_density
@@ -73,12 +92,12 @@ contains
                             allocate (total)
                             call move_alloc(nh, term)
                             call total%add(term)
-                            call add_walls(cfg, mesh, xref, xstart, node_mass, box_lo, box_hi, total)
+                            call add_walls(cfg, mesh, st, total)
                             call move_alloc(total, pot)
                         end block
                     end if
                 else
-                    call add_contact(cfg, mesh, xref, xstart, node_mass, box_lo, box_hi, nh, pot)
+                    call add_contact(cfg, mesh, st, nh, pot)
                 end if
             end block
         else if (cfg%potential == 'hard_sphere' .or. cfg%potential == 'square_well') then
@@ -103,13 +122,10 @@ contains
 
     !> Several bodies: the elements plus the contact between the bodies (potential_sum_t). Checks the
     !> contact parameters against the mesh and the start for bodies that already touch.
-    subroutine add_contact(cfg, mesh, xref, xstart, node_mass, box_lo, box_hi, nh, pot)
+    subroutine add_contact(cfg, mesh, st, nh, pot)
         type(config_t), intent(in) :: cfg
         type(mesh_t), intent(in) :: mesh
-        real(dp), intent(in) :: xref(:, :)
-        real(dp), intent(in), optional :: xstart(:, :)
-        real(dp), intent(in) :: node_mass(:)
-        real(dp), intent(in), optional :: box_lo(3), box_hi(3)
+        type(mesh_start_t), intent(in) :: st
         type(neohookean_t), allocatable, intent(inout) :: nh
         class(potential_t), allocatable, intent(out) :: pot
         type(contact_t), allocatable :: ct
@@ -127,7 +143,7 @@ contains
         allocate (ct)
         model = model_node_face
         if (cfg%contact_model == 'node_node') model = model_node_node
-        call ct%setup(k, d0, youngs, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), xref, node_mass, model)
+        call ct%setup(k, d0, youngs, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), st%xref, st%node_mass, model)
         if (d0 > 0 .and. model == model_node_node) then
             write (s1, '(es10.3)') 0.6_dp*ct%spacing
             write (s2, '(es10.3)') 0.25_dp*ct%min_body_extent
@@ -145,30 +161,23 @@ contains
                 'the skin of half of it, would have the contact search rebuilt at every step; to a quarter of the '// &
                 'smallest body)')
         end if
-        if (present(xstart)) then
-            call ct%check_start(xstart, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), ok, msg)
-        else
-            call ct%check_start(xref, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), ok, msg)
-        end if
+        call ct%check_start(st%x, mesh%tet(:, 1:mesh%ntet), mesh%body(1:mesh%ntet), ok, msg)
         call check_all(ok, trim(cfg%mesh_file)//': &system: mesh_file: '//trim(msg))
         allocate (total)
         call move_alloc(nh, term)
         call total%add(term)
         call move_alloc(ct, term)
         call total%add(term)
-        if (cfg%walls /= 'none') call add_walls(cfg, mesh, xref, xstart, node_mass, box_lo, box_hi, total)
+        if (cfg%walls /= 'none') call add_walls(cfg, mesh, st, total)
         call move_alloc(total, pot)
     end subroutine add_contact
 
     !> The deck's walls (&potential walls: the box's six faces, or wall_planes) as a term of total;
     !> a start with a boundary node within wall_distance of a wall is refused.
-    subroutine add_walls(cfg, mesh, xref, xstart, node_mass, box_lo, box_hi, total)
+    subroutine add_walls(cfg, mesh, st, total)
         type(config_t), intent(in) :: cfg
         type(mesh_t), intent(in) :: mesh
-        real(dp), intent(in) :: xref(:, :)
-        real(dp), intent(in), optional :: xstart(:, :)
-        real(dp), intent(in) :: node_mass(:)
-        real(dp), intent(in), optional :: box_lo(3), box_hi(3)
+        type(mesh_start_t), intent(in) :: st
         type(potential_sum_t), intent(inout) :: total
         type(walls_t), allocatable :: wl
         class(potential_t), allocatable :: term
@@ -178,12 +187,12 @@ contains
         logical :: ok
         character(len=512) :: msg
         if (cfg%walls == 'box') then
-            if (.not. (present(box_lo) .and. present(box_hi))) call stop_all(cfg%where('potential', 'walls')// &
+            if (.not. st%box_known) call stop_all(cfg%where('potential', 'walls')// &
                 " = 'box': the box is not known here")
             allocate (planes(6, 6))
             do d = 1, 3            ! the lower face's normal points up, the upper face's down
-                planes(:, 2*d - 1) = 0; planes(d, 2*d - 1) = box_lo(d); planes(3 + d, 2*d - 1) = 1
-                planes(:, 2*d) = 0; planes(d, 2*d) = box_hi(d); planes(3 + d, 2*d) = -1
+                planes(:, 2*d - 1) = 0; planes(d, 2*d - 1) = st%box_lo(d); planes(3 + d, 2*d - 1) = 1
+                planes(:, 2*d) = 0; planes(d, 2*d) = st%box_hi(d); planes(3 + d, 2*d) = -1
             end do
         else
             planes = cfg%wall_planes(:, 1:cfg%nwall_planes/6)
@@ -193,12 +202,8 @@ contains
         if (.not. is_unset(cfg%wall_distance)) d0 = cfg%wall_distance
         youngs = cfg%mu*(3*cfg%lambda + 2*cfg%mu)/(cfg%lambda + cfg%mu)
         allocate (wl)
-        call wl%setup(planes, k, d0, youngs, mesh%tet(:, 1:mesh%ntet), xref, node_mass)
-        if (present(xstart)) then
-            call wl%check_start(xstart, ok, msg)
-        else
-            call wl%check_start(xref, ok, msg)
-        end if
+        call wl%setup(planes, k, d0, youngs, mesh%tet(:, 1:mesh%ntet), st%xref, st%node_mass)
+        call wl%check_start(st%x, ok, msg)
         call check_all(ok, cfg%where('potential', 'walls')//': '//trim(cfg%mesh_file)//': '//trim(msg))
         call move_alloc(wl, term)
         call total%add(term)

@@ -64,6 +64,16 @@ module terrace_minimize
         real(dp), allocatable :: x0(:, :), h(:, :), g(:, :)
     end type cg_rows_t
 
+    !> What the relaxations of one minimization share: its parameters, the unit of its thermo rows,
+    !> the engine's force evaluations before it and what it did so far.
+    type :: minimization_t
+        type(minimize_params_t) :: p
+        integer :: unit = no_unit
+        integer(i8) :: ev0 = 0
+        type(minimize_result_t) :: res
+        integer(i8) :: done = 0                  !< box_relax: the atom relaxations' iterations so far
+    end type minimization_t
+
     public :: run_minimize
 
 contains
@@ -73,67 +83,62 @@ contains
         type(minimize_params_t), intent(in) :: p
         integer, intent(in) :: unit
         type(minimize_result_t), intent(out) :: res
-        integer(i8) :: ev0
+        type(minimization_t) :: m
         logical :: diag_wanted
-        ev0 = eng%force_evaluations
+        m%p = p; m%unit = unit; m%ev0 = eng%force_evaluations
         diag_wanted = eng%want_virial_diag         ! box_relax = 'aniso' needs the virial's diagonal
         eng%want_virial_diag = diag_wanted .or. p%box_relax == 'aniso'
         call eng%compute_forces(.true.)
-        res%e_initial = eng%pe
+        m%res%e_initial = eng%pe
         if (unit /= no_unit .and. world%rank == 0) write (unit, '(a)') 'iteration,pe,fmax,fnorm'
         call write_row(eng, 0_i8, unit)
         select case (trim(p%box_relax))
         case ('iso')
-            call relax_box(eng, p, unit, ev0, res)
+            call relax_box(eng, m)
         case ('aniso')
-            call relax_box_aniso(eng, p, unit, ev0, res)
+            call relax_box_aniso(eng, m)
         case default
-            call relax_atoms(eng, p, unit, ev0, res)
+            call relax_atoms(eng, m)
         end select
-        res%e_final = eng%pe
-        res%evaluations = eng%force_evaluations - ev0
-        res%fnorm2 = sqrt(dot_ff(eng))
-        res%fmax = fmax_all(eng)
+        m%res%e_final = eng%pe
+        m%res%evaluations = eng%force_evaluations - m%ev0
+        m%res%fnorm2 = sqrt(dot_ff(eng))
+        m%res%fmax = fmax_all(eng)
+        res = m%res
         eng%want_virial_diag = diag_wanted
     end subroutine run_minimize
 
-    subroutine relax_atoms(eng, p, unit, ev0, res)
+    subroutine relax_atoms(eng, m)
         type(engine_t), intent(inout) :: eng
-        type(minimize_params_t), intent(in) :: p
-        integer, intent(in) :: unit
-        integer(i8), intent(in) :: ev0
-        type(minimize_result_t), intent(inout) :: res
-        res%iterations = 0
-        if (p%ftol > 0 .and. dot_ff(eng) < p%ftol**2) then
-            res%criterion = 'force tolerance'       ! already there
+        type(minimization_t), intent(inout) :: m
+        m%res%iterations = 0
+        if (m%p%ftol > 0 .and. dot_ff(eng) < m%p%ftol**2) then
+            m%res%criterion = 'force tolerance'       ! already there
             return
         end if
-        select case (trim(p%style))
+        select case (trim(m%p%style))
         case ('fire')
-            call fire(eng, p, unit, ev0, res)
+            call fire(eng, m)
         case default
-            call cg(eng, p, unit, ev0, res)
+            call cg(eng, m)
         end select
     end subroutine relax_atoms
 
-    !> One atom relaxation of a box relaxation, with what is left of the iteration budget: done counts
-    !> the iterations across the relaxations (and res%iterations reports it); spent: the budget ran
-    !> out (max iterations or max force evaluations).
-    subroutine relax_atoms_within(eng, p, unit, ev0, res, done, spent)
+    !> One atom relaxation of a box relaxation, with what is left of the iteration budget: m%done
+    !> counts the iterations across the relaxations (and res%iterations reports it); spent: the budget
+    !> ran out (max iterations or max force evaluations).
+    subroutine relax_atoms_within(eng, m, spent)
         type(engine_t), intent(inout) :: eng
-        type(minimize_params_t), intent(in) :: p
-        integer, intent(in) :: unit
-        integer(i8), intent(in) :: ev0
-        type(minimize_result_t), intent(inout) :: res
-        integer(i8), intent(inout) :: done
+        type(minimization_t), intent(inout) :: m
         logical, intent(out) :: spent
-        type(minimize_params_t) :: q
-        q = p
-        q%max_iterations = max(1_i8, p%max_iterations - done)
-        call relax_atoms(eng, q, unit, ev0, res)
-        done = done + res%iterations
-        res%iterations = done
-        spent = res%criterion == 'max iterations' .or. res%criterion == 'max force evaluations'
+        integer(i8) :: budget
+        budget = m%p%max_iterations
+        m%p%max_iterations = max(1_i8, budget - m%done)
+        call relax_atoms(eng, m)
+        m%p%max_iterations = budget
+        m%done = m%done + m%res%iterations
+        m%res%iterations = m%done
+        spent = m%res%criterion == 'max iterations' .or. m%res%criterion == 'max force evaluations'
     end subroutine relax_atoms_within
 
     !> box_relax: the atoms relaxed at a fixed box, then the volume changed (isotropically, through
@@ -142,26 +147,21 @@ contains
     !> The volume steps are secants on ln V of P(ln V) - P0 (the first one from a bulk modulus
     !> of 1 eV/A^3 in metal units, 100 in lj, 1e11 Pa in si); iterations count on across the atom
     !> relaxations.
-    subroutine relax_box(eng, p, unit, ev0, res)
+    subroutine relax_box(eng, m)
         type(engine_t), intent(inout) :: eng
-        type(minimize_params_t), intent(in) :: p
-        integer, intent(in) :: unit
-        integer(i8), intent(in) :: ev0
-        type(minimize_result_t), intent(inout) :: res
+        type(minimization_t), intent(inout) :: m
         logical :: spent
         real(dp) :: p0, g, g_old, eps, eps_old, deps, b0, v, mu
         integer :: k, d
-        integer(i8) :: done
-        p0 = p%pressure/eng%units%nktv2p
+        p0 = m%p%pressure/eng%units%nktv2p
         b0 = eng%units%bulk_modulus_guess
-        done = 0
         g_old = 0; eps_old = 0
         do k = 1, 200
-            call relax_atoms_within(eng, p, unit, ev0, res, done, spent)
+            call relax_atoms_within(eng, m, spent)
             v = eng%box%volume()
             g = eng%virial/(eng%box%dimension*v) - p0         ! > 0: the box wants to grow
             eps = log(v)
-            if (abs(g)*v < max(p%ftol, 1.0e-300_dp) .or. spent) exit
+            if (abs(g)*v < max(m%p%ftol, 1.0e-300_dp) .or. spent) exit
             if (k == 1 .or. g == g_old) then
                 deps = g/b0
             else
@@ -173,9 +173,9 @@ contains
             mu = exp(deps/eng%box%dimension)
             call eng%scale_box([(merge(mu, 1.0_dp, d <= eng%box%dimension), d = 1, 3)], velocities=.false.)
             call eng%compute_forces(.true.)
-            res%box_steps = res%box_steps + 1
+            m%res%box_steps = m%res%box_steps + 1
         end do
-        res%pressure = eng%virial/(eng%box%dimension*eng%box%volume())*eng%units%nktv2p
+        m%res%pressure = eng%virial/(eng%box%dimension*eng%box%volume())*eng%units%nktv2p
     end subroutine relax_box
 
     !> box_relax = 'aniso': as relax_box, with the box's edges as independent degrees of freedom
@@ -186,28 +186,23 @@ contains
     !> J += (dg - J ds) ds^T / ds.ds (in one dimension: relax_box's secant). Steps at most 0.05 per
     !> edge; each edge scaled through engine%scale_box (positions and the domain with it). Stops when
     !> the force on the log-strains, V |g| (2-norm), is below ftol, or the step below 1e-15.
-    subroutine relax_box_aniso(eng, p, unit, ev0, res)
+    subroutine relax_box_aniso(eng, m)
         type(engine_t), intent(inout) :: eng
-        type(minimize_params_t), intent(in) :: p
-        integer, intent(in) :: unit
-        integer(i8), intent(in) :: ev0
-        type(minimize_result_t), intent(inout) :: res
+        type(minimization_t), intent(inout) :: m
         logical :: spent
         real(dp) :: p0, b0, v, g(3), g_old(3), deps(3), jac(3, 3), dg(3), jd(3), mu(3), ds2
         integer :: k, nd
-        integer(i8) :: done
         logical :: ok
         nd = eng%box%dimension
-        p0 = p%pressure/eng%units%nktv2p
+        p0 = m%p%pressure/eng%units%nktv2p
         b0 = eng%units%bulk_modulus_guess
         call guess(jac)
-        done = 0
         g = 0; g_old = 0; deps = 0
         do k = 1, 200
-            call relax_atoms_within(eng, p, unit, ev0, res, done, spent)
+            call relax_atoms_within(eng, m, spent)
             v = eng%box%volume()
             g(1:nd) = eng%virial_diag(1:nd)/v - p0          ! > 0: the box wants to grow along a
-            if (norm2(g(1:nd))*v < max(p%ftol, 1.0e-300_dp) .or. spent) exit
+            if (norm2(g(1:nd))*v < max(m%p%ftol, 1.0e-300_dp) .or. spent) exit
             if (k > 1) then                                   ! Broyden's update from the last step
                 dg = g - g_old
                 jd = matmul(jac, deps)
@@ -226,11 +221,11 @@ contains
             mu = exp(deps)
             call eng%scale_box(mu, velocities=.false.)
             call eng%compute_forces(.true.)
-            res%box_steps = res%box_steps + 1
+            m%res%box_steps = m%res%box_steps + 1
         end do
-        res%pressure = eng%virial/(nd*eng%box%volume())*eng%units%nktv2p
-        res%pressure_diag = 0
-        res%pressure_diag(1:nd) = eng%virial_diag(1:nd)/eng%box%volume()*eng%units%nktv2p
+        m%res%pressure = eng%virial/(nd*eng%box%volume())*eng%units%nktv2p
+        m%res%pressure_diag = 0
+        m%res%pressure_diag(1:nd) = eng%virial_diag(1:nd)/eng%box%volume()*eng%units%nktv2p
     contains
         subroutine guess(j)
             real(dp), intent(out) :: j(3, 3)
@@ -283,30 +278,27 @@ contains
     end subroutine evaluate
 
     !> The criterion met after iteration iter (energies before and after it), or ''.
-    function criterion(eng, p, iter, e_old, e_new, ev0) result(c)
+    function criterion(eng, m, iter, e_old, e_new) result(c)
         type(engine_t), intent(inout) :: eng
-        type(minimize_params_t), intent(in) :: p
-        integer(i8), intent(in) :: iter, ev0
+        type(minimization_t), intent(in) :: m
+        integer(i8), intent(in) :: iter
         real(dp), intent(in) :: e_old, e_new
         character(len=:), allocatable :: c
         c = ''
-        if (p%etol > 0 .and. abs(e_new - e_old) < p%etol*0.5_dp*(abs(e_new) + abs(e_old) + eps_energy)) then
+        if (m%p%etol > 0 .and. abs(e_new - e_old) < m%p%etol*0.5_dp*(abs(e_new) + abs(e_old) + eps_energy)) then
             c = 'energy tolerance'
-        else if (p%ftol > 0 .and. dot_ff(eng) < p%ftol**2) then
+        else if (m%p%ftol > 0 .and. dot_ff(eng) < m%p%ftol**2) then
             c = 'force tolerance'
-        else if (iter >= p%max_iterations) then
+        else if (iter >= m%p%max_iterations) then
             c = 'max iterations'
-        else if (eng%force_evaluations - ev0 >= p%max_evaluations) then
+        else if (eng%force_evaluations - m%ev0 >= m%p%max_evaluations) then
             c = 'max force evaluations'
         end if
     end function criterion
 
-    subroutine cg(eng, p, unit, ev0, res)
+    subroutine cg(eng, m)
         type(engine_t), intent(inout) :: eng
-        type(minimize_params_t), intent(in) :: p
-        integer, intent(in) :: unit
-        integer(i8), intent(in) :: ev0
-        type(minimize_result_t), intent(inout) :: res
+        type(minimization_t), intent(inout) :: m
         type(cg_rows_t) :: r
         real(dp) :: e_old, s(3), beta, hf
         integer(i8) :: iter
@@ -322,15 +314,15 @@ contains
         do
             iter = iter + 1
             e_old = eng%pe
-            call line_search(eng, p, r, ok)
-            call write_row(eng, iter, unit)
-            res%iterations = iter
+            call line_search(eng, m%p, r, ok)
+            call write_row(eng, iter, m%unit)
+            m%res%iterations = iter
             if (.not. ok) then
-                res%criterion = 'linesearch alpha is zero'
+                m%res%criterion = 'linesearch alpha is zero'
                 return
             end if
-            res%criterion = criterion(eng, p, iter, e_old, eng%pe, ev0)
-            if (len(res%criterion) > 0) return
+            m%res%criterion = criterion(eng, m, iter, e_old, eng%pe)
+            if (len(m%res%criterion) > 0) return
             n = eng%atoms%nlocal
             s = [sum(eng%atoms%f(:, 1:n)**2), sum(eng%atoms%f(:, 1:n)*r%g), sum(r%g**2)]
             call sum_all(s)
@@ -461,12 +453,9 @@ contains
                             world%comm)
     end subroutine gather_rows
 
-    subroutine fire(eng, p, unit, ev0, res)
+    subroutine fire(eng, m)
         type(engine_t), intent(inout) :: eng
-        type(minimize_params_t), intent(in) :: p
-        integer, intent(in) :: unit
-        integer(i8), intent(in) :: ev0
-        type(minimize_result_t), intent(inout) :: res
+        type(minimization_t), intent(inout) :: m
         real(dp), parameter :: finc = 1.1_dp, fdec = 0.5_dp, alpha0 = 0.1_dp, falpha = 0.99_dp
         integer, parameter :: nmin = 5
         real(dp), allocatable :: v_saved(:, :)
@@ -479,7 +468,7 @@ contains
         v_saved = eng%atoms%v(:, 1:n)
         id_saved = eng%atoms%id(1:n)
         eng%atoms%v(:, 1:n) = 0
-        dt = p%dt; dtmax = 10*p%dt; alpha = alpha0; npos = 0
+        dt = m%p%dt; dtmax = 10*m%p%dt; alpha = alpha0; npos = 0
         iter = 0
         do
             iter = iter + 1
@@ -515,13 +504,13 @@ contains
             if (n > 0) vmax = maxval(abs(eng%atoms%v(:, 1:n)))
             call max_all(vmax)
             scale = 1
-            if (vmax*dt > p%dmax) scale = p%dmax/(vmax*dt)
+            if (vmax*dt > m%p%dmax) scale = m%p%dmax/(vmax*dt)
             eng%atoms%x(:, 1:n) = eng%atoms%x(:, 1:n) + scale*dt*eng%atoms%v(:, 1:n)
             call evaluate(eng, iter)
-            call write_row(eng, iter, unit)
-            res%iterations = iter
-            res%criterion = criterion(eng, p, iter, e_old, eng%pe, ev0)
-            if (len(res%criterion) > 0) exit
+            call write_row(eng, iter, m%unit)
+            m%res%iterations = iter
+            m%res%criterion = criterion(eng, m, iter, e_old, eng%pe)
+            if (len(m%res%criterion) > 0) exit
         end do
         call restore_velocities(eng, id_saved, v_saved)
     end subroutine fire

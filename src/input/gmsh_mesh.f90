@@ -46,6 +46,14 @@ module terrace_gmsh_mesh
         type(mesh_t) :: mesh
     end type gmsh_reader_t
 
+    abstract interface
+        !> One step of a read with a procedure for each format (a section's body, the bodies).
+        subroutine read_step(r)
+            import :: gmsh_reader_t
+            type(gmsh_reader_t), intent(inout) :: r
+        end subroutine read_step
+    end interface
+
 contains
 
     subroutine read_gmsh(path, mesh)
@@ -124,25 +132,24 @@ contains
                     if (first_section(r, r%entities_line, '$Entities')) call entities41(r)
                 end if
             case ('$Nodes')
-                if (first_section(r, r%nodes_line, '$Nodes')) then
-                    if (r%version > 3) then
-                        call nodes41(r)
-                    else
-                        call nodes22(r)
-                    end if
-                end if
+                if (first_section(r, r%nodes_line, '$Nodes')) call by_version(r, nodes41, nodes22)
             case ('$Elements')
-                if (first_section(r, r%elements_line, '$Elements')) then
-                    if (r%version > 3) then
-                        call elements41(r)
-                    else
-                        call elements22(r)
-                    end if
-                end if
+                if (first_section(r, r%elements_line, '$Elements')) call by_version(r, elements41, elements22)
             end select
             if (.not. r%mesh%ok) exit
         end do
     end subroutine read_sections
+
+    !> A step of the read done by the procedure of the file's format: v41 (MSH 4.1) or v22 (MSH 2.2).
+    subroutine by_version(r, v41, v22)
+        type(gmsh_reader_t), intent(inout) :: r
+        procedure(read_step) :: v41, v22
+        if (r%version > 3) then
+            call v41(r)
+        else
+            call v22(r)
+        end if
+    end subroutine by_version
 
     !> A section that may appear once: its line is kept (first_line), or a second one is a failure.
     logical function first_section(r, first_line, name) result(first)
@@ -277,11 +284,7 @@ contains
     subroutine assign_bodies(r)
         type(gmsh_reader_t), intent(inout) :: r
         if (r%version > 3 .and. .not. allocated(r%vol_tag)) return      ! no $Entities: the entity tag
-        if (r%version > 3) then
-            call bodies_from_entities(r)
-        else
-            call bodies_from_physical_tags(r)
-        end if
+        call by_version(r, bodies_from_entities, bodies_from_physical_tags)
     end subroutine assign_bodies
 
     !> 4.1: each tetrahedron's volume entity maps to its one physical volume (1 if there are none).

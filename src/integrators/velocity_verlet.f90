@@ -32,6 +32,13 @@ module terrace_velocity_verlet
         character(len=:), allocatable :: restart_from   !< the checkpoint a restart read (for messages)
     end type verlet_params_t
 
+    !> One end of the run for the drift report: a thermo sample and the barostat's terms of the
+    !> conserved quantity at it (P0 V and the barostat's own energy; 0 without one).
+    type :: drift_end_t
+        type(thermo_sample_t) :: s
+        real(dp) :: baro = 0
+    end type drift_end_t
+
     public :: run_velocity_verlet
 
 contains
@@ -45,9 +52,8 @@ contains
         type(schedule_t), intent(in) :: sched
         integer(i8) :: step, step0
         real(dp) :: dt, dtfm(size(eng%atoms%mass)), dtf
-        real(dp) :: first_baro, last_baro            !< P0 V + the barostat's energy at first, last
         logical :: sample, frame, scheduled, safe, stop_now, moved
-        type(thermo_sample_t) :: first, last
+        type(drift_end_t) :: first, last
         type(calendar_t) :: cal
         dt = p%dt
         dtf = 0.5_dp*dt*eng%units%ftm2v
@@ -57,18 +63,17 @@ contains
         cal%every(cal_checkpoint) = out%ctl%every
         step0 = 0
         if (eng%restarted) then
-            call restore_state(eng, p, ts, bs, step0, first, first_baro)
+            call restore_state(eng, p, ts, bs, step0, first)
         else
             call eng%timers%start(t_output)
-            first = eng%sample(0_i8, 0.0_dp)
-            if (ts%active()) first%ecouple = ts%ecouple()
-            first_baro = baro_terms()
-            call write_sample(first)
-            if (cal%count_due(cal_frame, 0_i8)) call out%frame(eng, 0_i8, 0.0_dp, first)
+            first%s = eng%sample(0_i8, 0.0_dp)
+            if (ts%active()) first%s%ecouple = ts%ecouple()
+            first%baro = baro_terms()
+            call write_sample(first%s)
+            if (cal%count_due(cal_frame, 0_i8)) call out%frame(eng, 0_i8, 0.0_dp, first%s)
             call eng%timers%stop(t_output)
         end if
         last = first
-        last_baro = first_baro
         do step = step0 + 1, sched%n_steps
             call bs%follow(eng%units%boltz*ts%target((step - 0.5_dp)*dt))   ! the thermostat's target (a ramp)
             call ts%pre_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
@@ -101,10 +106,10 @@ contains
             safe = safe .or. moved
             if (sample) then
                 call eng%timers%start(t_output)
-                last = eng%sample(step, step*dt)
-                if (ts%active()) last%ecouple = ts%ecouple()
-                last_baro = baro_terms()
-                call write_sample(last)
+                last%s = eng%sample(step, step*dt)
+                if (ts%active()) last%s%ecouple = ts%ecouple()
+                last%baro = baro_terms()
+                call write_sample(last%s)
                 call eng%timers%stop(t_output)
             end if
             if (frame) call out%frame(eng, step, step*dt, eng%sample(step, step*dt))
@@ -114,13 +119,11 @@ contains
             if (safe .and. ts%active()) call ts%fold()
             if (safe .and. out%ctl%active) then
                 stop_now = out%ctl%stop_requested()
-                if (stop_now .or. scheduled) call checkpoint(eng, ts, bs, out, first, first_baro, step, step*dt, &
-                                                            scheduled)
+                if (stop_now .or. scheduled) call checkpoint(eng, ts, bs, out, first, step, step*dt, scheduled)
                 if (out%ctl%stopped) exit
             end if
         end do
-        if (.not. out%ctl%stopped) call report_drift(first, last, eng%natoms, ts%active(), first_baro, last_baro, &
-                                                     bs%active())
+        if (.not. out%ctl%stopped) call report_drift(first, last, eng%natoms, ts%active(), bs%active())
 
     contains
 
@@ -177,50 +180,46 @@ contains
 
     !> A restart: the step the checkpoint was taken at and the run's own keys (exchange_first). (The
     !> energy guard takes its reference at the first sample after the restart.)
-    subroutine restore_state(eng, p, ts, bs, step0, first, first_baro)
+    subroutine restore_state(eng, p, ts, bs, step0, first)
         type(engine_t), intent(inout) :: eng
         type(verlet_params_t), intent(in) :: p
         class(thermostat_t), intent(inout) :: ts
         class(barostat_t), intent(inout) :: bs
         integer(i8), intent(out) :: step0
-        type(thermo_sample_t), intent(out) :: first
-        real(dp), intent(out) :: first_baro
+        type(drift_end_t), intent(out) :: first
         logical :: ok
         ok = .true.
         step0 = eng%restart_values%get_i('step', ok)
-        first%step = 0; first%time = 0
-        first_baro = 0
-        call exchange_first(eng%restart_values, first, first_baro, ts, bs, .false., ok)
+        first%s%step = 0; first%s%time = 0
+        call exchange_first(eng%restart_values, first, ts, bs, .false., ok)
         call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
                        '(velocity Verlet state missing)')
     end subroutine restore_state
 
     !> A checkpoint of the run's own keys (exchange_first) through the run's outputs.
-    subroutine checkpoint(eng, ts, bs, out, first, first_baro, step, time, scheduled)
+    subroutine checkpoint(eng, ts, bs, out, first, step, time, scheduled)
         type(engine_t), intent(inout) :: eng
         class(thermostat_t), intent(inout) :: ts
         class(barostat_t), intent(inout) :: bs
         type(run_outputs_t), intent(inout) :: out
-        type(thermo_sample_t), intent(inout) :: first
-        real(dp), intent(inout) :: first_baro
+        type(drift_end_t), intent(inout) :: first
         integer(i8), intent(in) :: step
         real(dp), intent(in) :: time
         logical, intent(in) :: scheduled
         type(named_values_t) :: values
         logical :: ok
         ok = .true.
-        call exchange_first(values, first, first_baro, ts, bs, .true., ok)
+        call exchange_first(values, first, ts, bs, .true., ok)
         call out%checkpoint(eng, values, step, time, scheduled)
     end subroutine checkpoint
 
     !> The Verlet run's own restart keys, in one place: the first sample's energy and momentum (the
     !> drift report of a continued run), with a thermostat its ecouple and the thermostat's state,
-    !> with a barostat the barostat's and its first terms of the conserved quantity (first_baro);
+    !> with a barostat the barostat's and its first terms of the conserved quantity (first%baro);
     !> written to (saving) or read from a checkpoint's values.
-    subroutine exchange_first(values, first, first_baro, ts, bs, saving, ok)
+    subroutine exchange_first(values, first, ts, bs, saving, ok)
         type(named_values_t), intent(inout) :: values
-        type(thermo_sample_t), intent(inout) :: first
-        real(dp), intent(inout) :: first_baro
+        type(drift_end_t), intent(inout) :: first
         class(thermostat_t), intent(inout) :: ts
         class(barostat_t), intent(inout) :: bs
         logical, intent(in) :: saving
@@ -230,23 +229,23 @@ contains
         real(dp) :: vals(4)
         integer :: k
         if (saving) then
-            vals = [first%etotal, first%momentum]
+            vals = [first%s%etotal, first%s%momentum]
             do k = 1, 4
                 call values%put(trim(keys(k)), vals(k))
             end do
-            if (ts%active()) call values%put('first_ecouple', first%ecouple)
+            if (ts%active()) call values%put('first_ecouple', first%s%ecouple)
             if (ts%active()) call ts%save(values)
-            if (bs%active()) call values%put('first_baro', first_baro)
+            if (bs%active()) call values%put('first_baro', first%baro)
             if (bs%active()) call bs%save(values)
             return
         end if
         do k = 1, 4
             vals(k) = values%get_r(trim(keys(k)), ok)
         end do
-        first%etotal = vals(1); first%momentum = vals(2:4)
-        if (ts%active()) first%ecouple = values%get_r('first_ecouple', ok)
+        first%s%etotal = vals(1); first%s%momentum = vals(2:4)
+        if (ts%active()) first%s%ecouple = values%get_r('first_ecouple', ok)
         if (ts%active()) call ts%restore(values, ok)
-        if (bs%active()) first_baro = values%get_r('first_baro', ok)
+        if (bs%active()) first%baro = values%get_r('first_baro', ok)
         if (bs%active()) call bs%restore(values, ok)
     end subroutine exchange_first
 
@@ -296,28 +295,27 @@ contains
     end subroutine kick_masses
 
     !> Energy drift per atom per time unit (of econserve = etotal - ecouple with a thermostat, plus
-    !> P0 V and the barostat's own energy with a barostat: first_baro, last_baro) and the change of
+    !> P0 V and the barostat's own energy with a barostat: first%baro, last%baro) and the change of
     !> total momentum over the run.
-    subroutine report_drift(first, last, natoms, thermostat, first_baro, last_baro, barostat)
+    subroutine report_drift(first, last, natoms, thermostat, barostat)
         use terrace_mpi_env, only: world
         use, intrinsic :: iso_fortran_env, only: output_unit
-        type(thermo_sample_t), intent(in) :: first, last
+        type(drift_end_t), intent(in) :: first, last
         integer(i8), intent(in) :: natoms
         logical, intent(in) :: thermostat, barostat
-        real(dp), intent(in) :: first_baro, last_baro
         real(dp) :: drift
-        if (world%rank /= 0 .or. last%time <= first%time) return
-        drift = ((last%etotal + last_baro - last%ecouple) - (first%etotal + first_baro - first%ecouple))/ &
-                (real(natoms, dp)*(last%time - first%time))
-        call summary_drift(first, last, natoms, thermostat, drift)
-        if (barostat) call summary_put_baro(last_baro - first_baro)
+        if (world%rank /= 0 .or. last%s%time <= first%s%time) return
+        drift = ((last%s%etotal + last%baro - last%s%ecouple) - (first%s%etotal + first%baro - first%s%ecouple))/ &
+                (real(natoms, dp)*(last%s%time - first%s%time))
+        call summary_drift(first%s, last%s, natoms, thermostat, drift)
+        if (barostat) call summary_put_baro(last%baro - first%baro)
         if (thermostat) then
             write (output_unit, '(a,es12.4,a,es12.4,a)') 'Energy drift (econserve): ', drift, &
-                ' energy/atom/time;  energy put in by the thermostat: ', last%ecouple - first%ecouple, ' energy'
+                ' energy/atom/time;  energy put in by the thermostat: ', last%s%ecouple - first%s%ecouple, ' energy'
             return
         end if
         write (output_unit, '(a,es12.4,a,es12.4,a)') 'Energy drift: ', drift, &
-            ' energy/atom/time;  |P_end - P_0| = ', norm2(last%momentum - first%momentum), ' (mass*velocity)'
+            ' energy/atom/time;  |P_end - P_0| = ', norm2(last%s%momentum - first%s%momentum), ' (mass*velocity)'
     end subroutine report_drift
 
     !> report_drift's figures in the run summary.

@@ -38,36 +38,44 @@ module terrace_engine
         logical :: virial_diagonal = .false.     !< force passes with energy also give the virial's diagonal
     end type engine_params_t
 
-    type, public :: engine_t
-        type(units_t) :: units
-        integer :: dimension = 3
-        !> degrees of freedom of the temperature: d N - d unless a thermostat sets its own
-        real(dp) :: ndof = 0
+    !> Everything a trial move of the box (or of the atoms) changes, for an exact return to the
+    !> state before it: the atoms (positions, velocities, forces, order, ghosts), the lists, the
+    !> domain's brick and halo, the box and the last energy and virial. The engine extends it:
+    !> save_state and restore_state copy this part of the engine.
+    type, public :: engine_state_t
         type(box_t) :: box
         type(atoms_t) :: atoms
         type(domain_t) :: dom
-        type(replicate_t) :: rep
         type(neighbor_list_t) :: list
         !> Energy stepping with a pair potential: the pairs of `list` within rc + skin/4, pruned
         !> again whenever an atom has moved skin/8 (events are short: many per prune), and used
         !> by the force and ray passes instead of `list` (a quarter of its pairs lie beyond that).
         type(neighbor_list_t) :: inner
-        logical :: use_inner = .false.
         !> use_inner: no atom had moved more than (skin - skin of the pruned list)/2 from the build
         !> at the last prune, so the built list cannot expire before the pruned one (its expiry is
         !> not computed until the next prune)
         logical :: built_covered = .false.
+        real(dp) :: pe = 0, virial = 0          !< global, from the last energy evaluation
+        !> virial_diag = (W_xx, W_yy, W_zz), global, when want_virial_diag (an anisotropic barostat
+        !> asks for it)
+        real(dp) :: virial_diag(3) = 0
+    end type engine_state_t
+
+    type, public, extends(engine_state_t) :: engine_t
+        type(units_t) :: units
+        integer :: dimension = 3
+        !> degrees of freedom of the temperature: d N - d unless a thermostat sets its own
+        real(dp) :: ndof = 0
+        type(replicate_t) :: rep
+        logical :: use_inner = .false.
         integer :: prunes = 0
         class(potential_t), allocatable :: pot
         real(dp) :: cutmax = 0                   !< the potential's largest cutoff (0: none)
         type(plan_t) :: plan
         type(timers_t) :: timers
         integer(i8) :: natoms = 0
-        real(dp) :: pe = 0, virial = 0          !< global, from the last energy evaluation
         !> want_virial_diag: the force passes with energy also give the virial's diagonal
-        !> virial_diag = (W_xx, W_yy, W_zz), global (an anisotropic barostat asks for it)
         logical :: want_virial_diag = .false.
-        real(dp) :: virial_diag(3) = 0
         integer(i8) :: force_evaluations = 0
         character(len=:), allocatable :: source  !< where the atoms came from (for messages)
         logical :: restarted = .false.           !< started from &system read_checkpoint
@@ -93,18 +101,6 @@ module terrace_engine
         procedure :: save_state => engine_save_state
         procedure :: restore_state => engine_restore_state
     end type engine_t
-
-    !> Everything a trial move of the box (or of the atoms) changes, for an exact return to the
-    !> state before it: the atoms (positions, velocities, forces, order, ghosts), the lists, the
-    !> domain's brick and halo, the box and the last energy and virial.
-    type, public :: engine_state_t
-        type(atoms_t) :: atoms
-        type(neighbor_list_t) :: list, inner
-        type(domain_t) :: dom
-        type(box_t) :: box
-        real(dp) :: pe = 0, virial = 0, virial_diag(3) = 0
-        logical :: built_covered = .false.
-    end type engine_state_t
 
     !> The halo operations handed to the potential during a force pass.
     type, extends(halo_ops_t) :: engine_halo_t
@@ -506,13 +502,7 @@ contains
     subroutine engine_save_state(self, st)
         class(engine_t), intent(in) :: self
         type(engine_state_t), intent(inout) :: st
-        st%atoms = self%atoms
-        st%list = self%list
-        st%inner = self%inner
-        st%dom = self%dom
-        st%box = self%box
-        st%pe = self%pe; st%virial = self%virial; st%virial_diag = self%virial_diag
-        st%built_covered = self%built_covered
+        st = self%engine_state_t
     end subroutine engine_save_state
 
     !> Back to a saved state (a rejected trial move): bitwise the state saved, the potential told
@@ -520,13 +510,7 @@ contains
     subroutine engine_restore_state(self, st)
         class(engine_t), intent(inout) :: self
         type(engine_state_t), intent(in) :: st
-        self%atoms = st%atoms
-        self%list = st%list
-        self%inner = st%inner
-        self%dom = st%dom
-        self%box = st%box
-        self%pe = st%pe; self%virial = st%virial; self%virial_diag = st%virial_diag
-        self%built_covered = st%built_covered
+        self%engine_state_t = st
         call self%atoms%refresh_rmass()
         call self%pot%on_rebuild(self%atoms)
     end subroutine engine_restore_state

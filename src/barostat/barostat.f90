@@ -15,7 +15,8 @@
 !>   both:                        follow (the thermostat's present target temperature, before the
 !>                                step's hooks: a ramp moves the barostat's k T with it),
 !>                                active, pv (the P V term of the conserved quantity), energy (the
-!>                                barostat's own energy in it), save / restore
+!>                                barostat's own energy in it), save / restore (a style's own
+!>                                variables through exchange_own)
 !>
 !> A change of the box goes through the engine (engine%scale_box): positions and box scaled about
 !> the origin, the domain's bricks following the box, atoms migrated and the neighbour list
@@ -73,16 +74,17 @@ module terrace_barostat
         procedure :: retarget => baro_retarget
         procedure :: active => baro_active
         procedure :: needs_virial => baro_needs_virial
-        procedure :: before_forces => baro_before_forces
-        procedure :: after_step => baro_after_step
+        procedure :: before_forces => baro_box_kept
+        procedure :: after_step => baro_box_kept
+        procedure :: apply_event => baro_box_kept
         procedure :: replaces_kicks => baro_replaces_kicks
         procedure :: first_half => baro_half
         procedure :: second_half => baro_half
         procedure :: energy => baro_energy
-        procedure :: apply_event => baro_apply_event
         procedure, non_overridable :: pv => baro_pv
-        procedure :: save => baro_save
-        procedure :: restore => baro_restore
+        procedure, non_overridable :: save => baro_save
+        procedure, non_overridable :: restore => baro_restore
+        procedure :: exchange_own => baro_exchange_own
     end type barostat_t
 
     !> No barostat: every hook does nothing (constant volume).
@@ -91,7 +93,7 @@ module terrace_barostat
         procedure :: active => none_active
     end type barostat_none_t
 
-    public :: internal_pressure, kinetic_diagonal, pressure_diagonal
+    public :: internal_pressure, kinetic_diagonal, pressure_diagonal, exchange_reals, exchange_iso_aniso
 
 contains
 
@@ -144,23 +146,28 @@ contains
         none_active = .false.
     end function none_active
 
-    !> Whether the force pass of this step must give the energy and the virial (none by default).
+    !> Whether the force pass of this step must give the energy and the virial: by default at every
+    !> step of an active barostat (one that reads the pressure at each step: C-rescale, MTTK).
     logical function baro_needs_virial(self, step)
         class(barostat_t), intent(in) :: self
         integer(i8), intent(in) :: step
-        baro_needs_virial = .false.
+        baro_needs_virial = self%active()
     end function baro_needs_virial
 
-    !> After the drift of step `step`, before its force pass (nothing by default). moved: the
-    !> neighbour list was rebuilt at the present positions (after a change of the box; otherwise
-    !> the integrator decides a build or refreshes the ghosts).
-    subroutine baro_before_forces(self, eng, step, moved)
+    !> The hooks that may change the box (nothing by default; moved: the neighbour list was rebuilt
+    !> at the present positions after a change of the box, otherwise the integrator decides a build
+    !> or refreshes the ghosts):
+    !>   before_forces  after the drift of step `step`, before its force pass
+    !>   after_step     after the second half kick of step `step`
+    !>   apply_event    energy stepping: the event of index `step` (at time step interval), all atoms
+    !>                  drifted there
+    subroutine baro_box_kept(self, eng, step, moved)
         class(barostat_t), intent(inout) :: self
         type(engine_t), intent(inout) :: eng
         integer(i8), intent(in) :: step
         logical, intent(out) :: moved
         moved = .false.
-    end subroutine baro_before_forces
+    end subroutine baro_box_kept
 
     !> Does the style replace velocity Verlet's half kicks and drift (first_half, second_half)?
     logical function baro_replaces_kicks(self)
@@ -184,25 +191,6 @@ contains
         baro_energy = 0
     end function baro_energy
 
-    !> After the second half kick of step `step` (nothing by default); moved as above.
-    subroutine baro_after_step(self, eng, step, moved)
-        class(barostat_t), intent(inout) :: self
-        type(engine_t), intent(inout) :: eng
-        integer(i8), intent(in) :: step
-        logical, intent(out) :: moved
-        moved = .false.
-    end subroutine baro_after_step
-
-    !> Energy stepping: the event of index n (at time n interval), all atoms drifted there (nothing
-    !> by default); moved as above.
-    subroutine baro_apply_event(self, eng, n, moved)
-        class(barostat_t), intent(inout) :: self
-        type(engine_t), intent(inout) :: eng
-        integer(i8), intent(in) :: n
-        logical, intent(out) :: moved
-        moved = .false.
-    end subroutine baro_apply_event
-
     !> P0 V, the enthalpy's term (energy).
     real(dp) function baro_pv(self, eng)
         class(barostat_t), intent(in) :: self
@@ -210,17 +198,61 @@ contains
         baro_pv = self%p0*eng%box%volume()
     end function baro_pv
 
-    !> A style's variables in a checkpoint (none by default).
+    !> The barostat's variables into a checkpoint's values (the style's own: exchange_own).
     subroutine baro_save(self, values)
         class(barostat_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
+        logical :: ok
+        ok = .true.
+        call self%exchange_own(values, .true., ok)
     end subroutine baro_save
 
+    !> The variables baro_save wrote (ok false when some of them are missing).
     subroutine baro_restore(self, values, ok)
         class(barostat_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
+        type(named_values_t), intent(inout) :: values
         logical, intent(inout) :: ok
+        call self%exchange_own(values, .false., ok)
     end subroutine baro_restore
+
+    !> A style's own variables, written to (saving) or read from a checkpoint's values, one list of
+    !> names for both ways (none by default).
+    subroutine baro_exchange_own(self, values, saving, ok)
+        class(barostat_t), intent(inout) :: self
+        type(named_values_t), intent(inout) :: values
+        logical, intent(in) :: saving
+        logical, intent(inout) :: ok
+    end subroutine baro_exchange_own
+
+    !> x(1), x(2), ... under prefix//'1', prefix//'2', ..., written (saving) or read back (ok false
+    !> when one is missing): an array of a style's variables in exchange_own.
+    subroutine exchange_reals(values, prefix, x, saving, ok)
+        type(named_values_t), intent(inout) :: values
+        character(len=*), intent(in) :: prefix
+        real(dp), intent(inout) :: x(:)
+        logical, intent(in) :: saving
+        logical, intent(inout) :: ok
+        if (saving) then
+            call values%put_reals(prefix, x)
+        else
+            call values%get_reals(prefix, x, ok)
+        end if
+    end subroutine exchange_reals
+
+    !> A variable of the box's motion that is one number with couple = 'iso' (x, under name) and one
+    !> per edge with 'aniso' (x_axis, under prefix_axis//'1', ...), written (saving) or read back.
+    subroutine exchange_iso_aniso(values, aniso, name, x, prefix_axis, x_axis, saving, ok)
+        type(named_values_t), intent(inout) :: values
+        logical, intent(in) :: aniso, saving
+        character(len=*), intent(in) :: name, prefix_axis
+        real(dp), intent(inout) :: x, x_axis(:)
+        logical, intent(inout) :: ok
+        if (aniso) then
+            call exchange_reals(values, prefix_axis, x_axis, saving, ok)
+        else
+            call values%exchange(name, x, saving, ok)
+        end if
+    end subroutine exchange_iso_aniso
 
     !> The instantaneous pressure (energy/volume) from the kinetic energy and the last virial:
     !> (2 K + W) / (d V). Collective (the kinetic energy's sum).

@@ -22,7 +22,8 @@
 module terrace_barostat_c_rescale
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
-    use terrace_barostat, only: barostat_t, barostat_params_t, internal_pressure, kinetic_diagonal, pressure_diagonal
+    use terrace_barostat, only: barostat_t, barostat_params_t, internal_pressure, kinetic_diagonal, pressure_diagonal, &
+                                exchange_iso_aniso
     use terrace_counter_rng, only: rng_stream, rng_stream_t
     use terrace_named_values, only: named_values_t
     use terrace_velocities, only: kinetic_energy
@@ -39,79 +40,52 @@ module terrace_barostat_c_rescale
         !> aniso: P_aa at the end of the last step, W_aa before this step's rescaling, ln mu_a
         real(dp) :: p_axis(3) = 0, w_axis(3) = 0, log_mu_axis(3) = 0
     contains
-        procedure :: needs_virial => cr_needs_virial
         procedure :: before_forces => cr_before_forces
         procedure :: after_step => cr_after_step
         procedure :: energy => cr_energy
-        procedure :: save => cr_save
-        procedure :: restore => cr_restore
+        procedure :: exchange_own => cr_exchange
     end type c_rescale_t
 
 contains
 
-    logical function cr_needs_virial(self, step)
-        class(c_rescale_t), intent(in) :: self
-        integer(i8), intent(in) :: step
-        cr_needs_virial = .true.
-    end function cr_needs_virial
-
+    !> The step of eps (aniso: of each edge's eps_a) and its work; the box, the positions and the
+    !> velocities scaled by it (module header).
     subroutine cr_before_forces(self, eng, step, moved)
         class(c_rescale_t), intent(inout) :: self
         type(engine_t), intent(inout) :: eng
         integer(i8), intent(in) :: step
         logical, intent(out) :: moved
         type(rng_stream_t) :: s
-        real(dp) :: v, deps, mu, ke
-        integer :: d
-        if (self%aniso) then
-            call rescale_axes(self, eng, step, moved)
-            return
-        end if
-        if (.not. self%have_p) then          ! the first step: the pressure of the initial state
-            self%p_int = internal_pressure(eng)
-            self%have_p = .true.
-        end if
-        v = eng%box%volume()
-        s = rng_stream(self%seed, stream_c_rescale, 0_i8, step)
-        deps = -(self%beta/self%tau)*(self%p0 - self%p_int - self%kt/v)*self%dt + &
-               sqrt(2*self%kt*self%beta*self%dt/(v*self%tau))*s%normal()
-        mu = exp(deps/self%dimension)
-        ke = kinetic_energy(eng%atoms, eng%units)
-        self%work = self%work + ke*(1/mu**2 - 1) + self%p0*v*(exp(deps) - 1)
-        self%w_before = eng%virial
-        self%log_mu = deps/self%dimension
-        call eng%scale_box([(merge(mu, 1.0_dp, d <= self%dimension), d = 1, 3)], velocities=.true., &
-                           keep_list=.true., rebuilt=moved)
-    end subroutine cr_before_forces
-
-    !> couple = 'aniso': each edge rescaled by its own pressure component and its own noise.
-    subroutine rescale_axes(self, eng, step, moved)
-        class(c_rescale_t), intent(inout) :: self
-        type(engine_t), intent(inout) :: eng
-        integer(i8), intent(in) :: step
-        logical, intent(out) :: moved
-        type(rng_stream_t) :: s
-        real(dp) :: v, deps(3), ke(3), sd, drift
+        real(dp) :: v, deps, mu, ke, deps_axis(3), ke_axis(3), sd, drift, scale(3)
         integer :: a, d
+        if (.not. self%have_p) call measure_pressure(self, eng)    ! the first step: the initial state's
         d = self%dimension
-        if (.not. self%have_p) then          ! the first step: the pressure of the initial state
-            self%p_axis = pressure_diagonal(eng)
-            self%have_p = .true.
-        end if
         v = eng%box%volume()
         s = rng_stream(self%seed, stream_c_rescale, 0_i8, step)
-        sd = sqrt(2*self%kt*self%beta*self%dt/(d*v*self%tau))
-        deps = 0
-        do a = 1, d
-            drift = -(self%beta/(d*self%tau))*(self%p0 - self%p_axis(a) - self%kt/v)*self%dt
-            deps(a) = drift + sd*s%normal()
-        end do
-        ke = kinetic_diagonal(eng)
-        self%work = self%work + sum(ke(1:d)*(exp(-2*deps(1:d)) - 1)) + self%p0*v*(exp(sum(deps)) - 1)
-        self%w_axis = eng%virial_diag
-        self%log_mu_axis = deps
-        call eng%scale_box(exp(deps), velocities=.true., keep_list=.true., rebuilt=moved)
-    end subroutine rescale_axes
+        if (self%aniso) then                 ! each edge by its own pressure component and its own noise
+            sd = sqrt(2*self%kt*self%beta*self%dt/(d*v*self%tau))
+            deps_axis = 0
+            do a = 1, d
+                drift = -(self%beta/(d*self%tau))*(self%p0 - self%p_axis(a) - self%kt/v)*self%dt
+                deps_axis(a) = drift + sd*s%normal()
+            end do
+            ke_axis = kinetic_diagonal(eng)
+            self%work = self%work + sum(ke_axis(1:d)*(exp(-2*deps_axis(1:d)) - 1)) + self%p0*v*(exp(sum(deps_axis)) - 1)
+            self%w_axis = eng%virial_diag
+            self%log_mu_axis = deps_axis
+            scale = exp(deps_axis)
+        else
+            deps = -(self%beta/self%tau)*(self%p0 - self%p_int - self%kt/v)*self%dt + &
+                   sqrt(2*self%kt*self%beta*self%dt/(v*self%tau))*s%normal()
+            mu = exp(deps/d)
+            ke = kinetic_energy(eng%atoms, eng%units)
+            self%work = self%work + ke*(1/mu**2 - 1) + self%p0*v*(exp(deps) - 1)
+            self%w_before = eng%virial
+            self%log_mu = deps/d
+            scale = [(merge(mu, 1.0_dp, a <= d), a = 1, 3)]
+        end if
+        call eng%scale_box(scale, velocities=.true., keep_list=.true., rebuilt=moved)
+    end subroutine cr_before_forces
 
     subroutine cr_after_step(self, eng, step, moved)
         class(c_rescale_t), intent(inout) :: self
@@ -121,14 +95,24 @@ contains
         moved = .false.
         if (self%aniso) then
             self%work = self%work - 0.5_dp*sum(self%log_mu_axis*(self%w_axis + eng%virial_diag))
-            self%p_axis = pressure_diagonal(eng)
-            self%have_p = .true.
-            return
+        else
+            self%work = self%work - 0.5_dp*self%log_mu*(self%w_before + eng%virial)
         end if
-        self%work = self%work - 0.5_dp*self%log_mu*(self%w_before + eng%virial)
-        self%p_int = internal_pressure(eng)
-        self%have_p = .true.
+        call measure_pressure(self, eng)
     end subroutine cr_after_step
+
+    !> The pressure that drives the next rescaling, of the present state: P_int (aniso: the diagonal
+    !> P_aa). Collective.
+    subroutine measure_pressure(self, eng)
+        class(c_rescale_t), intent(inout) :: self
+        type(engine_t), intent(inout) :: eng
+        if (self%aniso) then
+            self%p_axis = pressure_diagonal(eng)
+        else
+            self%p_int = internal_pressure(eng)
+        end if
+        self%have_p = .true.
+    end subroutine measure_pressure
 
     !> The barostat's term of the conserved quantity: minus the rescalings' work.
     real(dp) function cr_energy(self, eng)
@@ -137,28 +121,15 @@ contains
         cr_energy = -self%work
     end function cr_energy
 
-    subroutine cr_save(self, values)
+    !> The pressure of the end of the last step (aniso: its diagonal) and the work so far.
+    subroutine cr_exchange(self, values, saving, ok)
         class(c_rescale_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
-        if (self%aniso) then
-            call values%put_reals('baro_p_axis_', self%p_axis)
-        else
-            call values%put('baro_p_int', self%p_int)
-        end if
-        call values%put('baro_work', self%work)
-    end subroutine cr_save
-
-    subroutine cr_restore(self, values, ok)
-        class(c_rescale_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
+        logical, intent(in) :: saving
         logical, intent(inout) :: ok
-        if (self%aniso) then
-            call values%get_reals('baro_p_axis_', self%p_axis, ok)
-        else
-            self%p_int = values%get_r('baro_p_int', ok)
-        end if
-        self%work = values%get_r('baro_work', ok)
-        self%have_p = .true.
-    end subroutine cr_restore
+        call exchange_iso_aniso(values, self%aniso, 'baro_p_int', self%p_int, 'baro_p_axis_', self%p_axis, saving, ok)
+        call values%exchange('baro_work', self%work, saving, ok)
+        if (.not. saving) self%have_p = .true.
+    end subroutine cr_exchange
 
 end module terrace_barostat_c_rescale

@@ -31,9 +31,8 @@ module terrace_barostat_mc
     contains
         procedure :: needs_virial => mc_needs_virial
         procedure :: after_step => mc_after_step
-        procedure :: apply_event => mc_apply_event
-        procedure :: save => mc_save
-        procedure :: restore => mc_restore
+        procedure :: apply_event => mc_trial
+        procedure :: exchange_own => mc_exchange
     end type mc_barostat_t
 
 contains
@@ -55,20 +54,13 @@ contains
         call mc_trial(self, eng, step, moved)
     end subroutine mc_after_step
 
-    !> Energy stepping: a trial move at the event of index n (its numbers keyed by n).
-    subroutine mc_apply_event(self, eng, n, moved)
+    !> One trial move from the present state (eng%pe its energy), its numbers keyed by `step`: velocity
+    !> Verlet's step (after_step), or energy stepping's event of index `step` (apply_event: a trial at
+    !> every event).
+    subroutine mc_trial(self, eng, step, moved)
         class(mc_barostat_t), intent(inout) :: self
         type(engine_t), intent(inout) :: eng
-        integer(i8), intent(in) :: n
-        logical, intent(out) :: moved
-        call mc_trial(self, eng, n, moved)
-    end subroutine mc_apply_event
-
-    !> One trial move from the present state (eng%pe its energy), its numbers keyed by `key`.
-    subroutine mc_trial(self, eng, key, moved)
-        class(mc_barostat_t), intent(inout) :: self
-        type(engine_t), intent(inout) :: eng
-        integer(i8), intent(in) :: key
+        integer(i8), intent(in) :: step
         logical, intent(out) :: moved
         type(rng_stream_t) :: s
         real(dp) :: v, v_new, u_old, dh, mu, ua, ub, scale(3)
@@ -76,7 +68,7 @@ contains
         moved = .false.
         v = eng%box%volume()
         if (self%dv_max < 0) self%dv_max = 0.01_dp*v
-        s = rng_stream(self%seed, stream_mc_barostat, 0_i8, key)
+        s = rng_stream(self%seed, stream_mc_barostat, 0_i8, step)
         ua = s%uniform()
         ub = s%uniform()
         axis = 0
@@ -114,25 +106,17 @@ contains
         end if
     end subroutine mc_trial
 
-    subroutine mc_save(self, values)
+    !> The trial size and the acceptance counts.
+    subroutine mc_exchange(self, values, saving, ok)
         class(mc_barostat_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
-        call values%put('baro_dv_max', self%dv_max)
-        call values%put('baro_attempted', self%attempted)
-        call values%put('baro_accepted', self%accepted)
-        call values%put('baro_total_attempted', self%total_attempted)
-        call values%put('baro_total_accepted', self%total_accepted)
-    end subroutine mc_save
-
-    subroutine mc_restore(self, values, ok)
-        class(mc_barostat_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
+        logical, intent(in) :: saving
         logical, intent(inout) :: ok
-        self%dv_max = values%get_r('baro_dv_max', ok)
-        self%attempted = values%get_i('baro_attempted', ok)
-        self%accepted = values%get_i('baro_accepted', ok)
-        self%total_attempted = values%get_i('baro_total_attempted', ok)
-        self%total_accepted = values%get_i('baro_total_accepted', ok)
-    end subroutine mc_restore
+        call values%exchange('baro_dv_max', self%dv_max, saving, ok)
+        call values%exchange('baro_attempted', self%attempted, saving, ok)
+        call values%exchange('baro_accepted', self%accepted, saving, ok)
+        call values%exchange('baro_total_attempted', self%total_attempted, saving, ok)
+        call values%exchange('baro_total_accepted', self%total_accepted, saving, ok)
+    end subroutine mc_exchange
 
 end module terrace_barostat_mc

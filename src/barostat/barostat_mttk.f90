@@ -28,7 +28,7 @@ module terrace_barostat_mttk
     use terrace_kinds, only: dp, i8
     use terrace_engine, only: engine_t
     use terrace_velocities, only: kinetic_energy
-    use terrace_barostat, only: barostat_t, barostat_params_t, kinetic_diagonal
+    use terrace_barostat, only: barostat_t, barostat_params_t, kinetic_diagonal, exchange_reals, exchange_iso_aniso
     use terrace_named_values, only: named_values_t
     implicit none
     private
@@ -50,15 +50,13 @@ module terrace_barostat_mttk
     contains
         procedure :: setup => mttk_setup
         procedure :: retarget => mttk_masses
-        procedure :: needs_virial => mttk_needs_virial
         procedure :: replaces_kicks => mttk_replaces_kicks
         procedure :: first_half => mttk_first_half
         procedure :: before_forces => mttk_before_forces
         procedure :: second_half => mttk_second_half
         procedure :: after_step => mttk_after_step
         procedure :: energy => mttk_energy
-        procedure :: save => mttk_save
-        procedure :: restore => mttk_restore
+        procedure :: exchange_own => mttk_exchange
     end type mttk_t
 
 contains
@@ -82,12 +80,6 @@ contains
         self%q = self%kt*self%tau**2
         self%w_axis = self%w/self%dimension
     end subroutine mttk_masses
-
-    logical function mttk_needs_virial(self, step)
-        class(mttk_t), intent(in) :: self
-        integer(i8), intent(in) :: step
-        mttk_needs_virial = .true.
-    end function mttk_needs_virial
 
     logical function mttk_replaces_kicks(self)
         class(mttk_t), intent(in) :: self
@@ -294,34 +286,18 @@ contains
         end if
     end function sinhc
 
-    subroutine mttk_save(self, values)
+    !> The strain rate (aniso: each edge's), the virial at the present positions and the chain.
+    subroutine mttk_exchange(self, values, saving, ok)
         class(mttk_t), intent(inout) :: self
         type(named_values_t), intent(inout) :: values
-        if (self%aniso) then
-            call values%put_reals('baro_v_axis_', self%v_axis)
-            call values%put_reals('baro_virial_axis_', self%virial_axis)
-        else
-            call values%put('baro_v_eps', self%v_eps)
-            call values%put('baro_virial', self%virial)
-        end if
-        call values%put_reals('baro_eta_', self%eta(1:chain_length))
-        call values%put_reals('baro_v_eta_', self%v_eta(1:chain_length))
-    end subroutine mttk_save
-
-    subroutine mttk_restore(self, values, ok)
-        class(mttk_t), intent(inout) :: self
-        type(named_values_t), intent(in) :: values
+        logical, intent(in) :: saving
         logical, intent(inout) :: ok
-        if (self%aniso) then
-            call values%get_reals('baro_v_axis_', self%v_axis, ok)
-            call values%get_reals('baro_virial_axis_', self%virial_axis, ok)
-        else
-            self%v_eps = values%get_r('baro_v_eps', ok)
-            self%virial = values%get_r('baro_virial', ok)
-        end if
-        self%have_virial = .true.
-        call values%get_reals('baro_eta_', self%eta(1:chain_length), ok)
-        call values%get_reals('baro_v_eta_', self%v_eta(1:chain_length), ok)
-    end subroutine mttk_restore
+        call exchange_iso_aniso(values, self%aniso, 'baro_v_eps', self%v_eps, 'baro_v_axis_', self%v_axis, saving, ok)
+        call exchange_iso_aniso(values, self%aniso, 'baro_virial', self%virial, 'baro_virial_axis_', self%virial_axis, &
+                                saving, ok)
+        if (.not. saving) self%have_virial = .true.
+        call exchange_reals(values, 'baro_eta_', self%eta(1:chain_length), saving, ok)
+        call exchange_reals(values, 'baro_v_eta_', self%v_eta(1:chain_length), saving, ok)
+    end subroutine mttk_exchange
 
 end module terrace_barostat_mttk

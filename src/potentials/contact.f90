@@ -40,6 +40,7 @@ module terrace_contact
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
     use terrace_neighbor_list, only: neighbor_list_t
+    use terrace_grow, only: reserve
     use terrace_potential, only: potential_t, halo_ops_t
     use terrace_point_triangle, only: closest_point, distance_derivatives
     use terrace_heap_sort, only: sort_by_id
@@ -91,7 +92,7 @@ module terrace_contact
         procedure :: may_become_invalid => ct_may_become_invalid
     end type contact_t
 
-    public :: boundary_nodes
+    public :: boundary_nodes, boundary_edges
 
 contains
 
@@ -159,6 +160,26 @@ contains
         end function sorted3
     end subroutine boundary_nodes
 
+    !> The mean and the longest edge of the boundary faces faces(3, nf) (node ids into x(3, id)): h_b of
+    !> the defaults and the reach of the contact search. An edge counts once for each face it bounds.
+    pure subroutine boundary_edges(x, faces, mean, longest)
+        real(dp), intent(in) :: x(:, :)
+        integer, intent(in) :: faces(:, :)
+        real(dp), intent(out) :: mean, longest
+        real(dp) :: sum_edge, edge
+        integer :: q, a
+        sum_edge = 0
+        longest = 0
+        do q = 1, size(faces, 2)
+            do a = 1, 3
+                edge = norm2(x(:, faces(a, q)) - x(:, faces(mod(a, 3) + 1, q)))
+                sum_edge = sum_edge + edge
+                longest = max(longest, edge)
+            end do
+        end do
+        mean = sum_edge/max(3*size(faces, 2), 1)
+    end subroutine boundary_edges
+
     !> The term for a mesh: tets(4, ne) by node id, body(ne) the physical volume of each
     !> tetrahedron, xref(3, id) reference positions, node_mass (lumped, for the time scale); model
     !> model_node_face (default) or model_node_node. k <= 0 or d0 <= 0: the defaults (E h_b; h_b/2
@@ -175,8 +196,6 @@ contains
         real(dp), allocatable :: lo(:, :), hi(:, :)
         integer, allocatable :: node_body(:), faces(:, :)
         integer :: nnode, e, a, q, nb
-        real(dp) :: sum_edge
-        integer(i8) :: n_edge
         nnode = size(xref, 2)
         allocate (bnd(nnode), node_body(nnode))
         call boundary_nodes(tets, nnode, bnd, faces)
@@ -187,14 +206,7 @@ contains
                 node_body(tets(a, e)) = body(e)
             end do
         end do
-        sum_edge = 0
-        do q = 1, size(faces, 2)
-            do a = 1, 3
-                sum_edge = sum_edge + norm2(xref(:, faces(a, q)) - xref(:, faces(mod(a, 3) + 1, q)))
-            end do
-        end do
-        n_edge = 3*size(faces, 2)
-        self%spacing = sum_edge/max(n_edge, 1_i8)
+        call boundary_edges(xref, faces, self%spacing, self%max_edge)
         allocate (self%tag_of_id(nnode))
         self%tag_of_id = merge(node_body, 0, bnd)
         self%nboundary = count(bnd)
@@ -214,13 +226,7 @@ contains
         if (.not. (d0 > 0)) self%d0 = merge(0.5_dp, 1.0_dp, self%model == model_node_face)*self%spacing
         self%k = k
         if (.not. (k > 0)) self%k = youngs*self%spacing
-        ! node_face: the boundary faces, the faces around each node, the longest edge
-        self%max_edge = 0
-        do q = 1, size(faces, 2)
-            do a = 1, 3
-                self%max_edge = max(self%max_edge, norm2(xref(:, faces(a, q)) - xref(:, faces(mod(a, 3) + 1, q))))
-            end do
-        end do
+        ! node_face: the boundary faces, the faces around each node
         self%nface = size(faces, 2)
         allocate (self%face_first(nnode + 1), self%face_of(3*self%nface))
         self%face_first = 0
@@ -365,10 +371,7 @@ contains
         integer :: i, nall
         integer(i8) :: id
         nall = atoms%nall()
-        if (allocated(self%tag)) then
-            if (size(self%tag) < nall) deallocate (self%tag)
-        end if
-        if (.not. allocated(self%tag)) allocate (self%tag(max(nall, 1)))
+        call reserve(self%tag, nall, minimum=1, exact=.true.)
         do i = 1, nall
             id = atoms%id(i)
             self%tag(i) = 0
@@ -403,10 +406,8 @@ contains
                 end do
             end do
             if (pass == 1) then
-                if (allocated(self%pi)) then
-                    if (size(self%pi) < n) deallocate (self%pi, self%pj)
-                end if
-                if (.not. allocated(self%pi)) allocate (self%pi(max(n, 16)), self%pj(max(n, 16)))
+                call reserve(self%pi, n, minimum=16, exact=.true.)
+                call reserve(self%pj, n, minimum=16, exact=.true.)
             end if
         end do
         self%npair = n

@@ -35,6 +35,7 @@ module terrace_neohookean
     use terrace_vec3, only: cross
     use terrace_atoms, only: atoms_t
     use terrace_neighbor_list, only: neighbor_list_t
+    use terrace_grow, only: reserve
     use terrace_potential, only: potential_t, halo_ops_t
     use terrace_exact_sum, only: exact_sum_all
     implicit none
@@ -229,10 +230,7 @@ contains
         integer(i8) :: maxid
         nall = atoms%nall()
         maxid = maxval(self%node)
-        if (allocated(self%id_map)) then
-            if (size(self%id_map) < maxid) deallocate (self%id_map)
-        end if
-        if (.not. allocated(self%id_map)) allocate (self%id_map(maxid))
+        call reserve(self%id_map, int(maxid), exact=.true.)
         self%id_map = 0
         ! owned atoms last, so that an owned copy wins over a periodic ghost image of the same id
         do i = nall, 1, -1
@@ -327,10 +325,7 @@ contains
         class(neohookean_t), intent(inout) :: self
         integer, intent(in) :: nlocal
         integer :: i, e, a, k
-        if (allocated(self%first_slot)) then
-            if (size(self%first_slot) < nlocal + 1) deallocate (self%first_slot)
-        end if
-        if (.not. allocated(self%first_slot)) allocate (self%first_slot(nlocal + 1))
+        call reserve(self%first_slot, nlocal + 1, exact=.true.)
         self%first_slot(1:nlocal + 1) = 0
         do k = 1, self%nwork
             do a = 1, 4
@@ -342,16 +337,10 @@ contains
         do i = 1, nlocal
             self%first_slot(i + 1) = self%first_slot(i) + self%first_slot(i + 1)
         end do
-        if (allocated(self%slot_k)) then
-            if (size(self%slot_k) < self%first_slot(nlocal + 1) - 1) deallocate (self%slot_k, self%slot_c)
-        end if
-        if (.not. allocated(self%slot_k)) allocate (self%slot_k(max(1, self%first_slot(nlocal + 1) - 1)), &
-                                                    self%slot_c(max(1, self%first_slot(nlocal + 1) - 1)))
+        call reserve(self%slot_k, self%first_slot(nlocal + 1) - 1, minimum=1, exact=.true.)
+        call reserve(self%slot_c, self%first_slot(nlocal + 1) - 1, minimum=1, exact=.true.)
         ! fill in element order (pos maps element numbers to work indices)
-        if (allocated(self%fill)) then
-            if (size(self%fill) < nlocal) deallocate (self%fill)
-        end if
-        if (.not. allocated(self%fill)) allocate (self%fill(max(1, nlocal)))
+        call reserve(self%fill, nlocal, minimum=1, exact=.true.)
         do i = 1, nlocal
             self%fill(i) = self%first_slot(i)
         end do

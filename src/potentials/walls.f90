@@ -16,8 +16,9 @@ module terrace_walls
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
     use terrace_neighbor_list, only: neighbor_list_t
+    use terrace_grow, only: reserve
     use terrace_potential, only: potential_t, halo_ops_t
-    use terrace_contact, only: boundary_nodes
+    use terrace_contact, only: boundary_nodes, boundary_edges
     implicit none
     private
 
@@ -55,8 +56,8 @@ contains
         integer(i8), intent(in) :: tets(:, :)
         real(dp), intent(in) :: xref(:, :), node_mass(:)
         integer, allocatable :: faces(:, :)
-        real(dp) :: sum_edge
-        integer :: w, q, a, nnode
+        real(dp) :: longest
+        integer :: w, nnode
         self%nwall = size(planes, 2)
         allocate (self%normal(3, self%nwall), self%offset(self%nwall))
         do w = 1, self%nwall
@@ -67,13 +68,7 @@ contains
         allocate (self%boundary_of_id(nnode))
         call boundary_nodes(tets, nnode, self%boundary_of_id, faces)
         self%nboundary = count(self%boundary_of_id)
-        sum_edge = 0
-        do q = 1, size(faces, 2)
-            do a = 1, 3
-                sum_edge = sum_edge + norm2(xref(:, faces(a, q)) - xref(:, faces(mod(a, 3) + 1, q)))
-            end do
-        end do
-        self%spacing = sum_edge/max(3*size(faces, 2), 1)
+        call boundary_edges(xref, faces, self%spacing, longest)
         self%min_mass = minval(node_mass(1:nnode), mask=self%boundary_of_id)
         self%k = k
         if (.not. (k > 0)) self%k = youngs*self%spacing
@@ -111,10 +106,7 @@ contains
         type(atoms_t), intent(in) :: atoms
         integer :: i
         integer(i8) :: id
-        if (allocated(self%mine)) then
-            if (size(self%mine) < atoms%nlocal) deallocate (self%mine)
-        end if
-        if (.not. allocated(self%mine)) allocate (self%mine(max(atoms%nlocal, 1)))
+        call reserve(self%mine, atoms%nlocal, minimum=1, exact=.true.)
         self%nmine = 0
         do i = 1, atoms%nlocal
             id = atoms%id(i)

@@ -608,50 +608,66 @@ contains
         type(pair_map_t), intent(in) :: map
         real(dp), intent(out) :: best
         integer, intent(out) :: best_j, best_code
+        integer, parameter :: chunk = 128
         real(dp) :: xi(3), dx(3), dv(3), dt, b, rsq
-        integer :: nb(27), c, j, dir, s, ti, tj, nr
+        integer :: nb(27), c, j, jn, k, m, dir, s, ti, tj, nr, cand(chunk)
         xi = pk(1:3, i) + pk(5:7, i)*(t - pk(4, i))
         call cells%crossing(i, xi, pk(5:7, i), best, dir)
         best_j = 0; best_code = dir
         call neighbour_cells(cells, i, nb)
         ti = int(pk(8, i))
-        do c = 1, 27
-            j = cells%head(nb(c))
-            do while (j > 0)
-                if (j /= i) then
-                    dx = xi - (pk(1:3, j) + pk(5:7, j)*(t - pk(4, j)))
-                    dx = dx - length*nearest_image(dx*inv_len)
-                    dv = pk(5:7, i) - pk(5:7, j)
-                    tj = int(pk(8, j))
-                    rsq = dx(1)**2 + dx(2)**2 + dx(3)**2
-                    s = 0
-                    if (tab%has_steps) then
-                        if (rsq <= tab%r2(1, ti, tj)*(1 + 1.0e-8_dp)) s = map%get(i, j)
-                    end if
-                    if (s == 0) then
-                        b = dx(1)*dv(1) + dx(2)*dv(2) + dx(3)*dv(3)
-                        if (b < 0) then
-                            dt = inward_time(dx, dv, tab%r2(1, ti, tj))
-                            if (dt < best) then
-                                best = dt; best_j = j; best_code = 1
-                            end if
-                        end if
-                    else
-                        nr = tab%nr(ti, tj)
-                        if (s < nr) then
-                            dt = inward_time(dx, dv, tab%r2(s + 1, ti, tj))
-                            if (dt < best) then
-                                best = dt; best_j = j; best_code = s + 1
-                            end if
-                        end if
-                        dt = outward_time(dx, dv, tab%r2(s, ti, tj))
+        ! The atoms of the 27 cells are listed first (list heads and links: loads that do not wait
+        ! on the pair arithmetic), up to chunk at a time, then searched in the same order: each
+        ! candidate's record is then a load that does not wait on the search of the one before, so
+        ! that the processor overlaps their cache misses (one per neighbour at 10^6 atoms).
+        c = 0; jn = 0                    ! (jn: the next atom to list)
+        do
+            m = 0
+            do while (m < chunk)
+                do while (jn == 0 .and. c < 27)
+                    c = c + 1
+                    jn = cells%head(nb(c))
+                end do
+                if (jn == 0) exit
+                m = m + 1
+                cand(m) = jn
+                jn = cells%nxt(jn)
+            end do
+            do k = 1, m
+                j = cand(k)
+                if (j == i) cycle
+                dx = xi - (pk(1:3, j) + pk(5:7, j)*(t - pk(4, j)))
+                dx = dx - length*nearest_image(dx*inv_len)
+                dv = pk(5:7, i) - pk(5:7, j)
+                tj = int(pk(8, j))
+                rsq = dx(1)**2 + dx(2)**2 + dx(3)**2
+                s = 0
+                if (tab%has_steps) then
+                    if (rsq <= tab%r2(1, ti, tj)*(1 + 1.0e-8_dp)) s = map%get(i, j)
+                end if
+                if (s == 0) then
+                    b = dx(1)*dv(1) + dx(2)*dv(2) + dx(3)*dv(3)
+                    if (b < 0) then
+                        dt = inward_time(dx, dv, tab%r2(1, ti, tj))
                         if (dt < best) then
-                            best = dt; best_j = j; best_code = -s
+                            best = dt; best_j = j; best_code = 1
                         end if
+                    end if
+                else
+                    nr = tab%nr(ti, tj)
+                    if (s < nr) then
+                        dt = inward_time(dx, dv, tab%r2(s + 1, ti, tj))
+                        if (dt < best) then
+                            best = dt; best_j = j; best_code = s + 1
+                        end if
+                    end if
+                    dt = outward_time(dx, dv, tab%r2(s, ti, tj))
+                    if (dt < best) then
+                        best = dt; best_j = j; best_code = -s
                     end if
                 end if
-                j = cells%nxt(j)
             end do
+            if (jn == 0 .and. c == 27) exit
         end do
     end subroutine earliest_event
 

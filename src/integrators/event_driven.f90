@@ -29,6 +29,7 @@
 !> the same order), so that every rank count gives the same results; rank 0 writes the thermo
 !> CSV, and each rank writes its own atoms' rows of a trajectory frame.
 module terrace_event_driven
+    use, intrinsic :: iso_c_binding, only: c_double
     use terrace_kinds, only: dp, i8
     use terrace_text, only: int_text, real_text
     use terrace_engine, only: engine_t
@@ -116,6 +117,14 @@ module terrace_event_driven
     end type ed_run_t
 
     public :: run_event_driven, check_event_driven_start
+
+    interface
+        !> A hint to load the cache line at x (prefetch.c).
+        subroutine prefetch(x) bind(C, name='terrace_prefetch')
+            import :: c_double
+            real(c_double), intent(in) :: x
+        end subroutine prefetch
+    end interface
 
 contains
 
@@ -631,6 +640,7 @@ contains
                 if (jn == 0) exit
                 m = m + 1
                 cand(m) = jn
+                call prefetch(pk(1, jn))
                 jn = cells%nxt(jn)
             end do
             do k = 1, m

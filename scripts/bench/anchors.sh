@@ -660,28 +660,33 @@ if [[ "$parts" == *,cluster,* ]]; then
     for ((r = 1; r <= repeat; r++)); do
         for code in "${codes[@]}"; do
             rm -f argon_frozen_2d.h5 argon_frozen_2d.csv
-            "./$code" cluster.nml > "cluster_$code.log" 2>&1 || { tail "cluster_$code.log" >&2; exit 1; }
+            /usr/bin/time -f %e -o "wall_$code.txt" "./$code" cluster.nml > "cluster_$code.log" 2>&1 \
+                || { tail "cluster_$code.log" >&2; exit 1; }
             j=cluster.summary.json
             echo "$code $(figure $j timing/loop_time_s) $(figure $j timing/events)" \
-                 "$(for ph in Pair Comm Output Search Other; do figure $j timing/phases/$ph/avg_s; done | tr '\n' ' ')" >> cluster.txt
+                 "$(for ph in Pair Comm Output Search Other; do figure $j timing/phases/$ph/avg_s; done | tr '\n' ' ')" \
+                 "$(tail -1 "wall_$code.txt")" >> cluster.txt
         done
     done
     /usr/bin/python3 - cluster.txt "$ns" <<'PY'
 import statistics, sys
 rows = [l.split() for l in open(sys.argv[1]) if l.strip()]
 frames = int(sys.argv[2]) * 100 + 1
-print('%-9s %9s %9s %8s | %7s %7s %7s %7s %7s | %8s' % ('code', 'loop s', 'events', 'us/ev', 'Pair', 'Comm',
-      'Output', 'Search', 'Other', 'us/frame'))
+print('%-9s %9s %9s %8s | %7s %7s %7s %7s %7s | %8s | %9s' % ('code', 'loop s', 'events', 'us/ev', 'Pair', 'Comm',
+      'Output', 'Search', 'Other', 'us/frame', 'process s'))
 med = {}
 for code in dict.fromkeys(r[0] for r in rows):
     rs = [r for r in rows if r[0] == code]
     med[code] = statistics.median(float(r[1]) for r in rs)
+    walls = sorted(float(r[8]) for r in rs)
     best = min(rs, key=lambda r: float(r[1]))
     ph = [float(x) for x in best[3:8]]
-    print('%-9s %9.3f %9d %8.3f | %7.3f %7.3f %7.3f %7.3f %7.3f | %8.1f   (best of %d; median %.3f s)' % (
+    print('%-9s %9.3f %9d %8.3f | %7.3f %7.3f %7.3f %7.3f %7.3f | %8.1f | %9.2f   (best of %d; median loop %.3f s, '
+          'process %.2f [%.2f, %.2f] s)' % (
         code, float(best[1]), int(best[2]), 1e6 * float(best[1]) / int(best[2]), *ph, 1e6 * ph[2] / frames,
-        len(rs), med[code]))
-print('(us/frame: the Output phase, frames and thermo samples, over the %d frames)' % frames)
+        float(best[8]), len(rs), med[code], statistics.median(walls), walls[0], walls[-1]))
+print('(us/frame: the Output phase, frames and thermo samples, over the %d frames; process s: the whole '
+      'process, /usr/bin/time, start-up and final output included)' % frames)
 if 'baseline' in med:
     print('baseline / terrace, median loop times: %.2f' % (med['baseline'] / med['terrace']))
 PY

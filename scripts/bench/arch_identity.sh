@@ -6,7 +6,9 @@
 # (Langevin, CSVR, Nose-Hoover chains, Andersen with zero_momentum) and energy stepping's three
 # (Andersen at exact times, CSVR and Andersen's global variant at intervals), a three-type LJ
 # mixture with both integrators, mixed precision over cluster pairs and over the atom list, the spinning cube and
-# the colliding balls with both integrators, and a checkpoint restart of each integrator (stopped
+# the colliding balls with both integrators, the barostats' rank-invariance decks (C-rescale, Monte
+# Carlo, MTTK; iso and aniso), event-driven square wells and hard spheres, and a checkpoint restart
+# of each integrator (stopped
 # at its first safe point by walltime_limit, continued by each build from its own checkpoint), on 1
 # and 4 ranks. Prints one line per run and exits non-zero if any thermo file differs by a byte.
 # The balls need the gmsh Python package (scripts/make_ball_mesh.py); without it they are skipped.
@@ -90,6 +92,18 @@ if "${TERRACE_VENV:-$HOME/.cache/terrace-venv}/bin/python" -c 'import gmsh' 2> /
 else
   echo "balls: skipped (no gmsh Python package; scripts/make_ball_mesh.py says how to install it)"
 fi
+# barostats (the rank-invariance decks: C-rescale, Monte Carlo with both integrators, MTTK; iso and
+# aniso) and event-driven dynamics (a square-well liquid; hard spheres)
+baros=""
+for d in "$repo"/tests/regression/decks/baro_*_ranks.nml; do
+  b=$(basename "$d" _ranks.nml); cp "$d" "$b.nml"; baros="$baros $b"
+done
+sed -e 's/run_time=5.0/run_time=2.0/' -e "s/, trajectory_file='traj.h5', trajectory_interval=0.2//" \
+    -e "s/final_atoms_file='final.txt', checkpoint_file='restart.h5', checkpoint_interval=0.5 \//final_atoms_file='final.txt' \//" \
+    "$repo/tests/regression/decks/ckpt_ed_sw.nml" > ed_sw.nml
+grep -q "final_atoms_file='final.txt' /" ed_sw.nml || { echo "arch_identity: could not edit ckpt_ed_sw.nml" >&2; exit 1; }
+sed -e "s/style='square_well', diameter=1.0, well_depth=1.0, well_lambda=1.5/style='hard_sphere', diameter=1.0/" \
+    -e 's/density=0.7/density=0.85/' ed_sw.nml > ed_hs.nml
 # restarts: the LJ liquid (Verlet) and Rahman argon (energy stepping) with a checkpoint file
 sed -e "s/thermo_file='thermo.csv'/thermo_file='thermo.csv', checkpoint_file='ckpt.h5', checkpoint_every=200/" lj_vv.nml > restart_vv.nml
 sed -e "s/thermo_file='thermo.csv'/thermo_file='thermo.csv', checkpoint_file='ckpt.h5', checkpoint_interval=0.5/" rahman_es.nml > restart_es.nml
@@ -118,7 +132,7 @@ restart() {   # build np deck dir
 }
 fail=0
 for deck in lj_vv rahman_es cu_vv cu_es cuni_vv cuni_es cluster_es mix3_vv mix3_es lj_mixed lj_mixed_cells vv_langevin vv_csvr vv_nose_hoover vv_andersen \
-            es_andersen es_csvr es_andersen_global $meshes restart_vv restart_es; do
+            es_andersen es_csvr es_andersen_global $meshes $baros ed_sw ed_hs restart_vv restart_es; do
   [[ -n ${ONLY:-} && ! $deck =~ $ONLY ]] && continue
   for np in ${NPROCS:-1 4}; do
     if [[ $deck == restart_* ]]; then

@@ -26,7 +26,6 @@ program terrace
     use terrace_final_atoms, only: write_final_atoms
     use terrace_trajectory, only: trajectory_t
     use terrace_run_log, only: print_run_log
-    use terrace_timers, only: timers_t
     use terrace_errors, only: stop_all, check_all
     use terrace_version, only: terrace_version_string
     use terrace_info_flags, only: answer_info_flag
@@ -415,7 +414,7 @@ contains
         out%ctl => ctl
         out%thermostat = ts%active()
         call MPI_Barrier(world%comm)
-        eng%timers = timers_t()
+        call eng%timers%reset()
         t0 = MPI_Wtime()
     end subroutine start_clock
 

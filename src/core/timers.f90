@@ -1,6 +1,10 @@
 !> Per-phase wall-clock timers (pair, neighbour, communication, output, event search, other).
+!> They count ticks of a cheap clock (ticks.c: the processor's invariant time-stamp counter where
+!> it has one, else the monotonic clock in ns), since a phase may be switched several times per
+!> event; seconds() converts with the tick rate measured against the wall clock since reset().
 module terrace_timers
-    use terrace_kinds, only: dp
+    use, intrinsic :: iso_c_binding, only: c_int64_t
+    use terrace_kinds, only: dp, i8
     use mpi_f08, only: MPI_Wtime
     implicit none
     private
@@ -11,25 +15,56 @@ module terrace_timers
         [character(len=8) :: 'Pair', 'Neigh', 'Comm', 'Output', 'Search', 'Other']
 
     type, public :: timers_t
-        real(dp) :: total(n_timers) = 0.0_dp
-        real(dp) :: started(n_timers) = 0.0_dp
+        integer(i8) :: ticks(n_timers) = 0_i8
+        integer(i8) :: started(n_timers) = 0_i8
+        integer(i8) :: tick0 = 0_i8         !< the clock at reset()
+        real(dp) :: wall0 = 0.0_dp          !< MPI_Wtime at reset()
     contains
+        procedure :: reset => timer_reset
         procedure :: start => timer_start
         procedure :: stop => timer_stop
+        procedure :: seconds => timer_seconds
     end type timers_t
 
+    interface
+        integer(c_int64_t) function ticks() bind(C, name='terrace_ticks')
+            import :: c_int64_t
+        end function ticks
+    end interface
+
 contains
+
+    !> All phases to zero; the clock's rate is measured from here.
+    subroutine timer_reset(self)
+        class(timers_t), intent(inout) :: self
+        self%ticks = 0; self%started = 0
+        self%wall0 = MPI_Wtime()
+        self%tick0 = ticks()
+    end subroutine timer_reset
 
     subroutine timer_start(self, which)
         class(timers_t), intent(inout) :: self
         integer, intent(in) :: which
-        self%started(which) = MPI_Wtime()
+        self%started(which) = ticks()
     end subroutine timer_start
 
     subroutine timer_stop(self, which)
         class(timers_t), intent(inout) :: self
         integer, intent(in) :: which
-        self%total(which) = self%total(which) + (MPI_Wtime() - self%started(which))
+        self%ticks(which) = self%ticks(which) + (ticks() - self%started(which))
     end subroutine timer_stop
+
+    !> Each phase's time in seconds so far (the tick rate from reset() to now).
+    function timer_seconds(self) result(seconds)
+        class(timers_t), intent(in) :: self
+        real(dp) :: seconds(n_timers)
+        real(dp) :: wall, per_tick
+        integer(i8) :: elapsed
+        wall = MPI_Wtime() - self%wall0
+        elapsed = ticks() - self%tick0
+        per_tick = 0
+        if (elapsed > 0 .and. wall > 0) per_tick = wall/real(elapsed, dp)
+        seconds = real(self%ticks, dp)*per_tick
+    end function timer_seconds
 
 end module terrace_timers

@@ -27,11 +27,12 @@ contains
         integer(i8), intent(in), optional :: pairs            !< this rank's list length (0: no list)
         character(len=*), intent(in), optional :: pairs_what  !< what pairs counts (absent or '': the atom list's pairs)
         character(len=:), allocatable :: what
-        real(dp) :: avg(n_timers), mx(n_timers), mem, memsum, other
+        real(dp) :: phase(n_timers), avg(n_timers), mx(n_timers), mem, memsum, other
         integer(i8) :: p(1), psum(1), pmin(1), pmax(1)
         integer :: k
-        call MPI_Reduce(timers%total, avg, n_timers, MPI_DOUBLE_PRECISION, MPI_SUM, 0, world%comm)
-        call MPI_Reduce(timers%total, mx, n_timers, MPI_DOUBLE_PRECISION, MPI_MAX, 0, world%comm)
+        phase = timers%seconds()
+        call MPI_Reduce(phase, avg, n_timers, MPI_DOUBLE_PRECISION, MPI_SUM, 0, world%comm)
+        call MPI_Reduce(phase, mx, n_timers, MPI_DOUBLE_PRECISION, MPI_MAX, 0, world%comm)
         mem = real(peak_memory_kib(), dp)
         call MPI_Reduce(mem, memsum, 1, MPI_DOUBLE_PRECISION, MPI_SUM, 0, world%comm)
         p = 0

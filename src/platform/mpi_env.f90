@@ -20,9 +20,17 @@ module terrace_mpi_env
     public :: start_mpi, end_mpi, use_communicator, sum_all, max_all, min_all, any_all, sum_all_i8, bcast_text, &
               gather_counts
 
+    interface
+        !> Offers Open MPI's light singleton start-up when no launcher started the process
+        !> (mpi_start.c).
+        subroutine prepare_singleton() bind(C, name='terrace_prepare_singleton')
+        end subroutine prepare_singleton
+    end interface
+
 contains
 
     subroutine start_mpi()
+        call prepare_singleton()
         call MPI_Init()
         call use_communicator(MPI_COMM_WORLD)
     end subroutine start_mpi

@@ -43,7 +43,7 @@ module terrace_energy_stepping
                                cal_barostat
     use terrace_run_outputs, only: run_outputs_t
     use terrace_thermo, only: thermo_writer_t
-    use terrace_timers, only: t_output, t_comm
+    use terrace_timers, only: t_output, t_comm, t_search
     use terrace_mpi_env, only: world, sum_all, min_all
     use terrace_exact_sum, only: exact_sum_all
     use terrace_errors, only: stop_all, check_all
@@ -287,7 +287,9 @@ contains
         type(engine_t), intent(inout) :: eng
         real(dp) :: a, b, ray(4), kt
         call gradient_sums(eng, sigma2, a, b)
+        call eng%timers%start(t_search)
         call eng%ray_pass(0.0_dp, ray)
+        call eng%timers%stop(t_search)
         kt = 0
         if (eng%dof() > 0) kt = 2*kinetic_energy(eng%atoms, eng%units)/eng%dof()
         sigma2 = max(sigma2, 0.25_dp*kt*ray(3))
@@ -324,7 +326,9 @@ contains
         if (.not. (tau > 0)) then
             ! no natural time unit: 1/50 of the mean vibration period 2 pi / omega, omega^2 = v.H.v / v.M.v
             ! (a Rayleigh quotient over the thermal velocities; LJ's 0.005 tau is about the same fraction)
+            call eng%timers%start(t_search)
             call eng%ray_pass(0.0_dp, ray)
+            call eng%timers%stop(t_search)
             omega2 = ray(3)/max(2*kinetic_energy(eng%atoms, eng%units), tiny(1.0_dp))
         end if
         if (world%rank /= 0) return
@@ -417,12 +421,14 @@ contains
             window = max(0.0_dp, st%cal%next() - st%t)
             r%ray%evals = 0
             r%ray%events = r%stats%events; r%ray%t = st%t
+            call r%eng%timers%start(t_search)
             if (st%have_c .or. .not. st%have_guess) then
                 call r%solver%first_crossing(r%ray, st%lower, st%upper, window, st%p0, st%have_c, st%trust, res)
             else
                 call r%solver%first_crossing(r%ray, st%lower, st%upper, window, st%p0, st%have_c, st%trust, res, &
                                              st%c_guess)
             end if
+            call r%eng%timers%stop(t_search)
             r%stats%ray_evals = r%stats%ray_evals + r%ray%evals
         end associate
     end subroutine search
@@ -443,7 +449,11 @@ contains
             ! the drift)
             st%p0 = res%fdc
             st%have_c = .true.
-            if (r%ray%last_s /= window) call r%ray%eval(window, st%p0)
+            if (r%ray%last_s /= window) then
+                call eng%timers%start(t_search)
+                call r%ray%eval(window, st%p0)
+                call eng%timers%stop(t_search)
+            end if
             call eng%drift(window)
             st%t = cal%next()
             ckpt_due = cal%due(cal_checkpoint, st%t)
@@ -487,7 +497,9 @@ contains
                     call eng%sync_ghosts()
                     call expiry_after(r, st%t)
                 end if
+                call eng%timers%start(t_search)
                 call r%ray%eval(0.0_dp, st%p0)
+                call eng%timers%stop(t_search)
                 r%stats%ray_evals = r%stats%ray_evals + 1
                 st%have_c = .true.
             end if

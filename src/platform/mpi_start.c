@@ -4,8 +4,19 @@
  * so before MPI_Init this sets two Open MPI defaults: no daemon (ess_singleton_isolated) and the
  * plain point-to-point layer (pml ob1). Both are set only when no launcher has started the process
  * (no mpirun, PMIx or PMI variables in the environment) and only where the user has not set them:
- * a value in the environment always wins. Other MPI libraries ignore OMPI_MCA_ variables. */
+ * a value in the environment always wins. Other MPI libraries ignore OMPI_MCA_ variables.
+ *
+ * Isolated singletons all get the same job family, hence the same session directory under the
+ * temporary directory; two running at once (a parameter scan, tests run in parallel) would share
+ * it, and the files MPI-IO keeps there for an output (named after the output) would collide. So an
+ * isolated singleton gets a session directory base of its own, $TMPDIR/terrace-ompi.<pid> (Open MPI
+ * creates it and empties it at MPI_Finalize; it is removed at exit). */
+#define _POSIX_C_SOURCE 200809L
+#include <stdio.h>
 #include <stdlib.h>
+#include <unistd.h>
+
+static char session_base[4096];
 
 static int launched_by_a_launcher(void)
 {
@@ -16,9 +27,27 @@ static int launched_by_a_launcher(void)
     return 0;
 }
 
+static void remove_session_base(void)
+{
+    if (session_base[0] != '\0') rmdir(session_base);
+}
+
 void terrace_prepare_singleton(void)
 {
     if (launched_by_a_launcher()) return;
-    setenv("OMPI_MCA_ess_singleton_isolated", "1", 0);
+    if (getenv("OMPI_MCA_ess_singleton_isolated") == NULL) {
+        setenv("OMPI_MCA_ess_singleton_isolated", "1", 0);
+        if (getenv("OMPI_MCA_orte_tmpdir_base") == NULL) {
+            const char *tmp = getenv("TMPDIR");
+            if (tmp == NULL || tmp[0] == '\0') tmp = "/tmp";
+            int n = snprintf(session_base, sizeof session_base, "%s/terrace-ompi.%ld", tmp, (long)getpid());
+            if (n > 0 && (size_t)n < sizeof session_base) {
+                setenv("OMPI_MCA_orte_tmpdir_base", session_base, 0);
+                atexit(remove_session_base);
+            } else {
+                session_base[0] = '\0';
+            }
+        }
+    }
     setenv("OMPI_MCA_pml", "ob1", 0);
 }

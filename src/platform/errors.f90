@@ -30,6 +30,9 @@ module terrace_errors
             import :: c_int
             integer(c_int), value :: code
         end subroutine c_exit
+        !> A singleton's own Open MPI session directory, removed (mpi_start.c; nothing otherwise).
+        subroutine remove_session_base() bind(C, name='terrace_remove_session_base')
+        end subroutine remove_session_base
     end interface
 
 contains
@@ -59,6 +62,7 @@ contains
         if (up .and. broken_hdf5) then
             flush (output_unit); flush (error_unit)
             call MPI_Barrier(MPI_COMM_WORLD)
+            call remove_session_base()
             call c_exit(int(exit_code, c_int))
         end if
         if (up) call MPI_Finalize()

@@ -10,8 +10,9 @@
  * temporary directory; two running at once (a parameter scan, tests run in parallel) would share
  * it, and the files MPI-IO keeps there for an output (named after the output) would collide. So an
  * isolated singleton gets a session directory base of its own, $TMPDIR/terrace-ompi.<pid> (Open MPI
- * creates it and empties it at MPI_Finalize; it is removed at exit). */
-#define _POSIX_C_SOURCE 200809L
+ * creates it and empties it at MPI_Finalize; it is removed at exit, with anything left in it). */
+#define _XOPEN_SOURCE 700
+#include <ftw.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <unistd.h>
@@ -27,9 +28,18 @@ static int launched_by_a_launcher(void)
     return 0;
 }
 
-static void remove_session_base(void)
+static int remove_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw)
 {
-    if (session_base[0] != '\0') rmdir(session_base);
+    (void)sb; (void)flag; (void)ftw;
+    remove(path);
+    return 0;
+}
+
+/* The base and what Open MPI left in it (it empties it at MPI_Finalize; a run that stops on an
+ * error may not get there): at exit, and before an _exit that skips MPI_Finalize (errors.f90). */
+void terrace_remove_session_base(void)
+{
+    if (session_base[0] != '\0') nftw(session_base, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
 }
 
 void terrace_prepare_singleton(void)
@@ -43,7 +53,7 @@ void terrace_prepare_singleton(void)
             int n = snprintf(session_base, sizeof session_base, "%s/terrace-ompi.%ld", tmp, (long)getpid());
             if (n > 0 && (size_t)n < sizeof session_base) {
                 setenv("OMPI_MCA_orte_tmpdir_base", session_base, 0);
-                atexit(remove_session_base);
+                atexit(terrace_remove_session_base);
             } else {
                 session_base[0] = '\0';
             }

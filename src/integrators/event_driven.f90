@@ -626,9 +626,9 @@ contains
         call neighbour_cells(cells, i, nb)
         ti = int(pk(8, i))
         ! The atoms of the 27 cells are listed first (list heads and links: loads that do not wait
-        ! on the pair arithmetic), up to chunk at a time, then searched in the same order: each
-        ! candidate's record is then a load that does not wait on the search of the one before, so
-        ! that the processor overlaps their cache misses (one per neighbour at 10^6 atoms).
+        ! on the pair arithmetic), up to chunk at a time, each listed atom's record prefetched, then
+        ! searched in the same order: the records' cache misses (one per neighbour at 10^6 atoms)
+        ! overlap instead of each waiting on the search of the one before.
         c = 0; jn = 0                    ! (jn: the next atom to list)
         do
             m = 0

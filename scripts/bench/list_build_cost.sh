@@ -31,13 +31,13 @@ sed -E "s/n_steps=[0-9]+/n_steps=$nlj/" "$repo/input/lj_bench.nml" > lj.nml
 echo "list build cost per atom; $(date -u '+%Y-%m-%d %H:%M UTC'); commit $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
 echo "machine: $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(env -u OMP_NUM_THREADS nproc) cores visible, load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "argon: 864 atoms, $ps ps (skin 1 A, exact list); lj: 32,000 atoms, $nlj steps (skin 0.3 sigma, exact list)"
-# and the bins of nl_setup_bins on one rank: the box and the ghost shell (L + 2 c) cut into bins at
-# least c wide across (x, y) and c/2 along z; each atom scans a 3 x 3 x 5 stencil of them, half of it
+# and the bins of nl_setup_bins on one rank: the box and the ghost shell (L + 2 c) covered by bins c
+# wide across (x, y) and c/2 along z, the last ones sticking out; each atom scans a 3 x 3 x 5 stencil of them, half of it
 # (the upper half; ghosts at the same z in full), against the half sphere of radius c it needs
 /usr/bin/python3 -c "
 import math
 for name, l, c in (('argon', 34.6809019, 9.5), ('lj', 20 * (4 / 0.8442) ** (1 / 3), 2.8)):
-    e = l + 2 * c; wxy = e / int(e / c); wz = e / int(e / (c / 2))
+    e = l + 2 * c; wxy = c; wz = c / 2
     print('  %-6s ghost shell / box volume %.3f (box %.4g, rc + skin c = %.3g); bins %.4g x %.4g x %.4g = %.3f x %.3f x %.3f c;'
           ' stencil / cutoff sphere volume %.2f' % (name, (e ** 3 - l ** 3) / l ** 3, l, c, wxy, wxy, wz, wxy / c, wxy / c, wz / c,
                                                      9 * wxy * wxy * 5 * wz / (4 / 3 * math.pi * c ** 3)))"

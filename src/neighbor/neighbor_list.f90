@@ -130,7 +130,7 @@ contains
         real(dp), intent(in) :: lo(3), hi(3)
         integer, intent(in) :: natoms_hint
         integer :: d, nb(3), ntot, sx, sy, sz, n, maxbins, pass, sxmax, base
-        real(dp) :: ext(3), target, dist2
+        real(dp) :: ext(3), target, dist2, width(3)
         target = 0.5_dp*self%cut
         ext = max(hi - lo, target)
         maxbins = max(8*natoms_hint, 4096)
@@ -139,15 +139,23 @@ contains
         ! the cutoff everywhere, so that a bin's shared candidates serve about 9 atoms instead of 2.6
         ! (scripts/bench/phase_ab.sh, 7 rounds: the build about 13 % cheaper on the LJ benchmark scene,
         ! 28 % on Cu EAM; doc/performance.md)
+        ! The bins are as wide as that and no wider (a hair more, so that the stencil's reach is the
+        ! rounded-up ratio without round-off): the grid covers at least [lo, hi], its last bin
+        ! sticking out; bins stretched to tile [lo, hi] exactly would scan more candidates on small
+        ! boxes, up to (1 + 1/nb)^3 (doc/performance.md, list builds per atom)
         do
             nb = 1
+            width = target
             do d = 1, self%dimension
-                nb(d) = max(1, int(ext(d)/(target*merge(2.0_dp, 1.0_dp, d < self%dimension))))
+                width(d) = target*merge(2.0_dp, 1.0_dp, d < self%dimension)*(1.0_dp + 1.0e-12_dp)
+                nb(d) = max(1, ceiling(ext(d)/width(d)))
             end do
             if (product(real(nb, dp)) <= maxbins) exit
             target = target*1.26_dp
         end do
-        self%bin_size = ext/nb
+        do d = 1, 3
+            self%bin_size(d) = merge(width(d), ext(d)/nb(d), d <= self%dimension)
+        end do
         self%bin_inv = 1.0_dp/self%bin_size
         self%reach = 0
         do d = 1, self%dimension

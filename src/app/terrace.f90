@@ -120,10 +120,13 @@ contains
         call start_clock()
         call run_velocity_verlet(eng, verlet_params(cfg), ts, bs, out, sched)
         call close_run(sched%end_time())
-        call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', schedule_note(), &
-                           list_pairs(), pairs_what())
+        ! (outer_skin needs the exact schedule: at most one of the notes is there)
+        call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', &
+                           schedule_note()//prune_note(), list_pairs(), pairs_what())
         call eng%report_warnings()
         if (.not. eng%list%exact()) call summary_put('neighbor/late_builds', eng%list%late)
+        if (eng%outer_list) call summary_put('neighbor/prunes', eng%prunes)
+        if (eng%outer_list) call summary_put('neighbor/outer_skin', cfg%outer_skin)
         call write_summary('finished', sched%end_time())
     end subroutine verlet_run
 
@@ -185,16 +188,24 @@ contains
         what = ''
         if (eng%list%want_clusters) what = 'Cluster pairs (clusters of 4 atoms with an atom pair within rc + skin, '// &
                                            'last build; the mixed kernel computes 16 atom pairs each)'
+        if (eng%outer_list) what = 'List pairs (within rc + outer_skin, last build)'
     end function pairs_what
 
-    !> The run log's line on energy stepping's pruned list (empty without one).
+    !> The run log's line on the pruned list of energy stepping or of velocity Verlet's outer_skin
+    !> (empty without one).
     function prune_note() result(note)
         character(len=:), allocatable :: note
         character(len=256) :: line
         note = ''
         if (.not. eng%use_inner) return
-        write (line, '(a,es9.3,a,i0,a)') 'Pruned list (pairs within rc + skin/4 = rc + ', eng%inner%skin, &
-            ', used by the force and ray passes): ', eng%prunes, ' prunes'
+        if (eng%outer_list) then
+            write (line, '(a,es9.3,a,es9.3,a,i0,a)') 'Pruned list (pairs within rc + skin = rc + ', eng%inner%skin, &
+                ', used by the force pass; built list: rc + outer_skin = rc + ', eng%list%skin, '): ', eng%prunes, &
+                ' prunes between the builds'
+        else
+            write (line, '(a,es9.3,a,i0,a)') 'Pruned list (pairs within rc + skin/4 = rc + ', eng%inner%skin, &
+                ', used by the force and ray passes): ', eng%prunes, ' prunes'
+        end if
         note = trim(line)
     end function prune_note
 

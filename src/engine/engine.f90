@@ -32,6 +32,9 @@ module terrace_engine
         type(units_t) :: units
         integer :: dimension = 3
         real(dp) :: skin = 0                     !< the neighbour list's skin
+        !> > 0 (velocity Verlet, with a scene plan's inner_list): the built list's skin; the force
+        !> pass reads the pairs within cutoff + skin pruned from it (engine_list_due)
+        real(dp) :: outer_skin = 0
         integer :: list_every = 1                !< build the list at most every this many steps
         logical :: list_check = .true.           !< and only when an atom has moved skin/2
         logical :: straight_lines = .false.      !< the integrator moves atoms on rays (energy stepping)
@@ -68,6 +71,10 @@ module terrace_engine
         real(dp) :: ndof = 0
         type(replicate_t) :: rep
         logical :: use_inner = .false.
+        !> outer_list: velocity Verlet's list is built with &neighbor outer_skin and `inner` (pairs within
+        !> rc + skin) pruned from it (engine_list_due decides); otherwise energy stepping's inner list
+        logical :: outer_list = .false.
+        real(dp) :: inner_skin = 0               !< the pruned list's skin (inner_cut = cutmax + inner_skin)
         integer :: prunes = 0
         class(potential_t), allocatable :: pot
         real(dp) :: cutmax = 0                   !< the potential's largest cutoff (0: none)
@@ -95,12 +102,17 @@ module terrace_engine
         procedure :: sync_ghosts => engine_sync_ghosts
         procedure :: list_expiry => engine_list_expiry
         procedure :: prune => engine_prune
+        procedure :: list_due => engine_list_due
         procedure :: report_warnings => engine_report_warnings
         procedure :: check_valid => engine_check_valid
         procedure :: scale_box => engine_scale_box
         procedure :: save_state => engine_save_state
         procedure :: restore_state => engine_restore_state
     end type engine_t
+
+    !> What engine_list_due asks for after a drift: nothing (the ghosts refreshed), a prune of the
+    !> inner list from the built one, or a rebuild.
+    integer, parameter, public :: list_keep = 0, list_prune = 1, list_rebuild = 2
 
     !> The halo operations handed to the potential during a force pass.
     type, extends(halo_ops_t) :: engine_halo_t
@@ -136,7 +148,15 @@ contains
         self%mesh_hash = scene%mesh_hash
         self%list%dimension = p%dimension
         self%list%all_pairs = self%plan%pair_mode == pair_all
-        if (self%plan%pair_mode == pair_cells) call self%list%init(self%cutmax, p%skin, p%dimension)
+        self%use_inner = self%plan%inner_list
+        self%outer_list = self%use_inner .and. p%outer_skin > 0
+        if (self%outer_list) then
+            self%inner_skin = p%skin
+            call self%list%init(self%cutmax, p%outer_skin, p%dimension)
+        else
+            self%inner_skin = 0.25_dp*p%skin
+            if (self%plan%pair_mode == pair_cells) call self%list%init(self%cutmax, p%skin, p%dimension)
+        end if
         self%list%every = p%list_every
         self%list%check = p%list_check
         ! no pair list: bins (for the spatial sort) sized by the halo, and the displacement reference
@@ -147,7 +167,6 @@ contains
         self%list%want_below = self%pot%needs_full_neighbourhood(p%straight_lines)
         self%list%want_types = self%pot%wants_neighbour_types()
         self%list%type_order = self%pot%neighbour_type_order()
-        self%use_inner = self%plan%inner_list
         self%list%want_clusters = self%plan%cluster_pairs      ! (the plan sets it with cell lists only)
         call self%rebuild()
         call check_overlaps(self%atoms, self%list, self%pot, self%plan%pair_mode, self%source)
@@ -411,11 +430,43 @@ contains
         call self%timers%stop(t_neigh)
     end subroutine engine_prune
 
-    !> The pruned list's cutoff: rc + skin/4 (its skin/2 is then skin/8).
+    !> The pruned list's cutoff: rc + skin/4 with energy stepping (its skin/2 is then skin/8), rc + skin
+    !> with velocity Verlet's outer list (the built list's skin is then outer_skin).
     pure real(dp) function inner_cut(self)
         class(engine_t), intent(in) :: self
-        inner_cut = self%cutmax + 0.25_dp*self%list%skin
+        inner_cut = self%cutmax + self%inner_skin
     end function inner_cut
+
+    !> After a drift (velocity Verlet): keep the lists, prune the inner one again or rebuild; collective,
+    !> the same answer on every rank (the displacement maxima are global). forced: a rebuild the caller
+    !> needs anyway (a checkpoint). Without the outer list: a rebuild when the list's schedule says so.
+    !> With it (built list: skin S = outer_skin at the last build; inner list: skin s = &neighbor skin at
+    !> the last prune; D_b, D_p an atom's displacement since the build and since the prune):
+    !> - the inner list holds every pair within rc while every D_p <= s/2: such a pair was within
+    !>   rc + s at the prune (triangle inequality), and the prune kept every pair of the built list
+    !>   that was within rc + s then, so the pair was kept if the built list held it;
+    !> - the built list holds every pair within rc + s at the prune if every D_b <= (S - s)/2 then: such
+    !>   a pair was within rc + s + (S - s) = rc + S at the build;
+    !> so: nothing while every D_p <= s/2 (the check of a list of skin s without the outer one); when
+    !> an atom has moved further, a prune if every D_b <= (S - s)/2 (less 1e-9 S for round-off), and
+    !> otherwise a rebuild (which prunes at once).
+    integer function engine_list_due(self, step, forced) result(due)
+        class(engine_t), intent(inout) :: self
+        integer(i8), intent(in) :: step
+        logical, intent(in) :: forced
+        logical :: far
+        if (.not. self%outer_list) then
+            due = merge(list_rebuild, list_keep, self%list%rebuild_due(self%atoms, step, forced))
+            return
+        end if
+        due = list_rebuild
+        if (forced) return
+        due = list_keep
+        if (.not. self%inner%needs_rebuild(self%atoms)) return
+        far = self%list%moved_beyond(self%atoms, 0.5_dp*(self%list%skin - self%inner%skin) - 1.0e-9_dp*self%list%skin)
+        call any_all(far)
+        due = merge(list_rebuild, list_prune, far)
+    end function engine_list_due
 
     !> Warnings gathered during the run, printed once by rank 0 (collective).
     subroutine engine_report_warnings(self)

@@ -6,7 +6,7 @@
 !>               box_hi), periodic, mass, temperature
 !>   &potential  style, epsilon, sigma, cutoff, pair_cutoff, shift, precision
 !>   &integrator style, dt
-!>   &neighbor   skin, list, every, check, buffer_tolerance
+!>   &neighbor   skin, list, every, check, buffer_tolerance, outer_skin
 !>   &output     thermo_every, thermo_interval, thermo_file, forces_file
 !>   &thermostat style, temperature, temperature_end, damping, chain_length, seed, zero_momentum, interval
 !>   &barostat   style, pressure, damping, compressibility, couple
@@ -119,6 +119,9 @@ module terrace_config
         real(dp) :: buffer_tolerance = -1.0_dp      !< > 0: skin from this energy drift per atom per time
         real(dp) :: buffer_drift = -1.0_dp          !< (set with the scene) the skin's estimated drift
         real(dp) :: buffer_temperature = -1.0_dp    !< (set with the scene) the estimate's temperature
+        !> > 0: velocity Verlet builds the list with this skin and prunes the force pass's list from it
+        !> (pairs within cutoff + skin) when an atom has moved skin/2 (0: off)
+        real(dp) :: outer_skin = 0
         ! &output
         integer(i8) :: thermo_every = -1
         real(dp) :: thermo_interval = -1.0_dp
@@ -629,21 +632,22 @@ contains
 
     subroutine read_neighbor(cfg)
         type(config_t), intent(inout) :: cfg
-        real(dp) :: skin, buffer_tolerance
+        real(dp) :: skin, buffer_tolerance, outer_skin
         character(len=16) :: list
         integer :: every
         logical :: check
-        namelist /neighbor/ skin, list, every, check, buffer_tolerance
-        character(len=*), parameter :: keys(5) = [character(len=40) :: 'skin:a real number', 'list:a quoted string', &
-                                                  'every:an integer', 'check:a logical', 'buffer_tolerance:a real number']
+        namelist /neighbor/ skin, list, every, check, buffer_tolerance, outer_skin
+        character(len=*), parameter :: keys(6) = [character(len=40) :: 'skin:a real number', 'list:a quoted string', &
+                                                  'every:an integer', 'check:a logical', 'buffer_tolerance:a real number', &
+                                                  'outer_skin:a real number']
         type(item_reader_t) :: it
-        skin = -1; list = 'auto'; every = 1; check = .true.; buffer_tolerance = -1
+        skin = -1; list = 'auto'; every = 1; check = .true.; buffer_tolerance = -1; outer_skin = 0
         do while (it%next(cfg, 'neighbor', keys))
             read (it%buf, nml=neighbor, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
         end do
         cfg%skin = skin; cfg%list = lower(list); cfg%list_every = every; cfg%list_check = check
-        cfg%buffer_tolerance = buffer_tolerance
+        cfg%buffer_tolerance = buffer_tolerance; cfg%outer_skin = outer_skin
     end subroutine read_neighbor
 
     subroutine read_output(cfg)
@@ -1303,6 +1307,31 @@ contains
         end if
     end subroutine validate_list_schedule
 
+    !> &neighbor outer_skin: 0 (off), or a skin > skin for the built list that velocity Verlet prunes
+    !> the force pass's list from (terrace_engine's rebuild_or_prune); for the exact list of a fixed
+    !> 3-D box in double precision only (what the potential allows the scene planner checks).
+    subroutine check_outer_skin(cfg)
+        type(config_t), intent(in) :: cfg
+        character(len=:), allocatable :: at
+        character(len=32) :: s
+        at = cfg%where('neighbor', 'outer_skin')
+        write (s, '(g0.6)') cfg%skin
+        if (cfg%outer_skin < 0 .or. (cfg%outer_skin > 0 .and. cfg%outer_skin <= cfg%skin)) &
+            call stop_all(at//': must be 0 (off) or > skin = '//trim(s)//' (a length in '//trim(cfg%units%length)//')')
+        if (cfg%outer_skin == 0) return
+        if (cfg%integrator /= 'velocity_verlet') call stop_all(at//": only with &integrator style = 'velocity_verlet' "// &
+            '(allowed with style = '''//trim(cfg%integrator)//''': 0)')
+        if (.not. (cfg%list_every == 1 .and. cfg%list_check)) call stop_all(at//': only with the exact list '// &
+            '(every = 1, check = .true., no buffer_tolerance; allowed otherwise: 0)')
+        if (cfg%barostat /= 'none') call stop_all(at//': only with a fixed box (allowed with a barostat: 0)')
+        if (len_trim(cfg%minimize) > 0) call stop_all(at//': not with &minimize (allowed: 0)')
+        if (cfg%precision /= 'double' .or. cfg%dimension /= 3) call stop_all(at//": only for 3-D runs in &potential "// &
+            "precision = 'double' (allowed otherwise: 0)")
+        if (len_trim(cfg%mesh_file) > 0) call stop_all(at//': not for a mesh scene (allowed: 0)')
+        if (cfg%list == 'all_pairs' .or. cfg%list == 'clusters') call stop_all(at//": only with &neighbor list = "// &
+            "'auto' or 'cells' (allowed with list = '"//trim(cfg%list)//"': 0)")
+    end subroutine check_outer_skin
+
     !> &neighbor list: the kind of pair search.
     subroutine validate_list_kind(cfg)
         type(config_t), intent(in) :: cfg
@@ -1352,6 +1381,7 @@ contains
         call validate_thermostat(cfg)
         call validate_barostat(cfg)
         call validate_minimize(cfg)
+        if (cfg%nml%find('neighbor', 'outer_skin') > 0) call check_outer_skin(cfg)
         call validate_outputs(cfg)
     contains
 

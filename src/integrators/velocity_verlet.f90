@@ -12,7 +12,7 @@
 module terrace_velocity_verlet
     use terrace_kinds, only: dp, i8
     use terrace_vec3, only: add_scaled
-    use terrace_engine, only: engine_t
+    use terrace_engine, only: engine_t, list_rebuild, list_prune
     use terrace_schedule, only: schedule_t
     use terrace_observables, only: thermo_sample_t
     use terrace_scene_plan, only: pair_all
@@ -157,7 +157,8 @@ contains
         end if
     end subroutine kick
 
-    !> After the drift: the neighbour list rebuilt when due (or the ghosts refreshed). Returns
+    !> After the drift: the neighbour list rebuilt when due (or the ghosts refreshed, and with
+    !> &neighbor outer_skin the force pass's list pruned again when due: engine_list_due). Returns
     !> whether this step is a safe point (a list build; on the all-pairs path a scheduled checkpoint
     !> or every poll_all_pairs steps).
     logical function move_ghosts(eng, step, scheduled) result(safe)
@@ -165,12 +166,15 @@ contains
         integer(i8), intent(in) :: step
         logical, intent(in) :: scheduled
         integer(i8), parameter :: poll_all_pairs = 10   !< all-pairs path: steps between stop polls
+        integer :: due
         if (eng%plan%pair_mode /= pair_all) then
-            safe = eng%list%rebuild_due(eng%atoms, step, scheduled)
+            due = eng%list_due(step, scheduled)
+            safe = due == list_rebuild
             if (safe) then
                 call eng%rebuild()
             else
                 call eng%refresh_ghosts()
+                if (due == list_prune) call eng%prune()       ! (&neighbor outer_skin: from the ghosts' new places)
             end if
         else
             call eng%refresh_ghosts()

@@ -90,7 +90,7 @@ contains
         else if (len_trim(cfg%read_data) > 0) then
             call data_header(trim(cfg%read_data), cfg%dimension, natoms, rho)
         end if
-        reach = cfg%skin
+        reach = max(cfg%skin, cfg%outer_skin)      ! (outer_skin: the built list's skin)
         if (cfg%pot_style%needs_file) then       ! the cutoff is in the file: a typical metal's
             reach = reach + 6.0_dp
         else if (cfg%cutoff > 0) then

@@ -30,6 +30,7 @@ contains
         p%units = cfg%units
         p%dimension = cfg%dimension
         p%skin = cfg%skin
+        p%outer_skin = cfg%outer_skin
         p%list_every = cfg%list_every
         p%list_check = cfg%list_check
         p%straight_lines = cfg%integ_style%exact_time

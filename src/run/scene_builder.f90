@@ -77,7 +77,7 @@ contains
         call check_range(cfg, self)
 
         ! ---- distribute atoms
-        cutghost = self%pot%halo_reach() + cfg%skin
+        cutghost = self%pot%halo_reach() + max(cfg%skin, cfg%outer_skin)     ! (outer_skin: the built list's)
         if (self%restarted .and. ckpt%values%has('domain_grid_1')) then
             ! the interrupted run's processor grid (on as many ranks), so that it continues bitwise
             ! although a barostat may have changed which box edge is the longest
@@ -243,7 +243,7 @@ contains
     end subroutine scene_masses_and_potential
 
     !> Along each periodic dimension: the potential's cutoff within half the box, and cutoff + skin
-    !> within the box.
+    !> (and cutoff + outer_skin) within the box.
     subroutine check_range(cfg, self)
         type(config_t), intent(in) :: cfg
         type(scene_t), intent(in) :: self
@@ -264,6 +264,8 @@ contains
                                   trim(adjustl(s2))//'); use a larger box (&system cells or box_hi)')
                 end if
             end if
+            if (self%cutmax + cfg%outer_skin >= self%box%length(d)) call stop_all(cfg%where('neighbor', 'outer_skin')// &
+                ': cutoff + outer_skin must be smaller than the periodic box')
             if (self%cutmax + cfg%skin >= self%box%length(d)) then
                 if (cfg%buffer_tolerance > 0) then
                     write (s1, '(es12.5)') cfg%skin

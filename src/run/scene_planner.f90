@@ -40,6 +40,8 @@ contains
         else if (.not. pot%needs_pair_list()) then
             self%pair_mode = pair_none
         end if
+        if (cfg%outer_skin > 0 .and. self%pair_mode /= pair_cells) call stop_all(cfg%where('neighbor', 'outer_skin')// &
+            ': needs cell lists (this scene has no pair list or takes all pairs; allowed here: 0)')
         call describe_plan(self, cfg, box, pot)
     end subroutine plan_scene
 
@@ -72,6 +74,28 @@ contains
             self%box = self%box//trim(s)//' '
         end do
     end subroutine describe_plan
+
+    !> &neighbor outer_skin (velocity Verlet; config has checked the run): the list is built with
+    !> outer_skin and the force pass reads the pairs within cutoff + skin pruned from it (inner_list),
+    !> for potentials whose force pass allows a pruned list (Lennard-Jones) on cell lists.
+    subroutine plan_outer_list(self, cfg, pot, s)
+        type(plan_t), intent(inout) :: self
+        type(config_t), intent(in) :: cfg
+        class(potential_t), intent(in) :: pot
+        character(len=*), intent(inout) :: s
+        character(len=32) :: v
+        if (.not. (pot%runs_on_pruned_list() .and. .not. pot%needs_full_neighbourhood(.false.))) &
+            call stop_all(cfg%where('neighbor', 'outer_skin')//": only for Lennard-Jones styles (allowed with "// &
+                          "style = '"//trim(cfg%potential)//"': 0)")
+        write (v, '(g0.6)') cfg%skin
+        if (.not. (cfg%outer_skin > cfg%skin)) call stop_all(cfg%where('neighbor', 'outer_skin')// &
+            ': must be 0 (off) or > skin = '//trim(v)//' (a length in '//trim(cfg%units%length)//')')
+        self%inner_list = .true.
+        write (s, '(a,g0.6,a,g0.6,a,g0.6,a)') 'cell lists + half Verlet list, cutoff ', pot%cutoff(), &
+            ' + outer_skin ', cfg%outer_skin, '; the force pass reads the pairs within cutoff + skin ', cfg%skin, &
+            ' pruned from it when an atom has moved skin/2, and the list is rebuilt when an atom has moved '// &
+            '(outer_skin - skin)/2 by a prune; atoms sorted by cell at each rebuild'
+    end subroutine plan_outer_list
 
     !> The halo and pairs lines: all pairs, no pair list, or cells + list (atom pairs or cluster pairs).
     subroutine describe_pairs(self, cfg, box, pot)
@@ -117,6 +141,7 @@ contains
                               pot%runs_on_pruned_list() .and. .not. pot%needs_full_neighbourhood(.true.)
             if (self%inner_list) s = trim(s)//'; force and ray passes over the pairs within cutoff + skin/4, '// &
                                      'pruned from it when an atom has moved skin/8'
+            if (cfg%outer_skin > 0) call plan_outer_list(self, cfg, pot, s)
             self%cluster_pairs = (cfg%list == 'clusters' .or. cfg%list == 'auto') .and. pot%wants_clusters() .and. &
                                  cfg%dimension == 3 .and. .not. self%inner_list
             ! an explicit 'clusters' the potential declines (config has checked precision and dimension; a

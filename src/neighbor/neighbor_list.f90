@@ -109,6 +109,16 @@ module terrace_neighbor_list
             integer(c_int), value :: k1, k2, above
             integer(c_int), intent(inout) :: out(*)
         end function c_scan_compress
+        !> src/neighbor/prune_simd.c: keep_within with AVX-512 (-1: not in this build)
+        integer(c_int) function c_prune_compress(xi, yi, zi, x, nb, k1, k2, cutsq, out) &
+            bind(C, name='terrace_prune_compress')
+            import :: c_int, c_double
+            real(c_double), value :: xi, yi, zi, cutsq
+            real(c_double), intent(in) :: x(*)
+            integer(c_int), intent(in) :: nb(*)
+            integer(c_int), value :: k1, k2
+            integer(c_int), intent(inout) :: out(*)
+        end function c_prune_compress
     end interface
 
 contains
@@ -734,7 +744,8 @@ contains
         self%builds = self%builds + 1
     end subroutine nl_prune
 
-    !> Append to neigh(n+1:) the partners neighbours(k1:k2) of atom i within cutsq, in order.
+    !> Append to neigh(n+1:) the partners neighbours(k1:k2) of atom i within cutsq, in order (with
+    !> AVX-512 prune_simd.c's gathers and compressing stores, else a branch-free loop).
     subroutine keep_within(x, i, neighbours, k1, k2, cutsq, neigh, n)
         real(dp), intent(in) :: x(3, *)
         integer, intent(in) :: i, k1, k2
@@ -745,6 +756,12 @@ contains
         integer :: k, j
         real(dp) :: xi, yi, zi, dx, dy, dz
         xi = x(1, i); yi = x(2, i); zi = x(3, i)
+        if (k2 < k1) return
+        k = c_prune_compress(xi, yi, zi, x, neighbours, k1, k2, cutsq, neigh(n + 1:))
+        if (k >= 0) then      ! (prune_simd.c did it: AVX-512)
+            n = n + k
+            return
+        end if
         do k = k1, k2
             j = neighbours(k)
             dx = xi - x(1, j); dy = yi - x(2, j); dz = zi - x(3, j)

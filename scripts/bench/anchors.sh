@@ -576,7 +576,7 @@ if [[ "$parts" == *,argon,* ]]; then
     grep -q "run_time=$ps.0" ar_terrace.nml || { echo "anchors: could not set run_time in ar_terrace.nml" >&2; exit 1; }
     # GROMACS's default drift tolerance, 0.005 kJ/mol/ps per atom, in eV/ps
     tol_ev="$(python3 -c "print('%.6g' % (0.005 / 96.48533212331))")"
-    sed -E -e "s#shift=.true. /#shift=.true., precision='mixed' /#" -e "s#skin=1.0 /#buffer_tolerance=$tol_ev /#" \
+    sed -E -e "s#shift=.true. /#shift=.true., precision='mixed' /#" -e "s#^&neighbor .*/#\&neighbor buffer_tolerance=$tol_ev /#" \
         ar_terrace.nml > ar_terrace_mixed_tol.nml
     sed -E "s#buffer_tolerance=$tol_ev /#buffer_tolerance=$tol_ev, every=40 /#" ar_terrace_mixed_tol.nml > ar_terrace_mixed_tol40.nml
     for f in ar_terrace_mixed_tol ar_terrace_mixed_tol40; do

@@ -26,7 +26,8 @@ bins=(); for b in "$@"; do [[ -x $b ]] || { echo "list_build_cost: $b is not exe
 cd "$work"
 cp "$repo/input/argon_nvt.nml" .
 "${bins[0]}" argon_nvt.nml > eq.log 2>&1 || { tail eq.log >&2; exit 1; }     # argon_nvt_eq.atoms
-sed -e "s/run_time=100000.0/run_time=$ps/" "$repo/input/argon_nvt_100ns.nml" > argon.nml
+# (the list this script measures: skin 1 A, no outer list)
+sed -e "s/run_time=100000.0/run_time=$ps/" -e "s#^&neighbor .*/#\&neighbor skin=1.0 /#" "$repo/input/argon_nvt_100ns.nml" > argon.nml
 sed -E "s/n_steps=[0-9]+/n_steps=$nlj/" "$repo/input/lj_bench.nml" > lj.nml
 echo "list build cost per atom; $(date -u '+%Y-%m-%d %H:%M UTC'); commit $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
 echo "machine: $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(env -u OMP_NUM_THREADS nproc) cores visible, load $(cut -d' ' -f1-3 /proc/loadavg)"

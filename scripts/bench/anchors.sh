@@ -595,7 +595,7 @@ if [[ "$parts" == *,argon,* ]]; then
     done
     have lmp && labels+=(ar_lammps)
     echo "   codes: ${labels[*]}"
-    echo "   ar_terrace: the deck as it is (double, exact list, skin 1 A); ar_terrace_mixed_tol: precision='mixed'"
+    echo "   ar_terrace: the deck as it is (double, exact list: skin 0.6 A pruned from outer_skin 2.6 A); ar_terrace_mixed_tol: precision='mixed'"
     echo "   (cluster-pair list), &neighbor buffer_tolerance=$tol_ev eV/ps (GROMACS's default 0.005 kJ/mol/ps),"
     echo "   every 10 steps (the key's default); ar_terrace_mixed_tol40: the same every 40 steps; GROMACS: leap-frog,"
     echo "   v-rescale (tau-t 1 ps), its Verlet buffer at its default tolerance, nstcalcenergy 100, energies and"

@@ -19,7 +19,9 @@ module terrace_scene_plan
         !> energy stepping: force and ray passes over a pruned copy of the list (pairs within
         !> rc + skin/4, pruned again when an atom has moved skin/8), for potentials whose passes
         !> allow it (runs_on_pruned_list: Lennard-Jones). Only with cell lists, and not where the
-        !> passes need the complement list (want_below: EAM).
+        !> passes need the complement list (want_below: EAM). Velocity Verlet with &neighbor
+        !> outer_skin: the force pass over the pairs within rc + skin pruned from the list built
+        !> with outer_skin (terrace_engine, engine_list_due).
         logical :: inner_list = .false.
         !> Cluster-pair list in place of the atom list (terrace_cluster_list): the potential wants one
         !> (the mixed-precision LJ kernel), 3-D, cell lists, &neighbor list = 'auto' or 'clusters'

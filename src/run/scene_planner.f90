@@ -93,8 +93,8 @@ contains
         self%inner_list = .true.
         write (s, '(a,g0.6,a,g0.6,a,g0.6,a)') 'cell lists + half Verlet list, cutoff ', pot%cutoff(), &
             ' + outer_skin ', cfg%outer_skin, '; the force pass reads the pairs within cutoff + skin ', cfg%skin, &
-            ' pruned from it when an atom has moved skin/2, and the list is rebuilt when an atom has moved '// &
-            '(outer_skin - skin)/2 by a prune; atoms sorted by cell at each rebuild'
+            ' pruned from it when an atom has moved skin/2; rebuilt instead when at that step an atom has moved '// &
+            '(outer_skin - skin)/2 since the build; atoms sorted by cell at each rebuild'
     end subroutine plan_outer_list
 
     !> The halo and pairs lines: all pairs, no pair list, or cells + list (atom pairs or cluster pairs).

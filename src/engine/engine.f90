@@ -463,7 +463,8 @@ contains
         if (forced) return
         due = list_keep
         if (.not. self%inner%needs_rebuild(self%atoms)) return
-        far = self%list%moved_beyond(self%atoms, 0.5_dp*(self%list%skin - self%inner%skin) - 1.0e-9_dp*self%list%skin)
+        far = self%list%moved_beyond(self%atoms, &
+                                     0.5_dp*(self%list%skin - self%inner%skin) - 1.0e-9_dp*self%list%skin)
         call any_all(far)
         due = merge(list_rebuild, list_prune, far)
     end function engine_list_due

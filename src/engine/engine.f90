@@ -168,6 +168,11 @@ contains
         self%list%want_types = self%pot%wants_neighbour_types()
         self%list%type_order = self%pot%neighbour_type_order()
         self%list%want_clusters = self%plan%cluster_pairs      ! (the plan sets it with cell lists only)
+        ! a potential whose passes read the half list and nothing else never reads a ghost below the
+        ! brick along z (domain_t%ghosts_below)
+        self%dom%ghosts_below = .not. (self%plan%pair_mode == pair_cells .and. p%dimension == 3 .and. &
+                                       self%pot%runs_on_pruned_list() .and. .not. self%list%want_below .and. &
+                                       .not. self%list%want_clusters)
         call self%rebuild()
         call check_overlaps(self%atoms, self%list, self%pot, self%plan%pair_mode, self%source)
         call self%compute_forces(.true.)

@@ -41,6 +41,12 @@ module terrace_domain
         integer :: nbr_lo(3) = -1, nbr_hi(3) = -1
         real(dp) :: sublo(3) = 0, subhi(3) = 0
         real(dp) :: cutghost = 0
+        !> .false.: no ghosts below the brick along z in 3-D. The half neighbour list pairs an owned
+        !> atom with a ghost only if the ghost is above it in (z, y, x) order, and every ghost below
+        !> the brick is below every owned atom: where the potential's passes read that list and
+        !> nothing else (the engine decides), those ghosts are never read. Without them the list,
+        !> the forces and their order are the same, and the halo is a quarter smaller on one rank.
+        logical :: ghosts_below = .true.
         integer :: nswap = 0
         type(swap_t), allocatable :: swaps(:)
         real(dp), allocatable :: sendbuf(:), recvbuf(:)
@@ -343,6 +349,8 @@ contains
             prev = 0
             do hop = 1, nhop
                 do dir = 1, 2
+                    ! (dir 2 sends up: the receiver's ghosts below it)
+                    if (dir == 2 .and. d == 3 .and. .not. self%ghosts_below) cycle
                     call add_swap(self, d, dir)
                     s = self%nswap
                     if (hop == 1) then

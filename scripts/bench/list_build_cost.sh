@@ -39,8 +39,10 @@ echo "argon: 864 atoms, $ps ps (skin 1 A, exact list); lj: 32,000 atoms, $nlj st
 import math
 for name, l, c in (('argon', 34.6809019, 9.5), ('lj', 20 * (4 / 0.8442) ** (1 / 3), 2.8)):
     e = l + 2 * c; wxy = c; wz = c / 2
-    print('  %-6s ghost shell / box volume %.3f (box %.4g, rc + skin c = %.3g); bins %.4g x %.4g x %.4g = %.3f x %.3f x %.3f c;'
-          ' stencil / cutoff sphere volume %.2f' % (name, (e ** 3 - l ** 3) / l ** 3, l, c, wxy, wxy, wz, wxy / c, wxy / c, wz / c,
+    print('  %-6s ghost shell / box volume %.3f, %.3f without the slab below in z (Lennard-Jones: domain_t%%ghosts_below)'
+          ' (box %.4g, rc + skin c = %.3g); bins %.4g x %.4g x %.4g = %.3f x %.3f x %.3f c;'
+          ' stencil / cutoff sphere volume %.2f' % (name, (e ** 3 - l ** 3) / l ** 3, (e ** 3 - l ** 3 - c * e * e) / l ** 3,
+                                                     l, c, wxy, wxy, wz, wxy / c, wxy / c, wz / c,
                                                      9 * wxy * wxy * 5 * wz / (4 / 3 * math.pi * c ** 3)))"
 if [[ $wall != 0 ]]; then
     : > wall.txt

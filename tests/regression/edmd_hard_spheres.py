@@ -71,6 +71,20 @@ def read_thermo(path):
     return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
 
 
+def run_deck(terrace, d, deck):
+    """Write deck as d/run.nml, run it in d (screen output to d/terrace.log) and return its thermo
+    columns (thermo_file='thermo.csv'); a failed run raises with the end of its output."""
+    os.makedirs(d, exist_ok=True)
+    with open(os.path.join(d, 'run.nml'), 'w') as f:
+        f.write(deck)
+    r = subprocess.run([terrace, 'run.nml'], cwd=d, capture_output=True, text=True, timeout=900)
+    with open(os.path.join(d, 'terrace.log'), 'w') as f:
+        f.write(r.stdout + r.stderr)
+    if r.returncode != 0:
+        raise RuntimeError('terrace failed:\n' + (r.stdout + r.stderr)[-2000:])
+    return read_thermo(os.path.join(d, 'thermo.csv'))
+
+
 def block_error(x, nblocks=8):
     m = len(x)//nblocks*nblocks
     if m < nblocks:

@@ -12,15 +12,13 @@ total energy K + U (U the sum of -eps over captured pairs) and the momentum cons
 Usage: edmd_square_well.py TERRACE OUTDIR [--time 400]
 """
 import argparse
-import csv
 import math
 import os
-import subprocess
 import sys
 
 import numpy as np
 
-from edmd_hard_spheres import fcc_scene, block_error   # (beside this script: on sys.path as its folder)
+from edmd_hard_spheres import fcc_scene, block_error, run_deck   # (beside this script: on sys.path as its folder)
 
 LAMBDA = 1.5
 
@@ -32,21 +30,12 @@ def run_case(terrace, d, n, t_run, cells, seed):
     with open(os.path.join(d, 'atoms.txt'), 'w') as f:
         for p, q in zip(x, v):
             f.write('1 %.17g %.17g %.17g %.17g %.17g %.17g\n' % (*p, *q))
-    with open(os.path.join(d, 'run.nml'), 'w') as f:
-        f.write(f"""&run units='lj', dimension=3, run_time={t_run:.17g}, seed=1 /
+    th = run_deck(terrace, d, f"""&run units='lj', dimension=3, run_time={t_run:.17g}, seed=1 /
 &system atoms_file='atoms.txt', box_lo=0,0,0, box_hi={box:.17g},{box:.17g},{box:.17g}, mass=1.0 /
 &potential style='square_well', diameter=1.0, well_depth=1.0, well_lambda={LAMBDA} /
 &integrator style='event_driven' /
 &output thermo_interval={t_run/100:.17g}, thermo_file='thermo.csv', overwrite=.true. /
 """)
-    r = subprocess.run([terrace, 'run.nml'], cwd=d, capture_output=True, text=True, timeout=900)
-    with open(os.path.join(d, 'terrace.log'), 'w') as f:
-        f.write(r.stdout + r.stderr)
-    if r.returncode != 0:
-        raise RuntimeError('terrace failed:\n' + (r.stdout + r.stderr)[-2000:])
-    with open(os.path.join(d, 'thermo.csv')) as f:
-        rows = list(csv.DictReader(f))
-    th = {k: np.array([float(q[k]) for q in rows]) for k in rows[0]}
     natoms = len(x)
     keep = th['time'] > 0.1*t_run + 1e-12
     kt = 2*th['ke']/(3*natoms)

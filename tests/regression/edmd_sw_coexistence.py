@@ -19,13 +19,13 @@ Usage: edmd_sw_coexistence.py TERRACE OUTDIR [--time 1000] [--extra 0.52,0.56]
 liquid points, the density at which the liquid's pressure equals the vapour's; no checks.)
 """
 import argparse
-import csv
 import math
 import os
-import subprocess
 import sys
 
 import numpy as np
+
+from edmd_hard_spheres import block_error, run_deck   # (beside this script: on sys.path as its folder)
 
 KT = 1.15
 RHO_VAP = 0.09723
@@ -33,30 +33,14 @@ RHO_LIQ = 0.5384
 DROP = 20.0
 
 
-def block_error(x, nblocks=20):
-    m = len(x)//nblocks*nblocks
-    b = x[:m].reshape(nblocks, -1).mean(axis=1)
-    return b.std(ddof=1)/math.sqrt(nblocks)
-
-
 def run(terrace, d, rho, t_run, seed):
-    os.makedirs(d, exist_ok=True)
-    with open(os.path.join(d, 'run.nml'), 'w') as f:
-        f.write(f"""&run units='lj', dimension=3, run_time={t_run:.17g}, seed={seed} /
+    th = run_deck(terrace, d, f"""&run units='lj', dimension=3, run_time={t_run:.17g}, seed={seed} /
 &system lattice='fcc', density={rho:.17g}, cells=5,5,5, mass=1.0, temperature={KT} /
 &potential style='square_well', diameter=1.0, well_depth=1.0, well_lambda=1.5 /
 &integrator style='event_driven' /
 &thermostat style='andersen', temperature={KT}, damping=1.0 /
 &output thermo_interval=0.5, thermo_file='thermo.csv', overwrite=.true. /
 """)
-    r = subprocess.run([terrace, 'run.nml'], cwd=d, capture_output=True, text=True, timeout=900)
-    with open(os.path.join(d, 'terrace.log'), 'w') as f:
-        f.write(r.stdout + r.stderr)
-    if r.returncode != 0:
-        raise RuntimeError('terrace failed:\n' + (r.stdout + r.stderr)[-2000:])
-    with open(os.path.join(d, 'thermo.csv')) as f:
-        rows = list(csv.DictReader(f))
-    th = {k: np.array([float(q[k]) for q in rows]) for k in rows[0]}
     natoms = 500
     keep = th['time'] > DROP + 1e-12
     p = th['press'][keep]
@@ -64,8 +48,8 @@ def run(terrace, d, rho, t_run, seed):
     u = th['pe'][keep]/natoms
     ec = th['econserve']
     drift = float(np.max(np.abs(ec - ec[0]))/abs(ec[0]))
-    return dict(rho=rho, p=p.mean(), pe=block_error(p), kt=kt.mean(), kte=block_error(kt),
-                u=u.mean(), ue=block_error(u), drift=drift, coll=th['collisions'][-1])
+    return dict(rho=rho, p=p.mean(), pe=block_error(p, 20), kt=kt.mean(), kte=block_error(kt, 20),
+                u=u.mean(), ue=block_error(u, 20), drift=drift, coll=th['collisions'][-1])
 
 
 def main():

@@ -34,9 +34,10 @@ import numpy as np
 
 from terrace_tools import summary
 
+from es_list_complete import RC, all_pairs_energy   # (beside this script: on sys.path as its folder)
+
 CELLS = 5
 DENSITY = 0.8442
-RC = 2.5
 DECK = f"""&run units='lj', dimension=3, n_steps=2000, seed=4242 /
 &system lattice='fcc', density={DENSITY}, cells={CELLS},{CELLS},{CELLS}, periodic=.true.,.true.,.true., mass=1.0,
         temperature=1.44 /
@@ -46,20 +47,6 @@ DECK = f"""&run units='lj', dimension=3, n_steps=2000, seed=4242 /
 &output thermo_every=10, thermo_file='thermo.csv', trajectory_file='traj.h5', trajectory_every=100,
         trajectory_fields='position' /
 """
-
-
-def all_pairs_energy(x, length):
-    """Shifted LJ (eps = sigma = 1) over all minimum-image pairs within RC."""
-    e_cut = 4.0*(RC**-12 - RC**-6)
-    total = 0.0
-    for i in range(len(x) - 1):
-        d = x[i + 1:] - x[i]
-        d -= length*np.round(d/length)
-        r2 = np.einsum('ij,ij->i', d, d)
-        r2 = r2[r2 < RC*RC]
-        inv6 = r2**-3
-        total += float(np.sum(4.0*(inv6*inv6 - inv6) - e_cut))
-    return total
 
 
 def rows(path):

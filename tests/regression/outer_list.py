@@ -26,7 +26,6 @@ import argparse
 import csv
 import os
 import shutil
-import subprocess
 import sys
 
 import h5py
@@ -34,7 +33,7 @@ import numpy as np
 
 from terrace_tools import summary
 
-from es_list_complete import RC, all_pairs_energy   # (beside this script: on sys.path as its folder)
+from es_list_complete import RC, all_pairs_energy, run as run_deck   # (beside this script: on sys.path as its folder)
 
 CELLS = 5
 DENSITY = 0.8442
@@ -57,16 +56,7 @@ def rows(path):
 def run(terrace, work, outer, np_, env):
     shutil.rmtree(work, ignore_errors=True)
     os.makedirs(work)
-    open(os.path.join(work, 'run.nml'), 'w').write(DECK.replace('NEIGHBOR', f', outer_skin={outer}' if outer else ''))
-    cmd = [os.path.abspath(terrace), 'run.nml']
-    if np_ > 1:
-        cmd = ['mpirun', '--oversubscribe', '-np', str(np_)] + cmd
-    p = subprocess.run(cmd, cwd=work, capture_output=True, text=True, env=env, timeout=600)
-    open(os.path.join(work, 'run.log'), 'w').write(p.stdout + p.stderr)
-    if p.returncode != 0:
-        print(p.stdout[-3000:], p.stderr[-3000:])
-        sys.exit(f'FAIL: terrace failed in {work}')
-    return p.stdout
+    return run_deck(terrace, work, DECK.replace('NEIGHBOR', f', outer_skin={outer}' if outer else ''), np_, env)
 
 
 def same_rows(a, b, steps):

@@ -1308,7 +1308,7 @@ contains
     end subroutine validate_list_schedule
 
     !> &neighbor outer_skin: 0 (off), or a skin > skin for the built list that velocity Verlet prunes
-    !> the force pass's list from (terrace_engine's rebuild_or_prune); for the exact list of a fixed
+    !> the force pass's list from (terrace_engine's engine_list_due); for the exact list of a fixed
     !> 3-D box in double precision only (what the potential allows the scene planner checks).
     subroutine check_outer_skin(cfg)
         type(config_t), intent(in) :: cfg

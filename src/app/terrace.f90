@@ -31,6 +31,7 @@ program terrace
     use terrace_info_flags, only: answer_info_flag
     use terrace_run_control, only: run_control_t
     use terrace_run_outputs, only: run_outputs_t
+    use terrace_run_parts, only: run_parts_t
     use terrace_signals, only: exit_stopped
     use terrace_checkpoint, only: probe_checkpoint_path
     use terrace_output_files, only: check_outputs, check_output_ids, commit_small_outputs
@@ -44,13 +45,13 @@ program terrace
     implicit none
 
     type(config_t) :: cfg
-    type(engine_t) :: eng
+    type(engine_t), target :: eng
     type(scene_t) :: scene
     type(thermo_writer_t), target :: thermo
     type(trajectory_t), target :: traj
     type(schedule_t) :: sched
-    class(thermostat_t), allocatable :: ts
-    class(barostat_t), allocatable :: bs
+    class(thermostat_t), allocatable, target :: ts
+    class(barostat_t), allocatable, target :: bs
     character(len=:), allocatable :: path
     character(len=4096) :: arg
     logical :: check_only, ok
@@ -61,7 +62,7 @@ program terrace
     type(es_stats_t) :: es
     character(len=512) :: msg
     type(run_control_t), target :: ctl
-    type(run_outputs_t) :: out
+    type(run_outputs_t), target :: out
     real(dp) :: wall_start
 
     call start_mpi()
@@ -118,7 +119,7 @@ contains
                           trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), &
                           sched%end_time())
         call start_clock()
-        call run_velocity_verlet(eng, verlet_params(cfg), ts, bs, out, sched)
+        call run_velocity_verlet(run_parts_t(eng=eng, ts=ts, bs=bs, out=out), verlet_params(cfg), sched)
         call close_run(sched%end_time())
         ! (outer_skin needs the exact schedule: at most one of the notes is there)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', &
@@ -268,7 +269,7 @@ contains
                           trim(merge(',ecouple,econserve', '                  ', cfg%thermostat /= 'none')), &
                           sched%end_time())
         call start_clock()
-        call run_energy_stepping(eng, es_params(cfg), ts, bs, out, h, sched, es)
+        call run_energy_stepping(run_parts_t(eng=eng, ts=ts, bs=bs, out=out), es_params(cfg), h, sched, es)
         call close_run(es%time)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, es%events, eng%list%builds, 'events', prune_note(), &
                            list_pairs())
@@ -317,7 +318,7 @@ contains
         call open_outputs(ed_thermo_header//trim(merge(',ecouple,econserve', '                  ', &
                                                        cfg%thermostat /= 'none')), cfg%run_time)
         call start_clock()
-        call run_event_driven(eng, p, ts, out, ed)
+        call run_event_driven(run_parts_t(eng=eng, ts=ts, bs=bs, out=out), p, ed)
         call close_run(cfg%run_time)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, ed%events, eng%list%builds, 'events')
         if (world%rank == 0) then

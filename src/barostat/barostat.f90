@@ -15,8 +15,8 @@
 !>   both:                        follow (the thermostat's present target temperature, before the
 !>                                step's hooks: a ramp moves the barostat's k T with it),
 !>                                active, pv (the P V term of the conserved quantity), energy (the
-!>                                barostat's own energy in it), save / restore (a style's own
-!>                                variables through exchange_own)
+!>                                barostat's own energy in it), exchange_own (a style's
+!>                                own variables, to and from a checkpoint)
 !>
 !> A change of the box goes through the engine (engine%scale_box): positions and box scaled about
 !> the origin, the domain's bricks following the box, atoms migrated and the neighbour list
@@ -37,6 +37,7 @@ module terrace_barostat
     use terrace_velocities, only: kinetic_energy, atom_mass
     use terrace_mpi_env, only: sum_all
     use terrace_named_values, only: named_values_t
+    use terrace_checkpointed, only: checkpointed_t
     implicit none
     private
 
@@ -56,17 +57,12 @@ module terrace_barostat
         real(dp) :: boltz = 1, nktv2p = 1
     end type barostat_params_t
 
-    type, abstract, public :: barostat_t
+    type, abstract, extends(checkpointed_t), public :: barostat_t
         real(dp) :: p0 = 0                       !< target pressure (energy/volume)
         real(dp) :: beta = 0                     !< compressibility (volume/energy)
         real(dp) :: tau = 1
         real(dp) :: kt = 0                       !< k_B T of the thermostat's target
-        real(dp) :: dt = 0
-        integer(i8) :: seed = 1, natoms = 0
-        integer :: dimension = 3, every = 25
-        logical :: aniso = .false.               !< couple = 'aniso': each edge on its own
-        real(dp) :: interval = 0                 !< energy stepping: events at its multiples (0: none)
-        real(dp) :: nktv2p = 1
+        type(barostat_params_t) :: p             !< as made (dt, seed, natoms, dimension, aniso, every, interval)
     contains
         procedure, non_overridable :: init => baro_init
         procedure :: setup => baro_setup
@@ -82,9 +78,6 @@ module terrace_barostat
         procedure :: second_half => baro_half
         procedure :: energy => baro_energy
         procedure, non_overridable :: pv => baro_pv
-        procedure, non_overridable :: save => baro_save
-        procedure, non_overridable :: restore => baro_restore
-        procedure :: exchange_own => baro_exchange_own
     end type barostat_t
 
     !> No barostat: every hook does nothing (constant volume).
@@ -100,18 +93,11 @@ contains
     subroutine baro_init(self, p)
         class(barostat_t), intent(inout) :: self
         type(barostat_params_t), intent(in) :: p
-        self%nktv2p = p%nktv2p
+        self%p = p
         self%p0 = p%pressure/p%nktv2p
         self%beta = p%compressibility*p%nktv2p
         self%tau = p%damping
         self%kt = p%boltz*p%temperature
-        self%dt = p%dt
-        self%seed = p%seed
-        self%natoms = p%natoms
-        self%dimension = p%dimension
-        self%aniso = p%aniso
-        self%every = p%every
-        self%interval = p%interval
         call self%setup(p)
     end subroutine baro_init
 
@@ -163,9 +149,7 @@ contains
     !>                  drifted there
     subroutine baro_box_kept(self, eng, step, moved)
         class(barostat_t), intent(inout) :: self
-        type(engine_t), intent(inout) :: eng
-        integer(i8), intent(in) :: step
-        logical, intent(out) :: moved
+        include 'barostat_hook_args.inc'
         moved = .false.
     end subroutine baro_box_kept
 
@@ -197,32 +181,6 @@ contains
         type(engine_t), intent(in) :: eng
         baro_pv = self%p0*eng%box%volume()
     end function baro_pv
-
-    !> The barostat's variables into a checkpoint's values (the style's own: exchange_own).
-    subroutine baro_save(self, values)
-        class(barostat_t), intent(inout) :: self
-        type(named_values_t), intent(inout) :: values
-        logical :: ok
-        ok = .true.
-        call self%exchange_own(values, .true., ok)
-    end subroutine baro_save
-
-    !> The variables baro_save wrote (ok false when some of them are missing).
-    subroutine baro_restore(self, values, ok)
-        class(barostat_t), intent(inout) :: self
-        type(named_values_t), intent(inout) :: values
-        logical, intent(inout) :: ok
-        call self%exchange_own(values, .false., ok)
-    end subroutine baro_restore
-
-    !> A style's own variables, written to (saving) or read from a checkpoint's values, one list of
-    !> names for both ways (none by default).
-    subroutine baro_exchange_own(self, values, saving, ok)
-        class(barostat_t), intent(inout) :: self
-        type(named_values_t), intent(inout) :: values
-        logical, intent(in) :: saving
-        logical, intent(inout) :: ok
-    end subroutine baro_exchange_own
 
     !> x(1), x(2), ... under prefix//'1', prefix//'2', ..., written (saving) or read back (ok false
     !> when one is missing): an array of a style's variables in exchange_own.

@@ -52,21 +52,19 @@ contains
     !> velocities scaled by it (module header).
     subroutine cr_before_forces(self, eng, step, moved)
         class(c_rescale_t), intent(inout) :: self
-        type(engine_t), intent(inout) :: eng
-        integer(i8), intent(in) :: step
-        logical, intent(out) :: moved
+        include 'barostat_hook_args.inc'
         type(rng_stream_t) :: s
         real(dp) :: v, deps, mu, ke, deps_axis(3), ke_axis(3), sd, drift, scale(3)
         integer :: a, d
         if (.not. self%have_p) call measure_pressure(self, eng)    ! the first step: the initial state's
-        d = self%dimension
+        d = self%p%dimension
         v = eng%box%volume()
-        s = rng_stream(self%seed, stream_c_rescale, 0_i8, step)
-        if (self%aniso) then                 ! each edge by its own pressure component and its own noise
-            sd = sqrt(2*self%kt*self%beta*self%dt/(d*v*self%tau))
+        s = rng_stream(self%p%seed, stream_c_rescale, 0_i8, step)
+        if (self%p%aniso) then                 ! each edge by its own pressure component and its own noise
+            sd = sqrt(2*self%kt*self%beta*self%p%dt/(d*v*self%tau))
             deps_axis = 0
             do a = 1, d
-                drift = -(self%beta/(d*self%tau))*(self%p0 - self%p_axis(a) - self%kt/v)*self%dt
+                drift = -(self%beta/(d*self%tau))*(self%p0 - self%p_axis(a) - self%kt/v)*self%p%dt
                 deps_axis(a) = drift + sd*s%normal()
             end do
             ke_axis = kinetic_diagonal(eng)
@@ -75,8 +73,8 @@ contains
             self%log_mu_axis = deps_axis
             scale = exp(deps_axis)
         else
-            deps = -(self%beta/self%tau)*(self%p0 - self%p_int - self%kt/v)*self%dt + &
-                   sqrt(2*self%kt*self%beta*self%dt/(v*self%tau))*s%normal()
+            deps = -(self%beta/self%tau)*(self%p0 - self%p_int - self%kt/v)*self%p%dt + &
+                   sqrt(2*self%kt*self%beta*self%p%dt/(v*self%tau))*s%normal()
             mu = exp(deps/d)
             ke = kinetic_energy(eng%atoms, eng%units)
             self%work = self%work + ke*(1/mu**2 - 1) + self%p0*v*(exp(deps) - 1)
@@ -89,11 +87,9 @@ contains
 
     subroutine cr_after_step(self, eng, step, moved)
         class(c_rescale_t), intent(inout) :: self
-        type(engine_t), intent(inout) :: eng
-        integer(i8), intent(in) :: step
-        logical, intent(out) :: moved
+        include 'barostat_hook_args.inc'
         moved = .false.
-        if (self%aniso) then
+        if (self%p%aniso) then
             self%work = self%work - 0.5_dp*sum(self%log_mu_axis*(self%w_axis + eng%virial_diag))
         else
             self%work = self%work - 0.5_dp*self%log_mu*(self%w_before + eng%virial)
@@ -106,7 +102,7 @@ contains
     subroutine measure_pressure(self, eng)
         class(c_rescale_t), intent(inout) :: self
         type(engine_t), intent(inout) :: eng
-        if (self%aniso) then
+        if (self%p%aniso) then
             self%p_axis = pressure_diagonal(eng)
         else
             self%p_int = internal_pressure(eng)
@@ -124,10 +120,8 @@ contains
     !> The pressure of the end of the last step (aniso: its diagonal) and the work so far.
     subroutine cr_exchange(self, values, saving, ok)
         class(c_rescale_t), intent(inout) :: self
-        type(named_values_t), intent(inout) :: values
-        logical, intent(in) :: saving
-        logical, intent(inout) :: ok
-        call exchange_iso_aniso(values, self%aniso, 'baro_p_int', self%p_int, 'baro_p_axis_', self%p_axis, saving, ok)
+        include 'checkpointed_args.inc'
+        call exchange_iso_aniso(values, self%p%aniso, 'baro_p_int', self%p_int, 'baro_p_axis_', self%p_axis, saving, ok)
         call values%exchange('baro_work', self%work, saving, ok)
         if (.not. saving) self%have_p = .true.
     end subroutine cr_exchange

@@ -41,16 +41,14 @@ contains
     logical function mc_needs_virial(self, step)
         class(mc_barostat_t), intent(in) :: self
         integer(i8), intent(in) :: step
-        mc_needs_virial = mod(step, int(self%every, i8)) == 0
+        mc_needs_virial = mod(step, int(self%p%every, i8)) == 0
     end function mc_needs_virial
 
     subroutine mc_after_step(self, eng, step, moved)
         class(mc_barostat_t), intent(inout) :: self
-        type(engine_t), intent(inout) :: eng
-        integer(i8), intent(in) :: step
-        logical, intent(out) :: moved
+        include 'barostat_hook_args.inc'
         moved = .false.
-        if (mod(step, int(self%every, i8)) /= 0) return
+        if (mod(step, int(self%p%every, i8)) /= 0) return
         call mc_trial(self, eng, step, moved)
     end subroutine mc_after_step
 
@@ -59,20 +57,18 @@ contains
     !> every event).
     subroutine mc_trial(self, eng, step, moved)
         class(mc_barostat_t), intent(inout) :: self
-        type(engine_t), intent(inout) :: eng
-        integer(i8), intent(in) :: step
-        logical, intent(out) :: moved
+        include 'barostat_hook_args.inc'
         type(rng_stream_t) :: s
         real(dp) :: v, v_new, u_old, dh, mu, ua, ub, scale(3)
         integer :: d, axis
         moved = .false.
         v = eng%box%volume()
         if (self%dv_max < 0) self%dv_max = 0.01_dp*v
-        s = rng_stream(self%seed, stream_mc_barostat, 0_i8, step)
+        s = rng_stream(self%p%seed, stream_mc_barostat, 0_i8, step)
         ua = s%uniform()
         ub = s%uniform()
         axis = 0
-        if (self%aniso) axis = min(1 + int(self%dimension*s%uniform()), self%dimension)
+        if (self%p%aniso) axis = min(1 + int(self%p%dimension*s%uniform()), self%p%dimension)
         v_new = v + self%dv_max*(2*ua - 1)
         if (v_new <= 0) return
         u_old = eng%pe
@@ -81,12 +77,12 @@ contains
             scale = 1
             scale(axis) = v_new/v
         else
-            mu = (v_new/v)**(1.0_dp/self%dimension)
-            scale = [(merge(mu, 1.0_dp, d <= self%dimension), d = 1, 3)]
+            mu = (v_new/v)**(1.0_dp/self%p%dimension)
+            scale = [(merge(mu, 1.0_dp, d <= self%p%dimension), d = 1, 3)]
         end if
         call eng%scale_box(scale, velocities=.false.)
         call eng%compute_forces(.true.)
-        dh = eng%pe - u_old + self%p0*(v_new - v) - self%natoms*self%kt*log(v_new/v)
+        dh = eng%pe - u_old + self%p0*(v_new - v) - self%p%natoms*self%kt*log(v_new/v)
         self%attempted = self%attempted + 1
         self%total_attempted = self%total_attempted + 1
         if (dh <= 0 .or. ub < exp(-dh/self%kt)) then
@@ -109,9 +105,7 @@ contains
     !> The trial size and the acceptance counts.
     subroutine mc_exchange(self, values, saving, ok)
         class(mc_barostat_t), intent(inout) :: self
-        type(named_values_t), intent(inout) :: values
-        logical, intent(in) :: saving
-        logical, intent(inout) :: ok
+        include 'checkpointed_args.inc'
         call values%exchange('baro_dv_max', self%dv_max, saving, ok)
         call values%exchange('baro_attempted', self%attempted, saving, ok)
         call values%exchange('baro_accepted', self%accepted, saving, ok)

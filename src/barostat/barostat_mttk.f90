@@ -76,9 +76,9 @@ contains
     !> The barostat's masses from k T (again when a temperature ramp moves it: the same frequencies).
     subroutine mttk_masses(self)
         class(mttk_t), intent(inout) :: self
-        self%w = (self%nf + self%dimension)*self%kt*self%tau**2
+        self%w = (self%nf + self%p%dimension)*self%kt*self%tau**2
         self%q = self%kt*self%tau**2
-        self%w_axis = self%w/self%dimension
+        self%w_axis = self%w/self%p%dimension
     end subroutine mttk_masses
 
     logical function mttk_replaces_kicks(self)
@@ -105,9 +105,9 @@ contains
         call scaled_kick(self, eng, dtfm, dtf, dt)
         ! x e^(v_eps dt) + dt v e^(v_eps dt/2) sinhc(v_eps dt/2) = e^(v_eps dt) (x + c v), per axis
         rate = self%v_eps
-        if (self%aniso) rate = self%v_axis
+        if (self%p%aniso) rate = self%v_axis
         do a = 1, 3
-            self%mu(a) = merge(exp(rate(a)*dt), 1.0_dp, a <= self%dimension)
+            self%mu(a) = merge(exp(rate(a)*dt), 1.0_dp, a <= self%p%dimension)
             c(a) = dt*exp(-0.5_dp*rate(a)*dt)*sinhc(0.5_dp*rate(a)*dt)
         end do
         call drift(eng%atoms%nlocal, eng%atoms%x, eng%atoms%v, c)
@@ -117,9 +117,7 @@ contains
     !> test allows: moved only when it was rebuilt here).
     subroutine mttk_before_forces(self, eng, step, moved)
         class(mttk_t), intent(inout) :: self
-        type(engine_t), intent(inout) :: eng
-        integer(i8), intent(in) :: step
-        logical, intent(out) :: moved
+        include 'barostat_hook_args.inc'
         call eng%scale_box(self%mu, velocities=.false., keep_list=.true., rebuilt=moved)
     end subroutine mttk_before_forces
 
@@ -138,11 +136,9 @@ contains
     !> The barostat's chain dt/2 (after the particles' chain).
     subroutine mttk_after_step(self, eng, step, moved)
         class(mttk_t), intent(inout) :: self
-        type(engine_t), intent(inout) :: eng
-        integer(i8), intent(in) :: step
-        logical, intent(out) :: moved
+        include 'barostat_hook_args.inc'
         moved = .false.
-        call chain(self, 0.5_dp*self%dt)
+        call chain(self, 0.5_dp*self%p%dt)
     end subroutine mttk_after_step
 
     !> v_eps += span G_eps, G_eps = (alpha 2K + W_vir - d V P0)/W (collective: the kinetic energy);
@@ -153,8 +149,8 @@ contains
         real(dp), intent(in) :: span
         real(dp) :: ke, kd(3), v
         integer :: d
-        if (self%aniso) then
-            d = self%dimension
+        if (self%p%aniso) then
+            d = self%p%dimension
             kd = kinetic_diagonal(eng)
             v = eng%box%volume()
             self%v_axis(1:d) = self%v_axis(1:d) + span*(2*kd(1:d) + self%virial_axis(1:d) - v*self%p0 + &
@@ -163,7 +159,7 @@ contains
         end if
         ke = kinetic_energy(eng%atoms, eng%units)
         self%v_eps = self%v_eps + span*(self%alpha*2*ke + self%virial - &
-                                        self%dimension*eng%box%volume()*self%p0)/self%w
+                                        self%p%dimension*eng%box%volume()*self%p0)/self%w
     end subroutine push
 
     !> The barostat's Nose-Hoover chain over a span: three Suzuki-Yoshida sub-steps of the Trotter
@@ -177,7 +173,7 @@ contains
         m = chain_length
         w(1) = 1/(2 - 2**(1.0_dp/3)); w(3) = w(1); w(2) = 1 - 2*w(1)
         lkt = self%kt
-        if (self%aniso) lkt = self%dimension*self%kt
+        if (self%p%aniso) lkt = self%p%dimension*self%kt
         do k = 1, 3
             d = w(k)*span
             ke2 = barostat_ke2(self)
@@ -206,7 +202,7 @@ contains
     !> Twice the barostat's kinetic energy: W v_eps^2 (aniso: sum_a W_a nu_a^2).
     pure real(dp) function barostat_ke2(self) result(ke2)
         class(mttk_t), intent(in) :: self
-        if (self%aniso) then
+        if (self%p%aniso) then
             ke2 = self%w_axis*sum(self%v_axis**2)
         else
             ke2 = self%w*self%v_eps**2
@@ -219,7 +215,7 @@ contains
         class(mttk_t), intent(in) :: self
         type(engine_t), intent(in) :: eng
         mttk_energy = 0.5_dp*barostat_ke2(self) + sum(0.5_dp*self%q*self%v_eta**2 + self%kt*self%eta)
-        if (self%aniso) mttk_energy = mttk_energy + (self%dimension - 1)*self%kt*self%eta(1)
+        if (self%p%aniso) mttk_energy = mttk_energy + (self%p%dimension - 1)*self%kt*self%eta(1)
     end function mttk_energy
 
     !> v <- v e^(-alpha v_eps h) + h F/m e^(-alpha v_eps h/2) sinhc(alpha v_eps h/2), h = dt/2
@@ -230,7 +226,7 @@ contains
         real(dp), intent(in) :: dtfm(:), dtf, dt
         real(dp) :: a(3), s_v(3), s_f(3)
         integer :: k
-        if (self%aniso) then
+        if (self%p%aniso) then
             a = (self%v_axis + sum(self%v_axis)/self%nf)*0.5_dp*dt
         else
             a = self%alpha*self%v_eps*0.5_dp*dt
@@ -289,11 +285,9 @@ contains
     !> The strain rate (aniso: each edge's), the virial at the present positions and the chain.
     subroutine mttk_exchange(self, values, saving, ok)
         class(mttk_t), intent(inout) :: self
-        type(named_values_t), intent(inout) :: values
-        logical, intent(in) :: saving
-        logical, intent(inout) :: ok
-        call exchange_iso_aniso(values, self%aniso, 'baro_v_eps', self%v_eps, 'baro_v_axis_', self%v_axis, saving, ok)
-        call exchange_iso_aniso(values, self%aniso, 'baro_virial', self%virial, 'baro_virial_axis_', self%virial_axis, &
+        include 'checkpointed_args.inc'
+        call exchange_iso_aniso(values, self%p%aniso, 'baro_v_eps', self%v_eps, 'baro_v_axis_', self%v_axis, saving, ok)
+        call exchange_iso_aniso(values, self%p%aniso, 'baro_virial', self%virial, 'baro_virial_axis_', self%virial_axis, &
                                 saving, ok)
         if (.not. saving) self%have_virial = .true.
         call exchange_reals(values, 'baro_eta_', self%eta(1:chain_length), saving, ok)

@@ -1319,8 +1319,9 @@ contains
         if (cfg%outer_skin < 0 .or. (cfg%outer_skin > 0 .and. cfg%outer_skin <= cfg%skin)) &
             call stop_all(at//': must be 0 (off) or > skin = '//trim(s)//' (a length in '//trim(cfg%units%length)//')')
         if (cfg%outer_skin == 0) return
-        if (cfg%integrator /= 'velocity_verlet') call stop_all(at//": only with &integrator style = 'velocity_verlet' "// &
-            '(allowed with style = '''//trim(cfg%integrator)//''': 0)')
+        if (.not. cfg%integ_style%time_stepped) call stop_all(at//': only with &integrator style = '// &
+            quoted_list(integs%name, ' or ', integs%time_stepped)//' (allowed with style = '''// &
+            trim(cfg%integrator)//''': 0)')
         if (.not. (cfg%list_every == 1 .and. cfg%list_check)) call stop_all(at//': only with the exact list '// &
             '(every = 1, check = .true., no buffer_tolerance; allowed otherwise: 0)')
         if (cfg%barostat /= 'none') call stop_all(at//': only with a fixed box (allowed with a barostat: 0)')

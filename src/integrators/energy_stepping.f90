@@ -41,7 +41,6 @@ module terrace_energy_stepping
     use terrace_observables, only: thermo_sample_t
     use terrace_calendar, only: calendar_t, cal_sample, cal_frame, cal_checkpoint, cal_list, cal_thermostat, cal_finish, &
                                cal_barostat
-    use terrace_run_outputs, only: run_outputs_t
     use terrace_thermo, only: thermo_writer_t
     use terrace_timers, only: t_output, t_comm, t_search
     use terrace_mpi_env, only: world, sum_all, min_all
@@ -51,9 +50,8 @@ module terrace_energy_stepping
     use terrace_jump, only: terrace_jump_lambda, jump_climb, jump_reflect, jump_fall, jump_none
     use terrace_named_values, only: named_values_t
     use terrace_scene_plan, only: pair_all
-    use terrace_thermostat, only: thermostat_t
-    use terrace_barostat, only: barostat_t
     use, intrinsic :: iso_fortran_env, only: output_unit
+    use terrace_run_parts, only: run_parts_t
     implicit none
     private
 
@@ -122,11 +120,7 @@ module terrace_energy_stepping
     end type es_params_t
 
     !> One run of the event loop: what its procedures share.
-    type :: es_run_t
-        type(engine_t), pointer :: eng => null()
-        class(thermostat_t), pointer :: ts => null()
-        class(barostat_t), pointer :: bs => null()
-        type(run_outputs_t), pointer :: out => null()
+    type, extends(run_parts_t) :: es_run_t
         type(engine_ray_t) :: ray
         type(event_solver_t) :: solver
         type(es_state_t) :: st
@@ -134,10 +128,15 @@ module terrace_energy_stepping
         real(dp) :: h = 0, mvv2e = 1
         real(dp), allocatable :: minv(:)          !< 1/m of each type
         integer(i8) :: sample_every = 0, traj_every = 0   !< samples / frames every N events (0: by time)
+    contains
+        procedure :: exchange_own => es_exchange_own
     end type es_run_t
 
     character(len=*), parameter, public :: es_thermo_header = &
         ',events,reflections,mean_dt,evals_per_event,terrace_height,e_terraced'
+    !> The observables a frame adds to the engine's (H5MD observables/NAME)
+    character(len=16), parameter :: frame_names(4) = [character(len=16) :: 'events', 'reflections', &
+                                                      'terrace_height', 'e_terraced']
 
     public :: run_energy_stepping, choose_terrace_height, print_es_estimates
 
@@ -362,12 +361,9 @@ contains
     end subroutine print_es_estimates
 
     !> The event loop. Ends at t_end, or after max_events events (sched), or at a stop request.
-    subroutine run_energy_stepping(eng, p, ts, bs, out, h, sched, stats)
-        type(engine_t), intent(inout), target :: eng
+    subroutine run_energy_stepping(parts, p, h, sched, stats)
+        type(run_parts_t), intent(in) :: parts
         type(es_params_t), intent(in) :: p
-        class(thermostat_t), intent(inout), target :: ts
-        class(barostat_t), intent(inout), target :: bs
-        type(run_outputs_t), intent(inout), target :: out
         real(dp), intent(in) :: h
         type(schedule_t), intent(in) :: sched
         type(es_stats_t), intent(out) :: stats
@@ -375,41 +371,43 @@ contains
         type(crossing_t) :: res
         logical :: stop_now
         integer :: i
-        r%eng => eng; r%ts => ts; r%bs => bs; r%out => out
-        r%ray%eng => eng
-        r%ray%thermo => out%thermo
-        r%h = h
-        r%mvv2e = eng%units%mvv2e
-        allocate (r%minv(size(eng%atoms%mass)))
-        do i = 1, size(r%minv)
-            r%minv(i) = 1/eng%atoms%mass(i)
-        end do
-        r%sample_every = sched%thermo_every
-        r%traj_every = sched%traj_every
-        if (eng%restarted) then
-            call restore_state(r, p, sched)
-        else
-            call start_state(r, p, sched)
-        end if
-        call r%st%cal%on_grid(cal_checkpoint, out%ctl%interval, out%ctl%written + 1)
-        r%st%cal%t(cal_finish) = sched%t_end
-        call ts%schedule(eng%atoms, r%st%t)
-        do
-            if (r%st%t >= sched%t_end .or. r%stats%events >= sched%n_steps) exit
-            r%st%cal%t(cal_thermostat) = ts%event_time()
-            call search(r, res)
-            if (res%found) then
-                call level_crossing(r, res)
+        r%run_parts_t = parts
+        associate (eng => r%eng, ts => r%ts, out => r%out)
+            r%ray%eng => r%eng
+            r%ray%thermo => out%thermo
+            r%h = h
+            r%mvv2e = eng%units%mvv2e
+            allocate (r%minv(size(eng%atoms%mass)))
+            do i = 1, size(r%minv)
+                r%minv(i) = 1/eng%atoms%mass(i)
+            end do
+            r%sample_every = sched%thermo_every
+            r%traj_every = sched%traj_every
+            if (eng%restarted) then
+                call restore_state(r, p, sched)
             else
-                call window_end(r, res, stop_now)
-                if (stop_now) exit
+                call start_state(r, p, sched)
             end if
-        end do
-        r%stats%time = r%st%t
-        if (.not. out%ctl%stopped .and. r%sample_every > 0) then
-            if (mod(r%stats%events, r%sample_every) /= 0) call write_sample(r, r%st%t)
-        end if
-        stats = r%stats
+            call r%st%cal%on_grid(cal_checkpoint, out%ctl%interval, out%ctl%written + 1)
+            r%st%cal%t(cal_finish) = sched%t_end
+            call ts%schedule(eng%atoms, r%st%t)
+            do
+                if (r%st%t >= sched%t_end .or. r%stats%events >= sched%n_steps) exit
+                r%st%cal%t(cal_thermostat) = ts%event_time()
+                call search(r, res)
+                if (res%found) then
+                    call level_crossing(r, res)
+                else
+                    call window_end(r, res, stop_now)
+                    if (stop_now) exit
+                end if
+            end do
+            r%stats%time = r%st%t
+            if (.not. out%ctl%stopped .and. r%sample_every > 0) then
+                if (mod(r%stats%events, r%sample_every) /= 0) call write_sample(r, r%st%t)
+            end if
+            stats = r%stats
+        end associate
     end subroutine run_energy_stepping
 
     !> The first level crossing in the window up to the calendar's next entry.
@@ -524,7 +522,7 @@ contains
             if (ts%active() .and. safe) call ts%fold()
             if (ctl%active .and. safe) then
                 stop_now = ctl%stop_requested()
-                if (ckpt_due .or. stop_now) call checkpoint(r, ckpt_due)
+                if (ckpt_due .or. stop_now) call r%checkpoint(r%stats%events, r%st%t, ckpt_due)
                 if (ckpt_due) call cal%on_grid(cal_checkpoint, ctl%interval, ctl%written + 1)
             end if
         end associate
@@ -671,7 +669,7 @@ contains
             st%c_guess = 0
             call st%cal%on_grid(cal_sample, sched%thermo_interval, 1_i8)
             call st%cal%on_grid(cal_frame, sched%traj_interval, 1_i8)
-            call st%cal%on_grid(cal_barostat, r%bs%interval, 1_i8)
+            call st%cal%on_grid(cal_barostat, r%bs%p%interval, 1_i8)
             call expiry_after(r, 0.0_dp)
             st%trust = huge(1.0_dp)
             st%last_events = 0; st%last_evals = 0; st%last_time = 0
@@ -692,38 +690,36 @@ contains
         ! the grids' spacings come from the deck (the checkpoint holds their next points)
         r%st%cal%interval(cal_sample) = sched%thermo_interval
         r%st%cal%interval(cal_frame) = sched%traj_interval
-        r%st%cal%interval(cal_barostat) = r%bs%interval
-        call r%st%exchange(r%eng%restart_values, .false., r%stats, ok)
-        r%solver%tol = r%st%tol
-        r%eng%pe = r%st%pe; r%eng%virial = r%st%virial
-        r%ray%last_s = r%st%ray_last_s; r%ray%last_out = r%st%ray_last_out
+        r%st%cal%interval(cal_barostat) = r%bs%p%interval
+        call r%exchange_own(r%eng%restart_values, .false., ok)
         ! the built list's expiry, as the run computed it after the build it checkpointed at (the
         ! list entry keeps the checkpoint's value)
         t_list = r%st%cal%t(cal_list)
         call expiry_after(r, r%st%t)
         r%st%cal%t(cal_list) = t_list
-        if (r%ts%active()) call r%ts%restore(r%eng%restart_values, ok)
-        if (r%bs%active()) call r%bs%restore(r%eng%restart_values, ok)
+        call r%restore_coupling(r%eng%restart_values, ok)
         call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
                        '(energy-stepping state missing)')
     end subroutine restore_state
 
-    !> A checkpoint: h, the thermostat's state and the event loop's, through the run's outputs.
-    subroutine checkpoint(r, scheduled)
-        type(es_run_t), intent(inout) :: r
-        logical, intent(in) :: scheduled
-        type(named_values_t) :: val
-        logical :: ok
-        call val%put('h', r%h)
-        if (r%ts%active()) call r%ts%save(val)
-        if (r%bs%active()) call r%bs%save(val)
-        r%st%tol = r%solver%tol
-        r%st%pe = r%eng%pe; r%st%virial = r%eng%virial
-        r%st%ray_last_s = r%ray%last_s; r%st%ray_last_out = r%ray%last_out
-        ok = .true.
-        call r%st%exchange(val, .true., r%stats, ok)
-        call r%out%checkpoint(r%eng, val, r%stats%events, r%st%t, scheduled)
-    end subroutine checkpoint
+    !> The event loop's own values of a checkpoint (run_parts_t's checkpoint adds the thermostat's
+    !> and the barostat's), written (saving: with h, which the run's assembly reads back before the
+    !> run) or read back into the solver, the engine's energy and the ray's last evaluation.
+    subroutine es_exchange_own(self, values, saving, ok)
+        class(es_run_t), intent(inout) :: self
+        include 'checkpointed_args.inc'
+        if (saving) then
+            call values%put('h', self%h)
+            self%st%tol = self%solver%tol
+            self%st%pe = self%eng%pe; self%st%virial = self%eng%virial
+            self%st%ray_last_s = self%ray%last_s; self%st%ray_last_out = self%ray%last_out
+        end if
+        call self%st%exchange(values, saving, self%stats, ok)
+        if (saving) return
+        self%solver%tol = self%st%tol
+        self%eng%pe = self%st%pe; self%eng%virial = self%st%virial
+        self%ray%last_s = self%st%ray_last_s; self%ray%last_out = self%st%ray_last_out
+    end subroutine es_exchange_own
 
     !> A thermo sample: the engine's, then events, reflections, the mean event interval and ray
     !> evaluations per event since the last sample, h, and the conserved K + k h.
@@ -758,15 +754,15 @@ contains
         end associate
     end subroutine write_sample
 
+    !> A frame at time: the engine's sample, with the events, reflections, h and the conserved
+    !> K + k h as its observables (frame_names).
     subroutine write_frame(r, time)
         type(es_run_t), intent(inout) :: r
         real(dp), intent(in) :: time
-        type(thermo_sample_t) :: s
-        character(len=16), parameter :: names(4) = [character(len=16) :: 'events', 'reflections', &
-                                                     'terrace_height', 'e_terraced']
-        s = r%eng%sample(r%stats%events, time)
-        call r%out%frame(r%eng, r%stats%events, time, s, names, &
-                         [real(r%stats%events, dp), real(r%stats%reflections, dp), r%h, s%ke + r%st%k*r%h])
+        associate (s => r%eng%sample(r%stats%events, time))
+            call r%out%frame(r%eng, r%stats%events, time, s, frame_names, &
+                             [real(r%stats%events, dp), real(r%stats%reflections, dp), r%h, s%ke + r%st%k*r%h])
+        end associate
     end subroutine write_frame
 
     !> Write the state to (saving) or read it from a checkpoint's named values: every key once.

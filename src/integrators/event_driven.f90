@@ -33,9 +33,7 @@ module terrace_event_driven
     use terrace_kinds, only: dp, i8
     use terrace_text, only: int_text, real_text
     use terrace_engine, only: engine_t
-    use terrace_run_outputs, only: run_outputs_t
     use terrace_calendar, only: calendar_t, cal_sample, cal_frame, cal_checkpoint, cal_finish, cal_thermostat
-    use terrace_thermostat, only: thermostat_t
     use terrace_named_values, only: named_values_t
     use terrace_observables, only: thermo_sample_t
     use terrace_stepped_pair, only: stepped_table_t, inward_time, outward_time, collide, no_event
@@ -48,6 +46,7 @@ module terrace_event_driven
     use terrace_errors, only: stop_all, check_all
     use terrace_timers, only: t_pair, t_output
     use mpi_f08, only: MPI_Allgatherv, MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION
+    use terrace_run_parts, only: run_parts_t
     implicit none
     private
 
@@ -84,10 +83,7 @@ module terrace_event_driven
     !> One run: the atoms (every atom on every rank, numbered in the order of their cells), their
     !> predicted events, the queue, the cells, the regions of the pairs inside a well, the running
     !> energies and the sums of the current sample interval.
-    type :: ed_run_t
-        type(engine_t), pointer :: eng => null()
-        type(run_outputs_t), pointer :: out => null()
-        class(thermostat_t), pointer :: ts => null()
+    type, extends(run_parts_t) :: ed_run_t
         type(ed_params_t) :: p
         type(stepped_table_t) :: tab
         type(event_queue_t) :: q
@@ -114,6 +110,8 @@ module terrace_event_driven
         real(dp) :: ecouple = 0
         integer(i8), allocatable :: changed_id(:), mine_id(:)
         real(dp), allocatable :: changed_v(:, :), mine_v(:, :)
+    contains
+        procedure :: exchange_own => exchange
     end type ed_run_t
 
     public :: run_event_driven, check_event_driven_start
@@ -163,27 +161,27 @@ contains
     !> p%sample_dt, frames every p%frame_dt (0: none), the run control's checkpoints and the
     !> thermostat's events (Andersen collisions at their exact times), all written through `out`.
     !> Collective (every rank runs the same events).
-    subroutine run_event_driven(eng, p, ts, out, stats)
-        type(engine_t), intent(inout), target :: eng
+    subroutine run_event_driven(parts, p, stats)
+        type(run_parts_t), intent(in) :: parts
         type(ed_params_t), intent(in) :: p
-        class(thermostat_t), intent(inout), target :: ts
-        type(run_outputs_t), intent(inout), target :: out
         type(ed_stats_t), intent(out) :: stats
         type(ed_run_t), target :: r
         logical :: found
-        r%eng => eng; r%out => out; r%ts => ts; r%p = p
-        call stepped_table_of(eng%pot, r%tab, found)
-        call check_all(found, 'event_driven: the potential is not a stepped one')
-        r%length = eng%box%length
-        r%inv_len = 1/r%length
-        if (eng%restarted) then
-            call restore_state(r)
-        else
-            call start_state(r)
-        end if
-        if (ts%active()) allocate (r%changed_id(r%n), r%changed_v(3, r%n), r%mine_id(r%n), r%mine_v(3, r%n))
-        call event_loop(r)
-        stats = r%stats
+        r%run_parts_t = parts; r%p = p
+        associate (eng => r%eng, ts => r%ts)
+            call stepped_table_of(eng%pot, r%tab, found)
+            call check_all(found, 'event_driven: the potential is not a stepped one')
+            r%length = eng%box%length
+            r%inv_len = 1/r%length
+            if (eng%restarted) then
+                call restore_state(r)
+            else
+                call start_state(r)
+            end if
+            if (ts%active()) allocate (r%changed_id(r%n), r%changed_v(3, r%n), r%mine_id(r%n), r%mine_v(3, r%n))
+            call event_loop(r)
+            stats = r%stats
+        end associate
     end subroutine run_event_driven
 
     !> A new run: the atoms (velocities drawn again with &system temperature), the calendar from
@@ -310,7 +308,7 @@ contains
             if (sampled .or. ckpt_due) then
                 call rebuild_at(r, t)
                 stop_now = r%out%ctl%stop_requested()
-                if (ckpt_due .or. stop_now) call checkpoint(r, t, ckpt_due)
+                if (ckpt_due .or. stop_now) call r%checkpoint(r%stats%events, t, ckpt_due)
                 if (ckpt_due) call grid(r, cal_checkpoint, r%out%ctl%interval, r%out%ctl%written + 1)
                 done = stop_now
             end if
@@ -328,41 +326,26 @@ contains
         call build_state(r, t, .false.)
     end subroutine rebuild_at
 
-    !> A checkpoint at t (the state just built there): counters, sums and calendar as named values.
-    subroutine checkpoint(r, t, scheduled)
-        type(ed_run_t), intent(inout) :: r
-        real(dp), intent(in) :: t
-        logical, intent(in) :: scheduled
-        type(named_values_t) :: val
-        logical :: ok
-        ok = .true.
-        call exchange(r, val, .true., ok)
-        if (r%ts%active()) call r%ts%save(val)
-        call r%out%checkpoint(r%eng, val, r%stats%events, t, scheduled)
-    end subroutine checkpoint
-
     !> Write the run's counters, sums and calendar to (saving) or read them from a checkpoint's
     !> named values: every key once. (The time is the checkpoint's own 'time'.)
-    subroutine exchange(r, val, saving, ok)
-        type(ed_run_t), intent(inout) :: r
-        type(named_values_t), intent(inout) :: val
-        logical, intent(in) :: saving
-        logical, intent(inout) :: ok
-        call x1('ed_events', r%stats%events); call x1('ed_pair_events', r%stats%pair_events)
-        call x1('ed_cell_events', r%stats%cell_events); call x1('ed_stale', r%stats%stale)
-        call x1('ed_core', r%stats%core); call x1('ed_bounces', r%stats%bounces)
-        call x1('ed_captures', r%stats%captures); call x1('ed_escapes', r%stats%escapes)
-        call x1('ed_e_first', r%stats%e_first); call x1('ed_e_last', r%stats%e_last)
-        call x1('ed_ke_int', r%ke_int); call x1('ed_virial', r%virial)
-        call x1('ed_t_last', r%t_last); call x1('ed_core_last', r%core_last)
-        call x1('ed_ecouple', r%ecouple)
-        call x1('ed_n_sample', r%cal%n(cal_sample)); call x1('ed_t_next_sample', r%cal%t(cal_sample))
-        call x1('ed_n_frame', r%cal%n(cal_frame)); call x1('ed_t_next_frame', r%cal%t(cal_frame))
+    subroutine exchange(self, values, saving, ok)
+        class(ed_run_t), intent(inout) :: self
+        include 'checkpointed_args.inc'
+        call x1('ed_events', self%stats%events); call x1('ed_pair_events', self%stats%pair_events)
+        call x1('ed_cell_events', self%stats%cell_events); call x1('ed_stale', self%stats%stale)
+        call x1('ed_core', self%stats%core); call x1('ed_bounces', self%stats%bounces)
+        call x1('ed_captures', self%stats%captures); call x1('ed_escapes', self%stats%escapes)
+        call x1('ed_e_first', self%stats%e_first); call x1('ed_e_last', self%stats%e_last)
+        call x1('ed_ke_int', self%ke_int); call x1('ed_virial', self%virial)
+        call x1('ed_t_last', self%t_last); call x1('ed_core_last', self%core_last)
+        call x1('ed_ecouple', self%ecouple)
+        call x1('ed_n_sample', self%cal%n(cal_sample)); call x1('ed_t_next_sample', self%cal%t(cal_sample))
+        call x1('ed_n_frame', self%cal%n(cal_frame)); call x1('ed_t_next_frame', self%cal%t(cal_frame))
     contains
         subroutine x1(name, x)
             character(len=*), intent(in) :: name
             class(*), intent(inout) :: x
-            call val%exchange(name, x, saving, ok)
+            call values%exchange(name, x, saving, ok)
         end subroutine x1
     end subroutine exchange
 

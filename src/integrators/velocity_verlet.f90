@@ -20,9 +20,7 @@ module terrace_velocity_verlet
     use terrace_errors, only: check_all
     use terrace_named_values, only: named_values_t
     use terrace_calendar, only: calendar_t, cal_sample, cal_frame, cal_checkpoint
-    use terrace_run_outputs, only: run_outputs_t
-    use terrace_thermostat, only: thermostat_t
-    use terrace_barostat, only: barostat_t
+    use terrace_run_parts, only: run_parts_t
     implicit none
     private
 
@@ -39,91 +37,100 @@ module terrace_velocity_verlet
         real(dp) :: baro = 0
     end type drift_end_t
 
+    !> One Verlet run: its parts, its parameters, its calendar (samples, frames, checkpoints, counted
+    !> in steps) and the two ends of the drift report.
+    type, extends(run_parts_t) :: vv_run_t
+        type(verlet_params_t) :: p
+        type(calendar_t) :: cal
+        type(drift_end_t) :: first, last
+    contains
+        procedure :: exchange_own => exchange_first
+    end type vv_run_t
+
     public :: run_velocity_verlet
 
 contains
 
-    subroutine run_velocity_verlet(eng, p, ts, bs, out, sched)
-        type(engine_t), intent(inout) :: eng
+    subroutine run_velocity_verlet(parts, p, sched)
+        type(run_parts_t), intent(in) :: parts
         type(verlet_params_t), intent(in) :: p
-        class(thermostat_t), intent(inout) :: ts
-        class(barostat_t), intent(inout) :: bs
-        type(run_outputs_t), intent(inout) :: out
         type(schedule_t), intent(in) :: sched
+        type(vv_run_t) :: r
         integer(i8) :: step, step0
-        real(dp) :: dt, dtfm(size(eng%atoms%mass)), dtf
+        real(dp) :: dt, dtfm(size(parts%eng%atoms%mass)), dtf
         logical :: sample, frame, scheduled, safe, stop_now, moved
-        type(drift_end_t) :: first, last
-        type(calendar_t) :: cal
-        dt = p%dt
-        dtf = 0.5_dp*dt*eng%units%ftm2v
-        dtfm = dtf/eng%atoms%mass
-        cal%every(cal_sample) = sched%thermo_every
-        cal%every(cal_frame) = sched%traj_every
-        cal%every(cal_checkpoint) = out%ctl%every
-        step0 = 0
-        if (eng%restarted) then
-            call restore_state(eng, p, ts, bs, step0, first)
-        else
-            call eng%timers%start(t_output)
-            first%s = eng%sample(0_i8, 0.0_dp)
-            if (ts%active()) first%s%ecouple = ts%ecouple()
-            first%baro = baro_terms()
-            call write_sample(first%s)
-            if (cal%count_due(cal_frame, 0_i8)) call out%frame(eng, 0_i8, 0.0_dp, first%s)
-            call eng%timers%stop(t_output)
-        end if
-        last = first
-        do step = step0 + 1, sched%n_steps
-            call bs%follow(eng%units%boltz*ts%target((step - 0.5_dp)*dt))   ! the thermostat's target (a ramp)
-            call ts%pre_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
-            if (ts%traits%replaces_kick_drift) then
-                call ts%kick_drift(eng%atoms, dtfm, dt, step, (step - 0.5_dp)*dt)
-            else if (bs%replaces_kicks()) then
-                call bs%first_half(eng, dtfm, dtf, dt, step)
+        r%run_parts_t = parts; r%p = p
+        associate (eng => r%eng, ts => r%ts, bs => r%bs, out => r%out, cal => r%cal, last => r%last)
+            dt = p%dt
+            dtf = 0.5_dp*dt*eng%units%ftm2v
+            dtfm = dtf/eng%atoms%mass
+            cal%every(cal_sample) = sched%thermo_every
+            cal%every(cal_frame) = sched%traj_every
+            cal%every(cal_checkpoint) = out%ctl%every
+            step0 = 0
+            if (eng%restarted) then
+                call restore_state(r, step0)
             else
-                call kick(eng, dtfm, dtf, dt, .true.)
-            end if
-            scheduled = cal%count_due(cal_checkpoint, step)
-            call bs%before_forces(eng, step, moved)
-            if (moved) then
-                safe = .true.                 ! the box changed: the list was just rebuilt here
-            else
-                safe = move_ghosts(eng, step, scheduled)
-            end if
-            sample = cal%count_due(cal_sample, step) .or. step == sched%n_steps
-            frame = cal%count_due(cal_frame, step)
-            call eng%compute_forces(sample .or. frame .or. bs%needs_virial(step))
-            if (eng%validity_checks) call eng%check_valid(step, step*dt)
-            if (bs%replaces_kicks()) then
-                call bs%second_half(eng, dtfm, dtf, dt, step)
-            else
-                call kick(eng, dtfm, dtf, dt, .false.)
-            end if
-            call ts%post_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
-            call ts%hold_momentum(eng%atoms)
-            call bs%after_step(eng, step, moved)
-            safe = safe .or. moved
-            if (sample) then
                 call eng%timers%start(t_output)
-                last%s = eng%sample(step, step*dt)
-                if (ts%active()) last%s%ecouple = ts%ecouple()
-                last%baro = baro_terms()
-                call write_sample(last%s)
+                r%first%s = eng%sample(0_i8, 0.0_dp)
+                if (ts%active()) r%first%s%ecouple = ts%ecouple()
+                r%first%baro = baro_terms()
+                call write_sample(r%first%s)
+                if (cal%count_due(cal_frame, 0_i8)) call out%frame(eng, 0_i8, 0.0_dp, r%first%s)
                 call eng%timers%stop(t_output)
             end if
-            if (frame) call out%frame(eng, step, step*dt, eng%sample(step, step*dt))
-            call out%thermo%tick(step, step*dt)
-            ! ecouple's per-rank parts are folded at every safe point, so that a run continued from a
-            ! checkpoint (always taken at one) sums them exactly as the uninterrupted run does
-            if (safe .and. ts%active()) call ts%fold()
-            if (safe .and. out%ctl%active) then
-                stop_now = out%ctl%stop_requested()
-                if (stop_now .or. scheduled) call checkpoint(eng, ts, bs, out, first, step, step*dt, scheduled)
-                if (out%ctl%stopped) exit
-            end if
-        end do
-        if (.not. out%ctl%stopped) call report_drift(first, last, eng%natoms, ts%active(), bs%active())
+            last = r%first
+            do step = step0 + 1, sched%n_steps
+                call bs%follow(eng%units%boltz*ts%target((step - 0.5_dp)*dt))   ! the thermostat's target (a ramp)
+                call ts%pre_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
+                if (ts%traits%replaces_kick_drift) then
+                    call ts%kick_drift(eng%atoms, dtfm, dt, step, (step - 0.5_dp)*dt)
+                else if (bs%replaces_kicks()) then
+                    call bs%first_half(eng, dtfm, dtf, dt, step)
+                else
+                    call kick(eng, dtfm, dtf, dt, .true.)
+                end if
+                scheduled = cal%count_due(cal_checkpoint, step)
+                call bs%before_forces(eng, step, moved)
+                if (moved) then
+                    safe = .true.                 ! the box changed: the list was just rebuilt here
+                else
+                    safe = move_ghosts(eng, step, scheduled)
+                end if
+                sample = cal%count_due(cal_sample, step) .or. step == sched%n_steps
+                frame = cal%count_due(cal_frame, step)
+                call eng%compute_forces(sample .or. frame .or. bs%needs_virial(step))
+                if (eng%validity_checks) call eng%check_valid(step, step*dt)
+                if (bs%replaces_kicks()) then
+                    call bs%second_half(eng, dtfm, dtf, dt, step)
+                else
+                    call kick(eng, dtfm, dtf, dt, .false.)
+                end if
+                call ts%post_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
+                call ts%hold_momentum(eng%atoms)
+                call bs%after_step(eng, step, moved)
+                safe = safe .or. moved
+                if (sample) then
+                    call eng%timers%start(t_output)
+                    last%s = eng%sample(step, step*dt)
+                    if (ts%active()) last%s%ecouple = ts%ecouple()
+                    last%baro = baro_terms()
+                    call write_sample(last%s)
+                    call eng%timers%stop(t_output)
+                end if
+                if (frame) call out%frame(eng, step, step*dt, eng%sample(step, step*dt))
+                call out%thermo%tick(step, step*dt)
+                ! ecouple's per-rank parts are folded at every safe point, so that a run continued from a
+                ! checkpoint (always taken at one) sums them exactly as the uninterrupted run does
+                if (safe .and. ts%active()) call ts%fold()
+                if (safe .and. out%ctl%active) then
+                    stop_now = out%ctl%stop_requested()
+                    if (stop_now .or. scheduled) call r%checkpoint(step, step*dt, scheduled)
+                    if (out%ctl%stopped) exit
+                end if
+            end do
+            if (.not. out%ctl%stopped) call report_drift(r%first, last, eng%natoms, ts%active(), bs%active())
+        end associate
 
     contains
 
@@ -131,17 +138,17 @@ contains
         !> quantity (econserve = etotal + P0 V - ecouple).
         subroutine write_sample(s)
             type(thermo_sample_t), intent(in) :: s
-            if (bs%active()) then
-                call out%sample(s, s%etotal + baro_terms(), [eng%box%volume(), eng%box%length])
+            if (r%bs%active()) then
+                call r%out%sample(s, s%etotal + baro_terms(), [r%eng%box%volume(), r%eng%box%length])
             else
-                call out%sample(s, s%etotal)
+                call r%out%sample(s, s%etotal)
             end if
         end subroutine write_sample
 
         !> The barostat's terms of the conserved quantity: P0 V and its own energy (0 without one).
         real(dp) function baro_terms()
             baro_terms = 0
-            if (bs%active()) baro_terms = bs%pv(eng) + bs%energy(eng)
+            if (r%bs%active()) baro_terms = r%bs%pv(r%eng) + r%bs%energy(r%eng)
         end function baro_terms
     end subroutine run_velocity_verlet
 
@@ -182,75 +189,49 @@ contains
         end if
     end function move_ghosts
 
-    !> A restart: the step the checkpoint was taken at and the run's own keys (exchange_first). (The
-    !> energy guard takes its reference at the first sample after the restart.)
-    subroutine restore_state(eng, p, ts, bs, step0, first)
-        type(engine_t), intent(inout) :: eng
-        type(verlet_params_t), intent(in) :: p
-        class(thermostat_t), intent(inout) :: ts
-        class(barostat_t), intent(inout) :: bs
+    !> A restart: the step the checkpoint was taken at, and the run's own keys read (exchange_first).
+    !> (The energy guard takes its reference at the first sample after the restart.)
+    subroutine restore_state(r, step0)
+        type(vv_run_t), intent(inout) :: r
         integer(i8), intent(out) :: step0
-        type(drift_end_t), intent(out) :: first
         logical :: ok
         ok = .true.
-        step0 = eng%restart_values%get_i('step', ok)
-        first%s%step = 0; first%s%time = 0
-        call exchange_first(eng%restart_values, first, ts, bs, .false., ok)
-        call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
+        step0 = r%eng%restart_values%get_i('step', ok)
+        r%first%s%step = 0; r%first%s%time = 0
+        call r%exchange_own(r%eng%restart_values, .false., ok)
+        call r%restore_coupling(r%eng%restart_values, ok)
+        call check_all(ok, r%p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
                        '(velocity Verlet state missing)')
     end subroutine restore_state
 
-    !> A checkpoint of the run's own keys (exchange_first) through the run's outputs.
-    subroutine checkpoint(eng, ts, bs, out, first, step, time, scheduled)
-        type(engine_t), intent(inout) :: eng
-        class(thermostat_t), intent(inout) :: ts
-        class(barostat_t), intent(inout) :: bs
-        type(run_outputs_t), intent(inout) :: out
-        type(drift_end_t), intent(inout) :: first
-        integer(i8), intent(in) :: step
-        real(dp), intent(in) :: time
-        logical, intent(in) :: scheduled
-        type(named_values_t) :: values
-        logical :: ok
-        ok = .true.
-        call exchange_first(values, first, ts, bs, .true., ok)
-        call out%checkpoint(eng, values, step, time, scheduled)
-    end subroutine checkpoint
-
     !> The Verlet run's own restart keys, in one place: the first sample's energy and momentum (the
-    !> drift report of a continued run), with a thermostat its ecouple and the thermostat's state,
-    !> with a barostat the barostat's and its first terms of the conserved quantity (first%baro);
-    !> written to (saving) or read from a checkpoint's values.
-    subroutine exchange_first(values, first, ts, bs, saving, ok)
-        type(named_values_t), intent(inout) :: values
-        type(drift_end_t), intent(inout) :: first
-        class(thermostat_t), intent(inout) :: ts
-        class(barostat_t), intent(inout) :: bs
-        logical, intent(in) :: saving
-        logical, intent(inout) :: ok
+    !> drift report of a continued run), with a thermostat its ecouple, with a barostat its first
+    !> terms of the conserved quantity (first%baro); written to (saving) or read from a
+    !> checkpoint's values. (The thermostat's and the barostat's own state: run_parts_t.)
+    subroutine exchange_first(self, values, saving, ok)
+        class(vv_run_t), intent(inout) :: self
+        include 'checkpointed_args.inc'
         character(len=12), parameter :: keys(4) = [character(len=12) :: 'first_etotal', 'first_px', 'first_py', &
                                                                           'first_pz']
         real(dp) :: vals(4)
         integer :: k
-        if (saving) then
-            vals = [first%s%etotal, first%s%momentum]
+        associate (first => self%first, ts => self%ts, bs => self%bs)
+            if (saving) then
+                vals = [first%s%etotal, first%s%momentum]
+                do k = 1, 4
+                    call values%put(trim(keys(k)), vals(k))
+                end do
+                if (ts%active()) call values%put('first_ecouple', first%s%ecouple)
+                if (bs%active()) call values%put('first_baro', first%baro)
+                return
+            end if
             do k = 1, 4
-                call values%put(trim(keys(k)), vals(k))
+                vals(k) = values%get_r(trim(keys(k)), ok)
             end do
-            if (ts%active()) call values%put('first_ecouple', first%s%ecouple)
-            if (ts%active()) call ts%save(values)
-            if (bs%active()) call values%put('first_baro', first%baro)
-            if (bs%active()) call bs%save(values)
-            return
-        end if
-        do k = 1, 4
-            vals(k) = values%get_r(trim(keys(k)), ok)
-        end do
-        first%s%etotal = vals(1); first%s%momentum = vals(2:4)
-        if (ts%active()) first%s%ecouple = values%get_r('first_ecouple', ok)
-        if (ts%active()) call ts%restore(values, ok)
-        if (bs%active()) first%baro = values%get_r('first_baro', ok)
-        if (bs%active()) call bs%restore(values, ok)
+            first%s%etotal = vals(1); first%s%momentum = vals(2:4)
+            if (ts%active()) first%s%ecouple = values%get_r('first_ecouple', ok)
+            if (bs%active()) first%baro = values%get_r('first_baro', ok)
+        end associate
     end subroutine exchange_first
 
     !> Half kick v += dtfm(type) f of the n owned atoms and, when drift, the drift x += dt v.

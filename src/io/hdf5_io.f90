@@ -412,10 +412,7 @@ contains
     !> MPI-IO file: collective with a collective list, and then ranks with active = .false. take
     !> part with an empty selection), else with the default (independent) transfer.
     subroutine transfer_slab(st, d, memtype, buf, start, count, active, reading, dxpl, stride)
-        type(h5_status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: d, memtype
-        type(c_ptr), intent(in) :: buf
-        integer(hsize_t), intent(in) :: start(:), count(:)
+        include 'hdf5_slab_args.inc'
         logical, intent(in) :: active, reading
         integer(hid_t), intent(in), optional :: dxpl
         integer(hsize_t), intent(in), optional :: stride(:)
@@ -455,10 +452,7 @@ contains
     end subroutine transfer_slab
 
     subroutine h5_write_slab(st, d, memtype, buf, start, count, active, dxpl)
-        type(h5_status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: d, memtype
-        type(c_ptr), intent(in) :: buf
-        integer(hsize_t), intent(in) :: start(:), count(:)
+        include 'hdf5_slab_args.inc'
         logical, intent(in) :: active
         integer(hid_t), intent(in), optional :: dxpl
         if (stall_rank >= 0) call test_stall_here()
@@ -475,10 +469,7 @@ contains
     end subroutine test_stall_here
 
     subroutine h5_read_slab(st, d, memtype, buf, start, count, active, dxpl, stride)
-        type(h5_status_t), intent(inout) :: st
-        integer(hid_t), intent(in) :: d, memtype
-        type(c_ptr), intent(in) :: buf
-        integer(hsize_t), intent(in) :: start(:), count(:)
+        include 'hdf5_slab_args.inc'
         logical, intent(in) :: active
         integer(hid_t), intent(in), optional :: dxpl
         integer(hsize_t), intent(in), optional :: stride(:)

@@ -428,11 +428,7 @@ contains
 
     subroutine ct_forces(self, atoms, list, halo, want_energy, energy, virial)
         class(contact_t), intent(inout) :: self
-        type(atoms_t), intent(inout) :: atoms
-        type(neighbor_list_t), intent(in) :: list
-        class(halo_ops_t), intent(inout) :: halo
-        logical, intent(in) :: want_energy
-        real(dp), intent(out) :: energy, virial
+        include 'potential_forces_args.inc'
         integer :: p, i, j
         real(dp) :: dx(3), r2, r, gap, fr(3), d0sq
         if (self%stale) call refresh_candidates(self, atoms, list)
@@ -463,10 +459,7 @@ contains
 
     subroutine ct_ray(self, atoms, list, s, out)
         class(contact_t), intent(inout) :: self
-        type(atoms_t), intent(in) :: atoms
-        type(neighbor_list_t), intent(in) :: list
-        real(dp), intent(in) :: s
-        real(dp), intent(out) :: out(4)
+        include 'potential_ray_args.inc'
         integer :: p, i, j
         real(dp) :: dx(3), dv(3), r2, r, gap, a, b, r1, rr, d0sq
         if (self%stale) call refresh_candidates(self, atoms, list)

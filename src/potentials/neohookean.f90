@@ -365,11 +365,7 @@ contains
     !> when global_sums is set.
     subroutine nh_forces(self, atoms, list, halo, want_energy, energy, virial)
         class(neohookean_t), intent(inout) :: self
-        type(atoms_t), intent(inout) :: atoms
-        type(neighbor_list_t), intent(in) :: list
-        class(halo_ops_t), intent(inout) :: halo
-        logical, intent(in) :: want_energy
-        real(dp), intent(out) :: energy, virial
+        include 'potential_forces_args.inc'
         real(dp) :: ds(nblk, 9), tot(2)
         integer :: b, j, k0, i, s, c
         real(dp) :: bad(nblk), acc(3)
@@ -486,10 +482,7 @@ contains
     !> s-dependent part. on_rebuild drops them.
     subroutine nh_ray(self, atoms, list, s, out)
         class(neohookean_t), intent(inout) :: self
-        type(atoms_t), intent(in) :: atoms
-        type(neighbor_list_t), intent(in) :: list
-        real(dp), intent(in) :: s
-        real(dp), intent(out) :: out(4)
+        include 'potential_ray_args.inc'
         real(dp) :: ds(nblk, 9), dv(nblk, 9)
         integer :: b, k0, nb, nmine_pad, nall
         logical :: same

@@ -93,21 +93,14 @@ module terrace_potential
         subroutine forces_op(self, atoms, list, halo, want_energy, energy, virial)
             import :: potential_t, atoms_t, neighbor_list_t, halo_ops_t, dp
             class(potential_t), intent(inout) :: self
-            type(atoms_t), intent(inout) :: atoms
-            type(neighbor_list_t), intent(in) :: list
-            class(halo_ops_t), intent(inout) :: halo
-            logical, intent(in) :: want_energy
-            real(dp), intent(out) :: energy, virial
+            include 'potential_forces_args.inc'
         end subroutine forces_op
 
         !> out = this rank's (V, dV/ds, d2V/ds2, W) at x + s v.
         subroutine ray_op(self, atoms, list, s, out)
             import :: potential_t, atoms_t, neighbor_list_t, dp
             class(potential_t), intent(inout) :: self
-            type(atoms_t), intent(in) :: atoms
-            type(neighbor_list_t), intent(in) :: list
-            real(dp), intent(in) :: s
-            real(dp), intent(out) :: out(4)
+            include 'potential_ray_args.inc'
         end subroutine ray_op
 
         !> The largest pair distance at which the term acts (0: no cutoff, or no pairs).

@@ -59,11 +59,7 @@ contains
 
     subroutine sum_forces(self, atoms, list, halo, want_energy, energy, virial)
         class(potential_sum_t), intent(inout) :: self
-        type(atoms_t), intent(inout) :: atoms
-        type(neighbor_list_t), intent(in) :: list
-        class(halo_ops_t), intent(inout) :: halo
-        logical, intent(in) :: want_energy
-        real(dp), intent(out) :: energy, virial
+        include 'potential_forces_args.inc'
         real(dp) :: e, w
         integer :: k
         energy = 0; virial = 0
@@ -75,10 +71,7 @@ contains
 
     subroutine sum_ray(self, atoms, list, s, out)
         class(potential_sum_t), intent(inout) :: self
-        type(atoms_t), intent(in) :: atoms
-        type(neighbor_list_t), intent(in) :: list
-        real(dp), intent(in) :: s
-        real(dp), intent(out) :: out(4)
+        include 'potential_ray_args.inc'
         real(dp) :: part(4)
         integer :: k
         out = 0

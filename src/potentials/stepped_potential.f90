@@ -29,11 +29,7 @@ contains
 
     subroutine sp_forces(self, atoms, list, halo, want_energy, energy, virial)
         class(stepped_potential_t), intent(inout) :: self
-        type(atoms_t), intent(inout) :: atoms
-        type(neighbor_list_t), intent(in) :: list
-        class(halo_ops_t), intent(inout) :: halo
-        logical, intent(in) :: want_energy
-        real(dp), intent(out) :: energy, virial
+        include 'potential_forces_args.inc'
         integer :: i, j, k, s
         real(dp) :: rsq
         energy = 0; virial = 0
@@ -52,10 +48,7 @@ contains
 
     subroutine sp_ray(self, atoms, list, s, out)
         class(stepped_potential_t), intent(inout) :: self
-        type(atoms_t), intent(in) :: atoms
-        type(neighbor_list_t), intent(in) :: list
-        real(dp), intent(in) :: s
-        real(dp), intent(out) :: out(4)
+        include 'potential_ray_args.inc'
         out = 0
     end subroutine sp_ray
 

@@ -119,11 +119,7 @@ contains
 
     subroutine walls_forces(self, atoms, list, halo, want_energy, energy, virial)
         class(walls_t), intent(inout) :: self
-        type(atoms_t), intent(inout) :: atoms
-        type(neighbor_list_t), intent(in) :: list
-        class(halo_ops_t), intent(inout) :: halo
-        logical, intent(in) :: want_energy
-        real(dp), intent(out) :: energy, virial
+        include 'potential_forces_args.inc'
         integer :: m, i, w
         real(dp) :: dn, gap
         energy = 0; virial = 0
@@ -143,10 +139,7 @@ contains
     !> (V, V', V'', W) of the owned boundary nodes at x + s v: d linear in s, exact.
     subroutine walls_ray(self, atoms, list, s, out)
         class(walls_t), intent(inout) :: self
-        type(atoms_t), intent(in) :: atoms
-        type(neighbor_list_t), intent(in) :: list
-        real(dp), intent(in) :: s
-        real(dp), intent(out) :: out(4)
+        include 'potential_ray_args.inc'
         integer :: m, i, w
         real(dp) :: y(3), dn, d1, gap
         out = 0

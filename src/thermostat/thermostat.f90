@@ -33,6 +33,7 @@ module terrace_thermostat
     use terrace_velocities, only: momentum_and_mass, local_mv2
     use terrace_mpi_env, only: sum_all
     use terrace_named_values, only: named_values_t
+    use terrace_checkpointed, only: checkpointed_t
     implicit none
     private
 
@@ -64,7 +65,7 @@ module terrace_thermostat
         character(len=32) :: event_note = ''
     end type thermostat_traits_t
 
-    type, abstract, public :: thermostat_t
+    type, abstract, extends(checkpointed_t), public :: thermostat_t
         type(thermostat_traits_t) :: traits     !< the style's style_traits(), from init on
         real(dp) :: t_start = 0, t_end = 0      !< target temperature at time 0 and at run_time
         real(dp) :: run_time = 0                !< length of the ramp
@@ -90,7 +91,6 @@ module terrace_thermostat
         procedure :: chain_energy => ts_chain_energy
         procedure, non_overridable :: save => ts_save
         procedure, non_overridable :: restore => ts_restore
-        procedure :: exchange_own => ts_exchange_own
         ! velocity Verlet
         procedure :: pre_kick => ts_pre_kick
         procedure :: kick_drift => ts_kick_drift
@@ -173,9 +173,7 @@ contains
     !> The index of the next action, with an interval.
     subroutine interval_exchange(self, values, saving, ok)
         class(interval_thermostat_t), intent(inout) :: self
-        type(named_values_t), intent(inout) :: values
-        logical, intent(in) :: saving
-        logical, intent(inout) :: ok
+        include 'checkpointed_args.inc'
         if (self%interval > 0) call values%exchange('ts_n_rescale', self%n_rescale, saving, ok)
     end subroutine interval_exchange
 
@@ -294,15 +292,6 @@ contains
         self%ecouple_local = 0
         call self%exchange_own(values, .false., ok)
     end subroutine ts_restore
-
-    !> A style's own variables, written to (saving) or read from a checkpoint's values (none by
-    !> default).
-    subroutine ts_exchange_own(self, values, saving, ok)
-        class(thermostat_t), intent(inout) :: self
-        type(named_values_t), intent(inout) :: values
-        logical, intent(in) :: saving
-        logical, intent(inout) :: ok
-    end subroutine ts_exchange_own
 
     !> Global kinetic energy (collective). One type (the common case): m sum v^2 over the contiguous
     !> velocities, a loop that vectorises; otherwise the sum of m v^2 that kinetic_energy takes.

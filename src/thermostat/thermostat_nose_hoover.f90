@@ -115,9 +115,7 @@ contains
     !> The chain's positions and velocities.
     subroutine nhc_exchange(self, values, saving, ok)
         class(nose_hoover_t), intent(inout) :: self
-        type(named_values_t), intent(inout) :: values
-        logical, intent(in) :: saving
-        logical, intent(inout) :: ok
+        include 'checkpointed_args.inc'
         if (saving) then
             call values%put_reals('ts_eta_', self%eta(1:self%chain_length))
             call values%put_reals('ts_v_eta_', self%v_eta(1:self%chain_length))

@@ -35,7 +35,7 @@ add() {   # label binary skin outer
     labels+=("$1"); bins+=("$2")
 }
 for v in "${variants[@]}"; do add "s${v%%:*}_o${v##*:}" "$terrace" "${v%%:*}" "${v##*:}"; done
-[[ -n "$old" ]] && add old "$old" "${variants[0]%%:*}" 0
+[[ -n "$old" ]] && add old "$old" "${variants[0]%%:*}" "${variants[0]##*:}"
 if [[ $cg == 1 ]]; then
     first=""
     for k in "${!labels[@]}"; do

@@ -3,7 +3,7 @@ module terrace_vec3
     use terrace_kinds, only: dp
     implicit none
     private
-    public :: cross, add_scaled
+    public :: cross, add_scaled, fill_zero
 
 contains
 
@@ -25,5 +25,13 @@ contains
             x(k) = x(k) + s*v(k)
         end do
     end subroutine add_scaled
+
+    !> x(1:n) = 0 over a flat array, one fill: a 3 x N array passed whole (sequence association).
+    !> Written as x(:, 1:m) = 0, GCC called memset once per column of three values.
+    pure subroutine fill_zero(n, x)
+        integer, intent(in) :: n
+        real(dp), intent(inout) :: x(*)
+        x(1:n) = 0
+    end subroutine fill_zero
 
 end module terrace_vec3

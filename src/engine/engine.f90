@@ -9,7 +9,7 @@ module terrace_engine
     use terrace_units, only: units_t
     use terrace_box, only: box_t
     use terrace_atoms, only: atoms_t
-    use terrace_vec3, only: add_scaled
+    use terrace_vec3, only: add_scaled, fill_zero
     use terrace_velocities, only: kinetic_energy, atom_mass
     use terrace_thermostat, only: thermostat_dof
     use terrace_domain, only: domain_t
@@ -260,7 +260,7 @@ contains
         halo%eng => self
         call self%timers%start(t_pair)
         nall = self%atoms%nall()
-        self%atoms%f(:, 1:nall) = 0
+        call fill_zero(3*nall, self%atoms%f)
         if (self%use_inner) then
             call self%pot%forces(self%atoms, self%inner, halo, want_energy, ew(1), ew(2))
         else

@@ -1,32 +1,31 @@
 /* The EAM density passes' gather (terrace_eam, gather_inside) with AVX-512: of the nn partners
  * neigh[0..nn-1] (1-based atom indices, as Fortran has them) of the atom at (xi, yi, zi), those
  * inside the cutoff (r^2 < cutsq) appended to cj and their squared distances to pp, in list order;
- * returns how many. Eight partners at a time: their positions gathered by index (vgatherdpd), the
+ * returns how many. Eight partners at a time: their positions loaded as rows (core/simd_rows.h), the
  * squared distances as the Fortran loop forms them (d = x_i - x_j, fma(dz, dz, fma(dx, dx, dy dy)):
  * the same bits), the cutoff test as a mask, and the kept indices and distances written by
  * compressing stores (vpcompressd, vcompresspd). The Fortran loop is scalar: three loads, a
  * compaction whose count carries from one partner to the next (a fifth of an EAM run, perf).
  * Returns -1 (nothing done: the Fortran loop runs) where this build has no AVX-512 (AVX512F,
  * AVX512VL) and FMA. */
-#if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
-#include <immintrin.h>
-#endif
+#include "../core/simd_rows.h"
 
 int terrace_eam_gather_inside(double xi, double yi, double zi, const double *x, const int *neigh, int nn, double cutsq,
                               int *cj, double *pp)
 {
 #if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
     const __m512d x0 = _mm512_set1_pd(xi), y0 = _mm512_set1_pd(yi), z0 = _mm512_set1_pd(zi);
-    const __m512d cs = _mm512_set1_pd(cutsq), zero = _mm512_setzero_pd();
+    const __m512d cs = _mm512_set1_pd(cutsq);
     int n = 0;
     for (int k = 0; k < nn; k += 8) {
         const int cnt = nn - k < 8 ? nn - k : 8;
         const __mmask8 live = (__mmask8)((1u << cnt) - 1u);
         const __m256i jj = _mm256_maskz_loadu_epi32(live, neigh + k);
-        const __m256i idx = _mm256_mullo_epi32(_mm256_sub_epi32(jj, _mm256_set1_epi32(1)), _mm256_set1_epi32(3));
-        const __m512d dx = _mm512_sub_pd(x0, _mm512_mask_i32gather_pd(zero, live, idx, x, 8));
-        const __m512d dy = _mm512_sub_pd(y0, _mm512_mask_i32gather_pd(zero, live, idx, x + 1, 8));
-        const __m512d dz = _mm512_sub_pd(z0, _mm512_mask_i32gather_pd(zero, live, idx, x + 2, 8));
+        const double *q[8];
+        __m512d dx, dy, dz;
+        neighbour_rows(x, neigh + k, cnt, x, q);                /* (the padding lanes: masked off) */
+        rows_xyz(q, &dx, &dy, &dz);
+        dx = _mm512_sub_pd(x0, dx); dy = _mm512_sub_pd(y0, dy); dz = _mm512_sub_pd(z0, dz);
         const __m512d rsq = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy)));
         const __mmask8 keep = _mm512_mask_cmp_pd_mask(live, rsq, cs, _CMP_LT_OQ);
         _mm256_mask_compressstoreu_epi32(cj + n, keep, jj);

@@ -1,0 +1,73 @@
+/* Rows of doubles to and from SIMD registers without gather or scatter instructions, for the C
+ * kernels that read the positions x(3, n) (or the records of another row length) of a list of
+ * neighbours: the Lennard-Jones passes (potentials/lj_simd.c), the neighbour-list prune
+ * (neighbor/prune_simd.c) and EAM's density gather (potentials/eam_simd.c).
+ *
+ * GCC's gathers and scatters (vgatherdpd, vscatterdpd) were slower on the machines measured
+ * (doc/performance.md): here a row's doubles are loaded as 16-byte halves, two or four rows to a
+ * register, and unpacked into one register per component, as GROMACS's nbnxm kernels load their
+ * j-clusters. No byte outside a row's own doubles is read or written, so rows may end an array. */
+#ifndef TERRACE_SIMD_ROWS_H
+#define TERRACE_SIMD_ROWS_H
+#if defined(__AVX2__)
+#include <immintrin.h>
+
+/* two 16-byte halves, p in the lower lane and q in the upper one */
+static inline __m256d halves(const double *p, const double *q)
+{
+    return _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p)), _mm_loadu_pd(q), 1);
+}
+
+#if defined(__AVX512F__)
+/* four 16-byte halves, p q r t in the four lanes */
+static inline __m512d quarters(const double *p, const double *q, const double *r, const double *t)
+{
+    return _mm512_insertf64x4(_mm512_castpd256_pd512(halves(p, q)), halves(r, t), 1);
+}
+
+/* eight rows of three doubles (x, y, z at q[l]) as three eight-wide vectors in lane order l: (x, y)
+ * and (y, z) of each row as 16-byte halves, four rows to a register, unpacked (16 loads, 12
+ * inserts, 3 unpacks where three gathers load 24 doubles) */
+static inline void rows_xyz(const double *const *q, __m512d *vx, __m512d *vy, __m512d *vz)
+{
+    const __m512d a = quarters(q[0], q[2], q[4], q[6]), b = quarters(q[1], q[3], q[5], q[7]);
+    const __m512d c = quarters(q[0] + 1, q[2] + 1, q[4] + 1, q[6] + 1);
+    const __m512d d = quarters(q[1] + 1, q[3] + 1, q[5] + 1, q[7] + 1);
+    *vx = _mm512_unpacklo_pd(a, b);
+    *vy = _mm512_unpackhi_pd(a, b);
+    *vz = _mm512_unpackhi_pd(c, d);
+}
+
+/* the inverse: lane l of (vx, vy, vz) stored to row q[l] as (x, y), then (y, z) (4 unpacks and 16
+ * stores where three scatters store 24 doubles) */
+static inline void store_rows(double *const *q, __m512d vx, __m512d vy, __m512d vz)
+{
+    const __m512d e = _mm512_unpacklo_pd(vx, vy), o = _mm512_unpackhi_pd(vx, vy);
+    const __m512d e2 = _mm512_unpacklo_pd(vy, vz), o2 = _mm512_unpackhi_pd(vy, vz);
+    _mm_storeu_pd(q[0], _mm512_castpd512_pd128(e));
+    _mm_storeu_pd(q[0] + 1, _mm512_castpd512_pd128(e2));
+    _mm_storeu_pd(q[1], _mm512_castpd512_pd128(o));
+    _mm_storeu_pd(q[1] + 1, _mm512_castpd512_pd128(o2));
+    _mm_storeu_pd(q[2], _mm512_extractf64x2_pd(e, 1));
+    _mm_storeu_pd(q[2] + 1, _mm512_extractf64x2_pd(e2, 1));
+    _mm_storeu_pd(q[3], _mm512_extractf64x2_pd(o, 1));
+    _mm_storeu_pd(q[3] + 1, _mm512_extractf64x2_pd(o2, 1));
+    _mm_storeu_pd(q[4], _mm512_extractf64x2_pd(e, 2));
+    _mm_storeu_pd(q[4] + 1, _mm512_extractf64x2_pd(e2, 2));
+    _mm_storeu_pd(q[5], _mm512_extractf64x2_pd(o, 2));
+    _mm_storeu_pd(q[5] + 1, _mm512_extractf64x2_pd(o2, 2));
+    _mm_storeu_pd(q[6], _mm512_extractf64x2_pd(e, 3));
+    _mm_storeu_pd(q[6] + 1, _mm512_extractf64x2_pd(e2, 3));
+    _mm_storeu_pd(q[7], _mm512_extractf64x2_pd(o, 3));
+    _mm_storeu_pd(q[7] + 1, _mm512_extractf64x2_pd(o2, 3));
+}
+
+/* the rows of eight neighbours nb[0..cnt-1] (1-based indices into x(3, *)); the lanes from cnt
+ * on read pad */
+static inline void neighbour_rows(const double *x, const int *nb, int cnt, const double *pad, const double **q)
+{
+    for (int l = 0; l < 8; l++) q[l] = l < cnt ? x + 3 * (long)(nb[l] - 1) : pad;
+}
+#endif
+#endif
+#endif

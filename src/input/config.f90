@@ -802,6 +802,9 @@ contains
         end select
         if (len_trim(cfg%mesh_file) > 0) call stop_all(style_is//': a barostat changes the box of a periodic '// &
             'scene of atoms; a mesh (&system mesh_file) has free boundaries and no box to scale')
+        if (cfg%integ_style%event_driven) call stop_all(style_is//": not with &integrator style = '"// &
+            trim(cfg%integrator)//"' (its box stays fixed; allowed with a barostat: style = "// &
+            quoted_list(integs%name, ' or ', .not. integs%event_driven)//')')
         if (.not. cfg%integ_style%time_stepped .and. cfg%barostat /= 'mc') call stop_all(style_is// &
             ': runs with &integrator style = '//quoted_list(integs%name, ' or ', integs%time_stepped)// &
             " only (energy stepping: style = 'mc')")

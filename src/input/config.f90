@@ -882,6 +882,9 @@ contains
         if (.not. (cfg%ftol >= 0)) call stop_all(cfg%where('minimize', 'ftol')// &
             ': must be >= 0 (the 2-norm of the global force vector, in '//trim(cfg%units%energy)//'/'// &
             trim(cfg%units%length)//')')
+        if (cfg%pot_style%stepped) call stop_all(cfg%where('minimize', 'style')//": not for &potential style = '"// &
+            trim(cfg%potential)//"' (its forces are impulses at the steps: no gradient to follow; allowed with "// &
+            'a minimization: style = '//quoted_list(pots%name, ' or ', .not. pots%stepped)//')')
         if (cfg%max_iterations < 1) call stop_all(cfg%where('minimize', 'max_iterations')//': must be >= 1')
         if (cfg%max_evaluations < 1) call stop_all(cfg%where('minimize', 'max_evaluations')//': must be >= 1')
         select case (cfg%box_relax)

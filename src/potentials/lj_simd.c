@@ -101,8 +101,9 @@ void terrace_ray_rows(int i, const double *xv, const int *nbrs, int nn, double *
  * cutoff a mask, 1/infinity beyond it), the force on i summed in the vector, and the neighbours'
  * forces loaded, reduced and stored back as rows (the neighbours of a row are distinct, so the lanes
  * never collide; the padding lanes' forces go to a spill row). Rows instead of gathers and scatters
- * (vgatherdpd, vscatterdpd): the force pass 18 % faster on the argon job (doc/performance.md). The Fortran kernel stores the separations and the pair forces in rows
- * and reads them again (a scalar gather, the vectorised pair loop, a scalar scatter); here nothing
+ * (vgatherdpd, vscatterdpd): the argon job's force pass a quarter cheaper (doc/performance.md). The
+ * Fortran kernel stores the separations and the pair forces in rows and reads them again (a scalar
+ * gather, the vectorised pair loop, a scalar scatter); here nothing
  * leaves the registers but the forces. With want_energy the pair energies are summed per atom into
  * atom_e[i] and the virial into *virial. The entry points (terrace_lj_one_type, terrace_lj_types,
  * at the end) return 0 (nothing done: the caller's Fortran kernel runs) where this build has no

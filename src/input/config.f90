@@ -1310,6 +1310,9 @@ contains
                 'energy stepping: every = 1, check = .true.)')
             if (len_trim(cfg%mesh_file) > 0) call stop_all(cfg%where('neighbor', trim(key))// &
                 ': a mesh scene needs the exact list (contact and the element halo; allowed: every = 1, check = .true.)')
+            if (cfg%integ_style%event_driven) call stop_all(cfg%where('neighbor', trim(key))// &
+                ': event-driven integration predicts its events over its own cell grid and builds the list '// &
+                'once, for the start''s overlap check (allowed with it: every = 1, check = .true.)')
         end if
     end subroutine validate_list_schedule
 

@@ -38,28 +38,27 @@ static inline void rows_xyz(const double *const *q, __m512d *vx, __m512d *vy, __
     *vz = _mm512_unpackhi_pd(c, d);
 }
 
-/* the inverse: lane l of (vx, vy, vz) stored to row q[l] as (x, y), then (y, z) (4 unpacks and 16
- * stores where three scatters store 24 doubles) */
+/* one row as its (x, y) and (y, z) halves */
+static inline void store_row(double *p, __m128d xy, __m128d yz)
+{
+    _mm_storeu_pd(p, xy);
+    _mm_storeu_pd(p + 1, yz);
+}
+
+/* the inverse of rows_xyz: lane l of (vx, vy, vz) stored to row q[l] (4 unpacks and 16 stores
+ * where three scatters store 24 doubles) */
 static inline void store_rows(double *const *q, __m512d vx, __m512d vy, __m512d vz)
 {
-    const __m512d e = _mm512_unpacklo_pd(vx, vy), o = _mm512_unpackhi_pd(vx, vy);
-    const __m512d e2 = _mm512_unpacklo_pd(vy, vz), o2 = _mm512_unpackhi_pd(vy, vz);
-    _mm_storeu_pd(q[0], _mm512_castpd512_pd128(e));
-    _mm_storeu_pd(q[0] + 1, _mm512_castpd512_pd128(e2));
-    _mm_storeu_pd(q[1], _mm512_castpd512_pd128(o));
-    _mm_storeu_pd(q[1] + 1, _mm512_castpd512_pd128(o2));
-    _mm_storeu_pd(q[2], _mm512_extractf64x2_pd(e, 1));
-    _mm_storeu_pd(q[2] + 1, _mm512_extractf64x2_pd(e2, 1));
-    _mm_storeu_pd(q[3], _mm512_extractf64x2_pd(o, 1));
-    _mm_storeu_pd(q[3] + 1, _mm512_extractf64x2_pd(o2, 1));
-    _mm_storeu_pd(q[4], _mm512_extractf64x2_pd(e, 2));
-    _mm_storeu_pd(q[4] + 1, _mm512_extractf64x2_pd(e2, 2));
-    _mm_storeu_pd(q[5], _mm512_extractf64x2_pd(o, 2));
-    _mm_storeu_pd(q[5] + 1, _mm512_extractf64x2_pd(o2, 2));
-    _mm_storeu_pd(q[6], _mm512_extractf64x2_pd(e, 3));
-    _mm_storeu_pd(q[6] + 1, _mm512_extractf64x2_pd(e2, 3));
-    _mm_storeu_pd(q[7], _mm512_extractf64x2_pd(o, 3));
-    _mm_storeu_pd(q[7] + 1, _mm512_extractf64x2_pd(o2, 3));
+    const __m512d e = _mm512_unpacklo_pd(vx, vy), o = _mm512_unpackhi_pd(vx, vy);     /* (x, y) */
+    const __m512d e2 = _mm512_unpacklo_pd(vy, vz), o2 = _mm512_unpackhi_pd(vy, vz);   /* (y, z) */
+    store_row(q[0], _mm512_castpd512_pd128(e), _mm512_castpd512_pd128(e2));
+    store_row(q[1], _mm512_castpd512_pd128(o), _mm512_castpd512_pd128(o2));
+    store_row(q[2], _mm512_extractf64x2_pd(e, 1), _mm512_extractf64x2_pd(e2, 1));
+    store_row(q[3], _mm512_extractf64x2_pd(o, 1), _mm512_extractf64x2_pd(o2, 1));
+    store_row(q[4], _mm512_extractf64x2_pd(e, 2), _mm512_extractf64x2_pd(e2, 2));
+    store_row(q[5], _mm512_extractf64x2_pd(o, 2), _mm512_extractf64x2_pd(o2, 2));
+    store_row(q[6], _mm512_extractf64x2_pd(e, 3), _mm512_extractf64x2_pd(e2, 3));
+    store_row(q[7], _mm512_extractf64x2_pd(o, 3), _mm512_extractf64x2_pd(o2, 3));
 }
 
 /* the rows of eight neighbours nb[0..cnt-1] (1-based indices into x(3, *)); the lanes from cnt

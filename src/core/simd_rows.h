@@ -67,6 +67,19 @@ static inline void neighbour_rows(const double *x, const int *nb, int cnt, const
 {
     for (int l = 0; l < 8; l++) q[l] = l < cnt ? x + 3 * (long)(nb[l] - 1) : pad;
 }
+
+/* the separations d = c - x_j of the eight neighbours nb[0..cnt-1] from the centre c, one vector per
+ * component (the lanes from cnt on: from the row pad) */
+static inline void separations(const double *x, const int *nb, int cnt, const double *pad, __m512d cx, __m512d cy,
+                               __m512d cz, __m512d *dx, __m512d *dy, __m512d *dz)
+{
+    const double *q[8];
+    neighbour_rows(x, nb, cnt, pad, q);
+    rows_xyz(q, dx, dy, dz);
+    *dx = _mm512_sub_pd(cx, *dx);
+    *dy = _mm512_sub_pd(cy, *dy);
+    *dz = _mm512_sub_pd(cz, *dz);
+}
 #endif
 #endif
 #endif

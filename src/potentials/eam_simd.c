@@ -21,11 +21,8 @@ int terrace_eam_gather_inside(double xi, double yi, double zi, const double *x, 
         const int cnt = nn - k < 8 ? nn - k : 8;
         const __mmask8 live = (__mmask8)((1u << cnt) - 1u);
         const __m256i jj = _mm256_maskz_loadu_epi32(live, neigh + k);
-        const double *q[8];
         __m512d dx, dy, dz;
-        neighbour_rows(x, neigh + k, cnt, x, q);                /* (the padding lanes: masked off) */
-        rows_xyz(q, &dx, &dy, &dz);
-        dx = _mm512_sub_pd(x0, dx); dy = _mm512_sub_pd(y0, dy); dz = _mm512_sub_pd(z0, dz);
+        separations(x, neigh + k, cnt, x, x0, y0, z0, &dx, &dy, &dz);  /* (the padding lanes: masked off) */
         const __m512d rsq = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy)));
         const __mmask8 keep = _mm512_mask_cmp_pd_mask(live, rsq, cs, _CMP_LT_OQ);
         _mm256_mask_compressstoreu_epi32(cj + n, keep, jj);

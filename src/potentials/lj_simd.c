@@ -155,9 +155,9 @@ static inline __attribute__((always_inline)) void lj_pass(const int multi, int n
         for (int k = 0; k < nn; k += 8) {
             const int cnt = nn - k < 8 ? nn - k : 8;
             const __mmask8 live = (__mmask8)((1u << cnt) - 1u);
-            const double *qx[8];
             double *qf[8];
-            neighbour_rows(x, neigh + k0 + k, cnt, far_row, qx);
+            __m512d dx, dy, dz;
+            separations(x, neigh + k0 + k, cnt, far_row, xi, yi, zi, &dx, &dy, &dz);
             neighbour_rows(f, neigh + k0 + k, cnt, spill, (const double **)qf);
             if (multi) {  /* each lane's coefficients (padding lanes: any, they lie 1e100 away) */
                 const __m512i tj = _mm512_cvtepi32_epi64(
@@ -169,9 +169,6 @@ static inline __attribute__((always_inline)) void lj_pass(const int multi, int n
                     co = _mm512_permutexvar_pd(tj, to);
                 }
             }
-            __m512d dx, dy, dz;
-            rows_xyz(qx, &dx, &dy, &dz);
-            dx = _mm512_sub_pd(xi, dx); dy = _mm512_sub_pd(yi, dy); dz = _mm512_sub_pd(zi, dz);
             __m512d rsq = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy)));
             __mmask8 in = _mm512_cmp_pd_mask(rsq, cs, _CMP_LT_OQ);
             __m512d r2inv = _mm512_div_pd(one, _mm512_mask_blend_pd(in, inf, rsq));

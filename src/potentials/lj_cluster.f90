@@ -10,15 +10,30 @@
 !> 16 lanes, j forces added to cj's replicated force record. At the end of ci its four i sums are
 !> added to the atoms' double forces, and at the end of the pass every cluster's four j replicas
 !> (ghosts too: their forces go back to their owners by the halo's reverse sum). Energy and virial
-!> (when wanted) are summed in single per owned cluster, then in double.
+!> (when wanted) are summed in single per owned cluster, then in double. With AVX-512 the pairs of
+!> each owned cluster run in C (lj_cluster_simd.c: the same operations in one 512-bit register).
 module terrace_lj_cluster
     use, intrinsic :: iso_fortran_env, only: sp => real32
+    use, intrinsic :: iso_c_binding, only: c_int, c_float, c_double
     use terrace_kinds, only: dp
     use terrace_cluster_list, only: cluster_list_t, far_slot
     implicit none
     private
 
     public :: cluster_forces
+
+    interface
+        !> src/potentials/lj_cluster_simd.c: cluster_pairs with AVX-512 (0: not in this build)
+        integer(c_int) function c_cluster_pairs(ci, nmem, prange, cjs, mask, offs, masks, xrep, frep, coeffs, &
+                                                want_energy, fi, ew) bind(C, name='terrace_lj_cluster_pairs')
+            import :: c_int, c_float, c_double
+            integer(c_int), value :: ci, nmem, want_energy
+            integer(c_int), intent(in) :: prange(3), cjs(*), mask(*)
+            real(c_float), intent(in) :: offs(3, *), masks(16, *), xrep(16, 3, *), coeffs(6)
+            real(c_float), intent(inout) :: frep(16, 3, *)
+            real(c_double), intent(out) :: fi(4, 3), ew(2)
+        end function c_cluster_pairs
+    end interface
 
 contains
 
@@ -36,13 +51,16 @@ contains
         real(sp), intent(in), contiguous :: xrep(:, :, :)
         real(sp), intent(inout), contiguous :: frep(:, :, :)
         real(dp), intent(out) :: energy, virial
-        integer :: ci, ii, a
+        integer :: ci, ii, a, prange(3)
         real(dp) :: net(3), fi(4, 3), ew(2)
         net = 0
         energy = 0; virial = 0
         do ci = 1, cl%nowned
-            call cluster_pairs(ci, cl%nmem(ci), [cl%pairs%first(ci), cl%pairs%masked_first(ci), cl%pairs%first(ci + 1) - 1], &
-                               cl%pairs%cj, cl%pairs%mask, cl%pairs%offset, cl%masks, xrep, frep, coeffs, want_energy, fi, ew)
+            prange = [cl%pairs%first(ci), cl%pairs%masked_first(ci), cl%pairs%first(ci + 1) - 1]
+            if (c_cluster_pairs(ci, cl%nmem(ci), prange, cl%pairs%cj, cl%pairs%mask, cl%pairs%offset, cl%masks, xrep, &
+                                frep, coeffs, merge(1, 0, want_energy), fi, ew) == 0) &
+                call cluster_pairs(ci, cl%nmem(ci), prange, cl%pairs%cj, cl%pairs%mask, cl%pairs%offset, cl%masks, xrep, &
+                                   frep, coeffs, want_energy, fi, ew)
             energy = energy + ew(1); virial = virial + ew(2)
             do ii = 1, cl%nmem(ci)
                 a = cl%member(ii, ci)

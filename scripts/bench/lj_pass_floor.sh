@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# What the fused AVX-512 LJ force pass (src/potentials/lj_simd.c) spends its time on, on the argon
+# job's geometry (scripts/bench/lj_pass_floor.c: 864 atoms, 8.5 A, list 9.1 A; the pass alone, no
+# engine). The pass is compiled as it is and in three variants made here from a copy of the source
+# (sed; the script stops if an edit finds nothing to change), each linked to the driver:
+#   as_is         the pass as it is, half list
+#   no_j_forces   without the neighbours' force rows (loaded, reduced, stored back): the i side
+#                 alone, the cost of a half-list pass whose j forces were free (wrong forces: a floor)
+#   full_list     the same without j forces over a full list (Newton's third law off: each pair twice,
+#                 right forces on owned atoms)
+#   rcp14         as_is with 1/r^2 from the reciprocal estimate and two Newton steps in place of the
+#                 division (not the division's bits)
+# Prints each variant's cost per pair of the half list, median and range of 7 batches, in ROUNDS
+# alternating rounds (default 3). Needs gcc and an AVX-512 machine.
+# Usage: [ROUNDS=N] scripts/bench/lj_pass_floor.sh
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
+rounds="${ROUNDS:-3}"
+grep -q avx512f /proc/cpuinfo || { echo "lj_pass_floor: this machine has no AVX-512" >&2; exit 2; }
+work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
+src="$repo/src/potentials/lj_simd.c"
+mkdir -p "$work/core" "$work/potentials"
+cp "$repo/src/core/simd_rows.h" "$work/core/"
+cp "$src" "$work/potentials/as_is.c"
+# the j-force rows: the two lines that load and store them
+sed -e '/rows_xyz((const double \*const \*)qf/d' -e '/store_rows(qf, /d' "$src" > "$work/potentials/no_j_forces.c"
+sed -e 's|__m512d r2inv = _mm512_div_pd(one, _mm512_mask_blend_pd(in, inf, rsq));|__m512d r2inv = _mm512_rcp14_pd(rsq); r2inv = _mm512_mul_pd(r2inv, _mm512_fnmadd_pd(rsq, r2inv, _mm512_set1_pd(2.0))); r2inv = _mm512_maskz_mul_pd(in, r2inv, _mm512_fnmadd_pd(rsq, r2inv, _mm512_set1_pd(2.0)));|' \
+    "$src" > "$work/potentials/rcp14.c"
+[[ $(grep -c 'store_rows(qf' "$work/potentials/no_j_forces.c") == 0 && $(grep -c 'store_rows(qf' "$src") == 1 ]] \
+    || { echo "lj_pass_floor: could not remove the j-force rows from $src" >&2; exit 1; }
+grep -q '_mm512_rcp14_pd(rsq)' "$work/potentials/rcp14.c" || { echo "lj_pass_floor: could not replace the division in $src" >&2; exit 1; }
+for v in as_is no_j_forces rcp14; do
+    gcc -O3 -march=native -funroll-loops -o "$work/$v" "$here/lj_pass_floor.c" "$work/potentials/$v.c" -lm
+done
+echo "LJ force pass alone, argon geometry; $(date -u '+%Y-%m-%d %H:%M UTC'); commit $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
+echo "machine: $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), model $(sed -n 's/^model[[:space:]]*: //p' /proc/cpuinfo | head -1), load $(cut -d' ' -f1-3 /proc/loadavg)"
+for r in $(seq "$rounds"); do
+    echo "round $r"
+    printf '  %-12s ' as_is; "$work/as_is" 0
+    printf '  %-12s ' no_j_forces; "$work/no_j_forces" 0
+    printf '  %-12s ' full_list; "$work/no_j_forces" 1
+    printf '  %-12s ' rcp14; "$work/rcp14" 0
+done

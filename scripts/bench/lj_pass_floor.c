@@ -4,8 +4,9 @@
  * periodic images as ghosts after the owned atoms, LJ 8.5 A, list cutoff 8.5 + 0.6 A (the deck's
  * pruned list). Half list (argument 0): owned pairs i < j and ghost pairs of the upper 13 of the 26
  * image shifts, each pair once; full list (argument 1): every partner of every owned atom.
- * Prints the list length and the pass's cost per pair of the half list (a full list's pass does
- * every pair twice): median and range of 7 batches of 400 passes.
+ * Prints the list length, its pairs within the cutoff and their share of the pass's lanes (eight per
+ * block, an atom's last block padded), and the pass's cost per pair of the half list (a full
+ * list's pass does every pair twice): median and range of 7 batches of 400 passes.
  * Usage: lj_pass_floor_VARIANT 0|1 */
 #include <stdio.h>
 #include <stdlib.h>
@@ -77,6 +78,15 @@ int main(int argc, char **argv)
         }
     }
     first[n] = (int)np + 1;
+    long blocks = 0, within = 0;      /* the pass's blocks of eight lanes, and its pairs within rc */
+    for (int i = 0; i < n; i++) {
+        blocks += (first[i + 1] - first[i] + 7) / 8;
+        for (int k = first[i] - 1; k < first[i + 1] - 1; k++) {
+            const int j = neigh[k] - 1;
+            const double dx = x[3 * i] - x[3 * j], dy = x[3 * i + 1] - x[3 * j + 1], dz = x[3 * i + 2] - x[3 * j + 2];
+            within += dx * dx + dy * dy + dz * dz < rc * rc;
+        }
+    }
     double *f = calloc(3 * (size_t)m, sizeof(double)), *ae = malloc(sizeof(double) * n), vir = 0;
     const double eps = 0.0103408116, s6 = pow(3.4, 6);
     const double lj1 = 48 * eps * s6 * s6, lj2 = 24 * eps * s6, lj3 = 4 * eps * s6 * s6, lj4 = 4 * eps * s6;
@@ -93,7 +103,7 @@ int main(int argc, char **argv)
         t[b] = (now() - t0) / passes / (full ? np / 2.0 : (double)np) * 1e9;
     }
     qsort(t, batches, sizeof(double), cmp);
-    printf("%-5s list, %6ld pairs: %.3f ns per half-list pair [%.3f, %.3f]\n", full ? "full" : "half", np, t[3], t[0],
-           t[6]);
+    printf("%-5s list, %6ld pairs (%ld within rc; %.2f of the %ld x 8 lanes): %.3f ns per half-list pair [%.3f, %.3f]\n",
+           full ? "full" : "half", np, within, within / (8.0 * blocks), blocks, t[3], t[0], t[6]);
     return 0;
 }

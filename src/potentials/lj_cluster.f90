@@ -25,9 +25,10 @@ module terrace_lj_cluster
     interface
         !> src/potentials/lj_cluster_simd.c: cluster_pairs with AVX-512 (0: not in this build)
         integer(c_int) function c_cluster_pairs(ci, nmem, prange, cjs, mask, offs, masks, xrep, frep, coeffs, &
-                                                want_energy, fi, ew) bind(C, name='terrace_lj_cluster_pairs')
+                                                far_i, want_energy, fi, ew) bind(C, name='terrace_lj_cluster_pairs')
             import :: c_int, c_float, c_double
             integer(c_int), value :: ci, nmem, want_energy
+            real(c_float), value :: far_i
             integer(c_int), intent(in) :: prange(3), cjs(*), mask(*)
             real(c_float), intent(in) :: offs(3, *), masks(16, *), xrep(16, 3, *), coeffs(6)
             real(c_float), intent(inout) :: frep(16, 3, *)
@@ -58,9 +59,9 @@ contains
         do ci = 1, cl%nowned
             prange = [cl%pairs%first(ci), cl%pairs%masked_first(ci), cl%pairs%first(ci + 1) - 1]
             if (c_cluster_pairs(ci, cl%nmem(ci), prange, cl%pairs%cj, cl%pairs%mask, cl%pairs%offset, cl%masks, xrep, &
-                                frep, coeffs, merge(1, 0, want_energy), fi, ew) == 0) &
-                call cluster_pairs(ci, cl%nmem(ci), prange, cl%pairs%cj, cl%pairs%mask, cl%pairs%offset, cl%masks, xrep, &
-                                   frep, coeffs, want_energy, fi, ew)
+                                frep, coeffs, -far_slot, merge(1, 0, want_energy), fi, ew) == 0) &
+                call cluster_pairs(ci, cl%nmem(ci), prange, cl%pairs%cj, cl%pairs%mask, cl%pairs%offset, cl%masks, &
+                                   xrep, frep, coeffs, want_energy, fi, ew)
             energy = energy + ew(1); virial = virial + ew(2)
             do ii = 1, cl%nmem(ci)
                 a = cl%member(ii, ci)

@@ -13,7 +13,8 @@
  *
  * Arguments as cluster_pairs has them: ci and cjs 1-based cluster indices, prange the pairs
  * (first, first with a mask row, last; 1-based), masks(16, *) the mask rows, offs(3, *) the
- * centres' offsets, xrep and frep (16, 3, *), coeffs (lj1, lj2, lj3, lj4, cutsq, offset); out: fi
+ * centres' offsets, xrep and frep (16, 3, *), coeffs (lj1, lj2, lj3, lj4, cutsq, offset), far_i
+ * the i side's empty slot (-far_slot of terrace_cluster_list); out: fi
  * (4, 3) the four i sums in double, ew (energy, virial) with want_energy (else 0). Returns 0
  * (nothing done: the Fortran loop runs) where this build has no AVX-512 (AVX512F). */
 #if defined(__AVX512F__)
@@ -21,15 +22,15 @@
 #endif
 
 int terrace_lj_cluster_pairs(int ci, int nmem, const int *prange, const int *cjs, const int *mask, const float *offs,
-                             const float *masks, const float *xrep, float *frep, const float *coeffs, int want_energy,
-                             double *fi, double *ew)
+                             const float *masks, const float *xrep, float *frep, const float *coeffs, float far_i,
+                             int want_energy, double *fi, double *ew)
 {
 #if defined(__AVX512F__)
-    /* ci's slots spread over the lanes (i0 i0 i0 i0 i1 ...), empty slots at -far_slot = 1e4 */
+    /* ci's slots spread over the lanes (i0 i0 i0 i0 i1 ...), empty slots at far_i (-far_slot) */
     const __m512i spread = _mm512_set_epi32(3, 3, 3, 3, 2, 2, 2, 2, 1, 1, 1, 1, 0, 0, 0, 0);
     const __mmask16 empty = (__mmask16)(0xffffu << (4 * (nmem < 4 ? nmem : 4)));
     const float *xc = xrep + 48 * (long)(ci - 1);
-    const __m512 far = _mm512_set1_ps(1.0e4f);
+    const __m512 far = _mm512_set1_ps(far_i);
     const __m512 xi = _mm512_mask_mov_ps(_mm512_permutexvar_ps(spread, _mm512_loadu_ps(xc)), empty, far);
     const __m512 yi = _mm512_mask_mov_ps(_mm512_permutexvar_ps(spread, _mm512_loadu_ps(xc + 16)), empty, far);
     const __m512 zi = _mm512_mask_mov_ps(_mm512_permutexvar_ps(spread, _mm512_loadu_ps(xc + 32)), empty, far);
@@ -43,9 +44,10 @@ int terrace_lj_cluster_pairs(int ci, int nmem, const int *prange, const int *cjs
         if (p >= prange[1] - 1) madd = _mm512_loadu_ps(masks + 16 * (long)(mask[p] - 1));
         const float *xj = xrep + 48 * cj;
         float *fj = frep + 48 * cj;
-        const __m512 dx = _mm512_sub_ps(_mm512_sub_ps(xi, _mm512_set1_ps(offs[3 * (long)p])), _mm512_loadu_ps(xj));
-        const __m512 dy = _mm512_sub_ps(_mm512_sub_ps(yi, _mm512_set1_ps(offs[3 * (long)p + 1])), _mm512_loadu_ps(xj + 16));
-        const __m512 dz = _mm512_sub_ps(_mm512_sub_ps(zi, _mm512_set1_ps(offs[3 * (long)p + 2])), _mm512_loadu_ps(xj + 32));
+        const float *o = offs + 3 * (long)p;
+        const __m512 dx = _mm512_sub_ps(_mm512_sub_ps(xi, _mm512_set1_ps(o[0])), _mm512_loadu_ps(xj));
+        const __m512 dy = _mm512_sub_ps(_mm512_sub_ps(yi, _mm512_set1_ps(o[1])), _mm512_loadu_ps(xj + 16));
+        const __m512 dz = _mm512_sub_ps(_mm512_sub_ps(zi, _mm512_set1_ps(o[2])), _mm512_loadu_ps(xj + 32));
         const __m512 r2 = _mm512_add_ps(_mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dx, dx))), madd);
         const __mmask16 in = _mm512_cmp_ps_mask(r2, cutsq, _CMP_LT_OQ);
         const __m512 r2i = _mm512_maskz_div_ps(in, one, r2);
@@ -66,7 +68,8 @@ int terrace_lj_cluster_pairs(int ci, int nmem, const int *prange, const int *cjs
     _mm512_storeu_ps(a[0], ax); _mm512_storeu_ps(a[1], ay); _mm512_storeu_ps(a[2], az);
     for (int d = 0; d < 3; d++)
         for (int s = 0; s < 4; s++)
-            fi[4 * d + s] = ((double)a[d][4 * s] + (double)a[d][4 * s + 1]) + ((double)a[d][4 * s + 2] + (double)a[d][4 * s + 3]);
+            fi[4 * d + s] = ((double)a[d][4 * s] + (double)a[d][4 * s + 1])
+                            + ((double)a[d][4 * s + 2] + (double)a[d][4 * s + 3]);
     ew[0] = 0; ew[1] = 0;
     if (want_energy) {
         float e[16], w[16];
@@ -76,7 +79,7 @@ int terrace_lj_cluster_pairs(int ci, int nmem, const int *prange, const int *cjs
     return 1;
 #else
     (void)ci; (void)nmem; (void)prange; (void)cjs; (void)mask; (void)offs; (void)masks; (void)xrep; (void)frep;
-    (void)coeffs; (void)want_energy; (void)fi; (void)ew;
+    (void)coeffs; (void)far_i; (void)want_energy; (void)fi; (void)ew;
     return 0;
 #endif
 }

@@ -7,6 +7,9 @@
 #   ico147_warm   input/argon_ico147_warm.nml      147-atom cluster at 40 K, energy stepping, 1 ns
 #   ico147_es100  input/argon_ico147_cold.nml run for 100 ns with a frame every 10 ps (not in the
 #                 default set: about half an hour here)
+#   argon864      input/argon_nvt_100ns.nml, Rahman's liquid argon (864 atoms, Verlet 10 fs, CSVR),
+#                 100 ns from the liquid input/argon_nvt.nml leaves (run first, its time not counted);
+#                 also prints the run log's energy drift (not in the default set: about 17 minutes)
 # and prints, per run: simulated time, wall time of the process, loop time, the Output timer and its
 # share, frames in the trajectory (checked to be at the requested times), file size, bytes per frame.
 # For the 1 ns energy-stepping runs the line "100 ns estimate" scales the loop time by 100.
@@ -40,6 +43,7 @@ for run in "${runs[@]}"; do
         ico147_cold) deck=argon_ico147_cold ;;
         ico147_warm) deck=argon_ico147_warm ;;
         ico147_es100) deck=argon_ico147_cold_100ns ;;
+        argon864) deck=argon_nvt_100ns ;;
         *) echo "unknown run $run" >&2; exit 2 ;;
     esac
     if [[ "$run" == ico147_es100 ]]; then
@@ -48,6 +52,12 @@ for run in "${runs[@]}"; do
             "$repo/input/argon_ico147_cold.nml" > "$deck.nml"
     else
         cp "$repo/input/$deck.nml" .
+    fi
+    if [[ "$run" == argon864 ]]; then      # the equilibrated liquid the deck starts from
+        cp "$repo/input/argon_nvt.nml" .
+        rm -f argon_nvt.csv argon_nvt_eq.atoms
+        find . -maxdepth 1 -name "$deck.*" ! -name "$deck.nml" -delete    # (a kept WORK: outputs of a run before)
+        "$terrace" argon_nvt.nml > argon_nvt.log 2>&1 || { echo "$run: input/argon_nvt.nml failed"; tail -3 argon_nvt.log; exit 1; }
     fi
     rm -f "$deck.h5"
     t0=$(date +%s.%N)
@@ -77,4 +87,5 @@ if run_time < 1e5:
     print(f"{'':12s} 100 ns estimate: {loop * 1e5 / run_time / 3600:.1f} h of loop time at this rate")
 sys.exit(0 if ok else 1)
 PY
+    [[ "$run" == argon864 ]] && grep -E '^Energy drift' "$deck.log" | sed 's/^/             /'
 done

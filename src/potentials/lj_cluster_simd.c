@@ -8,8 +8,8 @@
  * precision, not bit for bit (tests/regression/mixed_precision.sh bounds both against the double
  * kernel). GCC compiles the Fortran loop to 256-bit halves on this generation of Intel cores (its
  * preferred vector width), two passes per cluster pair and the i sums kept in memory; here one
- * 512-bit pass with the sums in registers: the argon job's Pair phase 13 % cheaper with the mixed
- * kernel (doc/performance.md).
+ * 512-bit pass with the sums in registers: the argon job's Pair phase with the mixed kernel 0.84 of
+ * the Fortran loop's (doc/performance.md).
  *
  * Arguments as cluster_pairs has them: ci and cjs 1-based cluster indices, prange the pairs
  * (first, first with a mask row, last; 1-based), masks(16, *) the mask rows, offs(3, *) the

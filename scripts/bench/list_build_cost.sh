@@ -43,7 +43,9 @@ for name, l, c in (('argon', 34.6809019, 9.5), ('lj', 20 * (4 / 0.8442) ** (1 / 
           ' (box %.4g, rc + skin c = %.3g); bins %.4g x %.4g x %.4g = %.3f x %.3f x %.3f c;'
           ' stencil / cutoff sphere volume %.2f' % (name, (e ** 3 - l ** 3) / l ** 3, (e ** 3 - l ** 3 - c * e * e) / l ** 3,
                                                      l, c, wxy, wxy, wz, wxy / c, wxy / c, wz / c,
-                                                     9 * wxy * wxy * 5 * wz / (4 / 3 * math.pi * c ** 3)))"
+                                                     9 * wxy * wxy * 5 * wz / (4 / 3 * math.pi * c ** 3)))
+    # an eighth shell (images on the upper side of each dimension only) would hold ((L + c)^3 - L^3) / L^3
+    print('         an eighth shell would hold %.3f box volumes' % (((l + c) ** 3 - l ** 3) / l ** 3))"
 if [[ $wall != 0 ]]; then
     : > wall.txt
     for ((r = 1; r <= wall; r++)); do

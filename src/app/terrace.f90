@@ -121,13 +121,13 @@ contains
         call start_clock()
         call run_velocity_verlet(run_parts_t(eng=eng, ts=ts, bs=bs, out=out), verlet_params(cfg), sched)
         call close_run(sched%end_time())
-        ! (outer_skin needs the exact schedule: at most one of the notes is there)
         call print_run_log(eng%timers, t1 - t0, eng%natoms, sched%n_steps, eng%list%builds, 'steps', &
-                           schedule_note()//prune_note(), list_pairs(), pairs_what())
+                           joined(schedule_note(), prune_note()), list_pairs(), pairs_what())
         call eng%report_warnings()
         if (.not. eng%list%exact()) call summary_put('neighbor/late_builds', eng%list%late)
         if (eng%outer_list) call summary_put('neighbor/prunes', eng%prunes)
         if (eng%outer_list) call summary_put('neighbor/outer_skin', cfg%outer_skin)
+        if (eng%prune_every > 0) call summary_put('neighbor/prune_every', eng%prune_every)
         call write_summary('finished', sched%end_time())
     end subroutine verlet_run
 
@@ -209,6 +209,15 @@ contains
         end if
         note = trim(line)
     end function prune_note
+
+    !> Two notes of the run log, one to a line (either may be empty).
+    function joined(a, b) result(note)
+        character(len=*), intent(in) :: a, b
+        character(len=:), allocatable :: note
+        note = a
+        if (len(a) > 0 .and. len(b) > 0) note = note//new_line('a')
+        note = note//b
+    end function joined
 
     !> The run log's line on a neighbour-list schedule that is not the exact one (empty otherwise).
     function schedule_note() result(note)

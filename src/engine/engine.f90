@@ -35,6 +35,8 @@ module terrace_engine
         !> > 0 (velocity Verlet, with a scene plan's inner_list): the built list's skin; the force
         !> pass reads the pairs within cutoff + skin pruned from it (engine_list_due)
         real(dp) :: outer_skin = 0
+        !> > 0 (with outer_skin and a fixed list schedule): prune every this many steps instead
+        integer :: prune_every = 0
         integer :: list_every = 1                !< build the list at most every this many steps
         logical :: list_check = .true.           !< and only when an atom has moved skin/2
         logical :: straight_lines = .false.      !< the integrator moves atoms on rays (energy stepping)
@@ -75,6 +77,7 @@ module terrace_engine
         !> rc + skin) pruned from it (engine_list_due decides); otherwise energy stepping's inner list
         logical :: outer_list = .false.
         real(dp) :: inner_skin = 0               !< the pruned list's skin (inner_cut = cutmax + inner_skin)
+        integer :: prune_every = 0               !< outer_list on a fixed schedule: steps between prunes
         integer :: prunes = 0
         class(potential_t), allocatable :: pot
         real(dp) :: cutmax = 0                   !< the potential's largest cutoff (0: none)
@@ -152,6 +155,7 @@ contains
         self%outer_list = self%use_inner .and. p%outer_skin > 0
         if (self%outer_list) then
             self%inner_skin = p%skin
+            self%prune_every = p%prune_every
             call self%list%init(self%cutmax, p%outer_skin, p%dimension)
         else
             self%inner_skin = 0.25_dp*p%skin
@@ -455,6 +459,9 @@ contains
     !> so: nothing while every D_p <= s/2 (the check of a list of skin s without the outer one); when
     !> an atom has moved further, a prune if every D_b <= (S - s)/2 (less 1e-9 S for round-off), and
     !> otherwise a rebuild (which prunes at once).
+    !> With prune_every (a fixed schedule, &neighbor buffer_tolerance or every and check = .false.): a
+    !> rebuild when the list's schedule says so, otherwise a prune at the multiples of prune_every
+    !> (not exact: pairs may be missed, as with the fixed schedule's built list).
     integer function engine_list_due(self, step, forced) result(due)
         class(engine_t), intent(inout) :: self
         integer(i8), intent(in) :: step
@@ -466,6 +473,12 @@ contains
         end if
         due = list_rebuild
         if (forced) return
+        if (self%prune_every > 0) then
+            due = list_keep
+            if (mod(step, int(self%prune_every, i8)) == 0) due = list_prune
+            if (self%list%rebuild_due(self%atoms, step, .false.)) due = list_rebuild
+            return
+        end if
         due = list_keep
         if (.not. self%inner%needs_rebuild(self%atoms)) return
         far = self%list%moved_beyond(self%atoms, &

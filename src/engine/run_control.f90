@@ -40,7 +40,7 @@ module terrace_run_control
         character(len=:), allocatable :: integrator, deck_path
         integer(i8) :: deck_hash = 0, seed = 0
         integer :: dimension = 3
-        real(dp) :: skin = 0, buffer_drift = 0, buffer_temperature = 0
+        real(dp) :: skin = 0, outer_skin = 0, buffer_drift = 0, buffer_temperature = 0
     end type control_params_t
 
     type, public :: run_control_t
@@ -156,6 +156,7 @@ contains
         call values%put('list_skin', self%p%skin)      ! (&neighbor buffer_tolerance: the restart's skin,
         call values%put('list_buffer_drift', self%p%buffer_drift)            !  its estimate and temperature)
         call values%put('list_buffer_temperature', self%p%buffer_temperature)
+        call values%put('list_outer_skin', self%p%outer_skin)   ! (with prune_every, the built list's)
         do d = 1, 3
             write (tag, '(i0)') d
             call values%put('box_lo_'//trim(tag), eng%box%lo(d))

@@ -6,7 +6,7 @@
 !>               box_hi), periodic, mass, temperature
 !>   &potential  style, epsilon, sigma, cutoff, pair_cutoff, shift, precision
 !>   &integrator style, dt
-!>   &neighbor   skin, list, every, check, buffer_tolerance, outer_skin
+!>   &neighbor   skin, list, every, check, buffer_tolerance, outer_skin, prune_every
 !>   &output     thermo_every, thermo_interval, thermo_file, forces_file
 !>   &thermostat style, temperature, temperature_end, damping, chain_length, seed, zero_momentum, interval
 !>   &barostat   style, pressure, damping, compressibility, couple
@@ -122,6 +122,9 @@ module terrace_config
         !> > 0: velocity Verlet builds the list with this skin and prunes the force pass's list from it
         !> (pairs within cutoff + skin) when an atom has moved skin/2 (0: off)
         real(dp) :: outer_skin = 0
+        !> > 0: with a fixed schedule (every, check = .false., or buffer_tolerance) the outer list's prunes
+        !> come every this many steps instead (0: off)
+        integer :: prune_every = 0
         ! &output
         integer(i8) :: thermo_every = -1
         real(dp) :: thermo_interval = -1.0_dp
@@ -634,20 +637,20 @@ contains
         type(config_t), intent(inout) :: cfg
         real(dp) :: skin, buffer_tolerance, outer_skin
         character(len=16) :: list
-        integer :: every
+        integer :: every, prune_every
         logical :: check
-        namelist /neighbor/ skin, list, every, check, buffer_tolerance, outer_skin
-        character(len=*), parameter :: keys(6) = [character(len=40) :: 'skin:a real number', 'list:a quoted string', &
+        namelist /neighbor/ skin, list, every, check, buffer_tolerance, outer_skin, prune_every
+        character(len=*), parameter :: keys(7) = [character(len=40) :: 'skin:a real number', 'list:a quoted string', &
                                                   'every:an integer', 'check:a logical', 'buffer_tolerance:a real number', &
-                                                  'outer_skin:a real number']
+                                                  'outer_skin:a real number', 'prune_every:an integer']
         type(item_reader_t) :: it
-        skin = -1; list = 'auto'; every = 1; check = .true.; buffer_tolerance = -1; outer_skin = 0
+        skin = -1; list = 'auto'; every = 1; check = .true.; buffer_tolerance = -1; outer_skin = 0; prune_every = 0
         do while (it%next(cfg, 'neighbor', keys))
             read (it%buf, nml=neighbor, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
         end do
         cfg%skin = skin; cfg%list = lower(list); cfg%list_every = every; cfg%list_check = check
-        cfg%buffer_tolerance = buffer_tolerance; cfg%outer_skin = outer_skin
+        cfg%buffer_tolerance = buffer_tolerance; cfg%outer_skin = outer_skin; cfg%prune_every = prune_every
     end subroutine read_neighbor
 
     subroutine read_output(cfg)
@@ -1317,8 +1320,9 @@ contains
     end subroutine validate_list_schedule
 
     !> &neighbor outer_skin: 0 (off), or a skin > skin for the built list that velocity Verlet prunes
-    !> the force pass's list from (terrace_engine's engine_list_due); for the exact list of a fixed
-    !> 3-D box in double precision only (what the potential allows the scene planner checks).
+    !> the force pass's list from (terrace_engine's engine_list_due): with the exact list when an atom
+    !> has moved skin/2, with prune_every on its fixed schedule; a fixed 3-D box in double precision only
+    !> (what the potential allows the scene planner checks).
     subroutine check_outer_skin(cfg)
         type(config_t), intent(in) :: cfg
         character(len=:), allocatable :: at
@@ -1328,19 +1332,53 @@ contains
         if (cfg%outer_skin < 0 .or. (cfg%outer_skin > 0 .and. cfg%outer_skin <= cfg%skin)) &
             call stop_all(at//': must be 0 (off) or > skin = '//trim(s)//' (a length in '//trim(cfg%units%length)//')')
         if (cfg%outer_skin == 0) return
+        if (cfg%buffer_tolerance > 0) call stop_all(at//': give outer_skin or buffer_tolerance, not both '// &
+            '(with prune_every, buffer_tolerance sets both skins; allowed with buffer_tolerance: 0)')
+        if (.not. (cfg%list_every == 1 .and. cfg%list_check) .and. cfg%prune_every == 0) call stop_all(at// &
+            ': only with the exact list (every = 1, check = .true.), or with prune_every and a fixed schedule '// &
+            '(allowed otherwise: 0)')
+        call check_outer_list_run(cfg, at)
+    end subroutine check_outer_skin
+
+    !> &neighbor prune_every: 0 (off), or the steps between the prunes of the force pass's list from
+    !> the outer list on a fixed schedule (every = a multiple of it, check = .false.): skins from
+    !> buffer_tolerance (for every and for prune_every steps) or given (skin, outer_skin).
+    subroutine check_prune_every(cfg)
+        type(config_t), intent(in) :: cfg
+        character(len=:), allocatable :: at
+        character(len=32) :: s
+        at = cfg%where('neighbor', 'prune_every')
+        if (cfg%prune_every < 0) call stop_all(at//': must be >= 0 (0: off; steps between the prunes of the '// &
+                                               'force pass''s list)')
+        if (cfg%prune_every == 0) return
+        write (s, '(i0)') cfg%list_every
+        if (cfg%list_check .or. cfg%list_every == 1) call stop_all(at//': only with a fixed schedule (every > 1 and '// &
+            'check = .false., or buffer_tolerance; allowed with the exact list: 0, where outer_skin prunes when an '// &
+            'atom has moved skin/2)')
+        if (mod(cfg%list_every, cfg%prune_every) /= 0 .or. cfg%prune_every >= cfg%list_every) call stop_all(at// &
+            ': must divide every = '//trim(s)//' and be smaller (the steps between prunes; builds come every `every` steps)')
+        if (cfg%buffer_tolerance <= 0 .and. cfg%outer_skin == 0) call stop_all(at//': needs outer_skin (the built '// &
+            'list''s skin, > skin) or buffer_tolerance (which sets both skins)')
+        call check_outer_list_run(cfg, at)
+    end subroutine check_prune_every
+
+    !> What an outer list needs of the run (outer_skin, prune_every; at names the key, whose allowed
+    !> value otherwise is 0).
+    subroutine check_outer_list_run(cfg, at)
+        type(config_t), intent(in) :: cfg
+        character(len=*), intent(in) :: at
+        character(len=*), parameter :: allowed = '0'
         if (.not. cfg%integ_style%time_stepped) call stop_all(at//': only with &integrator style = '// &
             quoted_list(integs%name, ' or ', integs%time_stepped)//' (allowed with style = '''// &
-            trim(cfg%integrator)//''': 0)')
-        if (.not. (cfg%list_every == 1 .and. cfg%list_check)) call stop_all(at//': only with the exact list '// &
-            '(every = 1, check = .true., no buffer_tolerance; allowed otherwise: 0)')
-        if (cfg%barostat /= 'none') call stop_all(at//': only with a fixed box (allowed with a barostat: 0)')
-        if (len_trim(cfg%minimize) > 0) call stop_all(at//': not with &minimize (allowed: 0)')
+            trim(cfg%integrator)//''': '//allowed//')')
+        if (cfg%barostat /= 'none') call stop_all(at//': only with a fixed box (allowed with a barostat: '//allowed//')')
+        if (len_trim(cfg%minimize) > 0) call stop_all(at//': not with &minimize (allowed: '//allowed//')')
         if (cfg%precision /= 'double' .or. cfg%dimension /= 3) call stop_all(at//": only for 3-D runs in &potential "// &
-            "precision = 'double' (allowed otherwise: 0)")
-        if (len_trim(cfg%mesh_file) > 0) call stop_all(at//': not for a mesh scene (allowed: 0)')
+            "precision = 'double' (allowed otherwise: "//allowed//')')
+        if (len_trim(cfg%mesh_file) > 0) call stop_all(at//': not for a mesh scene (allowed: '//allowed//')')
         if (cfg%list == 'all_pairs' .or. cfg%list == 'clusters') call stop_all(at//": only with &neighbor list = "// &
-            "'auto' or 'cells' (allowed with list = '"//trim(cfg%list)//"': 0)")
-    end subroutine check_outer_skin
+            "'auto' or 'cells' (allowed with list = '"//trim(cfg%list)//"': "//allowed//')')
+    end subroutine check_outer_list_run
 
     !> &neighbor list: the kind of pair search.
     subroutine validate_list_kind(cfg)
@@ -1392,6 +1430,7 @@ contains
         call validate_barostat(cfg)
         call validate_minimize(cfg)
         if (cfg%nml%find('neighbor', 'outer_skin') > 0) call check_outer_skin(cfg)
+        if (cfg%nml%find('neighbor', 'prune_every') > 0) call check_prune_every(cfg)
         call validate_outputs(cfg)
     contains
 

@@ -31,6 +31,7 @@ contains
         p%dimension = cfg%dimension
         p%skin = cfg%skin
         p%outer_skin = cfg%outer_skin
+        p%prune_every = cfg%prune_every
         p%list_every = cfg%list_every
         p%list_check = cfg%list_check
         p%straight_lines = cfg%integ_style%exact_time
@@ -56,6 +57,7 @@ contains
         p%seed = cfg%seed
         p%dimension = cfg%dimension
         p%skin = cfg%skin
+        p%outer_skin = cfg%outer_skin
         p%buffer_drift = cfg%buffer_drift
         p%buffer_temperature = cfg%buffer_temperature
     end function control_params

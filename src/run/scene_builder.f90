@@ -264,8 +264,16 @@ contains
                                   trim(adjustl(s2))//'); use a larger box (&system cells or box_hi)')
                 end if
             end if
-            if (self%cutmax + cfg%outer_skin >= self%box%length(d)) call stop_all(cfg%where('neighbor', 'outer_skin')// &
-                ': cutoff + outer_skin must be smaller than the periodic box')
+            if (self%cutmax + cfg%outer_skin >= self%box%length(d)) then
+                if (cfg%buffer_tolerance > 0) then
+                    write (s1, '(es12.5)') cfg%outer_skin
+                    call stop_all(cfg%where('neighbor', 'buffer_tolerance')//': the skin it needs for every steps ('// &
+                                  trim(adjustl(s1))//') makes cutoff + skin reach the periodic box; use a larger '// &
+                                  'tolerance, a smaller every or a larger box')
+                end if
+                call stop_all(cfg%where('neighbor', 'outer_skin')//': cutoff + outer_skin must be smaller than the '// &
+                              'periodic box')
+            end if
             if (self%cutmax + cfg%skin >= self%box%length(d)) then
                 if (cfg%buffer_tolerance > 0) then
                     write (s1, '(es12.5)') cfg%skin
@@ -281,15 +289,18 @@ contains
     !> &neighbor buffer_tolerance: cfg%skin from the drift estimate (terrace_verlet_buffer) for the
     !> scene's atom counts per type, masses, box volume and temperature (the largest of &system
     !> temperature and the thermostat's targets; without any, the kinetic temperature of the velocities
-    !> read), and cfg%buffer_drift, cfg%buffer_temperature for the run log. A restart takes all three
-    !> from its checkpoint (list_skin, ...), so that it continues the same run.
+    !> read), and cfg%buffer_drift, cfg%buffer_temperature for the run log. With prune_every, cfg%skin
+    !> is the force pass's list's (for prune_every steps) and cfg%outer_skin the built list's (for
+    !> every steps), each sized for half the tolerance (buffer_drift: the sum of both estimates). A
+    !> restart takes them from its checkpoint (list_skin, ...), so that it continues the same run.
     subroutine size_buffer(self, cfg, table, ckpt, ntypes)
         type(scene_t), intent(in) :: self
         type(config_t), intent(inout) :: cfg
         type(atom_table_t), intent(in) :: table
         type(ckpt_data_t), intent(in) :: ckpt
         integer, intent(in) :: ntypes
-        real(dp) :: count(ntypes), deriv(4, ntypes, ntypes), t_ref, ke, skin, drift
+        real(dp) :: count(ntypes), deriv(4, ntypes, ntypes), t_ref, ke, skin, drift, outer, outer_drift
+        character(len=32) :: v
         real(dp), allocatable :: basis(:, :)
         integer :: a, b, i
         logical :: ok
@@ -309,6 +320,7 @@ contains
             cfg%skin = ckpt%values%get_r('list_skin', ok)
             cfg%buffer_drift = ckpt%values%get_r('list_buffer_drift', ok)
             cfg%buffer_temperature = ckpt%values%get_r('list_buffer_temperature', ok)
+            if (cfg%prune_every > 0) cfg%outer_skin = ckpt%values%get_r('list_outer_skin', ok)
             if (.not. ok) call stop_all(at//': the checkpoint has no list_skin (it was not written by a run with '// &
                                         'buffer_tolerance)')
             return
@@ -331,8 +343,25 @@ contains
         end if
         if (.not. (t_ref > 0)) call stop_all(at//': no temperature to size the buffer for (no &system temperature, '// &
             'no thermostat, and the velocities read are zero); give skin')
-        call buffer_skin(cfg%buffer_tolerance, cfg%list_every, cfg%dt, cfg%units%boltz*t_ref, cfg%units%mvv2e, count, &
-                         self%atoms%mass(1:ntypes), product(self%box%hi - self%box%lo), deriv, skin, drift)
+        if (cfg%prune_every > 0) then
+            ! the built list for `every` steps, the force pass's list pruned from it for prune_every steps:
+            ! each may miss pairs, so each gets half the tolerance
+            call buffer_skin(0.5_dp*cfg%buffer_tolerance, cfg%prune_every, cfg%dt, cfg%units%boltz*t_ref, &
+                             cfg%units%mvv2e, count, self%atoms%mass(1:ntypes), product(self%box%hi - self%box%lo), &
+                             deriv, skin, drift)
+            call buffer_skin(0.5_dp*cfg%buffer_tolerance, cfg%list_every, cfg%dt, cfg%units%boltz*t_ref, &
+                             cfg%units%mvv2e, count, self%atoms%mass(1:ntypes), product(self%box%hi - self%box%lo), &
+                             deriv, outer, outer_drift)
+            write (v, '(g0.6)') skin
+            if (.not. (outer > skin)) call stop_all(cfg%where('neighbor', 'prune_every')//': the tolerance needs '// &
+                'no larger skin for every steps than for prune_every steps (both '//trim(v)//'); use prune_every = 0 '// &
+                'or a larger every')
+            cfg%outer_skin = outer
+            drift = max(drift, 0.0_dp) + max(outer_drift, 0.0_dp)
+        else
+            call buffer_skin(cfg%buffer_tolerance, cfg%list_every, cfg%dt, cfg%units%boltz*t_ref, cfg%units%mvv2e, &
+                             count, self%atoms%mass(1:ntypes), product(self%box%hi - self%box%lo), deriv, skin, drift)
+        end if
         cfg%skin = skin; cfg%buffer_drift = drift; cfg%buffer_temperature = t_ref
     end subroutine size_buffer
 

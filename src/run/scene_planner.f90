@@ -40,7 +40,8 @@ contains
         else if (.not. pot%needs_pair_list()) then
             self%pair_mode = pair_none
         end if
-        if (cfg%outer_skin > 0 .and. self%pair_mode /= pair_cells) call stop_all(cfg%where('neighbor', 'outer_skin')// &
+        if (cfg%outer_skin > 0 .and. self%pair_mode /= pair_cells) call stop_all(cfg%where('neighbor', &
+            trim(merge('prune_every', 'outer_skin ', cfg%prune_every > 0)))// &
             ': needs cell lists (this scene has no pair list or takes all pairs; allowed here: 0)')
         call describe_plan(self, cfg, box, pot)
     end subroutine plan_scene
@@ -77,24 +78,46 @@ contains
 
     !> &neighbor outer_skin (velocity Verlet; config has checked the run): the list is built with
     !> outer_skin and the force pass reads the pairs within cutoff + skin pruned from it (inner_list),
-    !> for potentials whose force pass allows a pruned list (Lennard-Jones) on cell lists.
+    !> for potentials whose force pass allows a pruned list (Lennard-Jones) on cell lists: pruned when
+    !> an atom has moved skin/2 (the exact list), or every prune_every steps (a fixed schedule; with
+    !> buffer_tolerance both skins from the drift estimate).
     subroutine plan_outer_list(self, cfg, pot, s)
         type(plan_t), intent(inout) :: self
         type(config_t), intent(in) :: cfg
         class(potential_t), intent(in) :: pot
         character(len=*), intent(inout) :: s
         character(len=32) :: v
+        character(len=400) :: rule
+        character(len=:), allocatable :: key
+        key = trim(merge('prune_every', 'outer_skin ', cfg%prune_every > 0))
         if (.not. (pot%runs_on_pruned_list() .and. .not. pot%needs_full_neighbourhood(.false.))) &
-            call stop_all(cfg%where('neighbor', 'outer_skin')//": only for Lennard-Jones styles (allowed with "// &
+            call stop_all(cfg%where('neighbor', key)//": only for Lennard-Jones styles (allowed with "// &
                           "style = '"//trim(cfg%potential)//"': 0)")
         write (v, '(g0.6)') cfg%skin
         if (.not. (cfg%outer_skin > cfg%skin)) call stop_all(cfg%where('neighbor', 'outer_skin')// &
             ': must be 0 (off) or > skin = '//trim(v)//' (a length in '//trim(cfg%units%length)//')')
         self%inner_list = .true.
+        if (cfg%prune_every == 0) then
+            rule = ' pruned from it when an atom has moved skin/2; rebuilt instead when at that step an atom has '// &
+                   'moved (outer_skin - skin)/2 since the build'
+        else
+            write (rule, '(a,i0,a,i0,a)') ' pruned from it every ', cfg%prune_every, ' steps; rebuilt every ', &
+                cfg%list_every, ' steps without a check'
+            if (cfg%buffer_tolerance > 0) then
+                write (v, '(es9.3)') cfg%buffer_tolerance
+                rule = trim(rule)//', the skins sized for an energy drift of at most '//trim(v)//' '// &
+                       trim(cfg%units%energy)//' per atom per '//trim(cfg%units%time)//', half each (&neighbor '// &
+                       'buffer_tolerance;'
+                write (v, '(es9.3)') max(cfg%buffer_drift, 0.0_dp)
+                rule = trim(rule)//' estimate '//trim(v)//' for both'
+                write (v, '(g0.5)') cfg%buffer_temperature
+                rule = trim(rule)//', at T = '//trim(v)//')'
+            end if
+            rule = trim(rule)//' (not exact: pairs may be missed)'
+        end if
         write (s, '(a,g0.6,a,g0.6,a,g0.6,a)') 'cell lists + half Verlet list, cutoff ', pot%cutoff(), &
             ' + outer_skin ', cfg%outer_skin, '; the force pass reads the pairs within cutoff + skin ', cfg%skin, &
-            ' pruned from it when an atom has moved skin/2; rebuilt instead when at that step an atom has moved '// &
-            '(outer_skin - skin)/2 since the build; atoms sorted by cell at each rebuild'
+            trim(rule)//'; atoms sorted by cell at each rebuild'
     end subroutine plan_outer_list
 
     !> The halo and pairs lines: all pairs, no pair list, or cells + list (atom pairs or cluster pairs).
@@ -103,7 +126,7 @@ contains
         type(config_t), intent(in) :: cfg
         type(box_t), intent(in) :: box
         class(potential_t), intent(in) :: pot
-        character(len=512) :: s, rule
+        character(len=800) :: s, rule
         if (self%pair_mode == pair_all) then
             self%pairs = 'all pairs, no neighbour list (small or cutoff-free scene)'
             if (self%nprocs == 1) then

@@ -5,7 +5,12 @@ rc at every step, and the run must follow the one without the outer list.
 
 Scene: a 500-atom LJ liquid (fcc 5x5x5 at rho* = 0.8442 melting from T* = 1.44, rc = 2.5 sigma,
 energy shifted, skin 0.3, outer_skin 0.9, dt 0.005), 2000 steps, thermo every 10 steps and a frame
-of positions every 100 steps. Runs: without the outer list (1 rank), with it (1 and 4 ranks).
+of positions every 100 steps. Runs: without the outer list (1 rank), with it (1 and 4 ranks), and with
+it on a fixed schedule (skin 0.1, every = 10, check = .false., prune_every = 2; 1 and 4 ranks): in 10
+steps no atom of this liquid moves (outer_skin - skin)/2 = 0.4, in 2 steps none moves skin/2 = 0.05,
+so that schedule is exact here too. Without its prunes (a list of rc + 0.1 kept for 10 steps) it is
+not: its thermo leaves the exact run's by 0.26 relative within 500 steps (its frames, every 100
+steps, fall on builds, where the list is whole).
 
 1. Exact list: at each of the 21 frames, the thermo pe of that step (every digit, from thermo_file)
    equals a minimum-image all-pairs sum over the frame's positions (numpy, no Terrace list) to 1e-11
@@ -16,9 +21,11 @@ of positions every 100 steps. Runs: without the outer list (1 rank), with it (1 
    but the bins (at least rc + list skin wide), so the atoms' order after each sort and the order of
    the sums, differ; the round-off differences, 1e-16 at first, grow exponentially in a liquid (its
    largest Lyapunov exponent) and reach 1e-10 after several hundred steps. The 1- and 4-rank runs
-   with the outer list are compared in the same way.
+   with the outer list are compared in the same way, and so are the two schedules.
 3. The schedule: the same builds and prunes on 1 and 4 ranks (the decisions take global maxima),
-   prunes > 0, and fewer builds than without the outer list. The run log states the prunes.
+   prunes > 0, and fewer builds than without the outer list. The run log states the prunes. The
+   fixed schedule builds at step 0 and every 10 steps (201 builds, none late) and prunes at the other
+   multiples of 2 (800 prunes).
 
 usage: outer_list.py TERRACE OUTDIR [--same-steps 500]
 """
@@ -53,10 +60,14 @@ def rows(path):
         return [r for r in csv.DictReader(f)]
 
 
-def run(terrace, work, outer, np_, env):
+FIXED = ', every=10, check=.false., prune_every=2'     # the fixed schedule's keys (with skin 0.1)
+
+
+def run(terrace, work, outer, np_, env, fixed=False):
     shutil.rmtree(work, ignore_errors=True)
     os.makedirs(work)
-    return run_deck(terrace, work, DECK.replace('NEIGHBOR', f', outer_skin={outer}' if outer else ''), np_, env)
+    deck = DECK.replace('NEIGHBOR', (f', outer_skin={outer}' if outer else '') + (FIXED if fixed else ''))
+    return run_deck(terrace, work, deck.replace('skin=0.3,', 'skin=0.1,') if fixed else deck, np_, env)
 
 
 def same_rows(a, b, steps):
@@ -81,11 +92,11 @@ def main():
     length = CELLS*(4.0/DENSITY)**(1.0/3.0)
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT='1', OMPI_ALLOW_RUN_AS_ROOT_CONFIRM='1')
     failures = []
-    runs = {'off_np1': (0, 1), 'on_np1': (0.9, 1), 'on_np4': (0.9, 4)}
+    runs = {'off_np1': (0, 1), 'on_np1': (0.9, 1), 'on_np4': (0.9, 4), 'fixed_np1': (0.9, 1), 'fixed_np4': (0.9, 4)}
     thermo, figures = {}, {}
     for name, (outer, np_) in runs.items():
         work = os.path.join(a.outdir, name)
-        out = run(a.terrace, work, outer, np_, env)
+        out = run(a.terrace, work, outer, np_, env, name.startswith('fixed'))
         thermo[name] = rows(os.path.join(work, 'thermo.csv'))
         figures[name] = summary.read(os.path.join(work, 'run.summary.json'))
         if outer and 'prunes between the builds' not in out:
@@ -107,7 +118,7 @@ def main():
         print(f'{name}: {len(steps)} frames (steps {steps[0]}..{steps[-1]}): pe = all-pairs energy of the positions '
               f'to {worst:.1e} relative')
     # 2. the same trajectory as without the outer list, and on 1 and 4 ranks
-    for x, y in (('off_np1', 'on_np1'), ('on_np1', 'on_np4')):
+    for x, y in (('off_np1', 'on_np1'), ('on_np1', 'on_np4'), ('on_np1', 'fixed_np1'), ('fixed_np1', 'fixed_np4')):
         d = same_rows(thermo[x], thermo[y], a.same_steps)
         print(f'{x} against {y}: thermo to {d:.1e} relative over the first {a.same_steps} steps; '
               f'etotal at step 2000 {float(thermo[x][-1]["etotal"]):.10f} and {float(thermo[y][-1]["etotal"]):.10f}')
@@ -123,6 +134,11 @@ def main():
         failures.append('no prune with the outer list')
     if not get['on_np1'][0] < get['off_np1'][0]:
         failures.append(f'the outer list is built {get["on_np1"][0]} times, without it {get["off_np1"][0]}')
+    for n in ('fixed_np1', 'fixed_np4'):
+        late = summary.get(figures[n], 'neighbor/late_builds', None)
+        if get[n] != (201, 800) or late != 0:
+            failures.append(f'{n}: {get[n][0]} builds ({late} late) and {get[n][1]} prunes; expected 201 (0 late) '
+                            'and 800')
     if failures:
         sys.exit('FAIL: ' + '; '.join(failures))
     print('OK: the outer list keeps the force pass exact and follows the run without it')

@@ -8,7 +8,11 @@
 #      smaller tolerance (the missed pairs the buffer is there for: the check above can fail), and
 #      the exact list (skin 0.3, the default schedule) within 1e-5;
 #   3. 4 ranks size the same skin (the estimate is over the whole system) and run the same 100 steps
-#      as 1 rank (1e-10); the scene plan states the tolerance, the estimate and the temperature.
+#      as 1 rank (1e-10); the scene plan states the tolerance, the estimate and the temperature;
+#   4. with prune_every (every = 40, prune_every = 10, tolerance 1e-3: the list built with the skin
+#      for 40 steps, the force pass's list pruned from it every 10 steps with the skin for 10 steps,
+#      each for half the tolerance): the measured drift within 1e-3, the pass's skin smaller than the
+#      built list's, 300 prunes in 4000 steps; 1 and 4 ranks the same skins and the same 100 steps.
 # Usage: tests/regression/verlet_buffer.sh TERRACE_BINARY OUTPUT_DIR
 source "$(dirname "${BASH_SOURCE[0]}")/liquid_common.sh" "$@"
 deck() {   # name steps neighbor-keys
@@ -26,9 +30,13 @@ deck tol3 4000 "every=20, buffer_tolerance=1e-3"
 deck bare 4000 "skin=0, every=20, check=.false."
 deck exact 4000 "skin=0.3"
 deck ranks1 100 "every=20, buffer_tolerance=1e-3"
+deck pruned 4000 "every=40, prune_every=10, buffer_tolerance=1e-3"
+deck pranks1 100 "every=40, prune_every=10, buffer_tolerance=1e-3"
+cp pranks1.nml pranks4.nml; sed -i "s|pranks1.csv|pranks4.csv|" pranks4.nml
 cp ranks1.nml ranks4.nml; sed -i "s|ranks1.csv|ranks4.csv|" ranks4.nml
-for n in tol2 tol3 bare exact ranks1; do run $n 1; done
+for n in tol2 tol3 bare exact ranks1 pruned pranks1; do run $n 1; done
 run ranks4 4
+run pranks4 4
 
 # 1. measured drift within the tolerance
 for t in 2 3; do
@@ -52,3 +60,18 @@ compare ranks1 ranks4 "1 and 4 ranks: skin $(skin ranks1), thermo the same (1e-1
 grep -q 'rebuilt every 20 steps without a check, the skin sized for an energy drift of at most 1.000E-03 epsilon per atom per tau (&neighbor buffer_tolerance; estimate [0-9.]*E-0[34] at T = 1.44' ranks1.log ||
     { echo "FAIL: the scene plan does not state the tolerance"; grep 'pairs ' ranks1.log; exit 1; }
 echo "ok   the scene plan states the tolerance, the estimate and the temperature"
+
+# 4. prune_every: the drift, the two skins, the schedule, the rank count
+get() { "$PYTHON" -m terrace_tools.summary get "$1.summary.json" "$2"; }
+within "$(drift pruned)" 1e-3 || { echo "FAIL: prune_every: measured drift $(drift pruned) beyond 1e-3"; exit 1; }
+"$PYTHON" -c "import sys; sys.exit(not 0 < float('$(skin pruned)') < float('$(get pruned neighbor/outer_skin)'))" ||
+    { echo "FAIL: prune_every: skin $(skin pruned), outer skin $(get pruned neighbor/outer_skin)"; exit 1; }
+[[ "$(get pruned neighbor/prunes)" == 300 && "$(get pruned neighbor/builds)" == 101 ]] ||
+    { echo "FAIL: prune_every: $(get pruned neighbor/builds) builds and $(get pruned neighbor/prunes) prunes (101, 300)"; exit 1; }
+echo "ok   prune_every 10, every 40: skins $(skin pruned) and $(get pruned neighbor/outer_skin), 300 prunes, measured drift $(drift pruned)"
+[[ "$(skin pranks1) $(get pranks1 neighbor/outer_skin)" == "$(skin pranks4) $(get pranks4 neighbor/outer_skin)" ]] ||
+    { echo "FAIL: prune_every: skins differ on 1 and 4 ranks"; exit 1; }
+compare pranks1 pranks4 "prune_every on 1 and 4 ranks: the same skins, thermo the same (1e-10)"
+grep -q 'pruned from it every 10 steps; rebuilt every 40 steps without a check, the skins sized for an energy drift of at most 1.000E-03 epsilon per atom per tau, half each' pranks1.log ||
+    { echo "FAIL: the scene plan does not state the prune schedule"; grep 'pairs ' pranks1.log; exit 1; }
+echo "ok   the scene plan states the prune schedule"

@@ -123,6 +123,49 @@ struct terrace_lj_tables {
     int ntypes;
 };
 #if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
+/* lj_pass's last block of a row when it holds four pairs or fewer (cnt <= 4): the same operations on
+ * the lower four lanes, in 256-bit registers (half the arithmetic and rows of an eight-lane block),
+ * and the sums' lower halves updated; their upper lanes, to which the eight-lane block would add
+ * -0 or 0 from its padding lanes, are left as they are. The same bits as the eight-lane block. */
+static inline __attribute__((always_inline)) void tail4(const double *x, double *f, const int *nb, int cnt,
+                                                        const double *far_row, double *spill, __m512d xi, __m512d yi,
+                                                        __m512d zi, __m512d c1, __m512d c2, __m512d c3, __m512d c4,
+                                                        __m512d cs, __m512d co, int want_energy, __m512d *sx,
+                                                        __m512d *sy, __m512d *sz, __m512d *se, __m512d *wsum)
+{
+    const double *q[4];
+    double *qf[4];
+    for (int l = 0; l < 4; l++) {
+        q[l] = l < cnt ? x + 3 * (long)(nb[l] - 1) : far_row;
+        qf[l] = l < cnt ? f + 3 * (long)(nb[l] - 1) : spill;
+    }
+    __m256d dx, dy, dz;
+    rows_xyz4(q, &dx, &dy, &dz);
+    dx = _mm256_sub_pd(_mm512_castpd512_pd256(xi), dx);
+    dy = _mm256_sub_pd(_mm512_castpd512_pd256(yi), dy);
+    dz = _mm256_sub_pd(_mm512_castpd512_pd256(zi), dz);
+    const __m256d one = _mm256_set1_pd(1.0), inf = _mm256_set1_pd(INFINITY);
+    __m256d rsq = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dx, dx, _mm256_mul_pd(dy, dy)));
+    __mmask8 in = _mm256_cmp_pd_mask(rsq, _mm512_castpd512_pd256(cs), _CMP_LT_OQ);
+    __m256d r2inv = _mm256_div_pd(one, _mm256_mask_blend_pd(in, inf, rsq));
+    __m256d r6inv = _mm256_mul_pd(_mm256_mul_pd(r2inv, r2inv), r2inv);
+    __m256d fpair = _mm256_mul_pd(_mm256_mul_pd(r6inv, _mm256_fmsub_pd(_mm512_castpd512_pd256(c1), r6inv,
+                                                                          _mm512_castpd512_pd256(c2))), r2inv);
+    if (want_energy) {
+        __m256d e = _mm256_mul_pd(r6inv, _mm256_fmsub_pd(_mm512_castpd512_pd256(c3), r6inv, _mm512_castpd512_pd256(c4)));
+        __m256d s = _mm256_add_pd(_mm512_castpd512_pd256(*se), _mm256_mask_sub_pd(e, in, e, _mm512_castpd512_pd256(co)));
+        *se = _mm512_insertf64x4(*se, s, 0);
+        *wsum = _mm512_insertf64x4(*wsum, _mm256_fmadd_pd(rsq, fpair, _mm512_castpd512_pd256(*wsum)), 0);
+    }
+    __m256d fx = _mm256_mul_pd(dx, fpair), fy = _mm256_mul_pd(dy, fpair), fz = _mm256_mul_pd(dz, fpair);
+    *sx = _mm512_insertf64x4(*sx, _mm256_add_pd(_mm512_castpd512_pd256(*sx), fx), 0);
+    *sy = _mm512_insertf64x4(*sy, _mm256_add_pd(_mm512_castpd512_pd256(*sy), fy), 0);
+    *sz = _mm512_insertf64x4(*sz, _mm256_add_pd(_mm512_castpd512_pd256(*sz), fz), 0);
+    __m256d gx, gy, gz;
+    rows_xyz4((const double *const *)qf, &gx, &gy, &gz);
+    store_rows4(qf, _mm256_sub_pd(gx, fx), _mm256_sub_pd(gy, fy), _mm256_sub_pd(gz, fz));
+}
+
 static inline __attribute__((always_inline)) void lj_pass(const int multi, int nlocal, const double *x, double *f,
                                                           const int *first, const int *neigh, const int *type,
                                                           const int *ntype, int ntypes, const double *lj1,
@@ -155,10 +198,6 @@ static inline __attribute__((always_inline)) void lj_pass(const int multi, int n
         for (int k = 0; k < nn; k += 8) {
             const int cnt = nn - k < 8 ? nn - k : 8;
             const __mmask8 live = (__mmask8)((1u << cnt) - 1u);
-            double *qf[8];
-            __m512d dx, dy, dz;
-            separations(x, neigh + k0 + k, cnt, far_row, xi, yi, zi, &dx, &dy, &dz);
-            neighbour_rows(f, neigh + k0 + k, cnt, spill, (const double **)qf);
             if (multi) {  /* each lane's coefficients (padding lanes: any, they lie 1e100 away) */
                 const __m512i tj = _mm512_cvtepi32_epi64(
                     _mm256_sub_epi32(_mm256_maskz_loadu_epi32(live, ntype + k0 + k), _mm256_set1_epi32(1)));
@@ -169,6 +208,15 @@ static inline __attribute__((always_inline)) void lj_pass(const int multi, int n
                     co = _mm512_permutexvar_pd(tj, to);
                 }
             }
+            if (cnt <= 4) {   /* a row's last block of four pairs or fewer: four lanes, half the work */
+                tail4(x, f, neigh + k0 + k, cnt, far_row, spill, xi, yi, zi, c1, c2, c3, c4, cs, co, want_energy,
+                      &sx, &sy, &sz, &se, &wsum);
+                continue;
+            }
+            double *qf[8];
+            __m512d dx, dy, dz;
+            separations(x, neigh + k0 + k, cnt, far_row, xi, yi, zi, &dx, &dy, &dz);
+            neighbour_rows(f, neigh + k0 + k, cnt, spill, (const double **)qf);
             __m512d rsq = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy)));
             __mmask8 in = _mm512_cmp_pd_mask(rsq, cs, _CMP_LT_OQ);
             __m512d r2inv = _mm512_div_pd(one, _mm512_mask_blend_pd(in, inf, rsq));

@@ -96,7 +96,7 @@ void terrace_ray_rows(int i, const double *xv, const int *nbrs, int nn, double *
 
 /* The Lennard-Jones force pass over the half list, fused, with AVX-512: for each owned
  * atom i (0-based here; first and neigh 1-based, as the Fortran list has them) eight neighbours at a
- * time: their positions loaded as rows (core/simd_rows.h; the padding lanes of a row's last block
+ * time (a row's last four or fewer four at a time: tail4): their positions loaded as rows (core/simd_rows.h; the padding lanes of a row's last block
  * read a row 1e100 away), the pair terms computed in the vector as terrace_lj's lj_terms does (the
  * cutoff a mask, 1/infinity beyond it), the force on i summed in the vector, and the neighbours'
  * forces loaded, reduced and stored back as rows (the neighbours of a row are distinct, so the lanes
@@ -126,7 +126,8 @@ struct terrace_lj_tables {
 /* lj_pass's last block of a row when it holds four pairs or fewer (cnt <= 4): the same operations on
  * the lower four lanes, in 256-bit registers (half the arithmetic and rows of an eight-lane block),
  * and the sums' lower halves updated; their upper lanes, to which the eight-lane block would add
- * -0 or 0 from its padding lanes, are left as they are. The same bits as the eight-lane block. */
+ * -0 or 0 from its padding lanes, are left as they are: the same forces, energy and virial as the
+ * eight-lane block (adding a zero changes a sum only where it is an exact zero, in its sign). */
 static inline __attribute__((always_inline)) void tail4(const double *x, double *f, const int *nb, int cnt,
                                                         const double *far_row, double *spill, __m512d xi, __m512d yi,
                                                         __m512d zi, __m512d c1, __m512d c2, __m512d c3, __m512d c4,

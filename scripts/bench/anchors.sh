@@ -582,10 +582,10 @@ if [[ "$parts" == *,argon,* ]]; then
         ar_terrace.nml > ar_terrace_mixed_tol.nml
     sed -E "s#buffer_tolerance=$tol_ev /#buffer_tolerance=$tol_ev, every=40 /#" ar_terrace_mixed_tol.nml > ar_terrace_mixed_tol40.nml
     for f in ar_terrace_mixed_tol ar_terrace_mixed_tol40; do
-        grep -q "precision='mixed'" $f.nml && ! cmp -s $f.nml ar_terrace.nml && grep -q buffer_tolerance $f.nml \
+        grep -q "precision='mixed'" $f.nml && ! cmp -s $f.nml ar_terrace.nml && grep -q '^&neighbor buffer_tolerance' $f.nml \
             || { echo "anchors: could not edit $f.nml" >&2; exit 1; }
     done
-    [[ $(grep -c 'every=40' ar_terrace_mixed_tol40.nml) == 1 ]] || { echo "anchors: could not set every=40" >&2; exit 1; }
+    [[ $(grep -c '^&neighbor .*every=40' ar_terrace_mixed_tol40.nml) == 1 ]] || { echo "anchors: could not set every=40" >&2; exit 1; }
     sed -E "s#^&neighbor .*/#\&neighbor buffer_tolerance=$tol_ev, every=40, prune_every=10 /#" ar_terrace.nml > ar_terrace_tol_pruned.nml
     [[ $(grep -c "^&neighbor buffer_tolerance=$tol_ev, every=40, prune_every=10 /" ar_terrace_tol_pruned.nml) == 1 ]] \
         || { echo "anchors: could not edit ar_terrace_tol_pruned.nml" >&2; exit 1; }

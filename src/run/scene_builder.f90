@@ -248,6 +248,7 @@ contains
         type(config_t), intent(in) :: cfg
         type(scene_t), intent(in) :: self
         character(len=64) :: s1, s2
+        character(len=:), allocatable :: key
         integer :: d
         do d = 1, cfg%dimension
             if (.not. self%box%periodic(d)) cycle
@@ -264,24 +265,17 @@ contains
                                   trim(adjustl(s2))//'); use a larger box (&system cells or box_hi)')
                 end if
             end if
-            if (self%cutmax + cfg%outer_skin >= self%box%length(d)) then
+            ! the built list's skin: outer_skin where there is one (with prune_every, the one buffer_tolerance
+            ! sized for `every` steps)
+            if (self%cutmax + max(cfg%skin, cfg%outer_skin) >= self%box%length(d)) then
+                key = trim(merge('outer_skin', 'skin      ', cfg%outer_skin > cfg%skin))
                 if (cfg%buffer_tolerance > 0) then
-                    write (s1, '(es12.5)') cfg%outer_skin
-                    call stop_all(cfg%where('neighbor', 'buffer_tolerance')//': the skin it needs for every steps ('// &
-                                  trim(adjustl(s1))//') makes cutoff + skin reach the periodic box; use a larger '// &
-                                  'tolerance, a smaller every or a larger box')
-                end if
-                call stop_all(cfg%where('neighbor', 'outer_skin')//': cutoff + outer_skin must be smaller than the '// &
-                              'periodic box')
-            end if
-            if (self%cutmax + cfg%skin >= self%box%length(d)) then
-                if (cfg%buffer_tolerance > 0) then
-                    write (s1, '(es12.5)') cfg%skin
+                    write (s1, '(es12.5)') max(cfg%skin, cfg%outer_skin)
                     call stop_all(cfg%where('neighbor', 'buffer_tolerance')//': the skin it needs ('// &
                                   trim(adjustl(s1))//') makes cutoff + skin reach the periodic box; use a larger '// &
                                   'tolerance, a smaller every or a larger box')
                 end if
-                call stop_all(cfg%where('neighbor', 'skin')//': cutoff + skin must be smaller than the periodic box')
+                call stop_all(cfg%where('neighbor', key)//': cutoff + '//key//' must be smaller than the periodic box')
             end if
         end do
     end subroutine check_range

@@ -22,13 +22,14 @@ src="$repo/src/potentials/lj_simd.c"
 mkdir -p "$work/core" "$work/potentials"
 cp "$repo/src/core/simd_rows.h" "$work/core/"
 cp "$src" "$work/potentials/as_is.c"
-# the j-force rows: the two lines that load and store them
-sed -e '/rows_xyz((const double \*const \*)qf/d' -e '/store_rows(qf, /d' "$src" > "$work/potentials/no_j_forces.c"
+# the j-force rows: the lines that load and store them (eight lanes, and the four-lane tail)
+sed -e '/rows_xyz4\?((const double \*const \*)qf/d' -e '/store_rows4\?(qf, /d' "$src" > "$work/potentials/no_j_forces.c"
 sed -e 's|__m512d r2inv = _mm512_div_pd(one, _mm512_mask_blend_pd(in, inf, rsq));|__m512d r2inv = _mm512_rcp14_pd(rsq); r2inv = _mm512_mul_pd(r2inv, _mm512_fnmadd_pd(rsq, r2inv, _mm512_set1_pd(2.0))); r2inv = _mm512_maskz_mul_pd(in, r2inv, _mm512_fnmadd_pd(rsq, r2inv, _mm512_set1_pd(2.0)));|' \
+    -e 's|__m256d r2inv = _mm256_div_pd(one, _mm256_mask_blend_pd(in, inf, rsq));|__m256d r2inv = _mm256_rcp14_pd(rsq); r2inv = _mm256_mul_pd(r2inv, _mm256_fnmadd_pd(rsq, r2inv, _mm256_set1_pd(2.0))); r2inv = _mm256_maskz_mul_pd(in, r2inv, _mm256_fnmadd_pd(rsq, r2inv, _mm256_set1_pd(2.0)));|' \
     "$src" > "$work/potentials/rcp14.c"
-[[ $(grep -c 'store_rows(qf' "$work/potentials/no_j_forces.c") == 0 && $(grep -c 'store_rows(qf' "$src") == 1 ]] \
+[[ $(grep -c 'store_rows4\?(qf' "$work/potentials/no_j_forces.c") == 0 && $(grep -c 'store_rows4\?(qf' "$src") == 2 ]] \
     || { echo "lj_pass_floor: could not remove the j-force rows from $src" >&2; exit 1; }
-grep -q '_mm512_rcp14_pd(rsq)' "$work/potentials/rcp14.c" || { echo "lj_pass_floor: could not replace the division in $src" >&2; exit 1; }
+[[ $(grep -c '_rcp14_pd(rsq)' "$work/potentials/rcp14.c") == 2 ]] || { echo "lj_pass_floor: could not replace the divisions in $src" >&2; exit 1; }
 for v in as_is no_j_forces rcp14; do
     gcc -O3 -march=native -funroll-loops -o "$work/$v" "$here/lj_pass_floor.c" "$work/potentials/$v.c" -lm
 done

@@ -486,7 +486,7 @@ contains
     !> the ghosts.
     subroutine domain_forward(self, a, shifted)
         class(domain_t), intent(inout) :: self
-        real(dp), intent(inout) :: a(:, :)
+        real(dp), intent(inout), contiguous :: a(:, :)
         logical, intent(in) :: shifted
         integer :: s, j, i, n, p, nc
         real(dp) :: sh(size(a, 1))
@@ -529,7 +529,7 @@ contains
     !> (energy stepping's ghosts after each velocity jump).
     subroutine domain_forward_xv(self, x, v)
         class(domain_t), intent(inout) :: self
-        real(dp), intent(inout) :: x(:, :), v(:, :)
+        real(dp), intent(inout), contiguous :: x(:, :), v(:, :)
         integer :: s, j, i, n, p
         real(dp) :: sx, sy, sz
         do s = 1, self%nswap
@@ -567,7 +567,7 @@ contains
     !> their share on).
     subroutine domain_reverse(self, a)
         class(domain_t), intent(inout) :: self
-        real(dp), intent(inout) :: a(:, :)
+        real(dp), intent(inout), contiguous :: a(:, :)
         integer :: s, j, i, n, p, nc
         nc = size(a, 1)
         do s = self%nswap, 1, -1

@@ -340,12 +340,8 @@ contains
         if (cfg%prune_every > 0) then
             ! the built list for `every` steps, the force pass's list pruned from it for prune_every steps:
             ! each may miss pairs, so each gets half the tolerance
-            call buffer_skin(0.5_dp*cfg%buffer_tolerance, cfg%prune_every, cfg%dt, cfg%units%boltz*t_ref, &
-                             cfg%units%mvv2e, count, self%atoms%mass(1:ntypes), product(self%box%hi - self%box%lo), &
-                             deriv, skin, drift)
-            call buffer_skin(0.5_dp*cfg%buffer_tolerance, cfg%list_every, cfg%dt, cfg%units%boltz*t_ref, &
-                             cfg%units%mvv2e, count, self%atoms%mass(1:ntypes), product(self%box%hi - self%box%lo), &
-                             deriv, outer, outer_drift)
+            call skin_for(0.5_dp*cfg%buffer_tolerance, cfg%prune_every, skin, drift)
+            call skin_for(0.5_dp*cfg%buffer_tolerance, cfg%list_every, outer, outer_drift)
             write (v, '(g0.6)') skin
             if (.not. (outer > skin)) call stop_all(cfg%where('neighbor', 'prune_every')//': the tolerance needs '// &
                 'no larger skin for every steps than for prune_every steps (both '//trim(v)//'); use prune_every = 0 '// &
@@ -353,10 +349,19 @@ contains
             cfg%outer_skin = outer
             drift = max(drift, 0.0_dp) + max(outer_drift, 0.0_dp)
         else
-            call buffer_skin(cfg%buffer_tolerance, cfg%list_every, cfg%dt, cfg%units%boltz*t_ref, cfg%units%mvv2e, &
-                             count, self%atoms%mass(1:ntypes), product(self%box%hi - self%box%lo), deriv, skin, drift)
+            call skin_for(cfg%buffer_tolerance, cfg%list_every, skin, drift)
         end if
         cfg%skin = skin; cfg%buffer_drift = drift; cfg%buffer_temperature = t_ref
+    contains
+
+        !> The estimate's skin (and its drift) for a tolerance and a list kept `every` steps, on this scene.
+        subroutine skin_for(tolerance, every, skin_out, drift_out)
+            real(dp), intent(in) :: tolerance
+            integer, intent(in) :: every
+            real(dp), intent(out) :: skin_out, drift_out
+            call buffer_skin(tolerance, every, cfg%dt, cfg%units%boltz*t_ref, cfg%units%mvv2e, count, &
+                             self%atoms%mass(1:ntypes), product(self%box%hi - self%box%lo), deriv, skin_out, drift_out)
+        end subroutine skin_for
     end subroutine size_buffer
 
     !> The processor grid a checkpoint was written with.

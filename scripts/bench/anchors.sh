@@ -46,7 +46,8 @@
 #          mixed kernel with &neighbor buffer_tolerance = GROMACS's default 0.005 kJ/mol/ps per atom
 #          every 10 steps (ar_terrace_mixed_tol) and every 40 (ar_terrace_mixed_tol40), the double kernel
 #          at the same tolerance with the list built every 40 steps and the force pass's list pruned from
-#          it every 10 (ar_terrace_tol_pruned: &neighbor prune_every = 10), GROMACS mixed
+#          it every 10 (ar_terrace_tol_pruned: &neighbor prune_every = 10), the same with the mixed kernel
+#          over the pruned atom list (ar_terrace_mixed_pruned), GROMACS mixed
 #          and double at its defaults (v-rescale, its own buffer and nstlist) and LAMMPS (Berendsen:
 #          this LAMMPS has no temp/csvr) on the same state (scripts/bench/argon_anchors.py writes
 #          their inputs); loop and whole-process wall times, ratios round by round.
@@ -179,7 +180,7 @@ launch() {
         eam_terrace)    run eam_terrace terrace eam_terrace.out ./terrace eam.nml ;;
         eam_lammps)     run eam_lammps lammps lammps.log lmp -screen none -log lammps.log -var nsteps "$neam" -var potdir "$pot" -in "$here/in.eam_bench" ;;
         eam_lammps_opt) run eam_lammps_opt lammps lammps.log lmp -sf opt -screen none -log lammps.log -var nsteps "$neam" -var potdir "$pot" -in "$here/in.eam_bench" ;;
-        ar_terrace|ar_terrace_mixed_tol|ar_terrace_mixed_tol40|ar_terrace_tol_pruned)
+        ar_terrace|ar_terrace_mixed_tol|ar_terrace_mixed_tol40|ar_terrace_tol_pruned|ar_terrace_mixed_pruned)
                         rm -f argon_nvt_100ns.csv argon_nvt_100ns.h5 argon_nvt_100ns.ckpt.h5   # the decks' outputs, fresh
                         run $1 terrace $1.out ./terrace $1.nml ;;
         ar_gromacs_mix) run ar_gromacs_mix gromacs md.log gmx "${gargs[@]}" -s argon_gmx.tpr ;;
@@ -589,9 +590,12 @@ if [[ "$parts" == *,argon,* ]]; then
     sed -E "s#^&neighbor .*/#\&neighbor buffer_tolerance=$tol_ev, every=40, prune_every=10 /#" ar_terrace.nml > ar_terrace_tol_pruned.nml
     [[ $(grep -c "^&neighbor buffer_tolerance=$tol_ev, every=40, prune_every=10 /" ar_terrace_tol_pruned.nml) == 1 ]] \
         || { echo "anchors: could not edit ar_terrace_tol_pruned.nml" >&2; exit 1; }
+    sed -E "s#shift=.true. /#shift=.true., precision='mixed' /#" ar_terrace_tol_pruned.nml > ar_terrace_mixed_pruned.nml
+    [[ $(grep -c "^&potential .*precision='mixed' /" ar_terrace_mixed_pruned.nml) == 1 ]] \
+        || { echo "anchors: could not edit ar_terrace_mixed_pruned.nml" >&2; exit 1; }
     boxl="$(sed -n "s/.*box_hi=\([0-9.]*\),.*/\1/p" ar_terrace.nml | head -1)"
     python3 "$here/argon_anchors.py" argon_nvt_eq.atoms "$boxl" "$nar" 1000 94.4 1.0
-    labels=(ar_terrace ar_terrace_mixed_tol ar_terrace_mixed_tol40 ar_terrace_tol_pruned)
+    labels=(ar_terrace ar_terrace_mixed_tol ar_terrace_mixed_tol40 ar_terrace_tol_pruned ar_terrace_mixed_pruned)
     for g in gmx gmx_d; do
         have $g || continue
         $g grompp -f argon.mdp -c argon.gro -p argon.top -o argon_$g.tpr -po argon_$g.mdout.mdp -maxwarn 10 \
@@ -603,7 +607,8 @@ if [[ "$parts" == *,argon,* ]]; then
     echo "   ar_terrace: the deck as it is (double, exact list: skin 0.6 A pruned from outer_skin 2.6 A); ar_terrace_mixed_tol: precision='mixed'"
     echo "   (cluster-pair list), &neighbor buffer_tolerance=$tol_ev eV/ps (GROMACS's default 0.005 kJ/mol/ps),"
     echo "   every 10 steps (the key's default); ar_terrace_mixed_tol40: the same every 40 steps; ar_terrace_tol_pruned:"
-    echo "   double precision, the same tolerance, built every 40 steps, the force pass's list pruned every 10; GROMACS: leap-frog,"
+    echo "   double precision, the same tolerance, built every 40 steps, the force pass's list pruned every 10;"
+    echo "   ar_terrace_mixed_pruned: the same with precision='mixed' (the mixed kernel over the pruned atom list); GROMACS: leap-frog,"
     echo "   v-rescale (tau-t 1 ps), its Verlet buffer at its default tolerance, nstcalcenergy 100, energies and"
     echo "   a trr frame (x, v) every 1000 steps; LAMMPS: velocity Verlet, fix temp/berendsen (1 ps; this"
     echo "   LAMMPS has no temp/csvr), skin 1 A checked every step, thermo and a dump (x, v) every 1000 steps"
@@ -625,7 +630,7 @@ for l in rows:
           st.median(r[0] for r in rs), st.median(r[1] for r in rs), st.median(r[2] for r in rs),
           1e6 * st.median(r[0] for r in rs) / nsteps, ' '.join('%.2f' % r[0] for r in rs)))
 n = min(len(runs[l]) for l in rows)
-for ref in ('ar_terrace', 'ar_terrace_mixed_tol', 'ar_terrace_mixed_tol40', 'ar_terrace_tol_pruned'):
+for ref in ('ar_terrace', 'ar_terrace_mixed_tol', 'ar_terrace_mixed_tol40', 'ar_terrace_tol_pruned', 'ar_terrace_mixed_pruned'):
     if ref not in runs:
         continue
     print('ratios code / %s, round by round (> 1: %s is faster): median [lowest, highest] of %d rounds' % (ref, ref, n))
@@ -637,9 +642,9 @@ for ref in ('ar_terrace', 'ar_terrace_mixed_tol', 'ar_terrace_mixed_tol40', 'ar_
         print('  %-22s %-24s %-24s %-24s' % (l, *('%.3f [%.3f, %.3f]' % (st.median(v), v[0], v[-1]) for v in q)))
 PY
     echo "Terrace's phases (best runs):"
-    for v in ar_terrace ar_terrace_mixed_tol ar_terrace_mixed_tol40 ar_terrace_tol_pruned; do
+    for v in ar_terrace ar_terrace_mixed_tol ar_terrace_mixed_tol40 ar_terrace_tol_pruned ar_terrace_mixed_pruned; do
         echo "  $v: builds $(figure $v.best.summary.json neighbor/builds), skin $(figure $v.best.summary.json neighbor/skin) A$(
-            [[ $v == ar_terrace_tol_pruned ]] && echo ", outer skin $(figure $v.best.summary.json neighbor/outer_skin) A, prunes $(figure $v.best.summary.json neighbor/prunes)"), energy drift $(figure $v.best.summary.json conservation/energy_drift_per_atom_time) eV/atom/ps"
+            [[ $v == ar_terrace_*_pruned ]] && echo ", outer skin $(figure $v.best.summary.json neighbor/outer_skin) A, prunes $(figure $v.best.summary.json neighbor/prunes)"), energy drift $(figure $v.best.summary.json conservation/energy_drift_per_atom_time) eV/atom/ps"
         phases $v
     done
     for v in ar_gromacs_mix ar_gromacs_dbl; do
@@ -650,7 +655,7 @@ PY
     if [[ -f ar_lammps.best.log ]]; then
         echo "  ar_lammps: $(grep -m1 '^Neighbor list builds' ar_lammps.best.log), Pair $(awk -F'|' '/^Pair /{gsub(/ /,"",$3); print $3}' ar_lammps.best.log | tail -1) s, Neigh $(awk -F'|' '/^Neigh /{gsub(/ /,"",$3); print $3}' ar_lammps.best.log | tail -1) s"
     fi
-    echo "  temperature (mean over the thermo samples): Terrace $(awk -F, 'NR > 1 && $0 !~ /^#/ {s += $3; n++} END {if (n) printf "%.2f K", s / n}' argon_nvt_100ns.csv 2> /dev/null) (last run, ar_terrace_tol_pruned)"
+    echo "  temperature (mean over the thermo samples): Terrace $(awk -F, 'NR > 1 && $0 !~ /^#/ {s += $3; n++} END {if (n) printf "%.2f K", s / n}' argon_nvt_100ns.csv 2> /dev/null) (last run, ar_terrace_mixed_pruned)"
     echo
 fi
 

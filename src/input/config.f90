@@ -1321,7 +1321,7 @@ contains
 
     !> &neighbor outer_skin: 0 (off), or a skin > skin for the built list that velocity Verlet prunes
     !> the force pass's list from (terrace_engine's engine_list_due): with the exact list when an atom
-    !> has moved skin/2, with prune_every on its fixed schedule; a fixed 3-D box in double precision only
+    !> has moved skin/2, with prune_every on its fixed schedule; a fixed 3-D box only
     !> (what the potential allows the scene planner checks).
     subroutine check_outer_skin(cfg)
         type(config_t), intent(in) :: cfg
@@ -1373,8 +1373,8 @@ contains
             trim(cfg%integrator)//''': '//allowed//')')
         if (cfg%barostat /= 'none') call stop_all(at//': only with a fixed box (allowed with a barostat: '//allowed//')')
         if (len_trim(cfg%minimize) > 0) call stop_all(at//': not with &minimize (allowed: '//allowed//')')
-        if (cfg%precision /= 'double' .or. cfg%dimension /= 3) call stop_all(at//": only for 3-D runs in &potential "// &
-            "precision = 'double' (allowed otherwise: "//allowed//')')
+        if (cfg%dimension /= 3) call stop_all(at//': only for 3-D runs (allowed with &run dimension = '// &
+            int_text(cfg%dimension)//': '//allowed//')')
         if (len_trim(cfg%mesh_file) > 0) call stop_all(at//': not for a mesh scene (allowed: '//allowed//')')
         if (cfg%list == 'all_pairs' .or. cfg%list == 'clusters') call stop_all(at//": only with &neighbor list = "// &
             "'auto' or 'cells' (allowed with list = '"//trim(cfg%list)//"': "//allowed//')')

@@ -24,11 +24,12 @@
 !> vector; the integrator stays double. In 3-D Verlet runs (&neighbor list = 'auto' or 'clusters')
 !> over the cluster-pair list (terrace_cluster_list, kernel terrace_lj_cluster: positions relative
 !> to their cluster's centre, 4 x 4 pairs per 16-lane vector); otherwise (list = 'cells', 2-D)
-!> over the half atom list (kernel_mixed below: separations formed in double, rounded to single,
-!> forces summed in double). The ray pass (energy stepping) is always double.
+!> over the half atom list (kernel_mixed below: with AVX-512 the pass of lj_mixed_simd.c, fixed-point
+!> positions and single force records; otherwise separations from hi and lo singles, forces summed
+!> in double). The ray pass (energy stepping) is always double.
 module terrace_lj
-    use, intrinsic :: iso_fortran_env, only: int64, sp => real32
-    use, intrinsic :: iso_c_binding, only: c_int, c_double
+    use, intrinsic :: iso_fortran_env, only: int32, int64, sp => real32
+    use, intrinsic :: iso_c_binding, only: c_int, c_double, c_float
     use terrace_kinds, only: dp
     use terrace_compensated_sum, only: compensated_total
     use terrace_grow, only: reserve
@@ -79,6 +80,13 @@ module terrace_lj
         logical :: mixed = .false.               !< single-precision pair arithmetic (one type, 'lj', half list)
         real(sp), allocatable :: xs(:, :)        !< mixed: positions as (hi, 0, lo, 0) singles, 8 per atom
         real(dp), allocatable :: fd(:, :)        !< mixed: per-atom force records (x, y, z, 0)
+        integer(int32), allocatable :: xq(:, :)  !< mixed, AVX-512 pass: fixed-point positions (x, y, z, 0)
+        real(sp), allocatable :: ff(:, :)        !< mixed, AVX-512 pass: single force records (x, y, z, 0)
+        !> mixed, AVX-512 pass: the list's rows as byte offsets (padded to blocks of 16), their starts,
+        !> and the list they were formed from (its build count, atoms held and length; -1: none)
+        integer, allocatable :: moffs(:)
+        integer, allocatable :: mofirst(:)
+        integer :: mixed_key(3) = -1
         real(sp), allocatable :: rows_sp(:, :), fp_sp(:), ep_sp(:), wp_sp(:)  !< mixed: per-atom rows
         real(sp), allocatable :: xrep(:, :, :), frep(:, :, :)  !< mixed over clusters: replicated records
         integer :: cluster_build = -1            !< mixed over clusters: the list build of the last pass
@@ -134,6 +142,27 @@ module terrace_lj
             real(c_double), intent(inout) :: f(*), atom_e(*), virial
             integer(c_int), intent(in) :: first(*), neigh(*), type(*), ntype(*)
         end function c_lj_types
+        !> src/potentials/lj_mixed_simd.c: the mixed-precision pass over the half list (0: not in this
+        !> build), with the list's offsets from c_lj_mixed_offsets
+        integer(c_int) function c_lj_mixed(nlocal, nall, x, f, xq, ff, first, ofirst, offs, coeffs, want_energy, &
+                                           atom_e, virial) bind(C, name='terrace_lj_mixed')
+            import :: c_int, c_double, c_float
+            integer(c_int), value :: nlocal, nall, want_energy
+            real(c_double), intent(in) :: x(*)
+            real(c_double), intent(inout) :: f(*), atom_e(*), virial
+            integer(c_int), intent(inout) :: xq(*)
+            real(c_float), intent(inout) :: ff(*)
+            integer(c_int), intent(in) :: first(*), ofirst(*), offs(*)
+            real(c_float), intent(in) :: coeffs(6)
+        end function c_lj_mixed
+        !> src/potentials/lj_mixed_simd.c: the list's rows as the pass reads them (-1: not in this build)
+        integer(c_int) function c_lj_mixed_offsets(nlocal, nall, first, neigh, ofirst, offs) &
+            bind(C, name='terrace_lj_mixed_offsets')
+            import :: c_int
+            integer(c_int), value :: nlocal, nall
+            integer(c_int), intent(in) :: first(*), neigh(*)
+            integer(c_int), intent(inout) :: ofirst(*), offs(*)
+        end function c_lj_mixed_offsets
     end interface
 
 

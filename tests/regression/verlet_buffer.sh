@@ -12,7 +12,10 @@
 #   4. with prune_every (every = 40, prune_every = 10, tolerance 1e-3: the list built with the skin
 #      for 40 steps, the force pass's list pruned from it every 10 steps with the skin for 10 steps,
 #      each for half the tolerance): the measured drift within 1e-3, the pass's skin smaller than the
-#      built list's, 300 prunes in 4000 steps; 1 and 4 ranks the same skins and the same 100 steps.
+#      built list's, 300 prunes in 4000 steps; 1 and 4 ranks the same skins and the same 100 steps;
+#   5. the same with &potential precision = 'mixed' (the mixed kernel over the pruned atom list): the
+#      run log names the mixed kernel, the skins are the double run's, 300 prunes, the measured
+#      drift within 1e-3.
 # Usage: tests/regression/verlet_buffer.sh TERRACE_BINARY OUTPUT_DIR
 source "$(dirname "${BASH_SOURCE[0]}")/liquid_common.sh" "$@"
 deck() {   # name steps neighbor-keys
@@ -32,9 +35,11 @@ deck exact 4000 "skin=0.3"
 deck ranks1 100 "every=20, buffer_tolerance=1e-3"
 deck pruned 4000 "every=40, prune_every=10, buffer_tolerance=1e-3"
 deck pranks1 100 "every=40, prune_every=10, buffer_tolerance=1e-3"
+sed -e "s|shift=.true. /|shift=.true., precision='mixed' /|" -e "s|pruned.csv|mpruned.csv|" pruned.nml > mpruned.nml
+grep -q "precision='mixed'" mpruned.nml || { echo "FAIL: could not edit the deck for mpruned"; exit 1; }
 cp pranks1.nml pranks4.nml; sed -i "s|pranks1.csv|pranks4.csv|" pranks4.nml
 cp ranks1.nml ranks4.nml; sed -i "s|ranks1.csv|ranks4.csv|" ranks4.nml
-for n in tol2 tol3 bare exact ranks1 pruned pranks1; do run $n 1; done
+for n in tol2 tol3 bare exact ranks1 pruned pranks1 mpruned; do run $n 1; done
 run ranks4 4
 run pranks4 4
 
@@ -75,3 +80,11 @@ compare pranks1 pranks4 "prune_every on 1 and 4 ranks: the same skins, thermo th
 grep -q 'pruned from it every 10 steps; rebuilt every 40 steps without a check, the skins sized for an energy drift of at most 1.000E-03 epsilon per atom per tau, half each' pranks1.log ||
     { echo "FAIL: the scene plan does not state the prune schedule"; grep 'pairs ' pranks1.log; exit 1; }
 echo "ok   the scene plan states the prune schedule"
+
+# 5. prune_every with the mixed-precision kernel
+grep -q 'mixed precision' mpruned.log || { echo "FAIL: the mixed run's log does not name the mixed kernel"; exit 1; }
+[[ "$(skin mpruned) $(get mpruned neighbor/outer_skin)" == "$(skin pruned) $(get pruned neighbor/outer_skin)" ]] ||
+    { echo "FAIL: prune_every, mixed: skins $(skin mpruned), $(get mpruned neighbor/outer_skin) (double: $(skin pruned), $(get pruned neighbor/outer_skin))"; exit 1; }
+[[ "$(get mpruned neighbor/prunes)" == 300 ]] || { echo "FAIL: prune_every, mixed: $(get mpruned neighbor/prunes) prunes (300)"; exit 1; }
+within "$(drift mpruned)" 1e-3 || { echo "FAIL: prune_every, mixed: measured drift $(drift mpruned) beyond 1e-3"; exit 1; }
+echo "ok   prune_every with precision = 'mixed': the double run's skins, 300 prunes, measured drift $(drift mpruned)"

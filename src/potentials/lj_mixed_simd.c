@@ -1,0 +1,293 @@
+/* The mixed-precision Lennard-Jones force pass over the half atom list, with AVX-512 (called from
+ * terrace_lj's lj_compute, src/potentials/lj_force.inc; one type, style 'lj').
+ *
+ * Positions in fixed point: each force pass stages every position (owned and ghost) as three
+ * 32-bit integers, q = nint((x - lo) / u), lo the smallest coordinate held in each dimension and u
+ * the power of two at or above span / 2^30 (span: the largest extent of the atoms held in any
+ * dimension), in a 16-byte record (qx, qy, qz, 0). A separation is the integer difference q_i - q_j
+ * (exact), converted to single and multiplied by u (exact, a power of two): the double separation
+ * to within u (5.6e-8 length units on the argon job's span of 55 with its ghosts) and the single
+ * rounding (6e-8 relative), however far the atoms lie from the origin.
+ *
+ * Sixteen pairs per block: the neighbours' records are loaded four to a 64-byte register (16-byte
+ * broadcasts merged under a mask) and two unpacks give 16-lane rows of x, y and z, as GROMACS's
+ * nbnxm kernels load their j-clusters; the pair terms in single precision (1/r^2 from vrcp14ps and
+ * one Newton step, about 1 ulp). The neighbours' forces are summed in single-precision records
+ * ff = (fx, fy, fz, 0), loaded and stored back as rows the same way (the neighbours of a row are
+ * distinct; the padding lanes use a pad record after the atoms'); atom i's own sum is added to f in
+ * double. At the end the records are added to f in double (finish). The two sides of a pair are
+ * rounded in different sums, so this rank's forces leave a small net force (about 1e-7 of a pair
+ * force per pair); it is taken off the owned atoms equally, as the cluster kernel does
+ * (terrace_lj_cluster), so that momentum is conserved to double round-off. With want_energy the
+ * pair energies are summed per atom into atom_e[i] and the virial into *virial.
+ *
+ * The rows' byte offsets (16 (j - 1) per neighbour j, each row padded to whole blocks with the pad
+ * record's) are formed once per list (terrace_lj_mixed_offsets): computed in each block, they cost
+ * the pass 7 % (scripts/bench/lj_pass_floor.sh's driver).
+ *
+ * Both entry points return 0 (nothing done: kernel_mixed's portable Fortran pass runs) where the
+ * build has no AVX-512 (F, VL, DQ) and FMA, or the atoms are too many for 32-bit byte offsets. */
+#include <math.h>
+#include <stdint.h>
+#if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__AVX512DQ__) && defined(__FMA__)
+#include <immintrin.h>
+#define TERRACE_MIXED_SIMD 1
+
+/* sixteen 16-byte records (x, y, z, w) at base + off[l] (byte offsets), as rows of x, y and z (lane l:
+ * record l): register m holds records m, m + 4, m + 8, m + 12 in its four 128-bit lanes, and two
+ * unpacks transpose each lane's 4 x 4 block */
+static inline void rows16(const char *base, const int32_t *off, __m512 *vx, __m512 *vy, __m512 *vz)
+{
+    __m512 a[4];
+    for (int m = 0; m < 4; m++) {
+        __m512 r = _mm512_broadcast_f32x4(_mm_loadu_ps((const float *)(base + off[m])));
+        r = _mm512_mask_broadcast_f32x4(r, 0x00F0, _mm_loadu_ps((const float *)(base + off[m + 4])));
+        r = _mm512_mask_broadcast_f32x4(r, 0x0F00, _mm_loadu_ps((const float *)(base + off[m + 8])));
+        a[m] = _mm512_mask_broadcast_f32x4(r, 0xF000, _mm_loadu_ps((const float *)(base + off[m + 12])));
+    }
+    const __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(a[0], a[1]));   /* x0 x1 y0 y1 */
+    const __m512d t1 = _mm512_castps_pd(_mm512_unpackhi_ps(a[0], a[1]));   /* z0 z1 w0 w1 */
+    const __m512d t2 = _mm512_castps_pd(_mm512_unpacklo_ps(a[2], a[3]));   /* x2 x3 y2 y3 */
+    const __m512d t3 = _mm512_castps_pd(_mm512_unpackhi_ps(a[2], a[3]));   /* z2 z3 w2 w3 */
+    *vx = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
+    *vy = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
+    *vz = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
+}
+
+/* the inverse of rows16: lane l of (vx, vy, vz) stored to the record at base + off[l] as (x, y, z, 0) */
+static inline void store16(char *base, const int32_t *off, __m512 vx, __m512 vy, __m512 vz)
+{
+    const __m512 zero = _mm512_setzero_ps();
+    const __m512d u0 = _mm512_castps_pd(_mm512_unpacklo_ps(vx, vy));     /* x0 y0 x1 y1 */
+    const __m512d u1 = _mm512_castps_pd(_mm512_unpackhi_ps(vx, vy));     /* x2 y2 x3 y3 */
+    const __m512d v0 = _mm512_castps_pd(_mm512_unpacklo_ps(vz, zero));   /* z0 0 z1 0 */
+    const __m512d v1 = _mm512_castps_pd(_mm512_unpackhi_ps(vz, zero));   /* z2 0 z3 0 */
+    const __m512 b[4] = {_mm512_castpd_ps(_mm512_unpacklo_pd(u0, v0)), _mm512_castpd_ps(_mm512_unpackhi_pd(u0, v0)),
+                         _mm512_castpd_ps(_mm512_unpacklo_pd(u1, v1)), _mm512_castpd_ps(_mm512_unpackhi_pd(u1, v1))};
+    for (int m = 0; m < 4; m++) {   /* b[m], 128-bit lane L: record 4 L + m */
+        _mm_storeu_ps((float *)(base + off[m]), _mm512_castps512_ps128(b[m]));
+        _mm_storeu_ps((float *)(base + off[m + 4]), _mm512_extractf32x4_ps(b[m], 1));
+        _mm_storeu_ps((float *)(base + off[m + 8]), _mm512_extractf32x4_ps(b[m], 2));
+        _mm_storeu_ps((float *)(base + off[m + 12]), _mm512_extractf32x4_ps(b[m], 3));
+    }
+}
+
+/* the upper and lower halves of v added */
+static inline __m256 halves_sum(__m512 v)
+{
+    return _mm256_add_ps(_mm512_castps512_ps256(v), _mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1)));
+}
+
+/* the sums of the lanes of x, y, z and e, as (x, y, z, e): the halves added, then three horizontal
+ * adds (one transposing reduction for the four, in single precision) */
+static inline __m128 sums4(__m512 x, __m512 y, __m512 z, __m512 e)
+{
+    const __m256 t = _mm256_hadd_ps(_mm256_hadd_ps(halves_sum(x), halves_sum(y)),
+                                    _mm256_hadd_ps(halves_sum(z), halves_sum(e)));
+    return _mm_add_ps(_mm256_castps256_ps128(t), _mm256_extractf128_ps(t, 1));
+}
+
+/* the sum of a 16-single vector's lanes, in double */
+static inline double sum_double(__m512 v)
+{
+    const __m512d lo = _mm512_cvtps_pd(_mm512_castps512_ps256(v));
+    const __m512d hi = _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1)));
+    return _mm512_reduce_add_pd(_mm512_add_pd(lo, hi));
+}
+#endif
+
+#if defined(TERRACE_MIXED_SIMD)
+/* The records of the nall atoms: q (fixed-point positions) and ff = 0, and q's pad record after
+ * them; returns the unit u. Vectorised: the smallest and largest coordinates over the flat x in
+ * blocks of 24 doubles (eight atoms; lane l of the block's register k holds component
+ * (8 k + l) mod 3), then two atoms per step, their six doubles loaded and permuted into
+ * (x, y, z, 0, x, y, z, 0). */
+static float stage(int nall, const double *x, int32_t *q, float *ff)
+{
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, span = 0;
+    if (nall > 0)
+        for (int c = 0; c < 3; c++) lo[c] = hi[c] = x[c];
+    const long nflat = 3 * (long)nall;
+    long t = 0;
+    if (nflat >= 24) {
+        __m512d mn[3], mx[3];
+        for (int k = 0; k < 3; k++) mn[k] = mx[k] = _mm512_loadu_pd(x + 8 * k);
+        for (; t + 24 <= nflat; t += 24)
+            for (int k = 0; k < 3; k++) {
+                const __m512d v = _mm512_loadu_pd(x + t + 8 * k);
+                mn[k] = _mm512_min_pd(mn[k], v);
+                mx[k] = _mm512_max_pd(mx[k], v);
+            }
+        double a[24], b[24];
+        for (int k = 0; k < 3; k++) {
+            _mm512_storeu_pd(a + 8 * k, mn[k]);
+            _mm512_storeu_pd(b + 8 * k, mx[k]);
+        }
+        for (int l = 0; l < 24; l++) {
+            lo[l % 3] = a[l] < lo[l % 3] ? a[l] : lo[l % 3];
+            hi[l % 3] = b[l] > hi[l % 3] ? b[l] : hi[l % 3];
+        }
+    }
+    for (; t < nflat; t++) {
+        lo[t % 3] = x[t] < lo[t % 3] ? x[t] : lo[t % 3];
+        hi[t % 3] = x[t] > hi[t % 3] ? x[t] : hi[t % 3];
+    }
+    for (int c = 0; c < 3; c++) span = hi[c] - lo[c] > span ? hi[c] - lo[c] : span;
+    int e;
+    (void)frexp(span, &e);                   /* span <= 2^e */
+    const double u = ldexp(1.0, e - 30), inv = 1.0 / u;
+    /* q = (x - lo) / u + 1/2, truncated: in [0, 2^30], rounded to nearest */
+    const __m512d vlo = _mm512_setr_pd(lo[0], lo[1], lo[2], 0, lo[0], lo[1], lo[2], 0);
+    const __m512d vinv = _mm512_set1_pd(inv), half = _mm512_setr_pd(0.5, 0.5, 0.5, 0, 0.5, 0.5, 0.5, 0);
+    const __m256 zero = _mm256_setzero_ps();
+    const __m512i spread = _mm512_setr_epi64(0, 1, 2, 0, 3, 4, 5, 0);
+    long i = 0;
+    for (; i + 2 <= nall; i += 2) {
+        const __m512d v = _mm512_maskz_permutexvar_pd(0x77, spread, _mm512_maskz_loadu_pd(0x3F, x + 3 * i));
+        _mm256_storeu_si256((__m256i *)(q + 4 * i),
+                            _mm512_cvttpd_epi32(_mm512_fmadd_pd(_mm512_sub_pd(v, vlo), vinv, half)));
+        _mm256_storeu_ps(ff + 4 * i, zero);
+    }
+    for (; i < nall; i++) {
+        for (int c = 0; c < 3; c++) q[4 * i + c] = (int32_t)((x[3 * i + c] - lo[c]) * inv + 0.5);
+        q[4 * i + 3] = 0;
+        for (int c = 0; c < 4; c++) ff[4 * i + c] = 0;
+    }
+    for (int c = 0; c < 4; c++) q[4 * (long)nall + c] = 0;   /* the pad record (its lanes are masked) */
+    return (float)u;
+}
+
+/* f += ff for the nall atoms, and f -= net / nlocal for the owned ones, where net is the sum of ff
+ * and of isum (the owned atoms' own sums, already added to f): the net force of this rank's pairs,
+ * taken off the owned atoms (after the reverse sum of the ghosts' forces all forces then sum to
+ * zero, to double round-off, across the ranks). Eight atoms per step: their records (x, y, z, 0)
+ * converted to double and permuted into three registers of 24 consecutive components, f's own
+ * layout (full loads and stores, no masks: a masked store of part of a register blocked the next
+ * load's forwarding, and the pass ran slower than the scalar loop) */
+static void finish(int nlocal, int nall, const float *ff, double *f, const double *isum)
+{
+    const __m512i p0 = _mm512_setr_epi64(0, 1, 2, 4, 5, 6, 8, 9), p1 = _mm512_setr_epi64(2, 4, 5, 6, 8, 9, 10, 12);
+    const __m512i p2 = _mm512_setr_epi64(5, 6, 8, 9, 10, 12, 13, 14);
+    __m512d s = _mm512_setzero_pd();
+    long j = 0;
+    for (; j + 8 <= nall; j += 8) {
+        const __m512 r0 = _mm512_loadu_ps(ff + 4 * j), r1 = _mm512_loadu_ps(ff + 4 * j + 16);
+        const __m512d a = _mm512_cvtps_pd(_mm512_castps512_ps256(r0));    /* atoms j, j + 1 */
+        const __m512d b = _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(r0), 1)));
+        const __m512d c = _mm512_cvtps_pd(_mm512_castps512_ps256(r1));
+        const __m512d d = _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(r1), 1)));
+        s = _mm512_add_pd(s, _mm512_add_pd(_mm512_add_pd(a, b), _mm512_add_pd(c, d)));
+        double *g = f + 3 * j;
+        _mm512_storeu_pd(g, _mm512_add_pd(_mm512_loadu_pd(g), _mm512_permutex2var_pd(a, p0, b)));
+        _mm512_storeu_pd(g + 8, _mm512_add_pd(_mm512_loadu_pd(g + 8), _mm512_permutex2var_pd(b, p1, c)));
+        _mm512_storeu_pd(g + 16, _mm512_add_pd(_mm512_loadu_pd(g + 16), _mm512_permutex2var_pd(c, p2, d)));
+    }
+    double net[8];
+    _mm512_storeu_pd(net, s);
+    for (int k = 0; k < 3; k++) net[k] += net[k + 4] + isum[k];
+    for (; j < nall; j++)
+        for (int k = 0; k < 3; k++) {
+            f[3 * j + k] += ff[4 * j + k];
+            net[k] += ff[4 * j + k];
+        }
+    if (nlocal == 0) return;
+    for (int k = 0; k < 3; k++) net[k] /= nlocal;
+    for (j = 0; j < nlocal; j++)
+        for (int k = 0; k < 3; k++) f[3 * j + k] -= net[k];
+}
+
+/* Atoms held above which the byte offsets 16 j would not fit 32 bits (both entry points decline). */
+static const long max_atoms = (1L << 27) - 2;
+#endif
+
+/* The rows' byte offsets of the half list first, neigh (1-based) for the pass: row i (0-based) at
+ * offs[ofirst[i] .. ofirst[i + 1] - 1], 16 (j - 1) per neighbour j and 16 nall (the pad record) up
+ * to a multiple of 16 entries; offs must have room for first[nlocal] - 1 + 15 nlocal entries.
+ * Returns the entries written, or -1 (nothing done) as terrace_lj_mixed returns 0. */
+int terrace_lj_mixed_offsets(int nlocal, int nall, const int *first, const int *neigh, int *ofirst, int32_t *offs)
+{
+#if defined(TERRACE_MIXED_SIMD)
+    if (nall >= max_atoms) return -1;
+    int o = 0;
+    for (int i = 0; i < nlocal; i++) {
+        ofirst[i] = o;
+        const int k0 = first[i] - 1, nn = first[i + 1] - first[i], padded = (nn + 15) / 16 * 16;
+        for (int k = 0; k < nn; k++) offs[o + k] = 16 * (neigh[k0 + k] - 1);
+        for (int k = nn; k < padded; k++) offs[o + k] = 16 * nall;
+        o += padded;
+    }
+    ofirst[nlocal] = o;
+    return o;
+#else
+    (void)nlocal; (void)nall; (void)first; (void)neigh; (void)ofirst; (void)offs;
+    return -1;
+#endif
+}
+
+/* nlocal owned and nall held atoms; x, f (3, nall) in double; q (4, nall + 1) and ff (4, nall + 1)
+ * the work records (the last, the padding lanes' pad record); first the half list's row starts
+ * (1-based) and ofirst, offs its offsets (terrace_lj_mixed_offsets); c = (lj1, lj2, lj3, lj4,
+ * cutsq, offset) in single; with want_energy atom_e[0..nlocal-1] (set) and *virial (added to). */
+int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *q, float *ff, const int *first,
+                     const int *ofirst, const int32_t *offs, const float *c, int want_energy, double *atom_e,
+                     double *virial)
+{
+#if defined(TERRACE_MIXED_SIMD)
+    if (nall >= max_atoms) return 0;
+    const float u = stage(nall, x, q, ff);
+    const __m512 c1 = _mm512_set1_ps(c[0]), c2 = _mm512_set1_ps(c[1]), c3 = _mm512_set1_ps(c[2]);
+    const __m512 c4 = _mm512_set1_ps(c[3]), cs = _mm512_set1_ps(c[4]), co = _mm512_set1_ps(c[5]);
+    const __m512 unit = _mm512_set1_ps(u), two = _mm512_set1_ps(2.0f), zero = _mm512_setzero_ps();
+    const char *qb = (const char *)q;
+    char *fb = (char *)ff;
+    double net[3] = {0, 0, 0}, w = 0;
+    for (int i = 0; i < nlocal; i++) {
+        const int nn = first[i + 1] - first[i];
+        const int32_t *a = q + 4 * (long)i;
+        const __m512i xi = _mm512_set1_epi32(a[0]), yi = _mm512_set1_epi32(a[1]), zi = _mm512_set1_epi32(a[2]);
+        __m512 sx = zero, sy = zero, sz = zero, se = zero, sw = zero;
+        for (int k = 0; k < nn; k += 16) {
+            const int cnt = nn - k < 16 ? nn - k : 16;
+            const __mmask16 live = (__mmask16)((1u << cnt) - 1u);
+            const int32_t *off = offs + ofirst[i] + k;
+            __m512 qx, qy, qz, gx, gy, gz;
+            rows16(qb, off, &qx, &qy, &qz);
+            rows16(fb, off, &gx, &gy, &gz);
+            const __m512 dx = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(xi, _mm512_castps_si512(qx))), unit);
+            const __m512 dy = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(yi, _mm512_castps_si512(qy))), unit);
+            const __m512 dz = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(zi, _mm512_castps_si512(qz))), unit);
+            const __m512 rsq = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dx, dx, _mm512_mul_ps(dy, dy)));
+            const __mmask16 in = _mm512_mask_cmp_ps_mask(live, rsq, cs, _CMP_LT_OQ);
+            __m512 r2inv = _mm512_maskz_rcp14_ps(in, rsq);
+            r2inv = _mm512_mul_ps(r2inv, _mm512_fnmadd_ps(rsq, r2inv, two));   /* Newton: r (2 - rsq r) */
+            const __m512 r6inv = _mm512_mul_ps(_mm512_mul_ps(r2inv, r2inv), r2inv);
+            const __m512 fpair = _mm512_mul_ps(_mm512_mul_ps(r6inv, _mm512_fmsub_ps(c1, r6inv, c2)), r2inv);
+            if (want_energy) {
+                const __m512 e = _mm512_mul_ps(r6inv, _mm512_fmsub_ps(c3, r6inv, c4));
+                se = _mm512_add_ps(se, _mm512_mask_sub_ps(e, in, e, co));   /* the offset inside the cutoff */
+                sw = _mm512_fmadd_ps(rsq, fpair, sw);
+            }
+            const __m512 fx = _mm512_mul_ps(dx, fpair), fy = _mm512_mul_ps(dy, fpair), fz = _mm512_mul_ps(dz, fpair);
+            sx = _mm512_add_ps(sx, fx); sy = _mm512_add_ps(sy, fy); sz = _mm512_add_ps(sz, fz);
+            store16(fb, off, _mm512_sub_ps(gx, fx), _mm512_sub_ps(gy, fy), _mm512_sub_ps(gz, fz));
+        }
+        double fi[4];   /* (fx, fy, fz, e) of atom i */
+        _mm256_storeu_pd(fi, _mm256_cvtps_pd(sums4(sx, sy, sz, se)));
+        for (int d = 0; d < 3; d++) {
+            f[3 * (long)i + d] += fi[d];
+            net[d] += fi[d];
+        }
+        if (want_energy) {
+            atom_e[i] = fi[3];
+            w += sum_double(sw);
+        }
+    }
+    finish(nlocal, nall, ff, f, net);
+    if (want_energy) *virial += w;
+    return 1;
+#else
+    (void)nlocal; (void)nall; (void)x; (void)f; (void)q; (void)ff; (void)first; (void)ofirst; (void)offs; (void)c;
+    (void)want_energy; (void)atom_e; (void)virial;
+    return 0;
+#endif
+}

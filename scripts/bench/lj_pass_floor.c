@@ -4,18 +4,26 @@
  * periodic images as ghosts after the owned atoms, LJ 8.5 A, list cutoff 8.5 + 0.6 A (the deck's
  * pruned list). Half list (argument 0): owned pairs i < j and ghost pairs of the upper 13 of the 26
  * image shifts, each pair once; full list (argument 1): every partner of every owned atom.
+ * Argument 2: the mixed-precision pass of src/potentials/lj_mixed_simd.c over the half list instead
+ * (terrace_lj_mixed: each pass stages the positions and adds its single force records to f; the
+ * list's offsets formed once, as the engine forms them once per list).
  * Prints the list length, its pairs within the cutoff and their share of the pass's lanes (eight per
- * block, an atom's last block padded), and the pass's cost per pair of the half list (a full
+ * block, sixteen in the mixed pass; an atom's last block padded), and the pass's cost per pair of the half list (a full
  * list's pass does every pair twice): median and range of 7 batches of 400 passes.
- * Usage: lj_pass_floor_VARIANT 0|1 */
+ * Usage: lj_pass_floor_VARIANT 0|1|2 */
 #include <stdio.h>
 #include <stdlib.h>
 #include <math.h>
 #include <time.h>
+#include <stdint.h>
 
 int terrace_lj_one_type(int nlocal, const double *x, double *f, const int *first, const int *neigh, double lj1,
                         double lj2, double lj3, double lj4, double cutsq, double offset, int want_energy,
                         double *atom_e, double *virial);
+int terrace_lj_mixed_offsets(int nlocal, int nall, const int *first, const int *neigh, int *ofirst, int32_t *offs);
+int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *q, float *ff, const int *first,
+                     const int *ofirst, const int32_t *offs, const float *c, int want_energy, double *atom_e,
+                     double *virial);
 
 static double now(void)
 {
@@ -32,7 +40,7 @@ static int cmp(const void *a, const void *b)
 
 int main(int argc, char **argv)
 {
-    const int full = argc > 1 && atoi(argv[1]) == 1;
+    const int full = argc > 1 && atoi(argv[1]) == 1, mixed = argc > 1 && atoi(argv[1]) == 2;
     const int nc = 6, n = 4 * nc * nc * nc;
     const double box = 34.6809019, a = box / nc, rc = 8.5, rl = 9.1;
     const double basis[4][3] = {{0, 0, 0}, {0.5, 0.5, 0}, {0.5, 0, 0.5}, {0, 0.5, 0.5}};
@@ -78,9 +86,10 @@ int main(int argc, char **argv)
         }
     }
     first[n] = (int)np + 1;
-    long blocks = 0, within = 0;      /* the pass's blocks of eight lanes, and its pairs within rc */
+    const int lanes = mixed ? 16 : 8;
+    long blocks = 0, within = 0;      /* the pass's blocks of lanes, and its pairs within rc */
     for (int i = 0; i < n; i++) {
-        blocks += (first[i + 1] - first[i] + 7) / 8;
+        blocks += (first[i + 1] - first[i] + lanes - 1) / lanes;
         for (int k = first[i] - 1; k < first[i + 1] - 1; k++) {
             const int j = neigh[k] - 1;
             const double dx = x[3 * i] - x[3 * j], dy = x[3 * i + 1] - x[3 * j + 1], dz = x[3 * i + 2] - x[3 * j + 2];
@@ -90,7 +99,13 @@ int main(int argc, char **argv)
     double *f = calloc(3 * (size_t)m, sizeof(double)), *ae = malloc(sizeof(double) * n), vir = 0;
     const double eps = 0.0103408116, s6 = pow(3.4, 6);
     const double lj1 = 48 * eps * s6 * s6, lj2 = 24 * eps * s6, lj3 = 4 * eps * s6 * s6, lj4 = 4 * eps * s6;
-    if (!terrace_lj_one_type(n, x, f, first, neigh, lj1, lj2, lj3, lj4, rc * rc, 0, 0, ae, &vir)) {
+    int32_t *q = malloc(16 * ((size_t)m + 1)), *offs = malloc(sizeof(int32_t) * ((size_t)np + 16 * (size_t)n));
+    float *ff = malloc(16 * ((size_t)m + 1));
+    int *ofirst = malloc(sizeof(int) * (n + 1));
+    const float cf[6] = {(float)lj1, (float)lj2, (float)lj3, (float)lj4, (float)(rc * rc), 0};
+#define PASS() (mixed ? terrace_lj_mixed(n, m, x, f, q, ff, first, ofirst, offs, cf, 0, ae, &vir) \
+                      : terrace_lj_one_type(n, x, f, first, neigh, lj1, lj2, lj3, lj4, rc * rc, 0, 0, ae, &vir))
+    if ((mixed && terrace_lj_mixed_offsets(n, m, first, neigh, ofirst, offs) < 0) || !PASS()) {
         fprintf(stderr, "lj_pass_floor: this build has no AVX-512 pass\n");
         return 2;
     }
@@ -99,11 +114,12 @@ int main(int argc, char **argv)
     for (int b = 0; b < batches; b++) {
         const double t0 = now();
         for (int r = 0; r < passes; r++)
-            terrace_lj_one_type(n, x, f, first, neigh, lj1, lj2, lj3, lj4, rc * rc, 0, 0, ae, &vir);
+            PASS();
         t[b] = (now() - t0) / passes / (full ? np / 2.0 : (double)np) * 1e9;
     }
     qsort(t, batches, sizeof(double), cmp);
-    printf("%-5s list, %6ld pairs (%ld within rc; %.2f of the %ld x 8 lanes): %.3f ns per half-list pair [%.3f, %.3f]\n",
-           full ? "full" : "half", np, within, within / (8.0 * blocks), blocks, t[3], t[0], t[6]);
+    printf("%-5s list, %6ld pairs (%ld within rc; %.2f of the %ld x %d lanes): %.3f ns per half-list pair [%.3f, %.3f]\n",
+           full ? "full" : mixed ? "mixed" : "half", np, within, within / ((double)lanes * blocks), blocks, lanes, t[3],
+           t[0], t[6]);
     return 0;
 }

@@ -10,6 +10,8 @@
 #                 right forces on owned atoms)
 #   rcp14         as_is with 1/r^2 from the reciprocal estimate and two Newton steps in place of the
 #                 division (not the division's bits)
+#   mixed         the mixed-precision pass (src/potentials/lj_mixed_simd.c, linked to every variant) on
+#                 the same half list: positions staged in fixed point, single pair terms and forces
 # Prints each variant's cost per pair of the half list, median and range of 7 batches, in ROUNDS
 # alternating rounds (default 3). Needs gcc and an AVX-512 machine.
 # Usage: [ROUNDS=N] scripts/bench/lj_pass_floor.sh
@@ -31,7 +33,8 @@ sed -e 's|__m512d r2inv = _mm512_div_pd(one, _mm512_mask_blend_pd(in, inf, rsq))
     || { echo "lj_pass_floor: could not remove the j-force rows from $src" >&2; exit 1; }
 [[ $(grep -c '_rcp14_pd(rsq)' "$work/potentials/rcp14.c") == 2 ]] || { echo "lj_pass_floor: could not replace the divisions in $src" >&2; exit 1; }
 for v in as_is no_j_forces rcp14; do
-    gcc -O3 -march=native -funroll-loops -o "$work/$v" "$here/lj_pass_floor.c" "$work/potentials/$v.c" -lm
+    gcc -O3 -march=native -funroll-loops -o "$work/$v" "$here/lj_pass_floor.c" "$work/potentials/$v.c" \
+        "$repo/src/potentials/lj_mixed_simd.c" -lm
 done
 echo "LJ force pass alone, argon geometry; $(date -u '+%Y-%m-%d %H:%M UTC'); commit $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
 echo "machine: $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), model $(sed -n 's/^model[[:space:]]*: //p' /proc/cpuinfo | head -1), load $(cut -d' ' -f1-3 /proc/loadavg)"
@@ -41,4 +44,5 @@ for r in $(seq "$rounds"); do
     printf '  %-12s ' no_j_forces; "$work/no_j_forces" 0
     printf '  %-12s ' full_list; "$work/no_j_forces" 1
     printf '  %-12s ' rcp14; "$work/rcp14" 0
+    printf '  %-12s ' mixed; "$work/as_is" 2
 done

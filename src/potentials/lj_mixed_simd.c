@@ -22,8 +22,8 @@
  * pair energies are summed per atom into atom_e[i] and the virial into *virial.
  *
  * The rows' byte offsets (16 (j - 1) per neighbour j, each row padded to whole blocks with the pad
- * record's) are formed once per list (terrace_lj_mixed_offsets): computed in each block, they cost
- * the pass 7 % (scripts/bench/lj_pass_floor.sh's driver).
+ * record's) are formed once per list (terrace_lj_mixed_offsets), not in every block of every pass.
+ * Per pair on the argon geometry: scripts/bench/lj_pass_floor.sh (its `mixed` row).
  *
  * Both entry points return 0 (nothing done: kernel_mixed's portable Fortran pass runs) where the
  * build has no AVX-512 (F, VL, DQ) and FMA, or the atoms are too many for 32-bit byte offsets. */

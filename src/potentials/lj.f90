@@ -100,6 +100,7 @@ module terrace_lj
         procedure :: runs_on_pruned_list => lj_true
         procedure :: wants_neighbour_types => lj_several_types
         procedure :: wants_clusters => lj_wants_clusters
+        procedure :: prefers_clusters => lj_prefers_clusters
         procedure :: contact_distance => lj_contact_distance
         procedure :: time_scale => lj_time_scale
         procedure :: cutoff_derivatives => lj_cutoff_derivatives
@@ -163,6 +164,10 @@ module terrace_lj
             integer(c_int), intent(in) :: first(*), neigh(*)
             integer(c_int), intent(inout) :: ofirst(*), offs(*)
         end function c_lj_mixed_offsets
+        !> src/potentials/lj_mixed_simd.c: 1 where this build has the AVX-512 mixed pass, else 0
+        pure integer(c_int) function c_lj_mixed_simd() bind(C, name='terrace_lj_mixed_simd')
+            import :: c_int
+        end function c_lj_mixed_simd
     end interface
 
 
@@ -254,13 +259,21 @@ contains
         lj_true = .true.
     end function lj_true
 
-    !> The mixed-precision kernel runs over a cluster-pair list where the engine gives one
-    !> (3-D Verlet runs with a cell list); elsewhere over the atom rows. (Cutoffs of 1000 length
+    !> The mixed-precision kernel can run over a cluster-pair list (3-D Verlet runs with a cell list,
+    !> &neighbor list = 'clusters', or 'auto' where lj_prefers_clusters); elsewhere over the atom rows. (Cutoffs of 1000 length
     !> units and more keep the atom rows: the cluster kernel puts empty slots 10^4 away.)
     pure logical function lj_wants_clusters(self)
         class(lj_t), intent(in) :: self
         lj_wants_clusters = self%mixed .and. self%cutmax > 0 .and. self%cutmax < cluster_cutoff_limit
     end function lj_wants_clusters
+
+    !> &neighbor list = 'auto' gives the mixed kernel the cluster-pair list only where this build has
+    !> no AVX-512 pass over the atom rows (lj_mixed_simd.c): with it the atom rows are the faster
+    !> (doc/performance.md, scripts/bench/cluster_kernel.sh).
+    pure logical function lj_prefers_clusters(self)
+        class(lj_t), intent(in) :: self
+        lj_prefers_clusters = lj_wants_clusters(self) .and. c_lj_mixed_simd() == 0
+    end function lj_prefers_clusters
 
     !> Several types: the passes read the neighbours' types from the list (list%want_types).
     pure logical function lj_several_types(self)

@@ -291,3 +291,13 @@ int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *
     return 0;
 #endif
 }
+
+/* 1 where this build has the pass (the scene planner's choice of list for the mixed kernel), else 0 */
+int terrace_lj_mixed_simd(void)
+{
+#if defined(TERRACE_MIXED_SIMD)
+    return 1;
+#else
+    return 0;
+#endif
+}

@@ -57,9 +57,12 @@ module terrace_potential
         !> .true.: the passes read each neighbour's type from the list (list%want_types: a row
         !> filled at each build instead of a gather at every pass); multi-type Lennard-Jones
         procedure :: wants_neighbour_types => potential_false
-        !> .true.: the force pass of a 3-D Verlet run reads a cluster-pair list (list%clusters,
-        !> list%want_clusters) instead of the atom rows; the mixed-precision Lennard-Jones kernel
+        !> .true.: the force pass of a 3-D Verlet run can read a cluster-pair list (list%clusters,
+        !> list%want_clusters) instead of the atom rows (&neighbor list = 'clusters'); the
+        !> mixed-precision Lennard-Jones kernel
         procedure :: wants_clusters => potential_false
+        !> .true.: and &neighbor list = 'auto' gives it one (the faster of its passes in this build)
+        procedure :: prefers_clusters => potential_false
         !> > 1: the passes want each list row ordered by the neighbours' types 1..this
         !> (list%type_order: segments per type; multi-type EAM); 0: any order
         procedure :: neighbour_type_order => potential_type_order

@@ -3,11 +3,12 @@
 #   lj     LAMMPS's LJ benchmark scene (scripts/bench/in.lj_bench, input/lj_bench.nml): 32,000 atoms,
 #          fcc rho* = 0.8442, T* = 1.44, rc 2.5 sigma, skin 0.3 sigma, NVE, dt 0.005 tau. Runs Terrace
 #          (velocity Verlet, double; and with &potential precision = 'mixed', the mixed-precision
-#          kernel over the cluster-pair list (list = 'auto'), as terrace_mixed; the same kernel over the
-#          atom list (list = 'cells') as terrace_mixed_cells; the cluster kernel with skin 0.5 (its best
-#          on the exact schedule, scripts/bench/cluster_kernel.sh) as terrace_mixed_s05; and with
+#          kernel over the list that list = 'auto' chooses (the atom list where the build has AVX-512,
+#          else the cluster-pair list), as terrace_mixed; the same kernel over the atom list
+#          (list = 'cells') as terrace_mixed_cells; with skin 0.5 (the cluster list's best on the exact
+#          schedule, scripts/bench/cluster_kernel.sh) as terrace_mixed_s05; and with
 #          &neighbor every = 20, check = .false., the anchors' own list schedule, as terrace_every20
-#          (double) and terrace_mixed_every20 (mixed, clusters); and the mixed kernel over clusters every
+#          (double) and terrace_mixed_every20 (mixed); and the mixed kernel ('auto') every
 #          20 steps with the skin from &neighbor buffer_tolerance = GROMACS's default drift tolerance,
 #          0.005 kJ/mol/ps per atom in LJ units, as terrace_mixed_tol), LAMMPS plain and with -sf opt,
 #          GROMACS mixed (gmx mdrun) and double (gmx_d mdrun) on the same lattice in argon units (sigma
@@ -293,11 +294,11 @@ if [[ "$parts" == *,lj,* ]]; then
     echo "Terrace on the anchors' list schedule, phases (best run):"
     phases terrace_every20
     for v in terrace_mixed_s05 terrace_mixed_every20; do
-        echo "The same against Terrace's mixed kernel over clusters, $v:"
+        echo "The same against Terrace's mixed kernel ('auto'), $v:"
         summary 32000 "$nlj" $v "${labels[@]}" | sed -n '/^ratios anchor/,$p'
     done
     echo "Each code's own buffer at GROMACS's default drift tolerance (0.005 kJ/mol/ps per atom = $tol_lj eps/tau),"
-    echo "every 20 steps: Terrace's mixed kernel over clusters (terrace_mixed_tol) against the anchors:"
+    echo "every 20 steps: Terrace's mixed kernel ('auto') (terrace_mixed_tol) against the anchors:"
     summary 32000 "$nlj" terrace_mixed_tol "${labels[@]}" | sed -n '/^ratios anchor/,$p'
     echo "  skins: Terrace $(figure lj_mixed_tol.summary.json neighbor/skin) sigma;" \
          "$( [[ -f gromacs_mix_tol.best.log ]] && grep -m1 -E 'updated every .* steps, buffer' gromacs_mix_tol.best.log | sed 's/^ *//; s/^/GROMACS /')"
@@ -316,7 +317,7 @@ if [[ "$parts" == *,lj,* ]]; then
     done
     echo "Energy drift per atom per tau of the exact schedule and of every 20 steps (Terrace's run summaries; the same scene and seed):"
     for d in lj lj_every20; do echo "    $d: $(figure $d.summary.json conservation/energy_drift_per_atom_time)"; done
-    echo "  mixed kernel over clusters, exact and every 20 steps:"
+    echo "  mixed kernel ('auto'), exact and every 20 steps:"
     for d in lj_mixed lj_mixed_every20; do echo "    $d: $(figure $d.summary.json conservation/energy_drift_per_atom_time)"; done
     /usr/bin/python3 - "$nlj" <<'PY'
 import os, re, sys
@@ -605,7 +606,7 @@ if [[ "$parts" == *,argon,* ]]; then
     have lmp && labels+=(ar_lammps)
     echo "   codes: ${labels[*]}"
     echo "   ar_terrace: the deck as it is (double, exact list: skin 0.6 A pruned from outer_skin 2.6 A); ar_terrace_mixed_tol: precision='mixed'"
-    echo "   (cluster-pair list), &neighbor buffer_tolerance=$tol_ev eV/ps (GROMACS's default 0.005 kJ/mol/ps),"
+    echo "   (the list 'auto' chooses), &neighbor buffer_tolerance=$tol_ev eV/ps (GROMACS's default 0.005 kJ/mol/ps),"
     echo "   every 10 steps (the key's default); ar_terrace_mixed_tol40: the same every 40 steps; ar_terrace_tol_pruned:"
     echo "   double precision, the same tolerance, built every 40 steps, the force pass's list pruned every 10;"
     echo "   ar_terrace_mixed_pruned: the same with precision='mixed' (the mixed kernel over the pruned atom list); GROMACS: leap-frog,"

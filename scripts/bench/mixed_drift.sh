@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Energy conservation of the mixed-precision LJ kernel (&potential precision = 'mixed') against the
-# double kernel, NVE velocity Verlet, one rank: the mixed kernel over the cluster-pair list (the
-# default, 'mixed') and over the atom list (&neighbor list = 'cells', 'mixed_cells'). Scene: LAMMPS's LJ bench scene (input/lj_bench.nml:
+# double kernel, NVE velocity Verlet, one rank: the mixed kernel over the cluster-pair list
+# (&neighbor list = 'clusters', 'mixed') and over the atom list (list = 'cells', 'mixed_cells'). Scene: LAMMPS's LJ bench scene (input/lj_bench.nml:
 # 32,000 atoms, fcc rho* = 0.8442 melting from T* = 1.44, lj/cut rc = 2.5 unshifted, skin 0.3,
 # dt = 0.005 tau). Both runs start from the same state; thermo every 100 steps.
 # Prints per kernel: the drift of the total energy per atom per tau (least-squares slope of
@@ -26,9 +26,10 @@ for p in double mixed mixed_cells; do
     sed -E -e "s/n_steps=[0-9]+/n_steps=$n/" -e "s/thermo_file=''/thermo_file='thermo_$p.csv'/" \
         -e "s#shift=.false. /#shift=.false., precision='${p%_cells}' /#" "$repo/input/lj_bench.nml" > $p.nml
     grep -q "precision='${p%_cells}'" $p.nml || { echo "mixed_drift: could not set precision in the deck" >&2; exit 1; }
-    if [[ $p == mixed_cells ]]; then
-        sed -i -E "s#skin=0.3 /#skin=0.3, list='cells' /#" $p.nml
-        grep -q "list='cells'" $p.nml || { echo "mixed_drift: could not set list in the deck" >&2; exit 1; }
+    if [[ $p != double ]]; then
+        l="$([[ $p == mixed_cells ]] && echo cells || echo clusters)"
+        sed -i -E "s#skin=0.3 /#skin=0.3, list='$l' /#" $p.nml
+        grep -q "list='$l'" $p.nml || { echo "mixed_drift: could not set list in the deck" >&2; exit 1; }
     fi
     ./terrace $p.nml > $p.log 2>&1 || { echo "mixed_drift: the $p run failed:" >&2; tail -5 $p.log >&2; exit 1; }
 done

@@ -72,8 +72,9 @@ done
 # the cluster-pair list and over the half atom list
 sed -e "s#@REPO@#$repo#" -e 's/n_steps=3000/n_steps=600/' "$repo/tests/regression/decks/es_mix3.nml" > mix3_es.nml
 sed -e "s/style='energy_stepping', terrace_height=0.1/style='velocity_verlet', dt=0.004/" -e 's/n_steps=600/n_steps=300/' mix3_es.nml > mix3_vv.nml
-sed -e "s/cutoff=2.5 \//cutoff=2.5, precision='mixed' \//" -e 's/n_steps=1000/n_steps=300/' lj_vv.nml > lj_mixed.nml
-sed -e "s/skin=0.3 \//skin=0.3, list='cells' \//" lj_mixed.nml > lj_mixed_cells.nml
+sed -e "s/cutoff=2.5 \//cutoff=2.5, precision='mixed' \//" -e 's/n_steps=1000/n_steps=300/' lj_vv.nml > lj_mixed_any.nml
+sed -e "s/skin=0.3 \//skin=0.3, list='clusters' \//" lj_mixed_any.nml > lj_mixed.nml
+sed -e "s/skin=0.3 \//skin=0.3, list='cells' \//" lj_mixed_any.nml > lj_mixed_cells.nml
 # meshes: the talk's cube (4 x 4 x 4 cells), and the two balls (refine 2) when gmsh is there
 /usr/bin/python3 "$repo/scripts/make_cube_mesh.py" cube.msh --cells 4 --size 0.1 --center > /dev/null
 sed -e "s/run_time=0.1/run_time=0.004/" -e 's/thermo_interval=0.002/thermo_interval=0.0005/' \

@@ -6,8 +6,8 @@
 # COUNT=instructions: each build runs once per scene under `valgrind --tool=callgrind` and the
 # whole process's instruction counts are compared instead (they repeat exactly on a machine too
 # busy for wall times; use fewer steps, e.g. 100 and 20, so that it takes minutes).
-# SCENES (default 'lj eam') adds others: lj_mixed (the LJ scene in mixed precision: the cluster-pair
-# list and kernel), mix3 (the three-type LJ mixture of tests/regression/decks/es_mix3.nml, 864
+# SCENES (default 'lj eam') adds others: lj_mixed (the LJ scene in mixed precision, over the list
+# &neighbor list = 'auto' chooses: the atom list where the build has AVX-512), mix3 (the three-type LJ mixture of tests/regression/decks/es_mix3.nml, 864
 # atoms, velocity Verlet, 10 x NSTEPS_LJ steps) and cuni (the 50/50 Cu-Ni eam/alloy of
 # tests/regression/decks/cuni_es.data, 256 atoms, 10 x NSTEPS_EAM steps).
 # FUNCS='REGEX ...' (with COUNT=instructions): also each build's inclusive count of the first

@@ -260,8 +260,9 @@ contains
     end function lj_true
 
     !> The mixed-precision kernel can run over a cluster-pair list (3-D Verlet runs with a cell list,
-    !> &neighbor list = 'clusters', or 'auto' where lj_prefers_clusters); elsewhere over the atom rows. (Cutoffs of 1000 length
-    !> units and more keep the atom rows: the cluster kernel puts empty slots 10^4 away.)
+    !> &neighbor list = 'clusters', or 'auto' where lj_prefers_clusters); elsewhere over the atom
+    !> rows. (Cutoffs of 1000 length units and more keep the atom rows: the cluster kernel puts empty
+    !> slots 10^4 away.)
     pure logical function lj_wants_clusters(self)
         class(lj_t), intent(in) :: self
         lj_wants_clusters = self%mixed .and. self%cutmax > 0 .and. self%cutmax < cluster_cutoff_limit

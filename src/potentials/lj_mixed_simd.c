@@ -17,8 +17,8 @@
  * distinct; the padding lanes use a pad record after the atoms'); atom i's own sum is added to f in
  * double. At the end the records are added to f in double (finish). The two sides of a pair are
  * rounded in different sums, so this rank's forces leave a small net force (about 1e-7 of a pair
- * force per pair); it is taken off the owned atoms equally, as the cluster kernel does
- * (terrace_lj_cluster), so that momentum is conserved to double round-off. With want_energy the
+ * force per pair); it is taken off the owned atoms equally (the cluster kernel, terrace_lj_cluster,
+ * takes its own off every atom held), so that momentum is conserved to double round-off. With want_energy the
  * pair energies are summed per atom into atom_e[i] and the virial into *virial.
  *
  * The rows' byte offsets (16 (j - 1) per neighbour j, each row padded to whole blocks with the pad

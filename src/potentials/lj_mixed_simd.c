@@ -33,17 +33,21 @@
 #include <immintrin.h>
 #define TERRACE_MIXED_SIMD 1
 
-/* sixteen 16-byte records (x, y, z, w) at base + off[l] (byte offsets), as rows of x, y and z (lane l:
- * record l): register m holds records m, m + 4, m + 8, m + 12 in its four 128-bit lanes, and two
- * unpacks transpose each lane's 4 x 4 block */
-static inline void rows16(const char *base, const int32_t *off, __m512 *vx, __m512 *vy, __m512 *vz)
+/* n = 16 or 8 16-byte records (x, y, z, w) at base + off[l] (byte offsets), as rows of x, y and z
+ * (lane l: record l; with n = 8 the upper eight lanes are left undefined): register m holds records
+ * m, m + 4, m + 8, m + 12 in its four 128-bit lanes, and two unpacks transpose each lane's 4 x 4 block */
+static inline __attribute__((always_inline)) void rows_n(const int n, const char *base, const int32_t *off,
+                                                         __m512 *vx, __m512 *vy, __m512 *vz)
 {
     __m512 a[4];
     for (int m = 0; m < 4; m++) {
         __m512 r = _mm512_broadcast_f32x4(_mm_loadu_ps((const float *)(base + off[m])));
         r = _mm512_mask_broadcast_f32x4(r, 0x00F0, _mm_loadu_ps((const float *)(base + off[m + 4])));
-        r = _mm512_mask_broadcast_f32x4(r, 0x0F00, _mm_loadu_ps((const float *)(base + off[m + 8])));
-        a[m] = _mm512_mask_broadcast_f32x4(r, 0xF000, _mm_loadu_ps((const float *)(base + off[m + 12])));
+        if (n == 16) {
+            r = _mm512_mask_broadcast_f32x4(r, 0x0F00, _mm_loadu_ps((const float *)(base + off[m + 8])));
+            r = _mm512_mask_broadcast_f32x4(r, 0xF000, _mm_loadu_ps((const float *)(base + off[m + 12])));
+        }
+        a[m] = r;
     }
     const __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(a[0], a[1]));   /* x0 x1 y0 y1 */
     const __m512d t1 = _mm512_castps_pd(_mm512_unpackhi_ps(a[0], a[1]));   /* z0 z1 w0 w1 */
@@ -54,8 +58,9 @@ static inline void rows16(const char *base, const int32_t *off, __m512 *vx, __m5
     *vz = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
 }
 
-/* the inverse of rows16: lane l of (vx, vy, vz) stored to the record at base + off[l] as (x, y, z, 0) */
-static inline void store16(char *base, const int32_t *off, __m512 vx, __m512 vy, __m512 vz)
+/* the inverse of rows_n: lane l < n of (vx, vy, vz) stored to the record at base + off[l] as (x, y, z, 0) */
+static inline __attribute__((always_inline)) void store_n(const int n, char *base, const int32_t *off, __m512 vx,
+                                                          __m512 vy, __m512 vz)
 {
     const __m512 zero = _mm512_setzero_ps();
     const __m512d u0 = _mm512_castps_pd(_mm512_unpacklo_ps(vx, vy));     /* x0 y0 x1 y1 */
@@ -67,9 +72,48 @@ static inline void store16(char *base, const int32_t *off, __m512 vx, __m512 vy,
     for (int m = 0; m < 4; m++) {   /* b[m], 128-bit lane L: record 4 L + m */
         _mm_storeu_ps((float *)(base + off[m]), _mm512_castps512_ps128(b[m]));
         _mm_storeu_ps((float *)(base + off[m + 4]), _mm512_extractf32x4_ps(b[m], 1));
-        _mm_storeu_ps((float *)(base + off[m + 8]), _mm512_extractf32x4_ps(b[m], 2));
-        _mm_storeu_ps((float *)(base + off[m + 12]), _mm512_extractf32x4_ps(b[m], 3));
+        if (n == 16) {
+            _mm_storeu_ps((float *)(base + off[m + 8]), _mm512_extractf32x4_ps(b[m], 2));
+            _mm_storeu_ps((float *)(base + off[m + 12]), _mm512_extractf32x4_ps(b[m], 3));
+        }
     }
+}
+
+/* the coefficients and constants of the pass */
+struct pass_consts {
+    __m512 c1, c2, c3, c4, cs, co, unit, two;
+};
+
+/* One block of a row: the cnt (<= n) neighbours at byte offsets off of atom i (its fixed-point
+ * position xi, yi, zi): their pair forces into the sums of i and, subtracted, into their records;
+ * with want_energy the pair energies and virials into se and sw. n = 16, or 8 for a row's last
+ * block of eight pairs or fewer (the upper lanes then hold no pair). */
+static inline __attribute__((always_inline)) void pair_block(const int n, int cnt, const char *qb, char *fb,
+                                                             const int32_t *off, __m512i xi, __m512i yi, __m512i zi,
+                                                             const struct pass_consts *k_, int want_energy,
+                                                             __m512 *sx, __m512 *sy, __m512 *sz, __m512 *se, __m512 *sw)
+{
+    const __mmask16 live = (__mmask16)((1u << cnt) - 1u);
+    __m512 qx, qy, qz, gx, gy, gz;
+    rows_n(n, qb, off, &qx, &qy, &qz);
+    rows_n(n, fb, off, &gx, &gy, &gz);
+    const __m512 dx = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(xi, _mm512_castps_si512(qx))), k_->unit);
+    const __m512 dy = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(yi, _mm512_castps_si512(qy))), k_->unit);
+    const __m512 dz = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(zi, _mm512_castps_si512(qz))), k_->unit);
+    const __m512 rsq = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dx, dx, _mm512_mul_ps(dy, dy)));
+    const __mmask16 in = _mm512_mask_cmp_ps_mask(live, rsq, k_->cs, _CMP_LT_OQ);
+    __m512 r2inv = _mm512_maskz_rcp14_ps(in, rsq);
+    r2inv = _mm512_mul_ps(r2inv, _mm512_fnmadd_ps(rsq, r2inv, k_->two));   /* Newton: r (2 - rsq r) */
+    const __m512 r6inv = _mm512_mul_ps(_mm512_mul_ps(r2inv, r2inv), r2inv);
+    const __m512 fpair = _mm512_mul_ps(_mm512_mul_ps(r6inv, _mm512_fmsub_ps(k_->c1, r6inv, k_->c2)), r2inv);
+    if (want_energy) {
+        const __m512 e = _mm512_mul_ps(r6inv, _mm512_fmsub_ps(k_->c3, r6inv, k_->c4));
+        *se = _mm512_add_ps(*se, _mm512_mask_sub_ps(e, in, e, k_->co));   /* the offset inside the cutoff */
+        *sw = _mm512_fmadd_ps(rsq, fpair, *sw);
+    }
+    const __m512 fx = _mm512_mul_ps(dx, fpair), fy = _mm512_mul_ps(dy, fpair), fz = _mm512_mul_ps(dz, fpair);
+    *sx = _mm512_add_ps(*sx, fx); *sy = _mm512_add_ps(*sy, fy); *sz = _mm512_add_ps(*sz, fz);
+    store_n(n, fb, off, _mm512_sub_ps(gx, fx), _mm512_sub_ps(gy, fy), _mm512_sub_ps(gz, fz));
 }
 
 /* the upper and lower halves of v added */
@@ -235,9 +279,10 @@ int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *
 #if defined(TERRACE_MIXED_SIMD)
     if (nall >= max_atoms) return 0;
     const float u = stage(nall, x, q, ff);
-    const __m512 c1 = _mm512_set1_ps(c[0]), c2 = _mm512_set1_ps(c[1]), c3 = _mm512_set1_ps(c[2]);
-    const __m512 c4 = _mm512_set1_ps(c[3]), cs = _mm512_set1_ps(c[4]), co = _mm512_set1_ps(c[5]);
-    const __m512 unit = _mm512_set1_ps(u), two = _mm512_set1_ps(2.0f), zero = _mm512_setzero_ps();
+    const struct pass_consts k_ = {_mm512_set1_ps(c[0]), _mm512_set1_ps(c[1]), _mm512_set1_ps(c[2]),
+                                   _mm512_set1_ps(c[3]), _mm512_set1_ps(c[4]), _mm512_set1_ps(c[5]),
+                                   _mm512_set1_ps(u), _mm512_set1_ps(2.0f)};
+    const __m512 zero = _mm512_setzero_ps();
     const char *qb = (const char *)q;
     char *fb = (char *)ff;
     double net[3] = {0, 0, 0}, w = 0;
@@ -248,28 +293,11 @@ int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *
         __m512 sx = zero, sy = zero, sz = zero, se = zero, sw = zero;
         for (int k = 0; k < nn; k += 16) {
             const int cnt = nn - k < 16 ? nn - k : 16;
-            const __mmask16 live = (__mmask16)((1u << cnt) - 1u);
             const int32_t *off = offs + ofirst[i] + k;
-            __m512 qx, qy, qz, gx, gy, gz;
-            rows16(qb, off, &qx, &qy, &qz);
-            rows16(fb, off, &gx, &gy, &gz);
-            const __m512 dx = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(xi, _mm512_castps_si512(qx))), unit);
-            const __m512 dy = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(yi, _mm512_castps_si512(qy))), unit);
-            const __m512 dz = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(zi, _mm512_castps_si512(qz))), unit);
-            const __m512 rsq = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dx, dx, _mm512_mul_ps(dy, dy)));
-            const __mmask16 in = _mm512_mask_cmp_ps_mask(live, rsq, cs, _CMP_LT_OQ);
-            __m512 r2inv = _mm512_maskz_rcp14_ps(in, rsq);
-            r2inv = _mm512_mul_ps(r2inv, _mm512_fnmadd_ps(rsq, r2inv, two));   /* Newton: r (2 - rsq r) */
-            const __m512 r6inv = _mm512_mul_ps(_mm512_mul_ps(r2inv, r2inv), r2inv);
-            const __m512 fpair = _mm512_mul_ps(_mm512_mul_ps(r6inv, _mm512_fmsub_ps(c1, r6inv, c2)), r2inv);
-            if (want_energy) {
-                const __m512 e = _mm512_mul_ps(r6inv, _mm512_fmsub_ps(c3, r6inv, c4));
-                se = _mm512_add_ps(se, _mm512_mask_sub_ps(e, in, e, co));   /* the offset inside the cutoff */
-                sw = _mm512_fmadd_ps(rsq, fpair, sw);
-            }
-            const __m512 fx = _mm512_mul_ps(dx, fpair), fy = _mm512_mul_ps(dy, fpair), fz = _mm512_mul_ps(dz, fpair);
-            sx = _mm512_add_ps(sx, fx); sy = _mm512_add_ps(sy, fy); sz = _mm512_add_ps(sz, fz);
-            store16(fb, off, _mm512_sub_ps(gx, fx), _mm512_sub_ps(gy, fy), _mm512_sub_ps(gz, fz));
+            if (cnt <= 8)   /* a row's last block of eight pairs or fewer: half the loads and stores */
+                pair_block(8, cnt, qb, fb, off, xi, yi, zi, &k_, want_energy, &sx, &sy, &sz, &se, &sw);
+            else
+                pair_block(16, cnt, qb, fb, off, xi, yi, zi, &k_, want_energy, &sx, &sy, &sz, &se, &sw);
         }
         double fi[4];   /* (fx, fy, fz, e) of atom i */
         _mm256_storeu_pd(fi, _mm256_cvtps_pd(sums4(sx, sy, sz, se)));

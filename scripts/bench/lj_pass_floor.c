@@ -8,7 +8,8 @@
  * (terrace_lj_mixed: each pass stages the positions and adds its single force records to f; the
  * list's offsets formed once, as the engine forms them once per list).
  * Prints the list length, its pairs within the cutoff and their share of the pass's lanes (eight per
- * block, sixteen in the mixed pass; an atom's last block padded), and the pass's cost per pair of the half list (a full
+ * block, sixteen in the mixed pass, whose last block of a row holds eight lanes where it has eight
+ * pairs or fewer; an atom's last block padded), and the pass's cost per pair of the half list (a full
  * list's pass does every pair twice): median and range of 7 batches of 400 passes.
  * Usage: lj_pass_floor_VARIANT 0|1|2 */
 #include <stdio.h>
@@ -87,9 +88,11 @@ int main(int argc, char **argv)
     }
     first[n] = (int)np + 1;
     const int lanes = mixed ? 16 : 8;
-    long blocks = 0, within = 0;      /* the pass's blocks of lanes, and its pairs within rc */
+    long blocks = 0, within = 0, lanes_used = 0;   /* the pass's blocks and lanes, its pairs within rc */
     for (int i = 0; i < n; i++) {
-        blocks += (first[i + 1] - first[i] + lanes - 1) / lanes;
+        const int nn = first[i + 1] - first[i];
+        blocks += (nn + lanes - 1) / lanes;
+        if (mixed && nn % 16 != 0 && nn % 16 <= 8) lanes_used -= 8;   /* the pass's eight-record last block */
         for (int k = first[i] - 1; k < first[i + 1] - 1; k++) {
             const int j = neigh[k] - 1;
             const double dx = x[3 * i] - x[3 * j], dy = x[3 * i + 1] - x[3 * j + 1], dz = x[3 * i + 2] - x[3 * j + 2];
@@ -118,8 +121,10 @@ int main(int argc, char **argv)
         t[b] = (now() - t0) / passes / (full ? np / 2.0 : (double)np) * 1e9;
     }
     qsort(t, batches, sizeof(double), cmp);
-    printf("%-5s list, %6ld pairs (%ld within rc; %.2f of the %ld x %d lanes): %.3f ns per half-list pair [%.3f, %.3f]\n",
-           full ? "full" : mixed ? "mixed" : "half", np, within, within / ((double)lanes * blocks), blocks, lanes, t[3],
+    lanes_used += (long)lanes * blocks;
+    printf("%-5s list, %6ld pairs (%ld within rc; %.2f of the %ld lanes of %ld blocks): "
+           "%.3f ns per half-list pair [%.3f, %.3f]\n",
+           full ? "full" : mixed ? "mixed" : "half", np, within, within / (double)lanes_used, lanes_used, blocks, t[3],
            t[0], t[6]);
     return 0;
 }

@@ -6,10 +6,11 @@
  * the power of two at or above span / 2^30 (span: the largest extent of the atoms held in any
  * dimension), in a 16-byte record (qx, qy, qz, 0). A separation is the integer difference q_i - q_j
  * (exact), converted to single and multiplied by u (exact, a power of two): the double separation
- * to within u (5.6e-8 length units on the argon job's span of 55 with its ghosts) and the single
+ * to within u (2^-24, 6e-8 length units, on the argon job, whose atoms held span 32 to 64) and the single
  * rounding (6e-8 relative), however far the atoms lie from the origin.
  *
- * Sixteen pairs per block: the neighbours' records are loaded four to a 64-byte register (16-byte
+ * Sixteen pairs per block (a row's last block of eight pairs or fewer loads and stores eight
+ * records, pair_block with n = 8): the neighbours' records are loaded four to a 64-byte register (16-byte
  * broadcasts merged under a mask) and two unpacks give 16-lane rows of x, y and z, as GROMACS's
  * nbnxm kernels load their j-clusters; the pair terms in single precision (1/r^2 from vrcp14ps and
  * one Newton step, about 1 ulp). The neighbours' forces are summed in single-precision records

@@ -21,10 +21,11 @@
 int terrace_lj_one_type(int nlocal, const double *x, double *f, const int *first, const int *neigh, double lj1,
                         double lj2, double lj3, double lj4, double cutsq, double offset, int want_energy,
                         double *atom_e, double *virial);
-int terrace_lj_mixed_offsets(int nlocal, int nall, const int *first, const int *neigh, int *ofirst, int32_t *offs);
+int terrace_lj_mixed_offsets(int nlocal, int nrec, const int *first, const int *neigh, int wrapped, const int *origin,
+                             int *ofirst, int32_t *offs);
 int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *q, float *ff, const int *first,
-                     const int *ofirst, const int32_t *offs, const float *c, int want_energy, double *atom_e,
-                     double *virial);
+                     const int *ofirst, const int32_t *offs, const double *c, int want_energy, int wrapped,
+                     const double *wrap, double *atom_e, double *virial);
 
 static double now(void)
 {
@@ -105,10 +106,10 @@ int main(int argc, char **argv)
     int32_t *q = malloc(16 * ((size_t)m + 1)), *offs = malloc(sizeof(int32_t) * ((size_t)np + 16 * (size_t)n));
     float *ff = malloc(16 * ((size_t)m + 1));
     int *ofirst = malloc(sizeof(int) * (n + 1));
-    const float cf[6] = {(float)lj1, (float)lj2, (float)lj3, (float)lj4, (float)(rc * rc), 0};
-#define PASS() (mixed ? terrace_lj_mixed(n, m, x, f, q, ff, first, ofirst, offs, cf, 0, ae, &vir) \
+    const double cf[6] = {lj1, lj2, lj3, lj4, rc * rc, 0};
+#define PASS() (mixed ? terrace_lj_mixed(n, m, x, f, q, ff, first, ofirst, offs, cf, 0, 0, NULL, ae, &vir) \
                       : terrace_lj_one_type(n, x, f, first, neigh, lj1, lj2, lj3, lj4, rc * rc, 0, 0, ae, &vir))
-    if ((mixed && terrace_lj_mixed_offsets(n, m, first, neigh, ofirst, offs) < 0) || !PASS()) {
+    if ((mixed && terrace_lj_mixed_offsets(n, m, first, neigh, 0, NULL, ofirst, offs) < 0) || !PASS()) {
         fprintf(stderr, "lj_pass_floor: this build has no AVX-512 pass\n");
         return 2;
     }

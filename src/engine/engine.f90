@@ -24,6 +24,7 @@ module terrace_engine
     use terrace_mpi_env, only: world, sum_all, any_all
     use terrace_errors, only: stop_all, check_all, warn
     use terrace_named_values, only: named_values_t
+    use terrace_grow, only: reserve
     implicit none
     private
 
@@ -64,6 +65,10 @@ module terrace_engine
         !> virial_diag = (W_xx, W_yy, W_zz), global, when want_virial_diag (an anisotropic barostat
         !> asks for it)
         real(dp) :: virial_diag(3) = 0
+        !> The lists have wrapped images (list%wrapped, set at each build: set_wrapped_images) and the
+        !> ghosts' positions were not refreshed since the owners moved: whatever reads them (a prune)
+        !> refreshes them first (fresh_ghosts)
+        logical :: ghosts_stale = .false.
     end type engine_state_t
 
     type, public, extends(engine_state_t) :: engine_t
@@ -232,6 +237,7 @@ contains
             call self%list%build(self%atoms)
             if (self%use_inner) call self%inner%prune(self%list, self%atoms, inner_cut(self))
             self%built_covered = self%use_inner
+            call set_wrapped_images(self)
         else
             call self%list%hold(self%atoms)           ! no pair list: only the displacement reference
         end if
@@ -240,7 +246,41 @@ contains
         call self%timers%stop(t_neigh)
     end subroutine engine_rebuild
 
-    !> Bring ghost positions up to date (no rebuild).
+    !> After a build: the lists have wrapped images (neighbor_list_t%wrapped; the force pass reads each
+    !> ghost as its owner at the nearest image, so that the ghosts need no refresh between builds and
+    !> their forces no reverse sum) where the plan allows them (plan%wrap_images), every ghost is a
+    !> periodic image of an owned atom (one rank) and the box is still more than twice the list's
+    !> cutoff in every dimension (a margin of 1e-9 for round-off).
+    subroutine set_wrapped_images(self)
+        class(engine_t), intent(inout) :: self
+        logical :: ok
+        integer :: nall
+        ok = self%plan%wrap_images .and. .not. (self%want_virial_diag .or. self%list%want_below .or. &
+                                                self%list%want_clusters)
+        if (ok) ok = all(self%box%periodic) .and. 2*self%list%cut < (1 - 1.0e-9_dp)*minval(self%box%length)
+        if (ok) ok = self%dom%image_owners(self%atoms, self%list%image_of)
+        self%list%wrapped = ok
+        self%inner%wrapped = ok .and. self%use_inner
+        if (self%inner%wrapped) then
+            nall = self%atoms%nall()
+            call reserve(self%inner%image_of, nall)
+            self%inner%image_of(1:nall) = self%list%image_of(1:nall)
+        end if
+        self%ghosts_stale = .false.
+    end subroutine set_wrapped_images
+
+    !> The ghosts' positions from their owners now if they were left stale (wrapped images).
+    subroutine fresh_ghosts(self)
+        class(engine_t), intent(inout) :: self
+        if (.not. self%ghosts_stale) return
+        call self%timers%start(t_comm)
+        call self%dom%forward(self%atoms%x, .true.)
+        call self%timers%stop(t_comm)
+        self%ghosts_stale = .false.
+    end subroutine fresh_ghosts
+
+    !> Bring ghost positions up to date (no rebuild); with wrapped images only marked stale (the
+    !> force pass does not read them; a prune refreshes them).
     subroutine engine_refresh_ghosts(self)
         class(engine_t), intent(inout) :: self
         call ghosts_from_owners(self, velocities=.false.)
@@ -259,11 +299,19 @@ contains
         logical, intent(in), optional :: partial
         real(dp) :: ew(5)
         integer :: nall
-        logical :: sum_here, diag
+        logical :: sum_here, diag, wrapped
         type(engine_halo_t) :: halo
         halo%eng => self
         call self%timers%start(t_pair)
-        nall = self%atoms%nall()
+        ! wrapped images: the pass leaves the ghosts' forces alone (no reverse sum) and reads the box
+        wrapped = self%list%wrapped
+        if (wrapped) then
+            self%list%wrap_box = [self%box%lo, self%box%length]
+            self%inner%wrap_box = self%list%wrap_box
+            nall = self%atoms%nlocal
+        else
+            nall = self%atoms%nall()
+        end if
         call fill_zero(3*nall, self%atoms%f)
         if (self%use_inner) then
             call self%pot%forces(self%atoms, self%inner, halo, want_energy, ew(1), ew(2))
@@ -274,7 +322,7 @@ contains
         if (diag) ew(3:5) = virial_diagonal(self%atoms%x, self%atoms%f, nall)
         call self%timers%stop(t_pair)
         if (self%validity_checks) call check_list_problem(self)
-        if (self%plan%pair_mode /= pair_all) then
+        if (self%plan%pair_mode /= pair_all .and. .not. wrapped) then
             call self%timers%start(t_comm)
             call self%dom%reverse(self%atoms%f)
             call self%timers%stop(t_comm)
@@ -363,6 +411,7 @@ contains
         class(engine_t), intent(inout) :: self
         real(dp), intent(in) :: s
         real(dp), intent(out) :: out(4)
+        call fresh_ghosts(self)
         if (self%use_inner) then
             call self%pot%ray(self%atoms, self%inner, s, out)
         else
@@ -397,6 +446,9 @@ contains
         logical, intent(in) :: velocities
         ! all pairs on one rank: no ghosts (no call, no timer)
         if (self%plan%pair_mode == pair_all .and. world%nprocs == 1) return
+        ! wrapped images: positions only marked stale (velocities: refreshed, with the positions)
+        self%ghosts_stale = self%list%wrapped .and. .not. velocities
+        if (self%ghosts_stale) return
         call self%timers%start(t_comm)
         if (self%plan%pair_mode == pair_all) then
             if (world%nprocs > 1) call self%rep%gather(self%atoms, self%atoms%x)
@@ -428,6 +480,7 @@ contains
     subroutine engine_prune(self)
         class(engine_t), intent(inout) :: self
         if (.not. self%use_inner) return
+        call fresh_ghosts(self)
         call self%timers%start(t_neigh)
         call self%inner%prune(self%list, self%atoms, inner_cut(self))
         ! an atom within (skin - inner skin)/2 of its place at the build stays within skin/2 of it
@@ -566,6 +619,12 @@ contains
         if (present(rebuilt)) rebuilt = .not. keep
         if (keep) then
             call self%list%scale_reference(mu, n)
+            ! wrapped images need the box more than twice the list's cutoff: otherwise copies again
+            if (self%list%wrapped .and. .not. 2*self%list%cut < (1 - 1.0e-9_dp)*minval(self%box%length)) then
+                call fresh_ghosts(self)
+                self%list%wrapped = .false.
+                self%inner%wrapped = .false.
+            end if
         else
             call self%rebuild()
         end if

@@ -26,6 +26,12 @@ module terrace_scene_plan
         !> Cluster-pair list in place of the atom list (terrace_cluster_list): the potential wants one
         !> (the mixed-precision LJ kernel), 3-D, cell lists, &neighbor list = 'auto' or 'clusters'
         logical :: cluster_pairs = .false.
+        !> One rank, a box periodic in all three dimensions and more than twice the list's cutoff wide,
+        !> a force pass that reads wrapped images (potential%wraps_images), velocity Verlet or a
+        !> minimizer without the virial's diagonal, &neighbor images = 'auto': the periodic images are
+        !> copied at each list build only, and the force pass reads each as its owner at the nearest
+        !> image (terrace_engine, wrapped images: the engine checks the box again at each build)
+        logical :: wrap_images = .false.
         logical :: mesh = .false.            !< the atoms are a mesh's nodes (&system mesh_file)
         character(len=:), allocatable :: halo, pairs, potential, integrator, outputs, box
     contains

@@ -6,7 +6,7 @@
 !>               box_hi), periodic, mass, temperature
 !>   &potential  style, epsilon, sigma, cutoff, pair_cutoff, shift, precision
 !>   &integrator style, dt
-!>   &neighbor   skin, list, every, check, buffer_tolerance, outer_skin, prune_every
+!>   &neighbor   skin, list, every, check, buffer_tolerance, outer_skin, prune_every, images
 !>   &output     thermo_every, thermo_interval, thermo_file, forces_file
 !>   &thermostat style, temperature, temperature_end, damping, chain_length, seed, zero_momentum, interval
 !>   &barostat   style, pressure, damping, compressibility, couple
@@ -114,6 +114,9 @@ module terrace_config
         ! &neighbor
         real(dp) :: skin = -1.0_dp
         character(len=16) :: list = 'auto'
+        !> 'auto': on one rank, a pass that can reads the periodic images as their owners between
+        !> builds (terrace_scene_planner: wrap_images); 'copies': the images always copied
+        character(len=16) :: images = 'auto'
         integer :: list_every = 1                   !< steps between list checks (check) or rebuilds (no check)
         logical :: list_check = .true.              !< rebuild only when an atom has moved skin/2
         real(dp) :: buffer_tolerance = -1.0_dp      !< > 0: skin from this energy drift per atom per time
@@ -636,20 +639,23 @@ contains
     subroutine read_neighbor(cfg)
         type(config_t), intent(inout) :: cfg
         real(dp) :: skin, buffer_tolerance, outer_skin
-        character(len=16) :: list
+        character(len=16) :: list, images
         integer :: every, prune_every
         logical :: check
-        namelist /neighbor/ skin, list, every, check, buffer_tolerance, outer_skin, prune_every
-        character(len=*), parameter :: keys(7) = [character(len=40) :: 'skin:a real number', 'list:a quoted string', &
+        namelist /neighbor/ skin, list, every, check, buffer_tolerance, outer_skin, prune_every, images
+        character(len=*), parameter :: keys(8) = [character(len=40) :: 'skin:a real number', 'list:a quoted string', &
                                                   'every:an integer', 'check:a logical', 'buffer_tolerance:a real number', &
-                                                  'outer_skin:a real number', 'prune_every:an integer']
+                                                  'outer_skin:a real number', 'prune_every:an integer', &
+                                                  'images:a quoted string']
         type(item_reader_t) :: it
         skin = -1; list = 'auto'; every = 1; check = .true.; buffer_tolerance = -1; outer_skin = 0; prune_every = 0
+        images = 'auto'
         do while (it%next(cfg, 'neighbor', keys))
             read (it%buf, nml=neighbor, iostat=it%ios, iomsg=it%msg)
             call it%done(cfg)
         end do
         cfg%skin = skin; cfg%list = lower(list); cfg%list_every = every; cfg%list_check = check
+        cfg%images = lower(images)
         cfg%buffer_tolerance = buffer_tolerance; cfg%outer_skin = outer_skin; cfg%prune_every = prune_every
     end subroutine read_neighbor
 
@@ -1397,6 +1403,8 @@ contains
             call stop_all(cfg%where('neighbor', 'list')//" = 'all_pairs': only for scenes with no periodic dimension")
         if (cfg%cutoff == 0 .and. (cfg%list == 'cells' .or. cfg%list == 'clusters')) &
             call stop_all(cfg%where('neighbor', 'list')//" = '"//trim(cfg%list)//"': needs a cutoff (&potential cutoff > 0)")
+        if (cfg%images /= 'auto' .and. cfg%images /= 'copies') call stop_all(cfg%where('neighbor', 'images')//" = '"// &
+            trim(cfg%images)//"': unknown (allowed: 'auto', 'copies')")
     end subroutine validate_list_kind
 
     !> Integrator, neighbour and output settings (any potential).

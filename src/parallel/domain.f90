@@ -62,6 +62,7 @@ module terrace_domain
         procedure :: forward => domain_forward
         procedure :: forward_xv => domain_forward_xv
         procedure :: reverse => domain_reverse
+        procedure :: image_owners => domain_image_owners
     end type domain_t
 
     integer, parameter :: migrate_width = 12   ! x(3) v(3) type id image(3) clock
@@ -325,6 +326,30 @@ contains
         if (allocated(atoms%clock)) atoms%clock(n) = buf(12)
         atoms%nlocal = n
     end subroutine unpack_atom
+
+    !> Where every ghost is a periodic image of an owned atom of this rank (every swap of the halo a
+    !> copy within the rank), owner(j) = the owned atom that ghost j copies (j for an owned atom),
+    !> for the atoms held; otherwise .false. and owner untouched.
+    logical function domain_image_owners(self, atoms, owner) result(ok)
+        class(domain_t), intent(in) :: self
+        type(atoms_t), intent(in) :: atoms
+        integer, allocatable, intent(inout) :: owner(:)
+        integer :: s, j, i
+        ok = .true.
+        if (self%nswap > 0) ok = all(self%swaps(1:self%nswap)%self_copy)
+        if (.not. ok) return
+        call reserve(owner, atoms%nlocal + atoms%nghost)
+        do i = 1, atoms%nlocal
+            owner(i) = i
+        end do
+        do s = 1, self%nswap
+            associate (sw => self%swaps(s))
+                do j = 1, sw%nsend
+                    owner(sw%first_recv + j - 1) = owner(sw%list(j))
+                end do
+            end associate
+        end do
+    end function domain_image_owners
 
     !> Build the ghost layer and remember every swap for forward and reverse communication.
     subroutine domain_borders(self, atoms)

@@ -36,6 +36,7 @@ module terrace_lj
     use terrace_atoms, only: atoms_t
     use terrace_neighbor_list, only: neighbor_list_t, gather_neighbour_types
     use terrace_potential, only: potential_t, halo_ops_t
+    use terrace_errors, only: stop_all
     use terrace_lj_cluster, only: cluster_forces
     use terrace_cluster_list, only: cluster_cutoff_limit
     implicit none
@@ -86,7 +87,7 @@ module terrace_lj
         !> and the list they were formed from (its build count, atoms held and length; -1: none)
         integer, allocatable :: moffs(:)
         integer, allocatable :: mofirst(:)
-        integer :: mixed_key(3) = -1
+        integer :: mixed_key(4) = -1
         real(sp), allocatable :: rows_sp(:, :), fp_sp(:), ep_sp(:), wp_sp(:)  !< mixed: per-atom rows
         real(sp), allocatable :: xrep(:, :, :), frep(:, :, :)  !< mixed over clusters: replicated records
         integer :: cluster_build = -1            !< mixed over clusters: the list build of the last pass
@@ -101,6 +102,7 @@ module terrace_lj
         procedure :: wants_neighbour_types => lj_several_types
         procedure :: wants_clusters => lj_wants_clusters
         procedure :: prefers_clusters => lj_prefers_clusters
+        procedure :: wraps_images => lj_wraps_images
         procedure :: contact_distance => lj_contact_distance
         procedure :: time_scale => lj_time_scale
         procedure :: cutoff_derivatives => lj_cutoff_derivatives
@@ -146,22 +148,22 @@ module terrace_lj
         !> src/potentials/lj_mixed_simd.c: the mixed-precision pass over the half list (0: not in this
         !> build), with the list's offsets from c_lj_mixed_offsets
         integer(c_int) function c_lj_mixed(nlocal, nall, x, f, xq, ff, first, ofirst, offs, coeffs, want_energy, &
-                                           atom_e, virial) bind(C, name='terrace_lj_mixed')
+                                           wrapped, wrap, atom_e, virial) bind(C, name='terrace_lj_mixed')
             import :: c_int, c_double, c_float
-            integer(c_int), value :: nlocal, nall, want_energy
-            real(c_double), intent(in) :: x(*)
+            integer(c_int), value :: nlocal, nall, want_energy, wrapped
+            real(c_double), intent(in) :: x(*), wrap(6)
             real(c_double), intent(inout) :: f(*), atom_e(*), virial
             integer(c_int), intent(inout) :: xq(*)
             real(c_float), intent(inout) :: ff(*)
             integer(c_int), intent(in) :: first(*), ofirst(*), offs(*)
-            real(c_float), intent(in) :: coeffs(6)
+            real(c_double), intent(in) :: coeffs(6)
         end function c_lj_mixed
         !> src/potentials/lj_mixed_simd.c: the list's rows as the pass reads them (-1: not in this build)
-        integer(c_int) function c_lj_mixed_offsets(nlocal, nall, first, neigh, ofirst, offs) &
+        integer(c_int) function c_lj_mixed_offsets(nlocal, nrec, first, neigh, wrapped, origin, ofirst, offs) &
             bind(C, name='terrace_lj_mixed_offsets')
             import :: c_int
-            integer(c_int), value :: nlocal, nall
-            integer(c_int), intent(in) :: first(*), neigh(*)
+            integer(c_int), value :: nlocal, nrec, wrapped
+            integer(c_int), intent(in) :: first(*), neigh(*), origin(*)
             integer(c_int), intent(inout) :: ofirst(*), offs(*)
         end function c_lj_mixed_offsets
         !> src/potentials/lj_mixed_simd.c: 1 where this build has the AVX-512 mixed pass, else 0
@@ -249,7 +251,11 @@ contains
             trim(merge(' (shifted)', '          ', self%shift .and. .not. self%smooth)), ', epsilon(1,1) = ', self%eps11, &
             ', sigma(1,1) = ', self%sig11
         text = trim(s)//'; no density pass (pair potential)'
-        if (self%mixed) text = text//'; mixed precision (single-precision pairs, double sums)'
+        if (self%mixed .and. c_lj_mixed_simd() /= 0) then
+            text = text//'; mixed precision (single-precision pairs and neighbour sums, AVX-512 pass; forces in double)'
+        else if (self%mixed) then
+            text = text//'; mixed precision (single-precision pairs; the portable pass)'
+        end if
     end function lj_describe
 
     !> Lennard-Jones runs on all pairs (no list) and over a pruned list (its passes use the pairs
@@ -275,6 +281,13 @@ contains
         class(lj_t), intent(in) :: self
         lj_prefers_clusters = lj_wants_clusters(self) .and. c_lj_mixed_simd() == 0
     end function lj_prefers_clusters
+
+    !> The mixed-precision pass with AVX-512 (lj_mixed_simd.c) reads a list with wrapped images: its
+    !> positions in fixed point on the box's periodic grid (one type, style 'lj').
+    pure logical function lj_wraps_images(self)
+        class(lj_t), intent(in) :: self
+        lj_wraps_images = self%mixed .and. self%ntypes == 1 .and. .not. self%smooth .and. c_lj_mixed_simd() /= 0
+    end function lj_wraps_images
 
     !> Several types: the passes read the neighbours' types from the list (list%want_types).
     pure logical function lj_several_types(self)

@@ -9,6 +9,14 @@
  * to within u (2^-24, 6e-8 length units, on the argon job, whose atoms held span 32 to 64) and the single
  * rounding (6e-8 relative), however far the atoms lie from the origin.
  *
+ * Wrapped images (the engine's, on one rank, when the box is more than twice the list's cutoff in
+ * every dimension: neighbor_list_t%wrapped): only the owned atoms are staged, on the periodic grid
+ * of the box (2^32 steps per box length, stage_periodic), and each ghost of the list is read as its
+ * owner's record: the integer difference wraps to the nearest image. The ghosts are then neither
+ * refreshed between builds nor summed back (the records, and the pass's memory, are a third to a
+ * quarter as many on the argon job). The pair terms are computed in a length unit in which the grid
+ * step is a power of two (terrace_lj_mixed: lam), so that the separations stay exact products.
+ *
  * Sixteen pairs per block (a row's last block of eight pairs or fewer loads and stores eight
  * records, pair_block with n = 8): the neighbours' records are loaded four to a 64-byte register (16-byte
  * broadcasts merged under a mask) and two unpacks give 16-lane rows of x, y and z, as GROMACS's
@@ -82,14 +90,24 @@ static inline __attribute__((always_inline)) void store_n(const int n, char *bas
 
 /* the coefficients and constants of the pass */
 struct pass_consts {
-    __m512 c1, c2, c3, c4, cs, co, unit, two;
+    __m512 c1, c2, c3, c4, cs, co, ux, uy, uz, uxl, uyl, uzl, two;
 };
+
+/* the separation along one dimension: the integer difference converted to single, times the grid
+ * step u (split: u + ul, u's high and low parts, where the step is not a power of two) */
+static inline __attribute__((always_inline)) __m512 separation(const int split, __m512i qi, __m512 qj, __m512 u,
+                                                               __m512 ul)
+{
+    const __m512 c = _mm512_cvtepi32_ps(_mm512_sub_epi32(qi, _mm512_castps_si512(qj)));
+    return split ? _mm512_fmadd_ps(c, ul, _mm512_mul_ps(c, u)) : _mm512_mul_ps(c, u);
+}
 
 /* One block of a row: the cnt (<= n) neighbours at byte offsets off of atom i (its fixed-point
  * position xi, yi, zi): their pair forces into the sums of i and, subtracted, into their records;
  * with want_energy the pair energies and virials into se and sw. n = 16, or 8 for a row's last
  * block of eight pairs or fewer (the upper lanes then hold no pair). */
-static inline __attribute__((always_inline)) void pair_block(const int n, int cnt, const char *qb, char *fb,
+static inline __attribute__((always_inline)) void pair_block(const int n, const int split, int cnt, const char *qb,
+                                                             char *fb,
                                                              const int32_t *off, __m512i xi, __m512i yi, __m512i zi,
                                                              const struct pass_consts *k_, int want_energy,
                                                              __m512 *sx, __m512 *sy, __m512 *sz, __m512 *se, __m512 *sw)
@@ -98,9 +116,9 @@ static inline __attribute__((always_inline)) void pair_block(const int n, int cn
     __m512 qx, qy, qz, gx, gy, gz;
     rows_n(n, qb, off, &qx, &qy, &qz);
     rows_n(n, fb, off, &gx, &gy, &gz);
-    const __m512 dx = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(xi, _mm512_castps_si512(qx))), k_->unit);
-    const __m512 dy = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(yi, _mm512_castps_si512(qy))), k_->unit);
-    const __m512 dz = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(zi, _mm512_castps_si512(qz))), k_->unit);
+    const __m512 dx = separation(split, xi, qx, k_->ux, k_->uxl);
+    const __m512 dy = separation(split, yi, qy, k_->uy, k_->uyl);
+    const __m512 dz = separation(split, zi, qz, k_->uz, k_->uzl);
     const __m512 rsq = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dx, dx, _mm512_mul_ps(dy, dy)));
     const __mmask16 in = _mm512_mask_cmp_ps_mask(live, rsq, k_->cs, _CMP_LT_OQ);
     __m512 r2inv = _mm512_maskz_rcp14_ps(in, rsq);
@@ -202,6 +220,37 @@ static float stage(int nall, const double *x, int32_t *q, float *ff)
     return (float)u;
 }
 
+/* The records of the n owned atoms on the periodic grid of the box (wrap: lo(3), length(3)): q =
+ * nint((x - lo) 2^32 / L) modulo 2^32 in each dimension, ff = 0, and q's pad record after them
+ * (the grid steps are L / 2^32). A difference of two such integers, wrapped to 32 bits, is
+ * the separation of the nearest images (to within a step, L / 2^32: 8e-9 length units on the argon
+ * job's box), so that the pairs of the list's periodic images are the pairs of their owners (the
+ * engine's wrapped images, when the box is more than twice the list's cutoff in every dimension).
+ * Positions up to a box length outside the box (between builds) are on the same grid. */
+static void stage_periodic(int n, const double *x, const double *wrap, int32_t *q, float *ff)
+{
+    double s[3];
+    for (int c = 0; c < 3; c++) s[c] = ldexp(1.0, 32) / wrap[3 + c];
+    const __m512d vlo = _mm512_setr_pd(wrap[0], wrap[1], wrap[2], 0, wrap[0], wrap[1], wrap[2], 0);
+    const __m512d vs = _mm512_setr_pd(s[0], s[1], s[2], 0, s[0], s[1], s[2], 0);
+    const __m256 zero = _mm256_setzero_ps();
+    const __m512i spread = _mm512_setr_epi64(0, 1, 2, 0, 3, 4, 5, 0);
+    long i = 0;
+    for (; i + 2 <= n; i += 2) {
+        const __m512d v = _mm512_maskz_permutexvar_pd(0x77, spread, _mm512_maskz_loadu_pd(0x3F, x + 3 * i));
+        /* rounded to the nearest 64-bit integer, its low 32 bits kept (the modulo) */
+        _mm256_storeu_si256((__m256i *)(q + 4 * i), _mm512_cvtepi64_epi32(_mm512_cvtpd_epi64(
+                                                        _mm512_mul_pd(_mm512_sub_pd(v, vlo), vs))));
+        _mm256_storeu_ps(ff + 4 * i, zero);
+    }
+    for (; i < n; i++) {
+        for (int c = 0; c < 3; c++) q[4 * i + c] = (int32_t)(uint32_t)(uint64_t)llrint((x[3 * i + c] - wrap[c]) * s[c]);
+        q[4 * i + 3] = 0;
+        for (int c = 0; c < 4; c++) ff[4 * i + c] = 0;
+    }
+    for (int c = 0; c < 4; c++) q[4 * (long)n + c] = 0;
+}
+
 /* f += ff for the nall atoms, and f -= net / nlocal for the owned ones, where net is the sum of ff
  * and of isum (the owned atoms' own sums, already added to f): the net force of this rank's pairs,
  * taken off the owned atoms (after the reverse sum of the ghosts' forces all forces then sum to
@@ -209,18 +258,21 @@ static float stage(int nall, const double *x, int32_t *q, float *ff)
  * converted to double and permuted into three registers of 24 consecutive components, f's own
  * layout (full loads and stores, no masks: a masked store of part of a register blocked the next
  * load's forwarding, and the pass ran slower than the scalar loop) */
-static void finish(int nlocal, int nall, const float *ff, double *f, const double *isum)
+static void finish(int nlocal, int nall, const float *ff, double *f, const double *isum, double scale)
 {
+    const __m512d vscale = _mm512_set1_pd(scale);
     const __m512i p0 = _mm512_setr_epi64(0, 1, 2, 4, 5, 6, 8, 9), p1 = _mm512_setr_epi64(2, 4, 5, 6, 8, 9, 10, 12);
     const __m512i p2 = _mm512_setr_epi64(5, 6, 8, 9, 10, 12, 13, 14);
     __m512d s = _mm512_setzero_pd();
     long j = 0;
     for (; j + 8 <= nall; j += 8) {
         const __m512 r0 = _mm512_loadu_ps(ff + 4 * j), r1 = _mm512_loadu_ps(ff + 4 * j + 16);
-        const __m512d a = _mm512_cvtps_pd(_mm512_castps512_ps256(r0));    /* atoms j, j + 1 */
-        const __m512d b = _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(r0), 1)));
-        const __m512d c = _mm512_cvtps_pd(_mm512_castps512_ps256(r1));
-        const __m512d d = _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(r1), 1)));
+        const __m512d a = _mm512_mul_pd(_mm512_cvtps_pd(_mm512_castps512_ps256(r0)), vscale);   /* atoms j, j + 1 */
+        const __m512d b = _mm512_mul_pd(
+            _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(r0), 1))), vscale);
+        const __m512d c = _mm512_mul_pd(_mm512_cvtps_pd(_mm512_castps512_ps256(r1)), vscale);
+        const __m512d d = _mm512_mul_pd(
+            _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(r1), 1))), vscale);
         s = _mm512_add_pd(s, _mm512_add_pd(_mm512_add_pd(a, b), _mm512_add_pd(c, d)));
         double *g = f + 3 * j;
         _mm512_storeu_pd(g, _mm512_add_pd(_mm512_loadu_pd(g), _mm512_permutex2var_pd(a, p0, b)));
@@ -232,8 +284,8 @@ static void finish(int nlocal, int nall, const float *ff, double *f, const doubl
     for (int k = 0; k < 3; k++) net[k] += net[k + 4] + isum[k];
     for (; j < nall; j++)
         for (int k = 0; k < 3; k++) {
-            f[3 * j + k] += ff[4 * j + k];
-            net[k] += ff[4 * j + k];
+            f[3 * j + k] += scale * ff[4 * j + k];
+            net[k] += scale * ff[4 * j + k];
         }
     if (nlocal == 0) return;
     for (int k = 0; k < 3; k++) net[k] /= nlocal;
@@ -246,47 +298,45 @@ static const long max_atoms = (1L << 27) - 2;
 #endif
 
 /* The rows' byte offsets of the half list first, neigh (1-based) for the pass: row i (0-based) at
- * offs[ofirst[i] .. ofirst[i + 1] - 1], 16 (j - 1) per neighbour j and 16 nall (the pad record) up
- * to a multiple of 16 entries; offs must have room for first[nlocal] - 1 + 15 nlocal entries.
- * Returns the entries written, or -1 (nothing done) as terrace_lj_mixed returns 0. */
-int terrace_lj_mixed_offsets(int nlocal, int nall, const int *first, const int *neigh, int *ofirst, int32_t *offs)
+ * offs[ofirst[i] .. ofirst[i + 1] - 1], 16 (r - 1) per neighbour j, r = j or, with wrapped images
+ * (wrapped != 0), its owner origin[j - 1] (1-based), and 16 nrec (the pad record) up to a multiple
+ * of 16 entries; nrec the records the pass stages (nall, or nlocal with wrapped images); offs must
+ * have room for first[nlocal] - 1 + 15 nlocal entries. Returns the entries written, or -1 (nothing
+ * done) as terrace_lj_mixed returns 0. */
+int terrace_lj_mixed_offsets(int nlocal, int nrec, const int *first, const int *neigh, int wrapped, const int *origin,
+                             int *ofirst, int32_t *offs)
 {
 #if defined(TERRACE_MIXED_SIMD)
-    if (nall >= max_atoms) return -1;
+    if (nrec >= max_atoms) return -1;
     int o = 0;
     for (int i = 0; i < nlocal; i++) {
         ofirst[i] = o;
         const int k0 = first[i] - 1, nn = first[i + 1] - first[i], padded = (nn + 15) / 16 * 16;
-        for (int k = 0; k < nn; k++) offs[o + k] = 16 * (neigh[k0 + k] - 1);
-        for (int k = nn; k < padded; k++) offs[o + k] = 16 * nall;
+        if (wrapped)
+            for (int k = 0; k < nn; k++) offs[o + k] = 16 * (origin[neigh[k0 + k] - 1] - 1);
+        else
+            for (int k = 0; k < nn; k++) offs[o + k] = 16 * (neigh[k0 + k] - 1);
+        for (int k = nn; k < padded; k++) offs[o + k] = 16 * nrec;
         o += padded;
     }
     ofirst[nlocal] = o;
     return o;
 #else
-    (void)nlocal; (void)nall; (void)first; (void)neigh; (void)ofirst; (void)offs;
+    (void)nlocal; (void)nrec; (void)first; (void)neigh; (void)wrapped; (void)origin; (void)ofirst; (void)offs;
     return -1;
 #endif
 }
 
-/* nlocal owned and nall held atoms; x, f (3, nall) in double; q (4, nall + 1) and ff (4, nall + 1)
- * the work records (the last, the padding lanes' pad record); first the half list's row starts
- * (1-based) and ofirst, offs its offsets (terrace_lj_mixed_offsets); c = (lj1, lj2, lj3, lj4,
- * cutsq, offset) in single; with want_energy atom_e[0..nlocal-1] (set) and *virial (added to). */
-int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *q, float *ff, const int *first,
-                     const int *ofirst, const int32_t *offs, const float *c, int want_energy, double *atom_e,
-                     double *virial)
-{
 #if defined(TERRACE_MIXED_SIMD)
-    if (nall >= max_atoms) return 0;
-    const float u = stage(nall, x, q, ff);
-    const struct pass_consts k_ = {_mm512_set1_ps(c[0]), _mm512_set1_ps(c[1]), _mm512_set1_ps(c[2]),
-                                   _mm512_set1_ps(c[3]), _mm512_set1_ps(c[4]), _mm512_set1_ps(c[5]),
-                                   _mm512_set1_ps(u), _mm512_set1_ps(2.0f)};
+/* the row loop of the pass (split: the grid steps in two parts, separation) */
+static inline __attribute__((always_inline)) void rows_pass(const int split, int nlocal, const int32_t *q, char *fb,
+                                                            const int *first, const int *ofirst, const int32_t *offs,
+                                                            const struct pass_consts *k_, int want_energy,
+                                                            double fscale, double escale, double *f, double *net,
+                                                            double *atom_e, double *w)
+{
     const __m512 zero = _mm512_setzero_ps();
     const char *qb = (const char *)q;
-    char *fb = (char *)ff;
-    double net[3] = {0, 0, 0}, w = 0;
     for (int i = 0; i < nlocal; i++) {
         const int nn = first[i + 1] - first[i];
         const int32_t *a = q + 4 * (long)i;
@@ -296,27 +346,84 @@ int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *
             const int cnt = nn - k < 16 ? nn - k : 16;
             const int32_t *off = offs + ofirst[i] + k;
             if (cnt <= 8)   /* a row's last block of eight pairs or fewer: half the loads and stores */
-                pair_block(8, cnt, qb, fb, off, xi, yi, zi, &k_, want_energy, &sx, &sy, &sz, &se, &sw);
+                pair_block(8, split, cnt, qb, fb, off, xi, yi, zi, k_, want_energy, &sx, &sy, &sz, &se, &sw);
             else
-                pair_block(16, cnt, qb, fb, off, xi, yi, zi, &k_, want_energy, &sx, &sy, &sz, &se, &sw);
+                pair_block(16, split, cnt, qb, fb, off, xi, yi, zi, k_, want_energy, &sx, &sy, &sz, &se, &sw);
         }
         double fi[4];   /* (fx, fy, fz, e) of atom i */
         _mm256_storeu_pd(fi, _mm256_cvtps_pd(sums4(sx, sy, sz, se)));
         for (int d = 0; d < 3; d++) {
-            f[3 * (long)i + d] += fi[d];
-            net[d] += fi[d];
+            f[3 * (long)i + d] += fscale * fi[d];
+            net[d] += fscale * fi[d];
         }
         if (want_energy) {
-            atom_e[i] = fi[3];
-            w += sum_double(sw);
+            atom_e[i] = escale * fi[3];
+            *w += escale * sum_double(sw);
         }
     }
-    finish(nlocal, nall, ff, f, net);
+}
+#endif
+
+/* nlocal owned and nall held atoms; x, f (3, nall) in double; q (4, nrec + 1) and ff (4, nrec + 1)
+ * the work records (the last, the padding lanes' pad record), nrec = nall, or nlocal with wrapped
+ * images (wrapped != 0: the list's ghosts read as their owners on the periodic grid of the box wrap
+ * = lo(3), length(3), stage_periodic; the ghosts' forces are then left untouched, no reverse sum);
+ * first the half list's row starts (1-based) and ofirst, offs its offsets (terrace_lj_mixed_offsets,
+ * formed with the same wrapped); c = (lj1, lj2, lj3, lj4, cutsq, offset); with want_energy
+ * atom_e[0..nlocal-1] (set) and *virial (added to).
+ *
+ * Units: the pair terms are computed with lengths in a unit 1/lam, lam = 2^m / L_x with 2^m <= L_x
+ * < 2^(m + 1) on the periodic grid (lam = 1 otherwise), so that the grid step L_x / 2^32 is a power
+ * of two in that unit and the separations are exact products, as on the power-of-two grid of the
+ * copies (and along y and z where their edges are L_x times a power of two; otherwise the step is
+ * split in two singles, separation). The coefficients are scaled in double and rounded to single
+ * once (lj1 lam^6, lj2, lj3 lam^6, lj4, cutsq lam^2, offset lam^-6), and the sums scaled back in
+ * double: forces by lam^7, energies and virials by lam^6. */
+int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *q, float *ff, const int *first,
+                     const int *ofirst, const int32_t *offs, const double *c, int want_energy, int wrapped,
+                     const double *wrap, double *atom_e, double *virial)
+{
+#if defined(TERRACE_MIXED_SIMD)
+    if (nall >= max_atoms) return 0;
+    const int nrec = wrapped ? nlocal : nall;
+    double lam = 1, u[3];
+    int split = 0;
+    if (wrapped) {
+        stage_periodic(nlocal, x, wrap, q, ff);
+        int m;
+        (void)frexp(wrap[3], &m);            /* 2^(m - 1) <= L_x < 2^m */
+        lam = ldexp(1.0, m - 1) / wrap[3];
+        for (int d = 0; d < 3; d++) {
+            u[d] = wrap[3 + d] * lam * ldexp(1.0, -32);
+            int e;
+            split = split || frexp(u[d], &e) != 0.5;   /* not a power of two */
+        }
+    } else {
+        u[0] = u[1] = u[2] = stage(nall, x, q, ff);
+    }
+    const double l6 = lam * lam * lam * lam * lam * lam;
+    float uh[3], ul[3];
+    for (int d = 0; d < 3; d++) {
+        uh[d] = (float)u[d];
+        ul[d] = (float)(u[d] - (double)uh[d]);
+    }
+    const struct pass_consts k_ = {
+        _mm512_set1_ps((float)(c[0] * l6)), _mm512_set1_ps((float)c[1]), _mm512_set1_ps((float)(c[2] * l6)),
+        _mm512_set1_ps((float)c[3]), _mm512_set1_ps((float)(c[4] * lam * lam)), _mm512_set1_ps((float)(c[5] / l6)),
+        _mm512_set1_ps(uh[0]), _mm512_set1_ps(uh[1]), _mm512_set1_ps(uh[2]),
+        _mm512_set1_ps(ul[0]), _mm512_set1_ps(ul[1]), _mm512_set1_ps(ul[2]), _mm512_set1_ps(2.0f)};
+    double net[3] = {0, 0, 0}, w = 0;
+    const double fscale = l6 * lam;
+    if (split)
+        rows_pass(1, nlocal, q, (char *)ff, first, ofirst, offs, &k_, want_energy, fscale, l6, f, net, atom_e, &w);
+    else
+        rows_pass(0, nlocal, q, (char *)ff, first, ofirst, offs, &k_, want_energy, fscale, l6, f, net, atom_e, &w);
+    finish(nlocal, nrec, ff, f, net, fscale);
     if (want_energy) *virial += w;
     return 1;
 #else
     (void)nlocal; (void)nall; (void)x; (void)f; (void)q; (void)ff; (void)first; (void)ofirst; (void)offs; (void)c;
-    (void)want_energy; (void)atom_e; (void)virial;
+    (void)want_energy; (void)wrapped; (void)wrap; (void)atom_e; (void)virial;
     return 0;
 #endif
 }

@@ -63,6 +63,10 @@ module terrace_potential
         procedure :: wants_clusters => potential_false
         !> .true.: and &neighbor list = 'auto' gives it one (the faster of its passes in this build)
         procedure :: prefers_clusters => potential_false
+        !> .true.: the force pass can read a list with wrapped images (list%wrapped: each ghost read as
+        !> its owner at the nearest periodic image), leaving the ghosts' positions unread and their
+        !> forces untouched; the mixed-precision Lennard-Jones pass with AVX-512
+        procedure :: wraps_images => potential_false
         !> > 1: the passes want each list row ordered by the neighbours' types 1..this
         !> (list%type_order: segments per type; multi-type EAM); 0: any order
         procedure :: neighbour_type_order => potential_type_order

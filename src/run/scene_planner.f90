@@ -181,7 +181,15 @@ contains
                     'of each cluster pair'
             end if
             self%pairs = trim(s)
-            if (self%nprocs == 1) then
+            self%wrap_images = self%nprocs == 1 .and. cfg%images == 'auto' .and. pot%wraps_images() .and. &
+                               box%dimension == 3 .and. all(box%periodic) .and. .not. (self%cluster_pairs .or. &
+                               cfg%integ_style%exact_time .or. cfg%barostat_couple == 'aniso') .and. &
+                               2*(pot%cutoff() + max(cfg%skin, cfg%outer_skin)) < minval(box%length)
+            if (self%wrap_images) then
+                self%halo = 'periodic images copied on this rank at each list build only (no MPI); between '// &
+                            'builds the force pass reads each as its owner at the nearest image: no copies '// &
+                            'refreshed, no reverse force sums (&neighbor images)'
+            else if (self%nprocs == 1) then
                 if (any(box%periodic(1:box%dimension))) then
                     self%halo = 'periodic images copied on this rank (no MPI)'
                 else

@@ -6,8 +6,8 @@
 #   2. forces, energy and pressure of that liquid at step 0 with both kernels, on NP ranks:
 #        max over atoms and components |F_mixed - F_double| <= 1e-5 rms|F_double|  (measured 3e-6 to 5e-6)
 #        median over atoms |F_mixed,i - F_double,i| / |F_double,i| <= 2e-6         (measured 6e-7 to 9e-7)
-#        |pe_mixed - pe_double| <= 1e-6 |pe_double|                               (measured 1e-9 to 4e-9)
-#        |press_mixed - press_double| <= 1e-5 |press_double|                       (measured 4e-8 to 2e-7)
+#        |pe_mixed - pe_double| <= 1e-6 |pe_double|                               (measured 1e-9 to 3e-8)
+#        |press_mixed - press_double| <= 1e-5 |press_double|                       (measured 9e-9 to 8e-7)
 #      (doc/bench_data/mixed_accuracy_6fc2854_xeon.txt: both lists, 1 and 3 ranks)
 #      (single precision: unit round-off 6e-8 in the separations, amplified by up to 14 in the
 #      r^-12 and r^-14 terms of the close pairs);
@@ -15,6 +15,15 @@
 #      (forces obey Newton's third law exactly: one double pair force for both atoms) and
 #      max |E(t) - E0| <= 1e-3 |E0| (check_conservation.py; the double kernel gives 4e-4 there, the
 #      energy jumps of the unshifted cutoff), drift per atom per tau printed.
+# On one rank with the atom list the mixed runs read the periodic images as their owners at the
+# nearest image (wrapped images, &neighbor images = 'auto'; the run log's halo line must say so), and
+#   4. the same forces with images = 'copies' (the images copied at every step): the two mixed force
+#      sets within max |dF| <= 1e-5 rms|F| of each other, the energies within 1e-6 and the pressures
+#      within 1e-5 relative (the bounds against double: the two differ by their single-precision
+#      rounding, measured 5e-6, 3e-8 and 8e-7; a pair read at a wrong image would differ by O(1));
+#      and 400 steps with the list pruned every 5 steps (the prunes read the ghosts, refreshed for
+#      them): the potential energies of the two runs within 1e-4 relative at every sample (measured
+#      2e-6, the runs' chaotic divergence; 1e-3 with the ghosts left stale for the prunes).
 # With LIST = 'clusters' (fourth argument; default 'cells') the mixed runs use the cluster-pair list
 # and kernel (&neighbor list = 'clusters'), the double reference the atom list, with the same bounds;
 # the run log must then count cluster pairs.
@@ -54,6 +63,47 @@ EOF
     run f_$p.nml "$np"
 done
 grep -q 'mixed precision' f_mixed.log || { echo "FAIL: the mixed run's log does not name the mixed kernel"; exit 1; }
+if [[ $list == cells && $np == 1 ]] && grep -q 'AVX-512 pass' f_mixed.log; then
+    grep -q 'halo .*as its owner at the nearest image' f_mixed.log || {
+        echo "FAIL: the one-rank mixed run's halo line does not name the wrapped images"; grep 'halo' f_mixed.log; exit 1; }
+    sed -e "s/list='cells' \//list='cells', images='copies' \//" -e 's/_mixed\./_copies./g' f_mixed.nml > f_copies.nml
+    run f_copies.nml
+    grep -q "halo .*periodic images copied on this rank (no MPI)" f_copies.log || {
+        echo "FAIL: images = 'copies' did not copy the images"; grep 'halo' f_copies.log; exit 1; }
+    "$PYTHON" - <<'PY' || exit 1
+import csv, math, sys
+def forces(name):
+    return {int(l.split()[0]): [float(v) for v in l.split()[1:4]] for l in open(name) if l.strip() and not l.startswith('#')}
+fw, fc = forces('forces_mixed.txt'), forces('forces_copies.txt')
+assert fw.keys() == fc.keys() and len(fw) == 2048, 'atom ids differ'
+rms = math.sqrt(sum(sum(c * c for c in f) for f in fc.values()) / len(fc))
+dmax = max(max(abs(a - b) for a, b in zip(fw[i], fc[i])) for i in fw)
+tw, tc = (list(csv.DictReader(open('thermo_%s.csv' % p)))[0] for p in ('mixed', 'copies'))
+pe = abs(float(tw['pe']) - float(tc['pe'])) / abs(float(tc['pe']))
+pr = abs(float(tw['press']) - float(tc['press'])) / abs(float(tc['press']))
+print('wrapped images against copies: max |dF| / rms|F| = %.3e (bound 1e-5), |d pe| / |pe| = %.3e (bound 1e-6), '
+      '|d press| / |press| = %.3e (bound 1e-5)' % (dmax / rms, pe, pr))
+sys.exit(0 if dmax <= 1e-5 * rms and pe <= 1e-6 and pr <= 1e-5 else 1)
+PY
+    for im in auto copies; do
+        cat > pruned_$im.nml <<EOF
+&run units='lj', dimension=3, n_steps=400, seed=4242 /
+&system atoms_file='liquid.atoms', box_lo=0,0,0, box_hi=$L,$L,$L, periodic=.true.,.true.,.true., mass=1.0 /
+&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, precision='mixed' /
+&integrator style='velocity_verlet', dt=0.005 /
+&neighbor every=20, prune_every=5, buffer_tolerance=1e-3, images='$im' /
+&output thermo_every=10, thermo_file='pruned_$im.csv' /
+EOF
+        run pruned_$im.nml
+    done
+    "$PYTHON" - <<'PY' || exit 1
+import csv, sys
+a, c = (list(csv.DictReader(open('pruned_%s.csv' % p))) for p in ('auto', 'copies'))
+d = max(abs(float(x['pe']) - float(y['pe'])) / abs(float(y['pe'])) for x, y in zip(a, c))
+print('pruned every 5 steps, 400 steps, wrapped images against copies: max |d pe| / |pe| = %.3e (bound 1e-4)' % d)
+sys.exit(0 if len(a) == len(c) == 41 and d <= 1e-4 else 1)
+PY
+fi
 if [[ $list == clusters ]]; then
     n="$("$PYTHON" -m terrace_tools.summary get f_mixed.summary.json neighbor/list_pairs 2> /dev/null || echo 0)"
     [[ "$n" -gt 0 ]] || { echo "FAIL: the cluster run's summary counts no cluster pairs"; exit 1; }

@@ -308,16 +308,20 @@ int terrace_lj_mixed_offsets(int nlocal, int nrec, const int *first, const int *
 {
 #if defined(TERRACE_MIXED_SIMD)
     if (nrec >= max_atoms) return -1;
+    /* sixteen neighbours at a time (the owners gathered with wrapped images); the row's last block
+     * under a mask, its empty lanes the pad record's offset */
+    const __m512i one = _mm512_set1_epi32(1), pad = _mm512_set1_epi32(16 * nrec);
     int o = 0;
     for (int i = 0; i < nlocal; i++) {
         ofirst[i] = o;
-        const int k0 = first[i] - 1, nn = first[i + 1] - first[i], padded = (nn + 15) / 16 * 16;
-        if (wrapped)
-            for (int k = 0; k < nn; k++) offs[o + k] = 16 * (origin[neigh[k0 + k] - 1] - 1);
-        else
-            for (int k = 0; k < nn; k++) offs[o + k] = 16 * (neigh[k0 + k] - 1);
-        for (int k = nn; k < padded; k++) offs[o + k] = 16 * nrec;
-        o += padded;
+        const int k0 = first[i] - 1, nn = first[i + 1] - first[i];
+        for (int k = 0; k < nn; k += 16) {
+            const __mmask16 m = nn - k >= 16 ? (__mmask16)0xFFFF : (__mmask16)((1u << (nn - k)) - 1u);
+            __m512i j = _mm512_sub_epi32(_mm512_maskz_loadu_epi32(m, neigh + k0 + k), one);
+            if (wrapped) j = _mm512_sub_epi32(_mm512_mask_i32gather_epi32(one, m, j, origin, 4), one);
+            _mm512_storeu_si512(offs + o + k, _mm512_mask_blend_epi32(m, pad, _mm512_slli_epi32(j, 4)));
+        }
+        o += (nn + 15) / 16 * 16;
     }
     ofirst[nlocal] = o;
     return o;

@@ -21,7 +21,7 @@
 int terrace_lj_one_type(int nlocal, const double *x, double *f, const int *first, const int *neigh, double lj1,
                         double lj2, double lj3, double lj4, double cutsq, double offset, int want_energy,
                         double *atom_e, double *virial);
-int terrace_lj_mixed_offsets(int nlocal, int nrec, const int *first, const int *neigh, int wrapped, const int *origin,
+int terrace_row_offsets(int nlocal, int nrec, const int *first, const int *neigh, int wrapped, const int *origin,
                              int *ofirst, int32_t *offs);
 int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *q, float *ff, const int *first,
                      const int *ofirst, const int32_t *offs, const double *c, int want_energy, int wrapped,
@@ -109,7 +109,7 @@ int main(int argc, char **argv)
     const double cf[6] = {lj1, lj2, lj3, lj4, rc * rc, 0};
 #define PASS() (mixed ? terrace_lj_mixed(n, m, x, f, q, ff, first, ofirst, offs, cf, 0, 0, NULL, ae, &vir) \
                       : terrace_lj_one_type(n, x, f, first, neigh, lj1, lj2, lj3, lj4, rc * rc, 0, 0, ae, &vir))
-    if ((mixed && terrace_lj_mixed_offsets(n, m, first, neigh, 0, NULL, ofirst, offs) < 0) || !PASS()) {
+    if ((mixed && terrace_row_offsets(n, m, first, neigh, 0, NULL, ofirst, offs) < 0) || !PASS()) {
         fprintf(stderr, "lj_pass_floor: this build has no AVX-512 pass\n");
         return 2;
     }

@@ -235,9 +235,9 @@ contains
         call self%timers%start(t_neigh)
         if (self%plan%pair_mode == pair_cells) then
             call self%list%build(self%atoms)
+            call set_wrapped_images(self)
             if (self%use_inner) call self%inner%prune(self%list, self%atoms, inner_cut(self))
             self%built_covered = self%use_inner
-            call set_wrapped_images(self)
         else
             call self%list%hold(self%atoms)           ! no pair list: only the displacement reference
         end if
@@ -250,7 +250,8 @@ contains
     !> ghost as its owner at the nearest image, so that the ghosts need no refresh between builds and
     !> their forces no reverse sum) where the plan allows them (plan%wrap_images), every ghost is a
     !> periodic image of an owned atom (one rank) and the box is still more than twice the list's
-    !> cutoff in every dimension (a margin of 1e-9 for round-off).
+    !> cutoff in every dimension (a margin of 1e-9 for round-off); the built list's rows then also as
+    !> byte offsets of the owners' records (the fixed-point prune's and the mixed pass's).
     subroutine set_wrapped_images(self)
         class(engine_t), intent(inout) :: self
         logical :: ok
@@ -261,6 +262,11 @@ contains
         if (ok) ok = self%dom%image_owners(self%atoms, self%list%image_of)
         self%list%wrapped = ok
         self%inner%wrapped = ok .and. self%use_inner
+        if (ok) then
+            self%list%wrap_box = [self%box%lo, self%box%length]
+            self%inner%wrap_box = self%list%wrap_box
+            call self%list%wrap_offsets(self%atoms%nlocal)
+        end if
         if (self%inner%wrapped) then
             nall = self%atoms%nall()
             call reserve(self%inner%image_of, nall)
@@ -480,7 +486,7 @@ contains
     subroutine engine_prune(self)
         class(engine_t), intent(inout) :: self
         if (.not. self%use_inner) return
-        call fresh_ghosts(self)
+        if (self%inner%prune_reads_ghosts(self%list)) call fresh_ghosts(self)
         call self%timers%start(t_neigh)
         call self%inner%prune(self%list, self%atoms, inner_cut(self))
         ! an atom within (skin - inner skin)/2 of its place at the build stays within skin/2 of it

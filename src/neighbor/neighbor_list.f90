@@ -17,7 +17,7 @@ module terrace_neighbor_list
     use terrace_cluster_list, only: cluster_list_t
     implicit none
     private
-    public :: gather_neighbour_types, order_rows_by_type, longest_row
+    public :: gather_neighbour_types, order_rows_by_type, longest_row, row_offsets
 
     type, public :: neighbor_list_t
         real(dp) :: cut = 0, cutsq = 0, skin = 0
@@ -92,6 +92,12 @@ module terrace_neighbor_list
         logical :: wrapped = .false.
         integer, allocatable :: image_of(:)
         real(dp) :: wrap_box(6) = 0
+        !> With wrapped images: the rows as byte offsets of the owners' fixed-point records (row i at
+        !> offs(ofirst(i) + 1 : ofirst(i + 1)), padded to 16 entries; row_offsets), formed at the build
+        !> count offs_build (wrap_offsets for a built list, the fixed-point prune for a pruned one);
+        !> q: the prune's fixed-point positions (core/fixed_point_rows.h)
+        integer, allocatable :: ofirst(:), offs(:), q(:)
+        integer :: offs_build = -1
     contains
         procedure :: init => nl_init
         procedure :: setup_bins => nl_setup_bins
@@ -105,6 +111,8 @@ module terrace_neighbor_list
         procedure :: exact => nl_exact
         procedure :: expiry => nl_expiry
         procedure :: moved_beyond => nl_moved_beyond
+        procedure :: wrap_offsets => nl_wrap_offsets
+        procedure :: prune_reads_ghosts => nl_prune_reads_ghosts
     end type neighbor_list_t
 
     interface
@@ -128,6 +136,24 @@ module terrace_neighbor_list
             integer(c_int), value :: k1, k2
             integer(c_int), intent(inout) :: out(*)
         end function c_prune_compress
+        !> src/neighbor/prune_simd.c: the rows as byte offsets of fixed-point records (-1: not in this build)
+        integer(c_int) function c_row_offsets(nlocal, nrec, first, neigh, wrapped, origin, ofirst, offs) &
+            bind(C, name='terrace_row_offsets')
+            import :: c_int
+            integer(c_int), value :: nlocal, nrec, wrapped
+            integer(c_int), intent(in) :: first(*), neigh(*), origin(*)
+            integer(c_int), intent(inout) :: ofirst(*), offs(*)
+        end function c_row_offsets
+        !> src/neighbor/prune_simd.c: the fixed-point prune of a list with wrapped images (-1: not in this build)
+        integer(c_int) function c_prune_wrapped(nlocal, x, wrap, q, first, neigh, ofirst, offs, cutsq, first_in, &
+                                                neigh_in, ofirst_in, offs_in) bind(C, name='terrace_prune_wrapped')
+            import :: c_int, c_double
+            integer(c_int), value :: nlocal
+            real(c_double), intent(in) :: x(*), wrap(6)
+            real(c_double), value :: cutsq
+            integer(c_int), intent(inout) :: q(*), first_in(*), neigh_in(*), ofirst_in(*), offs_in(*)
+            integer(c_int), intent(in) :: first(*), neigh(*), ofirst(*), offs(*)
+        end function c_prune_wrapped
     end interface
 
 contains
@@ -725,10 +751,23 @@ contains
         self%want_types = outer%want_types
         self%type_order = outer%type_order
         call reserve(self%first, nlocal + 1)
-        call reserve(self%neigh, max(outer%first(nlocal + 1) - 1, 1))
-        n = 0
-        self%first(1) = 1
-        if (self%type_order > 1) then
+        call reserve(self%neigh, outer%first(nlocal + 1) - 1 + 16)   ! (16: the fixed-point prune's whole stores)
+        n = -1
+        self%offs_build = -1
+        if (.not. self%prune_reads_ghosts(outer)) then
+            ! wrapped images: in fixed point from the owners, with the offsets (no ghost read)
+            call reserve(self%ofirst, nlocal + 1)
+            call reserve(self%offs, outer%first(nlocal + 1) - 1 + 16*nlocal + 32)
+            call reserve(self%q, 4*nlocal + 4)
+            n = c_prune_wrapped(nlocal, atoms%x, outer%wrap_box, self%q, outer%first, outer%neigh, outer%ofirst, &
+                                outer%offs, cutsq, self%first, self%neigh, self%ofirst, self%offs)
+            self%offs_build = merge(self%builds + 1, -1, n >= 0)
+        end if
+        if (n >= 0) then
+            continue
+        else if (self%type_order > 1) then
+            n = 0
+            self%first(1) = 1
             ! segment by segment: the rows stay ordered by type
             nt = self%type_order
             call reserve(self%tfirst, nt*nlocal + 1)
@@ -742,6 +781,8 @@ contains
             end do
             self%tfirst(nt*nlocal + 1) = n + 1
         else
+            n = 0
+            self%first(1) = 1
             do i = 1, nlocal
                 call keep_within(atoms%x, i, outer%neigh, outer%first(i), outer%first(i + 1) - 1, cutsq, self%neigh, n)
                 self%first(i + 1) = n + 1
@@ -752,6 +793,47 @@ contains
         call self%hold(atoms)
         self%builds = self%builds + 1
     end subroutine nl_prune
+
+    !> Whether a prune of this list from outer reads the ghosts' positions: not where outer has wrapped
+    !> images with its offsets formed (wrap_offsets) and one row order (type_order <= 1, no types):
+    !> the prune then reads the owners in fixed point (prune_simd.c, terrace_prune_wrapped) and also
+    !> forms this list's offsets, where the build has it.
+    logical function nl_prune_reads_ghosts(self, outer) result(reads)
+        class(neighbor_list_t), intent(in) :: self
+        type(neighbor_list_t), intent(in) :: outer
+        integer :: unused(1), none(1)
+        reads = .true.
+        if (.not. (outer%wrapped .and. self%wrapped .and. outer%offs_build == outer%builds)) return
+        if (outer%type_order > 1 .or. outer%want_types) return
+        ! (the build's pass: terrace_row_offsets answers -1 without it)
+        none = 0
+        reads = c_row_offsets(0, 0, none, none, 0, none, unused, none) < 0
+    end function nl_prune_reads_ghosts
+
+    !> With wrapped images: this list's rows as byte offsets of the owners' records (row_offsets),
+    !> for the fixed-point prune and the mixed-precision pass; offs_build = -1 where the build has no
+    !> such pass.
+    subroutine nl_wrap_offsets(self, nlocal)
+        class(neighbor_list_t), intent(inout) :: self
+        integer, intent(in) :: nlocal
+        call reserve(self%ofirst, nlocal + 1)
+        call reserve(self%offs, self%first(nlocal + 1) - 1 + 16*nlocal + 32)
+        self%offs_build = -1
+        if (row_offsets(nlocal, nlocal, self%first, self%neigh, .true., self%image_of, self%ofirst, self%offs)) &
+            self%offs_build = self%builds
+    end subroutine nl_wrap_offsets
+
+    !> The rows (first, neigh) as byte offsets 16 (r - 1) of fixed-point records (row i at
+    !> offs(ofirst(i) + 1 : ofirst(i + 1)), padded to 16 entries with the pad record's, 16 nrec): r the
+    !> neighbour, or with wrapped its owner origin(neighbour). offs must hold first(nlocal + 1) - 1 +
+    !> 15 nlocal entries. False (nothing done) where the build has no AVX-512 pass over such records.
+    logical function row_offsets(nlocal, nrec, first, neigh, wrapped, origin, ofirst, offs) result(ok)
+        integer, intent(in) :: nlocal, nrec
+        integer, intent(in) :: first(:), neigh(:), origin(:)
+        logical, intent(in) :: wrapped
+        integer, intent(inout) :: ofirst(:), offs(:)
+        ok = c_row_offsets(nlocal, nrec, first, neigh, merge(1, 0, wrapped), origin, ofirst, offs) >= 0
+    end function row_offsets
 
     !> Append to neigh(n+1:) the partners neighbours(k1:k2) of atom i within cutsq, in order (with
     !> AVX-512 prune_simd.c's gathers and compressing stores, else a branch-free loop).

@@ -6,6 +6,7 @@
  * Returns -1 (nothing done: the Fortran loop runs) where this build has no AVX-512 (AVX512F,
  * AVX512VL). */
 #include "../core/simd_rows.h"
+#include "../core/fixed_point_rows.h"
 
 int terrace_prune_compress(double xi, double yi, double zi, const double *x, const int *nb, int k1, int k2,
                            double cutsq, int *out)
@@ -28,6 +29,104 @@ int terrace_prune_compress(double xi, double yi, double zi, const double *x, con
     return n;
 #else
     (void)xi; (void)yi; (void)zi; (void)x; (void)nb; (void)k1; (void)k2; (void)cutsq; (void)out;
+    return -1;
+#endif
+}
+
+/* The rows' byte offsets of the half list first, neigh (1-based) for a pass over fixed-point
+ * records (core/fixed_point_rows.h: the mixed-precision Lennard-Jones pass, terrace_prune_wrapped): row i (0-based) at
+ * offs[ofirst[i] .. ofirst[i + 1] - 1], 16 (r - 1) per neighbour j, r = j or, with wrapped images
+ * (wrapped != 0), its owner origin[j - 1] (1-based), and 16 nrec (the pad record) up to a multiple
+ * of 16 entries; nrec the records the pass stages (nall, or nlocal with wrapped images); offs must
+ * have room for first[nlocal] - 1 + 15 nlocal entries. Returns the entries written, or -1 (nothing
+ * done) where the build has no AVX-512 pass over such records. */
+int terrace_row_offsets(int nlocal, int nrec, const int *first, const int *neigh, int wrapped, const int *origin,
+                             int *ofirst, int32_t *offs)
+{
+#if defined(TERRACE_FIXED_ROWS)
+    if (nrec >= terrace_fixed_max_atoms) return -1;
+    /* sixteen neighbours at a time (the owners gathered with wrapped images); the row's last block
+     * under a mask, its empty lanes the pad record's offset */
+    const __m512i one = _mm512_set1_epi32(1), pad = _mm512_set1_epi32(16 * nrec);
+    int o = 0;
+    for (int i = 0; i < nlocal; i++) {
+        ofirst[i] = o;
+        const int k0 = first[i] - 1, nn = first[i + 1] - first[i];
+        for (int k = 0; k < nn; k += 16) {
+            const __mmask16 m = nn - k >= 16 ? (__mmask16)0xFFFF : (__mmask16)((1u << (nn - k)) - 1u);
+            __m512i j = _mm512_sub_epi32(_mm512_maskz_loadu_epi32(m, neigh + k0 + k), one);
+            if (wrapped) j = _mm512_sub_epi32(_mm512_mask_i32gather_epi32(one, m, j, origin, 4), one);
+            _mm512_storeu_si512(offs + o + k, _mm512_mask_blend_epi32(m, pad, _mm512_slli_epi32(j, 4)));
+        }
+        o += (nn + 15) / 16 * 16;
+    }
+    ofirst[nlocal] = o;
+    return o;
+#else
+    (void)nlocal; (void)nrec; (void)first; (void)neigh; (void)wrapped; (void)origin; (void)ofirst; (void)offs;
+    return -1;
+#endif
+}
+
+
+/* The prune of a list with wrapped images (terrace_neighbor_list, nl_prune): the positions x of the
+ * nlocal owned atoms staged on the periodic grid of the box wrap = (lo(3), length(3)) into q (4,
+ * nlocal + 1), and of each row of the outer list (first, neigh 1-based; ofirst, offs its rows'
+ * byte offsets of the owners' records, terrace_row_offsets) the neighbours within cutsq of the atom
+ * at their nearest images, in their order, written as a list (first_in, neigh_in: 1-based, the
+ * outer list's indices) and as its byte offsets (ofirst_in, offs_in, rows padded to 16 entries with
+ * the pad record's, as terrace_row_offsets forms them): the prune and the mixed pass's offsets in
+ * one pass, sixteen pairs at a time in single precision (the test is kept a millionth wide: a pair
+ * at the cutoff is kept). neigh_in needs room for 16 entries past the pairs kept, offs_in for 16
+ * past its last padded row. Returns the pairs kept, or -1 (nothing done) without AVX-512. */
+int terrace_prune_wrapped(int nlocal, const double *x, const double *wrap, int32_t *q, const int *first,
+                          const int *neigh, const int *ofirst, const int32_t *offs, double cutsq, int *first_in,
+                          int *neigh_in, int *ofirst_in, int32_t *offs_in)
+{
+#if defined(TERRACE_FIXED_ROWS)
+    stage_periodic(nlocal, x, wrap, q, (float *)0);
+    const __m512 ux = _mm512_set1_ps((float)(wrap[3] * ldexp(1.0, -32)));
+    const __m512 uy = _mm512_set1_ps((float)(wrap[4] * ldexp(1.0, -32)));
+    const __m512 uz = _mm512_set1_ps((float)(wrap[5] * ldexp(1.0, -32)));
+    const __m512 cs = _mm512_set1_ps((float)(cutsq * (1 + 1e-6)));
+    const __m512i pad = _mm512_set1_epi32(16 * nlocal);
+    const char *qb = (const char *)q;
+    int n = 0, o = 0;
+    first_in[0] = 1;
+    for (int i = 0; i < nlocal; i++) {
+        ofirst_in[i] = o;
+        const int k0 = first[i] - 1, nn = first[i + 1] - first[i];
+        const int32_t *a = q + 4 * (long)i;
+        const __m512i xi = _mm512_set1_epi32(a[0]), yi = _mm512_set1_epi32(a[1]), zi = _mm512_set1_epi32(a[2]);
+        const int o0 = o;
+        for (int k = 0; k < nn; k += 16) {
+            const __mmask16 live = nn - k >= 16 ? (__mmask16)0xFFFF : (__mmask16)((1u << (nn - k)) - 1u);
+            const int32_t *off = offs + ofirst[i] + k;
+            __m512 qx, qy, qz;
+            rows_n(16, qb, off, &qx, &qy, &qz);   /* (the padding lanes read the pad record, masked) */
+            const __m512 dx = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(xi, _mm512_castps_si512(qx))), ux);
+            const __m512 dy = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(yi, _mm512_castps_si512(qy))), uy);
+            const __m512 dz = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(zi, _mm512_castps_si512(qz))), uz);
+            const __m512 rsq = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dx, dx, _mm512_mul_ps(dy, dy)));
+            const __mmask16 keep = _mm512_mask_cmp_ps_mask(live, rsq, cs, _CMP_LT_OQ);
+            /* compressed in registers and stored whole (a compressing store to memory is microcoded
+             * on Intel cores): the lanes past the kept ones are overwritten next */
+            _mm512_storeu_si512(neigh_in + n, _mm512_maskz_compress_epi32(keep, _mm512_maskz_loadu_epi32(live, neigh + k0 + k)));
+            _mm512_storeu_si512(offs_in + o, _mm512_maskz_compress_epi32(keep, _mm512_loadu_si512(off)));
+            const int kept = __builtin_popcount(keep);
+            n += kept;
+            o += kept;
+        }
+        const int padded = o0 + (o - o0 + 15) / 16 * 16;
+        if (padded > o) _mm512_storeu_si512(offs_in + o, pad);   /* (room: the outer rows' padding) */
+        o = padded;
+        first_in[i + 1] = n + 1;
+    }
+    ofirst_in[nlocal] = o;
+    return n;
+#else
+    (void)nlocal; (void)x; (void)wrap; (void)q; (void)first; (void)neigh; (void)ofirst; (void)offs; (void)cutsq;
+    (void)first_in; (void)neigh_in; (void)ofirst_in; (void)offs_in;
     return -1;
 #endif
 }

@@ -34,7 +34,7 @@ module terrace_lj
     use terrace_compensated_sum, only: compensated_total
     use terrace_grow, only: reserve
     use terrace_atoms, only: atoms_t
-    use terrace_neighbor_list, only: neighbor_list_t, gather_neighbour_types
+    use terrace_neighbor_list, only: neighbor_list_t, gather_neighbour_types, row_offsets
     use terrace_potential, only: potential_t, halo_ops_t
     use terrace_errors, only: stop_all
     use terrace_lj_cluster, only: cluster_forces
@@ -146,7 +146,7 @@ module terrace_lj
             integer(c_int), intent(in) :: first(*), neigh(*), type(*), ntype(*)
         end function c_lj_types
         !> src/potentials/lj_mixed_simd.c: the mixed-precision pass over the half list (0: not in this
-        !> build), with the list's offsets from c_lj_mixed_offsets
+        !> build), with the list's offsets (row_offsets)
         integer(c_int) function c_lj_mixed(nlocal, nall, x, f, xq, ff, first, ofirst, offs, coeffs, want_energy, &
                                            wrapped, wrap, atom_e, virial) bind(C, name='terrace_lj_mixed')
             import :: c_int, c_double, c_float
@@ -158,14 +158,6 @@ module terrace_lj
             integer(c_int), intent(in) :: first(*), ofirst(*), offs(*)
             real(c_double), intent(in) :: coeffs(6)
         end function c_lj_mixed
-        !> src/potentials/lj_mixed_simd.c: the list's rows as the pass reads them (-1: not in this build)
-        integer(c_int) function c_lj_mixed_offsets(nlocal, nrec, first, neigh, wrapped, origin, ofirst, offs) &
-            bind(C, name='terrace_lj_mixed_offsets')
-            import :: c_int
-            integer(c_int), value :: nlocal, nrec, wrapped
-            integer(c_int), intent(in) :: first(*), neigh(*), origin(*)
-            integer(c_int), intent(inout) :: ofirst(*), offs(*)
-        end function c_lj_mixed_offsets
         !> src/potentials/lj_mixed_simd.c: 1 where this build has the AVX-512 mixed pass, else 0
         pure integer(c_int) function c_lj_mixed_simd() bind(C, name='terrace_lj_mixed_simd')
             import :: c_int

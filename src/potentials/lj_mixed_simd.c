@@ -31,41 +31,16 @@
  * pair energies are summed per atom into atom_e[i] and the virial into *virial.
  *
  * The rows' byte offsets (16 (j - 1) per neighbour j, each row padded to whole blocks with the pad
- * record's) are formed once per list (terrace_lj_mixed_offsets), not in every block of every pass.
+ * record's) are formed once per list (terrace_row_offsets), not in every block of every pass.
  * Per pair on the argon geometry: scripts/bench/lj_pass_floor.sh (its `mixed` row).
  *
  * Both entry points return 0 (nothing done: kernel_mixed's portable Fortran pass runs) where the
  * build has no AVX-512 (F, VL, DQ) and FMA, or the atoms are too many for 32-bit byte offsets. */
 #include <math.h>
 #include <stdint.h>
-#if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__AVX512DQ__) && defined(__FMA__)
-#include <immintrin.h>
+#include "../core/fixed_point_rows.h"
+#if defined(TERRACE_FIXED_ROWS)
 #define TERRACE_MIXED_SIMD 1
-
-/* n = 16 or 8 16-byte records (x, y, z, w) at base + off[l] (byte offsets), as rows of x, y and z
- * (lane l: record l; with n = 8 the upper eight lanes are left undefined): register m holds records
- * m, m + 4, m + 8, m + 12 in its four 128-bit lanes, and two unpacks transpose each lane's 4 x 4 block */
-static inline __attribute__((always_inline)) void rows_n(const int n, const char *base, const int32_t *off,
-                                                         __m512 *vx, __m512 *vy, __m512 *vz)
-{
-    __m512 a[4];
-    for (int m = 0; m < 4; m++) {
-        __m512 r = _mm512_broadcast_f32x4(_mm_loadu_ps((const float *)(base + off[m])));
-        r = _mm512_mask_broadcast_f32x4(r, 0x00F0, _mm_loadu_ps((const float *)(base + off[m + 4])));
-        if (n == 16) {
-            r = _mm512_mask_broadcast_f32x4(r, 0x0F00, _mm_loadu_ps((const float *)(base + off[m + 8])));
-            r = _mm512_mask_broadcast_f32x4(r, 0xF000, _mm_loadu_ps((const float *)(base + off[m + 12])));
-        }
-        a[m] = r;
-    }
-    const __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(a[0], a[1]));   /* x0 x1 y0 y1 */
-    const __m512d t1 = _mm512_castps_pd(_mm512_unpackhi_ps(a[0], a[1]));   /* z0 z1 w0 w1 */
-    const __m512d t2 = _mm512_castps_pd(_mm512_unpacklo_ps(a[2], a[3]));   /* x2 x3 y2 y3 */
-    const __m512d t3 = _mm512_castps_pd(_mm512_unpackhi_ps(a[2], a[3]));   /* z2 z3 w2 w3 */
-    *vx = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
-    *vy = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
-    *vz = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
-}
 
 /* the inverse of rows_n: lane l < n of (vx, vy, vz) stored to the record at base + off[l] as (x, y, z, 0) */
 static inline __attribute__((always_inline)) void store_n(const int n, char *base, const int32_t *off, __m512 vx,
@@ -220,37 +195,6 @@ static float stage(int nall, const double *x, int32_t *q, float *ff)
     return (float)u;
 }
 
-/* The records of the n owned atoms on the periodic grid of the box (wrap: lo(3), length(3)): q =
- * nint((x - lo) 2^32 / L) modulo 2^32 in each dimension, ff = 0, and q's pad record after them
- * (the grid steps are L / 2^32). A difference of two such integers, wrapped to 32 bits, is
- * the separation of the nearest images (to within a step, L / 2^32: 8e-9 length units on the argon
- * job's box), so that the pairs of the list's periodic images are the pairs of their owners (the
- * engine's wrapped images, when the box is more than twice the list's cutoff in every dimension).
- * Positions up to a box length outside the box (between builds) are on the same grid. */
-static void stage_periodic(int n, const double *x, const double *wrap, int32_t *q, float *ff)
-{
-    double s[3];
-    for (int c = 0; c < 3; c++) s[c] = ldexp(1.0, 32) / wrap[3 + c];
-    const __m512d vlo = _mm512_setr_pd(wrap[0], wrap[1], wrap[2], 0, wrap[0], wrap[1], wrap[2], 0);
-    const __m512d vs = _mm512_setr_pd(s[0], s[1], s[2], 0, s[0], s[1], s[2], 0);
-    const __m256 zero = _mm256_setzero_ps();
-    const __m512i spread = _mm512_setr_epi64(0, 1, 2, 0, 3, 4, 5, 0);
-    long i = 0;
-    for (; i + 2 <= n; i += 2) {
-        const __m512d v = _mm512_maskz_permutexvar_pd(0x77, spread, _mm512_maskz_loadu_pd(0x3F, x + 3 * i));
-        /* rounded to the nearest 64-bit integer, its low 32 bits kept (the modulo) */
-        _mm256_storeu_si256((__m256i *)(q + 4 * i), _mm512_cvtepi64_epi32(_mm512_cvtpd_epi64(
-                                                        _mm512_mul_pd(_mm512_sub_pd(v, vlo), vs))));
-        _mm256_storeu_ps(ff + 4 * i, zero);
-    }
-    for (; i < n; i++) {
-        for (int c = 0; c < 3; c++) q[4 * i + c] = (int32_t)(uint32_t)(uint64_t)llrint((x[3 * i + c] - wrap[c]) * s[c]);
-        q[4 * i + 3] = 0;
-        for (int c = 0; c < 4; c++) ff[4 * i + c] = 0;
-    }
-    for (int c = 0; c < 4; c++) q[4 * (long)n + c] = 0;
-}
-
 /* f += ff for the nall atoms, and f -= net / nlocal for the owned ones, where net is the sum of ff
  * and of isum (the owned atoms' own sums, already added to f): the net force of this rank's pairs,
  * taken off the owned atoms (after the reverse sum of the ghosts' forces all forces then sum to
@@ -293,43 +237,7 @@ static void finish(int nlocal, int nall, const float *ff, double *f, const doubl
         for (int k = 0; k < 3; k++) f[3 * j + k] -= net[k];
 }
 
-/* Atoms held above which the byte offsets 16 j would not fit 32 bits (both entry points decline). */
-static const long max_atoms = (1L << 27) - 2;
 #endif
-
-/* The rows' byte offsets of the half list first, neigh (1-based) for the pass: row i (0-based) at
- * offs[ofirst[i] .. ofirst[i + 1] - 1], 16 (r - 1) per neighbour j, r = j or, with wrapped images
- * (wrapped != 0), its owner origin[j - 1] (1-based), and 16 nrec (the pad record) up to a multiple
- * of 16 entries; nrec the records the pass stages (nall, or nlocal with wrapped images); offs must
- * have room for first[nlocal] - 1 + 15 nlocal entries. Returns the entries written, or -1 (nothing
- * done) as terrace_lj_mixed returns 0. */
-int terrace_lj_mixed_offsets(int nlocal, int nrec, const int *first, const int *neigh, int wrapped, const int *origin,
-                             int *ofirst, int32_t *offs)
-{
-#if defined(TERRACE_MIXED_SIMD)
-    if (nrec >= max_atoms) return -1;
-    /* sixteen neighbours at a time (the owners gathered with wrapped images); the row's last block
-     * under a mask, its empty lanes the pad record's offset */
-    const __m512i one = _mm512_set1_epi32(1), pad = _mm512_set1_epi32(16 * nrec);
-    int o = 0;
-    for (int i = 0; i < nlocal; i++) {
-        ofirst[i] = o;
-        const int k0 = first[i] - 1, nn = first[i + 1] - first[i];
-        for (int k = 0; k < nn; k += 16) {
-            const __mmask16 m = nn - k >= 16 ? (__mmask16)0xFFFF : (__mmask16)((1u << (nn - k)) - 1u);
-            __m512i j = _mm512_sub_epi32(_mm512_maskz_loadu_epi32(m, neigh + k0 + k), one);
-            if (wrapped) j = _mm512_sub_epi32(_mm512_mask_i32gather_epi32(one, m, j, origin, 4), one);
-            _mm512_storeu_si512(offs + o + k, _mm512_mask_blend_epi32(m, pad, _mm512_slli_epi32(j, 4)));
-        }
-        o += (nn + 15) / 16 * 16;
-    }
-    ofirst[nlocal] = o;
-    return o;
-#else
-    (void)nlocal; (void)nrec; (void)first; (void)neigh; (void)wrapped; (void)origin; (void)ofirst; (void)offs;
-    return -1;
-#endif
-}
 
 #if defined(TERRACE_MIXED_SIMD)
 /* the row loop of the pass (split: the grid steps in two parts, separation) */
@@ -372,7 +280,7 @@ static inline __attribute__((always_inline)) void rows_pass(const int split, int
  * the work records (the last, the padding lanes' pad record), nrec = nall, or nlocal with wrapped
  * images (wrapped != 0: the list's ghosts read as their owners on the periodic grid of the box wrap
  * = lo(3), length(3), stage_periodic; the ghosts' forces are then left untouched, no reverse sum);
- * first the half list's row starts (1-based) and ofirst, offs its offsets (terrace_lj_mixed_offsets,
+ * first the half list's row starts (1-based) and ofirst, offs its offsets (terrace_row_offsets,
  * formed with the same wrapped); c = (lj1, lj2, lj3, lj4, cutsq, offset); with want_energy
  * atom_e[0..nlocal-1] (set) and *virial (added to).
  *
@@ -388,7 +296,7 @@ int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *
                      const double *wrap, double *atom_e, double *virial)
 {
 #if defined(TERRACE_MIXED_SIMD)
-    if (nall >= max_atoms) return 0;
+    if (nall >= terrace_fixed_max_atoms) return 0;
     const int nrec = wrapped ? nlocal : nall;
     double lam = 1, u[3];
     int split = 0;

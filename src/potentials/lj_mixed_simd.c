@@ -13,7 +13,7 @@
  * every dimension: neighbor_list_t%wrapped): only the owned atoms are staged, on the periodic grid
  * of the box (2^32 steps per box length, stage_periodic), and each ghost of the list is read as its
  * owner's record: the integer difference wraps to the nearest image. The ghosts are then neither
- * refreshed between builds nor summed back (the records, and the pass's memory, are a third to a
+ * refreshed between builds (the prune reads the owners too) nor summed back (the records, and the pass's memory, are a third to a
  * quarter as many on the argon job). The pair terms are computed in a length unit in which the grid
  * step is a power of two (terrace_lj_mixed: lam), so that the separations stay exact products.
  *
@@ -31,7 +31,8 @@
  * pair energies are summed per atom into atom_e[i] and the virial into *virial.
  *
  * The rows' byte offsets (16 (j - 1) per neighbour j, each row padded to whole blocks with the pad
- * record's) are formed once per list (terrace_row_offsets), not in every block of every pass.
+ * record's) are formed once per list (terrace_row_offsets, neighbor/prune_simd.c; with wrapped images
+ * by the list, terrace_prune_wrapped), not in every block of every pass.
  * Per pair on the argon geometry: scripts/bench/lj_pass_floor.sh (its `mixed` row).
  *
  * Both entry points return 0 (nothing done: kernel_mixed's portable Fortran pass runs) where the

@@ -23,8 +23,9 @@
  * nbnxm kernels load their j-clusters; the pair terms in single precision (1/r^2 from vrcp14ps and
  * one Newton step, about 1 ulp). The neighbours' forces are summed in single-precision records
  * ff = (fx, fy, fz, 0), loaded and stored back as rows the same way (the neighbours of a row are
- * distinct; the padding lanes use a pad record after the atoms'); atom i's own sum is added to f in
- * double. At the end the records are added to f in double (finish). The two sides of a pair are
+ * distinct; the padding lanes use a pad record after the atoms'); atom i's own sum is added to its
+ * own record (in double through the stack it cost the argon job 6 % of its loop: phase_ab.sh 9,
+ * Pair 0.941). At the end the records are added to f in double (finish). The two sides of a pair are
  * rounded in different sums, so this rank's forces leave a small net force (about 1e-7 of a pair
  * force per pair); it is taken off the owned atoms equally (the cluster kernel, terrace_lj_cluster,
  * takes its own off every atom held), so that momentum is conserved to double round-off. With want_energy the
@@ -196,14 +197,14 @@ static float stage(int nall, const double *x, int32_t *q, float *ff)
     return (float)u;
 }
 
-/* f += ff for the nall atoms, and f -= net / nlocal for the owned ones, where net is the sum of ff
- * and of isum (the owned atoms' own sums, already added to f): the net force of this rank's pairs,
+/* f += scale ff for the nall records' atoms, and f -= net / nlocal for the owned ones, where net is
+ * the sum of scale ff (the owned atoms' own sums are in their records): the net force of this rank's pairs,
  * taken off the owned atoms (after the reverse sum of the ghosts' forces all forces then sum to
  * zero, to double round-off, across the ranks). Eight atoms per step: their records (x, y, z, 0)
  * converted to double and permuted into three registers of 24 consecutive components, f's own
  * layout (full loads and stores, no masks: a masked store of part of a register blocked the next
  * load's forwarding, and the pass ran slower than the scalar loop) */
-static void finish(int nlocal, int nall, const float *ff, double *f, const double *isum, double scale)
+static void finish(int nlocal, int nall, const float *ff, double *f, double scale)
 {
     const __m512d vscale = _mm512_set1_pd(scale);
     const __m512i p0 = _mm512_setr_epi64(0, 1, 2, 4, 5, 6, 8, 9), p1 = _mm512_setr_epi64(2, 4, 5, 6, 8, 9, 10, 12);
@@ -226,7 +227,7 @@ static void finish(int nlocal, int nall, const float *ff, double *f, const doubl
     }
     double net[8];
     _mm512_storeu_pd(net, s);
-    for (int k = 0; k < 3; k++) net[k] += net[k + 4] + isum[k];
+    for (int k = 0; k < 3; k++) net[k] += net[k + 4];
     for (; j < nall; j++)
         for (int k = 0; k < 3; k++) {
             f[3 * j + k] += scale * ff[4 * j + k];
@@ -245,8 +246,7 @@ static void finish(int nlocal, int nall, const float *ff, double *f, const doubl
 static inline __attribute__((always_inline)) void rows_pass(const int split, int nlocal, const int32_t *q, char *fb,
                                                             const int *first, const int *ofirst, const int32_t *offs,
                                                             const struct pass_consts *k_, int want_energy,
-                                                            double fscale, double escale, double *f, double *net,
-                                                            double *atom_e, double *w)
+                                                            double escale, double *atom_e, double *w)
 {
     const __m512 zero = _mm512_setzero_ps();
     const char *qb = (const char *)q;
@@ -263,14 +263,12 @@ static inline __attribute__((always_inline)) void rows_pass(const int split, int
             else
                 pair_block(16, split, cnt, qb, fb, off, xi, yi, zi, k_, want_energy, &sx, &sy, &sz, &se, &sw);
         }
-        double fi[4];   /* (fx, fy, fz, e) of atom i */
-        _mm256_storeu_pd(fi, _mm256_cvtps_pd(sums4(sx, sy, sz, se)));
-        for (int d = 0; d < 3; d++) {
-            f[3 * (long)i + d] += fscale * fi[d];
-            net[d] += fscale * fi[d];
-        }
+        /* (fx, fy, fz, e) of atom i: the force added to its own record (finish adds it to f) */
+        const __m128 t = sums4(sx, sy, sz, se);
+        float *fr = (float *)(fb + 16 * (long)i);
+        _mm_storeu_ps(fr, _mm_add_ps(_mm_loadu_ps(fr), _mm_blend_ps(t, _mm_setzero_ps(), 8)));
         if (want_energy) {
-            atom_e[i] = escale * fi[3];
+            atom_e[i] = escale * (double)_mm_cvtss_f32(_mm_permute_ps(t, 0xFF));
             *w += escale * sum_double(sw);
         }
     }
@@ -325,13 +323,13 @@ int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *
         _mm512_set1_ps((float)c[3]), _mm512_set1_ps((float)(c[4] * lam * lam)), _mm512_set1_ps((float)(c[5] / l6)),
         _mm512_set1_ps(uh[0]), _mm512_set1_ps(uh[1]), _mm512_set1_ps(uh[2]),
         _mm512_set1_ps(ul[0]), _mm512_set1_ps(ul[1]), _mm512_set1_ps(ul[2]), _mm512_set1_ps(2.0f)};
-    double net[3] = {0, 0, 0}, w = 0;
+    double w = 0;
     const double fscale = l6 * lam;
     if (split)
-        rows_pass(1, nlocal, q, (char *)ff, first, ofirst, offs, &k_, want_energy, fscale, l6, f, net, atom_e, &w);
+        rows_pass(1, nlocal, q, (char *)ff, first, ofirst, offs, &k_, want_energy, l6, atom_e, &w);
     else
-        rows_pass(0, nlocal, q, (char *)ff, first, ofirst, offs, &k_, want_energy, fscale, l6, f, net, atom_e, &w);
-    finish(nlocal, nrec, ff, f, net, fscale);
+        rows_pass(0, nlocal, q, (char *)ff, first, ofirst, offs, &k_, want_energy, l6, atom_e, &w);
+    finish(nlocal, nrec, ff, f, fscale);
     if (want_energy) *virial += w;
     return 1;
 #else

@@ -24,8 +24,8 @@
  * one Newton step, about 1 ulp). The neighbours' forces are summed in single-precision records
  * ff = (fx, fy, fz, 0), loaded and stored back as rows the same way (the neighbours of a row are
  * distinct; the padding lanes use a pad record after the atoms'); atom i's own sum is added to its
- * own record (in double through the stack it cost the argon job 6 % of its loop: phase_ab.sh 9,
- * Pair 0.941). At the end the records are added to f in double (finish). The two sides of a pair are
+ * own record (added to f in double through the stack, the argon slice's Pair was 1/0.94 as long:
+ * phase_ab.sh 9, doc/bench_data/isum_ab_eed0f12_xeon.txt). At the end the records are added to f in double (finish). The two sides of a pair are
  * rounded in different sums, so this rank's forces leave a small net force (about 1e-7 of a pair
  * force per pair); it is taken off the owned atoms equally (the cluster kernel, terrace_lj_cluster,
  * takes its own off every atom held), so that momentum is conserved to double round-off. With want_energy the

@@ -795,19 +795,14 @@ contains
     end subroutine nl_prune
 
     !> Whether a prune of this list from outer reads the ghosts' positions: not where outer has wrapped
-    !> images with its offsets formed (wrap_offsets) and one row order (type_order <= 1, no types):
-    !> the prune then reads the owners in fixed point (prune_simd.c, terrace_prune_wrapped) and also
-    !> forms this list's offsets, where the build has it.
-    logical function nl_prune_reads_ghosts(self, outer) result(reads)
+    !> images with its offsets formed (wrap_offsets: the build has the fixed-point pass) and one row
+    !> order (type_order <= 1, no types): the prune then reads the owners in fixed point (prune_simd.c,
+    !> terrace_prune_wrapped) and also forms this list's offsets.
+    pure logical function nl_prune_reads_ghosts(self, outer) result(reads)
         class(neighbor_list_t), intent(in) :: self
         type(neighbor_list_t), intent(in) :: outer
-        integer :: unused(1), none(1)
-        reads = .true.
-        if (.not. (outer%wrapped .and. self%wrapped .and. outer%offs_build == outer%builds)) return
-        if (outer%type_order > 1 .or. outer%want_types) return
-        ! (the build's pass: terrace_row_offsets answers -1 without it)
-        none = 0
-        reads = c_row_offsets(0, 0, none, none, 0, none, unused, none) < 0
+        reads = .not. (outer%wrapped .and. self%wrapped .and. outer%offs_build == outer%builds .and. &
+                       outer%type_order <= 1 .and. .not. outer%want_types)
     end function nl_prune_reads_ghosts
 
     !> With wrapped images: this list's rows as byte offsets of the owners' records (row_offsets),

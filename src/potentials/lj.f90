@@ -87,7 +87,7 @@ module terrace_lj
         !> and the list they were formed from (its build count, atoms held and length; -1: none)
         integer, allocatable :: moffs(:)
         integer, allocatable :: mofirst(:)
-        integer :: mixed_key(4) = -1
+        integer :: mixed_key(3) = -1
         real(sp), allocatable :: rows_sp(:, :), fp_sp(:), ep_sp(:), wp_sp(:)  !< mixed: per-atom rows
         real(sp), allocatable :: xrep(:, :, :), frep(:, :, :)  !< mixed over clusters: replicated records
         integer :: cluster_build = -1            !< mixed over clusters: the list build of the last pass

@@ -50,15 +50,19 @@ cat > melt.nml <<EOF
 &output thermo_every=100, thermo_file='', final_atoms_file='liquid.atoms' /
 EOF
 run melt.nml
-for p in double mixed; do
-    cat > f_$p.nml <<EOF
-&run units='lj', dimension=3, n_steps=0, seed=4242 /
+deck() {   # FILE N_STEPS PRECISION NEIGHBOR_KEYS OUTPUT_KEYS: a run from the liquid
+    cat > "$1" <<EOF
+&run units='lj', dimension=3, n_steps=$2, seed=4242 /
 &system atoms_file='liquid.atoms', box_lo=0,0,0, box_hi=$L,$L,$L, periodic=.true.,.true.,.true., mass=1.0 /
-&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, precision='$p' /
+&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, precision='$3' /
 &integrator style='velocity_verlet', dt=0.005 /
-&neighbor skin=0.3, list='$([[ $p == mixed ]] && echo "$list" || echo cells)' /
-&output thermo_every=1, thermo_file='thermo_$p.csv', forces_file='forces_$p.txt' /
+&neighbor $4 /
+&output $5 /
 EOF
+}
+for p in double mixed; do
+    deck f_$p.nml 0 $p "skin=0.3, list='$([[ $p == mixed ]] && echo "$list" || echo cells)'" \
+        "thermo_every=1, thermo_file='thermo_$p.csv', forces_file='forces_$p.txt'"
     run f_$p.nml "$np"
 done
 grep -q 'mixed precision' f_mixed.log || { echo "FAIL: the mixed run's log does not name the mixed kernel"; exit 1; }
@@ -100,14 +104,8 @@ if [[ $list == cells && $np == 1 ]] && grep -q 'AVX-512 pass' f_mixed.log; then
         echo "FAIL: images = 'copies' did not copy the images"; grep 'halo' f_copies.log; exit 1; }
     compare copies mixed || exit 1
     for im in auto copies; do
-        cat > pruned_$im.nml <<EOF
-&run units='lj', dimension=3, n_steps=400, seed=4242 /
-&system atoms_file='liquid.atoms', box_lo=0,0,0, box_hi=$L,$L,$L, periodic=.true.,.true.,.true., mass=1.0 /
-&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, precision='mixed' /
-&integrator style='velocity_verlet', dt=0.005 /
-&neighbor every=20, prune_every=5, buffer_tolerance=1e-3, images='$im' /
-&output thermo_every=10, thermo_file='pruned_$im.csv' /
-EOF
+        deck pruned_$im.nml 400 mixed "every=20, prune_every=5, buffer_tolerance=1e-3, images='$im'" \
+            "thermo_every=10, thermo_file='pruned_$im.csv'"
         run pruned_$im.nml
     done
     "$PYTHON" - <<'PY' || exit 1
@@ -122,14 +120,7 @@ if [[ $list == clusters ]]; then
     n="$("$PYTHON" -m terrace_tools.summary get f_mixed.summary.json neighbor/list_pairs 2> /dev/null || echo 0)"
     [[ "$n" -gt 0 ]] || { echo "FAIL: the cluster run's summary counts no cluster pairs"; exit 1; }
 fi
-cat > nve.nml <<EOF
-&run units='lj', dimension=3, n_steps=4000, seed=4242 /
-&system atoms_file='liquid.atoms', box_lo=0,0,0, box_hi=$L,$L,$L, periodic=.true.,.true.,.true., mass=1.0 /
-&potential style='lj', epsilon=1.0, sigma=1.0, cutoff=2.5, precision='mixed' /
-&integrator style='velocity_verlet', dt=0.005 /
-&neighbor skin=0.3, list='$list' /
-&output thermo_every=20, thermo_file='thermo.csv' /
-EOF
+deck nve.nml 4000 mixed "skin=0.3, list='$list'" "thermo_every=20, thermo_file='thermo.csv'"
 run nve.nml "$np"
 "$PYTHON" -m terrace_tools.summary show nve.summary.json conservation timing/loop_time_s
 "$PYTHON" "$here/check_conservation.py" thermo.csv 2048 --p-tol 1e-10 --e-tol 1e-3

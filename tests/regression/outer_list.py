@@ -22,8 +22,10 @@ steps, fall on builds, where the list is whole).
    the sums, differ; the round-off differences, 1e-16 at first, grow exponentially in a liquid (its
    largest Lyapunov exponent) and reach 1e-10 after several hundred steps. The 1- and 4-rank runs
    with the outer list are compared in the same way, and so are the two schedules.
-3. The schedule: the same builds and prunes on 1 and 4 ranks (the decisions take global maxima),
-   prunes > 0, and fewer builds than without the outer list. The run log states the prunes. The
+3. The schedule: the builds and prunes on 1 and 4 ranks within 2 of each other (the decisions take
+   global maxima; decisions taken apart would not even agree on when to sum: a hang. Not exactly the
+   same: past the first few hundred steps the two trajectories part by round-off, and a portable
+   build's 2000 steps made 130 and 129 prunes), prunes > 0, and fewer builds than without the outer list. The run log states the prunes. The
    fixed schedule builds at step 0 and every 10 steps (201 builds, none late) and prunes at the other
    multiples of 2 (800 prunes).
 
@@ -128,8 +130,8 @@ def main():
     get = {n: (summary.get(figures[n], 'neighbor/builds'), summary.get(figures[n], 'neighbor/prunes', None))
            for n in runs}
     print('builds, prunes: ' + '; '.join(f'{n} {b}, {p}' for n, (b, p) in get.items()))
-    if get['on_np1'] != get['on_np4']:
-        failures.append(f'builds and prunes differ on 1 and 4 ranks: {get["on_np1"]} and {get["on_np4"]}')
+    if any(abs(u - v) > 2 for u, v in zip(get['on_np1'], get['on_np4'])):
+        failures.append(f'builds and prunes differ by more than 2 on 1 and 4 ranks: {get["on_np1"]} and {get["on_np4"]}')
     if not (get['on_np1'][1] or 0) > 0:
         failures.append('no prune with the outer list')
     if not get['on_np1'][0] < get['off_np1'][0]:

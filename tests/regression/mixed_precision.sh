@@ -19,7 +19,9 @@
 # nearest image (wrapped images, &neighbor images = 'auto'; the run log's halo line must say so), and
 #   4. the same run with images = 'copies' (the images copied at every step), the two mixed runs
 #      against each other with the bounds of 2. (they differ by their single-precision rounding,
-#      measured 5.6e-6, 9e-7, 3e-8 and 8e-7; a pair read at a wrong image would differ by O(1));
+#      measured 5.6e-6, 9e-7, 3e-8 and 8e-7; a pair read at a wrong image would differ by O(1)); a
+#      liquid of 8 x 8 x 6 cells in a box 0.1234 longer along z (edges not in a power-of-two ratio)
+#      against double with those bounds;
 #      and 400 steps with the list pruned every 5 steps (the prunes read the ghosts, refreshed for
 #      them): the potential energies of the two runs within 1e-4 relative at every sample (measured
 #      2e-6, the runs' chaotic divergence; 1e-3 with the ghosts left stale for the prunes).
@@ -40,7 +42,7 @@ run() {   # deck [np]
     else timeout 600 mpirun --oversubscribe -np "$n" "$terrace" "$1" > "${1%.nml}.log" 2>&1; fi || {
         echo "FAIL: terrace failed on $1"; tail -5 "${1%.nml}.log"; exit 1; }
 }
-L=$("$PYTHON" -c "print(repr(8*(4/0.8442)**(1/3)))")
+L=$("$PYTHON" -c "print(repr(8*(4/0.8442)**(1/3)))"); Lz=$("$PYTHON" -c "print(repr(6*(4/0.8442)**(1/3) + 0.1234))")
 cat > melt.nml <<EOF
 &run units='lj', dimension=3, n_steps=1000, seed=4242 /
 &system lattice='fcc', density=0.8442, cells=8,8,8, periodic=.true.,.true.,.true., mass=1.0, temperature=1.44 /
@@ -66,16 +68,16 @@ for p in double mixed; do
     run f_$p.nml "$np"
 done
 grep -q 'mixed precision' f_mixed.log || { echo "FAIL: the mixed run's log does not name the mixed kernel"; exit 1; }
-# compare REF OTHER: the forces (forces_REF.txt, forces_OTHER.txt) and the first thermo sample's energy
-# and pressure of two runs, against the bounds above
+# compare REF OTHER [N]: the forces (forces_REF.txt, forces_OTHER.txt) of N atoms (default 2048) and
+# the first thermo sample's energy and pressure of two runs, against the bounds above
 compare() {
-    "$PYTHON" - "$1" "$2" <<'PY'
+    "$PYTHON" - "$1" "$2" "${3:-2048}" <<'PY'
 import csv, math, sys
-ref, other = sys.argv[1:3]
+ref, other, natoms = sys.argv[1], sys.argv[2], int(sys.argv[3])
 def forces(name):
     return {int(l.split()[0]): [float(v) for v in l.split()[1:4]] for l in open(name) if l.strip() and not l.startswith('#')}
 fd, fm = forces('forces_%s.txt' % ref), forces('forces_%s.txt' % other)
-assert fd.keys() == fm.keys() and len(fd) == 2048, 'atom ids differ'
+assert fd.keys() == fm.keys() and len(fd) == natoms, 'atom ids differ'
 rms = math.sqrt(sum(sum(c * c for c in f) for f in fd.values()) / len(fd))
 dmax = max(max(abs(a - b) for a, b in zip(fd[i], fm[i])) for i in fd)
 rel = sorted(math.dist(fd[i], fm[i]) / math.hypot(*fd[i]) for i in fd)
@@ -103,6 +105,17 @@ if [[ $list == cells && $np == 1 ]] && grep -q 'AVX-512 pass' f_mixed.log; then
     grep -q "halo .*periodic images copied on this rank (no MPI)" f_copies.log || {
         echo "FAIL: images = 'copies' did not copy the images"; grep 'halo' f_copies.log; exit 1; }
     compare copies mixed || exit 1
+    # a box whose edges are not in a power-of-two ratio (the liquid of 8 x 8 x 6 cells in a box 0.1234
+    # longer along z: the wrapped pass splits its grid step along z in two singles), mixed with
+    # wrapped images against double
+    sed -e "s/cells=8,8,8/cells=8,8,6/" -e "s/n_steps=1000/n_steps=200/" -e "s/liquid.atoms/liquid_z.atoms/" melt.nml > melt_z.nml
+    run melt_z.nml
+    for p in double mixed; do
+        sed -e "s/liquid.atoms/liquid_z.atoms/" -e "s/box_hi=$L,$L,$L/box_hi=$L,$L,$Lz/" -e "s/_$p\./_z$p./g" f_$p.nml > fz_$p.nml
+        run fz_$p.nml
+    done
+    grep -q 'halo .*as its owner at the nearest image' fz_mixed.log || { echo "FAIL: the 8 x 8 x 6 run has no wrapped images"; exit 1; }
+    compare zdouble zmixed 1536 || exit 1
     for im in auto copies; do
         deck pruned_$im.nml 400 mixed "every=20, prune_every=5, buffer_tolerance=1e-3, images='$im'" \
             "thermo_every=10, thermo_file='pruned_$im.csv'"

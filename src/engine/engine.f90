@@ -24,7 +24,6 @@ module terrace_engine
     use terrace_mpi_env, only: world, sum_all, any_all
     use terrace_errors, only: stop_all, check_all, warn
     use terrace_named_values, only: named_values_t
-    use terrace_grow, only: reserve
     implicit none
     private
 
@@ -255,7 +254,6 @@ contains
     subroutine set_wrapped_images(self)
         class(engine_t), intent(inout) :: self
         logical :: ok
-        integer :: nall
         ok = self%plan%wrap_images .and. .not. (self%want_virial_diag .or. self%list%want_below .or. &
                                                 self%list%want_clusters)
         if (ok) ok = all(self%box%periodic) .and. 2*self%list%cut < (1 - 1.0e-9_dp)*minval(self%box%length)
@@ -265,12 +263,7 @@ contains
         if (ok) then
             self%list%wrap_box = [self%box%lo, self%box%length]
             self%inner%wrap_box = self%list%wrap_box
-            call self%list%wrap_offsets(self%atoms%nlocal)
-        end if
-        if (self%inner%wrapped) then
-            nall = self%atoms%nall()
-            call reserve(self%inner%image_of, nall)
-            self%inner%image_of(1:nall) = self%list%image_of(1:nall)
+            call self%list%wrap_offsets(self%atoms%nlocal)   ! (a pruned list forms its own from these)
         end if
         self%ghosts_stale = .false.
     end subroutine set_wrapped_images

@@ -85,7 +85,7 @@ module terrace_neighbor_list
         type(cluster_list_t) :: clusters
         !> Wrapped images (set by the engine, terrace_engine's wrap_images): every ghost this rank holds
         !> is a periodic image of one of its owned atoms, image_of(j) the owner of atom j held (j
-        !> itself when owned), and the box, wrap_box = (lo, length), is more than twice the list's
+        !> itself when owned; a built list's only: a pruned one takes its offsets from it), and the box, wrap_box = (lo, length), is more than twice the list's
         !> cutoff in every dimension, so that each pair of the list is its two atoms at their nearest
         !> images. A pass that can (potential%wraps_images) then reads each ghost as its owner there,
         !> and leaves the ghosts' positions unread and their forces untouched.

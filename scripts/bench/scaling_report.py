@@ -177,9 +177,10 @@ def phases(src, rows):
 def figure(rows, path):
     import matplotlib
     from terrace_tools.plotting import plt, save
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.4))
+    kinds = [k for k in ('strong', 'weak') if any(r['kind'] == k for r in rows)]   # a panel per kind run
+    fig, axes = plt.subplots(1, len(kinds) + 1, figsize=(5 * (len(kinds) + 1), 4.4))
     style = {'terrace-vv': ('C0', 'o'), 'terrace-es': ('C1', 's'), 'lammps': ('C2', '^')}
-    for ax, kind in zip(axes, ('strong', 'weak')):
+    for ax, kind in zip(axes, kinds):
         allp = set()
         for scene, ls in (('lj', '-'), ('eam', '--')):
             sel = [r for r in rows if r['scene'] == scene and r['kind'] == kind]
@@ -208,7 +209,7 @@ def figure(rows, path):
         ax.set_xticklabels([str(p) for p in ps])
         ax.set_xlabel('MPI ranks (one per core)')
         ax.grid(alpha=0.3)
-    ax = axes[2]     # what the speed-ups are of: ms per Verlet step (per event for energy stepping)
+    ax = axes[-1]    # what the speed-ups are of: ms per Verlet step (per event for energy stepping)
     for scene, ls in (('lj', '-'), ('eam', '--')):
         sel = [r for r in rows if r['scene'] == scene and r['kind'] == 'strong']
         for c in CODES:

@@ -25,15 +25,8 @@ terrace="$(realpath "${TERRACE:-$repo/build/terrace}")"; mpirun="${MPIRUN:-mpiru
 ps="${PS:-200}"; rounds="${ROUNDS:-2}"; decks="${DECKS:-default mixed lammps}"; lmp="${LMP:-lmp}"
 [[ "$ps" =~ ^[1-9][0-9]*$ && "$rounds" =~ ^[1-9][0-9]*$ ]] || { echo "argon_weak.sh: PS and ROUNDS must be positive integers" >&2; exit 2; }
 export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-IFS=, read -r -a plist <<< "$ranks"
-pmax=0; for p in "${plist[@]}"; do (( p > pmax )) && pmax=$p; done
-ncores=$(getconf _NPROCESSORS_ONLN)
-phys=$(lscpu 2>/dev/null | awk -F: '/^Socket\(s\)/{s=$2} /^Core\(s\) per socket/{c=$2} END{if (s*c > 0) print s*c; else print 0}')
-if [[ -z "${MPI_FLAGS+x}" ]]; then
-    if (( phys >= pmax )); then MPI_FLAGS="--map-by core --bind-to core"
-    elif (( ncores >= pmax )); then MPI_FLAGS="--use-hwthread-cpus --map-by hwthread --bind-to hwthread"
-    else MPI_FLAGS="--oversubscribe --bind-to none"; fi
-fi
+# shellcheck source=ranks_lib.sh
+source "$here/ranks_lib.sh"; ranks_setup "$ranks"
 [[ -x "$terrace" ]] || { echo "argon_weak.sh: no Terrace binary at $terrace (build it: bash scripts/build.sh)" >&2; exit 1; }
 
 echo "Weak scaling of the 100 ns argon job: 864 atoms per rank, ranks $ranks, $ps ps per run ($((ps * 100)) steps), $rounds rounds"
@@ -53,15 +46,6 @@ if [[ " $decks " == *" lammps "* ]]; then   # LAMMPS's input and data for the 86
     mkdir -p lmp; (cd lmp && python3 "$here/argon_anchors.py" ../argon_nvt_eq.atoms "$box" $((ps * 100)) 1000 94.4 1.0)
 fi
 tol_ev="$(python3 -c "print('%.6g' % (0.005 / 96.48533212331))")"   # GROMACS's default drift tolerance in eV/ps
-
-weak_tiles() {  # the liquid's copies along x, y, z for P ranks (as scaling.sh's weak_cells)
-    local p=$1 a=1 b=1 c=1
-    while (( p % 2 == 0 )); do
-        if (( a <= b && a <= c )); then a=$((a * 2)); elif (( b <= c )); then b=$((b * 2)); else c=$((c * 2)); fi
-        p=$((p / 2))
-    done
-    echo "$((a * p)) $b $c"
-}
 
 deck() {  # DECK NX NY NZ -> the job's deck on the tiled liquid, run for $ps ps
     local d=$1 hx hy hz
@@ -83,7 +67,7 @@ csv="$out/argon_weak.csv"
 echo "deck,round,ranks,atoms,loop_s,wall_s,comm_max_s,pair_max_s,neigh_max_s,builds" > "$csv"
 for r in $(seq 1 "$rounds"); do
     for p in "${plist[@]}"; do
-        read -r nx ny nz <<< "$(weak_tiles "$p")"
+        read -r nx ny nz <<< "$(weak_factors "$p")"
         for d in $decks; do
             w="$out/${d}_np${p}_r$r"; rm -rf "$w"; mkdir -p "$w"; cd "$w"
             awk -v nx="$nx" -v ny="$ny" -v nz="$nz" -v L="$box" '

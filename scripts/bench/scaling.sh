@@ -28,17 +28,8 @@ eam_file="${EAM_FILE:-/usr/share/lammps/potentials/Cu_u3.eam}"
 lj_steps="${LJ_STEPS:-300}"; lj_events="${LJ_EVENTS:-150}"; eam_steps="${EAM_STEPS:-100}"; eam_events="${EAM_EVENTS:-50}"
 parts="${PARTS:-lj eam}"; kinds="${KINDS:-strong weak}"
 export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-IFS=, read -r -a plist <<< "$ranks"
-pmax=0; for p in "${plist[@]}"; do (( p > pmax )) && pmax=$p; done
-ncores=$(getconf _NPROCESSORS_ONLN)   # not nproc: it honours OMP_NUM_THREADS, set to 1 above
-# Physical cores (lscpu's sockets x cores per socket) decide the binding: a rank per core where there are
-# enough cores, else hardware threads.
-phys=$(lscpu 2>/dev/null | awk -F: '/^Socket\(s\)/{s=$2} /^Core\(s\) per socket/{c=$2} END{if (s*c > 0) print s*c; else print 0}')
-if [[ -z "${MPI_FLAGS+x}" ]]; then
-    if (( phys >= pmax )); then MPI_FLAGS="--map-by core --bind-to core"
-    elif (( ncores >= pmax )); then MPI_FLAGS="--use-hwthread-cpus --map-by hwthread --bind-to hwthread"
-    else MPI_FLAGS="--oversubscribe --bind-to none"; fi
-fi
+# shellcheck source=ranks_lib.sh
+source "$here/ranks_lib.sh"; ranks_setup "$ranks"
 [[ -x "$terrace" ]] || { echo "scaling.sh: no Terrace binary at $terrace (build it: bash scripts/build.sh)" >&2; exit 1; }
 command -v "$lmp" > /dev/null || { echo "scaling.sh: no LAMMPS binary '$lmp' (Debian: lammps)" >&2; exit 1; }
 [[ -r "$eam_file" ]] || { echo "scaling.sh: cannot read EAM_FILE $eam_file (Debian: lammps-data)" >&2; exit 1; }
@@ -53,16 +44,8 @@ echo "mpirun  : $("$mpirun" --version 2>&1 | head -1); flags: $MPI_FLAGS"
 echo "runs    : LJ $lj_steps Verlet steps, $lj_events events; EAM $eam_steps steps, $eam_events events; one run per point"
 echo
 
-# Weak scaling's box: 20 cells per rank and axis, doubled along the shortest axis while P has a factor 2
-# left, then along x by what remains (odd P).
-weak_cells() {
-    local p=$1 a=1 b=1 c=1
-    while (( p % 2 == 0 )); do
-        if (( a <= b && a <= c )); then a=$((a * 2)); elif (( b <= c )); then b=$((b * 2)); else c=$((c * 2)); fi
-        p=$((p / 2))
-    done
-    a=$((a * p)); echo "$((20 * a)) $((20 * b)) $((20 * c))"
-}
+# Weak scaling's box: 20 cells per rank and axis, doubled as ranks_lib.sh's weak_factors says.
+weak_cells() { local a b c; read -r a b c <<< "$(weak_factors "$1")"; echo "$((20 * a)) $((20 * b)) $((20 * c))"; }
 
 terrace_deck() {  # scene nx ny nz integrator n
     local scene=$1 nx=$2 ny=$3 nz=$4 integ=$5 n=$6

@@ -5,12 +5,13 @@
 !> thermostat_csvr, thermostat_nose_hoover, thermostat_andersen); thermostat_factory maps a style
 !> name to its type. The integrators call the hooks below and never ask which style they hold:
 !>
-!>   velocity Verlet, one step:   pre_kick (dt/2 before the first half kick: CSVR, Nose-Hoover,
-!>                                through their half_step)
+!>   velocity Verlet, one step:   pre_kick (dt/2 before the first half kick: CSVR; Nose-Hoover
+!>                                through its half_step)
 !>                                kick_drift in place of the first half kick and drift, when
 !>                                traits%replaces_kick_drift (Langevin's B A O A)
 !>                                post_kick (after the second half kick: CSVR, Nose-Hoover, Andersen)
 !>                                hold_momentum (zero_momentum: remove the total momentum)
+!>                                velocities_changed (a barostat's after_step changed them)
 !>   energy stepping, events:     event_time (the next thermostat event, the same on every rank),
 !>                                apply_event (at that time: Andersen collisions, CSVR rescaling),
 !>                                schedule (after a list build or at the start: per-atom times)
@@ -96,6 +97,7 @@ module terrace_thermostat
         procedure :: kick_drift => ts_kick_drift
         procedure :: post_kick => ts_post_kick
         procedure :: half_step => ts_half_step
+        procedure :: velocities_changed => ts_velocities_changed
         ! energy stepping
         procedure :: event_time => ts_event_time
         procedure :: apply_event => ts_at_time
@@ -231,6 +233,13 @@ contains
         call self%half_step(atoms, 0.5_dp*dt, 2*step + 1, t_mid)
     end subroutine ts_post_kick
 
+    !> Velocity Verlet: something other than the thermostat changed the velocities since post_kick
+    !> (zero_momentum, a barostat's after_step); a style that carries a sum from post_kick to the
+    !> next pre_kick drops it (CSVR). Nothing by default.
+    subroutine ts_velocities_changed(self)
+        class(thermostat_t), intent(inout) :: self
+    end subroutine ts_velocities_changed
+
     !> The style's operator over a span of time (half a step) at time `time`, its random draws
     !> keyed by `event` (nothing by default; CSVR, Nose-Hoover).
     subroutine ts_half_step(self, atoms, span, event, time)
@@ -353,6 +362,7 @@ contains
             atoms%v(:, i) = atoms%v(:, i) - vc
         end do
         self%ecouple_global = self%ecouple_global - 0.5_dp*self%mvv2e*sum(p(1:3)*vc)
+        call self%velocities_changed()
     end subroutine ts_remove_momentum
 
     !> With zero_momentum: remove the total momentum (collective); otherwise nothing.

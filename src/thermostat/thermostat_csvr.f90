@@ -5,12 +5,16 @@
 !> the exact solution of the kinetic-energy SDE over s. One global draw (every rank draws the same
 !> numbers, keyed by the event index), then a uniform rescale of the owned velocities.
 !> Velocity Verlet: over dt/2 before the first and after the second half kick (events 2 step and
-!> 2 step + 1). Energy stepping: at the multiples of `interval`, as calendar events (the n-th keyed
-!> by n). A zero total momentum stays zero: dof = d N - d.
+!> 2 step + 1). The second half's K' is carried to the next step's first half, which then needs no
+!> sum of its own (nothing changes the velocities in between; zero_momentum and a barostat's
+!> after_step say so through velocities_changed): one global sum per step. Energy stepping: at the
+!> multiples of `interval`, as calendar events (the n-th keyed by n). A zero total momentum stays
+!> zero: dof = d N - d.
 module terrace_thermostat_csvr
     use terrace_kinds, only: dp, i8
     use terrace_atoms, only: atoms_t
     use terrace_counter_rng, only: rng_stream, rng_stream_t
+    use terrace_named_values, only: named_values_t
     use terrace_thermostat, only: interval_thermostat_t, thermostat_traits_t, total_ke, scale_velocities
     implicit none
     private
@@ -20,10 +24,18 @@ module terrace_thermostat_csvr
     !> Energy stepping: a rescaling at every multiple of interval (0: none), the n_rescale-th keyed
     !> by n_rescale.
     type, extends(interval_thermostat_t), public :: csvr_t
+        !> velocity Verlet: the kinetic energy the last post_kick left, while `carried` (nothing has
+        !> changed the velocities since), for the next pre_kick; in checkpoints
+        real(dp) :: ke_carried = 0
+        logical :: carried = .false.
     contains
         procedure, nopass :: style_traits => csvr_traits
         procedure :: default_interval => csvr_default_interval
         procedure :: half_step => csvr_apply
+        procedure :: pre_kick => csvr_pre_kick
+        procedure :: post_kick => csvr_post_kick
+        procedure :: velocities_changed => csvr_velocities_changed
+        procedure :: exchange_own => csvr_exchange
         procedure :: apply_event => csvr_apply_event
     end type csvr_t
 
@@ -42,19 +54,76 @@ contains
     end function csvr_default_interval
 
     !> CSVR over a time span: one global kinetic-energy draw keyed by `event`, then a uniform
-    !> rescale of the owned velocities (velocity Verlet: half steps around the kicks, through
-    !> the default pre_kick and post_kick). Collective.
+    !> rescale of the owned velocities (energy stepping's scheduled rescalings). Collective.
     subroutine csvr_apply(self, atoms, span, event, time)
         class(csvr_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms
         real(dp), intent(in) :: span, time
         integer(i8), intent(in) :: event
+        real(dp) :: ke_new
+        call csvr_rescale(self, atoms, total_ke(self, atoms), span, event, time, ke_new)
+        self%carried = .false.
+    end subroutine csvr_apply
+
+    !> Velocity Verlet, dt/2 before the first half kick (event 2 step): from the kinetic energy the
+    !> last post_kick left when it is carried, else from a global sum (collective then).
+    subroutine csvr_pre_kick(self, atoms, dt, step, t_mid)
+        class(csvr_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: dt, t_mid
+        integer(i8), intent(in) :: step
         real(dp) :: ke, ke_new
-        ke = total_ke(self, atoms)
+        if (self%carried) then
+            ke = self%ke_carried
+        else
+            ke = total_ke(self, atoms)
+        end if
+        call csvr_rescale(self, atoms, ke, 0.5_dp*dt, 2*step, t_mid, ke_new)
+        self%carried = .false.
+    end subroutine csvr_pre_kick
+
+    !> Velocity Verlet, dt/2 after the second half kick (event 2 step + 1); the new kinetic energy
+    !> is carried to the next pre_kick. Collective.
+    subroutine csvr_post_kick(self, atoms, dt, step, t_mid)
+        class(csvr_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: dt, t_mid
+        integer(i8), intent(in) :: step
+        call csvr_rescale(self, atoms, total_ke(self, atoms), 0.5_dp*dt, 2*step + 1, t_mid, self%ke_carried)
+        self%carried = .true.
+    end subroutine csvr_post_kick
+
+    !> Something else changed the velocities: the next pre_kick sums them again.
+    subroutine csvr_velocities_changed(self)
+        class(csvr_t), intent(inout) :: self
+        self%carried = .false.
+    end subroutine csvr_velocities_changed
+
+    !> Bussi's draw from kinetic energy ke (the same on every rank), the owned velocities scaled to
+    !> it, the change added to ecouple; ke_new the kinetic energy after.
+    subroutine csvr_rescale(self, atoms, ke, span, event, time, ke_new)
+        class(csvr_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        real(dp), intent(in) :: ke, span, time
+        integer(i8), intent(in) :: event
+        real(dp), intent(out) :: ke_new
         ke_new = csvr_kinetic_energy(self, ke, span, event, time)
         if (ke > 0) call scale_velocities(atoms, sqrt(ke_new/ke))
         self%ecouple_global = self%ecouple_global + (ke_new - ke)
-    end subroutine csvr_apply
+    end subroutine csvr_rescale
+
+    !> The interval's state and the carried kinetic energy (a checkpoint without it: none carried).
+    subroutine csvr_exchange(self, values, saving, ok)
+        class(csvr_t), intent(inout) :: self
+        include 'checkpointed_args.inc'
+        call self%interval_thermostat_t%exchange_own(values, saving, ok)
+        if (saving .or. values%has('ts_csvr_carried')) then
+            call values%exchange('ts_csvr_carried', self%carried, saving, ok)
+            call values%exchange('ts_csvr_ke', self%ke_carried, saving, ok)
+        else
+            self%carried = .false.
+        end if
+    end subroutine csvr_exchange
 
     !> The scheduled rescaling at time t: Bussi's propagator over one interval, keyed by its index
     !> (the same on every rank and after a restart); with zero_momentum the momentum is removed.

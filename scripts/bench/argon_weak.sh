@@ -47,10 +47,10 @@ if [[ " $decks " == *" lammps "* ]]; then   # LAMMPS's input and data for the 86
 fi
 tol_ev="$(python3 -c "print('%.6g' % (0.005 / 96.48533212331))")"   # GROMACS's default drift tolerance in eV/ps
 
-deck() {  # DECK NX NY NZ -> the job's deck on the tiled liquid, run for $ps ps
+deck() {  # DECK NX NY NZ P -> the job's deck on the tiled liquid, run for $ps ps
     local d=$1 hx hy hz
     hx=$(python3 -c "print(repr($2 * $box))"); hy=$(python3 -c "print(repr($3 * $box))"); hz=$(python3 -c "print(repr($4 * $box))")
-    sed -E -e "s/run_time=100000.0/run_time=$ps.0/" -e "s/atoms_file='argon_nvt_eq.atoms'/atoms_file='liquid.atoms'/" \
+    sed -E -e "s/run_time=100000.0/run_time=$ps.0/" -e "s#atoms_file='argon_nvt_eq.atoms'#atoms_file='../liquid_np$5.atoms'#" \
            -e "s/box_hi=[0-9.]*,[0-9.]*,[0-9.]*,/box_hi=$hx,$hy,$hz,/" "$repo/input/argon_nvt_100ns.nml" > job.nml
     if [[ $d == mixed ]]; then
         sed -E -e "s#shift=.true. /#shift=.true., precision='mixed' /#" \
@@ -59,7 +59,7 @@ deck() {  # DECK NX NY NZ -> the job's deck on the tiled liquid, run for $ps ps
         grep -q "precision='mixed'" job.nml && grep -q "^&neighbor buffer_tolerance" job.nml \
             || { echo "argon_weak.sh: could not edit the mixed deck" >&2; exit 1; }
     fi
-    grep -q "run_time=$ps.0" job.nml && grep -q "box_hi=$hx,$hy,$hz," job.nml && grep -q "liquid.atoms" job.nml \
+    grep -q "run_time=$ps.0" job.nml && grep -q "box_hi=$hx,$hy,$hz," job.nml && grep -q "liquid_np$5.atoms" job.nml \
         || { echo "argon_weak.sh: could not edit the job's deck" >&2; exit 1; }
 }
 
@@ -68,14 +68,14 @@ echo "deck,round,ranks,atoms,loop_s,wall_s,comm_max_s,pair_max_s,neigh_max_s,bui
 for r in $(seq 1 "$rounds"); do
     for p in "${plist[@]}"; do
         read -r nx ny nz <<< "$(weak_factors "$p")"
+        [[ -f "$out/liquid_np$p.atoms" ]] || awk -v nx="$nx" -v ny="$ny" -v nz="$nz" -v L="$box" '
+            /^[ \t]*#/ || NF == 0 { next } { line[++n] = $0 }
+            END { for (i = 0; i < nx; i++) for (j = 0; j < ny; j++) for (k = 0; k < nz; k++) for (m = 1; m <= n; m++) {
+                    split(line[m], f); printf "%s %.10f %.10f %.10f", f[1], f[2] + i * L, f[3] + j * L, f[4] + k * L
+                    for (q = 5; q <= 7; q++) printf " %s", f[q]; printf "\n" } }' "$out/argon_nvt_eq.atoms" > "$out/liquid_np$p.atoms"
         for d in $decks; do
             w="$out/${d}_np${p}_r$r"; rm -rf "$w"; mkdir -p "$w"; cd "$w"
-            awk -v nx="$nx" -v ny="$ny" -v nz="$nz" -v L="$box" '
-                /^[ \t]*#/ || NF == 0 { next } { line[++n] = $0 }
-                END { for (i = 0; i < nx; i++) for (j = 0; j < ny; j++) for (k = 0; k < nz; k++) for (m = 1; m <= n; m++) {
-                        split(line[m], f); printf "%s %.10f %.10f %.10f", f[1], f[2] + i * L, f[3] + j * L, f[4] + k * L
-                        for (q = 5; q <= 7; q++) printf " %s", f[q]; printf "\n" } }' "$out/argon_nvt_eq.atoms" > liquid.atoms
-            natoms=$(wc -l < liquid.atoms)
+            natoms=$(wc -l < "$out/liquid_np$p.atoms")
             t0=$(date +%s.%N)
             if [[ $d == lammps ]]; then
                 sed -e "s/^read_data argon.data/read_data ..\/lmp\/argon.data\nreplicate $nx $ny $nz/" "$out/lmp/argon.in" > in.lmp
@@ -89,7 +89,7 @@ for r in $(seq 1 "$rounds"); do
                 read -r comm pair neigh <<< "$(awk '/^Pair  *\|/{p=$7} /^Neigh  *\|/{n=$7} /^Comm  *\|/{c=$7} END{print c+0, p+0, n+0}' lammps.log)"
                 builds=$(sed -n 's/^Neighbor list builds = *\([0-9]*\).*/\1/p' lammps.log | tail -1)
             else
-                deck "$d" "$nx" "$ny" "$nz"
+                deck "$d" "$nx" "$ny" "$nz" "$p"
                 # shellcheck disable=SC2086
                 if ! "$mpirun" $MPI_FLAGS -np "$p" "$terrace" job.nml > job.log 2>&1; then
                     echo "FAILED: $d np $p round $r (log $w/job.log):"; tail -5 job.log; cd "$out"; continue; fi
@@ -102,11 +102,12 @@ for r in $(seq 1 "$rounds"); do
             echo "$d,$r,$p,$natoms,$loop,$wall,$comm,$pair,$neigh,$builds" >> "$csv"
             printf '  round %d  %-7s np %2d  %6d atoms  loop %8.3f s  wall %8.3f s  Comm %7.3f  Pair %7.3f  Neigh %7.3f  builds %s\n' \
                 "$r" "$d" "$p" "$natoms" "$loop" "$wall" "$comm" "$pair" "$neigh" "$builds"
-            rm -f liquid.atoms argon_nvt_100ns.h5 argon_nvt_100ns.ckpt.h5 argon_nvt_100ns.topology.data argon.lammpstrj argon.restart   # outputs: size, not data
+            rm -f argon_nvt_100ns.h5 argon_nvt_100ns.ckpt.h5 argon_nvt_100ns.topology.data argon.lammpstrj argon.restart   # outputs: size, not data
             cd "$out"
         done
     done
 done
 
+rm -f "$out"/liquid_np*.atoms
 echo
 python3 "$here/argon_weak_report.py" "$out"

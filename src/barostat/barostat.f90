@@ -144,7 +144,8 @@ contains
     !> at the present positions after a change of the box, otherwise the integrator decides a build
     !> or refreshes the ghosts):
     !>   before_forces  after the drift of step `step`, before its force pass
-    !>   after_step     after the second half kick of step `step`
+    !>   after_step     after the second half kick of step `step`; it leaves the velocities as they
+    !>                  are (a thermostat carries their kinetic energy past it: CSVR)
     !>   apply_event    energy stepping: the event of index `step` (at time step interval), all atoms
     !>                  drifted there
     subroutine baro_box_kept(self, eng, step, moved)

@@ -109,7 +109,6 @@ contains
                 call ts%post_kick(eng%atoms, dt, step, (step - 0.5_dp)*dt)
                 call ts%hold_momentum(eng%atoms)
                 call bs%after_step(eng, step, moved)
-                if (bs%active()) call ts%velocities_changed()   ! a trial move of the box may scale them
                 safe = safe .or. moved
                 if (sample) then
                     call eng%timers%start(t_output)

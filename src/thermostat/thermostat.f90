@@ -11,7 +11,6 @@
 !>                                traits%replaces_kick_drift (Langevin's B A O A)
 !>                                post_kick (after the second half kick: CSVR, Nose-Hoover, Andersen)
 !>                                hold_momentum (zero_momentum: remove the total momentum)
-!>                                velocities_changed (a barostat's after_step changed them)
 !>   energy stepping, events:     event_time (the next thermostat event, the same on every rank),
 !>                                apply_event (at that time: Andersen collisions, CSVR rescaling),
 !>                                schedule (after a list build or at the start: per-atom times)
@@ -234,8 +233,8 @@ contains
     end subroutine ts_post_kick
 
     !> Velocity Verlet: something other than the thermostat changed the velocities since post_kick
-    !> (zero_momentum, a barostat's after_step); a style that carries a sum from post_kick to the
-    !> next pre_kick drops it (CSVR). Nothing by default.
+    !> (remove_momentum, for zero_momentum); a style that carries a sum from post_kick to the next
+    !> pre_kick drops it (CSVR). Nothing by default.
     subroutine ts_velocities_changed(self)
         class(thermostat_t), intent(inout) :: self
     end subroutine ts_velocities_changed

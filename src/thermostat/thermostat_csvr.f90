@@ -6,8 +6,8 @@
 !> numbers, keyed by the event index), then a uniform rescale of the owned velocities.
 !> Velocity Verlet: over dt/2 before the first and after the second half kick (events 2 step and
 !> 2 step + 1). The second half's K' is carried to the next step's first half, which then needs no
-!> sum of its own (nothing changes the velocities in between; zero_momentum and a barostat's
-!> after_step say so through velocities_changed): one global sum per step. Energy stepping: at the
+!> sum of its own (nothing else changes the velocities in between: a barostat's after_step leaves
+!> them; zero_momentum says so through velocities_changed): one global sum per step. Energy stepping: at the
 !> multiples of `interval`, as calendar events (the n-th keyed by n). A zero total momentum stays
 !> zero: dof = d N - d.
 module terrace_thermostat_csvr

@@ -9,8 +9,9 @@
 # ghost refresh (domain_forward). Needs a -DTERRACE_PORTABLE=ON build (valgrind stops on AVX-512).
 # WALL=N: no callgrind; any build (native too), N alternating rounds of both scenes, and per build
 # and atom the run log's Neigh phase (wall time), per step and atom its Comm phase; median and range.
-# Both: the ghost shell's volume over the box's, ((L + 2 c)^3 - L^3) / L^3 with c = rc + skin (one
-# rank: the ghosts per owned atom at uniform density; the bins, sort and halo work grow with it).
+# Both: the ghost shell's volume over the box's, ((L + 2 c)^3 - L^3) / L^3 with c = rc + skin, and
+# that of half the images (one rank: the ghosts per owned atom at uniform density; the bins, sort
+# and halo work grow with it).
 # Usage: [WALL=N] scripts/bench/list_build_cost.sh TERRACE [TERRACE_2 ...]
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
@@ -44,8 +45,11 @@ for name, l, c in (('argon', 34.6809019, 9.5), ('lj', 20 * (4 / 0.8442) ** (1 / 
           ' stencil / cutoff sphere volume %.2f' % (name, (e ** 3 - l ** 3) / l ** 3, (e ** 3 - l ** 3 - c * e * e) / l ** 3,
                                                      l, c, wxy, wxy, wz, wxy / c, wxy / c, wz / c,
                                                      9 * wxy * wxy * 5 * wz / (4 / 3 * math.pi * c ** 3)))
-    # an eighth shell (images on the upper side of each dimension only) would hold ((L + c)^3 - L^3) / L^3
-    print('         an eighth shell would hold %.3f box volumes' % (((l + c) ** 3 - l ** 3) / l ** 3))"
+    # half the images (one rank, &neighbor images = 'auto': terrace_domain's half_images): the 13
+    # 'positive' shifts' images within c of the box, 3 faces, 6 edges (quarter cylinders) and 4
+    # corners (sphere octants): (3 L^2 c + 6 L pi c^2 / 4 + 4 pi c^3 / 6) / L^3
+    print('         half the images (images = \'auto\'): %.3f box volumes' % ((3 * l * l * c + 1.5 * math.pi * l * c * c
+                                                                       + 2 * math.pi / 3 * c ** 3) / l ** 3))"
 if [[ $wall != 0 ]]; then
     : > wall.txt
     for ((r = 1; r <= wall; r++)); do

@@ -181,6 +181,7 @@ contains
         self%dom%ghosts_below = .not. (self%plan%pair_mode == pair_cells .and. p%dimension == 3 .and. &
                                        self%pot%runs_on_pruned_list() .and. .not. self%list%want_below .and. &
                                        .not. self%list%want_clusters)
+        self%dom%half_images = self%plan%half_images .and. .not. self%dom%ghosts_below
         call self%rebuild()
         call check_overlaps(self%atoms, self%list, self%pot, self%plan%pair_mode, self%source)
         call self%compute_forces(.true.)
@@ -225,6 +226,8 @@ contains
             end if
         end do
         lo = lo - self%dom%cutghost; hi = hi + self%dom%cutghost
+        ! (no ghost below the brick along z: no bins there)
+        if (.not. self%dom%ghosts_below) lo(3) = lo(3) + self%dom%cutghost
         call self%list%setup_bins(lo, hi, n)
         call self%list%sort_owned(self%atoms)
         call self%timers%stop(t_neigh)
@@ -233,6 +236,7 @@ contains
         call self%timers%stop(t_comm)
         call self%timers%start(t_neigh)
         if (self%plan%pair_mode == pair_cells) then
+            self%list%half_images = self%dom%halved
             call self%list%build(self%atoms)
             call set_wrapped_images(self)
             if (self%use_inner) call self%inner%prune(self%list, self%atoms, inner_cut(self))

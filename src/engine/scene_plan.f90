@@ -32,6 +32,10 @@ module terrace_scene_plan
         !> copied at each list build only, and the force pass reads each as its owner at the nearest
         !> image (terrace_engine, wrapped images: the engine checks the box again at each build)
         logical :: wrap_images = .false.
+        !> One rank in 3-D, &neighbor images = 'auto', and a half list the only reader of the ghosts
+        !> (the engine's ghosts_below): the halo holds half the periodic images (terrace_domain's
+        !> half_images; the engine checks the box at each build)
+        logical :: half_images = .false.
         logical :: mesh = .false.            !< the atoms are a mesh's nodes (&system mesh_file)
         character(len=:), allocatable :: halo, pairs, potential, integrator, outputs, box
     contains

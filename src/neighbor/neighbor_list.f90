@@ -62,6 +62,11 @@ module terrace_neighbor_list
         !> with the half list, each owned atom's full neighbourhood (EAM densities without a
         !> reverse sum). below(below_first(i) : below_first(i+1)-1).
         logical :: want_below = .false.
+        !> Set before each build (terrace_domain's half_images, the halo it built): every ghost is a
+        !> periodic image of an owned atom under a "positive" shift, and each pair of an owned atom
+        !> with a ghost is this rank's: every ghost within the cutoff is a neighbour, found over the
+        !> whole stencil (no (z, y, x) test). Not with want_below or want_clusters.
+        logical :: half_images = .false.
         integer, allocatable :: below_first(:), below(:)
         integer :: max_below = 0
         !> Optional (want_types): the type of each neighbour, ntype(k) = type(neigh(k)), filled at each
@@ -251,8 +256,10 @@ contains
         class(neighbor_list_t), intent(in) :: self
         real(dp), intent(in) :: x(3)
         integer :: c(3), d
+        ! (truncation, not floor: the two differ below zero only, which the clamp maps to reach >= 0
+        ! either way; it saves the rounding on every atom binned)
         do d = 1, 3
-            c(d) = int(floor((x(d) - self%bin_lo(d))*self%bin_inv(d)))
+            c(d) = int((x(d) - self%bin_lo(d))*self%bin_inv(d))
             c(d) = min(self%nbin(d) - 1 - self%reach(d), max(self%reach(d), c(d)))
         end do
         b = 1 + c(1) + self%nbin(1)*(c(2) + self%nbin(2)*c(3))
@@ -436,6 +443,19 @@ contains
                                 self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m1)
             end do
             m2 = m1
+            if (self%half_images) then
+                ! every ghost of the whole stencil, none tested
+                m3 = m2
+                if (ghost_start(b + cr + 1) > ghost_start(b - cr)) &
+                    call take_slots(nlocal + ghost_start(b - cr), nlocal + ghost_start(b + cr + 1) - 1, self%sx, &
+                                    self%sy, self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m3)
+                do r = 1, self%nrows
+                    if (ghost_start(b + row_hi(r) + 1) == ghost_start(b + row_lo(r))) cycle
+                    call take_slots(nlocal + ghost_start(b + row_lo(r)), nlocal + ghost_start(b + row_hi(r) + 1) - 1, &
+                                    self%sx, self%sy, self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m3)
+                end do
+                return
+            end if
             if (ghost_start(b + cr + 1) > ghost_start(b - cr)) &
                 call take_slots(nlocal + ghost_start(b - cr), nlocal + ghost_start(b + cr + 1) - 1, self%sx, self%sy, &
                                 self%sz, self%sj, self%cx, self%cy, self%cz, self%cj, m2)

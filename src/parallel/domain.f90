@@ -10,7 +10,8 @@
 !> the upper face to the upper one; ghosts received in earlier dimensions travel on, which fills
 !> edges and corners. Crossing a periodic face adds -/+ L_d to the copy. With one rank along a
 !> periodic dimension the "neighbour" is the rank itself and the swap is a plain copy: a one-rank
-!> run makes no MPI call at all. Pairs are counted once (Newton's third law across ghosts):
+!> run makes no MPI call at all; there, where a half list is all that reads the ghosts, the halo
+!> can instead hold half the images (half_images). Pairs are counted once (Newton's third law across ghosts):
 !> forces accumulated on ghosts are sent back along the same swaps in reverse order and added.
 module terrace_domain
     use terrace_kinds, only: dp, i8
@@ -47,6 +48,18 @@ module terrace_domain
         !> nothing else (the engine decides), those ghosts are never read. Without them the list,
         !> the forces and their order are the same, and the halo is a quarter smaller on one rank.
         logical :: ghosts_below = .true.
+        !> .true. (with ghosts_below .false.: the engine asks for it where the half list is all that
+        !> reads the ghosts): where this rank is alone along every dimension of a 3-D box and the
+        !> ghost cutoff is shorter than every periodic edge, the halo holds the images of the owned
+        !> atoms under the 13 "positive" periodic shifts only (S_z > 0; or S_z = 0, S_y > 0; or
+        !> S = (1, 0, 0)), those within cutghost of the box; halved (set by borders) says it did.
+        !> Each pair of an atom and another atom's image (or its own) is then an owned atom with a
+        !> ghost exactly once, so that the list pairs every owned atom with every ghost within the
+        !> cutoff (neighbor_list_t%half_images); half the ghost shell, one pass over the atoms.
+        logical :: half_images = .false.
+        logical :: halved = .false.
+        integer, allocatable :: edge(:, :)           !< half_image_borders' scratch: the atoms near each face
+        integer :: nedge(2, 3) = 0                  !< (side, d): lengths of edge(:, 2 d - 2 + side)
         integer :: nswap = 0
         type(swap_t), allocatable :: swaps(:)
         real(dp), allocatable :: sendbuf(:), recvbuf(:)
@@ -361,6 +374,13 @@ contains
         atoms%nghost = 0
         self%nswap = 0
         if (.not. allocated(self%swaps)) allocate (self%swaps(6))
+        self%halved = self%half_images .and. .not. self%ghosts_below .and. self%box%dimension == 3 .and. &
+                      all(self%dims == 1)
+        if (self%halved) self%halved = all(.not. self%box%periodic .or. self%cutghost < self%box%length)
+        if (self%halved) then
+            call half_image_borders(self, atoms)
+            return
+        end if
         do d = 1, self%box%dimension
             if (self%dims(d) == 1 .and. .not. self%box%periodic(d)) cycle
             width = self%box%length(d)/self%dims(d)
@@ -396,6 +416,192 @@ contains
             end do
         end do
     end subroutine domain_borders
+
+    !> The halo of half_images: one swap (a copy) per positive shift S, the owned atoms whose image
+    !> under S lies within cutghost of the box: x_d < lo_d + cutghost where S_d = 1, x_d >= hi_d -
+    !> cutghost where S_d = -1. The atoms near each face are listed in one pass; each swap walks the
+    !> shortest list among its shift's dimensions and tests the others.
+    subroutine half_image_borders(self, atoms)
+        class(domain_t), intent(inout) :: self
+        type(atoms_t), intent(inout) :: atoms
+        integer :: d, n, sx, sy, sz, s(3), k, best, ns, e, parent, i
+        real(dp) :: lo(3), hi(3)
+        n = atoms%nlocal
+        if (allocated(self%edge)) then
+            if (size(self%edge, 1) < n + 1) deallocate (self%edge)
+        end if
+        if (.not. allocated(self%edge)) allocate (self%edge(max(n + 1, 64), 6))
+        ! edge(:, 2 d - 2 + side): the atoms within cutghost of the lower (side 1) or upper (2) face
+        ! along a periodic d
+        lo = self%box%lo + self%cutghost
+        hi = self%box%hi - self%cutghost
+        self%nedge = 0
+        do d = 1, 3
+            if (.not. self%box%periodic(d)) cycle
+            call near_faces(atoms%x, n, d, lo(d), hi(d), self%edge(:, 2*d - 1), self%edge(:, 2*d), &
+                            self%nedge(1, d), self%nedge(2, d))
+        end do
+        do sz = 0, 1
+            do sy = -1, 1
+                parent = 0
+                do i = 1, 3
+                    sx = merge(0, merge(-1, 1, i == 2), i == 1)    ! sx = 0 first: the parent of +-1
+                    s = [sx, sy, sz]
+                    if (.not. (sz > 0 .or. (sz == 0 .and. sy > 0) .or. (sz == 0 .and. sy == 0 .and. sx > 0))) cycle
+                    if (any(s /= 0 .and. .not. self%box%periodic)) cycle
+                    call add_image_swap(self, s)
+                    associate (sw => self%swaps(self%nswap))
+                        if (count(s /= 0) == 1) then
+                            ! a face's images: the atoms near the face
+                            d = maxloc(abs(s), 1)
+                            k = merge(1, 2, s(d) > 0)
+                            call take_list(sw%list, self%edge(:, 2*d - 2 + k), self%nedge(k, d), ns)
+                        else if (sx /= 0 .and. parent > 0) then
+                            ! an edge's or a corner's images: among those of (0, sy, sz), each tested
+                            associate (pl => self%swaps(parent))
+                                call within_reach(atoms%x, s, self%box%lo, self%box%hi, self%cutghost, pl%list, &
+                                                  pl%nsend, sw%list, ns)
+                            end associate
+                        else
+                            ! an edge's images: the shorter of its two faces' lists, each tested
+                            best = 0
+                            do d = 1, 3
+                                if (s(d) == 0) cycle
+                                k = merge(1, 2, s(d) > 0)
+                                if (best == 0) then
+                                    best = 2*d - 2 + k
+                                else if (self%nedge(k, d) < self%nedge(2 - mod(best, 2), (best + 1)/2)) then
+                                    best = 2*d - 2 + k
+                                end if
+                            end do
+                            e = self%nedge(2 - mod(best, 2), (best + 1)/2)
+                            call within_reach(atoms%x, s, self%box%lo, self%box%hi, self%cutghost, &
+                                              self%edge(:, best), e, sw%list, ns)
+                        end if
+                        if (sx == 0) parent = self%nswap
+                        sw%nsend = ns
+                        sw%nrecv = ns
+                        sw%first_recv = atoms%nlocal + atoms%nghost + 1
+                        call atoms%reserve(atoms%nlocal + atoms%nghost + ns)
+                        call copy_images(atoms%x, atoms%v, atoms%type, atoms%id, sw%list, ns, sw%first_recv, &
+                                         sw%shift)
+                        atoms%nghost = atoms%nghost + ns
+                    end associate
+                end do
+            end do
+        end do
+    end subroutine half_image_borders
+
+    !> The atoms 1..n within reach of the faces along d: x_d < lo into near_lo(1:nlo), x_d >= hi
+    !> into near_hi(1:nhi).
+    subroutine near_faces(x, n, d, lo, hi, near_lo, near_hi, nlo, nhi)
+        integer, intent(in) :: n, d
+        real(dp), intent(in) :: x(3, *), lo, hi
+        integer, intent(inout) :: near_lo(*), near_hi(*)
+        integer, intent(out) :: nlo, nhi
+        integer :: i
+        nlo = 0; nhi = 0
+        do i = 1, n
+            near_lo(nlo + 1) = i
+            near_hi(nhi + 1) = i
+            if (x(d, i) < lo) nlo = nlo + 1
+            if (x(d, i) >= hi) nhi = nhi + 1
+        end do
+    end subroutine near_faces
+
+    !> list(1:n) = candidates(1:n), list grown as needed.
+    subroutine take_list(list, candidates, n, ns)
+        integer, allocatable, intent(inout) :: list(:)
+        integer, intent(in) :: candidates(:), n
+        integer, intent(out) :: ns
+        if (size(list) < n) then
+            deallocate (list); allocate (list(n))
+        end if
+        list(1:n) = candidates(1:n)
+        ns = n
+    end subroutine take_list
+
+    !> list(1:ns): the atoms of candidates(1:n) (near one of the faces that s crosses) whose image
+    !> under s (an edge's or a corner's shift) lies within cutghost of the box: the sum over the
+    !> shifted dimensions of the squared distances from the faces they cross below cutghost^2 (which
+    !> implies that each is near its face).
+    subroutine within_reach(x, s, lo, hi, cut, candidates, n, list, ns)
+        real(dp), intent(in) :: x(3, *), lo(3), hi(3), cut
+        integer, intent(in) :: s(3), n, candidates(:)
+        integer, allocatable, intent(inout) :: list(:)
+        integer, intent(out) :: ns
+        integer :: k, i, d, d1, d2
+        real(dp) :: r2, w1, w2, w3, o(3), c2
+        if (size(list) < n) then
+            deallocate (list); allocate (list(n))
+        end if
+        ! distance from the face crossed: |x_d - lo_d| (s_d = 1) or |x_d - hi_d| (s_d = -1)
+        do d = 1, 3
+            o(d) = merge(lo(d), hi(d), s(d) >= 0)
+        end do
+        c2 = cut*cut
+        ns = 0
+        if (all(s /= 0)) then
+            do k = 1, n
+                i = candidates(k)
+                w1 = x(1, i) - o(1); w2 = x(2, i) - o(2); w3 = x(3, i) - o(3)
+                r2 = w1*w1 + w2*w2 + w3*w3
+                list(ns + 1) = i
+                if (r2 < c2) ns = ns + 1
+            end do
+        else
+            d1 = merge(1, 2, s(1) /= 0)
+            d2 = merge(3, 2, s(3) /= 0)
+            do k = 1, n
+                i = candidates(k)
+                w1 = x(d1, i) - o(d1); w2 = x(d2, i) - o(d2)
+                r2 = w1*w1 + w2*w2
+                list(ns + 1) = i
+                if (r2 < c2) ns = ns + 1
+            end do
+        end if
+    end subroutine within_reach
+
+    !> Atoms list(1:n) copied into slots first.. as images under shift (positions, velocities,
+    !> types, ids).
+    subroutine copy_images(x, v, type, id, list, n, first, shift)
+        real(dp), intent(inout) :: x(3, *), v(3, *)
+        integer, intent(inout) :: type(*)
+        integer(i8), intent(inout) :: id(*)
+        integer, intent(in) :: n, list(n), first
+        real(dp), intent(in) :: shift(3)
+        integer :: k, i, j
+        do k = 1, n
+            i = list(k); j = first + k - 1
+            x(1, j) = x(1, i) + shift(1); x(2, j) = x(2, i) + shift(2); x(3, j) = x(3, i) + shift(3)
+            v(1, j) = v(1, i); v(2, j) = v(2, i); v(3, j) = v(3, i)
+            type(j) = type(i)
+            id(j) = id(i)
+        end do
+    end subroutine copy_images
+
+    !> One more swap of half_image_borders: a copy within the rank under the periodic shift s.
+    subroutine add_image_swap(self, s)
+        class(domain_t), intent(inout) :: self
+        integer, intent(in) :: s(3)
+        type(swap_t), allocatable :: grown(:)
+        integer :: d
+        if (self%nswap == size(self%swaps)) then
+            allocate (grown(2*self%nswap))
+            grown(1:self%nswap) = self%swaps
+            call move_alloc(grown, self%swaps)
+        end if
+        self%nswap = self%nswap + 1
+        associate (sw => self%swaps(self%nswap))
+            sw%dim = maxloc(abs(s), 1)
+            sw%self_copy = .true.
+            sw%send_to = MPI_PROC_NULL; sw%recv_from = MPI_PROC_NULL
+            do d = 1, 3
+                sw%shift(d) = s(d)*self%box%length(d)
+            end do
+            if (.not. allocated(sw%list)) allocate (sw%list(64))
+        end associate
+    end subroutine add_image_swap
 
     !> One more swap along dimension d: dir 1 sends down (to nbr_lo) and receives from above, dir 2
     !> the other way; a periodic image crossing the box's edge is shifted by the box length.

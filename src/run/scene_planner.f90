@@ -127,6 +127,7 @@ contains
         type(box_t), intent(in) :: box
         class(potential_t), intent(in) :: pot
         character(len=800) :: s, rule
+        character(len=64) :: half
         if (self%pair_mode == pair_all) then
             self%pairs = 'all pairs, no neighbour list (small or cutoff-free scene)'
             if (self%nprocs == 1) then
@@ -185,13 +186,21 @@ contains
                                box%dimension == 3 .and. all(box%periodic) .and. .not. (self%cluster_pairs .or. &
                                cfg%integ_style%exact_time .or. cfg%barostat_couple == 'aniso') .and. &
                                2*(pot%cutoff() + max(cfg%skin, cfg%outer_skin)) < minval(box%length)
+            self%half_images = self%nprocs == 1 .and. cfg%images == 'auto' .and. box%dimension == 3 .and. &
+                               self%pair_mode == pair_cells .and. pot%runs_on_pruned_list() .and. .not. &
+                               (self%cluster_pairs .or. pot%needs_full_neighbourhood(cfg%integ_style%exact_time))
+            if (self%half_images) then
+                half = 'half the periodic images (those the half list reads)'
+            else
+                half = 'periodic images'
+            end if
             if (self%wrap_images) then
-                self%halo = 'periodic images copied on this rank at each list build only (no MPI); between '// &
+                self%halo = trim(half)//' copied on this rank at each list build only (no MPI); between '// &
                             'builds the force pass reads each as its owner at the nearest image: no copies '// &
                             'refreshed, no reverse force sums (&neighbor images)'
             else if (self%nprocs == 1) then
                 if (any(box%periodic(1:box%dimension))) then
-                    self%halo = 'periodic images copied on this rank (no MPI)'
+                    self%halo = trim(half)//' copied on this rank (no MPI)'
                 else
                     self%halo = 'none (one rank, free boundaries)'
                 end if

@@ -57,9 +57,11 @@ contains
             end if
         end do
         lo = lo - dom%cutghost; hi = hi + dom%cutghost
+        if (.not. dom%ghosts_below) lo(3) = lo(3) + dom%cutghost
         call list%setup_bins(lo, hi, n)
         call list%sort_owned(atoms)
         call dom%borders(atoms)
+        list%half_images = dom%halved
         call list%build(atoms)
     end subroutine rebuild
 

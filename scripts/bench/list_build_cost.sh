@@ -12,7 +12,9 @@
 # Both: the ghost shell's volume over the box's, ((L + 2 c)^3 - L^3) / L^3 with c = rc + skin, and
 # that of half the images (one rank: the ghosts per owned atom at uniform density; the bins, sort
 # and halo work grow with it).
-# Usage: [WALL=N] scripts/bench/list_build_cost.sh TERRACE [TERRACE_2 ...]
+# BRANCHES=1 (callgrind): also callgrind's simulated mispredicted conditional branches per build and
+# owned atom in the whole rebuild (--branch-sim=yes: a model of a predictor, not this machine's).
+# Usage: [WALL=N] [BRANCHES=1] scripts/bench/list_build_cost.sh TERRACE [TERRACE_2 ...]
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." && pwd)"
 figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$@"; }
@@ -81,8 +83,11 @@ PY
     k=0; for b in "${bins[@]}"; do k=$((k + 1)); echo "  $k: $b"; done
     exit 0
 fi
-printf '%-6s %-6s %6s | %9s %9s %9s %9s %9s %9s %9s | %9s\n' build scene builds rebuild nl_build \
+branches="${BRANCHES:-0}"
+printf '%-6s %-6s %6s | %9s %9s %9s %9s %9s %9s %9s | %9s' build scene builds rebuild nl_build \
     bins sort borders migrate scan 'fwd/step'
+[[ $branches == 1 ]] && printf ' | %9s' 'mispred.'
+echo
 printf '%-6s %-6s %6s | %s | %s\n' '' '' '' 'instructions per build per owned atom (rebuild = all of engine_rebuild)' \
     'ghost refresh per step per owned atom'
 k=0
@@ -90,7 +95,8 @@ for b in "${bins[@]}"; do
     k=$((k + 1))
     for scene in argon lj; do
         rm -f $scene.summary.json argon_nvt_100ns.csv argon_nvt_100ns.h5 argon_nvt_100ns.ckpt.h5
-        valgrind --tool=callgrind --callgrind-out-file=cg.$k.$scene "$b" $scene.nml > $scene.$k.log 2> cg.err \
+        sim=(); [[ $branches == 1 ]] && sim=(--branch-sim=yes)
+        valgrind --tool=callgrind "${sim[@]}" --callgrind-out-file=cg.$k.$scene "$b" $scene.nml > $scene.$k.log 2> cg.err \
             || { echo "list_build_cost: $b failed under valgrind (a -march=native build? use -DTERRACE_PORTABLE=ON)" >&2; tail -3 cg.err >&2; exit 2; }
         callgrind_annotate --inclusive=yes --threshold=100 cg.$k.$scene > ann.txt 2> /dev/null
         ir() { awk -v pat="$1" '$0 ~ pat { gsub(/,/, "", $1); print $1; exit }' ann.txt; }
@@ -103,7 +109,12 @@ for b in "${bins[@]}"; do
                  'neighbor_list_MOD_scan[ .]'; do
             v=$(ir "$f"); printf '%9.1f ' "$(awk -v v="${v:-0}" -v b="$builds" -v n="$natoms" 'BEGIN { print v / b / n }')"
         done
-        v=$(ir 'domain_MOD_domain_forward '); printf '| %9.1f\n' "$(awk -v v="${v:-0}" -v s="${steps:-1}" -v n="$natoms" 'BEGIN { print v / s / n }')"
+        v=$(ir 'domain_MOD_domain_forward '); printf '| %9.1f' "$(awk -v v="${v:-0}" -v s="${steps:-1}" -v n="$natoms" 'BEGIN { print v / s / n }')"
+        if [[ $branches == 1 ]]; then
+            callgrind_annotate --inclusive=yes --show=Bcm --sort=Bcm --threshold=100 cg.$k.$scene > ann.txt 2> /dev/null
+            v=$(ir 'engine_MOD_engine_rebuild '); printf ' | %9.1f' "$(awk -v v="${v:-0}" -v b="$builds" -v n="$natoms" 'BEGIN { print v / b / n }')"
+        fi
+        echo
     done
 done
 echo "builds: rebuilds in the run (with the one before the first step); binaries:"

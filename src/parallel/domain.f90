@@ -418,9 +418,11 @@ contains
     end subroutine domain_borders
 
     !> The halo of half_images: one swap (a copy) per positive shift S, the owned atoms whose image
-    !> under S lies within cutghost of the box: x_d < lo_d + cutghost where S_d = 1, x_d >= hi_d -
-    !> cutghost where S_d = -1. The atoms near each face are listed in one pass; each swap walks the
-    !> shortest list among its shift's dimensions and tests the others.
+    !> under S lies within cutghost of the box (for a face's shift x_d < lo_d + cutghost where S_d =
+    !> 1, x_d >= hi_d - cutghost where S_d = -1; for an edge's or a corner's the distance from the
+    !> edge or corner). The atoms near each face are listed in one pass over the atoms; an edge's or
+    !> a corner's candidates are those of (0, S_y, S_z) where that shift has a swap, else the shorter
+    !> list of its two faces.
     subroutine half_image_borders(self, atoms)
         class(domain_t), intent(inout) :: self
         type(atoms_t), intent(inout) :: atoms

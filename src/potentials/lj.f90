@@ -101,7 +101,6 @@ module terrace_lj
         procedure :: runs_on_pruned_list => lj_true
         procedure :: wants_neighbour_types => lj_several_types
         procedure :: wants_clusters => lj_wants_clusters
-        procedure :: prefers_clusters => lj_prefers_clusters
         procedure :: wraps_images => lj_wraps_images
         procedure :: contact_distance => lj_contact_distance
         procedure :: time_scale => lj_time_scale
@@ -258,21 +257,13 @@ contains
     end function lj_true
 
     !> The mixed-precision kernel can run over a cluster-pair list (3-D Verlet runs with a cell list,
-    !> &neighbor list = 'clusters', or 'auto' where lj_prefers_clusters); elsewhere over the atom
-    !> rows. (Cutoffs of 1000 length units and more keep the atom rows: the cluster kernel puts empty
-    !> slots 10^4 away.)
+    !> &neighbor list = 'clusters'); elsewhere over the atom rows ('auto' included: without AVX-512
+    !> the cluster pass's speed varies too much between machines, doc/performance.md). (Cutoffs of
+    !> 1000 length units and more keep the atom rows: the cluster kernel puts empty slots 10^4 away.)
     pure logical function lj_wants_clusters(self)
         class(lj_t), intent(in) :: self
         lj_wants_clusters = self%mixed .and. self%cutmax > 0 .and. self%cutmax < cluster_cutoff_limit
     end function lj_wants_clusters
-
-    !> &neighbor list = 'auto' gives the mixed kernel the cluster-pair list only where this build has
-    !> no AVX-512 pass over the atom rows (lj_mixed_simd.c): with it the atom rows are the faster
-    !> (doc/performance.md, scripts/bench/cluster_kernel.sh).
-    pure logical function lj_prefers_clusters(self)
-        class(lj_t), intent(in) :: self
-        lj_prefers_clusters = lj_wants_clusters(self) .and. c_lj_mixed_simd() == 0
-    end function lj_prefers_clusters
 
     !> The mixed-precision pass with AVX-512 (lj_mixed_simd.c) reads a list with wrapped images: its
     !> positions in fixed point on the box's periodic grid (one type, style 'lj').

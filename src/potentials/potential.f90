@@ -61,8 +61,6 @@ module terrace_potential
         !> list%want_clusters) instead of the atom rows (&neighbor list = 'clusters'); the
         !> mixed-precision Lennard-Jones kernel
         procedure :: wants_clusters => potential_false
-        !> .true.: and &neighbor list = 'auto' gives it one (the faster of its passes in this build)
-        procedure :: prefers_clusters => potential_false
         !> .true.: the force pass can read a list with wrapped images (list%wrapped: each ghost read as
         !> its owner at the nearest periodic image), leaving the ghosts' positions unread and their
         !> forces untouched; the mixed-precision Lennard-Jones pass with AVX-512

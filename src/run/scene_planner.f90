@@ -166,7 +166,7 @@ contains
             if (self%inner_list) s = trim(s)//'; force and ray passes over the pairs within cutoff + skin/4, '// &
                                      'pruned from it when an atom has moved skin/8'
             if (cfg%outer_skin > 0) call plan_outer_list(self, cfg, pot, s)
-            self%cluster_pairs = (cfg%list == 'clusters' .or. (cfg%list == 'auto' .and. pot%prefers_clusters())) .and. &
+            self%cluster_pairs = cfg%list == 'clusters' .and. &
                                  pot%wants_clusters() .and. cfg%dimension == 3 .and. .not. self%inner_list
             ! an explicit 'clusters' the potential declines (config has checked precision and dimension; a
             ! cutoff at or beyond the cluster list's limit is left) is refused, where 'auto' takes the atom list

@@ -18,6 +18,43 @@ static inline __m256d halves(const double *p, const double *q)
     return _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p)), _mm_loadu_pd(q), 1);
 }
 
+/* four rows of three doubles as three four-wide vectors in lane order (8 loads, 4 inserts, 3
+ * unpacks) */
+static inline void rows_xyz4(const double *const *q, __m256d *vx, __m256d *vy, __m256d *vz)
+{
+    const __m256d a = halves(q[0], q[2]), b = halves(q[1], q[3]);
+    const __m256d c = halves(q[0] + 1, q[2] + 1), d = halves(q[1] + 1, q[3] + 1);
+    *vx = _mm256_unpacklo_pd(a, b);
+    *vy = _mm256_unpackhi_pd(a, b);
+    *vz = _mm256_unpackhi_pd(c, d);
+}
+
+/* one row as its (x, y) and (y, z) halves */
+static inline void store_row(double *p, __m128d xy, __m128d yz)
+{
+    _mm_storeu_pd(p, xy);
+    _mm_storeu_pd(p + 1, yz);
+}
+
+/* the inverse of rows_xyz4 (4 unpacks and 8 stores) */
+static inline void store_rows4(double *const *q, __m256d vx, __m256d vy, __m256d vz)
+{
+    const __m256d e = _mm256_unpacklo_pd(vx, vy), o = _mm256_unpackhi_pd(vx, vy);     /* (x, y) */
+    const __m256d e2 = _mm256_unpacklo_pd(vy, vz), o2 = _mm256_unpackhi_pd(vy, vz);   /* (y, z) */
+    store_row(q[0], _mm256_castpd256_pd128(e), _mm256_castpd256_pd128(e2));
+    store_row(q[1], _mm256_castpd256_pd128(o), _mm256_castpd256_pd128(o2));
+    store_row(q[2], _mm256_extractf128_pd(e, 1), _mm256_extractf128_pd(e2, 1));
+    store_row(q[3], _mm256_extractf128_pd(o, 1), _mm256_extractf128_pd(o2, 1));
+}
+
+/* the sum of a four-wide vector's lanes, ((0 + 1) + (2 + 3)) */
+static inline double sum4(__m256d v)
+{
+    const __m128d lo = _mm256_castpd256_pd128(v), hi = _mm256_extractf128_pd(v, 1);
+    const __m128d h = _mm_add_pd(_mm_unpacklo_pd(lo, hi), _mm_unpackhi_pd(lo, hi));
+    return _mm_cvtsd_f64(_mm_add_sd(h, _mm_unpackhi_pd(h, h)));
+}
+
 #if defined(__AVX512F__)
 /* four 16-byte halves, p q r t in the four lanes */
 static inline __m512d quarters(const double *p, const double *q, const double *r, const double *t)
@@ -38,24 +75,6 @@ static inline void rows_xyz(const double *const *q, __m512d *vx, __m512d *vy, __
     *vz = _mm512_unpackhi_pd(c, d);
 }
 
-/* four rows of three doubles as three four-wide vectors in lane order (rows_xyz for four rows: 8
- * loads, 4 inserts, 3 unpacks) */
-static inline void rows_xyz4(const double *const *q, __m256d *vx, __m256d *vy, __m256d *vz)
-{
-    const __m256d a = halves(q[0], q[2]), b = halves(q[1], q[3]);
-    const __m256d c = halves(q[0] + 1, q[2] + 1), d = halves(q[1] + 1, q[3] + 1);
-    *vx = _mm256_unpacklo_pd(a, b);
-    *vy = _mm256_unpackhi_pd(a, b);
-    *vz = _mm256_unpackhi_pd(c, d);
-}
-
-/* one row as its (x, y) and (y, z) halves */
-static inline void store_row(double *p, __m128d xy, __m128d yz)
-{
-    _mm_storeu_pd(p, xy);
-    _mm_storeu_pd(p + 1, yz);
-}
-
 /* the inverse of rows_xyz: lane l of (vx, vy, vz) stored to row q[l] (4 unpacks and 16 stores
  * where three scatters store 24 doubles) */
 static inline void store_rows(double *const *q, __m512d vx, __m512d vy, __m512d vz)
@@ -72,16 +91,6 @@ static inline void store_rows(double *const *q, __m512d vx, __m512d vy, __m512d 
     store_row(q[7], _mm512_extractf64x2_pd(o, 3), _mm512_extractf64x2_pd(o2, 3));
 }
 
-/* the inverse of rows_xyz4 (4 unpacks and 8 stores) */
-static inline void store_rows4(double *const *q, __m256d vx, __m256d vy, __m256d vz)
-{
-    const __m256d e = _mm256_unpacklo_pd(vx, vy), o = _mm256_unpackhi_pd(vx, vy);     /* (x, y) */
-    const __m256d e2 = _mm256_unpacklo_pd(vy, vz), o2 = _mm256_unpackhi_pd(vy, vz);   /* (y, z) */
-    store_row(q[0], _mm256_castpd256_pd128(e), _mm256_castpd256_pd128(e2));
-    store_row(q[1], _mm256_castpd256_pd128(o), _mm256_castpd256_pd128(o2));
-    store_row(q[2], _mm256_extractf128_pd(e, 1), _mm256_extractf128_pd(e2, 1));
-    store_row(q[3], _mm256_extractf128_pd(o, 1), _mm256_extractf128_pd(o2, 1));
-}
 
 /* the rows of eight neighbours nb[0..cnt-1] (1-based indices into x(3, *)); the lanes from cnt
  * on read pad */

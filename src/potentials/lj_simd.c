@@ -107,7 +107,9 @@ void terrace_ray_rows(int i, const double *xv, const int *nbrs, int nn, double *
  * leaves the registers but the forces. With want_energy the pair energies are summed per atom into
  * atom_e[i] and the virial into *virial. The entry points (terrace_lj_one_type, terrace_lj_types,
  * at the end) return 0 (nothing done: the caller's Fortran kernel runs) where this build has no
- * AVX-512 (AVX512F, AVX512VL) and FMA.
+ * AVX-512 (AVX512F, AVX512VL) and FMA; with AVX2 and FMA only, the one-type entry runs lj_pass4,
+ * the same pass four pairs at a time (the argon job's Pair 0.78 of the Fortran kernel's on an AMD
+ * EPYC, doc/performance.md).
  *
  * lj_pass: the pass for one type (multi = 0: the coefficients lj1[0] ... broadcast) or for up to
  * eight types (multi = 1: the coefficient tables of struct terrace_lj_tables, column-major with a
@@ -244,6 +246,60 @@ static inline __attribute__((always_inline)) void lj_pass(const int multi, int n
 }
 #endif
 
+#if defined(__AVX2__) && defined(__FMA__) && !(defined(__AVX512F__) && defined(__AVX512VL__))
+/* The one-type pass with AVX2 and FMA but no AVX-512: lj_pass's operations four pairs at a time in
+ * 256-bit registers (tail4's), the cutoff a compare and a blend, the offset subtracted where inside. */
+static void lj_pass4(int nlocal, const double *x, double *f, const int *first, const int *neigh, double lj1,
+                     double lj2, double lj3, double lj4, double cutsq, double offset, int want_energy, double *atom_e,
+                     double *virial)
+{
+    const __m256d c1 = _mm256_set1_pd(lj1), c2 = _mm256_set1_pd(lj2), c3 = _mm256_set1_pd(lj3);
+    const __m256d c4 = _mm256_set1_pd(lj4), cs = _mm256_set1_pd(cutsq), co = _mm256_set1_pd(offset);
+    const __m256d one = _mm256_set1_pd(1.0), inf = _mm256_set1_pd(INFINITY), zero = _mm256_setzero_pd();
+    static const double far_row[3] = {1.0e100, 1.0e100, 1.0e100};  /* the padding lanes' position */
+    double spill[3] = {0, 0, 0};                                     /* and their forces (discarded) */
+    __m256d wsum = zero;
+    for (int i = 0; i < nlocal; i++) {
+        const int k0 = first[i] - 1, nn = first[i + 1] - first[i];
+        const double *a = x + 3 * (long)i;
+        const __m256d xi = _mm256_set1_pd(a[0]), yi = _mm256_set1_pd(a[1]), zi = _mm256_set1_pd(a[2]);
+        __m256d sx = zero, sy = zero, sz = zero, se = zero;
+        for (int k = 0; k < nn; k += 4) {
+            const int cnt = nn - k < 4 ? nn - k : 4;
+            const int *nb = neigh + k0 + k;
+            const double *q[4];
+            double *qf[4];
+            for (int l = 0; l < 4; l++) {
+                q[l] = l < cnt ? x + 3 * (long)(nb[l] - 1) : far_row;
+                qf[l] = l < cnt ? f + 3 * (long)(nb[l] - 1) : spill;
+            }
+            __m256d dx, dy, dz;
+            rows_xyz4(q, &dx, &dy, &dz);
+            dx = _mm256_sub_pd(xi, dx); dy = _mm256_sub_pd(yi, dy); dz = _mm256_sub_pd(zi, dz);
+            const __m256d rsq = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dx, dx, _mm256_mul_pd(dy, dy)));
+            const __m256d in = _mm256_cmp_pd(rsq, cs, _CMP_LT_OQ);
+            const __m256d r2inv = _mm256_div_pd(one, _mm256_blendv_pd(inf, rsq, in));
+            const __m256d r6inv = _mm256_mul_pd(_mm256_mul_pd(r2inv, r2inv), r2inv);
+            const __m256d fpair = _mm256_mul_pd(_mm256_mul_pd(r6inv, _mm256_fmsub_pd(c1, r6inv, c2)), r2inv);
+            if (want_energy) {
+                const __m256d e = _mm256_mul_pd(r6inv, _mm256_fmsub_pd(c3, r6inv, c4));
+                se = _mm256_add_pd(se, _mm256_sub_pd(e, _mm256_and_pd(in, co)));
+                wsum = _mm256_fmadd_pd(rsq, fpair, wsum);
+            }
+            const __m256d fx = _mm256_mul_pd(dx, fpair), fy = _mm256_mul_pd(dy, fpair), fz = _mm256_mul_pd(dz, fpair);
+            sx = _mm256_add_pd(sx, fx); sy = _mm256_add_pd(sy, fy); sz = _mm256_add_pd(sz, fz);
+            __m256d gx, gy, gz;
+            rows_xyz4((const double *const *)qf, &gx, &gy, &gz);
+            store_rows4(qf, _mm256_sub_pd(gx, fx), _mm256_sub_pd(gy, fy), _mm256_sub_pd(gz, fz));
+        }
+        double *fi = f + 3 * (long)i;
+        fi[0] += sum4(sx); fi[1] += sum4(sy); fi[2] += sum4(sz);
+        if (want_energy) atom_e[i] = sum4(se);
+    }
+    if (want_energy) *virial += sum4(wsum);
+}
+#endif
+
 int terrace_lj_one_type(int nlocal, const double *x, double *f, const int *first, const int *neigh, double lj1,
                         double lj2, double lj3, double lj4, double cutsq, double offset, int want_energy,
                         double *atom_e, double *virial)
@@ -251,6 +307,9 @@ int terrace_lj_one_type(int nlocal, const double *x, double *f, const int *first
 #if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
     lj_pass(0, nlocal, x, f, first, neigh, 0, 0, 1, &lj1, &lj2, &lj3, &lj4, &cutsq, &offset, want_energy, atom_e,
             virial);
+    return 1;
+#elif defined(__AVX2__) && defined(__FMA__)
+    lj_pass4(nlocal, x, f, first, neigh, lj1, lj2, lj3, lj4, cutsq, offset, want_energy, atom_e, virial);
     return 1;
 #else
     (void)nlocal; (void)x; (void)f; (void)first; (void)neigh; (void)lj1; (void)lj2; (void)lj3; (void)lj4;

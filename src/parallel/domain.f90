@@ -582,18 +582,24 @@ contains
         end do
     end subroutine copy_images
 
-    !> One more swap of half_image_borders: a copy within the rank under the periodic shift s.
-    subroutine add_image_swap(self, s)
+    !> nswap one more, the swaps grown as needed.
+    subroutine next_swap(self)
         class(domain_t), intent(inout) :: self
-        integer, intent(in) :: s(3)
         type(swap_t), allocatable :: grown(:)
-        integer :: d
         if (self%nswap == size(self%swaps)) then
             allocate (grown(2*self%nswap))
             grown(1:self%nswap) = self%swaps
             call move_alloc(grown, self%swaps)
         end if
         self%nswap = self%nswap + 1
+    end subroutine next_swap
+
+    !> One more swap of half_image_borders: a copy within the rank under the periodic shift s.
+    subroutine add_image_swap(self, s)
+        class(domain_t), intent(inout) :: self
+        integer, intent(in) :: s(3)
+        integer :: d
+        call next_swap(self)
         associate (sw => self%swaps(self%nswap))
             sw%dim = maxloc(abs(s), 1)
             sw%self_copy = .true.
@@ -610,13 +616,7 @@ contains
     subroutine add_swap(self, d, dir)
         class(domain_t), intent(inout) :: self
         integer, intent(in) :: d, dir
-        type(swap_t), allocatable :: grown(:)
-        if (self%nswap == size(self%swaps)) then
-            allocate (grown(2*self%nswap))
-            grown(1:self%nswap) = self%swaps
-            call move_alloc(grown, self%swaps)
-        end if
-        self%nswap = self%nswap + 1
+        call next_swap(self)
         associate (sw => self%swaps(self%nswap))
             sw%dim = d
             sw%self_copy = self%dims(d) == 1

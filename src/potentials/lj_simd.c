@@ -124,6 +124,41 @@ struct terrace_lj_tables {
     double lj1[64], lj2[64], lj3[64], lj4[64], cutsq[64], offset[64];
     int ntypes;
 };
+#if defined(__AVX2__) && defined(__FMA__)
+/* Four pairs' terms from their separations (tail4's and lj_pass4's): the pair force fp and its
+ * components, and with want_energy the pair energies (the offset taken inside the cutoff) and
+ * r^2 fp added to *se and *wsum. Beyond the cutoff 1/r^2 is 1/infinity = 0. */
+static inline __attribute__((always_inline)) void pair_terms4(__m256d dx, __m256d dy, __m256d dz, __m256d c1,
+                                                              __m256d c2, __m256d c3, __m256d c4, __m256d cs,
+                                                              __m256d co, int want_energy, __m256d *fx, __m256d *fy,
+                                                              __m256d *fz, __m256d *se, __m256d *wsum)
+{
+    const __m256d one = _mm256_set1_pd(1.0), inf = _mm256_set1_pd(INFINITY);
+    const __m256d rsq = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dx, dx, _mm256_mul_pd(dy, dy)));
+    const __m256d in = _mm256_cmp_pd(rsq, cs, _CMP_LT_OQ);
+    const __m256d r2inv = _mm256_div_pd(one, _mm256_blendv_pd(inf, rsq, in));
+    const __m256d r6inv = _mm256_mul_pd(_mm256_mul_pd(r2inv, r2inv), r2inv);
+    const __m256d fpair = _mm256_mul_pd(_mm256_mul_pd(r6inv, _mm256_fmsub_pd(c1, r6inv, c2)), r2inv);
+    if (want_energy) {
+        const __m256d e = _mm256_mul_pd(r6inv, _mm256_fmsub_pd(c3, r6inv, c4));
+        *se = _mm256_add_pd(*se, _mm256_sub_pd(e, _mm256_and_pd(in, co)));
+        *wsum = _mm256_fmadd_pd(rsq, fpair, *wsum);
+    }
+    *fx = _mm256_mul_pd(dx, fpair); *fy = _mm256_mul_pd(dy, fpair); *fz = _mm256_mul_pd(dz, fpair);
+}
+
+/* The position and force rows of neighbours nb[0..cnt-1] (1-based; cnt <= 4), the padding lanes'
+ * at far_row and spill. */
+static inline void rows4(const double *x, double *f, const int *nb, int cnt, const double *far_row, double *spill,
+                         const double **q, double **qf)
+{
+    for (int l = 0; l < 4; l++) {
+        q[l] = l < cnt ? x + 3 * (long)(nb[l] - 1) : far_row;
+        qf[l] = l < cnt ? f + 3 * (long)(nb[l] - 1) : spill;
+    }
+}
+#endif
+
 #if defined(__AVX512F__) && defined(__AVX512VL__) && defined(__FMA__)
 /* lj_pass's last block of a row when it holds four pairs or fewer (cnt <= 4): the same operations on
  * the lower four lanes, in 256-bit registers (half the arithmetic and rows of an eight-lane block),
@@ -138,29 +173,20 @@ static inline __attribute__((always_inline)) void tail4(const double *x, double 
 {
     const double *q[4];
     double *qf[4];
-    for (int l = 0; l < 4; l++) {
-        q[l] = l < cnt ? x + 3 * (long)(nb[l] - 1) : far_row;
-        qf[l] = l < cnt ? f + 3 * (long)(nb[l] - 1) : spill;
-    }
+    rows4(x, f, nb, cnt, far_row, spill, q, qf);
     __m256d dx, dy, dz;
     rows_xyz4(q, &dx, &dy, &dz);
     dx = _mm256_sub_pd(_mm512_castpd512_pd256(xi), dx);
     dy = _mm256_sub_pd(_mm512_castpd512_pd256(yi), dy);
     dz = _mm256_sub_pd(_mm512_castpd512_pd256(zi), dz);
-    const __m256d one = _mm256_set1_pd(1.0), inf = _mm256_set1_pd(INFINITY);
-    __m256d rsq = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dx, dx, _mm256_mul_pd(dy, dy)));
-    __mmask8 in = _mm256_cmp_pd_mask(rsq, _mm512_castpd512_pd256(cs), _CMP_LT_OQ);
-    __m256d r2inv = _mm256_div_pd(one, _mm256_mask_blend_pd(in, inf, rsq));
-    __m256d r6inv = _mm256_mul_pd(_mm256_mul_pd(r2inv, r2inv), r2inv);
-    __m256d fpair = _mm256_mul_pd(_mm256_mul_pd(r6inv, _mm256_fmsub_pd(_mm512_castpd512_pd256(c1), r6inv,
-                                                                          _mm512_castpd512_pd256(c2))), r2inv);
+    __m256d fx, fy, fz, e4 = _mm512_castpd512_pd256(*se), w4 = _mm512_castpd512_pd256(*wsum);
+    pair_terms4(dx, dy, dz, _mm512_castpd512_pd256(c1), _mm512_castpd512_pd256(c2), _mm512_castpd512_pd256(c3),
+                _mm512_castpd512_pd256(c4), _mm512_castpd512_pd256(cs), _mm512_castpd512_pd256(co), want_energy, &fx,
+                &fy, &fz, &e4, &w4);
     if (want_energy) {
-        __m256d e = _mm256_mul_pd(r6inv, _mm256_fmsub_pd(_mm512_castpd512_pd256(c3), r6inv, _mm512_castpd512_pd256(c4)));
-        __m256d s = _mm256_add_pd(_mm512_castpd512_pd256(*se), _mm256_mask_sub_pd(e, in, e, _mm512_castpd512_pd256(co)));
-        *se = _mm512_insertf64x4(*se, s, 0);
-        *wsum = _mm512_insertf64x4(*wsum, _mm256_fmadd_pd(rsq, fpair, _mm512_castpd512_pd256(*wsum)), 0);
+        *se = _mm512_insertf64x4(*se, e4, 0);
+        *wsum = _mm512_insertf64x4(*wsum, w4, 0);
     }
-    __m256d fx = _mm256_mul_pd(dx, fpair), fy = _mm256_mul_pd(dy, fpair), fz = _mm256_mul_pd(dz, fpair);
     *sx = _mm512_insertf64x4(*sx, _mm256_add_pd(_mm512_castpd512_pd256(*sx), fx), 0);
     *sy = _mm512_insertf64x4(*sy, _mm256_add_pd(_mm512_castpd512_pd256(*sy), fy), 0);
     *sz = _mm512_insertf64x4(*sz, _mm256_add_pd(_mm512_castpd512_pd256(*sz), fz), 0);
@@ -248,14 +274,14 @@ static inline __attribute__((always_inline)) void lj_pass(const int multi, int n
 
 #if defined(__AVX2__) && defined(__FMA__) && !(defined(__AVX512F__) && defined(__AVX512VL__))
 /* The one-type pass with AVX2 and FMA but no AVX-512: lj_pass's operations four pairs at a time in
- * 256-bit registers (tail4's), the cutoff a compare and a blend, the offset subtracted where inside. */
+ * 256-bit registers (pair_terms4, as tail4). */
 static void lj_pass4(int nlocal, const double *x, double *f, const int *first, const int *neigh, double lj1,
                      double lj2, double lj3, double lj4, double cutsq, double offset, int want_energy, double *atom_e,
                      double *virial)
 {
     const __m256d c1 = _mm256_set1_pd(lj1), c2 = _mm256_set1_pd(lj2), c3 = _mm256_set1_pd(lj3);
     const __m256d c4 = _mm256_set1_pd(lj4), cs = _mm256_set1_pd(cutsq), co = _mm256_set1_pd(offset);
-    const __m256d one = _mm256_set1_pd(1.0), inf = _mm256_set1_pd(INFINITY), zero = _mm256_setzero_pd();
+    const __m256d zero = _mm256_setzero_pd();
     static const double far_row[3] = {1.0e100, 1.0e100, 1.0e100};  /* the padding lanes' position */
     double spill[3] = {0, 0, 0};                                     /* and their forces (discarded) */
     __m256d wsum = zero;
@@ -269,24 +295,12 @@ static void lj_pass4(int nlocal, const double *x, double *f, const int *first, c
             const int *nb = neigh + k0 + k;
             const double *q[4];
             double *qf[4];
-            for (int l = 0; l < 4; l++) {
-                q[l] = l < cnt ? x + 3 * (long)(nb[l] - 1) : far_row;
-                qf[l] = l < cnt ? f + 3 * (long)(nb[l] - 1) : spill;
-            }
+            rows4(x, f, nb, cnt, far_row, spill, q, qf);
             __m256d dx, dy, dz;
             rows_xyz4(q, &dx, &dy, &dz);
             dx = _mm256_sub_pd(xi, dx); dy = _mm256_sub_pd(yi, dy); dz = _mm256_sub_pd(zi, dz);
-            const __m256d rsq = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dx, dx, _mm256_mul_pd(dy, dy)));
-            const __m256d in = _mm256_cmp_pd(rsq, cs, _CMP_LT_OQ);
-            const __m256d r2inv = _mm256_div_pd(one, _mm256_blendv_pd(inf, rsq, in));
-            const __m256d r6inv = _mm256_mul_pd(_mm256_mul_pd(r2inv, r2inv), r2inv);
-            const __m256d fpair = _mm256_mul_pd(_mm256_mul_pd(r6inv, _mm256_fmsub_pd(c1, r6inv, c2)), r2inv);
-            if (want_energy) {
-                const __m256d e = _mm256_mul_pd(r6inv, _mm256_fmsub_pd(c3, r6inv, c4));
-                se = _mm256_add_pd(se, _mm256_sub_pd(e, _mm256_and_pd(in, co)));
-                wsum = _mm256_fmadd_pd(rsq, fpair, wsum);
-            }
-            const __m256d fx = _mm256_mul_pd(dx, fpair), fy = _mm256_mul_pd(dy, fpair), fz = _mm256_mul_pd(dz, fpair);
+            __m256d fx, fy, fz;
+            pair_terms4(dx, dy, dz, c1, c2, c3, c4, cs, co, want_energy, &fx, &fy, &fz, &se, &wsum);
             sx = _mm256_add_pd(sx, fx); sy = _mm256_add_pd(sy, fy); sz = _mm256_add_pd(sz, fz);
             __m256d gx, gy, gz;
             rows_xyz4((const double *const *)qf, &gx, &gy, &gz);

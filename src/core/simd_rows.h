@@ -55,6 +55,29 @@ static inline double sum4(__m256d v)
     return _mm_cvtsd_f64(_mm_add_sd(h, _mm_unpackhi_pd(h, h)));
 }
 
+/* the lanes below cnt (0 <= cnt <= 4) of four 32-bit lanes: all ones, the others zero (the mask of a
+ * block's live lanes for _mm_maskload_epi32; widened by _mm256_cvtepi32_epi64 for _mm256_maskload_pd) */
+static inline __m128i live4(int cnt)
+{
+    return _mm_cmpgt_epi32(_mm_set1_epi32(cnt), _mm_setr_epi32(0, 1, 2, 3));
+}
+
+/* AVX2's compressing store: the 32-bit lanes of j whose bit is set in keep (four bits, lane 0 the
+ * lowest) moved to the front in their order by one byte shuffle looked up by keep, and all four
+ * lanes stored at out (out needs room for four entries; those past the kept ones are overwritten
+ * next); returns how many were kept */
+static inline int store_kept4(int *out, __m128i j, int keep)
+{
+    static const unsigned char shuffle[16][16] = {
+        {0}, {0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 2, 3, 4, 5, 6, 7}, {8, 9, 10, 11}, {0, 1, 2, 3, 8, 9, 10, 11},
+        {4, 5, 6, 7, 8, 9, 10, 11}, {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11}, {12, 13, 14, 15},
+        {0, 1, 2, 3, 12, 13, 14, 15}, {4, 5, 6, 7, 12, 13, 14, 15}, {0, 1, 2, 3, 4, 5, 6, 7, 12, 13, 14, 15},
+        {8, 9, 10, 11, 12, 13, 14, 15}, {0, 1, 2, 3, 8, 9, 10, 11, 12, 13, 14, 15},
+        {4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15}, {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15}};
+    _mm_storeu_si128((__m128i *)out, _mm_shuffle_epi8(j, _mm_loadu_si128((const __m128i *)shuffle[keep])));
+    return __builtin_popcount(keep);
+}
+
 #if defined(__AVX512F__)
 /* four 16-byte halves, p q r t in the four lanes */
 static inline __m512d quarters(const double *p, const double *q, const double *r, const double *t)

@@ -121,7 +121,7 @@ module terrace_neighbor_list
     end type neighbor_list_t
 
     interface
-        !> src/neighbor/scan_simd.c: scan with AVX-512 (-1: not in this build)
+        !> src/neighbor/scan_simd.c: scan with AVX-512 or AVX2 (-1: neither in this build)
         integer(c_int) function c_scan_compress(xi, yi, zi, cx, cy, cz, cj, k1, k2, cutsq, above, out) &
             bind(C, name='terrace_scan_compress')
             import :: c_int, c_double
@@ -131,7 +131,7 @@ module terrace_neighbor_list
             integer(c_int), value :: k1, k2, above
             integer(c_int), intent(inout) :: out(*)
         end function c_scan_compress
-        !> src/neighbor/prune_simd.c: keep_within with AVX-512 (-1: not in this build)
+        !> src/neighbor/prune_simd.c: keep_within with AVX-512 or AVX2 (-1: neither in this build)
         integer(c_int) function c_prune_compress(xi, yi, zi, x, nb, k1, k2, cutsq, out) &
             bind(C, name='terrace_prune_compress')
             import :: c_int, c_double
@@ -345,7 +345,8 @@ contains
             if (owned_start(b + 1) == owned_start(b)) cycle
             call gather_candidates(self, b, nlocal, m1, m2, m3)
             do i = owned_start(b), owned_start(b + 1) - 1
-                if (n + bound > size(self%neigh)) &
+                ! (+ 4: scan's four-lane stores may write three entries past the row's last)
+                if (n + bound + 4 > size(self%neigh)) &
                     call grow_keep(self%neigh, n, n + bound + int(min(1.1_dp*n/max(i - 1, 1)*(nlocal - i + 1), &
                                                                      real(huge(1), dp)/4)))
                 call owned_after(i, owned_start(b + 1) - 1, x, cutsq, self%neigh, n)
@@ -657,9 +658,9 @@ contains
     end subroutine owned_after
 
     !> Candidates k1..k2 of the shared rows within the cutoff of (xi, yi, zi) and, when above, also
-    !> above it in (z, y, x) order (ghosts of the rows at the same z): with AVX-512 scan_simd.c's
-    !> masks and compressing stores, else 0/1 flags in one vectorised pass, then a branch-free
-    !> compaction.
+    !> above it in (z, y, x) order (ghosts of the rows at the same z): with AVX-512 or AVX2
+    !> scan_simd.c's masks and compressing stores, else 0/1 flags in one vectorised pass, then a
+    !> branch-free compaction.
     subroutine scan(xi, yi, zi, cx, cy, cz, cj, keep, k1, k2, cutsq, above, neigh, n)
         real(dp), intent(in) :: xi, yi, zi, cutsq
         real(dp), intent(in), contiguous :: cx(:), cy(:), cz(:)
@@ -672,7 +673,7 @@ contains
         integer :: k
         real(dp) :: dx, dy, dz
         k = c_scan_compress(xi, yi, zi, cx, cy, cz, cj, k1, k2, cutsq, merge(1, 0, above), neigh(n + 1:))
-        if (k >= 0) then      ! (scan_simd.c did it: AVX-512)
+        if (k >= 0) then      ! (scan_simd.c did it: AVX-512 or AVX2)
             n = n + k
             return
         end if
@@ -851,7 +852,7 @@ contains
     end function row_offsets
 
     !> Append to neigh(n+1:) the partners neighbours(k1:k2) of atom i within cutsq, in order (with
-    !> AVX-512 prune_simd.c's gathers and compressing stores, else a branch-free loop).
+    !> AVX-512 or AVX2 prune_simd.c's row loads and compressing stores, else a branch-free loop).
     subroutine keep_within(x, i, neighbours, k1, k2, cutsq, neigh, n)
         real(dp), intent(in) :: x(3, *)
         integer, intent(in) :: i, k1, k2
@@ -864,7 +865,7 @@ contains
         xi = x(1, i); yi = x(2, i); zi = x(3, i)
         if (k2 < k1) return
         k = c_prune_compress(xi, yi, zi, x, neighbours, k1, k2, cutsq, neigh(n + 1:))
-        if (k >= 0) then      ! (prune_simd.c did it: AVX-512)
+        if (k >= 0) then      ! (prune_simd.c did it: AVX-512 or AVX2)
             n = n + k
             return
         end if

@@ -1,10 +1,11 @@
-/* The prune of a neighbour list (terrace_neighbor_list, keep_within) with AVX-512: of the
- * neighbours nb[k1..k2] (1-based, Fortran's indices into x(3, *)) of atom (xi, yi, zi), those
- * within cutsq of it, appended to out in their order; returns how many. Eight neighbours at a
- * time: their positions loaded as rows (core/simd_rows.h), the distance test as a mask, the passing indices written by one
- * compressing store, where the Fortran loop carries the count from one neighbour to the next.
- * Returns -1 (nothing done: the Fortran loop runs) where this build has no AVX-512 (AVX512F,
- * AVX512VL). */
+/* The prune of a neighbour list (terrace_neighbor_list, keep_within): of the neighbours
+ * nb[k1..k2] (1-based, Fortran's indices into x(3, *)) of atom (xi, yi, zi), those within cutsq of
+ * it, appended to out in their order; returns how many. Their positions loaded as rows
+ * (core/simd_rows.h), the distance test as a mask, the passing indices written by one compressing
+ * store, where the Fortran loop carries the count from one neighbour to the next. With AVX-512
+ * (AVX512F, AVX512VL) eight neighbours at a time; with AVX2 four, the compression a byte shuffle
+ * looked up by the four-bit mask, its store four indices whole (out needs room for 4 entries past
+ * the pairs kept). Returns -1 (nothing done: the Fortran loop runs) where this build has neither. */
 #include "../core/simd_rows.h"
 #include "../core/fixed_point_rows.h"
 
@@ -25,6 +26,24 @@ int terrace_prune_compress(double xi, double yi, double zi, const double *x, con
         __mmask8 keep = _mm512_mask_cmp_pd_mask(live, rsq, cs, _CMP_LT_OQ);
         _mm256_mask_compressstoreu_epi32(out + n, keep, j);
         n += __builtin_popcount(keep);
+    }
+    return n;
+#elif defined(__AVX2__)
+    static const double far_row[3] = {1.0e100, 1.0e100, 1.0e100};   /* the padding lanes' position */
+    const __m256d x0 = _mm256_set1_pd(xi), y0 = _mm256_set1_pd(yi), z0 = _mm256_set1_pd(zi);
+    const __m256d cs = _mm256_set1_pd(cutsq);
+    int n = 0;
+    for (int k = k1 - 1; k < k2; k += 4) {
+        const int cnt = k2 - k < 4 ? k2 - k : 4;
+        const double *q[4];
+        for (int l = 0; l < 4; l++) q[l] = l < cnt ? x + 3 * (long)(nb[k + l] - 1) : far_row;
+        const __m128i j = cnt == 4 ? _mm_loadu_si128((const __m128i *)(nb + k)) : _mm_maskload_epi32(nb + k, live4(cnt));
+        __m256d dx, dy, dz;
+        rows_xyz4(q, &dx, &dy, &dz);
+        dx = _mm256_sub_pd(x0, dx); dy = _mm256_sub_pd(y0, dy); dz = _mm256_sub_pd(z0, dz);
+        const __m256d rsq = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
+        /* (the padding lanes lie 1e100 away) */
+        n += store_kept4(out + n, j, _mm256_movemask_pd(_mm256_cmp_pd(rsq, cs, _CMP_LT_OQ)));
     }
     return n;
 #else

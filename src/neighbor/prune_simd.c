@@ -58,7 +58,7 @@ int terrace_prune_compress(double xi, double yi, double zi, const double *x, con
  * (wrapped != 0), its owner origin[j - 1] (1-based), and 16 nrec (the pad record) up to a multiple
  * of 16 entries; nrec the records the pass stages (nall, or nlocal with wrapped images); offs must
  * have room for first[nlocal] - 1 + 15 nlocal entries. Returns the entries written, or -1 (nothing
- * done) where the build has no AVX-512 pass over such records. */
+ * done) where the build has no SIMD pass over such records (AVX-512, or AVX2: one entry at a time). */
 int terrace_row_offsets(int nlocal, int nrec, const int *first, const int *neigh, int wrapped, const int *origin,
                              int *ofirst, int32_t *offs)
 {
@@ -81,6 +81,21 @@ int terrace_row_offsets(int nlocal, int nrec, const int *first, const int *neigh
     }
     ofirst[nlocal] = o;
     return o;
+#elif defined(TERRACE_FIXED_ROWS8)
+    if (nrec >= terrace_fixed_max_atoms) return -1;
+    int o = 0;   /* (rows padded to 16 entries as above: one layout for both passes) */
+    for (int i = 0; i < nlocal; i++) {
+        ofirst[i] = o;
+        const int k0 = first[i] - 1, nn = first[i + 1] - first[i], padded = (nn + 15) / 16 * 16;
+        for (int k = 0; k < nn; k++) {
+            const int j = neigh[k0 + k] - 1;
+            offs[o + k] = 16 * (wrapped ? origin[j] - 1 : j);
+        }
+        for (int k = nn; k < padded; k++) offs[o + k] = 16 * nrec;
+        o += padded;
+    }
+    ofirst[nlocal] = o;
+    return o;
 #else
     (void)nlocal; (void)nrec; (void)first; (void)neigh; (void)wrapped; (void)origin; (void)ofirst; (void)offs;
     return -1;
@@ -97,7 +112,8 @@ int terrace_row_offsets(int nlocal, int nrec, const int *first, const int *neigh
  * the pad record's, as terrace_row_offsets forms them): the prune and the mixed pass's offsets in
  * one pass, sixteen pairs at a time in single precision (the test is kept a millionth wide: a pair
  * at the cutoff is kept). neigh_in needs room for 16 entries past the pairs kept, offs_in for 16
- * past its last padded row. Returns the pairs kept, or -1 (nothing done) without AVX-512. */
+ * past its last padded row. With AVX2 the same, eight pairs at a time, each half compressed by
+ * store_kept4 (core/simd_rows.h). Returns the pairs kept, or -1 (nothing done) without either. */
 int terrace_prune_wrapped(int nlocal, const double *x, const double *wrap, int32_t *q, const int *first,
                           const int *neigh, const int *ofirst, const int32_t *offs, double cutsq, int *first_in,
                           int *neigh_in, int *ofirst_in, int32_t *offs_in)
@@ -138,6 +154,48 @@ int terrace_prune_wrapped(int nlocal, const double *x, const double *wrap, int32
         }
         const int padded = o0 + (o - o0 + 15) / 16 * 16;
         if (padded > o) _mm512_storeu_si512(offs_in + o, pad);   /* (room: the outer rows' padding) */
+        o = padded;
+        first_in[i + 1] = n + 1;
+    }
+    ofirst_in[nlocal] = o;
+    return n;
+#elif defined(TERRACE_FIXED_ROWS8)
+    stage_periodic(nlocal, x, wrap, q, (float *)0);
+    const __m256 ux = _mm256_set1_ps((float)(wrap[3] * ldexp(1.0, -32)));
+    const __m256 uy = _mm256_set1_ps((float)(wrap[4] * ldexp(1.0, -32)));
+    const __m256 uz = _mm256_set1_ps((float)(wrap[5] * ldexp(1.0, -32)));
+    const __m256 cs = _mm256_set1_ps((float)(cutsq * (1 + 1e-6)));
+    const __m256i pad = _mm256_set1_epi32(16 * nlocal), lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const char *qb = (const char *)q;
+    int n = 0, o = 0;
+    first_in[0] = 1;
+    for (int i = 0; i < nlocal; i++) {
+        ofirst_in[i] = o;
+        const int k0 = first[i] - 1, nn = first[i + 1] - first[i];
+        const int32_t *a = q + 4 * (long)i;
+        const __m256i xi = _mm256_set1_epi32(a[0]), yi = _mm256_set1_epi32(a[1]), zi = _mm256_set1_epi32(a[2]);
+        const int o0 = o;
+        for (int k = 0; k < nn; k += 8) {   /* (the outer rows are padded to 16 offsets: eight to read) */
+            const __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(nn - k), lane);
+            const int32_t *off = offs + ofirst[i] + k;
+            __m256 qx, qy, qz;
+            rows8(8, qb, off, &qx, &qy, &qz);   /* (the padding lanes read the pad record, masked) */
+            const __m256 dx = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(xi, _mm256_castps_si256(qx))), ux);
+            const __m256 dy = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(yi, _mm256_castps_si256(qy))), uy);
+            const __m256 dz = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(zi, _mm256_castps_si256(qz))), uz);
+            const __m256 rsq = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dx, dx, _mm256_mul_ps(dy, dy)));
+            const int keep = _mm256_movemask_ps(_mm256_and_ps(_mm256_castsi256_ps(live), _mm256_cmp_ps(rsq, cs, _CMP_LT_OQ)));
+            const __m256i j = _mm256_maskload_epi32(neigh + k0 + k, live), r = _mm256_loadu_si256((const __m256i *)off);
+            n += store_kept4(neigh_in + n, _mm256_castsi256_si128(j), keep & 15);
+            n += store_kept4(neigh_in + n, _mm256_extracti128_si256(j, 1), keep >> 4);
+            o += store_kept4(offs_in + o, _mm256_castsi256_si128(r), keep & 15);
+            o += store_kept4(offs_in + o, _mm256_extracti128_si256(r, 1), keep >> 4);
+        }
+        const int padded = o0 + (o - o0 + 15) / 16 * 16;
+        if (padded > o) {   /* (room: the outer rows' padding) */
+            _mm256_storeu_si256((__m256i *)(offs_in + o), pad);
+            _mm256_storeu_si256((__m256i *)(offs_in + o + 8), pad);
+        }
         o = padded;
         first_in[i + 1] = n + 1;
     }

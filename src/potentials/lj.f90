@@ -81,9 +81,9 @@ module terrace_lj
         logical :: mixed = .false.               !< single-precision pair arithmetic (one type, 'lj', half list)
         real(sp), allocatable :: xs(:, :)        !< mixed: positions as (hi, 0, lo, 0) singles, 8 per atom
         real(dp), allocatable :: fd(:, :)        !< mixed: per-atom force records (x, y, z, 0)
-        integer(int32), allocatable :: xq(:, :)  !< mixed, AVX-512 pass: fixed-point positions (x, y, z, 0)
-        real(sp), allocatable :: ff(:, :)        !< mixed, AVX-512 pass: single force records (x, y, z, 0)
-        !> mixed, AVX-512 pass: the list's rows as byte offsets (padded to blocks of 16), their starts,
+        integer(int32), allocatable :: xq(:, :)  !< mixed, SIMD pass: fixed-point positions (x, y, z, 0)
+        real(sp), allocatable :: ff(:, :)        !< mixed, SIMD pass: single force records (x, y, z, 0)
+        !> mixed, SIMD pass: the list's rows as byte offsets (padded to blocks of 16), their starts,
         !> and the list they were formed from (its build count, atoms held and length; -1: none)
         integer, allocatable :: moffs(:)
         integer, allocatable :: mofirst(:)
@@ -157,7 +157,7 @@ module terrace_lj
             integer(c_int), intent(in) :: first(*), ofirst(*), offs(*)
             real(c_double), intent(in) :: coeffs(6)
         end function c_lj_mixed
-        !> src/potentials/lj_mixed_simd.c: 1 where this build has the AVX-512 mixed pass, else 0
+        !> src/potentials/lj_mixed_simd.c: 1 where this build has the AVX-512 mixed pass, 2 the AVX2 one, else 0
         pure integer(c_int) function c_lj_mixed_simd() bind(C, name='terrace_lj_mixed_simd')
             import :: c_int
         end function c_lj_mixed_simd
@@ -243,7 +243,8 @@ contains
             ', sigma(1,1) = ', self%sig11
         text = trim(s)//'; no density pass (pair potential)'
         if (self%mixed .and. c_lj_mixed_simd() /= 0) then
-            text = text//'; mixed precision (single-precision pairs and neighbour sums, AVX-512 pass; forces in double)'
+            text = text//'; mixed precision (single-precision pairs and neighbour sums, '// &
+                   trim(merge('AVX-512', 'AVX2   ', c_lj_mixed_simd() == 1))//' pass; forces in double)'
         else if (self%mixed) then
             text = text//'; mixed precision (single-precision pairs; the portable pass)'
         end if
@@ -265,8 +266,8 @@ contains
         lj_wants_clusters = self%mixed .and. self%cutmax > 0 .and. self%cutmax < cluster_cutoff_limit
     end function lj_wants_clusters
 
-    !> The mixed-precision pass with AVX-512 (lj_mixed_simd.c) reads a list with wrapped images: its
-    !> positions in fixed point on the box's periodic grid (one type, style 'lj').
+    !> The mixed-precision pass with AVX-512 or AVX2 (lj_mixed_simd.c) reads a list with wrapped
+    !> images: its positions in fixed point on the box's periodic grid (one type, style 'lj').
     pure logical function lj_wraps_images(self)
         class(lj_t), intent(in) :: self
         lj_wraps_images = self%mixed .and. self%ntypes == 1 .and. .not. self%smooth .and. c_lj_mixed_simd() /= 0

@@ -36,8 +36,12 @@
  * by the list, terrace_prune_wrapped), not in every block of every pass.
  * Per pair on the argon geometry: scripts/bench/lj_pass_floor.sh (its `mixed` row).
  *
+ * With AVX2 and FMA but no AVX-512 the row pass is lj_mixed_avx2.c's, eight pairs per block, and
+ * staging and finishing are plain loops (below).
+ *
  * Both entry points return 0 (nothing done: kernel_mixed's portable Fortran pass runs) where the
- * build has no AVX-512 (F, VL, DQ) and FMA, or the atoms are too many for 32-bit byte offsets. */
+ * build has neither AVX-512 (F, VL, DQ) nor AVX2, each with FMA, or the atoms are too many for
+ * 32-bit byte offsets. */
 #include <math.h>
 #include <stdint.h>
 #include "../core/fixed_point_rows.h"
@@ -65,7 +69,7 @@ static inline __attribute__((always_inline)) void store_n(const int n, char *bas
     }
 }
 
-/* the coefficients and constants of the pass */
+/* the coefficients and constants of the pass (pass_consts_of: from terrace_lj_mixed's k) */
 struct pass_consts {
     __m512 c1, c2, c3, c4, cs, co, ux, uy, uz, uxl, uyl, uzl, two;
 };
@@ -241,13 +245,65 @@ static void finish(int nlocal, int nall, const float *ff, double *f, double scal
 
 #endif
 
+#if defined(TERRACE_FIXED_ROWS8)
+/* AVX2 (lj_mixed_avx2.c): the row pass of eight lanes, k as terrace_lj_mixed forms it */
+void terrace_lj_mixed_rows8(int split, int nlocal, const int32_t *q, float *ff, const int *first, const int *ofirst,
+                            const int32_t *offs, const float *k, int want_energy, double escale, double *atom_e,
+                            double *w);
+
+/* stage above, one atom at a time */
+static float stage(int nall, const double *x, int32_t *q, float *ff)
+{
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, span = 0;
+    if (nall > 0)
+        for (int c = 0; c < 3; c++) lo[c] = hi[c] = x[c];
+    for (long i = 0; i < nall; i++)
+        for (int c = 0; c < 3; c++) {
+            lo[c] = x[3 * i + c] < lo[c] ? x[3 * i + c] : lo[c];
+            hi[c] = x[3 * i + c] > hi[c] ? x[3 * i + c] : hi[c];
+        }
+    for (int c = 0; c < 3; c++) span = hi[c] - lo[c] > span ? hi[c] - lo[c] : span;
+    int e;
+    (void)frexp(span, &e);                   /* span <= 2^e */
+    const double u = ldexp(1.0, e - 30), inv = 1.0 / u;
+    for (long i = 0; i < nall; i++) {
+        for (int c = 0; c < 3; c++) q[4 * i + c] = (int32_t)((x[3 * i + c] - lo[c]) * inv + 0.5);
+        q[4 * i + 3] = 0;
+        for (int c = 0; c < 4; c++) ff[4 * i + c] = 0;
+    }
+    for (int c = 0; c < 4; c++) q[4 * (long)nall + c] = 0;   /* the pad record (its lanes are masked) */
+    return (float)u;
+}
+
+/* finish above, one atom at a time */
+static void finish(int nlocal, int nall, const float *ff, double *f, double scale)
+{
+    double net[3] = {0, 0, 0};
+    for (long j = 0; j < nall; j++)
+        for (int k = 0; k < 3; k++) {
+            const double g = scale * (double)ff[4 * j + k];
+            f[3 * j + k] += g;
+            net[k] += g;
+        }
+    if (nlocal == 0) return;
+    for (int k = 0; k < 3; k++) net[k] /= nlocal;
+    for (long j = 0; j < nlocal; j++)
+        for (int k = 0; k < 3; k++) f[3 * j + k] -= net[k];
+}
+#endif
+
 #if defined(TERRACE_MIXED_SIMD)
-/* the row loop of the pass (split: the grid steps in two parts, separation) */
+/* the row loop of the pass (split: the grid steps in two parts, separation; k: terrace_lj_mixed's) */
 static inline __attribute__((always_inline)) void rows_pass(const int split, int nlocal, const int32_t *q, char *fb,
                                                             const int *first, const int *ofirst, const int32_t *offs,
-                                                            const struct pass_consts *k_, int want_energy,
-                                                            double escale, double *atom_e, double *w)
+                                                            const float *k, int want_energy, double escale,
+                                                            double *atom_e, double *w)
 {
+    const struct pass_consts kv = {
+        _mm512_set1_ps(k[0]), _mm512_set1_ps(k[1]), _mm512_set1_ps(k[2]), _mm512_set1_ps(k[3]),
+        _mm512_set1_ps(k[4]), _mm512_set1_ps(k[5]), _mm512_set1_ps(k[6]), _mm512_set1_ps(k[7]),
+        _mm512_set1_ps(k[8]), _mm512_set1_ps(k[9]), _mm512_set1_ps(k[10]), _mm512_set1_ps(k[11]), _mm512_set1_ps(2.0f)};
+    const struct pass_consts *k_ = &kv;
     const __m512 zero = _mm512_setzero_ps();
     const char *qb = (const char *)q;
     for (int i = 0; i < nlocal; i++) {
@@ -294,7 +350,7 @@ int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *
                      const int *ofirst, const int32_t *offs, const double *c, int want_energy, int wrapped,
                      const double *wrap, double *atom_e, double *virial)
 {
-#if defined(TERRACE_MIXED_SIMD)
+#if defined(TERRACE_MIXED_SIMD) || defined(TERRACE_FIXED_ROWS8)
     if (nall >= terrace_fixed_max_atoms) return 0;
     const int nrec = wrapped ? nlocal : nall;
     double lam = 1, u[3];
@@ -313,23 +369,24 @@ int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *
         u[0] = u[1] = u[2] = stage(nall, x, q, ff);
     }
     const double l6 = lam * lam * lam * lam * lam * lam;
-    float uh[3], ul[3];
+    /* the pass's constants in single: lj1..lj4, cutsq and offset in the unit 1/lam, the grid steps'
+     * high and low parts */
+    float k[12] = {(float)(c[0] * l6), (float)c[1], (float)(c[2] * l6), (float)c[3], (float)(c[4] * lam * lam),
+                   (float)(c[5] / l6)};
     for (int d = 0; d < 3; d++) {
-        uh[d] = (float)u[d];
-        ul[d] = (float)(u[d] - (double)uh[d]);
+        k[6 + d] = (float)u[d];
+        k[9 + d] = (float)(u[d] - (double)k[6 + d]);
     }
-    const struct pass_consts k_ = {
-        _mm512_set1_ps((float)(c[0] * l6)), _mm512_set1_ps((float)c[1]), _mm512_set1_ps((float)(c[2] * l6)),
-        _mm512_set1_ps((float)c[3]), _mm512_set1_ps((float)(c[4] * lam * lam)), _mm512_set1_ps((float)(c[5] / l6)),
-        _mm512_set1_ps(uh[0]), _mm512_set1_ps(uh[1]), _mm512_set1_ps(uh[2]),
-        _mm512_set1_ps(ul[0]), _mm512_set1_ps(ul[1]), _mm512_set1_ps(ul[2]), _mm512_set1_ps(2.0f)};
     double w = 0;
-    const double fscale = l6 * lam;
+#if defined(TERRACE_MIXED_SIMD)
     if (split)
-        rows_pass(1, nlocal, q, (char *)ff, first, ofirst, offs, &k_, want_energy, l6, atom_e, &w);
+        rows_pass(1, nlocal, q, (char *)ff, first, ofirst, offs, k, want_energy, l6, atom_e, &w);
     else
-        rows_pass(0, nlocal, q, (char *)ff, first, ofirst, offs, &k_, want_energy, l6, atom_e, &w);
-    finish(nlocal, nrec, ff, f, fscale);
+        rows_pass(0, nlocal, q, (char *)ff, first, ofirst, offs, k, want_energy, l6, atom_e, &w);
+#else
+    terrace_lj_mixed_rows8(split, nlocal, q, ff, first, ofirst, offs, k, want_energy, l6, atom_e, &w);
+#endif
+    finish(nlocal, nrec, ff, f, l6 * lam);
     if (want_energy) *virial += w;
     return 1;
 #else
@@ -339,11 +396,13 @@ int terrace_lj_mixed(int nlocal, int nall, const double *x, double *f, int32_t *
 #endif
 }
 
-/* 1 where this build has the pass (the scene planner's choice of list for the mixed kernel), else 0 */
+/* 1 where this build has the AVX-512 pass, 2 the AVX2 one (the scene planner's choice of list for the mixed kernel), else 0 */
 int terrace_lj_mixed_simd(void)
 {
 #if defined(TERRACE_MIXED_SIMD)
     return 1;
+#elif defined(TERRACE_FIXED_ROWS8)
+    return 2;
 #else
     return 0;
 #endif

@@ -78,6 +78,20 @@ static inline int store_kept4(int *out, __m128i j, int keep)
     return __builtin_popcount(keep);
 }
 
+/* store_kept4 for four doubles: the lanes of v whose bit is set in keep moved to the front in order
+ * (one permute of 32-bit halves looked up by keep) and all four stored at out (room for four) */
+static inline int store_kept4d(double *out, __m256d v, int keep)
+{
+    static const int halves_of[16][8] = {
+        {0, 0, 0, 0, 0, 0, 0, 0}, {0, 1, 0, 0, 0, 0, 0, 0}, {2, 3, 0, 0, 0, 0, 0, 0}, {0, 1, 2, 3, 0, 0, 0, 0},
+        {4, 5, 0, 0, 0, 0, 0, 0}, {0, 1, 4, 5, 0, 0, 0, 0}, {2, 3, 4, 5, 0, 0, 0, 0}, {0, 1, 2, 3, 4, 5, 0, 0},
+        {6, 7, 0, 0, 0, 0, 0, 0}, {0, 1, 6, 7, 0, 0, 0, 0}, {2, 3, 6, 7, 0, 0, 0, 0}, {0, 1, 2, 3, 6, 7, 0, 0},
+        {4, 5, 6, 7, 0, 0, 0, 0}, {0, 1, 4, 5, 6, 7, 0, 0}, {2, 3, 4, 5, 6, 7, 0, 0}, {0, 1, 2, 3, 4, 5, 6, 7}};
+    const __m256i p = _mm256_loadu_si256((const __m256i *)halves_of[keep]);
+    _mm256_storeu_pd(out, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(v), p)));
+    return __builtin_popcount(keep);
+}
+
 #if defined(__AVX512F__)
 /* four 16-byte halves, p q r t in the four lanes */
 static inline __m512d quarters(const double *p, const double *q, const double *r, const double *t)

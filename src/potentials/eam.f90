@@ -141,7 +141,7 @@ module terrace_eam
     end type density_pass_t
 
     interface
-        !> src/potentials/eam_simd.c: gather_inside with AVX-512 (-1: not in this build)
+        !> src/potentials/eam_simd.c: gather_inside with AVX-512 or AVX2 (-1: neither in this build)
         integer(c_int) function c_gather_inside(xi, yi, zi, x, neigh, nn, cutsq, cj, pp) &
             bind(C, name='terrace_eam_gather_inside')
             import :: c_int, c_double

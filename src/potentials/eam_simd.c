@@ -6,8 +6,10 @@
  * the same bits), the cutoff test as a mask, and the kept indices and distances written by
  * compressing stores (vpcompressd, vcompresspd). The Fortran loop is scalar: three loads, a
  * compaction whose count carries from one partner to the next (a fifth of an EAM run, perf).
- * Returns -1 (nothing done: the Fortran loop runs) where this build has no AVX-512 (AVX512F,
- * AVX512VL) and FMA. */
+ * With AVX2 and FMA four partners at a time, the compressing stores a shuffle and a permute looked
+ * up by the mask (core/simd_rows.h: store_kept4, store_kept4d; cj and pp need room for 4 entries
+ * past those kept). Returns -1 (nothing done: the Fortran loop runs) where this build has neither
+ * AVX-512 (AVX512F, AVX512VL) nor AVX2, each with FMA. */
 #include "../core/simd_rows.h"
 
 int terrace_eam_gather_inside(double xi, double yi, double zi, const double *x, const int *neigh, int nn, double cutsq,
@@ -28,6 +30,25 @@ int terrace_eam_gather_inside(double xi, double yi, double zi, const double *x, 
         _mm256_mask_compressstoreu_epi32(cj + n, keep, jj);
         _mm512_mask_compressstoreu_pd(pp + n, keep, rsq);
         n += __builtin_popcount(keep);
+    }
+    return n;
+#elif defined(__AVX2__) && defined(__FMA__)
+    static const double far_row[3] = {1.0e100, 1.0e100, 1.0e100};   /* the padding lanes' position */
+    const __m256d x0 = _mm256_set1_pd(xi), y0 = _mm256_set1_pd(yi), z0 = _mm256_set1_pd(zi);
+    const __m256d cs = _mm256_set1_pd(cutsq);
+    int n = 0;
+    for (int k = 0; k < nn; k += 4) {
+        const int cnt = nn - k < 4 ? nn - k : 4;
+        const double *q[4];
+        for (int l = 0; l < 4; l++) q[l] = l < cnt ? x + 3 * (long)(neigh[k + l] - 1) : far_row;
+        const __m128i jj = cnt == 4 ? _mm_loadu_si128((const __m128i *)(neigh + k)) : _mm_maskload_epi32(neigh + k, live4(cnt));
+        __m256d dx, dy, dz;
+        rows_xyz4(q, &dx, &dy, &dz);
+        dx = _mm256_sub_pd(x0, dx); dy = _mm256_sub_pd(y0, dy); dz = _mm256_sub_pd(z0, dz);
+        const __m256d rsq = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dx, dx, _mm256_mul_pd(dy, dy)));
+        const int keep = _mm256_movemask_pd(_mm256_cmp_pd(rsq, cs, _CMP_LT_OQ));   /* (padding: 1e100 away) */
+        store_kept4d(pp + n, rsq, keep);
+        n += store_kept4(cj + n, jj, keep);
     }
     return n;
 #else

@@ -34,7 +34,7 @@ sed -e 's|__m512d r2inv = _mm512_div_pd(one, _mm512_mask_blend_pd(in, inf, rsq))
 [[ $(grep -c '_rcp14_pd(rsq)' "$work/potentials/rcp14.c") == 2 ]] || { echo "lj_pass_floor: could not replace the divisions in $src" >&2; exit 1; }
 for v in as_is no_j_forces rcp14; do
     gcc -O3 -march=native -funroll-loops -o "$work/$v" "$here/lj_pass_floor.c" "$work/potentials/$v.c" \
-        "$repo/src/potentials/lj_mixed_simd.c" -lm
+        "$repo/src/potentials/lj_mixed_simd.c" "$repo/src/potentials/lj_mixed_avx2.c" -lm
 done
 echo "LJ force pass alone, argon geometry; $(date -u '+%Y-%m-%d %H:%M UTC'); commit $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)"
 echo "machine: $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), model $(sed -n 's/^model[[:space:]]*: //p' /proc/cpuinfo | head -1), load $(cut -d' ' -f1-3 /proc/loadavg)"

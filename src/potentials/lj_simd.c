@@ -107,9 +107,9 @@ void terrace_ray_rows(int i, const double *xv, const int *nbrs, int nn, double *
  * leaves the registers but the forces. With want_energy the pair energies are summed per atom into
  * atom_e[i] and the virial into *virial. The entry points (terrace_lj_one_type, terrace_lj_types,
  * at the end) return 0 (nothing done: the caller's Fortran kernel runs) where this build has no
- * AVX-512 (AVX512F, AVX512VL) and FMA; with AVX2 and FMA only, the one-type entry runs lj_pass4,
- * the same pass four pairs at a time (the argon job's Pair 0.78 of the Fortran kernel's on an AMD
- * EPYC, doc/performance.md).
+ * AVX-512 (AVX512F, AVX512VL) and FMA; with AVX2 and FMA only, both run lj_pass4, the same pass
+ * four pairs at a time (the argon job's Pair 0.78 of the Fortran kernel's on an AMD EPYC,
+ * doc/performance.md).
  *
  * lj_pass: the pass for one type (multi = 0: the coefficients lj1[0] ... broadcast) or for up to
  * eight types (multi = 1: the coefficient tables of struct terrace_lj_tables, column-major with a
@@ -273,26 +273,70 @@ static inline __attribute__((always_inline)) void lj_pass(const int multi, int n
 #endif
 
 #if defined(__AVX2__) && defined(__FMA__) && !(defined(__AVX512F__) && defined(__AVX512VL__))
-/* The one-type pass with AVX2 and FMA but no AVX-512: lj_pass's operations four pairs at a time in
- * 256-bit registers (pair_terms4, as tail4). */
-static void lj_pass4(int nlocal, const double *x, double *f, const int *first, const int *neigh, double lj1,
-                     double lj2, double lj3, double lj4, double cutsq, double offset, int want_energy, double *atom_e,
-                     double *virial)
+/* The lanes' coefficients from a table column of up to eight doubles, lo (types 1-4) and hi (5-8):
+ * idx the 32-bit halves' indices of each lane's type within its four (2 t, 2 t + 1, t = type - 1
+ * mod 4), upper the lanes of types 5-8 (all ones; only where half) */
+static inline __attribute__((always_inline)) __m256d column4(const int half, __m256i idx, __m256i upper, __m256d lo,
+                                                             __m256d hi)
 {
-    const __m256d c1 = _mm256_set1_pd(lj1), c2 = _mm256_set1_pd(lj2), c3 = _mm256_set1_pd(lj3);
-    const __m256d c4 = _mm256_set1_pd(lj4), cs = _mm256_set1_pd(cutsq), co = _mm256_set1_pd(offset);
+    const __m256d a = _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(lo), idx));
+    if (!half) return a;
+    return _mm256_blendv_pd(a, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(hi), idx)),
+                            _mm256_castsi256_pd(upper));
+}
+
+/* The pass with AVX2 and FMA but no AVX-512: lj_pass's operations four pairs at a time in 256-bit
+ * registers (pair_terms4, as tail4). multi = 1: 2 to 8 types (lj_pass's tables; per atom i its
+ * type's column in registers, per block each lane's coefficients by a permute of 32-bit halves,
+ * vpermps, and with more than four types a blend of two); multi = 0: one type, lj1..offset[0]. */
+static inline __attribute__((always_inline)) void lj_pass4(const int multi, int nlocal, const double *x, double *f,
+                                                           const int *first, const int *neigh, const int *type,
+                                                           const int *ntype, int ntypes, const double *lj1,
+                                                           const double *lj2, const double *lj3, const double *lj4,
+                                                           const double *cutsq, const double *offset,
+                                                           int want_energy, double *atom_e, double *virial)
+{
+    __m256d c1 = _mm256_set1_pd(lj1[0]), c2 = _mm256_set1_pd(lj2[0]), c3 = _mm256_set1_pd(lj3[0]);
+    __m256d c4 = _mm256_set1_pd(lj4[0]), cs = _mm256_set1_pd(cutsq[0]), co = _mm256_set1_pd(offset[0]);
     const __m256d zero = _mm256_setzero_pd();
     static const double far_row[3] = {1.0e100, 1.0e100, 1.0e100};  /* the padding lanes' position */
     double spill[3] = {0, 0, 0};                                     /* and their forces (discarded) */
+    const int half = ntypes > 4;
+    __m256d t1[2] = {zero, zero}, t2[2] = {zero, zero}, t3[2] = {zero, zero}, t4[2] = {zero, zero};
+    __m256d ts[2] = {zero, zero}, to[2] = {zero, zero};
     __m256d wsum = zero;
     for (int i = 0; i < nlocal; i++) {
         const int k0 = first[i] - 1, nn = first[i + 1] - first[i];
         const double *a = x + 3 * (long)i;
         const __m256d xi = _mm256_set1_pd(a[0]), yi = _mm256_set1_pd(a[1]), zi = _mm256_set1_pd(a[2]);
+        if (multi) {      /* column type(i) of each table (eight entries: the tables hold 64) */
+            const long col = (long)(type[i] - 1) * 8;
+            for (int h = 0; h < 2; h++) {
+                t1[h] = _mm256_loadu_pd(lj1 + col + 4 * h); t2[h] = _mm256_loadu_pd(lj2 + col + 4 * h);
+                ts[h] = _mm256_loadu_pd(cutsq + col + 4 * h);
+                if (want_energy) {
+                    t3[h] = _mm256_loadu_pd(lj3 + col + 4 * h); t4[h] = _mm256_loadu_pd(lj4 + col + 4 * h);
+                    to[h] = _mm256_loadu_pd(offset + col + 4 * h);
+                }
+            }
+        }
         __m256d sx = zero, sy = zero, sz = zero, se = zero;
         for (int k = 0; k < nn; k += 4) {
             const int cnt = nn - k < 4 ? nn - k : 4;
             const int *nb = neigh + k0 + k;
+            if (multi) {  /* each lane's coefficients (ntype: valid past the row; padding lanes lie 1e100 away) */
+                const __m256i t = _mm256_cvtepi32_epi64(
+                    _mm_sub_epi32(_mm_loadu_si128((const __m128i *)(ntype + k0 + k)), _mm_set1_epi32(1)));
+                const __m256i lo = _mm256_slli_epi64(t, 1);   /* (vpermps reads the low three bits: t mod 4) */
+                const __m256i idx = _mm256_or_si256(lo, _mm256_slli_epi64(_mm256_add_epi64(lo, _mm256_set1_epi64x(1)), 32));
+                const __m256i upper = _mm256_cmpgt_epi64(t, _mm256_set1_epi64x(3));
+                c1 = column4(half, idx, upper, t1[0], t1[1]); c2 = column4(half, idx, upper, t2[0], t2[1]);
+                cs = column4(half, idx, upper, ts[0], ts[1]);
+                if (want_energy) {
+                    c3 = column4(half, idx, upper, t3[0], t3[1]); c4 = column4(half, idx, upper, t4[0], t4[1]);
+                    co = column4(half, idx, upper, to[0], to[1]);
+                }
+            }
             const double *q[4];
             double *qf[4];
             rows4(x, f, nb, cnt, far_row, spill, q, qf);
@@ -323,7 +367,8 @@ int terrace_lj_one_type(int nlocal, const double *x, double *f, const int *first
             virial);
     return 1;
 #elif defined(__AVX2__) && defined(__FMA__)
-    lj_pass4(nlocal, x, f, first, neigh, lj1, lj2, lj3, lj4, cutsq, offset, want_energy, atom_e, virial);
+    lj_pass4(0, nlocal, x, f, first, neigh, 0, 0, 1, &lj1, &lj2, &lj3, &lj4, &cutsq, &offset, want_energy, atom_e,
+             virial);
     return 1;
 #else
     (void)nlocal; (void)x; (void)f; (void)first; (void)neigh; (void)lj1; (void)lj2; (void)lj3; (void)lj4;
@@ -335,7 +380,7 @@ int terrace_lj_one_type(int nlocal, const double *x, double *f, const int *first
 /* The same pass for 2 to 8 atom types (style 'lj', not smooth): type(nlocal) the owned atoms' types,
  * ntype the list's neighbour types (list%ntype: eight valid entries past the last row), t the six
  * coefficient tables and the type count. Returns 0 (nothing done: the Fortran kernel runs)
- * where this build has no AVX-512 or ntypes is outside 2..8. */
+ * where this build has neither AVX-512 nor AVX2 (each with FMA) or ntypes is outside 2..8. */
 int terrace_lj_types(int nlocal, const double *x, double *f, const int *first, const int *neigh, const int *type,
                      const int *ntype, const struct terrace_lj_tables *t, int want_energy, double *atom_e,
                      double *virial)
@@ -344,6 +389,11 @@ int terrace_lj_types(int nlocal, const double *x, double *f, const int *first, c
     if (t->ntypes < 2 || t->ntypes > 8) return 0;
     lj_pass(1, nlocal, x, f, first, neigh, type, ntype, t->ntypes, t->lj1, t->lj2, t->lj3, t->lj4, t->cutsq, t->offset,
             want_energy, atom_e, virial);
+    return 1;
+#elif defined(__AVX2__) && defined(__FMA__)
+    if (t->ntypes < 2 || t->ntypes > 8) return 0;
+    lj_pass4(1, nlocal, x, f, first, neigh, type, ntype, t->ntypes, t->lj1, t->lj2, t->lj3, t->lj4, t->cutsq,
+             t->offset, want_energy, atom_e, virial);
     return 1;
 #else
     (void)nlocal; (void)x; (void)f; (void)first; (void)neigh; (void)type; (void)ntype; (void)t; (void)want_energy;

@@ -29,18 +29,12 @@ int terrace_prune_compress(double xi, double yi, double zi, const double *x, con
     }
     return n;
 #elif defined(__AVX2__)
-    static const double far_row[3] = {1.0e100, 1.0e100, 1.0e100};   /* the padding lanes' position */
     const __m256d x0 = _mm256_set1_pd(xi), y0 = _mm256_set1_pd(yi), z0 = _mm256_set1_pd(zi);
     const __m256d cs = _mm256_set1_pd(cutsq);
     int n = 0;
     for (int k = k1 - 1; k < k2; k += 4) {
-        const int cnt = k2 - k < 4 ? k2 - k : 4;
-        const double *q[4];
-        for (int l = 0; l < 4; l++) q[l] = l < cnt ? x + 3 * (long)(nb[k + l] - 1) : far_row;
-        const __m128i j = cnt == 4 ? _mm_loadu_si128((const __m128i *)(nb + k)) : _mm_maskload_epi32(nb + k, live4(cnt));
         __m256d dx, dy, dz;
-        rows_xyz4(q, &dx, &dy, &dz);
-        dx = _mm256_sub_pd(x0, dx); dy = _mm256_sub_pd(y0, dy); dz = _mm256_sub_pd(z0, dz);
+        const __m128i j = separations4(x, nb + k, k2 - k < 4 ? k2 - k : 4, x0, y0, z0, &dx, &dy, &dz);
         const __m256d rsq = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
         /* (the padding lanes lie 1e100 away) */
         n += store_kept4(out + n, j, _mm256_movemask_pd(_mm256_cmp_pd(rsq, cs, _CMP_LT_OQ)));

@@ -33,18 +33,12 @@ int terrace_eam_gather_inside(double xi, double yi, double zi, const double *x, 
     }
     return n;
 #elif defined(__AVX2__) && defined(__FMA__)
-    static const double far_row[3] = {1.0e100, 1.0e100, 1.0e100};   /* the padding lanes' position */
     const __m256d x0 = _mm256_set1_pd(xi), y0 = _mm256_set1_pd(yi), z0 = _mm256_set1_pd(zi);
     const __m256d cs = _mm256_set1_pd(cutsq);
     int n = 0;
     for (int k = 0; k < nn; k += 4) {
-        const int cnt = nn - k < 4 ? nn - k : 4;
-        const double *q[4];
-        for (int l = 0; l < 4; l++) q[l] = l < cnt ? x + 3 * (long)(neigh[k + l] - 1) : far_row;
-        const __m128i jj = cnt == 4 ? _mm_loadu_si128((const __m128i *)(neigh + k)) : _mm_maskload_epi32(neigh + k, live4(cnt));
         __m256d dx, dy, dz;
-        rows_xyz4(q, &dx, &dy, &dz);
-        dx = _mm256_sub_pd(x0, dx); dy = _mm256_sub_pd(y0, dy); dz = _mm256_sub_pd(z0, dz);
+        const __m128i jj = separations4(x, neigh + k, nn - k < 4 ? nn - k : 4, x0, y0, z0, &dx, &dy, &dz);
         const __m256d rsq = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dx, dx, _mm256_mul_pd(dy, dy)));
         const int keep = _mm256_movemask_pd(_mm256_cmp_pd(rsq, cs, _CMP_LT_OQ));   /* (padding: 1e100 away) */
         store_kept4d(pp + n, rsq, keep);

@@ -140,6 +140,34 @@ static inline double sum_double(__m512 v)
 }
 #endif
 
+#if defined(TERRACE_MIXED_SIMD) || defined(TERRACE_FIXED_ROWS8)
+/* stage's bounds: lo and hi (the components' smallest and largest so far) over the flat x[t0..nflat-1]
+ * (component t mod 3), and 1 / u, u the power of two at or above 2^-30 of the largest extent */
+static double stage_bounds(long t0, long nflat, const double *x, double *lo, double *hi)
+{
+    double span = 0;
+    for (long t = t0; t < nflat; t++) {
+        lo[t % 3] = x[t] < lo[t % 3] ? x[t] : lo[t % 3];
+        hi[t % 3] = x[t] > hi[t % 3] ? x[t] : hi[t % 3];
+    }
+    for (int c = 0; c < 3; c++) span = hi[c] - lo[c] > span ? hi[c] - lo[c] : span;
+    int e;
+    (void)frexp(span, &e);                   /* span <= 2^e */
+    return 1.0 / ldexp(1.0, e - 30);
+}
+
+/* stage's records of atoms i0..nall-1, one at a time, and the pad record after them */
+static void stage_rest(long i0, int nall, const double *x, const double *lo, double inv, int32_t *q, float *ff)
+{
+    for (long i = i0; i < nall; i++) {
+        for (int c = 0; c < 3; c++) q[4 * i + c] = (int32_t)((x[3 * i + c] - lo[c]) * inv + 0.5);
+        q[4 * i + 3] = 0;
+        for (int c = 0; c < 4; c++) ff[4 * i + c] = 0;
+    }
+    for (int c = 0; c < 4; c++) q[4 * (long)nall + c] = 0;   /* the pad record (its lanes are masked) */
+}
+#endif
+
 #if defined(TERRACE_MIXED_SIMD)
 /* The records of the nall atoms: q (fixed-point positions) and ff = 0, and q's pad record after
  * them; returns the unit u. Vectorised: the smallest and largest coordinates over the flat x in
@@ -148,7 +176,7 @@ static inline double sum_double(__m512 v)
  * (x, y, z, 0, x, y, z, 0). */
 static float stage(int nall, const double *x, int32_t *q, float *ff)
 {
-    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, span = 0;
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
     if (nall > 0)
         for (int c = 0; c < 3; c++) lo[c] = hi[c] = x[c];
     const long nflat = 3 * (long)nall;
@@ -172,14 +200,7 @@ static float stage(int nall, const double *x, int32_t *q, float *ff)
             hi[l % 3] = b[l] > hi[l % 3] ? b[l] : hi[l % 3];
         }
     }
-    for (; t < nflat; t++) {
-        lo[t % 3] = x[t] < lo[t % 3] ? x[t] : lo[t % 3];
-        hi[t % 3] = x[t] > hi[t % 3] ? x[t] : hi[t % 3];
-    }
-    for (int c = 0; c < 3; c++) span = hi[c] - lo[c] > span ? hi[c] - lo[c] : span;
-    int e;
-    (void)frexp(span, &e);                   /* span <= 2^e */
-    const double u = ldexp(1.0, e - 30), inv = 1.0 / u;
+    const double inv = stage_bounds(t, nflat, x, lo, hi);
     /* q = (x - lo) / u + 1/2, truncated: in [0, 2^30], rounded to nearest */
     const __m512d vlo = _mm512_setr_pd(lo[0], lo[1], lo[2], 0, lo[0], lo[1], lo[2], 0);
     const __m512d vinv = _mm512_set1_pd(inv), half = _mm512_setr_pd(0.5, 0.5, 0.5, 0, 0.5, 0.5, 0.5, 0);
@@ -192,13 +213,8 @@ static float stage(int nall, const double *x, int32_t *q, float *ff)
                             _mm512_cvttpd_epi32(_mm512_fmadd_pd(_mm512_sub_pd(v, vlo), vinv, half)));
         _mm256_storeu_ps(ff + 4 * i, zero);
     }
-    for (; i < nall; i++) {
-        for (int c = 0; c < 3; c++) q[4 * i + c] = (int32_t)((x[3 * i + c] - lo[c]) * inv + 0.5);
-        q[4 * i + 3] = 0;
-        for (int c = 0; c < 4; c++) ff[4 * i + c] = 0;
-    }
-    for (int c = 0; c < 4; c++) q[4 * (long)nall + c] = 0;   /* the pad record (its lanes are masked) */
-    return (float)u;
+    stage_rest(i, nall, x, lo, inv, q, ff);
+    return (float)(1.0 / inv);
 }
 
 /* f += scale ff for the nall records' atoms, and f -= net / nlocal for the owned ones, where net is
@@ -254,25 +270,12 @@ void terrace_lj_mixed_rows8(int split, int nlocal, const int32_t *q, float *ff, 
 /* stage above, one atom at a time */
 static float stage(int nall, const double *x, int32_t *q, float *ff)
 {
-    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, span = 0;
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
     if (nall > 0)
         for (int c = 0; c < 3; c++) lo[c] = hi[c] = x[c];
-    for (long i = 0; i < nall; i++)
-        for (int c = 0; c < 3; c++) {
-            lo[c] = x[3 * i + c] < lo[c] ? x[3 * i + c] : lo[c];
-            hi[c] = x[3 * i + c] > hi[c] ? x[3 * i + c] : hi[c];
-        }
-    for (int c = 0; c < 3; c++) span = hi[c] - lo[c] > span ? hi[c] - lo[c] : span;
-    int e;
-    (void)frexp(span, &e);                   /* span <= 2^e */
-    const double u = ldexp(1.0, e - 30), inv = 1.0 / u;
-    for (long i = 0; i < nall; i++) {
-        for (int c = 0; c < 3; c++) q[4 * i + c] = (int32_t)((x[3 * i + c] - lo[c]) * inv + 0.5);
-        q[4 * i + 3] = 0;
-        for (int c = 0; c < 4; c++) ff[4 * i + c] = 0;
-    }
-    for (int c = 0; c < 4; c++) q[4 * (long)nall + c] = 0;   /* the pad record (its lanes are masked) */
-    return (float)u;
+    const double inv = stage_bounds(0, 3 * (long)nall, x, lo, hi);
+    stage_rest(0, nall, x, lo, inv, q, ff);
+    return (float)(1.0 / inv);
 }
 
 /* finish above, one atom at a time */

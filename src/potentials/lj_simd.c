@@ -149,12 +149,14 @@ static inline __attribute__((always_inline)) void pair_terms4(__m256d dx, __m256
 
 /* The position and force rows of neighbours nb[0..cnt-1] (1-based; cnt <= 4), the padding lanes'
  * at far_row and spill. */
-static inline void rows4(const double *x, double *f, const int *nb, int cnt, const double *far_row, double *spill,
-                         const double **q, double **qf)
+static inline __attribute__((always_inline)) void rows4(const double *x, double *f, const int *nb, int cnt,
+                                                        const double *far_row, double *spill, const double **q,
+                                                        double **qf)
 {
     for (int l = 0; l < 4; l++) {
-        q[l] = l < cnt ? x + 3 * (long)(nb[l] - 1) : far_row;
-        qf[l] = l < cnt ? f + 3 * (long)(nb[l] - 1) : spill;
+        const long o = l < cnt ? 3 * (long)nb[l] - 3 : 0;   /* (one offset for both rows; none read past cnt) */
+        q[l] = l < cnt ? x + o : far_row;
+        qf[l] = l < cnt ? f + o : spill;
     }
 }
 #endif
@@ -339,7 +341,10 @@ static inline __attribute__((always_inline)) void lj_pass4(const int multi, int 
             }
             const double *q[4];
             double *qf[4];
-            rows4(x, f, nb, cnt, far_row, spill, q, qf);
+            if (cnt == 4)   /* (a whole block: no padding lanes to select) */
+                rows4(x, f, nb, 4, far_row, spill, q, qf);
+            else
+                rows4(x, f, nb, cnt, far_row, spill, q, qf);
             __m256d dx, dy, dz;
             rows_xyz4(q, &dx, &dy, &dz);
             dx = _mm256_sub_pd(xi, dx); dy = _mm256_sub_pd(yi, dy); dz = _mm256_sub_pd(zi, dz);

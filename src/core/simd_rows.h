@@ -81,12 +81,13 @@ static inline int store_kept4(int *out, __m128i j, int keep)
 /* the separations d = c - x_j of up to four neighbours nb[0..cnt-1] (1-based indices into x(3, *))
  * from the centre c, one vector per component (the lanes from cnt on: a row 1e100 away), and the
  * neighbours' indices (lanes from cnt on: zero) */
-static inline __m128i separations4(const double *x, const int *nb, int cnt, __m256d cx, __m256d cy, __m256d cz,
-                                   __m256d *dx, __m256d *dy, __m256d *dz)
+static inline __attribute__((always_inline)) __m128i separations4(const double *x, const int *nb, int cnt, __m256d cx,
+                                                                  __m256d cy, __m256d cz, __m256d *dx, __m256d *dy,
+                                                                  __m256d *dz)
 {
     static const double far_row[3] = {1.0e100, 1.0e100, 1.0e100};
     const double *q[4];
-    for (int l = 0; l < 4; l++) q[l] = l < cnt ? x + 3 * (long)(nb[l] - 1) : far_row;
+    for (int l = 0; l < 4; l++) q[l] = l < cnt ? x + (3 * (long)nb[l] - 3) : far_row;
     rows_xyz4(q, dx, dy, dz);
     *dx = _mm256_sub_pd(cx, *dx);
     *dy = _mm256_sub_pd(cy, *dy);

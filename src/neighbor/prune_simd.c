@@ -34,7 +34,8 @@ int terrace_prune_compress(double xi, double yi, double zi, const double *x, con
     int n = 0;
     for (int k = k1 - 1; k < k2; k += 4) {
         __m256d dx, dy, dz;
-        const __m128i j = separations4(x, nb + k, k2 - k < 4 ? k2 - k : 4, x0, y0, z0, &dx, &dy, &dz);
+        const __m128i j = k2 - k >= 4 ? separations4(x, nb + k, 4, x0, y0, z0, &dx, &dy, &dz)   /* (whole: no selects) */
+                                      : separations4(x, nb + k, k2 - k, x0, y0, z0, &dx, &dy, &dz);
         const __m256d rsq = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
         /* (the padding lanes lie 1e100 away) */
         n += store_kept4(out + n, j, _mm256_movemask_pd(_mm256_cmp_pd(rsq, cs, _CMP_LT_OQ)));

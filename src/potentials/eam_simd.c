@@ -38,7 +38,8 @@ int terrace_eam_gather_inside(double xi, double yi, double zi, const double *x, 
     int n = 0;
     for (int k = 0; k < nn; k += 4) {
         __m256d dx, dy, dz;
-        const __m128i jj = separations4(x, neigh + k, nn - k < 4 ? nn - k : 4, x0, y0, z0, &dx, &dy, &dz);
+        const __m128i jj = nn - k >= 4 ? separations4(x, neigh + k, 4, x0, y0, z0, &dx, &dy, &dz)   /* (whole: no selects) */
+                                       : separations4(x, neigh + k, nn - k, x0, y0, z0, &dx, &dy, &dz);
         const __m256d rsq = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dx, dx, _mm256_mul_pd(dy, dy)));
         const int keep = _mm256_movemask_pd(_mm256_cmp_pd(rsq, cs, _CMP_LT_OQ));   /* (padding: 1e100 away) */
         store_kept4d(pp + n, rsq, keep);

@@ -69,7 +69,7 @@ static inline __attribute__((always_inline)) void store_n(const int n, char *bas
     }
 }
 
-/* the coefficients and constants of the pass (pass_consts_of: from terrace_lj_mixed's k) */
+/* the coefficients and constants of the pass (rows_pass forms them from terrace_lj_mixed's k) */
 struct pass_consts {
     __m512 c1, c2, c3, c4, cs, co, ux, uy, uz, uxl, uyl, uzl, two;
 };

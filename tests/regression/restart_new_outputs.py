@@ -13,8 +13,9 @@ checkpoints (restart.h5). The test:
      thermo.csv and traj.h5 left byte for byte as they were;
   4. restarts with restart_outputs = 'new' and walltime_limit = 1e-6: exit status 3, a new
      checkpoint, the run writing thermo.part2.csv and traj.part2.h5;
-  5. restarts from that checkpoint without restart_outputs: it appends to the part-2 files
-     (output_part in the checkpoint) and finishes.
+  5. gives traj.part2.h5's position one frame more than its velocity (a kill between the two
+     elements' writes of a frame) and restarts from that checkpoint without restart_outputs: it
+     appends to the part-2 files (output_part in the checkpoint) and finishes.
 Then final.txt must equal the reference byte for byte, thermo.part2.csv must be the reference's
 header and its lines after step S, every time series of traj.part2.h5 (step, time, value) the
 reference's frames after step S exactly, and the damaged files must be untouched.
@@ -106,6 +107,15 @@ def main():
              + str(summary.get(os.path.join(wd, "new.summary.part2.json"), "outputs")))
     if s2 < s:
         fail(f"the second checkpoint (step {s2}) lies before the first (step {s})")
+    # a kill between two elements' writes of a frame past the checkpoint: position holds one frame
+    # more than velocity; the appending restart cuts both back to the checkpoint's frames
+    with h5py.File(os.path.join(wd, "traj.part2.h5"), "r+") as f:
+        pos = f["particles/all/position/value"]
+        nf = pos.shape[0]
+        if f["particles/all/velocity/value"].shape[0] != nf:
+            fail("traj.part2.h5: position and velocity already hold different numbers of frames")
+        pos.resize(nf + 1, axis=0)
+        pos[nf] = np.full(pos.shape[1:], 1.0e30)
     run(terrace, np_, "append", wd, 0)       # appends to the part-2 files (the checkpoint's output_part)
 
     for n, b in before.items():
@@ -133,7 +143,8 @@ def main():
         fail(f"the reference has no frame after step {s}: nothing was compared")
     print(f"PASS restart_outputs on {np_} rank(s): checkpoints at steps {s} and {s2}; the damaged traj.h5 "
           f"stopped the appending restart with a pointer to restart_outputs; 'new' then went on in "
-          f"thermo.part2.csv and traj.part2.h5, continued by a second restart: {len(want) - 1} thermo lines and "
+          f"thermo.part2.csv and traj.part2.h5, continued by a second restart (over a frame that only one element "
+          f"held): {len(want) - 1} thermo lines and "
           f"{frames} frames equal to the uninterrupted run's after step {s}, final state byte for byte")
 
 

@@ -29,7 +29,7 @@
 !> the same order), so that every rank count gives the same results; rank 0 writes the thermo
 !> CSV, and each rank writes its own atoms' rows of a trajectory frame.
 module terrace_event_driven
-    use, intrinsic :: iso_c_binding, only: c_double
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
     use terrace_kinds, only: dp, i8
     use terrace_text, only: int_text, real_text
     use terrace_engine, only: engine_t
@@ -122,6 +122,17 @@ module terrace_event_driven
             import :: c_double
             real(c_double), intent(in) :: x
         end subroutine prefetch
+        !> The candidates of cand(1:m) that may give atom i an event sooner than best, in order, into
+        !> kept (room for m + 4); returns their count (event_filter.c).
+        integer(c_int) function event_filter(pk, i, cand, m, t, xi, vi, length, inv_len, r2far, best, kept) &
+            bind(C, name='terrace_event_filter')
+            import :: c_double, c_int
+            real(c_double), intent(in) :: pk(8, *), xi(3), vi(3), length(3), inv_len(3)
+            integer(c_int), value :: i, m
+            integer(c_int), intent(in) :: cand(*)
+            real(c_double), value :: t, r2far, best
+            integer(c_int), intent(out) :: kept(*)
+        end function event_filter
     end interface
 
 contains
@@ -601,17 +612,23 @@ contains
         real(dp), intent(out) :: best
         integer, intent(out) :: best_j, best_code
         integer, parameter :: chunk = 128
-        real(dp) :: xi(3), dx(3), dv(3), dt, b, rsq
-        integer :: nb(27), c, j, jn, k, m, dir, s, ti, tj, nr, cand(chunk)
+        real(dp) :: xi(3), dx(3), dv(3), dt, b, rsq, r2far
+        integer :: nb(27), c, j, jn, k, m, dir, s, ti, tj, nr, cand(chunk + 4), kept(chunk + 4), nk
         xi = pk(1:3, i) + pk(5:7, i)*(t - pk(4, i))
         call cells%crossing(i, xi, pk(5:7, i), best, dir)
         best_j = 0; best_code = dir
         call neighbour_cells(cells, i, nb)
         ti = int(pk(8, i))
+        r2far = 0
+        do tj = 1, tab%ntypes
+            r2far = max(r2far, tab%r2(1, ti, tj))
+        end do
         ! The atoms of the 27 cells are listed first (list heads and links: loads that do not wait
         ! on the pair arithmetic), up to chunk at a time, each listed atom's record prefetched, then
-        ! searched in the same order: the records' cache misses (one per neighbour at 10^6 atoms)
-        ! overlap instead of each waiting on the search of the one before.
+        ! filtered (event_filter.c: those that provably cannot come before best, the cell
+        ! crossing, dropped; typically three in four) and the rest searched in the same order:
+        ! the records' cache misses (one per neighbour at 10^6 atoms) overlap instead of each
+        ! waiting on the search of the one before.
         c = 0; jn = 0                    ! (jn: the next atom to list)
         do
             m = 0
@@ -626,8 +643,9 @@ contains
                 call prefetch(pk(1, jn))
                 jn = cells%nxt(jn)
             end do
-            do k = 1, m
-                j = cand(k)
+            nk = event_filter(pk, i, cand, m, t, xi, pk(5:7, i), length, inv_len, r2far, best, kept)
+            do k = 1, nk
+                j = kept(k)
                 if (j == i) cycle
                 dx = xi - (pk(1:3, j) + pk(5:7, j)*(t - pk(4, j)))
                 dx = dx - length*nearest_image(dx*inv_len)

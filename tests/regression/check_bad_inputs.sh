@@ -17,7 +17,8 @@
 #   NPROCS 1 runs the binary directly (singleton MPI); any other N runs `mpirun -np N`.
 #   Environment: MPIRUN (default mpirun), MPIRUN_FLAGS (default --oversubscribe),
 #   CASE_TIMEOUT (seconds, default 60), ONLY (run only the cases whose name matches this regex).
-# Output: one line per case and rank count (ok / FAIL with the reason), then `N passed, M failed`.
+# Output: one line per case and rank count (ok / FAIL with the reason; the case's wall time in
+# brackets), then `N passed, M failed`.
 # Exit status: 0 when all passed, 1 otherwise, 2 on bad usage.
 #
 # Open MPI prints its own boxes (lines between two rows of dashes) when a rank exits non-zero or
@@ -149,10 +150,13 @@ done
 check_case() { # name np want_rc subs args...
     local name=$1 np=$2 want_rc=$3 f_subs=$4
     shift 4
+    local t0 t1
+    t0=$(date +%s%N)
     run_case "$name" "$np" "$@"
+    t1=$(date +%s%N)
+    note=" [$(( (t1 - t0) / 1000000 )) ms]"
     left=$(new_files)
-    note=''
-    grep -q 'MPI_ABORT' "$err" && note=' (MPI_Abort)'
+    grep -q 'MPI_ABORT' "$err" && note=' (MPI_Abort)'"$note"
     errors=$(filtered_stderr "$err" | grep -c '^terrace: error')
     msg=$(filtered_stderr "$err" | grep -m 1 '^terrace: error')
     extra=$(filtered_stderr "$err" | grep -v -e '^terrace: error' -e '^terrace: warning' | head -n 1)

@@ -78,7 +78,7 @@ module terrace_lj
         real(dp), allocatable :: atom_sums(:, :)
         !> ray pass: (x + s v, v) of every atom, owned and ghost, side by side (one gather per neighbour)
         real(dp), allocatable :: xv(:, :)
-        real(dp), allocatable :: ray_soa(:)      !< all-pairs passes: six rows of nall + 4 (lj_all_pairs_simd.c)
+        real(dp), allocatable :: ray_soa(:)      !< all-pairs passes: six rows of nall + 4 (lj_ray_all_pairs.c)
         logical :: mixed = .false.               !< single-precision pair arithmetic (one type, 'lj', half list)
         real(sp), allocatable :: xs(:, :)        !< mixed: positions as (hi, 0, lo, 0) singles, 8 per atom
         real(dp), allocatable :: fd(:, :)        !< mixed: per-atom force records (x, y, z, 0)
@@ -117,7 +117,7 @@ module terrace_lj
     real(dp), parameter :: pad_far = 1.0e100_dp
 
     interface
-        !> The all-pairs ray pass of one type (lj_all_pairs_simd.c): c = (lj1, lj2, lj3, lj4, cutsq,
+        !> The all-pairs ray pass of one type (lj_ray_all_pairs.c): c = (lj1, lj2, lj3, lj4, cutsq,
         !> offset); soa: scratch of 6 (nall + 4) doubles.
         subroutine c_ray_all_pairs(nlocal, nall, x, v, s, c, soa, out) bind(C, name='terrace_ray_all_pairs')
             import :: c_int, c_double
@@ -127,15 +127,6 @@ module terrace_lj
             real(c_double), intent(inout) :: soa(*)
             real(c_double), intent(out) :: out(4)
         end subroutine c_ray_all_pairs
-        !> The all-pairs force pass of one type (lj_all_pairs_simd.c): forces added to f (owned
-        !> atoms), energy and virial; soa: scratch of 6 (nall + 4) doubles.
-        subroutine c_lj_all_pairs(nlocal, nall, x, f, c, soa, energy, virial) bind(C, name='terrace_lj_all_pairs')
-            import :: c_int, c_double
-            integer(c_int), value :: nlocal, nall
-            real(c_double), intent(in) :: x(3, *), c(6)
-            real(c_double), intent(inout) :: f(3, *), soa(*)
-            real(c_double), intent(out) :: energy, virial
-        end subroutine c_lj_all_pairs
         !> src/potentials/lj_simd.c: ray_rows's gather (neighbour indices 1-based, as here)
         pure subroutine c_ray_rows(i, xv, nbrs, nn, rr, dw, ww) bind(C, name='terrace_ray_rows')
             import :: c_int, c_double

@@ -1,9 +1,8 @@
-/* The all-pairs passes of Lennard-Jones with one type and no smooth terms: a small cluster without
- * a pair list, the talk's seven atoms. Energy stepping makes about 2.4 ray evaluations and one
- * force pass per event, here rather than in the scalar Fortran loops of terrace_lj (about 94 and 62
- * instructions per pair). Called from src/potentials/lj_ray.inc and lj_force.inc.
+/* The all-pairs ray pass of Lennard-Jones with one type and no smooth terms (terrace_lj,
+ * ray_all_pairs): a small cluster without a pair list, the talk's seven atoms, where energy
+ * stepping makes about 2.4 ray evaluations per event; the scalar Fortran loop took about 94
+ * instructions per pair. Called from src/potentials/lj_ray.inc.
  *
- * The ray pass (terrace_ray_all_pairs).
  * For s and every pair (i, j), i < nlocal, i < j < nall (0-based), with d = x_i - x_j + s (v_i - v_j)
  * and w = v_i - v_j, out = (V, dV/ds, d2V/ds2, virial) summed over the pairs, those with a
  * replicated atom (j >= nlocal) counting one half. Per pair, as the half list's lanes
@@ -16,13 +15,6 @@
  * of every atom, the caller's scratch soa of 6 (nall + 4) doubles, the four past the end far and
  * still), so that atom i's row j = i+1, ... loads four neighbours per vector without a transpose;
  * lanes past the row's end count nothing: four pairs per AVX2 vector.
- *
- * The force pass (terrace_lj_all_pairs): for every such pair, inside the cutoff, with d = x_i - x_j,
- * fpair = r6inv (lj1 r6inv - lj2) r2inv: f_i += fpair d, f_j -= fpair d for an owned j (a replicated
- * atom's force is its owner's business), energy += r6inv (lj3 r6inv - lj4) - offset and
- * virial += fpair |d|^2, the pairs with a replicated atom counting one half. The positions are
- * staged as three rows and the forces gathered in three more (the pairs of atom i's row subtract
- * from four contiguous j at a time; i's own sum is added once per row), then added to f.
  *
  * Without AVX2 and FMA (a portable build) the same loops run scalar. The lanes' sums are added in
  * a fixed order: the results depend on nothing but the input. */
@@ -177,95 +169,3 @@ void terrace_ray_all_pairs(int nlocal, int nall, const double *x, const double *
     for (int k = 0; k < 4; k++) out[k] = local[k] + 0.5 * ghost[k];
 }
 
-#if defined(__AVX2__) && defined(__FMA__)
-/* The force pass's pairs (i, j), j in [lo, hi), four at a time: the forces on j subtracted from the
- * rows fx, fy, fz when owned, i's own sum returned in fi[0..2]; energy and virial into acc[0..1]. */
-static inline __attribute__((always_inline)) void force_row4(const double *soa, double *fs, int ld, int i, int lo,
-                                                             int hi, int owned, const struct consts4 *k,
-                                                             __m256d *acc, double *fi)
-{
-    const __m256d xi = _mm256_set1_pd(soa[i]), yi = _mm256_set1_pd(soa[ld + i]), zi = _mm256_set1_pd(soa[2 * ld + i]);
-    __m256d fx = _mm256_setzero_pd(), fy = _mm256_setzero_pd(), fz = _mm256_setzero_pd();
-    for (int j = lo; j < hi; j += 4) {
-        const __m256d dx = _mm256_sub_pd(xi, _mm256_loadu_pd(soa + j));
-        const __m256d dy = _mm256_sub_pd(yi, _mm256_loadu_pd(soa + ld + j));
-        const __m256d dz = _mm256_sub_pd(zi, _mm256_loadu_pd(soa + 2 * ld + j));
-        const __m256d rr = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dx, dx, _mm256_mul_pd(dy, dy)));
-        const __m256d in_row = _mm256_castsi256_pd(_mm256_cmpgt_epi64(_mm256_set1_epi64x(hi - j), k->lane));
-        const __m256d inside = _mm256_and_pd(in_row, _mm256_cmp_pd(rr, k->cutsq, _CMP_LT_OQ));
-        const __m256d r2inv = _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_blendv_pd(k->inf, rr, inside));
-        const __m256d r6inv = _mm256_mul_pd(_mm256_mul_pd(r2inv, r2inv), r2inv);
-        const __m256d fpair = _mm256_mul_pd(_mm256_mul_pd(r6inv, _mm256_fmsub_pd(k->lj1, r6inv, k->lj2)), r2inv);
-        const __m256d e = _mm256_sub_pd(_mm256_mul_pd(r6inv, _mm256_fmsub_pd(k->lj3, r6inv, k->lj4)),
-                                        _mm256_and_pd(inside, k->offset));
-        const __m256d px = _mm256_mul_pd(dx, fpair), py = _mm256_mul_pd(dy, fpair), pz = _mm256_mul_pd(dz, fpair);
-        fx = _mm256_add_pd(fx, px); fy = _mm256_add_pd(fy, py); fz = _mm256_add_pd(fz, pz);
-        if (owned) {    /* (lanes outside: 0 subtracted) */
-            _mm256_storeu_pd(fs + j, _mm256_sub_pd(_mm256_loadu_pd(fs + j), px));
-            _mm256_storeu_pd(fs + ld + j, _mm256_sub_pd(_mm256_loadu_pd(fs + ld + j), py));
-            _mm256_storeu_pd(fs + 2 * ld + j, _mm256_sub_pd(_mm256_loadu_pd(fs + 2 * ld + j), pz));
-        }
-        acc[0] = _mm256_add_pd(acc[0], e);
-        acc[1] = _mm256_fmadd_pd(fpair, rr, acc[1]);
-    }
-    _mm256_storeu_pd(fi, totals4(fx, fy, fz, _mm256_setzero_pd()));
-}
-#endif
-
-void terrace_lj_all_pairs(int nlocal, int nall, const double *x, double *f, const double *c, double *soa,
-                          double *energy, double *virial)
-{
-    const int ld = nall + 4;
-    double *fs = soa + 3 * ld;
-    double local[2] = {0, 0}, ghost[2] = {0, 0};
-#if defined(__AVX2__) && defined(__FMA__)
-    for (int a = 0; a < nall; a += 4) {     /* (as stage: a last step reads the last atom again) */
-        const double *px[4];
-        for (int l = 0; l < 4; l++) px[l] = x + 3 * (a + l < nall ? a + l : nall - 1);
-        __m256d rx, ry, rz;
-        rows_xyz4(px, &rx, &ry, &rz);
-        _mm256_storeu_pd(soa + a, rx);
-        _mm256_storeu_pd(soa + ld + a, ry);
-        _mm256_storeu_pd(soa + 2 * ld + a, rz);
-        for (int k = 3; k < 6; k++) _mm256_storeu_pd(soa + k * ld + a, _mm256_setzero_pd());
-    }
-    _mm256_storeu_pd(soa + nall, _mm256_set1_pd(1.0e100));
-    for (int k = 1; k < 6; k++) _mm256_storeu_pd(soa + k * ld + nall, _mm256_setzero_pd());
-    const struct consts4 k4 = consts4(c);
-    __m256d al[2] = {_mm256_setzero_pd(), _mm256_setzero_pd()}, ag[2] = {_mm256_setzero_pd(), _mm256_setzero_pd()};
-    for (int i = 0; i < nlocal; i++) {
-        double fi[4], fg[4] = {0, 0, 0, 0};
-        force_row4(soa, fs, ld, i, i + 1, nlocal, 1, &k4, al, fi);
-        if (nall > nlocal) force_row4(soa, fs, ld, i, nlocal, nall, 0, &k4, ag, fg);
-        fs[i] += fi[0] + fg[0]; fs[ld + i] += fi[1] + fg[1]; fs[2 * ld + i] += fi[2] + fg[2];
-    }
-    double t[4];
-    _mm256_storeu_pd(t, totals4(al[0], al[1], ag[0], ag[1]));
-    local[0] = t[0]; local[1] = t[1]; ghost[0] = t[2]; ghost[1] = t[3];
-#else
-    for (int a = 0; a < nall; a++)
-        for (int k = 0; k < 3; k++) soa[k * ld + a] = x[3 * a + k];
-    for (int a = nall; a < ld; a++) soa[a] = soa[ld + a] = soa[2 * ld + a] = 0.0;
-    for (int a = 0; a < 3 * ld; a++) fs[a] = 0.0;
-    for (int i = 0; i < nlocal; i++) {
-        for (int j = i + 1; j < nall; j++) {
-            const double dx = soa[i] - soa[j], dy = soa[ld + i] - soa[ld + j], dz = soa[2 * ld + i] - soa[2 * ld + j];
-            const double rr = dx * dx + dy * dy + dz * dz;
-            if (!(rr < c[c_cutsq])) continue;
-            const double r2inv = 1.0 / rr, r6inv = r2inv * r2inv * r2inv;
-            const double fpair = r6inv * (c[c_lj1] * r6inv - c[c_lj2]) * r2inv;
-            double *acc = j < nlocal ? local : ghost;
-            acc[0] += r6inv * (c[c_lj3] * r6inv - c[c_lj4]) - c[c_offset];
-            acc[1] += fpair * rr;
-            fs[i] += dx * fpair; fs[ld + i] += dy * fpair; fs[2 * ld + i] += dz * fpair;
-            if (j < nlocal) {
-                fs[j] -= dx * fpair; fs[ld + j] -= dy * fpair; fs[2 * ld + j] -= dz * fpair;
-            }
-        }
-    }
-#endif
-    for (int a = 0; a < nlocal; a++)
-        for (int k = 0; k < 3; k++) f[3 * a + k] += fs[k * ld + a];
-    *energy = local[0] + 0.5 * ghost[0];
-    *virial = local[1] + 0.5 * ghost[1];
-}

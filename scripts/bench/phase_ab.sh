@@ -11,7 +11,8 @@
 # Usage: scripts/bench/phase_ab.sh ROUNDS DECK.nml BINARY_A BINARY_B [BINARY...]
 #        e.g. scripts/bench/phase_ab.sh 7 input/lj_bench.nml /tmp/terrace_before build/terrace
 # The deck runs in a temporary directory holding a copy of the files of the deck's directory (not
-# its subdirectories), so that its relative paths work and its outputs land in the copy.
+# its subdirectories), so that its relative paths work and its outputs land in the copy (removed
+# after each run: decks that write a trajectory need no overwrite).
 set -euo pipefail
 [[ $# -ge 4 && "$1" =~ ^[1-9][0-9]*$ ]] || { echo "usage: $0 ROUNDS DECK.nml BINARY_A BINARY_B [BINARY...]" >&2; exit 2; }
 rounds=$1; deck="$(realpath "$2")"; shift 2
@@ -20,6 +21,7 @@ bins=(); for b in "$@"; do [[ -x "$b" ]] || { echo "phase_ab: $b is not an execu
 work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
 find "$(dirname "$deck")" -maxdepth 1 -type f -exec cp {} "$work"/ \;
 cd "$work"
+inputs="$(ls -A | LC_ALL=C sort)"
 echo "deck    : $deck"
 echo "machine : $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1), $(nproc) cores visible"
 echo "date    : $(date -u '+%Y-%m-%d %H:%M UTC'); load $(cut -d' ' -f1-3 /proc/loadavg) at start"
@@ -30,6 +32,9 @@ for ((r = 1; r <= rounds; r++)); do
         rm -f "$summary"
         "${bins[$k]}" "$(basename "$deck")" > run.log 2>&1 || { echo "phase_ab: binary $k failed:" >&2; tail -5 run.log >&2; exit 1; }
         mv "$summary" "run_${r}_$k.summary.json"
+        # the run's outputs removed, so that the next run of a deck that writes them does not find them
+        LC_ALL=C comm -13 <(printf '%s\n' "$inputs") <(ls -A | LC_ALL=C sort) | grep -v -e '^run_.*\.summary\.json$' -e '^run\.log$' |
+            while IFS= read -r f; do rm -rf -- "$f"; done
     done
 done
 PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" python3 - "$rounds" "${#bins[@]}" <<'PY'

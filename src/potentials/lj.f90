@@ -78,7 +78,7 @@ module terrace_lj
         real(dp), allocatable :: atom_sums(:, :)
         !> ray pass: (x + s v, v) of every atom, owned and ghost, side by side (one gather per neighbour)
         real(dp), allocatable :: xv(:, :)
-        real(dp), allocatable :: ray_soa(:)      !< all-pairs passes: six rows of nall + 4 (lj_ray_all_pairs.c)
+        real(dp), allocatable :: ray_soa(:)      !< all-pairs ray pass: six rows of nall + 4 (lj_ray_all_pairs.c)
         logical :: mixed = .false.               !< single-precision pair arithmetic (one type, 'lj', half list)
         real(sp), allocatable :: xs(:, :)        !< mixed: positions as (hi, 0, lo, 0) singles, 8 per atom
         real(dp), allocatable :: fd(:, :)        !< mixed: per-atom force records (x, y, z, 0)

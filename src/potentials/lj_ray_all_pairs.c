@@ -1,7 +1,7 @@
 /* The all-pairs ray pass of Lennard-Jones with one type and no smooth terms (terrace_lj,
  * ray_all_pairs): a small cluster without a pair list, the talk's seven atoms, where energy
- * stepping makes about 2.4 ray evaluations per event; the scalar Fortran loop took about 94
- * instructions per pair. Called from src/potentials/lj_ray.inc.
+ * stepping makes about 2.4 ray evaluations per event (a scalar loop costs about 94 instructions
+ * per pair). Called from src/potentials/lj_ray.inc.
  *
  * For s and every pair (i, j), i < nlocal, i < j < nall (0-based), with d = x_i - x_j + s (v_i - v_j)
  * and w = v_i - v_j, out = (V, dV/ds, d2V/ds2, virial) summed over the pairs, those with a

@@ -626,8 +626,7 @@ contains
         ! The atoms of the 27 cells are listed first (list heads and links: loads that do not wait
         ! on the pair arithmetic), up to chunk at a time, each listed atom's record prefetched, then
         ! filtered (event_filter.c: those that provably cannot come before best, the cell
-        ! crossing, dropped; four in five in a dense square-well liquid) and the rest searched in
-        ! the same order:
+        ! crossing, dropped, most of them in a liquid) and the rest searched in the same order:
         ! the records' cache misses (one per neighbour at 10^6 atoms) overlap instead of each
         ! waiting on the search of the one before.
         c = 0; jn = 0                    ! (jn: the next atom to list)

@@ -74,26 +74,52 @@ fi
 passed=0
 failed=0
 
-trim() { local s=$1; s=${s#"${s%%[![:space:]]*}"}; s=${s%"${s##*[![:space:]]}"}; printf '%s' "$s"; }
+# trim_to VAR STRING: VAR = STRING without its leading and trailing blanks
+trim_to() { local _t=$2; _t=${_t#"${_t%%[![:space:]]*}"}; _t=${_t%"${_t##*[![:space:]]}"}; printf -v "$1" '%s' "$_t"; }
+
+# The harness forks as little as it can per case (a case at one rank costs about as much as its
+# checks did otherwise): listings by glob, the stderr and stdout read and filtered in the shell.
+shopt -s globstar dotglob nullglob
+declare -A before=()
+
+# list_dir DIR: LIST = every path under DIR (relative to it, directories too, symbolic links not
+# followed), as `find DIR -mindepth 1` finds them
+list_dir() {
+    local p
+    LIST=()
+    for p in "$1"/**; do
+        [ "$p" = "$1/" ] || LIST+=("${p#"$1"/}")
+    done
+}
 
 # run_case NAME NP ARGS...: run in a fresh directory holding a copy of the case's files;
-# sets rc, work (the directory), err (the stderr file), out, before (its listing beforehand) and
-# sums (checksums of the files that were there beforehand). A case directory with '.hold_lock'
-# runs while another process holds an flock on the lock file it names.
+# sets rc, work (the directory), err (the stderr file), out, before (its listing beforehand, an
+# associative array), files (its regular readable files) and sums (their checksums). A case
+# directory with '.hold_lock' runs while another process holds an flock on the lock file it names.
 run_case() {
-    local name=$1 np=$2 holder='' exe=$bin
+    local name=$1 np=$2 holder='' exe=$bin p
     shift 2
     if [ "${1:-}" = @analyze ]; then exe=$analyze; shift; fi
-    work=$(mktemp -d "$scratch/work.XXXXXX")
+    work=$scratch/work.$name.$np
+    mkdir "$work" 2> /dev/null || work=$(mktemp -d "$scratch/work.XXXXXX")
     err=$scratch/stderr.$name.$np
     out=$scratch/stdout.$name.$np
     if [ -d "$cases_dir/$name" ]; then cp -a "$cases_dir/$name/." "$work/"; fi
     if [ -f "$work/.hold_lock" ]; then      # another run holding the lock: this shell, until the case ends
-        exec {holder}> "$work/$(cat "$work/.hold_lock")"
+        local lock
+        read -r lock < "$work/.hold_lock"
+        exec {holder}> "$work/$lock"
         flock -n "$holder" || echo "check_bad_inputs: could not take the lock of $name" >&2
     fi
-    before=$(cd "$work" && find . -mindepth 1 | LC_ALL=C sort)
-    sums=$(cd "$work" && find . -type f -readable | LC_ALL=C sort | xargs -r md5sum)
+    list_dir "$work"
+    before=()
+    files=()
+    for p in "${LIST[@]}"; do
+        before[$p]=1
+        if [[ -f $work/$p && ! -L $work/$p && -r $work/$p ]]; then files+=("$p"); fi
+    done
+    sums=''
+    if [ ${#files[@]} -gt 0 ]; then sums=$(cd "$work" && md5sum -- "${files[@]}"); fi
     if [ "$np" = 1 ]; then
         (cd "$work" && exec timeout -k 10 "$limit" "$exe" "$@") > "$out" 2> "$err" < /dev/null
     else
@@ -104,21 +130,67 @@ run_case() {
     if [ -n "$holder" ]; then exec {holder}>&-; fi
 }
 
+# the files of run_case's list that are gone, no longer regular files, or hold other bytes
 changed_files() {
-    (cd "$work" && printf '%s\n' "$sums" | md5sum --quiet -c 2> /dev/null | sed 's/: .*//' | paste -s -d ' ' -)
+    local p line now=() gone=() changed=()
+    local -A had=()
+    [ ${#files[@]} -eq 0 ] && return
+    while IFS= read -r line; do had[$line]=1; done <<< "$sums"
+    for p in "${files[@]}"; do
+        if [[ -f $work/$p && ! -L $work/$p && -r $work/$p ]]; then now+=("$p"); else gone+=("$p"); fi
+    done
+    if [ ${#now[@]} -gt 0 ]; then
+        while IFS= read -r line; do
+            [ -n "$line" ] && [ -z "${had[$line]:-}" ] && changed+=("${line#*  }")
+        done <<< "$(cd "$work" && md5sum -- "${now[@]}" 2> /dev/null)"
+    fi
+    changed+=("${gone[@]}")
+    printf '%s' "${changed[*]}"
 }
 
+# the paths under the case's directory that were not there beforehand
 new_files() {
-    local after
-    after=$(cd "$work" && find . -mindepth 1 | LC_ALL=C sort)
-    comm -13 <(printf '%s\n' "$before") <(printf '%s\n' "$after") | sed 's|^\./||' | paste -s -d ' ' -
+    local p added=()
+    list_dir "$work"
+    for p in "${LIST[@]}"; do
+        [ -n "${before[$p]:-}" ] || added+=("$p")
+    done
+    printf '%s' "${added[*]}"
 }
 
-# stderr without Open MPI's dash-delimited boxes, without the libevent warnings mpirun itself
-# sometimes prints while its ranks exit ("[warn] Epoll ... Bad file descriptor"), and without blank
-# lines
-filtered_stderr() {
-    awk '/^--------------------+$/ { inbox = !inbox; next } /^\[warn\] Epoll / { next } !inbox && NF > 0' "$1"
+# read_stderr FILE: from its lines without Open MPI's dash-delimited boxes, without the libevent
+# warnings mpirun itself sometimes prints while its ranks exit ("[warn] Epoll ... Bad file
+# descriptor"), and without blank lines: errors (the count of lines starting with 'terrace:
+# error'), msg (the first of them), extra (the first line that is neither an error nor a warning);
+# aborted=1 when a box says MPI_ABORT
+read_stderr() {
+    local line inbox=0
+    errors=0; msg=''; extra=''; aborted=0
+    while IFS= read -r line || [ -n "$line" ]; do
+        [[ $line == *MPI_ABORT* ]] && aborted=1
+        if [[ $line =~ ^-{20,}$ ]]; then inbox=$((1 - inbox)); continue; fi
+        [ $inbox = 1 ] && continue
+        [[ $line == "[warn] Epoll "* || ! $line =~ [^[:space:]] ]] && continue
+        if [[ $line == "terrace: error"* ]]; then
+            errors=$((errors + 1))
+            [ -z "$msg" ] && msg=$line
+        elif [[ $line != "terrace: warning"* && -z $extra ]]; then
+            extra=$line
+        fi
+    done < "$1"
+}
+
+# the first line of stdout or stderr with crash text (case-insensitive), if any
+crash_text() {
+    local f line
+    for f in "$out" "$err"; do
+        while IFS= read -r line || [ -n "$line" ]; do
+            if [[ ${line,,} =~ backtrace|sigsegv|sigbus|sigabrt|error\ allocating|program\ received\ signal|segmentation\ fault|killed|core\ dumped ]]; then
+                printf '%s' "$line"
+                return
+            fi
+        done < "$f"
+    done
 }
 
 report() { # status, np, name, note
@@ -137,7 +209,8 @@ for np in "${nprocs[@]}"; do
     run_case control_ok "$np" control_ok.nml
     left=$(new_files)
     if [ "$rc" -ne 0 ]; then
-        report FAIL "$np" control_ok "the valid control deck exited $rc: $(filtered_stderr "$err" | head -n 1)"
+        read_stderr "$err"
+        report FAIL "$np" control_ok "the valid control deck exited $rc: ${msg:-$extra}"
     elif [[ " $left " != *" thermo.csv "* || " $left " != *" forces.txt "* ]]; then
         report FAIL "$np" control_ok "the valid control deck did not write thermo.csv and forces.txt (wrote: $left)"
     else
@@ -151,16 +224,14 @@ check_case() { # name np want_rc subs args...
     local name=$1 np=$2 want_rc=$3 f_subs=$4
     shift 4
     local t0 t1
-    t0=$(date +%s%N)
+    t0=${EPOCHREALTIME/[.,]/}
     run_case "$name" "$np" "$@"
-    t1=$(date +%s%N)
-    note=" [$(( (t1 - t0) / 1000000 )) ms]"
+    t1=${EPOCHREALTIME/[.,]/}
+    note=" [$(( (t1 - t0) / 1000 )) ms]"
     left=$(new_files)
-    grep -q 'MPI_ABORT' "$err" && note=' (MPI_Abort)'"$note"
-    errors=$(filtered_stderr "$err" | grep -c '^terrace: error')
-    msg=$(filtered_stderr "$err" | grep -m 1 '^terrace: error')
-    extra=$(filtered_stderr "$err" | grep -v -e '^terrace: error' -e '^terrace: warning' | head -n 1)
-    crash=$(cat "$out" "$err" | grep -m 1 -i -E 'backtrace|SIGSEGV|SIGBUS|SIGABRT|Error allocating|Program received signal|Segmentation fault|Killed|core dumped')
+    read_stderr "$err"
+    [ "$aborted" = 1 ] && note=' (MPI_Abort)'"$note"
+    crash=$(crash_text)
     why=''
     if [ "$rc" -eq 124 ] || [ "$rc" -eq 137 ]; then
         why="hang: killed after ${limit} s (exit $rc)"
@@ -179,7 +250,7 @@ check_case() { # name np want_rc subs args...
         missing=()
         IFS=$'\x1f' read -r -a subs <<< "${f_subs// ; /$'\x1f'}"
         for s in "${subs[@]}"; do
-            s=$(trim "$s")
+            trim_to s "$s"
             [ -z "$s" ] && continue
             [[ $msg == *"$s"* ]] || missing+=("[$s]")
         done
@@ -203,25 +274,31 @@ check_case() { # name np want_rc subs args...
 results=$scratch/results
 mkdir -p "$results"
 seq_no=0
+running=0
 while IFS= read -r raw || [ -n "$raw" ]; do
-    line=$(trim "${raw%%#*}")
+    trim_to line "${raw%%#*}"
     [ -z "$line" ] && continue
     IFS='|' read -r f_name f_exit f_args f_subs <<< "$line"
-    name=$(trim "$f_name")
-    want_rc=$(trim "$f_exit")
+    trim_to name "$f_name"
+    trim_to want_rc "$f_exit"
     read -r -a args <<< "$f_args"
     [ -n "$only" ] && ! [[ $name =~ $only ]] && continue
     for np in "${nprocs[@]}"; do
         seq_no=$((seq_no + 1))
-        while [ "$(jobs -rp | wc -l)" -ge "$jobs_max" ]; do wait -n; done
+        if [ "$running" -ge "$jobs_max" ]; then wait -n; running=$((running - 1)); fi
+        running=$((running + 1))
         check_case "$name" "$np" "$want_rc" "$f_subs" "${args[@]}" > "$results/$(printf '%06d' "$seq_no")" < /dev/null &
     done
 done < "$manifest"
 wait
 for f in "$results"/*; do
     [ -e "$f" ] || continue
-    cat "$f"
-    if grep -q '^ok' "$f"; then passed=$((passed + 1)); else failed=$((failed + 1)); fi
+    first=''
+    while IFS= read -r line || [ -n "$line" ]; do
+        [ -z "$first" ] && first=$line
+        printf '%s\n' "$line"
+    done < "$f"
+    if [[ $first == ok* ]]; then passed=$((passed + 1)); else failed=$((failed + 1)); fi
 done
 
 echo "$passed passed, $failed failed"

@@ -80,8 +80,12 @@ for kind in trajectory checkpoint; do
         want=0   # the rank that must report: 0, unless rank 0 is the stuck one and cannot
         [ "$k" = 0,blocked ] && want=1
         run "$kind" "$k"
-        sleep 1
-        left=$(leftovers "$work")
+        # (mpirun has returned: its ranks should be gone; a second for the slowest to vanish)
+        for _ in 1 2 3 4 5 6 7 8 9 10; do
+            left=$(leftovers "$work")
+            [ -z "$left" ] && break
+            sleep 0.1
+        done
         nerr=$(grep -c '^terrace: error' "$work/err")
         msg=$(grep -m1 '^terrace: error' "$work/err")
         crash=$(cat "$work/out" "$work/err" | grep -m 1 -i -E 'backtrace|SIGSEGV|SIGBUS|SIGABRT|Program received signal|Segmentation fault|core dumped')

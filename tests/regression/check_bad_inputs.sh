@@ -79,6 +79,7 @@ trim_to() { local _t=$2; _t=${_t#"${_t%%[![:space:]]*}"}; _t=${_t%"${_t##*[![:sp
 
 # The harness forks as little as it can per case (a case at one rank costs about as much as its
 # checks did otherwise): listings by glob, the stderr and stdout read and filtered in the shell.
+[ -n "${EPOCHREALTIME:-}" ] || { echo "$0: needs bash 5 or later (EPOCHREALTIME)" >&2; exit 2; }
 shopt -s globstar dotglob nullglob
 declare -A before=()
 

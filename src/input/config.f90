@@ -974,10 +974,12 @@ contains
         ! with energy stepping the thermostat's actions are calendar entries: at most max_events of them
         ! (per atom, for Andersen's collisions at rate 1/damping) in run_time
         if (cfg%integ_style%exact_time .and. cfg%run_time > 0) then
-            if (cfg%thermostat_interval > 0 .and. cfg%run_time/cfg%thermostat_interval > max_events) &
-                call stop_all(cfg%where('thermostat', 'interval')//': more than 1e12 thermostat actions in run_time '// &
-                              '(the run would not finish; allowed: at least '//sci_text(cfg%run_time/max_events)//' '// &
-                              trim(cfg%units%time)//' for this run_time)')
+            if (cfg%thermostat_interval > 0) then     ! (nested: no division by 0, which a Debug build traps)
+                if (cfg%run_time/cfg%thermostat_interval > max_events) &
+                    call stop_all(cfg%where('thermostat', 'interval')//': more than 1e12 thermostat actions in '// &
+                                  'run_time (the run would not finish; allowed: at least '// &
+                                  sci_text(cfg%run_time/max_events)//' '//trim(cfg%units%time)//' for this run_time)')
+            end if
             if (cfg%run_time/cfg%thermostat_damping > max_events) &
                 call stop_all(cfg%where('thermostat', 'damping')//': more than 1e12 thermostat events per atom in '// &
                               'run_time (the run would not finish; allowed: at least '// &

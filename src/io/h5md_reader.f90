@@ -766,10 +766,10 @@ contains
             character(len=64) :: where
             character(len=:), allocatable :: what
             call c_f_pointer(p, r, [int(self%dimension, i8), na, nf])
-            if (all(abs(r) <= value_limit)) return
+            if (all(in_limit(r))) return
             do j = 1, nf
                 do a = 1, na
-                    if (all(abs(r(:, a, j)) <= value_limit)) cycle
+                    if (all(in_limit(r(:, a, j)))) cycle
                     write (where, '(a,i0,a,i0)') 'frame ', f0 + (j - 1)*stride + 1, ', atom row ', a0 + a
                     if (all(ieee_is_finite(r(:, a, j)))) then
                         what = 'a value beyond 1e9 in magnitude (allowed: |value| <= 1e9 in the file''s units)'
@@ -785,6 +785,14 @@ contains
                 end do
             end do
         end subroutine check_finite
+
+        !> Finite and within value_limit, tested without comparing a NaN (an ordered comparison with
+        !> one raises the invalid exception, which a Debug build traps)
+        elemental logical function in_limit(v)
+            real(dp), intent(in) :: v
+            in_limit = .false.
+            if (ieee_is_finite(v)) in_limit = abs(v) <= value_limit
+        end function in_limit
 
     end subroutine read_block
 

@@ -311,7 +311,7 @@ contains
                 if (self%nmem(ci) > 1) call add(self, ci, ci, 2, n)   ! its own pairs (i < j)
                 if (nsplit > 0) then
                     do l = 1, 4      ! ci's atoms in double (the split rule); an empty slot far below
-                        xd(l, :) = -huge(1.0_dp)/4
+                        xd(l, :) = -1.0e100_dp     ! (squares stay finite: no overflow)
                         if (self%member(l, ci) > 0) xd(l, :) = x(:, self%member(l, ci))
                     end do
                     do l = 1, nsplit
@@ -453,7 +453,7 @@ contains
         integer :: ok(16)
         do b = 1, 4
             ja = self%member(b, cj)
-            xj(b, :) = huge(1.0_dp)/4       ! an empty ghost slot: far above (counts, never near)
+            xj(b, :) = 1.0e100_dp       ! an empty ghost slot: far above (counts, never near; squares finite)
             if (ja > 0) xj(b, :) = x(:, ja)
         end do
         do l = 1, 16      ! the 16 lanes' atoms side by side (then one vectorised pass)

@@ -668,9 +668,18 @@ contains
         uniform = .true.
         do k = 1, nsel - 1
             step = self%el(e)%time(f0 + 1 + k*stride) - self%el(e)%time(f0 + 1 + (k - 1)*stride)
-            ! (written so that a NaN time fails both tests)
-            if (.not. (step > 0 .and. step <= huge(1.0_dp))) increasing = .false.
-            if (.not. (abs(step - dt) <= tol)) uniform = .false.
+            ! (a NaN or infinite time fails both tests, found without an ordered comparison with a NaN,
+            ! which a Debug build traps)
+            if (.not. ieee_is_finite(step)) then
+                increasing = .false.; uniform = .false.
+                cycle
+            end if
+            if (.not. (step > 0)) increasing = .false.
+            if (.not. ieee_is_finite(dt)) then      ! (the first step: already found not finite)
+                uniform = .false.
+            else if (.not. (abs(step - dt) <= tol)) then
+                uniform = .false.
+            end if
         end do
         call check_all(increasing, self%where(trim(el_name(e))//'/time')//': the times of the selected frames '// &
                        'do not increase (or are not finite numbers): a damaged or concatenated trajectory ('//why// &

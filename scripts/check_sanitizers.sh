@@ -3,8 +3,8 @@
 # -O3 -march=native kernels, so the SIMD paths run) with -fsanitize=address,undefined on the C and
 # the Fortran sources, then every CTest test but the two malformed-input sweeps, and those sweeps
 # (tests/regression/check_bad_inputs.sh, its cases and the generated hostile ones) on one rank.
-# Each process writes its sanitizer reports to a file of OUT_DIR/reports; any report, or any test
-# that fails, makes the exit status 1. Not part of scripts/test.sh: about 30 minutes on 2 vCPUs.
+# Each process writes its sanitizer reports to a file of BUILD_DIR/reports; any report, or any test
+# that fails, makes the exit status 1. Not part of scripts/test.sh: about 35 minutes on 2 vCPUs.
 #
 # Usage: scripts/check_sanitizers.sh [BUILD_DIR [CTEST_ARGS...]]   (default: build-sanitize beside build/;
 #        CTEST_ARGS e.g. -R outer_list: only those tests, the two sweeps still)

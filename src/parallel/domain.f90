@@ -22,7 +22,8 @@ module terrace_domain
     use terrace_grow, only: reserve
     use mpi_f08, only: MPI_Comm, MPI_Dims_create, MPI_Cart_create, MPI_Cart_coords, MPI_Cart_shift, &
                        MPI_Comm_rank, MPI_Sendrecv, MPI_DOUBLE_PRECISION, MPI_INTEGER, MPI_STATUS_IGNORE, &
-                       MPI_PROC_NULL
+                       MPI_PROC_NULL, MPI_Request, MPI_Irecv, MPI_Isend, MPI_Waitall, MPI_STATUSES_IGNORE, &
+                       MPI_F_sync_reg
     implicit none
     private
 
@@ -31,6 +32,10 @@ module terrace_domain
         integer :: send_to = MPI_PROC_NULL
         integer :: recv_from = MPI_PROC_NULL
         logical :: self_copy = .false.
+        !> this swap and the next travel together (domain_forward, domain_reverse): the two directions
+        !> of one hop along a divided dimension
+        logical :: with_next = .false.
+        integer :: dir = 1
         real(dp) :: shift(3) = 0
         integer :: nsend = 0, nrecv = 0, first_recv = 0
         integer, allocatable :: list(:)
@@ -398,6 +403,9 @@ contains
                     if (dir == 2 .and. d == 3 .and. .not. self%ghosts_below) cycle
                     call add_swap(self, d, dir)
                     s = self%nswap
+                    ! the hop's swap down and this one up travel together in forward and reverse
+                    if (dir == 2 .and. .not. self%swaps(s)%self_copy) &
+                        self%swaps(s - 1)%with_next = prev(1) == s - 1
                     if (hop == 1) then
                         cand_lo = 1; cand_hi = nfirst
                     else
@@ -603,6 +611,7 @@ contains
         associate (sw => self%swaps(self%nswap))
             sw%dim = maxloc(abs(s), 1)
             sw%self_copy = .true.
+            sw%with_next = .false.; sw%dir = 1
             sw%send_to = MPI_PROC_NULL; sw%recv_from = MPI_PROC_NULL
             do d = 1, 3
                 sw%shift(d) = s(d)*self%box%length(d)
@@ -620,6 +629,7 @@ contains
         associate (sw => self%swaps(self%nswap))
             sw%dim = d
             sw%self_copy = self%dims(d) == 1
+            sw%with_next = .false.; sw%dir = dir
             sw%shift = 0
             if (dir == 1) then
                 sw%send_to = self%nbr_lo(d); sw%recv_from = self%nbr_hi(d)
@@ -716,44 +726,60 @@ contains
 
     !> Forward communication: copy owner values of a per-atom quantity with nc components
     !> (a(nc, n): positions with the periodic shift when `shifted`, velocities, F'(rho), ...) into
-    !> the ghosts.
+    !> the ghosts. The two directions of one hop along a divided dimension travel together.
     subroutine domain_forward(self, a, shifted)
         class(domain_t), intent(inout) :: self
         real(dp), intent(inout), contiguous :: a(:, :)
         logical, intent(in) :: shifted
-        integer :: s, j, i, n, p, nc
+        integer :: s, g, k, j, i, n, p, nc
         real(dp) :: sh(size(a, 1))
         nc = size(a, 1)
-        do s = 1, self%nswap
-            associate (sw => self%swaps(s))
-                sh = 0
-                if (shifted) sh = sw%shift(1:nc)
-                if (sw%self_copy .and. nc == 3) then
-                    ! (three components spelt out: the loop over an unknown nc was the copy's cost)
-                    do j = 1, sw%nsend
-                        i = sw%list(j); n = sw%first_recv + j - 1
-                        a(1, n) = a(1, i) + sh(1); a(2, n) = a(2, i) + sh(2); a(3, n) = a(3, i) + sh(3)
-                    end do
-                else if (sw%self_copy) then
-                    do j = 1, sw%nsend
-                        a(:, sw%first_recv + j - 1) = a(:, sw%list(j)) + sh
-                    end do
-                else
-                    call reserve(self%sendbuf, nc*sw%nsend, minimum=1024)
-                    call reserve(self%recvbuf, nc*sw%nrecv, minimum=1024)
-                    do j = 1, sw%nsend
-                        i = sw%list(j); p = nc*(j - 1)
-                        self%sendbuf(p + 1:p + nc) = a(:, i) + sh
-                    end do
-                    call MPI_Sendrecv(self%sendbuf, nc*sw%nsend, MPI_DOUBLE_PRECISION, sw%send_to, 12, &
-                                      self%recvbuf, nc*sw%nrecv, MPI_DOUBLE_PRECISION, sw%recv_from, 12, &
-                                      self%cart, MPI_STATUS_IGNORE)
-                    do j = 1, sw%nrecv
-                        n = sw%first_recv + j - 1; p = nc*(j - 1)
-                        a(:, n) = self%recvbuf(p + 1:p + nc)
-                    end do
-                end if
-            end associate
+        s = 1
+        do while (s <= self%nswap)
+            g = group_size(self, s)
+            if (self%swaps(s)%self_copy) then
+                associate (sw => self%swaps(s))
+                    sh = 0
+                    if (shifted) sh = sw%shift(1:nc)
+                    if (nc == 3) then
+                        ! (three components spelt out: the loop over an unknown nc was the copy's cost)
+                        do j = 1, sw%nsend
+                            i = sw%list(j); n = sw%first_recv + j - 1
+                            a(1, n) = a(1, i) + sh(1); a(2, n) = a(2, i) + sh(2); a(3, n) = a(3, i) + sh(3)
+                        end do
+                    else
+                        do j = 1, sw%nsend
+                            a(:, sw%first_recv + j - 1) = a(:, sw%list(j)) + sh
+                        end do
+                    end if
+                end associate
+            else
+                call reserve_group(self, s, g, nc, .true.)
+                p = 0
+                do k = s, s + g - 1
+                    associate (sw => self%swaps(k))
+                        sh = 0
+                        if (shifted) sh = sw%shift(1:nc)
+                        do j = 1, sw%nsend
+                            i = sw%list(j)
+                            self%sendbuf(p + 1:p + nc) = a(:, i) + sh
+                            p = p + nc
+                        end do
+                    end associate
+                end do
+                call exchange_group(self, s, g, nc, .true., 12)
+                p = 0
+                do k = s, s + g - 1
+                    associate (sw => self%swaps(k))
+                        do j = 1, sw%nrecv
+                            n = sw%first_recv + j - 1
+                            a(:, n) = self%recvbuf(p + 1:p + nc)
+                            p = p + nc
+                        end do
+                    end associate
+                end do
+            end if
+            s = s + g
         end do
     end subroutine domain_forward
 
@@ -763,75 +789,166 @@ contains
     subroutine domain_forward_xv(self, x, v)
         class(domain_t), intent(inout) :: self
         real(dp), intent(inout), contiguous :: x(:, :), v(:, :)
-        integer :: s, j, i, n, p
+        integer :: s, g, k, j, i, n, p
         real(dp) :: sx, sy, sz
-        do s = 1, self%nswap
-            associate (sw => self%swaps(s))
-                sx = sw%shift(1); sy = sw%shift(2); sz = sw%shift(3)
-                if (sw%self_copy) then
+        s = 1
+        do while (s <= self%nswap)
+            g = group_size(self, s)
+            if (self%swaps(s)%self_copy) then
+                associate (sw => self%swaps(s))
+                    sx = sw%shift(1); sy = sw%shift(2); sz = sw%shift(3)
                     do j = 1, sw%nsend
                         i = sw%list(j); n = sw%first_recv + j - 1
                         x(1, n) = x(1, i) + sx; x(2, n) = x(2, i) + sy; x(3, n) = x(3, i) + sz
                         v(1, n) = v(1, i); v(2, n) = v(2, i); v(3, n) = v(3, i)
                     end do
-                else
-                    call reserve(self%sendbuf, 6*sw%nsend, minimum=1024)
-                    call reserve(self%recvbuf, 6*sw%nrecv, minimum=1024)
-                    do j = 1, sw%nsend
-                        i = sw%list(j); p = 6*(j - 1)
-                        self%sendbuf(p + 1) = x(1, i) + sx; self%sendbuf(p + 2) = x(2, i) + sy
-                        self%sendbuf(p + 3) = x(3, i) + sz
-                        self%sendbuf(p + 4:p + 6) = v(:, i)
-                    end do
-                    call MPI_Sendrecv(self%sendbuf, 6*sw%nsend, MPI_DOUBLE_PRECISION, sw%send_to, 14, &
-                                      self%recvbuf, 6*sw%nrecv, MPI_DOUBLE_PRECISION, sw%recv_from, 14, &
-                                      self%cart, MPI_STATUS_IGNORE)
-                    do j = 1, sw%nrecv
-                        n = sw%first_recv + j - 1; p = 6*(j - 1)
-                        x(:, n) = self%recvbuf(p + 1:p + 3); v(:, n) = self%recvbuf(p + 4:p + 6)
-                    end do
-                end if
-            end associate
+                end associate
+            else
+                call reserve_group(self, s, g, 6, .true.)
+                p = 0
+                do k = s, s + g - 1
+                    associate (sw => self%swaps(k))
+                        sx = sw%shift(1); sy = sw%shift(2); sz = sw%shift(3)
+                        do j = 1, sw%nsend
+                            i = sw%list(j)
+                            self%sendbuf(p + 1) = x(1, i) + sx; self%sendbuf(p + 2) = x(2, i) + sy
+                            self%sendbuf(p + 3) = x(3, i) + sz
+                            self%sendbuf(p + 4:p + 6) = v(:, i)
+                            p = p + 6
+                        end do
+                    end associate
+                end do
+                call exchange_group(self, s, g, 6, .true., 14)
+                p = 0
+                do k = s, s + g - 1
+                    associate (sw => self%swaps(k))
+                        do j = 1, sw%nrecv
+                            n = sw%first_recv + j - 1
+                            x(:, n) = self%recvbuf(p + 1:p + 3); v(:, n) = self%recvbuf(p + 4:p + 6)
+                            p = p + 6
+                        end do
+                    end associate
+                end do
+            end if
+            s = s + g
         end do
     end subroutine domain_forward_xv
 
     !> Reverse communication: add ghost values of a per-atom quantity with nc components (forces,
     !> densities) back into their owners, swap by swap in reverse order (so ghosts of ghosts pass
-    !> their share on).
+    !> their share on). The two directions of one hop travel together; their sums are added in the
+    !> same order as one swap after the other would add them.
     subroutine domain_reverse(self, a)
         class(domain_t), intent(inout) :: self
         real(dp), intent(inout), contiguous :: a(:, :)
-        integer :: s, j, i, n, p, nc
+        integer :: s, g, k, j, i, n, p, nc, first
         nc = size(a, 1)
-        do s = self%nswap, 1, -1
-            associate (sw => self%swaps(s))
-                if (sw%self_copy .and. nc == 3) then
-                    do j = 1, sw%nsend
-                        i = sw%list(j); n = sw%first_recv + j - 1
-                        a(1, i) = a(1, i) + a(1, n); a(2, i) = a(2, i) + a(2, n); a(3, i) = a(3, i) + a(3, n)
-                    end do
-                else if (sw%self_copy) then
-                    do j = 1, sw%nsend
-                        i = sw%list(j)
-                        a(:, i) = a(:, i) + a(:, sw%first_recv + j - 1)
-                    end do
-                else
-                    call reserve(self%sendbuf, nc*sw%nrecv, minimum=1024)
-                    call reserve(self%recvbuf, nc*sw%nsend, minimum=1024)
-                    do j = 1, sw%nrecv
-                        n = sw%first_recv + j - 1; p = nc*(j - 1)
-                        self%sendbuf(p + 1:p + nc) = a(:, n)
-                    end do
-                    call MPI_Sendrecv(self%sendbuf, nc*sw%nrecv, MPI_DOUBLE_PRECISION, sw%recv_from, 13, &
-                                      self%recvbuf, nc*sw%nsend, MPI_DOUBLE_PRECISION, sw%send_to, 13, &
-                                      self%cart, MPI_STATUS_IGNORE)
-                    do j = 1, sw%nsend
-                        i = sw%list(j); p = nc*(j - 1)
-                        a(:, i) = a(:, i) + self%recvbuf(p + 1:p + nc)
-                    end do
-                end if
-            end associate
+        s = self%nswap
+        do while (s >= 1)
+            g = 1
+            if (s >= 2) then
+                if (self%swaps(s - 1)%with_next) g = 2
+            end if
+            first = s - g + 1
+            if (self%swaps(s)%self_copy) then
+                associate (sw => self%swaps(s))
+                    if (nc == 3) then
+                        do j = 1, sw%nsend
+                            i = sw%list(j); n = sw%first_recv + j - 1
+                            a(1, i) = a(1, i) + a(1, n); a(2, i) = a(2, i) + a(2, n); a(3, i) = a(3, i) + a(3, n)
+                        end do
+                    else
+                        do j = 1, sw%nsend
+                            i = sw%list(j)
+                            a(:, i) = a(:, i) + a(:, sw%first_recv + j - 1)
+                        end do
+                    end if
+                end associate
+            else
+                call reserve_group(self, first, g, nc, .false.)
+                p = 0
+                do k = first, s
+                    associate (sw => self%swaps(k))
+                        do j = 1, sw%nrecv
+                            n = sw%first_recv + j - 1
+                            self%sendbuf(p + 1:p + nc) = a(:, n)
+                            p = p + nc
+                        end do
+                    end associate
+                end do
+                call exchange_group(self, first, g, nc, .false., 13)
+                ! the later swap's sums first, as the swaps one by one in reverse order
+                do k = s, first, -1
+                    p = 0
+                    if (k > first) p = nc*self%swaps(first)%nsend
+                    associate (sw => self%swaps(k))
+                        do j = 1, sw%nsend
+                            i = sw%list(j)
+                            a(:, i) = a(:, i) + self%recvbuf(p + 1:p + nc)
+                            p = p + nc
+                        end do
+                    end associate
+                end do
+            end if
+            s = first - 1
         end do
     end subroutine domain_reverse
+
+    !> How many swaps from s on travel together: 2 where s and s + 1 are the two directions of one
+    !> hop along a divided dimension (independent: each sends from atoms the other does not
+    !> receive), else 1.
+    pure integer function group_size(self, s) result(g)
+        class(domain_t), intent(in) :: self
+        integer, intent(in) :: s
+        g = 1
+        if (self%swaps(s)%with_next .and. s < self%nswap) g = 2
+    end function group_size
+
+    !> Room in sendbuf and recvbuf for the g swaps from s on, nc values per atom: forward sends the
+    !> swaps' lists and receives their ghosts, reverse the other way.
+    subroutine reserve_group(self, s, g, nc, forward)
+        class(domain_t), intent(inout) :: self
+        integer, intent(in) :: s, g, nc
+        logical, intent(in) :: forward
+        integer :: ns, nr, k
+        ns = 0; nr = 0
+        do k = s, s + g - 1
+            ns = ns + self%swaps(k)%nsend; nr = nr + self%swaps(k)%nrecv
+        end do
+        if (.not. forward) then
+            k = ns; ns = nr; nr = k
+        end if
+        call reserve(self%sendbuf, nc*ns, minimum=1024)
+        call reserve(self%recvbuf, nc*nr, minimum=1024)
+    end subroutine reserve_group
+
+    !> The messages of the g swaps from s on, all posted at once: sendbuf and recvbuf hold the swaps'
+    !> values one after the other, nc per atom. Forward: each swap sends its list to send_to and
+    !> receives its ghosts from recv_from; reverse: its ghosts back to recv_from, its list's sums from
+    !> send_to. The tag tells the two directions apart where both neighbours are one rank.
+    subroutine exchange_group(self, s, g, nc, forward, tag)
+        class(domain_t), intent(inout) :: self
+        integer, intent(in) :: s, g, nc, tag
+        logical, intent(in) :: forward
+        type(MPI_Request) :: req(4)
+        integer :: k, ps, pr, ns, nr, to, from
+        ps = 1; pr = 1
+        do k = 0, g - 1
+            associate (sw => self%swaps(s + k))
+                if (forward) then
+                    ns = sw%nsend; nr = sw%nrecv; to = sw%send_to; from = sw%recv_from
+                else
+                    ns = sw%nrecv; nr = sw%nsend; to = sw%recv_from; from = sw%send_to
+                end if
+                call MPI_Irecv(self%recvbuf(pr:), nc*nr, MPI_DOUBLE_PRECISION, from, tag + 100*sw%dir, &
+                               self%cart, req(2*k + 1))
+                call MPI_Isend(self%sendbuf(ps:), nc*ns, MPI_DOUBLE_PRECISION, to, tag + 100*sw%dir, &
+                               self%cart, req(2*k + 2))
+                ps = ps + nc*ns; pr = pr + nc*nr
+            end associate
+        end do
+        call MPI_Waitall(2*g, req, MPI_STATUSES_IGNORE)
+        call MPI_F_sync_reg(self%recvbuf)
+    end subroutine exchange_group
 
 end module terrace_domain

@@ -12,7 +12,9 @@
 # Usage: scripts/bench/argon_weak.sh [RANKS [OUTDIR]]   RANKS default 1,2,4,8,16; OUTDIR a temp dir
 # Environment: TERRACE (binary, default build/terrace), MPIRUN (mpirun), MPI_FLAGS (default: a rank
 #   per core, bound), PS (simulated ps per run, default 200 = 20,000 steps), ROUNDS (2), DECKS
-#   ("default mixed lammps"), LMP (LAMMPS binary, default lmp).
+#   ("default mixed lammps"), LMP (LAMMPS binary, default lmp), BASELINE (a second Terrace binary: each
+#   Terrace deck then also runs with it just before above one rank, as deck "NAME-base", for a change's
+#   effect in the same rounds).
 # Prints a row per run and then scripts/bench/argon_weak_report.py's table: per deck and rank count
 # the median loop time, the efficiency (median and range over the rounds) and the slowest rank's
 # Comm, Pair and Neigh seconds. Raw rows: OUTDIR/argon_weak.csv; each run's files in
@@ -28,12 +30,18 @@ export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM
 # shellcheck source=ranks_lib.sh
 source "$here/ranks_lib.sh"; ranks_setup "$ranks"
 [[ -x "$terrace" ]] || { echo "argon_weak.sh: no Terrace binary at $terrace (build it: bash scripts/build.sh)" >&2; exit 1; }
+baseline=""
+if [[ -n "${BASELINE:-}" ]]; then
+    baseline="$(realpath "$BASELINE")"
+    [[ -x "$baseline" ]] || { echo "argon_weak.sh: BASELINE $BASELINE is not an executable" >&2; exit 1; }
+    all=""; for d in $decks; do [[ $d == lammps ]] || all+=" $d-base"; all+=" $d"; done; decks="${all# }"
+fi
 
 echo "Weak scaling of the 100 ns argon job: 864 atoms per rank, ranks $ranks, $ps ps per run ($((ps * 100)) steps), $rounds rounds"
 echo "machine : $(lscpu | sed -n 's/^Model name: *//p' | head -1); $ncores logical CPUs, $phys physical cores"
 echo "date    : $(date -u '+%Y-%m-%d %H:%M:%S UTC')"
 echo "commit  : ${BUNDLE_COMMIT:-$(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)}"
-echo "terrace : $terrace"
+echo "terrace : $terrace${baseline:+ (decks NAME-base: $baseline)}"
 echo "mpirun  : $("$mpirun" --version 2>&1 | head -1); flags: $MPI_FLAGS"
 echo
 
@@ -74,6 +82,7 @@ for r in $(seq 1 "$rounds"); do
                     split(line[m], f); printf "%s %.10f %.10f %.10f", f[1], f[2] + i * L, f[3] + j * L, f[4] + k * L
                     for (q = 5; q <= 7; q++) printf " %s", f[q]; printf "\n" } }' "$out/argon_nvt_eq.atoms" > "$out/liquid_np$p.atoms"
         for d in $decks; do
+            [[ $d == *-base && $p == 1 ]] && continue   # (one rank makes no MPI call)
             w="$out/${d}_np${p}_r$r"; rm -rf "$w"; mkdir -p "$w"; cd "$w"
             natoms=$(wc -l < "$out/liquid_np$p.atoms")
             t0=$(date +%s.%N)
@@ -89,9 +98,10 @@ for r in $(seq 1 "$rounds"); do
                 read -r comm pair neigh <<< "$(awk '/^Pair  *\|/{p=$7} /^Neigh  *\|/{n=$7} /^Comm  *\|/{c=$7} END{print c+0, p+0, n+0}' lammps.log)"
                 builds=$(sed -n 's/^Neighbor list builds = *\([0-9]*\).*/\1/p' lammps.log | tail -1)
             else
-                deck "$d" "$nx" "$ny" "$nz" "$p"
+                bin="$terrace"; [[ $d == *-base ]] && bin="$baseline"
+                deck "${d%-base}" "$nx" "$ny" "$nz" "$p"
                 # shellcheck disable=SC2086
-                if ! "$mpirun" $MPI_FLAGS -np "$p" "$terrace" job.nml > job.log 2>&1; then
+                if ! "$mpirun" $MPI_FLAGS -np "$p" "$bin" job.nml > job.log 2>&1; then
                     echo "FAILED: $d np $p round $r (log $w/job.log):"; tail -5 job.log; cd "$out"; continue; fi
                 wall=$(python3 -c "print('%.3f' % ($(date +%s.%N) - $t0))")
                 s=job.summary.json

@@ -3,6 +3,8 @@
 
 Usage: python3 scripts/bench/argon_weak_report.py CSV_OR_DIR [--figure PNG]
 
+With a BASELINE run (decks NAME-base), also the baseline's loop time over the binary's, round by round.
+
 Per deck and rank count: the median loop time over the rounds, the weak-scaling efficiency (the
 same round's one-rank loop time over the P-rank one: median and range over the rounds), microseconds
 per step, and the slowest rank's Comm, Pair and Neigh seconds (medians). The figure: efficiency
@@ -68,6 +70,16 @@ def main():
             es = "%.3f [%.3f, %.3f]" % e if e else "-"
             us = "%8.1f" % (1e6 * loop / steps) if steps else "       -"
             print("%-8s %5d %7s %14.3f   %s   %-28s %12.3f %6.3f %6.3f" % (d, p, atoms, loop, us, es, comm, pair, neigh))
+    paired = sorted({r['deck'][:-5] for r in rows if r['deck'].endswith('-base')})
+    if paired:   # argon_weak.sh BASELINE=...: the baseline's loop time over the binary's, run by run
+        print("\nNAME-base / NAME, loop time, the same round: median [min, max]")
+        for d in paired:
+            for p in sorted({int(r['ranks']) for r in rows if r['deck'] == d}):
+                t = {(r['deck'], r['round']): float(r['loop_s']) for r in rows if int(r['ranks']) == p}
+                q = [t[(d + '-base', k)] / t[(d, k)] for (dd, k) in t if dd == d and (d + '-base', k) in t]
+                if q:
+                    print("%-8s %5d   %.3f [%.3f, %.3f]  (%d rounds)" % (d, p, statistics.median(q), min(q), max(q),
+                                                                      len(q)))
     if a.figure:
         from terrace_tools.plotting import plt, save
         fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))

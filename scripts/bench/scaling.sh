@@ -12,7 +12,9 @@
 # Environment: TERRACE (binary, default build/terrace), LMP (default lmp), MPIRUN (default mpirun),
 #   EAM_FILE (default /usr/share/lammps/potentials/Cu_u3.eam), MPI_FLAGS (extra mpirun flags; default
 #   binds each rank to a core), LJ_STEPS (300), LJ_EVENTS (150), EAM_STEPS (100), EAM_EVENTS (50),
-#   PARTS ("lj eam"), KINDS ("strong weak").
+#   PARTS ("lj eam"), KINDS ("strong weak"), BASELINE (a second Terrace binary: above one rank each
+#   Terrace run is then also made with it just before, as code terrace-vv-base or terrace-es-base; the
+#   report gives the baseline's loop time over the binary's).
 # Prints one table per scene and kind (scripts/bench/scaling_report.py: loop seconds, speed-up (strong)
 # or efficiency (weak) against one rank, Terrace's slowest rank's Comm and Search times). Raw rows go
 # to OUTDIR/scaling.csv, each run's log to OUTDIR/SCENE_KIND_npP/; scaling_report.py OUTDIR --phases
@@ -31,6 +33,11 @@ export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM
 # shellcheck source=ranks_lib.sh
 source "$here/ranks_lib.sh"; ranks_setup "$ranks"
 [[ -x "$terrace" ]] || { echo "scaling.sh: no Terrace binary at $terrace (build it: bash scripts/build.sh)" >&2; exit 1; }
+baseline=""
+if [[ -n "${BASELINE:-}" ]]; then
+    baseline="$(realpath "$BASELINE")"
+    [[ -x "$baseline" ]] || { echo "scaling.sh: BASELINE $BASELINE is not an executable" >&2; exit 1; }
+fi
 command -v "$lmp" > /dev/null || { echo "scaling.sh: no LAMMPS binary '$lmp' (Debian: lammps)" >&2; exit 1; }
 [[ -r "$eam_file" ]] || { echo "scaling.sh: cannot read EAM_FILE $eam_file (Debian: lammps-data)" >&2; exit 1; }
 
@@ -38,7 +45,7 @@ echo "Parallel scaling: Terrace (velocity Verlet, energy stepping) and LAMMPS, r
 echo "machine : $(lscpu | sed -n 's/^Model name: *//p' | head -1); $ncores logical CPUs, $phys physical cores"
 echo "date    : $(date -u '+%Y-%m-%d %H:%M:%S UTC')"
 echo "commit  : ${BUNDLE_COMMIT:-$(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)}"
-echo "terrace : $terrace"
+echo "terrace : $terrace${baseline:+ (codes terrace-*-base: $baseline)}"
 echo "lammps  : $("$lmp" -h 2>/dev/null | sed -n 's/^Large-scale Atomic\/Molecular Massively Parallel Simulator - //p' | head -1)"
 echo "mpirun  : $("$mpirun" --version 2>&1 | head -1); flags: $MPI_FLAGS"
 echo "runs    : LJ $lj_steps Verlet steps, $lj_events events; EAM $eam_steps steps, $eam_events events; one run per point"
@@ -117,14 +124,17 @@ for scene in $parts; do
             if [[ $kind == strong ]]; then read -r nx ny nz <<< "20 20 20"; else read -r nx ny nz <<< "$(weak_cells "$p")"; fi
             natoms=$((4 * nx * ny * nz))
             d="$out/${scene}_${kind}_np$p"; mkdir -p "$d"; cd "$d"
-            for code in terrace-vv terrace-es lammps; do
+            codes="terrace-vv terrace-es lammps"
+            [[ -n "$baseline" && $p -gt 1 ]] && codes="terrace-vv-base terrace-vv terrace-es-base terrace-es lammps"
+            for code in $codes; do
                 comm=""; search=""; rays=""
                 case $code in
-                terrace-vv|terrace-es)
-                    if [[ $code == terrace-vv ]]; then terrace_deck "$scene" "$nx" "$ny" "$nz" "$vv" "$nvv" > "$code.nml"; n=$nvv
+                terrace-vv*|terrace-es*)
+                    bin="$terrace"; [[ $code == *-base ]] && bin="$baseline"
+                    if [[ $code == terrace-vv* ]]; then terrace_deck "$scene" "$nx" "$ny" "$nz" "$vv" "$nvv" > "$code.nml"; n=$nvv
                     else terrace_deck "$scene" "$nx" "$ny" "$nz" "$es" "$nes" > "$code.nml"; n=$nes; fi
                     # shellcheck disable=SC2086
-                    if ! "$mpirun" $MPI_FLAGS -np "$p" "$terrace" "$code.nml" > "$code.log" 2>&1; then
+                    if ! "$mpirun" $MPI_FLAGS -np "$p" "$bin" "$code.nml" > "$code.log" 2>&1; then
                         echo "FAILED: $scene $kind $code np $p (log $d/$code.log):"; tail -5 "$code.log"; continue; fi
                     loop=$(figure "$code.summary.json" timing/loop_time_s)
                     comm=$(phase_max Comm "$code.summary.json"); search=$(phase_max Search "$code.summary.json")
@@ -145,4 +155,4 @@ for scene in $parts; do
 done
 
 echo
-python3 "$here/scaling_report.py" "$out"
+PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" python3 "$here/scaling_report.py" "$out"

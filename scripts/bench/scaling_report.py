@@ -12,6 +12,8 @@ DIR_OR_TGZ is scaling.sh's OUTDIR (scaling.csv and one folder per point), or a .
              ray passes (Search, also per ray evaluation) and Comm. Energy stepping's ray evaluations
              per event depend on the state, so its weak scaling is read per pass here.
   --figure   speed-up (strong) and efficiency (weak) against ranks, both scenes, all three codes.
+A run with BASELINE (codes terrace-vv-base, terrace-es-base) adds the baseline's loop time over the
+binary's at each point.
 """
 import argparse
 import csv
@@ -104,6 +106,16 @@ def summary(src, rows):
             print(f"{p:5d} {natoms:>8} | {cells[0]} | {cells[1]} | {cells[2]} | {ratio} | "
                   f"{g(vv, 'comm_max_s'):>8} {g(es, 'comm_max_s'):>8} {g(es, 'search_max_s'):>9} "
                   f"{'-' if es is None or rays_per_event(src, es) is None else format(rays_per_event(src, es), '.3f'):>7} {cost}")
+        print()
+    base = [r for r in rows if r['code'].endswith('-base')]
+    if base:   # scaling.sh BASELINE=...
+        print("Baseline (BASELINE's binary, run just before): its loop time over the binary's, same point")
+        for r in base:
+            b = pick([x for x in rows if x['scene'] == r['scene'] and x['kind'] == r['kind']], r['ranks'],
+                     r['code'][:-5])
+            if b is not None:
+                print(f"  {r['scene']:4} {r['kind']:6} np {r['ranks']:2d}  {r['code'][:-5]:10}  "
+                      f"{r['loop_s']:8.3f} / {b['loop_s']:8.3f} = {r['loop_s'] / b['loop_s']:.3f}")
         print()
     print("VV/LAMMPS: LAMMPS loop time over Terrace Verlet's (above 1: Terrace faster), same steps, same ranks.")
     print("ES rays: ray evaluations per event (one ray pass each; an event also costs one force pass).")

@@ -654,10 +654,11 @@ contains
         type(schedule_t), intent(in) :: sched
         real(dp) :: sigma2, a, b
         associate (st => r%st, eng => r%eng, h => r%h)
-            ! the tolerance cannot be finer than the round-off of the total energy
-            r%solver%tol = max(p%root_tolerance*h, 64*epsilon(1.0_dp)*abs(eng%pe))
+            ! the tolerance cannot be finer than the round-off of the total energy (of its terms,
+            ! where they cancel)
+            r%solver%tol = max(p%root_tolerance*h, 64*epsilon(1.0_dp)*max(abs(eng%pe), eng%pot%round_off_scale()))
             if (world%rank == 0 .and. r%solver%tol > p%root_tolerance*h) write (output_unit, '(a,es10.3,a)') &
-                '  note       : root_tolerance raised to ', r%solver%tol/h, ' (round-off of the total energy)'
+                '  note       : root_tolerance raised to ', r%solver%tol/h, ' (round-off of the total energy and its terms)'
             st%t = 0
             st%k = floor(eng%pe/h, i8)
             st%lower = st%k*h

@@ -70,6 +70,10 @@ module terrace_potential
         procedure :: neighbour_type_order => potential_type_order
         procedure :: contact_distance => potential_contact_distance
         procedure :: time_scale => potential_time_scale
+        !> An energy E_r of the whole system (all ranks) whose 64 eps bounds the round-off of V where
+        !> its terms cancel (a stiff element near its rest shape: W = mu/2 (|F|^2 - 3) - ...); 0: the
+        !> round-off is that of |V| itself. The event search's tolerance is not set finer.
+        procedure :: round_off_scale => potential_round_off_scale
         procedure :: preferred_skin => potential_preferred_skin
         !> (rc, V'(rc), V''(rc), V'''(rc)) of the pair term between types ti and tj (as the passes
         !> compute it: shifted or smoothed), for the Verlet buffer estimate; rc = 0: the term is not
@@ -182,6 +186,11 @@ contains
         real(dp), intent(in) :: mass, mvv2e
         potential_time_scale = 0
     end function potential_time_scale
+
+    pure real(dp) function potential_round_off_scale(self)
+        class(potential_t), intent(in) :: self
+        potential_round_off_scale = 0
+    end function potential_round_off_scale
 
     !> The neighbour-list skin the term wants when the deck gives none (a length natural to the
     !> term, such as a fraction of a contact distance); 0: no preference (the units' default).

@@ -31,6 +31,7 @@ module terrace_potential_sum
         procedure :: neighbour_type_order => sum_type_order
         procedure :: contact_distance => sum_contact_distance
         procedure :: time_scale => sum_time_scale
+        procedure :: round_off_scale => sum_round_off_scale
         procedure :: cutoff_derivatives => sum_cutoff_derivatives
         procedure :: on_rebuild => sum_on_rebuild
         procedure :: preferred_skin => sum_preferred_skin
@@ -171,6 +172,16 @@ contains
             if (t > 0 .and. (sum_time_scale == 0 .or. t < sum_time_scale)) sum_time_scale = t
         end do
     end function sum_time_scale
+
+    !> The terms' round-off scales added.
+    pure real(dp) function sum_round_off_scale(self)
+        class(potential_sum_t), intent(in) :: self
+        integer :: k
+        sum_round_off_scale = 0
+        do k = 1, size(self%terms)
+            sum_round_off_scale = sum_round_off_scale + self%terms(k)%p%round_off_scale()
+        end do
+    end function sum_round_off_scale
 
     subroutine sum_on_rebuild(self, atoms)
         class(potential_sum_t), intent(inout) :: self

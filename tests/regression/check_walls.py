@@ -32,6 +32,7 @@ import os
 import subprocess
 
 import numpy as np
+from terrace_tools import summary
 
 from mesh_checks import check, compare_restart, cube_mesh, finish, read, run as run_terrace, start
 
@@ -190,8 +191,8 @@ for name, integ, bound in (("two_es", "style='energy_stepping', terrace_height=1
         band = (t["pe"] - (t["e_terraced"] - t["ke"]))/1e-5
         check(band.min() >= -1e-3 and band.max() <= 1 + 1e-3,
               f"two_es: V - k h within [0, h] at every sample: [{band.min():.6f}, {band.max():.6f}] h")
-        evals = [ln for ln in r.stdout.splitlines() if "ray evaluations per event:" in ln]
-        per = float(evals[0].split("ray evaluations per event:")[1].split(";")[0]) if evals else float("inf")
+        per = summary.get(os.path.join(d, "run.summary.json"), "energy_stepping/ray_evaluations_per_event",
+                          float("inf"))
         check(per <= 3, f"two_es: {per:.3f} ray evaluations per event (at most 3)")
     ratio = -t["pz"][-1] / t["pz"][0]
     tol = 0.01 if name == "two_vv" else 0.5       # energy stepping's restitution converges slowly in h

@@ -34,6 +34,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 
 from terrace_tools import summary
 
@@ -233,7 +234,8 @@ def main():
         m = re.search(r'model name\s*:\s*(.*)', open('/proc/cpuinfo').read())
         cpu = m.group(1) if m else cpu
     print(f'mesh_cost: the talk\'s cube, {nelem} tetrahedra, 1 rank; {a.label}')
-    print(f'machine: {cpu}, {os.cpu_count()} vCPU (shared), {platform.system()} {platform.machine()}; date 2026-11-24')
+    print(f'machine: {cpu}, {os.cpu_count()} vCPU (shared), {platform.system()} {platform.machine()}; '
+          f'date {time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}')
     print(f'binary: {os.path.abspath(a.terrace)}')
 
     # calibration (same compiler flags as the Release build)

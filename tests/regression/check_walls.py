@@ -184,12 +184,13 @@ for name, integ, bound in (("two_es", "style='energy_stepping', terrace_height=1
     de = np.max(np.abs(t["etotal"] - t["etotal"][0]))
     check(de <= bound, f"{name}: two bodies, contact and walls: max |E - E0| = {de:.3e} J <= {bound:g} J")
     if name == "two_es":
-        # V on its terrace at every sample: V - k h in [0, h] (k h = e_terraced - ke), to the search's
-        # tolerance; and the search at that tolerance: about one ray evaluation per event. (With a
-        # tolerance below the round-off of the stiff elements' energies, 1e-9 h, it took over 100 and
-        # its kicks overshot the levels: V - k h reached 1.0005 h.)
+        # V on its terrace at every sample: V - k h in [0, h] (k h = e_terraced - ke), to about twice
+        # the search's tolerance (raised to 1.18e-4 h here); and the search at that tolerance: about one
+        # ray evaluation per event. (With a tolerance below the round-off of the stiff elements'
+        # energies, 1e-9 h, it took 87-106 and its kicks overshot the levels: V - k h reached
+        # 1.000534 h in a Debug build.)
         band = (t["pe"] - (t["e_terraced"] - t["ke"]))/1e-5
-        check(band.min() >= -1e-3 and band.max() <= 1 + 1e-3,
+        check(band.min() >= -2.5e-4 and band.max() <= 1 + 2.5e-4,
               f"two_es: V - k h within [0, h] at every sample: [{band.min():.6f}, {band.max():.6f}] h")
         per = summary.get(os.path.join(d, "run.summary.json"), "energy_stepping/ray_evaluations_per_event",
                           float("inf"))

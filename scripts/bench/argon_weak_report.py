@@ -1,7 +1,11 @@
 #!/usr/bin/env python3
 """Table (and a figure) from a run of scripts/bench/argon_weak.sh.
 
-Usage: python3 scripts/bench/argon_weak_report.py CSV_OR_DIR [--figure PNG]
+Usage: python3 scripts/bench/argon_weak_report.py CSV_OR_DIR [CSV_OR_DIR...] [--no-base] [--figure PNG]
+
+Several runs join into one table: each run's rounds stay its own (round r of the i-th run is i.r),
+so that efficiencies still pair a run's one-rank and P-rank times. --no-base leaves out the
+NAME-base decks of a BASELINE run.
 
 With a BASELINE run (decks NAME-base), also the baseline's loop time over the binary's, round by round.
 
@@ -46,15 +50,23 @@ def summary(rows):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument('source')
+    ap.add_argument('source', nargs='+')
+    ap.add_argument('--no-base', action='store_true', help="leave out a BASELINE run's NAME-base decks")
     ap.add_argument('--steps', type=int, default=0,
                     help='steps per run, for microseconds per step (default: read from the run directories)')
     ap.add_argument('--figure')
     a = ap.parse_args()
-    rows = load(a.source)
+    rows = []
+    for i, src in enumerate(a.source):
+        for r in load(src):
+            if len(a.source) > 1:
+                r['round'] = f"{i + 1}.{r['round']}"
+            rows.append(r)
+    if a.no_base:
+        rows = [r for r in rows if not r['deck'].endswith('-base')]
     steps = a.steps
-    if not steps:   # the deck's run_time in ps at 10 fs, from any run directory's job.nml
-        base = a.source if os.path.isdir(a.source) else os.path.dirname(a.source)
+    if not steps and len(a.source) == 1:   # the deck's run_time in ps at 10 fs, from any run directory's job.nml
+        base = a.source[0] if os.path.isdir(a.source[0]) else os.path.dirname(a.source[0])
         for r in rows:
             nml = os.path.join(base, f"{r['deck']}_np{r['ranks']}_r{r['round']}", 'job.nml')
             if os.path.exists(nml):

@@ -654,9 +654,7 @@ contains
         type(schedule_t), intent(in) :: sched
         real(dp) :: sigma2, a, b
         associate (st => r%st, eng => r%eng, h => r%h)
-            ! the tolerance cannot be finer than the round-off of the total energy (of its terms,
-            ! where they cancel)
-            r%solver%tol = max(p%root_tolerance*h, 64*epsilon(1.0_dp)*max(abs(eng%pe), eng%pot%round_off_scale()))
+            r%solver%tol = max(p%root_tolerance*h, round_off_floor(eng))
             if (world%rank == 0 .and. r%solver%tol > p%root_tolerance*h) write (output_unit, '(a,es10.3,a)') &
                 '  note       : root_tolerance raised to ', r%solver%tol/h, ' (round-off of the total energy and its terms)'
             st%t = 0
@@ -701,7 +699,17 @@ contains
         call r%restore_coupling(r%eng%restart_values, ok)
         call check_all(ok, p%restart_from//': &system: read_checkpoint: damaged checkpoint '// &
                        '(energy-stepping state missing)')
+        ! the checkpoint's tolerance, raised where it was written below the round-off of V's
+        ! cancelling terms (which the run that wrote it now starts with: the same tolerance)
+        r%solver%tol = max(r%solver%tol, 64*epsilon(1.0_dp)*r%eng%pot%round_off_scale())
     end subroutine restore_state
+
+    !> The finest tolerance V allows: the round-off of the total energy, and of its terms where they
+    !> cancel (a potential's round_off_scale).
+    real(dp) function round_off_floor(eng) result(tol)
+        type(engine_t), intent(in) :: eng
+        tol = 64*epsilon(1.0_dp)*max(abs(eng%pe), eng%pot%round_off_scale())
+    end function round_off_floor
 
     !> The event loop's own values of a checkpoint (run_parts_t's checkpoint adds the thermostat's
     !> and the barostat's), written (saving: with h, which the run's assembly reads back before the

@@ -204,7 +204,7 @@ def short_why(msg):
     if 'inside out' in msg and m:
         return 'the engine stops it: an element turned inside out at t = %.3g s, step %s' % (float(m.group(2)),
                                                                                            m.group(1))
-    return msg.replace('|', '\\|')
+    return re.sub(r'(?<!\\)\|', r'\\|', msg)      # (a message escaped before stays as it is)
 
 
 def event_split(ctx, work, mesh, p, h):

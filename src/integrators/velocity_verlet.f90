@@ -129,7 +129,7 @@ contains
                     if (out%ctl%stopped) exit
                 end if
             end do
-            if (.not. out%ctl%stopped) call report_drift(r%first, last, eng%natoms, ts%active(), bs%active())
+            if (.not. out%ctl%stopped) call report_drift(r%first, last, eng%natoms, ts%active(), bs%active(), eng%units)
         end associate
 
     contains
@@ -281,26 +281,31 @@ contains
 
     !> Energy drift per atom per time unit (of econserve = etotal - ecouple with a thermostat, plus
     !> P0 V and the barostat's own energy with a barostat: first%baro, last%baro) and the change of
-    !> total momentum over the run.
-    subroutine report_drift(first, last, natoms, thermostat, barostat)
+    !> total momentum over the run, in the deck's units.
+    subroutine report_drift(first, last, natoms, thermostat, barostat, units)
         use terrace_mpi_env, only: world
+        use terrace_units, only: units_t
         use, intrinsic :: iso_fortran_env, only: output_unit
         type(drift_end_t), intent(in) :: first, last
         integer(i8), intent(in) :: natoms
         logical, intent(in) :: thermostat, barostat
+        type(units_t), intent(in) :: units
         real(dp) :: drift
+        character(len=:), allocatable :: per_atom
         if (world%rank /= 0 .or. last%s%time <= first%s%time) return
         drift = ((last%s%etotal + last%baro - last%s%ecouple) - (first%s%etotal + first%baro - first%s%ecouple))/ &
                 (real(natoms, dp)*(last%s%time - first%s%time))
         call summary_drift(first%s, last%s, natoms, thermostat, drift)
         if (barostat) call summary_put_baro(last%baro - first%baro)
+        per_atom = ' '//trim(units%energy)//' per atom per '//trim(units%time)
         if (thermostat) then
             write (output_unit, '(a,es12.4,a,es12.4,a)') 'Energy drift (econserve): ', drift, &
-                ' energy/atom/time;  energy put in by the thermostat: ', last%s%ecouple - first%s%ecouple, ' energy'
+                per_atom//';  energy put in by the thermostat: ', last%s%ecouple - first%s%ecouple, ' '//trim(units%energy)
             return
         end if
         write (output_unit, '(a,es12.4,a,es12.4,a)') 'Energy drift: ', drift, &
-            ' energy/atom/time;  |P_end - P_0| = ', norm2(last%s%momentum - first%s%momentum), ' (mass*velocity)'
+            per_atom//';  |P_end - P_0| = ', norm2(last%s%momentum - first%s%momentum), &
+            ' '//trim(units%mass)//' '//trim(units%velocity)
     end subroutine report_drift
 
     !> report_drift's figures in the run summary.

@@ -286,12 +286,13 @@ contains
             write (output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'Events: ', es%events, ' (', es%ups, ' up, ', es%downs, &
                 ' down, ', es%reflections, ' reflections)'
             if (es%events > 0) write (output_unit, '(a,es12.5,a,i0)') 'Mean event interval: ', &
-                es%time/es%events, ';  ray evaluations per event: '//fixed(real(es%ray_evals, dp)/es%events, 3)// &
+                es%time/es%events, ' '//trim(cfg%units%time)//';  ray evaluations per event: '//fixed(real(es%ray_evals, dp)/es%events, 3)// &
                 ';  force passes per event: '//fixed(real(es%force_passes, dp)/es%events, 3)// &
                 ';  verification misses: ', es%verify_misses
             if (es%have_conserved) write (output_unit, '(a,es17.10,a,es17.10,a,es10.3,a)') &
-                'Conserved K + k h (first, last thermo sample): ', es%conserved_first, ', ', es%conserved_last, &
-                '; drift ', es%conserved_last - es%conserved_first, ' (round-off; K + V stays within h of it)'
+                'Conserved K + k h (first, last thermo sample, '//trim(cfg%units%energy)//'): ', es%conserved_first, &
+                ', ', es%conserved_last, '; drift ', es%conserved_last - es%conserved_first, &
+                ' (round-off; K + V stays within h of it)'
             if (es%events >= min_events_share .and. es%reflections > 0.5_dp*es%events) then
                 write (s1, '(f5.1)') 100.0_dp*real(es%reflections, dp)/es%events
                 if (es%reflections > 0.9_dp*es%events) then
@@ -340,7 +341,8 @@ contains
                 ' us per event'
             write (output_unit, '(a,es17.10,a,es17.10,a,es10.3)') 'Total energy'// &
                 trim(merge(' less ecouple', '             ', cfg%thermostat /= 'none'))// &
-                ' (first, last thermo sample): ', ed%e_first, ', ', ed%e_last, '; drift ', ed%e_last - ed%e_first
+                ' (first, last thermo sample, '//trim(cfg%units%energy)//'): ', ed%e_first, ', ', ed%e_last, &
+                '; drift ', ed%e_last - ed%e_first
         end if
         call summary_put('event_driven/', [character(len=20) :: 'events', 'pair_crossings', 'cell_crossings', &
                          'stale_predictions', 'hard_core_collisions', 'captures', 'escapes', 'bounces'], &

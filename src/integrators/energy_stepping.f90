@@ -356,7 +356,8 @@ contains
                 trim(eng%units%time), ', about '//fixed(100*refl/2, 1)//' % of events reflections'
             write (output_unit, '(a,es12.5,1x,a,a)') '  vs Verlet  : a stable Verlet step here is ~ ', dt_vv, &
                 trim(eng%units%time), how//'; ratio '//fixed(mean_dt/dt_vv, 2)// &
-                ' (an event costs about 2-3 force passes: energy stepping pays off above ~3)'
+                ' (an event costs about 2-3 force passes: above ~3 energy stepping costs less per simulated '// &
+                'time than Verlet at its stable step, though not at equal accuracy: doc/choosing_an_integrator.md)'
         end if
     end subroutine print_es_estimates
 

@@ -286,7 +286,8 @@ contains
             write (output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'Events: ', es%events, ' (', es%ups, ' up, ', es%downs, &
                 ' down, ', es%reflections, ' reflections)'
             if (es%events > 0) write (output_unit, '(a,es12.5,a,i0)') 'Mean event interval: ', &
-                es%time/es%events, ' '//trim(cfg%units%time)//';  ray evaluations per event: '//fixed(real(es%ray_evals, dp)/es%events, 3)// &
+                es%time/es%events, ' '//trim(cfg%units%time)//';  ray evaluations per event: '// &
+                fixed(real(es%ray_evals, dp)/es%events, 3)// &
                 ';  force passes per event: '//fixed(real(es%force_passes, dp)/es%events, 3)// &
                 ';  verification misses: ', es%verify_misses
             if (es%have_conserved) write (output_unit, '(a,es17.10,a,es17.10,a,es10.3,a)') &

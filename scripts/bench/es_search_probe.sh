@@ -25,5 +25,6 @@ grep -q "$key=" "$work/run/probe.nml" || { echo "es_search_probe: no run length 
 echo "deck: $deck ($length); commit $(git -C "$repo" rev-parse --short HEAD)$(git -C "$repo" diff --quiet HEAD -- src || echo ' + changes'); $(lscpu | sed -n 's/^Model name:[[:space:]]*//p' | head -1); $(date -u '+%Y-%m-%d %H:%M UTC')"
 (cd "$work/run" && ES_PROBE_OUT="$work/probe.txt" OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
     "$work/build/terrace" probe.nml > run.log 2>&1) || { tail -5 "$work/run/run.log" >&2; exit 1; }
-grep -E "^Events:|ray evaluations per event" "$work/run/run.log"
+figure() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m terrace_tools.summary get "$work/run/probe.summary.json" "energy_stepping/$1"; }
+echo "events $(figure events) ($(figure reflections) reflections); ray evaluations per event $(figure ray_evaluations_per_event), verification misses $(figure verification_misses)"
 /usr/bin/python3 "$here/solver/search_probe.py" report "$work/probe.txt"

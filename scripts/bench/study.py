@@ -20,13 +20,13 @@ doc/figures/bench_*.png and the tables behind them (CSV, doc/bench_data/):
   Parallel scaling is not part of the study: scripts/bench/scaling.sh (doc/performance.md).
 
 Usage:
-  /usr/bin/python3 scripts/bench/study.py --quick            # minutes (9 min 50 s with --repeat 3 on the 2-vCPU box, load 3-4)
-  /usr/bin/python3 scripts/bench/study.py --full             # hours: 100 ns cluster, 32,000-atom LJ, ...
-  /usr/bin/python3 scripts/bench/study.py --quick --scenes cube,balls
+  PYTHONPATH=scripts /usr/bin/python3 scripts/bench/study.py --quick            # minutes (9 min 50 s with --repeat 3 on the 2-vCPU box, load 3-4)
+  PYTHONPATH=scripts /usr/bin/python3 scripts/bench/study.py --full             # hours: 100 ns cluster, 32,000-atom LJ, ...
+  PYTHONPATH=scripts /usr/bin/python3 scripts/bench/study.py --quick --scenes cube,balls
                            # the mesh scenes only (4 min on the 2-vCPU box), spliced into the page
-  /usr/bin/python3 scripts/bench/study.py --quick --scenes bounce
+  PYTHONPATH=scripts /usr/bin/python3 scripts/bench/study.py --quick --scenes bounce
                            # the many-collision run alone (9 min 50 s on the 2-vCPU box, load 8-15)
-  /usr/bin/python3 scripts/bench/study.py --quick --scenes minority
+  PYTHONPATH=scripts /usr/bin/python3 scripts/bench/study.py --quick --scenes minority
                            # the stiff-minority meshes (study/minority.py; needs the gmsh command)
   options: --build DIR (default build/), --scenes a,b, --skip-sweep, --skip-stress, --no-lammps,
            --work DIR, --keep, --doc DIR, --no-report
@@ -104,7 +104,8 @@ def main():
     ctx.env = common.environment(build)
     ctx.env['mode'] = ctx.mode
     ctx.env['repeat'] = ctx.repeat
-    ctx.env['command'] = ' '.join(['/usr/bin/python3', os.path.relpath(os.path.abspath(sys.argv[0]), common.REPO)]
+    ctx.env['command'] = ' '.join(['PYTHONPATH=scripts', '/usr/bin/python3',
+                                   os.path.relpath(os.path.abspath(sys.argv[0]), common.REPO)]
                                   + sys.argv[1:])
     ctx.env['analyze'] = ctx.analyzer.exe or 'not in this build (numpy fallback)'
     keys = [k.strip() for k in a.scenes.split(',') if k.strip()]

@@ -28,7 +28,7 @@ Scenes:
             from it 400 Verlet steps (dt 0.005) and 1000 energy-stepping events at h = 0.1 eps: the
             multi-type path (per-pair coefficients) of the force and ray passes.
 
-Usage:  python3 scripts/bench/es_cost.py [--terrace PATH] [--scenes cluster7,rahman,lj32k] [--repeat N]
+Usage:  PYTHONPATH=scripts python3 scripts/bench/es_cost.py [--terrace PATH] [--scenes cluster7,rahman,lj32k] [--repeat N]
 Run time on a 2-vCPU AMD EPYC: about 40 s (80 s with --repeat 2). The binary is copied first.
 Timings: loop times from the run summaries (timing/loop_time_s); with --repeat N the Verlet and the energy-stepping
 run of a scene alternate N times and the fastest loop time of each is kept (the machine may be shared).

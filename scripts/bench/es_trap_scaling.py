@@ -21,7 +21,7 @@ slightly different h per ratio, so that where V0 falls on the grid of levels ave
 sizes; printed: reflection fraction, how many runs trapped (>90 % reflections), and the event rate
 scaled by h / (k_B T sqrt(N)) (constant if the rate grows like sqrt(N)/h).
 
-Usage: /usr/bin/python3 scripts/bench/es_trap_scaling.py [--build build] [--work DIR]
+Usage: PYTHONPATH=scripts /usr/bin/python3 scripts/bench/es_trap_scaling.py [--build build] [--work DIR]
        [--sizes 3,6,10] [--es-sizes 3,4,6,10] [--t 0.1]   (2 min 7 s on the 2-vCPU dev box)
 """
 import argparse

@@ -21,7 +21,7 @@ Temperature convention: the talk's T = sum m v^2 / (2 N k_B), i.e. dof = 2N = 14
 in 2-D (22.7 K at t = 0). Terrace's `temp` column uses dof = dN - d = 12, so T here is computed
 from the `ke` column: T = ke / (N k_B).
 
-Usage:  python3 scripts/bench/frozen_cluster.py [--quick] [--terrace PATH] [--heights 1,2,4,...]
+Usage:  PYTHONPATH=scripts python3 scripts/bench/frozen_cluster.py [--quick] [--terrace PATH] [--heights 1,2,4,...]
                                    [--run-time NS] [--figdir DIR] [--keep] [--refine N] [--tol X]
 Run time on a 2-vCPU AMD EPYC: about 4 minutes (100 ns; the h = 1 K run alone takes ~45 s);
 --quick (10 ns runs) about 30 s. The binary is copied into the work dir first.

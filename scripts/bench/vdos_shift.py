@@ -12,10 +12,10 @@ stepping (--style energy_stepping, --values are terrace_height, or target_mean_d
 --key target_mean_dt); for energy stepping the mean event interval printed by the run is recorded
 as the 'mean step', so both integrators can share one axis.
 
-  python3 scripts/bench/vdos_shift.py run --deck input/cu_eam.nml --style velocity_verlet \
+  PYTHONPATH=scripts python3 scripts/bench/vdos_shift.py run --deck input/cu_eam.nml --style velocity_verlet \
       --values 0.001,0.002,0.005,0.01,0.02 --interval 0.02 --run-time 20 --band 6,8.5 \
       --correlation-time 2 --skip 2 --out /tmp/vdos_shift/cu --label cu_verlet
-  python3 scripts/bench/vdos_shift.py plot --tables A.csv B.csv --out doc/figures/x.png \
+  PYTHONPATH=scripts python3 scripts/bench/vdos_shift.py plot --tables A.csv B.csv --out doc/figures/x.png \
       [--reference-frequency 7.0]
 
 Every run starts from the deck's initial state; --skip leaves its equilibration out of the analysis

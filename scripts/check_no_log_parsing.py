@@ -48,8 +48,10 @@ MATCHING = re.compile(
 # a phase-table row picked by its first word: a regular expression or awk on Pair, Neigh, Comm, ...
 PHASE = r"(?:Pair|Neigh|Comm|Output|Search|Other)"
 PHASE_ROW = re.compile(
-    r"\^\(?" + PHASE + r"[|)]|\(" + PHASE + r"\|" + PHASE + r"|\$1 *== *\"" + PHASE + r"\""
+    r"\^\(?" + PHASE + r"(?:[|)]|(?=[ \\])(?!(?: |\\s|[+*])*\\?\||(?: |\\s)+Coeffs)(?: |\\s))|\(" + PHASE + r"\|" + PHASE + r"|\$1 *== *\"" + PHASE + r"\""
     r"|startswith\(['\"]" + PHASE + r"['\"]")
+# ... except on LAMMPS's timing table, whose rows ('Pair    | ...') awk splits at '|'
+LAMMPS_TABLE = re.compile(r"-F\s*['\"]\|['\"]")
 SYS_PATH = re.compile(r"\bsys\.path\.(?:insert|append|extend)\(|\bsys\.path\s*(?:\+?=|\[)|\bsite\.addsitedir\(")
 
 
@@ -95,7 +97,8 @@ def scan(paths):
             text = code_part(line, suffix)
             if not text:
                 continue
-            if (MARKERS.search(text) and MATCHING.search(text)) or PHASE_ROW.search(text):
+            if (MARKERS.search(text) and MATCHING.search(text)) or \
+                    (PHASE_ROW.search(text) and not LAMMPS_TABLE.search(text)):
                 parsers.append((rel, k, line.strip()))
             if suffix != ".md" and SYS_PATH.search(text):
                 hacks.append((rel, k, line.strip()))

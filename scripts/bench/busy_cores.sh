@@ -12,6 +12,7 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"; repo="$(cd "$here/../.." &
 terrace="$(realpath "${TERRACE:-$repo/build/terrace}")"; mpirun="${MPIRUN:-mpirun}"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1
 w="$(mktemp -d)"
+pair_s() { PYTHONPATH="$repo/scripts${PYTHONPATH:+:$PYTHONPATH}" python3 -m terrace_tools.summary get "$1" timing/phases/Pair/avg_s; }
 sed -e "s/n_steps=1000/n_steps=${NS:-300}/" "$repo/input/lj_bench.nml" > "$w/lj.nml"
 echo "machine: $(lscpu | sed -n 's/^Model name: *//p' | head -1); $(getconf _NPROCESSORS_ONLN) CPUs; date $(date -u '+%F %T UTC'); $terrace"
 echo "CPU 0's siblings: $(cat /sys/devices/system/cpu/cpu0/topology/thread_siblings_list 2>/dev/null); CPU 1's: $(cat /sys/devices/system/cpu/cpu1/topology/thread_siblings_list 2>/dev/null)"
@@ -23,7 +24,7 @@ for rep in 1 2; do
         done
         wait
         printf 'repeat %d, CPUs [%s]: Pair s' "$rep" "$set"
-        for c in $set; do printf ' %s' "$(awk '/^Pair /{print $2}' "$w/$c/log")"; done
+        for c in $set; do printf ' %.4f' "$(pair_s "$w/$c/lj.summary.json")"; done
         echo
     done
 done

@@ -55,6 +55,10 @@ module terrace_energy_stepping
     implicit none
     private
 
+    !> 64 eps: the round-off bound, relative to an energy, below which the event search's tolerance is
+    !> not set (round_off_floor, restore_state)
+    real(dp), parameter :: round_off_eps = 64*epsilon(1.0_dp)
+
     !> The engine seen as a ray for the event solver: s is measured from the search origin,
     !> where the atoms are.
     type, extends(ray_t) :: engine_ray_t
@@ -702,14 +706,14 @@ contains
                        '(energy-stepping state missing)')
         ! the checkpoint's tolerance, raised where it was written below the round-off of V's
         ! cancelling terms (which the run that wrote it now starts with: the same tolerance)
-        r%solver%tol = max(r%solver%tol, 64*epsilon(1.0_dp)*r%eng%pot%round_off_scale())
+        r%solver%tol = max(r%solver%tol, round_off_eps*r%eng%pot%round_off_scale())
     end subroutine restore_state
 
     !> The finest tolerance V allows: the round-off of the total energy, and of its terms where they
     !> cancel (a potential's round_off_scale).
     real(dp) function round_off_floor(eng) result(tol)
         type(engine_t), intent(in) :: eng
-        tol = 64*epsilon(1.0_dp)*max(abs(eng%pe), eng%pot%round_off_scale())
+        tol = round_off_eps*max(abs(eng%pe), eng%pot%round_off_scale())
     end function round_off_floor
 
     !> The event loop's own values of a checkpoint (run_parts_t's checkpoint adds the thermostat's

@@ -261,6 +261,12 @@ def stats(r):
                 lo=float(np.min(e)), hi=float(np.max(e)))
 
 
+def ktr_at(r, t):
+    """The centre of mass's free-flight kinetic energy over E0 in the sample bin nearest t."""
+    bins, ktr = np.asarray(r['bins'], float), np.asarray(r['ktr'], float)
+    return float(ktr[np.argmin(np.abs(bins - t))]) if len(bins) else np.nan
+
+
 def _label(r):
     if r['method'] == 'verlet':
         return 'Verlet dt = %.3g s (%s)' % (r['param'], r['note'])
@@ -334,18 +340,20 @@ def section(ctx, res):
             1e3 * p['merge'], p['v_min']),
          '| run | length [s] | steps / events | CPU [s] | collisions (rated) | max \\|E − E0\\| [J] '
          '| E(end) − E0 [J] | drift [J/s] | spread of K + k h [J] | mean e, first 20 | mean e, last 100 | std e '
-         '| centre-of-mass K in free flight / E0 at the end |',
-         '|---' * 13 + '|']
+         '| e min – max | centre-of-mass K in free flight / E0 after 3 s | at the end |',
+         '|---' * 15 + '|']
     for r in res['runs']:
         if r['rc'] != 0:
             L.append('| %s | %g | failed: %s |%s' % (_label(r), r['t_end'], r['error'].replace('|', '\\|')[:120],
-                                                      ' |' * 10))
+                                                      ' |' * 12))
             continue
         s = stats(r)
-        L.append('| %s | %g | %s | %.3g | %d (%d) | %.3g | %.3g | %.2g | %s | %.4f | %.4f | %.3f | %.3f |' % (
+        L.append('| %s | %g | %s | %.3g | %d (%d) | %.3g | %.3g | %.2g | %s | %.4f | %.4f | %.3f | %.2f – %.2f '
+                 '| %.3f | %.3f |' % (
             _label(r), r['t_end'], r.get('events') or r.get('n'), r['cpu'], r['n_coll'], r['n_rated'], r['max_de'],
             r['end_de'], r['drift'], '%.2g' % r['kh_spread'] if 'kh_spread' in r else '–', s.get('first', np.nan),
-            s.get('last', np.nan), s.get('std', np.nan), r['ktr_end']))
+            s.get('last', np.nan), s.get('std', np.nan), s.get('lo', np.nan), s.get('hi', np.nan), ktr_at(r, 3.0),
+            r['ktr_end']))
     L.append('')
     L.append('![Energy error, centre-of-mass energy and restitution over many collisions](figures/bench_bounce.png)\n')
     L.append('<!-- bounce:end -->')

@@ -13,6 +13,7 @@ PLANTED = {
     "ab.sh": """loop=$(sed -n 's/^Loop time: *\\([0-9.]*\\) s.*/\\1/p' "$log")
 ph=$(awk '$1=="Pair"||$1=="Neigh"{printf " %s %s", $1, $2}' run.log)
 grep -q "^Peak memory" run.log || exit 1
+pair=$(awk '/^Pair /{print $2}' run.log)
 """,
     "cost.py": """import re, sys
 sys.path.insert(0, '..')
@@ -27,6 +28,9 @@ NOT_PARSERS = {
     "lammps.sh": """t=$(sed -n 's/^Loop time of \\([0-9.eE+-]*\\) on .*/\\1/p' lammps.log | tail -1)
 # Terrace's "Loop time:" line used to be read with grep; now: the run summary
 echo "Loop time: $(python3 -m terrace_tools.summary get run.summary.json timing/loop_time_s) s"
+p=$(awk -F'|' '/^Pair /{gsub(/ /,"",$3); print $3}' lammps.log | tail -1)
+n=$(awk '/^Neigh  *\\|/{print $7}' lammps.log)
+grep -q '^Pair Coeffs' data.lmp
 """,
     "ok.py": """from terrace_tools import summary
 print('Events: %d' % summary.get('run.summary.json', 'energy_stepping/events'))
@@ -50,10 +54,11 @@ def test_planted_parsers_are_found(tmp_path):
     p = check(tmp_path)
     assert p.returncode == 1
     lines = p.stdout.splitlines()
-    assert "log parsers: 6" in lines, p.stdout
+    assert "log parsers: 7" in lines, p.stdout
     assert "sys.path hacks: 1" in lines, p.stdout
     found = {(ln.split(":")[0].split(os.sep)[-1], int(ln.split(":")[1])) for ln in lines if ": log parser: " in ln}
-    assert found == {("ab.sh", 1), ("ab.sh", 2), ("ab.sh", 3), ("cost.py", 3), ("cost.py", 4), ("cost.py", 6)}
+    assert found == {("ab.sh", 1), ("ab.sh", 2), ("ab.sh", 3), ("ab.sh", 4), ("cost.py", 3), ("cost.py", 4),
+                     ("cost.py", 6)}
 
 
 def test_lammps_logs_comments_and_prints_are_not_parsers(tmp_path):

@@ -245,40 +245,51 @@ contains
     pure subroutine plain_gradient_sums(atoms, acc)
         type(atoms_t), intent(in) :: atoms
         real(dp), intent(out) :: acc(3)
+        if (atoms%per_atom_mass) then
+            call gradient_terms(atoms%nlocal, atoms%f, atoms%v, atoms%rmass, [0], .true., acc)
+        else
+            call gradient_terms(atoms%nlocal, atoms%f, atoms%v, atoms%mass, atoms%type, .false., acc)
+        end if
+    end subroutine plain_gradient_sums
+
+    !> plain_gradient_sums's arithmetic on the arrays themselves: m_i = mass(i) where per_atom, else
+    !> mass(type(i)).
+    pure subroutine gradient_terms(n, f, v, mass, type, per_atom, acc)
+        integer, intent(in) :: n, type(*)
+        real(dp), intent(in) :: f(3, *), v(3, *), mass(*)
+        logical, intent(in) :: per_atom
+        real(dp), intent(out) :: acc(3)
         real(dp) :: s1(8), s2(8), s3(8), m(8), g2
-        integer :: i, l, nb, n
-        n = atoms%nlocal
+        integer :: i, l, nb
         s1 = 0; s2 = 0; s3 = 0
         nb = (n/8)*8
-        associate (f => atoms%f, v => atoms%v)
-            do i = 1, nb, 8
-                if (atoms%per_atom_mass) then
-                    m = atoms%rmass(i:i + 7)
-                else
-                    m = atoms%mass(atoms%type(i:i + 7))
-                end if
-                do l = 1, 8
-                    g2 = f(1, i + l - 1)**2 + f(2, i + l - 1)**2 + f(3, i + l - 1)**2
-                    s1(l) = s1(l) + g2*(v(1, i + l - 1)**2 + v(2, i + l - 1)**2 + v(3, i + l - 1)**2)
-                    s2(l) = s2(l) + g2/m(l)
-                    s3(l) = s3(l) - (f(1, i + l - 1)*v(1, i + l - 1) + f(2, i + l - 1)*v(2, i + l - 1) + &
-                                     f(3, i + l - 1)*v(3, i + l - 1))
-                end do
+        do i = 1, nb, 8
+            if (per_atom) then
+                m = mass(i:i + 7)
+            else
+                m = mass(type(i:i + 7))
+            end if
+            do l = 1, 8
+                g2 = f(1, i + l - 1)**2 + f(2, i + l - 1)**2 + f(3, i + l - 1)**2
+                s1(l) = s1(l) + g2*(v(1, i + l - 1)**2 + v(2, i + l - 1)**2 + v(3, i + l - 1)**2)
+                s2(l) = s2(l) + g2/m(l)
+                s3(l) = s3(l) - (f(1, i + l - 1)*v(1, i + l - 1) + f(2, i + l - 1)*v(2, i + l - 1) + &
+                                 f(3, i + l - 1)*v(3, i + l - 1))
             end do
-            acc = [sum(s1), sum(s2), sum(s3)]
-            do i = nb + 1, n
-                if (atoms%per_atom_mass) then
-                    m(1) = atoms%rmass(i)
-                else
-                    m(1) = atoms%mass(atoms%type(i))
-                end if
-                g2 = f(1, i)**2 + f(2, i)**2 + f(3, i)**2
-                acc(1) = acc(1) + g2*(v(1, i)**2 + v(2, i)**2 + v(3, i)**2)
-                acc(2) = acc(2) + g2/m(1)
-                acc(3) = acc(3) - (f(1, i)*v(1, i) + f(2, i)*v(2, i) + f(3, i)*v(3, i))
-            end do
-        end associate
-    end subroutine plain_gradient_sums
+        end do
+        acc = [sum(s1), sum(s2), sum(s3)]
+        do i = nb + 1, n
+            if (per_atom) then
+                m(1) = mass(i)
+            else
+                m(1) = mass(type(i))
+            end if
+            g2 = f(1, i)**2 + f(2, i)**2 + f(3, i)**2
+            acc(1) = acc(1) + g2*(v(1, i)**2 + v(2, i)**2 + v(3, i)**2)
+            acc(2) = acc(2) + g2/m(1)
+            acc(3) = acc(3) - (f(1, i)*v(1, i) + f(2, i)*v(2, i) + f(3, i)*v(3, i))
+        end do
+    end subroutine gradient_terms
 
     !> The variance of dV/dt used to predict the level-crossing rate: that of the initial state,
     !> sum |g_i|^2 |v_i|^2 / d, or, when larger, the equilibrium estimate k_B T v.H.v / 4 from the

@@ -79,6 +79,7 @@ module terrace_lj
         !> ray pass: (x + s v, v) of every atom, owned and ghost, side by side (one gather per neighbour)
         real(dp), allocatable :: xv(:, :)
         real(dp), allocatable :: ray_soa(:)      !< all-pairs ray pass: six rows of nall + 4 (lj_ray_all_pairs.c)
+        real(dp) :: c11(6) = 0                   !< (lj1, lj2, lj3, lj4, cutsq, offset) of types (1, 1): the all-pairs passes
         logical :: mixed = .false.               !< single-precision pair arithmetic (one type, 'lj', half list)
         real(sp), allocatable :: xs(:, :)        !< mixed: positions as (hi, 0, lo, 0) singles, 8 per atom
         real(dp), allocatable :: fd(:, :)        !< mixed: per-atom force records (x, y, z, 0)
@@ -223,6 +224,7 @@ contains
             end do
         end do
         self%cutmax = maxval(cut(1:ntypes, 1:ntypes))
+        self%c11 = [self%lj1(1, 1), self%lj2(1, 1), self%lj3(1, 1), self%lj4(1, 1), self%cutsq(1, 1), self%offset(1, 1)]
         self%simd = lj_simd_tables_t()
         self%simd%ntypes = ntypes
         if (ntypes <= 8) then

@@ -9,7 +9,8 @@
  * list's offsets formed once, as the engine forms them once per list).
  * Prints the list length, its pairs within the cutoff and their share of the pass's lanes (eight per
  * block, sixteen in the mixed pass, whose last block of a row holds eight lanes where it has eight
- * pairs or fewer; an atom's last block padded), and the pass's cost per pair of the half list (a full
+ * pairs or fewer; with AVX2 and no AVX-512 four and eight, a last mixed block of four; an atom's last
+ * block padded), and the pass's cost per pair of the half list (a full
  * list's pass does every pair twice): median and range of 7 batches of 400 passes.
  * Usage: lj_pass_floor_VARIANT 0|1|2 */
 #include <stdio.h>
@@ -88,12 +89,16 @@ int main(int argc, char **argv)
         }
     }
     first[n] = (int)np + 1;
+#if defined(__AVX512F__)
     const int lanes = mixed ? 16 : 8;
+#else   /* (AVX2: lj_pass4 and the mixed pass's rows of eight) */
+    const int lanes = mixed ? 8 : 4;
+#endif
     long blocks = 0, within = 0, lanes_used = 0;   /* the pass's blocks and lanes, its pairs within rc */
     for (int i = 0; i < n; i++) {
         const int nn = first[i + 1] - first[i];
         blocks += (nn + lanes - 1) / lanes;
-        if (mixed && nn % 16 != 0 && nn % 16 <= 8) lanes_used -= 8;   /* the pass's eight-record last block */
+        if (mixed && nn % lanes != 0 && nn % lanes <= lanes / 2) lanes_used -= lanes / 2;   /* its half-width last block */
         for (int k = first[i] - 1; k < first[i + 1] - 1; k++) {
             const int j = neigh[k] - 1;
             const double dx = x[3 * i] - x[3 * j], dy = x[3 * i + 1] - x[3 * j + 1], dz = x[3 * i + 2] - x[3 * j + 2];
@@ -110,7 +115,7 @@ int main(int argc, char **argv)
 #define PASS() (mixed ? terrace_lj_mixed(n, m, x, f, q, ff, first, ofirst, offs, cf, 0, 0, NULL, ae, &vir) \
                       : terrace_lj_one_type(n, x, f, first, neigh, lj1, lj2, lj3, lj4, rc * rc, 0, 0, ae, &vir))
     if ((mixed && terrace_row_offsets(n, m, first, neigh, 0, NULL, ofirst, offs) < 0) || !PASS()) {
-        fprintf(stderr, "lj_pass_floor: this build has no AVX-512 pass\n");
+        fprintf(stderr, "lj_pass_floor: this build has no SIMD pass (AVX-512, or AVX2 with FMA)\n");
         return 2;
     }
     const int batches = 7, passes = 400;

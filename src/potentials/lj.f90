@@ -79,7 +79,8 @@ module terrace_lj
         !> ray pass: (x + s v, v) of every atom, owned and ghost, side by side (one gather per neighbour)
         real(dp), allocatable :: xv(:, :)
         real(dp), allocatable :: ray_soa(:)      !< all-pairs ray pass: six rows of nall + 4 (lj_ray_all_pairs.c)
-        real(dp) :: c11(6) = 0                   !< (lj1, lj2, lj3, lj4, cutsq, offset) of types (1, 1): the all-pairs passes
+        !> (lj1, lj2, lj3, lj4, cutsq, offset) of types (1, 1), for the all-pairs passes of one type
+        real(dp) :: c11(6) = 0
         logical :: mixed = .false.               !< single-precision pair arithmetic (one type, 'lj', half list)
         real(sp), allocatable :: xs(:, :)        !< mixed: positions as (hi, 0, lo, 0) singles, 8 per atom
         real(dp), allocatable :: fd(:, :)        !< mixed: per-atom force records (x, y, z, 0)

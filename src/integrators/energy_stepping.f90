@@ -356,7 +356,7 @@ contains
             how = ' (period/50)'
         else
             dt_vv = 0.005_dp*tau
-            how = ' (0.005 tau; a mesh: half an element''s wave transit)'
+            how = ' ('//eng%pot%time_scale_text(eng%atoms%mass(1), eng%units%mvv2e)//')'
         end if
         write (output_unit, '(a,es12.5,1x,a)') '  terrace h  : ', h, trim(eng%units%energy)
         if (mean_dt > 1.0e3_dp*dt_vv) then

@@ -86,6 +86,7 @@ module terrace_contact
         procedure :: describe => ct_describe
         procedure :: on_rebuild => ct_on_rebuild
         procedure :: time_scale => ct_time_scale
+        procedure :: time_scale_text => ct_time_scale_text
         procedure :: preferred_skin => ct_preferred_skin
         procedure :: needs_full_neighbourhood => ct_needs_full
         procedure :: list_problem => ct_list_problem
@@ -714,6 +715,13 @@ contains
         ct_time_scale = 0
         if (self%min_mass > 0 .and. self%k > 0) ct_time_scale = 100*sqrt(self%min_mass/(8*self%k))
     end function ct_time_scale
+
+    pure function ct_time_scale_text(self, mass, mvv2e) result(text)
+        class(contact_t), intent(in) :: self
+        real(dp), intent(in) :: mass, mvv2e
+        character(len=:), allocatable :: text
+        text = 'a quarter of Verlet''s limit on the contact springs'
+    end function ct_time_scale_text
 
     function ct_describe(self) result(text)
         class(contact_t), intent(in) :: self

@@ -92,6 +92,7 @@ module terrace_neohookean
         procedure :: on_rebuild => nh_on_rebuild
         procedure :: energy_density => nh_energy_density
         procedure :: time_scale => nh_time_scale
+        procedure :: time_scale_text => nh_time_scale_text
         procedure :: round_off_scale => nh_round_off_scale
         procedure :: may_become_invalid => nh_may_become_invalid
         procedure :: invalid_state => nh_invalid_state
@@ -637,6 +638,13 @@ contains
         nh_time_scale = 0
         if (self%density > 0) nh_time_scale = 100*self%min_height/sqrt(self%stiffest/self%density)
     end function nh_time_scale
+
+    pure function nh_time_scale_text(self, mass, mvv2e) result(text)
+        class(neohookean_t), intent(in) :: self
+        real(dp), intent(in) :: mass, mvv2e
+        character(len=:), allocatable :: text
+        text = 'half the smallest element''s wave transit'
+    end function nh_time_scale_text
 
 
     !> sum_e V0_e (lambda_e + 3 mu_e), over every element of the mesh: each element's W is a sum of

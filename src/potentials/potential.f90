@@ -70,6 +70,7 @@ module terrace_potential
         procedure :: neighbour_type_order => potential_type_order
         procedure :: contact_distance => potential_contact_distance
         procedure :: time_scale => potential_time_scale
+        procedure :: time_scale_text => potential_time_scale_text
         !> An energy E_r of the whole system (all ranks) whose 64 eps bounds the round-off of V where
         !> its terms cancel (a stiff element near its rest shape: W = mu/2 (|F|^2 - 3) - ...); 0: the
         !> round-off is that of |V| itself. The event search's tolerance is not set finer.
@@ -186,6 +187,14 @@ contains
         real(dp), intent(in) :: mass, mvv2e
         potential_time_scale = 0
     end function potential_time_scale
+
+    !> What 0.005 time_scale is for this term, in words (the estimates' line names it).
+    pure function potential_time_scale_text(self, mass, mvv2e) result(text)
+        class(potential_t), intent(in) :: self
+        real(dp), intent(in) :: mass, mvv2e
+        character(len=:), allocatable :: text
+        text = '0.005 of the potential''s time unit'
+    end function potential_time_scale_text
 
     pure real(dp) function potential_round_off_scale(self)
         class(potential_t), intent(in) :: self

@@ -43,6 +43,7 @@ module terrace_walls
         procedure :: needs_pair_list => walls_needs_pair_list
         procedure :: on_rebuild => walls_on_rebuild
         procedure :: time_scale => walls_time_scale
+        procedure :: time_scale_text => walls_time_scale_text
     end type walls_t
 
 contains
@@ -178,6 +179,13 @@ contains
         walls_time_scale = 0
         if (self%min_mass > 0 .and. self%k > 0) walls_time_scale = 100*sqrt(self%min_mass/self%k)
     end function walls_time_scale
+
+    pure function walls_time_scale_text(self, mass, mvv2e) result(text)
+        class(walls_t), intent(in) :: self
+        real(dp), intent(in) :: mass, mvv2e
+        character(len=:), allocatable :: text
+        text = 'a quarter of Verlet''s limit on a wall''s spring'
+    end function walls_time_scale_text
 
     function walls_describe(self) result(text)
         class(walls_t), intent(in) :: self

@@ -333,10 +333,10 @@ contains
         type(engine_t), intent(inout) :: eng
         real(dp), intent(in) :: h
         real(dp) :: sigma2, a, b, mean_dt, refl, tau, dt_vv, ray(4), omega2
-        character(len=:), allocatable :: how
+        character(len=:), allocatable :: how, words
         call gradient_sums(eng, sigma2, a, b)
         sigma2 = crossing_sigma2(eng)
-        tau = eng%pot%time_scale(eng%atoms%mass(1), eng%units%mvv2e)
+        call eng%pot%time_unit(eng%atoms%mass(1), eng%units%mvv2e, tau, words)
         if (.not. (tau > 0)) then
             ! no natural time unit: 1/50 of the mean vibration period 2 pi / omega, omega^2 = v.H.v / v.M.v
             ! (a Rayleigh quotient over the thermal velocities; LJ's 0.005 tau is about the same fraction)
@@ -356,7 +356,7 @@ contains
             how = ' (period/50)'
         else
             dt_vv = 0.005_dp*tau
-            how = ' ('//eng%pot%time_scale_text(eng%atoms%mass(1), eng%units%mvv2e)//')'
+            how = ' ('//words//')'
         end if
         write (output_unit, '(a,es12.5,1x,a)') '  terrace h  : ', h, trim(eng%units%energy)
         if (mean_dt > 1.0e3_dp*dt_vv) then

@@ -85,8 +85,7 @@ module terrace_contact
         procedure :: cutoff => ct_cutoff
         procedure :: describe => ct_describe
         procedure :: on_rebuild => ct_on_rebuild
-        procedure :: time_scale => ct_time_scale
-        procedure :: time_scale_text => ct_time_scale_text
+        procedure :: time_unit => ct_time_unit
         procedure :: preferred_skin => ct_preferred_skin
         procedure :: needs_full_neighbourhood => ct_needs_full
         procedure :: list_problem => ct_list_problem
@@ -709,19 +708,15 @@ contains
 
     !> tau with 0.005 tau = 1/(2 omega), omega^2 = 8 k / m_min: a boundary node held by a few
     !> contact springs on each side, at a quarter of Verlet's limit 2/omega.
-    pure real(dp) function ct_time_scale(self, mass, mvv2e)
+    pure subroutine ct_time_unit(self, mass, mvv2e, tau, words)
         class(contact_t), intent(in) :: self
         real(dp), intent(in) :: mass, mvv2e
-        ct_time_scale = 0
-        if (self%min_mass > 0 .and. self%k > 0) ct_time_scale = 100*sqrt(self%min_mass/(8*self%k))
-    end function ct_time_scale
-
-    pure function ct_time_scale_text(self, mass, mvv2e) result(text)
-        class(contact_t), intent(in) :: self
-        real(dp), intent(in) :: mass, mvv2e
-        character(len=:), allocatable :: text
-        text = 'a quarter of Verlet''s limit on the contact springs'
-    end function ct_time_scale_text
+        real(dp), intent(out) :: tau
+        character(len=:), allocatable, intent(out) :: words
+        tau = 0
+        if (self%min_mass > 0 .and. self%k > 0) tau = 100*sqrt(self%min_mass/(8*self%k))
+        words = 'a quarter of Verlet''s limit on the contact springs'
+    end subroutine ct_time_unit
 
     function ct_describe(self) result(text)
         class(contact_t), intent(in) :: self

@@ -106,8 +106,7 @@ module terrace_lj
         procedure :: wants_clusters => lj_wants_clusters
         procedure :: wraps_images => lj_wraps_images
         procedure :: contact_distance => lj_contact_distance
-        procedure :: time_scale => lj_time_scale
-        procedure :: time_scale_text => lj_time_scale_text
+        procedure :: time_unit => lj_time_unit
         procedure :: cutoff_derivatives => lj_cutoff_derivatives
         procedure :: compute => lj_compute
         procedure :: compute_all_pairs => lj_compute_all_pairs
@@ -319,21 +318,17 @@ contains
     end function lj_cutoff_derivatives
 
     !> tau = sigma sqrt(m mvv2e / eps) of type 1.
-    pure real(dp) function lj_time_scale(self, mass, mvv2e)
+    pure subroutine lj_time_unit(self, mass, mvv2e, tau, words)
         class(lj_t), intent(in) :: self
         real(dp), intent(in) :: mass, mvv2e
+        real(dp), intent(out) :: tau
+        character(len=:), allocatable, intent(out) :: words
         real(dp) :: eps, sig
         eps = self%lj4(1, 1)**2/(4*self%lj3(1, 1))
         sig = (self%lj3(1, 1)/self%lj4(1, 1))**(1.0_dp/6)
-        lj_time_scale = sig*sqrt(mass*mvv2e/eps)
-    end function lj_time_scale
-
-    pure function lj_time_scale_text(self, mass, mvv2e) result(text)
-        class(lj_t), intent(in) :: self
-        real(dp), intent(in) :: mass, mvv2e
-        character(len=:), allocatable :: text
-        text = '0.005 tau, tau = sigma sqrt(m/epsilon)'
-    end function lj_time_scale_text
+        tau = sig*sqrt(mass*mvv2e/eps)
+        words = '0.005 tau, tau = sigma sqrt(m/epsilon)'
+    end subroutine lj_time_unit
 
     !> Energy of one pair at squared distance rsq (tests and diagnostics; not a hot path).
     pure real(dp) function lj_pair_energy(self, ti, tj, rsq) result(e)

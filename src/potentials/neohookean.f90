@@ -91,8 +91,7 @@ module terrace_neohookean
         procedure :: needs_pair_list => nh_needs_pair_list
         procedure :: on_rebuild => nh_on_rebuild
         procedure :: energy_density => nh_energy_density
-        procedure :: time_scale => nh_time_scale
-        procedure :: time_scale_text => nh_time_scale_text
+        procedure :: time_unit => nh_time_unit
         procedure :: round_off_scale => nh_round_off_scale
         procedure :: may_become_invalid => nh_may_become_invalid
         procedure :: invalid_state => nh_invalid_state
@@ -632,19 +631,15 @@ contains
     !> The engine prints 0.005 tau as a stable velocity-Verlet step: tau = 100 l_min / c_d makes that
     !> l_min / (2 c_d), half the element's dilatational transit time (c_d = sqrt((lambda + 2 mu)/rho)),
     !> with the smallest element and the stiffest material (a bound when they are different elements).
-    pure real(dp) function nh_time_scale(self, mass, mvv2e)
+    pure subroutine nh_time_unit(self, mass, mvv2e, tau, words)
         class(neohookean_t), intent(in) :: self
         real(dp), intent(in) :: mass, mvv2e
-        nh_time_scale = 0
-        if (self%density > 0) nh_time_scale = 100*self%min_height/sqrt(self%stiffest/self%density)
-    end function nh_time_scale
-
-    pure function nh_time_scale_text(self, mass, mvv2e) result(text)
-        class(neohookean_t), intent(in) :: self
-        real(dp), intent(in) :: mass, mvv2e
-        character(len=:), allocatable :: text
-        text = 'half the smallest element''s wave transit'
-    end function nh_time_scale_text
+        real(dp), intent(out) :: tau
+        character(len=:), allocatable, intent(out) :: words
+        tau = 0
+        if (self%density > 0) tau = 100*self%min_height/sqrt(self%stiffest/self%density)
+        words = 'half the smallest element''s wave transit'
+    end subroutine nh_time_unit
 
 
     !> sum_e V0_e (lambda_e + 3 mu_e), over every element of the mesh: each element's W is a sum of

@@ -69,8 +69,7 @@ module terrace_potential
         !> (list%type_order: segments per type; multi-type EAM); 0: any order
         procedure :: neighbour_type_order => potential_type_order
         procedure :: contact_distance => potential_contact_distance
-        procedure :: time_scale => potential_time_scale
-        procedure :: time_scale_text => potential_time_scale_text
+        procedure :: time_unit => potential_time_unit
         !> An energy E_r of the whole system (all ranks) whose 64 eps bounds the round-off of V where
         !> its terms cancel (a stiff element near its rest shape: W = mu/2 (|F|^2 - 3) - ...); 0: the
         !> round-off is that of |V| itself. The event search's tolerance is not set finer.
@@ -180,21 +179,17 @@ contains
         potential_contact_distance = 0
     end function potential_contact_distance
 
-    !> A natural time unit of the term for atoms of mass m (tau = sigma sqrt(m/eps) for LJ), used
-    !> by the estimates printed before a run; 0: none, the engine uses the curvature instead.
-    pure real(dp) function potential_time_scale(self, mass, mvv2e)
+    !> A natural time unit tau of the term for atoms of mass m (sigma sqrt(m/eps) for LJ), used by
+    !> the estimates printed before a run, which give 0.005 tau as a stable Verlet step, and what
+    !> that step is in words; tau = 0: none, the engine uses the curvature instead.
+    pure subroutine potential_time_unit(self, mass, mvv2e, tau, words)
         class(potential_t), intent(in) :: self
         real(dp), intent(in) :: mass, mvv2e
-        potential_time_scale = 0
-    end function potential_time_scale
-
-    !> What 0.005 time_scale is for this term, in words (the estimates' line names it).
-    pure function potential_time_scale_text(self, mass, mvv2e) result(text)
-        class(potential_t), intent(in) :: self
-        real(dp), intent(in) :: mass, mvv2e
-        character(len=:), allocatable :: text
-        text = '0.005 of the potential''s time unit'
-    end function potential_time_scale_text
+        real(dp), intent(out) :: tau
+        character(len=:), allocatable, intent(out) :: words
+        tau = 0
+        words = ''
+    end subroutine potential_time_unit
 
     pure real(dp) function potential_round_off_scale(self)
         class(potential_t), intent(in) :: self

@@ -30,8 +30,7 @@ module terrace_potential_sum
         procedure :: wants_neighbour_types => sum_wants_types
         procedure :: neighbour_type_order => sum_type_order
         procedure :: contact_distance => sum_contact_distance
-        procedure :: time_scale => sum_time_scale
-        procedure :: time_scale_text => sum_time_scale_text
+        procedure :: time_unit => sum_time_unit
         procedure :: round_off_scale => sum_round_off_scale
         procedure :: cutoff_derivatives => sum_cutoff_derivatives
         procedure :: on_rebuild => sum_on_rebuild
@@ -161,44 +160,24 @@ contains
         if (size(self%terms) == 1) d = self%terms(1)%p%cutoff_derivatives(ti, tj)
     end function sum_cutoff_derivatives
 
-    !> The shortest positive time scale of the terms (0 if none has one).
-    pure real(dp) function sum_time_scale(self, mass, mvv2e)
+    !> The shortest positive time unit of the terms, with its words (0 if none has one).
+    pure subroutine sum_time_unit(self, mass, mvv2e, tau, words)
         class(potential_sum_t), intent(in) :: self
         real(dp), intent(in) :: mass, mvv2e
+        real(dp), intent(out) :: tau
+        character(len=:), allocatable, intent(out) :: words
+        real(dp) :: t
+        character(len=:), allocatable :: w
         integer :: k
-        sum_time_scale = 0
-        k = shortest_term(self, mass, mvv2e)
-        if (k > 0) sum_time_scale = self%terms(k)%p%time_scale(mass, mvv2e)
-    end function sum_time_scale
-
-    !> The words of the term whose time scale is the sum's.
-    pure function sum_time_scale_text(self, mass, mvv2e) result(text)
-        class(potential_sum_t), intent(in) :: self
-        real(dp), intent(in) :: mass, mvv2e
-        character(len=:), allocatable :: text
-        integer :: k
-        k = shortest_term(self, mass, mvv2e)
-        if (k > 0) then
-            text = self%terms(k)%p%time_scale_text(mass, mvv2e)
-        else
-            text = '0.005 of the potential''s time unit'
-        end if
-    end function sum_time_scale_text
-
-    !> The term with the shortest positive time scale (the first of equal ones); 0: none has one.
-    pure integer function shortest_term(self, mass, mvv2e) result(best)
-        class(potential_sum_t), intent(in) :: self
-        real(dp), intent(in) :: mass, mvv2e
-        real(dp) :: t, tbest
-        integer :: k
-        best = 0; tbest = 0
+        tau = 0
+        words = ''
         do k = 1, size(self%terms)
-            t = self%terms(k)%p%time_scale(mass, mvv2e)
-            if (t > 0 .and. (best == 0 .or. t < tbest)) then
-                best = k; tbest = t
+            call self%terms(k)%p%time_unit(mass, mvv2e, t, w)
+            if (t > 0 .and. (tau == 0 .or. t < tau)) then
+                tau = t; words = w
             end if
         end do
-    end function shortest_term
+    end subroutine sum_time_unit
 
     !> The terms' round-off scales added.
     pure real(dp) function sum_round_off_scale(self)

@@ -42,8 +42,7 @@ module terrace_walls
         procedure :: describe => walls_describe
         procedure :: needs_pair_list => walls_needs_pair_list
         procedure :: on_rebuild => walls_on_rebuild
-        procedure :: time_scale => walls_time_scale
-        procedure :: time_scale_text => walls_time_scale_text
+        procedure :: time_unit => walls_time_unit
     end type walls_t
 
 contains
@@ -173,19 +172,15 @@ contains
 
     !> tau with 0.005 tau = 1/(2 omega), omega^2 = k / m_min: the lightest boundary node on one wall's
     !> spring, at a quarter of Verlet's limit 2/omega (as contact's time scale, with one spring).
-    pure real(dp) function walls_time_scale(self, mass, mvv2e)
+    pure subroutine walls_time_unit(self, mass, mvv2e, tau, words)
         class(walls_t), intent(in) :: self
         real(dp), intent(in) :: mass, mvv2e
-        walls_time_scale = 0
-        if (self%min_mass > 0 .and. self%k > 0) walls_time_scale = 100*sqrt(self%min_mass/self%k)
-    end function walls_time_scale
-
-    pure function walls_time_scale_text(self, mass, mvv2e) result(text)
-        class(walls_t), intent(in) :: self
-        real(dp), intent(in) :: mass, mvv2e
-        character(len=:), allocatable :: text
-        text = 'a quarter of Verlet''s limit on a wall''s spring'
-    end function walls_time_scale_text
+        real(dp), intent(out) :: tau
+        character(len=:), allocatable, intent(out) :: words
+        tau = 0
+        if (self%min_mass > 0 .and. self%k > 0) tau = 100*sqrt(self%min_mass/self%k)
+        words = 'a quarter of Verlet''s limit on a wall''s spring'
+    end subroutine walls_time_unit
 
     function walls_describe(self) result(text)
         class(walls_t), intent(in) :: self

@@ -10,8 +10,9 @@
 !> 16 lanes, j forces added to cj's replicated force record. At the end of ci its four i sums are
 !> added to the atoms' double forces, and at the end of the pass every cluster's four j replicas
 !> (ghosts too: their forces go back to their owners by the halo's reverse sum). Energy and virial
-!> (when wanted) are summed in single per owned cluster, then in double. With AVX-512 the pairs of
-!> each owned cluster run in C (lj_cluster_simd.c: the same operations in one 512-bit register).
+!> (when wanted) are summed in single per owned cluster, then in double. With AVX-512, or AVX2 and
+!> FMA, the pairs of each owned cluster run in C (lj_cluster_simd.c: the same operations in one
+!> 512-bit register, or two 256-bit ones).
 module terrace_lj_cluster
     use, intrinsic :: iso_fortran_env, only: sp => real32
     use, intrinsic :: iso_c_binding, only: c_int, c_float, c_double
@@ -23,7 +24,7 @@ module terrace_lj_cluster
     public :: cluster_forces
 
     interface
-        !> src/potentials/lj_cluster_simd.c: cluster_pairs with AVX-512 (0: not in this build)
+        !> src/potentials/lj_cluster_simd.c: cluster_pairs with AVX-512 or AVX2 (0: not in this build)
         integer(c_int) function c_cluster_pairs(ci, nmem, prange, cjs, mask, offs, masks, xrep, frep, coeffs, &
                                                 far_i, want_energy, fi, ew) bind(C, name='terrace_lj_cluster_pairs')
             import :: c_int, c_float, c_double

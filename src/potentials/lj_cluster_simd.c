@@ -27,6 +27,20 @@
  * EPYC (doc/performance.md). */
 #if defined(__AVX512F__) || (defined(__AVX2__) && defined(__FMA__))
 #include <immintrin.h>
+
+/* the pass's results from its 16 lanes: lanes 4 s .. 4 s + 3 of a[d] hold slot s's i sum along d,
+ * summed in double as (a + b) + (c + d); with want_energy the energy and virial lanes e and w
+ * summed in double in lane order (ew: zero without) */
+static void lane_sums(const float a[3][16], int want_energy, const float *e, const float *w, double *fi, double *ew)
+{
+    for (int d = 0; d < 3; d++)
+        for (int s = 0; s < 4; s++)
+            fi[4 * d + s] = ((double)a[d][4 * s] + (double)a[d][4 * s + 1])
+                            + ((double)a[d][4 * s + 2] + (double)a[d][4 * s + 3]);
+    ew[0] = 0; ew[1] = 0;
+    if (want_energy)
+        for (int l = 0; l < 16; l++) { ew[0] += (double)e[l]; ew[1] += (double)w[l]; }
+}
 #endif
 
 #if defined(__AVX2__) && defined(__FMA__) && !defined(__AVX512F__)
@@ -101,19 +115,10 @@ int terrace_lj_cluster_pairs(int ci, int nmem, const int *prange, const int *cjs
             wl = _mm512_fmadd_ps(fp, r2, wl);
         }
     }
-    /* the i sums: lanes 4 s .. 4 s + 3 hold slot s's, summed in double as (a + b) + (c + d) */
-    float a[3][16];
+    float a[3][16], e[16], w[16];
     _mm512_storeu_ps(a[0], ax); _mm512_storeu_ps(a[1], ay); _mm512_storeu_ps(a[2], az);
-    for (int d = 0; d < 3; d++)
-        for (int s = 0; s < 4; s++)
-            fi[4 * d + s] = ((double)a[d][4 * s] + (double)a[d][4 * s + 1])
-                            + ((double)a[d][4 * s + 2] + (double)a[d][4 * s + 3]);
-    ew[0] = 0; ew[1] = 0;
-    if (want_energy) {
-        float e[16], w[16];
-        _mm512_storeu_ps(e, el); _mm512_storeu_ps(w, wl);
-        for (int l = 0; l < 16; l++) { ew[0] += (double)e[l]; ew[1] += (double)w[l]; }
-    }
+    _mm512_storeu_ps(e, el); _mm512_storeu_ps(w, wl);
+    lane_sums(a, want_energy, e, w, fi, ew);
     return 1;
 #elif defined(__AVX2__) && defined(__FMA__)
     /* ci's slots spread over the lanes of the two halves (i0 x4 i1 x4 | i2 x4 i3 x4), the lanes of
@@ -148,14 +153,7 @@ int terrace_lj_cluster_pairs(int ci, int nmem, const int *prange, const int *cjs
     _mm256_storeu_ps(a[0], ax0); _mm256_storeu_ps(a[1], ay0); _mm256_storeu_ps(a[2], az0);
     _mm256_storeu_ps(a[0] + 8, ax1); _mm256_storeu_ps(a[1] + 8, ay1); _mm256_storeu_ps(a[2] + 8, az1);
     _mm256_storeu_ps(e, el0); _mm256_storeu_ps(w, wl0); _mm256_storeu_ps(e + 8, el1); _mm256_storeu_ps(w + 8, wl1);
-    /* the i sums and the energy as the AVX-512 pass sums them */
-    for (int d = 0; d < 3; d++)
-        for (int s = 0; s < 4; s++)
-            fi[4 * d + s] = ((double)a[d][4 * s] + (double)a[d][4 * s + 1])
-                            + ((double)a[d][4 * s + 2] + (double)a[d][4 * s + 3]);
-    ew[0] = 0; ew[1] = 0;
-    if (want_energy)
-        for (int l = 0; l < 16; l++) { ew[0] += (double)e[l]; ew[1] += (double)w[l]; }
+    lane_sums(a, want_energy, e, w, fi, ew);
     return 1;
 #else
     (void)ci; (void)nmem; (void)prange; (void)cjs; (void)mask; (void)offs; (void)masks; (void)xrep; (void)frep;
